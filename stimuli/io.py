@@ -1,0 +1,224 @@
+"""Image input and output: the one place where dtype and range conversion happens (house style H6).
+
+Grey images inside the pipeline are ``float32`` arrays of shape ``(rows, cols)`` with values in
+[0, 1]; binary stimuli are ``bool``. Files are read with Pillow (any format it reads, EXIF
+orientation applied) and written atomically (temporary file, then rename).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import os
+import tempfile
+from collections.abc import Iterator
+from contextlib import contextmanager
+from pathlib import Path
+
+import numpy as np
+from PIL import Image, ImageOps, UnidentifiedImageError
+
+from stimuli.errors import InputError
+
+__all__ = [
+    "load_gray",
+    "load_rgb",
+    "save_png",
+    "sha256_file",
+    "atomic_path",
+    "check_gray",
+    "to_float01",
+]
+
+#: Rec. 709 luma weights used for colour -> luminance (the same as skimage.color.rgb2gray).
+_LUMA_WEIGHTS = np.array([0.2125, 0.7154, 0.0721], dtype=np.float32)
+
+
+def _open(path: str | os.PathLike) -> Image.Image:
+    path = Path(path)
+    if not path.is_file():
+        raise InputError(f"{path}: image file not found")
+    try:
+        img = Image.open(path)
+        img.load()
+    except (UnidentifiedImageError, OSError, SyntaxError, ValueError) as exc:
+        raise InputError(f"{path}: not a readable image ({exc})") from None
+    try:
+        return ImageOps.exif_transpose(img)
+    except (OSError, ValueError, SyntaxError):  # broken EXIF block: keep the pixels as stored
+        return img
+
+
+def to_float01(array: np.ndarray) -> np.ndarray:
+    """Convert an integer or float image array to ``float32`` in [0, 1].
+
+    Parameters
+    ----------
+    array : ndarray
+        Integer arrays are divided by their dtype's maximum; ``bool`` maps to {0, 1}; float arrays
+        must already lie in [0, 1].
+
+    Returns
+    -------
+    ndarray, float32
+        The same shape, values in [0, 1].
+
+    Raises
+    ------
+    InputError
+        If a float array has values outside [0, 1] or NaNs.
+    """
+    a = np.asarray(array)
+    if a.dtype == bool:
+        return a.astype(np.float32)
+    if np.issubdtype(a.dtype, np.integer):
+        return (a.astype(np.float32) / np.float32(np.iinfo(a.dtype).max)).astype(np.float32)
+    a = a.astype(np.float32, copy=False)
+    if not np.all(np.isfinite(a)):
+        raise InputError("image has NaN or infinite values; expected finite values in [0, 1]")
+    if a.size and (a.min() < 0.0 or a.max() > 1.0):
+        raise InputError(
+            f"float image must be in [0, 1], got range [{a.min():.4g}, {a.max():.4g}]"
+        )
+    return a
+
+
+def _pil_to_array(img: Image.Image) -> np.ndarray:
+    if img.mode in ("I;16", "I;16B", "I;16L"):
+        return np.asarray(img, dtype=np.uint16)
+    if img.mode == "I":
+        a = np.asarray(img, dtype=np.int64)
+        return (np.clip(a, 0, 65535)).astype(np.uint16)
+    if img.mode == "F":
+        return np.asarray(img, dtype=np.float32)
+    if img.mode not in ("L", "RGB", "RGBA", "LA"):
+        img = img.convert("RGBA" if "A" in img.getbands() else "RGB")
+    return np.asarray(img)
+
+
+def load_rgb(path: str | os.PathLike) -> np.ndarray:
+    """Read an image file as ``float32`` RGB in [0, 1], EXIF orientation applied.
+
+    Parameters
+    ----------
+    path : str or path-like
+        Any format Pillow reads.
+
+    Returns
+    -------
+    ndarray of shape (rows, cols, 3), float32 in [0, 1]
+        Grey files are repeated on the three channels; alpha is dropped.
+
+    Raises
+    ------
+    InputError
+        If the file is missing, unreadable or truncated.
+    """
+    a = to_float01(_pil_to_array(_open(path)))
+    if a.ndim == 2:
+        a = np.repeat(a[..., None], 3, axis=2)
+    return np.ascontiguousarray(a[..., :3])
+
+
+def load_gray(path: str | os.PathLike) -> np.ndarray:
+    """Read an image file as luminance, ``float32`` in [0, 1], EXIF orientation applied.
+
+    Colour is converted with Rec. 709 luma weights (as ``skimage.color.rgb2gray``).
+
+    Parameters
+    ----------
+    path : str or path-like
+        Any format Pillow reads (JPEG, PNG, TIFF, 16-bit PNG, ...).
+
+    Returns
+    -------
+    ndarray of shape (rows, cols), float32 in [0, 1]
+
+    Raises
+    ------
+    InputError
+        If the file is missing, unreadable or truncated.
+    """
+    a = to_float01(_pil_to_array(_open(path)))
+    if a.ndim == 3:
+        a = a[..., :3] @ _LUMA_WEIGHTS if a.shape[2] >= 3 else a[..., 0]
+    return np.ascontiguousarray(np.clip(a, 0.0, 1.0).astype(np.float32))
+
+
+def check_gray(image: np.ndarray, name: str = "image") -> np.ndarray:
+    """Check that ``image`` is a 2-D finite float image in [0, 1]; return it as float32.
+
+    Raises
+    ------
+    InputError
+        Naming ``name``, if the array is not 2-D, not finite, or out of [0, 1].
+    """
+    a = np.asarray(image)
+    if a.ndim != 2:
+        raise InputError(f"{name} must be 2-D (rows, cols), got shape {a.shape}")
+    if a.dtype == bool:
+        return a.astype(np.float32)
+    if not np.issubdtype(a.dtype, np.floating):
+        raise InputError(f"{name} must be float in [0, 1] or bool, got dtype {a.dtype}")
+    if not np.all(np.isfinite(a)):
+        raise InputError(f"{name} has NaN or infinite values")
+    if a.size and (a.min() < 0.0 or a.max() > 1.0):
+        raise InputError(f"{name} must be in [0, 1], got range [{a.min():.4g}, {a.max():.4g}]")
+    return a.astype(np.float32, copy=False)
+
+
+@contextmanager
+def atomic_path(path: str | os.PathLike) -> Iterator[Path]:
+    """Yield a temporary path beside ``path``; rename it onto ``path`` only if the block succeeds.
+
+    Readers never see a half-written file: on any exception the temporary file is removed and
+    ``path`` is left as it was.
+    """
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=path.suffix, dir=path.parent)
+    os.close(fd)
+    tmp_path = Path(tmp)
+    try:
+        yield tmp_path
+        os.replace(tmp_path, path)
+    finally:
+        if tmp_path.exists():
+            tmp_path.unlink()
+
+
+def save_png(image: np.ndarray, path: str | os.PathLike) -> Path:
+    """Write a grey or binary image as an 8-bit PNG, atomically.
+
+    Parameters
+    ----------
+    image : ndarray of shape (rows, cols), bool or float in [0, 1]
+        ``True``/1.0 is written as 255.
+    path : str or path-like
+
+    Returns
+    -------
+    Path
+        The written file.
+    """
+    a = np.asarray(image)
+    if a.ndim != 2 and not (a.ndim == 3 and a.shape[2] in (3, 4)):
+        raise InputError(f"image must be (rows, cols) or (rows, cols, 3|4), got shape {a.shape}")
+    if a.dtype == bool:
+        u8 = a.astype(np.uint8) * 255
+    elif a.dtype == np.uint8:
+        u8 = a
+    else:
+        u8 = np.round(to_float01(a) * 255.0).astype(np.uint8)
+    path = Path(path)
+    with atomic_path(path) as tmp:
+        Image.fromarray(u8).save(tmp, format="PNG")
+    return path
+
+
+def sha256_file(path: str | os.PathLike, chunk_bytes: int = 1 << 20) -> str:
+    """Return the hex SHA-256 of a file's bytes."""
+    h = hashlib.sha256()
+    with open(path, "rb") as f:
+        while chunk := f.read(chunk_bytes):
+            h.update(chunk)
+    return h.hexdigest()
