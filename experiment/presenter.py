@@ -1,4 +1,4 @@
-"""The subject's screen: a moderngl presenter with physical geometry, exact magnification and timing.
+"""The subject's screen: moderngl presenter with physical geometry, exact magnification, timing.
 
 This is the only module that imports :mod:`moderngl` (house style H13); it is imported lazily by
 the console and the presenter process, never as a side effect of ``import experiment``.
@@ -10,9 +10,9 @@ One full-screen triangle and one fragment shader draw every screen:
 - *stimulus*: the stimulus fills a rectangle of the protocol's physical size (cm, converted with the
   monitor's pixels per cm), centred; everything around it has the border colour (Jung et al. 2015,
   Sec. 3.1: a blue border). Each screen pixel takes the value of exactly one stimulus cell, chosen
-  with integer arithmetic (``cell = ((2 x + 1) n) // (2 w)``: nearest neighbour at the pixel centre),
-  so cells are crisp, uniform blocks whose sizes differ by at most one pixel (none when the scale
-  is an integer). No texture filtering is involved.
+  with integer arithmetic (``cell = ((2 x + 1) n) // (2 w)``: nearest neighbour at the pixel
+  centre), so cells are crisp, uniform blocks whose sizes differ by at most one pixel (none when
+  the scale is an integer). No texture filtering is involved.
 - *blank* (between trials): the image area in the stimulus's "0" colour, the border around it,
   an optional fixation cross in the centre.
 - *text* (instructions, pause, end): white text on black, rendered with Pillow into a texture.
@@ -70,7 +70,7 @@ __all__ = [
 
 logger = logging.getLogger(__name__)
 
-#: Subject's screen resolution (rows, cols). Source: Jung et al. 2015, Sec. 3.1 (21" CRT, 1280x1024).
+#: Subject's screen (rows, cols), px. Source: Jung et al. 2015, Sec. 3.1 (21" CRT, 1280x1024).
 PAPER_SCREEN_SHAPE_PX: tuple[int, int] = (1024, 1280)
 #: Viewing distance, cm. Source: Jung et al. 2015, Sec. 3.1 ("80 cm").
 PAPER_VIEWING_DISTANCE_CM: float = 80.0
@@ -81,7 +81,7 @@ PAPER_IMAGE_SIZE_CM: tuple[float, float] = (9.7, 14.6)
 #: its 492 x 327 px working image exactly 14.6 x 9.7 cm (492 px / 14.6 cm = 33.7 px/cm, and
 #: 1280 px / 33.7 px/cm = 37.98 cm), which is what a 21" CRT's visible width is.
 PAPER_SCREEN_WIDTH_CM: float = 1280 * 14.6 / 492
-#: Border colour around the image, device RGB 0-255. Source: Jung et al. 2015, Sec. 3.1 ("blue border").
+#: Border colour around the image, device RGB 0-255. Source: Jung et al. 2015, Sec. 3.1 ("blue").
 PAPER_BORDER_RGB: tuple[int, int, int] = (0, 0, 255)
 
 #: Fixation cross arm length (half-width), degrees; ours, not the paper's (a small cross).
@@ -97,7 +97,7 @@ class PresenterError(ConfocalError):
 
 
 class TimingCheckFailed(PresenterError):
-    """The frame-timing self-test failed (no vsync or irregular flips); see ``skip_timing_check``."""
+    """The frame-timing self-test failed (no vsync or irregular flips); see skip_timing_check."""
 
 
 def _check_rgb(name: str, rgb: Any) -> tuple[int, int, int]:
@@ -125,11 +125,15 @@ class ScreenGeometry:
     image_size_cm : (height_cm, width_cm)
         Size at which every stimulus is drawn, cm.
     border_rgb : (r, g, b)
-        Colour around the image, device RGB 0-255.
+        Colour of the frame around the image, device RGB 0-255.
+    border_width_px : int or None
+        Width of that frame, px; None fills the whole surround with the border colour.
+    background_rgb : (r, g, b)
+        Colour of the screen beyond the frame, device RGB 0-255.
     gamma : float
         Display gamma; stimulus luminance ``v`` is output as ``v ** (1 / gamma)``.
-    foreground_rgb, background_rgb : (r, g, b)
-        Device colours of stimulus value 1 and 0 (white and black by default).
+    stimulus_on_rgb, stimulus_off_rgb : (r, g, b)
+        Device colours of stimulus value 1 and 0 (white and black).
     fixation : bool
         Whether the blank screen between trials shows a fixation cross.
     """
@@ -139,15 +143,19 @@ class ScreenGeometry:
     viewing_distance_cm: float
     image_size_cm: tuple[float, float]
     border_rgb: tuple[int, int, int] = PAPER_BORDER_RGB
-    gamma: float = 1.0
-    foreground_rgb: tuple[int, int, int] = (255, 255, 255)
+    border_width_px: int | None = None
     background_rgb: tuple[int, int, int] = (0, 0, 0)
+    gamma: float = 1.0
+    stimulus_on_rgb: tuple[int, int, int] = (255, 255, 255)
+    stimulus_off_rgb: tuple[int, int, int] = (0, 0, 0)
     fixation: bool = True
 
     def __post_init__(self) -> None:
         shape = tuple(int(v) for v in self.screen_shape_px)
         if len(shape) != 2 or min(shape) < 1:
-            raise ValueError(f"screen_shape_px must be (rows, cols) > 0, got {self.screen_shape_px!r}")
+            raise ValueError(
+                f"screen_shape_px must be (rows, cols) > 0, got {self.screen_shape_px!r}"
+            )
         object.__setattr__(self, "screen_shape_px", shape)
         size = tuple(float(v) for v in self.image_size_cm)
         if len(size) != 2 or min(size) <= 0:
@@ -159,7 +167,13 @@ class ScreenGeometry:
             v = getattr(self, name)
             if not (isinstance(v, int | float) and math.isfinite(v) and v > 0):
                 raise ValueError(f"{name} must be a positive number, got {v!r}")
-        for name in ("border_rgb", "foreground_rgb", "background_rgb"):
+        if self.border_width_px is not None and not (
+            isinstance(self.border_width_px, int) and self.border_width_px >= 0
+        ):
+            raise ValueError(
+                f"border_width_px must be an int >= 0 or None, got {self.border_width_px!r}"
+            )
+        for name in ("border_rgb", "background_rgb", "stimulus_on_rgb", "stimulus_off_rgb"):
             object.__setattr__(self, name, _check_rgb(name, getattr(self, name)))
 
     @classmethod
@@ -254,8 +268,10 @@ def _spec_fields(spec: Any) -> dict[str, Any]:
     for ours, names in {
         "border_rgb": ("border_rgb", "border_colour_rgb", "border_color_rgb", "border_colour"),
         "gamma": ("gamma",),
-        "foreground_rgb": ("foreground_rgb",),
+        "border_width_px": ("border_width_px",),
         "background_rgb": ("background_rgb",),
+        "stimulus_on_rgb": ("stimulus_on_rgb",),
+        "stimulus_off_rgb": ("stimulus_off_rgb",),
         "fixation": ("fixation",),
     }.items():
         v = get(*names)
@@ -298,7 +314,8 @@ class PhospheneSpec:
     dropout : float
         Fraction of phosphenes that never light, in [0, 1).
     spacing_deg : float or None
-        Centre-to-centre spacing, degrees; None keeps the protocol's image size (spacing = cell pitch).
+        Centre-to-centre spacing, degrees; None keeps the protocol's image size
+        (spacing = cell pitch).
     seed : int
         Seed of the dropout pattern (fixed per session so the same phosphenes are dead throughout).
     """
@@ -320,7 +337,7 @@ class PhospheneSpec:
             raise ValueError(f"spacing_deg must be > 0 or None, got {self.spacing_deg!r}")
 
     def alive_mask(self, shape_px: tuple[int, int]) -> np.ndarray:
-        """Return the bool (rows, cols) mask of phosphenes that light (dropout drawn from ``seed``)."""
+        """Return the bool (rows, cols) mask of phosphenes that light (dropout from ``seed``)."""
         rng = np.random.default_rng(self.seed)
         return rng.random(shape_px) >= self.dropout
 
@@ -332,7 +349,7 @@ def stimulus_rect_px(
     integer_scale: bool = False,
     phosphenes: PhospheneSpec | None = None,
 ) -> tuple[int, int, int, int]:
-    """Return where a stimulus is drawn: ``(top, left, rows, cols)`` in screen pixels, top-left origin.
+    """Return where a stimulus is drawn: ``(top, left, rows, cols)``, screen px from the top-left.
 
     Parameters
     ----------
@@ -391,12 +408,19 @@ def expected_frame(
     img = _as_stimulus(image)
     top, left, rows, cols = stimulus_rect_px(geometry, img.shape, integer_scale=integer_scale)
     frame = np.empty((*geometry.screen_shape_px, 3), dtype=np.uint8)
-    frame[:] = geometry.border_rgb
+    b = geometry.border_width_px
+    if b is None:
+        frame[:] = geometry.border_rgb
+    else:
+        frame[:] = geometry.background_rgb
+        frame[max(0, top - b) : top + rows + b, max(0, left - b) : left + cols + b] = (
+            geometry.border_rgb
+        )
     r = cell_index(np.arange(rows), img.shape[0], rows)
     c = cell_index(np.arange(cols), img.shape[1], cols)
     v = img[np.ix_(r, c)] ** (1.0 / geometry.gamma)
-    fg = np.asarray(geometry.foreground_rgb, np.float64) / 255
-    bg = np.asarray(geometry.background_rgb, np.float64) / 255
+    fg = np.asarray(geometry.stimulus_on_rgb, np.float64) / 255
+    bg = np.asarray(geometry.stimulus_off_rgb, np.float64) / 255
     rgb = bg + (fg - bg) * v[..., None]
     frame[top : top + rows, left : left + cols] = np.round(rgb * 255).astype(np.uint8)
     return frame
@@ -434,6 +458,8 @@ uniform ivec2 u_screen;      // (cols, rows)
 uniform ivec4 u_rect;        // (left, top, cols, rows)
 uniform ivec2 u_grid;        // stimulus (cols, rows)
 uniform vec3 u_border;
+uniform int u_border_px;     // frame width, -1 = the whole surround
+uniform vec3 u_background;
 uniform vec3 u_fg;
 uniform vec3 u_bg;
 uniform float u_inv_gamma;
@@ -487,7 +513,9 @@ void main() {
     }
     ivec2 p = pix - u_rect.xy;
     if (p.x < 0 || p.y < 0 || p.x >= u_rect.z || p.y >= u_rect.w) {
-        f_color = vec4(u_border, 1.0);
+        ivec2 out_by = max(max(-p, p - u_rect.zw + 1), ivec2(0));
+        bool in_frame = u_border_px < 0 || max(out_by.x, out_by.y) <= u_border_px;
+        f_color = vec4(in_frame ? u_border : u_background, 1.0);
         return;
     }
     if (u_mode == 1) {
@@ -576,8 +604,10 @@ class Presenter:
         g = geometry
         self._set("u_screen", (cols, rows))
         self._set("u_border", tuple(c / 255 for c in g.border_rgb))
-        self._set("u_fg", tuple(c / 255 for c in g.foreground_rgb))
-        self._set("u_bg", tuple(c / 255 for c in g.background_rgb))
+        self._set("u_border_px", -1 if g.border_width_px is None else g.border_width_px)
+        self._set("u_background", tuple(c / 255 for c in g.background_rgb))
+        self._set("u_fg", tuple(c / 255 for c in g.stimulus_on_rgb))
+        self._set("u_bg", tuple(c / 255 for c in g.stimulus_off_rgb))
         self._set("u_inv_gamma", 1.0 / g.gamma)
         fix = int(round(FIXATION_HALF_DEG * g.px_per_deg)) if g.fixation else 0
         self._set("u_fixation", fix)
@@ -620,7 +650,7 @@ class Presenter:
         title: str = "confocal: subject screen",
         **kwargs: Any,
     ) -> Presenter:
-        """Open a window (moderngl-window, pyglet) at the protocol's resolution on screen ``screen``.
+        """Open a window (moderngl-window, pyglet) at the protocol's resolution on ``screen``.
 
         ``screen`` is an index into pyglet's screen list (0 = first); full screen uses that screen's
         current mode, which must equal the protocol's resolution.
@@ -682,7 +712,7 @@ class Presenter:
         return self.clock.now_s()
 
     def pump(self) -> float:
-        """Redraw the current screen and flip once (call once per refresh); return the flip time, s."""
+        """Redraw the current screen and flip once (once per refresh); return the flip time, s."""
         self._draw()
         t = self._flip()
         if self._timing is not None:
@@ -696,8 +726,9 @@ class Presenter:
         rows, cols = img.shape
         if self.phosphenes is not None:
             img = img * self.phosphenes.alive_mask(img.shape)
-        tex = self.ctx.texture((cols, rows), 1, np.ascontiguousarray(img, np.float32).tobytes(),
-                               dtype="f4")
+        tex = self.ctx.texture(
+            (cols, rows), 1, np.ascontiguousarray(img, np.float32).tobytes(), dtype="f4"
+        )
         tex.filter = (moderngl.NEAREST, moderngl.NEAREST)
         self._stim_tex = tex
         top, left, r, c = stimulus_rect_px(
@@ -754,14 +785,17 @@ class Presenter:
         size = max(12, int(round(0.6 * self.geometry.px_per_deg)))
         font = ImageFont.load_default(size=size)
         probe = ImageDraw.Draw(Image.new("L", (1, 1)))
-        box = [int(math.floor(v)) for v in probe.multiline_textbbox((0, 0), text, font=font,
-                                                                       align="center")]
+        box = [
+            int(math.floor(v))
+            for v in probe.multiline_textbbox((0, 0), text, font=font, align="center")
+        ]
         box[2:] = [v + 1 for v in box[2:]]
         w = max(1, min(cols, box[2] - box[0] + 2))
         h = max(1, min(rows, box[3] - box[1] + 2))
         im = Image.new("L", (w, h), 0)
-        ImageDraw.Draw(im).multiline_text((-box[0] + 1, -box[1] + 1), text, fill=255, font=font,
-                                          align="center")
+        ImageDraw.Draw(im).multiline_text(
+            (-box[0] + 1, -box[1] + 1), text, fill=255, font=font, align="center"
+        )
         if self._text_tex is not None:
             self._text_tex.release()
         self._text_tex = self.ctx.texture((w, h), 1, im.tobytes())
@@ -840,7 +874,7 @@ class Presenter:
 
 
 def count_dropped(intervals_ms: Any, refresh_hz: float | None) -> int:
-    """Return the number of frame intervals longer than 1.5 refresh periods (0 without a refresh)."""
+    """Return how many frame intervals exceed 1.5 refresh periods (0 without a refresh)."""
     if not refresh_hz:
         return 0
     limit = DROPPED_FRAME_FACTOR * 1e3 / refresh_hz
