@@ -1,11 +1,130 @@
-"""Build stimulus sets (issue 2): command-line registration (filled in by that issue)."""
+"""``confocal stimuli ...``: build stimulus sets (issue 2) and write synthetic photo pairs."""
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import typer
 
-__all__ = ["register"]
+__all__ = ["register", "stimuli_app"]
+
+stimuli_app = typer.Typer(
+    name="stimuli",
+    help="Build stimulus sets (Jung et al. 2015, Sec. 3.1) from photo pairs or light fields.",
+    no_args_is_help=True,
+)
+
+
+@stimuli_app.command("build")
+def build_command(
+    pairs: Path = typer.Argument(
+        ...,
+        help="Folder with one sub-folder per object holding wide.* and narrow.* (optional "
+        "objects.csv), or a CSV object,wide,narrow[,crop] with paths relative to it.",
+        show_default=False,
+    ),
+    out: Path = typer.Option(..., "--out", "-o", help="Stimulus-set folder to write."),
+    working_size: str = typer.Option(
+        "492x327", "--working-size", help="Working size WIDTHxHEIGHT, pixels (paper: 492x327)."
+    ),
+    threshold: str = typer.Option(
+        "auto",
+        "--threshold",
+        help="Sobel threshold: 'auto' (Otsu on each narrow-DOF image) or a number; "
+        "objects.csv values win.",
+    ),
+    threshold_method: str = typer.Option(
+        "otsu", "--threshold-method", help="Automatic threshold method: otsu or triangle."
+    ),
+    edge_ratio: str = typer.Option(
+        "auto",
+        "--edge-ratio",
+        help="Compression edge ratio: 'auto' (mean wide-DOF edge fraction; paper 0.077) or a "
+        "number in [0, 1).",
+    ),
+    mode: str = typer.Option("edges", "--mode", help="edges (binary) or grey (Fig. 2)."),
+    grey_levels: int = typer.Option(8, "--grey-levels", help="Grey levels in grey mode."),
+    allow_resize: bool = typer.Option(
+        False, "--allow-resize", help="Accept pairs whose photos differ in pixel size."
+    ),
+    force: bool = typer.Option(
+        False, "--force", help="Replace --out even if it holds a different stimulus set."
+    ),
+) -> None:
+    """Build cluttered and de-cluttered stimuli at the paper's eight resolutions."""
+    from rich.console import Console
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn
+
+    from stimuli.build import (
+        BuildParams,
+        build_stimulus_set,
+        parse_edge_ratio,
+        parse_threshold,
+        parse_working_size,
+    )
+
+    params = BuildParams(
+        working_shape_px=parse_working_size(working_size),
+        threshold=parse_threshold(threshold),
+        threshold_method=threshold_method,
+        edge_ratio=parse_edge_ratio(edge_ratio),
+        mode=mode,
+        grey_levels=grey_levels,
+        allow_resize=allow_resize,
+    )
+    console = Console(stderr=True)
+    with Progress(
+        TextColumn("{task.description}"),
+        BarColumn(),
+        MofNCompleteColumn(),
+        console=console,
+        transient=True,
+    ) as bar:
+        tasks: dict[str, int] = {}
+
+        def progress(stage: str, done: int, total: int) -> None:
+            if stage not in tasks:
+                label = "reading and de-cluttering" if stage == "read" else "writing stimuli"
+                tasks[stage] = bar.add_task(label, total=total)
+            bar.update(tasks[stage], completed=done)
+
+        result = build_stimulus_set(pairs, out, params=params, force=force, progress=progress)
+    for note in result.notes:
+        console.print(f"note: {note}", highlight=False)
+    n = len(result.objects)
+    per_object_ms = 1000.0 * result.seconds["total"] / max(n, 1)
+    ratio = (
+        ""
+        if result.edge_ratio is None
+        else f"; edge ratio {result.edge_ratio:.4f}"
+        + (" (mean wide-DOF edge fraction)" if params.edge_ratio is None else " (given)")
+    )
+    typer.echo(
+        f"wrote {result.n_stimuli} stimuli for {n} objects to {result.out_dir}{ratio}; "
+        f"{result.seconds['total']:.1f} s ({per_object_ms:.0f} ms per object)"
+    )
+
+
+@stimuli_app.command("synth")
+def synth_command(
+    out: Path = typer.Option(..., "--out", "-o", help="PAIRS folder to write."),
+    objects: int = typer.Option(20, "--objects", help="Number of main objects."),
+    training: int = typer.Option(3, "--training", help="Number of training objects."),
+    seed: int = typer.Option(0, "--seed", help="Random seed (the set is deterministic by seed)."),
+    size: str = typer.Option(
+        "492x327", "--size", help="Photo size WIDTHxHEIGHT, pixels (e.g. 1536x1024)."
+    ),
+) -> None:
+    """Write synthetic wide/narrow-DOF photo pairs of named objects in front of clutter."""
+    from stimuli.build import parse_working_size
+    from stimuli.synth import write_pairs
+
+    path = write_pairs(
+        out, n_objects=objects, n_training=training, seed=seed, shape_px=parse_working_size(size)
+    )
+    typer.echo(f"wrote {objects} + {training} synthetic photo pairs to {path}")
 
 
 def register(app: typer.Typer) -> None:
-    """Add this module's commands to the root ``confocal`` app (none yet)."""
+    """Add the ``stimuli`` command group (``build``, ``synth``) to the root ``confocal`` app."""
+    app.add_typer(stimuli_app, name="stimuli")

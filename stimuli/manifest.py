@@ -1,0 +1,459 @@
+"""Stimulus-set tables: ``objects.csv`` and ``manifest.csv`` read and write (house style H15).
+
+``objects.csv`` (optional in a PAIRS input; always written into a stimulus set)
+-------------------------------------------------------------------------------
+
+==================  ==========================================================================
+column              meaning
+==================  ==========================================================================
+object              object id; also the name of its folder in PAIRS and in the stimulus set
+name                display name (default: the object id)
+synonyms            accepted names, ``;``-separated (scoring uses them)
+uses                accepted uses, ``;``-separated (describing the use counted, Sec. 3.1)
+role                ``main`` (default) or ``training`` (the 3 training objects, Sec. 3.1)
+sobel_threshold     Sobel threshold for this object (scale of ``sobel_magnitude``); empty = auto
+crop                zoom box ``x,y,w,h`` in full-resolution pixels of the photo; empty = none
+plane_depth_m       light-field objects: depth of the confocal plane, metres; empty = none
+plane_disparity_px  light-field objects: disparity of the plane, pixels per view step
+==================  ==========================================================================
+
+``manifest.csv`` (one row per stimulus)
+---------------------------------------
+
+==============  ==============================================================================
+column          meaning
+==============  ==============================================================================
+object          object id
+role            ``main`` or ``training``
+condition       ``cluttered`` (wide DOF), ``decluttered`` (narrow DOF) or ``photo``
+level           1 (fewest pixels, window 40) ... 8 (full, window 1); ``photo`` rows are 8
+window          compression window, pixels of the working image (1 = none)
+width, height   stimulus size, pixels
+pixels          ``width * height``
+path            PNG file, relative to the stimulus-set folder
+sha256          SHA-256 of the PNG file
+sobel_threshold threshold used for this object (empty in grey mode)
+edge_ratio      edge ratio of the set (empty in grey mode)
+source          input photo (or light field) the stimulus was made from
+source_sha256   SHA-256 of that input (of the sorted file hashes for a folder)
+mode            ``edges`` (binary) or ``grey``
+crop            zoom box ``x,y,w,h`` applied at full resolution; empty = none
+grey_levels     number of grey levels in grey mode; empty in edges mode
+threshold_source where the threshold came from: ``objects.csv``, ``global`` or ``auto:<method>``
+==============  ==============================================================================
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+import os
+import re
+from collections.abc import Iterable
+from dataclasses import asdict, dataclass, fields
+from pathlib import Path
+
+from stimuli.errors import InputError
+from stimuli.io import atomic_path
+
+__all__ = [
+    "OBJECTS_COLUMNS",
+    "MANIFEST_COLUMNS",
+    "CONDITIONS",
+    "ROLES",
+    "ObjectInfo",
+    "StimulusRecord",
+    "parse_crop",
+    "format_crop",
+    "check_object_id",
+    "read_objects_csv",
+    "write_objects_csv",
+    "read_manifest",
+    "write_manifest",
+]
+
+#: Columns of ``objects.csv``, in order.
+OBJECTS_COLUMNS: tuple[str, ...] = (
+    "object",
+    "name",
+    "synonyms",
+    "uses",
+    "role",
+    "sobel_threshold",
+    "crop",
+    "plane_depth_m",
+    "plane_disparity_px",
+)
+
+#: Columns of ``manifest.csv``, in order.
+MANIFEST_COLUMNS: tuple[str, ...] = (
+    "object",
+    "role",
+    "condition",
+    "level",
+    "window",
+    "width",
+    "height",
+    "pixels",
+    "path",
+    "sha256",
+    "sobel_threshold",
+    "edge_ratio",
+    "source",
+    "source_sha256",
+    "mode",
+    "crop",
+    "grey_levels",
+    "threshold_source",
+)
+
+#: Stimulus conditions: wide-DOF edges, narrow-DOF edges, and the training photo (Sec. 3.1).
+CONDITIONS: tuple[str, ...] = ("cluttered", "decluttered", "photo")
+#: Object roles: the 20 test objects and the 3 training objects (Sec. 3.1).
+ROLES: tuple[str, ...] = ("main", "training")
+
+_ID_RE = re.compile(r"^[A-Za-z0-9][A-Za-z0-9._-]*$")
+
+
+def check_object_id(object_id: str, *, where: str) -> str:
+    """Return ``object_id`` if it is a safe folder name, else raise naming ``where``.
+
+    Ids are used as folder and file names, so they may hold letters, digits, ``.``, ``_`` and
+    ``-`` and must start with a letter or digit.
+    """
+    if not isinstance(object_id, str) or not _ID_RE.match(object_id):
+        raise InputError(
+            f"{where}: object id must be letters, digits, '.', '_' or '-' (starting with a letter "
+            f"or digit), got {object_id!r}"
+        )
+    return object_id
+
+
+def parse_crop(text: str | None, *, where: str) -> tuple[int, int, int, int] | None:
+    """Parse a crop box ``"x,y,w,h"`` (full-resolution pixels); empty text gives ``None``.
+
+    Parameters
+    ----------
+    text : str or None
+        ``x,y`` is the top-left corner (column, row), ``w,h`` the width and height, pixels.
+    where : str
+        Names the file and field in error messages.
+
+    Returns
+    -------
+    (x, y, w, h) or None
+
+    Raises
+    ------
+    InputError
+        If the text is not four integers with ``x, y >= 0`` and ``w, h > 0``.
+
+    Examples
+    --------
+    >>> parse_crop("10, 20, 300, 200", where="crop")
+    (10, 20, 300, 200)
+    """
+    if text is None or str(text).strip() == "":
+        return None
+    parts = [p.strip() for p in str(text).split(",")]
+    try:
+        if len(parts) != 4:
+            raise ValueError
+        x, y, w, h = (int(p) for p in parts)
+    except ValueError:
+        raise InputError(
+            f"{where}: crop must be 'x,y,w,h' (four integers, full-resolution pixels), "
+            f"got {text!r}"
+        ) from None
+    if x < 0 or y < 0 or w <= 0 or h <= 0:
+        raise InputError(f"{where}: crop must have x, y >= 0 and w, h > 0, got {text!r}")
+    return (x, y, w, h)
+
+
+def format_crop(crop: tuple[int, int, int, int] | None) -> str:
+    """Format a crop box as ``"x,y,w,h"`` (empty string for ``None``)."""
+    return "" if crop is None else ",".join(str(int(v)) for v in crop)
+
+
+def _parse_float(text: str | None, *, where: str, minimum: float | None = None) -> float | None:
+    if text is None or str(text).strip() == "":
+        return None
+    try:
+        v = float(text)
+    except ValueError:
+        raise InputError(f"{where}: expected a number, got {text!r}") from None
+    if not math.isfinite(v) or (minimum is not None and v < minimum):
+        bound = "" if minimum is None else f" >= {minimum:g}"
+        raise InputError(f"{where}: expected a finite number{bound}, got {text!r}")
+    return v
+
+
+def _split_list(text: str | None) -> tuple[str, ...]:
+    if not text:
+        return ()
+    return tuple(p.strip() for p in str(text).split(";") if p.strip())
+
+
+def _fmt(v: object) -> str:
+    if v is None:
+        return ""
+    if isinstance(v, float):
+        return repr(v)
+    if isinstance(v, tuple):
+        return ";".join(str(x) for x in v)
+    return str(v)
+
+
+@dataclass(frozen=True)
+class ObjectInfo:
+    """One row of ``objects.csv`` (see the module docstring for the columns).
+
+    Parameters
+    ----------
+    object : str
+        Object id.
+    name : str
+        Display name; empty means "use the id".
+    synonyms, uses : tuple of str
+        Accepted names and accepted uses.
+    role : {'main', 'training'}
+    sobel_threshold : float >= 0 or None
+        Per-object Sobel threshold; ``None`` = global or automatic.
+    crop : (x, y, w, h) or None
+        Zoom box in full-resolution pixels.
+    plane_depth_m : float > 0 or None
+        Light-field objects: confocal plane depth, metres.
+    plane_disparity_px : float or None
+        Light-field objects: plane disparity, pixels per view step.
+    """
+
+    object: str
+    name: str = ""
+    synonyms: tuple[str, ...] = ()
+    uses: tuple[str, ...] = ()
+    role: str = "main"
+    sobel_threshold: float | None = None
+    crop: tuple[int, int, int, int] | None = None
+    plane_depth_m: float | None = None
+    plane_disparity_px: float | None = None
+
+    def __post_init__(self) -> None:
+        check_object_id(self.object, where="objects.csv: object")
+        if self.role not in ROLES:
+            raise InputError(
+                f"objects.csv: object {self.object!r}: role must be one of {ROLES}, "
+                f"got {self.role!r}"
+            )
+        if self.sobel_threshold is not None and not (
+            math.isfinite(self.sobel_threshold) and self.sobel_threshold >= 0
+        ):
+            raise InputError(
+                f"objects.csv: object {self.object!r}: sobel_threshold must be a number >= 0, "
+                f"got {self.sobel_threshold!r}"
+            )
+        if self.plane_depth_m is not None and not self.plane_depth_m > 0:
+            raise InputError(
+                f"objects.csv: object {self.object!r}: plane_depth_m must be > 0, "
+                f"got {self.plane_depth_m!r}"
+            )
+
+    @property
+    def display_name(self) -> str:
+        """The display name, or the object id when no name is given."""
+        return self.name or self.object
+
+    def to_row(self) -> dict[str, str]:
+        """Return the ``objects.csv`` row as strings."""
+        return {
+            "object": self.object,
+            "name": self.display_name,
+            "synonyms": _fmt(self.synonyms),
+            "uses": _fmt(self.uses),
+            "role": self.role,
+            "sobel_threshold": _fmt(self.sobel_threshold),
+            "crop": format_crop(self.crop),
+            "plane_depth_m": _fmt(self.plane_depth_m),
+            "plane_disparity_px": _fmt(self.plane_disparity_px),
+        }
+
+    @classmethod
+    def from_row(cls, row: dict[str, str | None], *, where: str) -> ObjectInfo:
+        """Build from an ``objects.csv`` row; ``where`` names the file and line in errors."""
+        oid = (row.get("object") or "").strip()
+        check_object_id(oid, where=f"{where}: field object")
+        role = (row.get("role") or "").strip() or "main"
+        if role not in ROLES:
+            raise InputError(f"{where}: field role must be one of {ROLES}, got {role!r}")
+        return cls(
+            object=oid,
+            name=(row.get("name") or "").strip(),
+            synonyms=_split_list(row.get("synonyms")),
+            uses=_split_list(row.get("uses")),
+            role=role,
+            sobel_threshold=_parse_float(
+                row.get("sobel_threshold"), where=f"{where}: field sobel_threshold", minimum=0.0
+            ),
+            crop=parse_crop(row.get("crop"), where=f"{where}: field crop"),
+            plane_depth_m=_parse_float(
+                row.get("plane_depth_m"), where=f"{where}: field plane_depth_m", minimum=0.0
+            ),
+            plane_disparity_px=_parse_float(
+                row.get("plane_disparity_px"), where=f"{where}: field plane_disparity_px"
+            ),
+        )
+
+
+def _read_csv_rows(path: Path, required: Iterable[str]) -> list[tuple[int, dict[str, str]]]:
+    try:
+        with open(path, newline="", encoding="utf-8-sig") as f:
+            reader = csv.DictReader(f)
+            header = [h.strip() for h in (reader.fieldnames or [])]
+            reader.fieldnames = header
+            missing = [c for c in required if c not in header]
+            if missing:
+                raise InputError(
+                    f"{path}: missing column(s) {', '.join(missing)}; header is {header!r}"
+                )
+            return [
+                (reader.line_num, {k: (v or "") for k, v in r.items() if k is not None})
+                for r in reader
+            ]
+    except UnicodeDecodeError:
+        raise InputError(f"{path}: not a UTF-8 text CSV file") from None
+    except csv.Error as exc:
+        raise InputError(f"{path}: not a valid CSV file ({exc})") from None
+
+
+def read_objects_csv(path: str | os.PathLike) -> list[ObjectInfo]:
+    """Read ``objects.csv``; only the ``object`` column is required.
+
+    Parameters
+    ----------
+    path : str or path-like
+
+    Returns
+    -------
+    list of ObjectInfo
+        In file order.
+
+    Raises
+    ------
+    InputError
+        If the file is missing, a field is malformed, or an object id occurs twice
+        (ids compare case-insensitively, as folder names do on some file systems).
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise InputError(f"{path}: objects.csv not found")
+    out: list[ObjectInfo] = []
+    seen: dict[str, int] = {}
+    for line, row in _read_csv_rows(path, ["object"]):
+        if not any(v.strip() for v in row.values()):
+            continue
+        info = ObjectInfo.from_row(row, where=f"{path}, line {line}")
+        key = info.object.lower()
+        if key in seen:
+            raise InputError(
+                f"{path}, line {line}: duplicate object id {info.object!r} "
+                f"(first on line {seen[key]})"
+            )
+        seen[key] = line
+        out.append(info)
+    return out
+
+
+def write_objects_csv(objects: Iterable[ObjectInfo], path: str | os.PathLike) -> Path:
+    """Write ``objects.csv`` with all :data:`OBJECTS_COLUMNS`, atomically; return the path."""
+    path = Path(path)
+    with atomic_path(path) as tmp, open(tmp, "w", newline="", encoding="utf-8") as f:
+        w = csv.DictWriter(f, fieldnames=list(OBJECTS_COLUMNS), lineterminator="\n")
+        w.writeheader()
+        for o in objects:
+            w.writerow(o.to_row())
+    return path
+
+
+@dataclass(frozen=True)
+class StimulusRecord:
+    """One row of ``manifest.csv`` (see the module docstring for the columns)."""
+
+    object: str
+    role: str
+    condition: str
+    level: int
+    window: int
+    width: int
+    height: int
+    pixels: int
+    path: str
+    sha256: str
+    sobel_threshold: float | None
+    edge_ratio: float | None
+    source: str
+    source_sha256: str
+    mode: str
+    crop: str = ""
+    grey_levels: int | None = None
+    threshold_source: str = ""
+
+    def __post_init__(self) -> None:
+        if self.condition not in CONDITIONS:
+            raise InputError(f"condition must be one of {CONDITIONS}, got {self.condition!r}")
+        if self.pixels != self.width * self.height:
+            raise InputError(
+                f"pixels must equal width * height, got {self.pixels} for "
+                f"{self.width}x{self.height}"
+            )
+
+    def to_row(self) -> dict[str, str]:
+        """Return the manifest row as strings."""
+        return {k: _fmt(v) for k, v in asdict(self).items()}
+
+
+_INT_FIELDS = {"level", "window", "width", "height", "pixels"}
+_OPT_FLOAT_FIELDS = {"sobel_threshold", "edge_ratio"}
+
+
+def read_manifest(path: str | os.PathLike) -> list[StimulusRecord]:
+    """Read ``manifest.csv`` back into records (inverse of :func:`write_manifest`).
+
+    Raises
+    ------
+    InputError
+        If the file is missing, lacks a column or a numeric field is malformed.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise InputError(f"{path}: manifest.csv not found")
+    names = [f.name for f in fields(StimulusRecord)]
+    required = [n for n in MANIFEST_COLUMNS if n in names]
+    out = []
+    for line, row in _read_csv_rows(path, required):
+        kw: dict[str, object] = {}
+        for n in names:
+            v = row.get(n, "")
+            where = f"{path}, line {line}: field {n}"
+            if n in _INT_FIELDS:
+                try:
+                    kw[n] = int(v)
+                except ValueError:
+                    raise InputError(f"{where}: expected an integer, got {v!r}") from None
+            elif n in _OPT_FLOAT_FIELDS:
+                kw[n] = _parse_float(v, where=where)
+            elif n == "grey_levels":
+                kw[n] = int(v) if v.strip() else None
+            else:
+                kw[n] = v
+        out.append(StimulusRecord(**kw))  # type: ignore[arg-type]
+    return out
+
+
+def write_manifest(records: Iterable[StimulusRecord], path: str | os.PathLike) -> Path:
+    """Write ``manifest.csv`` with :data:`MANIFEST_COLUMNS`, atomically; return the path."""
+    path = Path(path)
+    with atomic_path(path) as tmp, open(tmp, "w", newline="", encoding="utf-8") as f:
+        w = csv.DictWriter(f, fieldnames=list(MANIFEST_COLUMNS), lineterminator="\n")
+        w.writeheader()
+        for r in records:
+            w.writerow(r.to_row())
+    return path
