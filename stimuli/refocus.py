@@ -1,0 +1,263 @@
+"""Shift-and-add refocusing of a light field: confocal images at any depth plane.
+
+The confocal image at disparity ``d`` (pixels per view step, convention in
+:mod:`stimuli.lightfield`) is the average of all views, each shifted so that points of the plane
+``d`` line up with the centre view::
+
+    R_d(y, x) = sum_{u,v} I_uv(y - d du, x - d dv) / W(y, x)
+
+Sub-pixel shifts use linear interpolation. Near the borders some shifted views fall outside
+their image; those samples are left out and ``W`` counts only the views (and interpolation
+weights) that contribute, so the image is a proper average everywhere ("normalised where views
+do not overlap") instead of darkening towards the edges.
+
+How it is fast
+--------------
+* The shift is separable: first, for every grid row ``u``, sum the views over ``v`` with column
+  shifts ``d dv``; then sum those ``n_u`` partial images with row shifts ``d du``. The second
+  pass touches ``n_u`` images instead of ``n_u n_v``.
+* A linear-interpolation shift by ``s = n + f`` is ``(1 - f) I(x - n) + f I(x - n - 1)``: two
+  weighted adds of integer-shifted *slices* (views, no copies), done for all ``u`` of one ``v`` at
+  once, in ``float32``, into preallocated buffers.
+* Threads split the work (numpy releases the GIL): the first pass by blocks of ``u``, the second
+  by blocks of columns.
+* The weight ``W`` is separable too: ``W(y, x) = w_rows(y) w_cols(x)``.
+
+References
+----------
+Ng, R. et al. (2005). Light field photography with a hand-held plenoptic camera. Stanford Tech
+Report CTSR 2005-02, Sec. 4 (shift-and-add). Jung et al. (2015), Sec. 4.1 (computational
+integral-imaging reconstruction as confocal imaging).
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from collections.abc import Iterator, Sequence
+from concurrent.futures import ThreadPoolExecutor
+
+import numpy as np
+
+from stimuli.errors import InputError
+from stimuli.lightfield import LightField, _as_lightfield
+
+__all__ = ["refocus", "focal_stack", "iter_focal_stack", "centre_view", "default_workers"]
+
+#: Below this many pixels per pass the threads cost more than they save (ours, measured roughly).
+_THREAD_MIN_PIXELS = 1 << 20
+
+
+def default_workers() -> int:
+    """Return the number of threads used by default: the CPUs available to this process, <= 8."""
+    try:
+        n = len(os.sched_getaffinity(0))
+    except AttributeError:  # not on Linux
+        n = os.cpu_count() or 1
+    return max(1, min(8, n))
+
+
+def _int_slices(length: int, m: int) -> tuple[slice, slice] | None:
+    """Slices (dst, src) such that ``dst[x] = src[x - m]`` for every valid x; None if empty."""
+    if m >= length or -m >= length:
+        return None
+    if m >= 0:
+        return slice(m, length), slice(0, length - m)
+    return slice(0, length + m), slice(-m, length)
+
+
+def _shift_weights(shift_px: float) -> tuple[tuple[int, float], ...]:
+    """Integer shifts and weights of a linear-interpolation shift by ``shift_px``."""
+    n = math.floor(shift_px)
+    f = shift_px - n
+    if f < 1e-6:
+        return ((n, 1.0),)
+    if f > 1.0 - 1e-6:
+        return ((n + 1, 1.0),)
+    return ((n, 1.0 - f), (n + 1, f))
+
+
+def _accumulate(dst: np.ndarray, src: np.ndarray, shift_px: float, axis: int, tmp: np.ndarray):
+    """``dst += src`` shifted by ``shift_px`` along ``axis`` (linear interpolation, zero fill)."""
+    length = src.shape[axis]
+    for m, w in _shift_weights(shift_px):
+        sl = _int_slices(length, m)
+        if sl is None:
+            continue
+        d_idx = [slice(None)] * src.ndim
+        s_idx = [slice(None)] * src.ndim
+        d_idx[axis], s_idx[axis] = sl
+        d_idx, s_idx = tuple(d_idx), tuple(s_idx)
+        if w == 1.0:
+            np.add(dst[d_idx], src[s_idx], out=dst[d_idx])
+        else:
+            t = tmp[d_idx]
+            np.multiply(src[s_idx], np.float32(w), out=t)
+            np.add(dst[d_idx], t, out=dst[d_idx])
+
+
+def _weights_1d(length: int, shifts: Sequence[float]) -> np.ndarray:
+    w = np.zeros(length, dtype=np.float64)
+    ones = np.ones(length, dtype=np.float64)
+    for s in shifts:
+        for m, a in _shift_weights(s):
+            sl = _int_slices(length, m)
+            if sl is not None:
+                w[sl[0]] += a * ones[sl[1]]
+    return w
+
+
+def _check_disparity(lf: LightField, disparity_px: float) -> float:
+    try:
+        d = float(disparity_px)
+    except (TypeError, ValueError):
+        raise InputError(f"slope_px_per_view must be a number, got {disparity_px!r}") from None
+    if not math.isfinite(d):
+        raise InputError(f"slope_px_per_view must be finite, got {disparity_px!r}")
+    dmax = lf.max_disparity_px()
+    if abs(d) > dmax:
+        raise InputError(
+            f"slope_px_per_view {d:g} is outside the light field's range [-{dmax:.4g}, "
+            f"{dmax:.4g}] px per view step (outer views would not overlap the centre view)"
+        )
+    return d
+
+
+def _refocus_views(
+    views: np.ndarray, d: float, workers: int, out: np.ndarray | None = None
+) -> np.ndarray:
+    n_u, n_v, rows, cols = views.shape[:4]
+    cu, cv = n_u // 2, n_v // 2
+    extra = views.shape[4:]
+    col_shifts = [d * (v - cv) for v in range(n_v)]
+    row_shifts = [d * (u - cu) for u in range(n_u)]
+
+    partial = np.zeros((n_u, rows, cols, *extra), dtype=np.float32)
+    scratch = np.empty_like(partial)
+    n_threads = max(1, min(workers, n_u))
+    if n_u * rows * cols * n_v < _THREAD_MIN_PIXELS:
+        n_threads = 1
+
+    def pass_cols(u0: int, u1: int) -> None:
+        for v in range(n_v):
+            _accumulate(partial[u0:u1], views[u0:u1, v], col_shifts[v], 2, scratch[u0:u1])
+
+    def pass_rows(c0: int, c1: int) -> None:
+        for u in range(n_u):
+            _accumulate(
+                result[:, c0:c1], partial[u][:, c0:c1], row_shifts[u], 0, scratch[0][:, c0:c1]
+            )
+
+    result = out if out is not None else np.empty((rows, cols, *extra), dtype=np.float32)
+    result[...] = 0.0
+    if n_threads == 1:
+        pass_cols(0, n_u)
+        pass_rows(0, cols)
+    else:
+        ub = np.linspace(0, n_u, n_threads + 1).astype(int)
+        cb = np.linspace(0, cols, n_threads + 1).astype(int)
+        with ThreadPoolExecutor(n_threads) as ex:
+            list(ex.map(pass_cols, ub[:-1], ub[1:]))
+            list(ex.map(pass_rows, cb[:-1], cb[1:]))
+
+    w = np.outer(_weights_1d(rows, row_shifts), _weights_1d(cols, col_shifts))
+    inv = np.zeros_like(w)
+    np.divide(1.0, w, out=inv, where=w > 1e-9)
+    inv = inv.astype(np.float32)
+    if extra:
+        inv = inv[..., None]
+    result *= inv
+    np.clip(result, 0.0, 1.0, out=result)
+    return result
+
+
+def refocus(
+    lightfield: LightField | np.ndarray,
+    slope_px_per_view: float,
+    *,
+    workers: int | None = None,
+) -> np.ndarray:
+    """Return the confocal image of a light field focused at one disparity.
+
+    Parameters
+    ----------
+    lightfield : LightField or ndarray of shape (n_u, n_v, rows, cols[, C]), float32 in [0, 1]
+    slope_px_per_view : float
+        Disparity of the plane brought into focus, pixels per view step (larger = nearer;
+        :mod:`stimuli.lightfield`). Must keep the outer views overlapping the centre view.
+    workers : int, optional
+        Threads to use (default: :func:`default_workers`).
+
+    Returns
+    -------
+    ndarray of shape (rows, cols[, C]), float32 in [0, 1]
+
+    Raises
+    ------
+    InputError
+        A non-finite disparity, or one so large that the outer views miss the centre view.
+
+    References
+    ----------
+    Ng et al. (2005), Sec. 4; Jung et al. (2015), Sec. 4.1.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> tex = np.random.default_rng(0).random((8, 12)).astype(np.float32)
+    >>> views = np.stack([np.stack([np.roll(tex, -(v - 1), axis=1) for v in range(3)])])
+    >>> bool(np.allclose(refocus(views, 1.0)[:, 2:-2], tex[:, 2:-2]))
+    True
+    """
+    lf = _as_lightfield(lightfield)
+    d = _check_disparity(lf, slope_px_per_view)
+    return _refocus_views(lf.views, d, workers or default_workers())
+
+
+def iter_focal_stack(
+    lightfield: LightField | np.ndarray,
+    slopes_px_per_view: Sequence[float],
+    *,
+    workers: int | None = None,
+) -> Iterator[tuple[float, np.ndarray]]:
+    """Yield ``(slope, confocal_image)`` for each disparity in turn (the caller owns the loop)."""
+    lf = _as_lightfield(lightfield)
+    slopes = [_check_disparity(lf, s) for s in slopes_px_per_view]
+    n = workers or default_workers()
+    for d in slopes:
+        yield d, _refocus_views(lf.views, d, n)
+
+
+def focal_stack(
+    lightfield: LightField | np.ndarray,
+    slopes_px_per_view: Sequence[float],
+    *,
+    workers: int | None = None,
+) -> np.ndarray:
+    """Return confocal images at several disparities.
+
+    Parameters
+    ----------
+    lightfield : LightField or ndarray of shape (n_u, n_v, rows, cols[, C]), float32 in [0, 1]
+    slopes_px_per_view : sequence of float
+        Disparities, pixels per view step.
+    workers : int, optional
+
+    Returns
+    -------
+    ndarray of shape (n_planes, rows, cols[, C]), float32 in [0, 1]
+    """
+    images = [img for _, img in iter_focal_stack(lightfield, slopes_px_per_view, workers=workers)]
+    if not images:
+        raise InputError("slopes_px_per_view must not be empty")
+    return np.stack(images)
+
+
+def centre_view(lightfield: LightField | np.ndarray) -> np.ndarray:
+    """Return the centre view ``(n_u // 2, n_v // 2)``: the all-in-focus ("cluttered") image.
+
+    Returns
+    -------
+    ndarray of shape (rows, cols[, C]), float32 in [0, 1] (a copy)
+    """
+    return _as_lightfield(lightfield).centre_view()
