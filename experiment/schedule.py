@@ -1,0 +1,258 @@
+"""Schedules: the protocol's trials in the order one subject sees them (house style H5).
+
+:func:`build_schedule` expands each ``[[blocks]]`` entry of a :class:`ProtocolSpec` against a
+stimulus set, with one random generator, into a :class:`Schedule` of :class:`Trial` objects.
+The session writes the whole schedule into the trial log before the first trial and, on resume,
+reads it back from there; it is never drawn twice.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from dataclasses import asdict, dataclass, fields
+
+import numpy as np
+
+from experiment.protocol import BlockSpec, ProtocolError, ProtocolSpec
+from experiment.stimset import StimulusSet
+
+__all__ = ["Trial", "Schedule", "build_schedule"]
+
+
+@dataclass(frozen=True)
+class Trial:
+    """One planned trial.
+
+    Parameters
+    ----------
+    index : int
+        Position in the schedule, 0-based; unique in a session.
+    part : {'training', 'main'}
+    block : int
+        Block number in the schedule, 1-based; a block is shown without a break in its order.
+    object, object_name : str
+        Object id (``objects.csv``) and its name.
+    condition : {'cluttered', 'decluttered', 'photo'}
+    level : int
+        1 = fewest pixels ... 8 = full resolution.
+    window : int
+        Compression window, px.
+    pixels : int
+        Pixels of the stimulus (width x height).
+    path : str
+        Image path relative to the stimulus set.
+    sha256 : str
+        Expected SHA-256 of the image file.
+    pass_allowed_after_s : float
+        Seconds after onset from which a pass is accepted.
+    repetition : int
+        0-based repetition of its block entry.
+    break_before : bool
+        Whether a break screen comes before this trial.
+    """
+
+    index: int
+    part: str
+    block: int
+    object: str
+    object_name: str
+    condition: str
+    level: int
+    window: int
+    pixels: int
+    path: str
+    sha256: str
+    pass_allowed_after_s: float
+    repetition: int = 0
+    break_before: bool = False
+
+    def to_dict(self) -> dict:
+        """Return the trial as a plain dict (column name -> value)."""
+        return asdict(self)
+
+    @classmethod
+    def from_dict(cls, data: dict) -> Trial:
+        """Build a trial from :meth:`to_dict` output or a schedule row."""
+        names = [f.name for f in fields(cls)]
+        kw = {n: data[n] for n in names if n in data}
+        kw["break_before"] = bool(kw.get("break_before", False))
+        return cls(**kw)
+
+
+class Schedule:
+    """The ordered, immutable list of a session's trials."""
+
+    def __init__(self, trials: tuple[Trial, ...] | list[Trial]) -> None:
+        self.trials = tuple(trials)
+        for i, t in enumerate(self.trials):
+            if t.index != i:
+                raise ValueError(f"trial indices must be 0..n-1 in order, got {t.index} at {i}")
+
+    def __len__(self) -> int:
+        return len(self.trials)
+
+    def __getitem__(self, i: int) -> Trial:
+        return self.trials[i]
+
+    def __eq__(self, other: object) -> bool:
+        return isinstance(other, Schedule) and self.trials == other.trials
+
+    __hash__ = None  # type: ignore[assignment]
+
+    def iter_trials(self, start_after: int | None = None) -> Iterator[Trial]:
+        """Yield the trials after index ``start_after`` (all of them for None), in order."""
+        first = 0 if start_after is None else start_after + 1
+        yield from self.trials[first:]
+
+    def part(self, part: str) -> tuple[Trial, ...]:
+        """Return the trials of one part (``'training'`` or ``'main'``)."""
+        return tuple(t for t in self.trials if t.part == part)
+
+
+def _objects_for(entry: BlockSpec, stimset: StimulusSet, where: str) -> tuple[str, ...]:
+    if isinstance(entry.objects, str):
+        ids = stimset.object_ids(entry.objects)
+        if not ids:
+            raise ProtocolError(
+                f"{where}.objects: no objects with role {entry.objects!r} in stimulus set "
+                f"{stimset.root}"
+            )
+        return ids
+    for o in entry.objects:
+        if o not in stimset.objects:
+            raise ProtocolError(
+                f"{where}.objects: object {o!r} is not in stimulus set {stimset.root}"
+            )
+    return entry.objects
+
+
+def _check_available(
+    entry: BlockSpec, objs: tuple[str, ...], stimset: StimulusSet, where: str
+) -> None:
+    have = stimset.levels()
+    for lv in entry.levels:
+        if lv not in have:
+            raise ProtocolError(
+                f"{where}.levels: level {lv} is not in stimulus set {stimset.root} "
+                f"(it has levels {', '.join(map(str, have))})"
+            )
+    index = {(r.object, r.condition, r.level) for r in stimset.records}
+    for o in objs:
+        for c in entry.conditions:
+            for lv in entry.levels:
+                if (o, c, lv) not in index:
+                    raise ProtocolError(
+                        f"{where}: stimulus set {stimset.root} has no image for object {o!r}, "
+                        f"condition {c!r}, level {lv}"
+                    )
+
+
+def _ordered_levels(entry: BlockSpec, rng: np.random.Generator) -> list[int]:
+    if entry.level_order == "ascending":
+        return sorted(entry.levels)
+    if entry.level_order == "descending":
+        return sorted(entry.levels, reverse=True)
+    if entry.level_order == "random":
+        return [entry.levels[i] for i in rng.permutation(len(entry.levels))]
+    return list(entry.levels)
+
+
+def _ordered_conditions(entry: BlockSpec, rng: np.random.Generator) -> list[str]:
+    if entry.condition_order == "random":
+        return [entry.conditions[i] for i in rng.permutation(len(entry.conditions))]
+    return list(entry.conditions)
+
+
+def _entry_blocks(
+    entry: BlockSpec, objs: tuple[str, ...], rng: np.random.Generator
+) -> list[list[tuple[str, str, int]]]:
+    """Blocks of one repetition: lists of (object, condition, level), before trial shuffling."""
+    levels = _ordered_levels(entry, rng)
+    blocks: list[list[tuple[str, str, int]]] = []
+    if entry.group_by == "level_condition":
+        for lv in levels:
+            for c in _ordered_conditions(entry, rng):
+                blocks.append([(o, c, lv) for o in objs])
+    elif entry.group_by == "level":
+        for lv in levels:
+            blocks.append([(o, c, lv) for c in entry.conditions for o in objs])
+    elif entry.group_by == "condition":
+        for c in _ordered_conditions(entry, rng):
+            blocks.append([(o, c, lv) for lv in levels for o in objs])
+    else:
+        blocks.append([(o, c, lv) for lv in levels for c in entry.conditions for o in objs])
+    if entry.trial_order == "random":
+        blocks = [[b[i] for i in rng.permutation(len(b))] for b in blocks]
+    if entry.block_order == "random":
+        blocks = [blocks[i] for i in rng.permutation(len(blocks))]
+    return blocks
+
+
+def build_schedule(
+    protocol: ProtocolSpec,
+    stimset: StimulusSet,
+    rng: np.random.Generator | int | None = None,
+) -> Schedule:
+    """Expand a protocol into one subject's ordered trials.
+
+    Parameters
+    ----------
+    protocol : ProtocolSpec
+    stimset : StimulusSet
+        Supplies the objects of each role and the image of every (object, condition, level).
+    rng : numpy.random.Generator, int or None
+        The only source of randomness (trial order inside blocks, random level, condition and
+        block orders). The session passes a child of its stored seed.
+
+    Returns
+    -------
+    Schedule
+
+    Raises
+    ------
+    ProtocolError
+        A block entry names an object or level the stimulus set lacks (one line naming both).
+
+    References
+    ----------
+    Jung et al. 2015, Sec. 3.2: levels lowest to highest; at each level the cluttered block
+    then the de-cluttered block; random object order inside a block.
+    """
+    rng = np.random.default_rng(rng)
+    trials: list[Trial] = []
+    block_no = 0
+    for e, entry in enumerate(protocol.blocks):
+        where = f"blocks[{e}]"
+        objs = _objects_for(entry, stimset, where)
+        _check_available(entry, objs, stimset, where)
+        n_in_entry = 0
+        for rep in range(entry.repetitions):
+            for block in _entry_blocks(entry, objs, rng):
+                block_no += 1
+                brk = (
+                    entry.break_every_blocks > 0
+                    and n_in_entry > 0
+                    and n_in_entry % entry.break_every_blocks == 0
+                )
+                n_in_entry += 1
+                for k, (o, c, lv) in enumerate(block):
+                    rec = stimset.get(o, c, lv)
+                    trials.append(
+                        Trial(
+                            index=len(trials),
+                            part=entry.part,
+                            block=block_no,
+                            object=o,
+                            object_name=stimset.objects[o].name,
+                            condition=c,
+                            level=lv,
+                            window=rec.window,
+                            pixels=rec.pixels,
+                            path=rec.path,
+                            sha256=rec.sha256,
+                            pass_allowed_after_s=float(protocol.pass_allowed_after_s),
+                            repetition=rep,
+                            break_before=brk and k == 0,
+                        )
+                    )
+    return Schedule(trials)

@@ -1,0 +1,230 @@
+"""Scoring free-text answers and rater agreement (Jung et al. 2015, Sec. 3.2).
+
+The operator types what the subject said; :func:`suggest_score` proposes a score from the
+object's name, synonyms and uses (``objects.csv``), tolerant of case, plurals and small typos;
+the operator confirms or overrides. A second rater can re-score later; :func:`cohen_kappa`
+reports agreement.
+"""
+
+from __future__ import annotations
+
+import difflib
+import json
+import re
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass
+
+from experiment.stimset import ObjectInfo
+
+__all__ = [
+    "SHAPE_WORDS",
+    "normalize",
+    "suggest_score",
+    "kappa",
+    "KappaResult",
+    "cohen_kappa",
+]
+
+#: Words that describe shape or features rather than identity or use; a response made only of
+#: these (and filler) is scored ``shape``. Ours, not the paper's (the paper gives no word list).
+SHAPE_WORDS: frozenset[str] = frozenset(
+    """round circle circular square rectangle rectangular box boxy long thin tall short flat
+    curved straight line lines edge edges shape triangle triangular oval cylinder cylindrical
+    handle big small large tiny wide narrow tube stick ring hole corner top bottom side""".split()
+)
+
+#: Minimum difflib similarity for two words (or phrases) to count as the same. Ours: 0.8 lets
+#: one typo through in a word of five or more letters ("scisors", "mugg") but not a different
+#: short word ("cup" vs "cap" is 0.67).
+MATCH_RATIO: float = 0.8
+
+_FILLER = frozenset(
+    "a an the it its is it's its's this that some kind of like looks maybe i think something "
+    "thing for to used use you and or with which".split()
+)
+
+
+def _singular(word: str) -> str:
+    if len(word) > 4 and word.endswith("ies"):
+        return word[:-3] + "y"
+    if len(word) > 4 and word.endswith(("ches", "shes", "sses", "xes")):
+        return word[:-2]
+    if len(word) > 3 and word.endswith("s") and not word.endswith("ss"):
+        return word[:-1]
+    return word
+
+
+def normalize(text: str) -> str:
+    """Return ``text`` lower-cased, punctuation removed, words singular, single-spaced.
+
+    Idempotent: ``normalize(normalize(t)) == normalize(t)``.
+
+    Examples
+    --------
+    >>> normalize("  Two MUGS, please! ")
+    'two mug please'
+    """
+    words = re.findall(r"[a-z0-9]+", str(text).lower())
+    out = [_singular(w) for w in words]
+    # singular of a singular may shorten again ("glasses" -> "glass" is stable); iterate to a
+    # fixed point so the function is idempotent
+    while True:
+        nxt = [_singular(w) for w in out]
+        if nxt == out:
+            break
+        out = nxt
+    return " ".join(out)
+
+
+def _similar(a: str, b: str) -> bool:
+    return a == b or difflib.SequenceMatcher(None, a, b).ratio() >= MATCH_RATIO
+
+
+def _mentions(response: str, phrase: str) -> bool:
+    """Whether the normalised ``response`` contains ``phrase`` (normalised), typos allowed."""
+    r_words = response.split()
+    p_words = normalize(phrase).split()
+    if not p_words or not r_words:
+        return False
+    n = len(p_words)
+    for i in range(len(r_words) - n + 1):
+        window = r_words[i : i + n]
+        if all(_similar(a, b) for a, b in zip(window, p_words, strict=True)):
+            return True
+    # compounds typed as one word ("tooth brush" vs "toothbrush")
+    joined = "".join(p_words)
+    return any(_similar(w, joined) for w in r_words) if n > 1 else False
+
+
+def suggest_score(response: str, obj: ObjectInfo, others: Iterable[ObjectInfo] = ()) -> str:
+    """Propose a score for a typed response to an image of ``obj``.
+
+    Parameters
+    ----------
+    response : str
+        The subject's words as typed ("" = pass).
+    obj : ObjectInfo
+        The object shown (name, synonyms, uses).
+    others : iterable of ObjectInfo
+        The other objects; naming one of them is ``wrong``.
+
+    Returns
+    -------
+    {'named', 'use', 'shape', 'wrong', 'pass'}
+        ``named`` if the name or a synonym is mentioned; else ``use`` if a use is; else
+        ``wrong`` if another object is named; else ``shape`` if the words describe shape only;
+        ``pass`` for an empty answer or "pass"/"don't know"; else ``wrong``.
+
+    Examples
+    --------
+    >>> mug = ObjectInfo("o1", "mug", ("cup",), ("drinking coffee",), "main")
+    >>> suggest_score("a Mugg", mug), suggest_score("for drinking coffee", mug)
+    ('named', 'use')
+    """
+    r = normalize(response)
+    if not r or r in {"pass", "don t know", "dont know", "no idea", "nothing", "i don t know"}:
+        return "pass"
+    for phrase in (obj.name, *obj.synonyms):
+        if _mentions(r, phrase):
+            return "named"
+    for phrase in obj.uses:
+        if _mentions(r, phrase):
+            return "use"
+    for other in others:
+        if other.object == obj.object:
+            continue
+        if any(_mentions(r, p) for p in (other.name, *other.synonyms)):
+            return "wrong"
+    content = [w for w in r.split() if w not in _FILLER]
+    if content and all(w in SHAPE_WORDS for w in content):
+        return "shape"
+    return "wrong"
+
+
+@dataclass(frozen=True)
+class KappaResult:
+    """Agreement between two raters on the same trials.
+
+    Parameters
+    ----------
+    rater_a, rater_b : str
+    n : int
+        Trials scored by both.
+    observed : float
+        Proportion of trials with the same score.
+    expected : float
+        Agreement expected by chance from the raters' marginal score frequencies.
+    kappa : float
+        Cohen's kappa, ``(observed - expected) / (1 - expected)`` (NaN when n = 0 or expected = 1).
+    """
+
+    rater_a: str
+    rater_b: str
+    n: int
+    observed: float
+    expected: float
+    kappa: float
+
+    def to_dict(self) -> dict:
+        """Return the result as a dict."""
+        return dict(self.__dict__)
+
+
+def kappa(scores_a: Sequence[str], scores_b: Sequence[str]) -> tuple[float, float, float]:
+    """Return ``(kappa, observed, expected)`` for two equally long lists of labels.
+
+    References
+    ----------
+    Cohen, J. (1960). A coefficient of agreement for nominal scales. Educ. Psychol. Meas. 20, 37-46.
+
+    Examples
+    --------
+    >>> round(kappa(["a", "a", "b", "b"], ["a", "b", "b", "b"])[0], 3)
+    0.5
+    """
+    if len(scores_a) != len(scores_b):
+        raise ValueError(
+            f"scores_a and scores_b must have the same length, got {len(scores_a)} and "
+            f"{len(scores_b)}"
+        )
+    n = len(scores_a)
+    if n == 0:
+        return float("nan"), float("nan"), float("nan")
+    labels = sorted(set(scores_a) | set(scores_b))
+    po = sum(a == b for a, b in zip(scores_a, scores_b, strict=True)) / n
+    pe = sum((list(scores_a).count(k) / n) * (list(scores_b).count(k) / n) for k in labels)
+    k = float("nan") if pe == 1.0 else (po - pe) / (1.0 - pe)
+    return k, po, pe
+
+
+def cohen_kappa(log, rater_a: str, rater_b: str, *, labels: str = "score") -> KappaResult:
+    """Return Cohen's kappa between two raters' latest scores in a trial log.
+
+    Parameters
+    ----------
+    log : experiment.triallog.TrialLog
+    rater_a, rater_b : str
+        Rater names as stored in ``scores.rater``.
+    labels : {'score', 'recognized'}
+        Compare the five scores, or only recognised vs not.
+
+    Returns
+    -------
+    KappaResult
+    """
+    if labels not in ("score", "recognized"):
+        raise ValueError(f"labels must be 'score' or 'recognized', got {labels!r}")
+    a = log.latest_scores(rater_a)
+    b = log.latest_scores(rater_b)
+    common = sorted(set(a) & set(b))
+    la = [a[k] for k in common]
+    lb = [b[k] for k in common]
+    if labels == "recognized":
+        rec = {
+            r[0]: json.loads(r[1])["scoring"]["recognized"]
+            for r in log.execute("SELECT session_id, protocol_json FROM sessions")
+        }
+        la = [str(rec[k[0]][s]) for k, s in zip(common, la, strict=True)]
+        lb = [str(rec[k[0]][s]) for k, s in zip(common, lb, strict=True)]
+    k, po, pe = kappa(la, lb)
+    return KappaResult(rater_a, rater_b, len(common), po, pe, k)

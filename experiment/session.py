@@ -1,0 +1,408 @@
+"""A session: one subject's position in a saved schedule, with durable recording and resume.
+
+:meth:`Session.open` creates a session (draws the schedule from the stored seed and writes it
+whole) or resumes the subject's unfinished one (reads the saved schedule back); either way every
+stimulus file is checked against its sha256 first and the session is locked against a second
+process. :meth:`Session.run` is the headless loop (a display and a responder); the operator
+console drives the same methods (:meth:`next_trial`, :meth:`record`, ...) itself.
+
+References
+----------
+Jung et al. 2015, Sec. 3.2 (procedure).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import logging
+import platform
+import socket
+import subprocess
+from collections.abc import Callable
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+
+from experiment.clock import Clock, PerfCounterClock
+from experiment.interfaces import Answer, Display, FlipRecord, Responder
+from experiment.protocol import SCORES, ProtocolSpec
+from experiment.schedule import Schedule, Trial, build_schedule
+from experiment.scoring import suggest_score
+from experiment.stimset import StimulusSet, StimulusSetError
+from experiment.triallog import ResumeMismatch, TrialLog
+
+__all__ = ["Session", "Trial", "software_provenance"]
+
+logger = logging.getLogger(__name__)
+
+
+def software_provenance() -> dict[str, str | None]:
+    """Return ``{'software_version', 'git_commit', 'machine'}`` for the sessions row (H15)."""
+    try:
+        from stimuli import __version__ as version
+    except ImportError:  # pragma: no cover - stimuli is part of the same distribution
+        version = None
+    commit = None
+    try:
+        out = subprocess.run(
+            ["git", "rev-parse", "HEAD"],
+            cwd=Path(__file__).resolve().parent,
+            capture_output=True,
+            text=True,
+            timeout=5,
+        )
+        if out.returncode == 0:
+            commit = out.stdout.strip() or None
+    except (OSError, subprocess.SubprocessError):
+        commit = None
+    machine = (
+        f"{socket.gethostname()} ({platform.system()} {platform.machine()}, "
+        f"Python {platform.python_version()})"
+    )
+    return {"software_version": version, "git_commit": commit, "machine": machine}
+
+
+class Session:
+    """One subject's session in a trial log. Create with :meth:`open`.
+
+    Attributes
+    ----------
+    session_id : int
+    subject : str
+    protocol : ProtocolSpec
+    stimset : StimulusSet
+    seed : int
+        The stored root seed; the schedule uses child 0 of ``SeedSequence(seed)``, simulated
+        observers child 1 (:meth:`child_rng`).
+    schedule : Schedule
+        The saved schedule.
+    log : TrialLog
+    clock : Clock
+    """
+
+    def __init__(
+        self,
+        log: TrialLog,
+        protocol: ProtocolSpec,
+        stimset: StimulusSet,
+        subject: str,
+        session_id: int,
+        seed: int,
+        schedule: Schedule,
+        clock: Clock,
+    ) -> None:
+        self.log = log
+        self.protocol = protocol
+        self.stimset = stimset
+        self.subject = subject
+        self.session_id = session_id
+        self.seed = seed
+        self.schedule = schedule
+        self.clock = clock
+        last = log.last_committed_trial(session_id)
+        self._next = 0 if last is None else last + 1
+        self._closed = False
+
+    # -- creation and resume ------------------------------------------------------------------
+
+    @classmethod
+    def open(
+        cls,
+        log: TrialLog,
+        protocol: ProtocolSpec,
+        stimset: StimulusSet,
+        subject: str,
+        *,
+        seed: int | None = None,
+        clock: Clock | None = None,
+        responder: str | None = None,
+    ) -> Session:
+        """Create a session, or resume the subject's unfinished one (same saved schedule).
+
+        Parameters
+        ----------
+        log : TrialLog
+        protocol : ProtocolSpec
+        stimset : StimulusSet
+        subject : str
+            Subject code (``S01``).
+        seed : int, optional
+            Root seed of a new session (drawn from the OS if None). On resume it must be None or
+            the stored seed.
+        clock : Clock, optional
+            Session clock for events (``PerfCounterClock`` if omitted).
+        responder : str, optional
+            Who answers (``"console"``, ``"sim:logistic"``), stored for provenance.
+
+        Raises
+        ------
+        ResumeMismatch
+            The unfinished session used another protocol, stimulus set or seed.
+        SessionLocked
+            Another live process has the session open.
+        StimulusSetError
+            A stimulus file is missing or its sha256 differs from the manifest.
+        ProtocolError
+            The protocol asks for objects or levels the stimulus set lacks.
+        """
+        if not isinstance(subject, str) or not subject.strip():
+            raise ValueError(f"subject must be a non-empty string, got {subject!r}")
+        if seed is not None and (
+            isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0
+        ):
+            raise ValueError(f"seed must be a non-negative integer or None, got {seed!r}")
+        clock = clock if clock is not None else PerfCounterClock()
+        existing = log.unfinished_session(subject)
+        if existing is not None:
+            return cls._resume(log, protocol, stimset, subject, existing, seed, clock)
+        root_seed = int(seed) if seed is not None else int(np.random.SeedSequence().entropy)
+        schedule = build_schedule(protocol, stimset, _child_rng(root_seed, 0))
+        _verify_files(stimset, schedule)
+        prov = software_provenance()
+        with log.atomic():
+            sid = log.create_session(
+                subject=subject,
+                protocol_name=protocol.name,
+                protocol_sha256=protocol.content_sha256(),
+                protocol_file_sha256=protocol.source_sha256,
+                protocol_path=protocol.source_path,
+                protocol_json=json.dumps(protocol.to_dict(), sort_keys=True),
+                display_json=json.dumps(protocol.display.to_dict(), sort_keys=True),
+                stimset_path=str(stimset.root),
+                stimset_manifest_sha256=stimset.manifest_sha256,
+                seed=str(root_seed),
+                primary_rater=protocol.scoring.primary_rater,
+                responder=responder,
+                **prov,
+            )
+            log.write_schedule(sid, schedule)
+            log.acquire_lock(sid)
+            log.add_event(
+                sid, "open", f"new session: {len(schedule)} trials planned", clock.now_s()
+            )
+        return cls(log, protocol, stimset, subject, sid, root_seed, schedule, clock)
+
+    @classmethod
+    def _resume(
+        cls,
+        log: TrialLog,
+        protocol: ProtocolSpec,
+        stimset: StimulusSet,
+        subject: str,
+        row: dict,
+        seed: int | None,
+        clock: Clock,
+    ) -> Session:
+        sid = int(row["session_id"])
+        if row["protocol_sha256"] != protocol.content_sha256():
+            raise ResumeMismatch(
+                f"{log.path}: subject {subject} has unfinished session {sid} with protocol "
+                f"{row['protocol_name']!r} ({row['protocol_path']}); resume it with that "
+                "protocol, unchanged"
+            )
+        if row["stimset_manifest_sha256"] != stimset.manifest_sha256:
+            raise ResumeMismatch(
+                f"{log.path}: subject {subject} has unfinished session {sid} with stimulus set "
+                f"{row['stimset_path']} (manifest sha256 {row['stimset_manifest_sha256'][:12]}...);"
+                f" {stimset.root}/manifest.csv differs"
+            )
+        stored = int(row["seed"])
+        if seed is not None and int(seed) != stored:
+            raise ResumeMismatch(
+                f"{log.path}: subject {subject} has unfinished session {sid} with seed {stored}, "
+                f"not {seed}; omit --seed to resume it"
+            )
+        schedule = log.read_schedule(sid)
+        _verify_files(stimset, schedule)
+        with log.atomic():
+            stale = log.acquire_lock(sid)
+            done = log.answered_count(sid)
+            if stale is not None:
+                log.add_event(
+                    sid,
+                    "crash",
+                    f"previous run (pid {stale['pid']} on {stale['host']}, since "
+                    f"{stale['acquired_at']}) ended without closing; {done} of {len(schedule)} "
+                    "trials were committed",
+                    clock.now_s(),
+                )
+            log.add_event(
+                sid, "resume", f"resuming at trial {done} of {len(schedule)}", clock.now_s()
+            )
+        if stale is not None:
+            logger.warning("session %s: previous run crashed; resuming at trial %d", sid, done)
+        return cls(log, protocol, stimset, subject, sid, stored, schedule, clock)
+
+    # -- the position in the schedule ---------------------------------------------------------
+
+    def next_trial(self) -> Trial | None:
+        """Return the first unanswered trial of the saved schedule (None when finished)."""
+        return self.schedule[self._next] if self._next < len(self.schedule) else None
+
+    def progress(self) -> tuple[int, int]:
+        """Return ``(answered, total)`` trials."""
+        return self._next, len(self.schedule)
+
+    @property
+    def finished(self) -> bool:
+        """Whether every planned trial is answered."""
+        return self._next >= len(self.schedule)
+
+    def child_rng(self, k: int = 1) -> np.random.Generator:
+        """Return the generator of child ``k`` of ``SeedSequence(seed)`` (1: simulated observer)."""
+        return _child_rng(self.seed, k)
+
+    def image_for(self, trial: Trial) -> np.ndarray:
+        """Return the trial's stimulus at native resolution (bool, or float32 [0, 1] for photos).
+
+        Raises
+        ------
+        StimulusSetError
+            The file changed since the session started (sha256 differs).
+        """
+        from stimuli.io import load_gray
+
+        p = self.stimset.root / trial.path
+        try:
+            data = p.read_bytes()
+        except OSError:
+            raise StimulusSetError(f"{p}: stimulus file is missing") from None
+        if hashlib.sha256(data).hexdigest() != trial.sha256:
+            raise StimulusSetError(f"{p}: stimulus file changed during the session (sha256)")
+        img = load_gray(p)
+        return img if trial.condition == "photo" else img >= 0.5
+
+    def suggest_score(self, trial: Trial, response: str) -> str:
+        """Return a suggested score for ``response`` from ``objects.csv`` names, synonyms, uses."""
+        obj = self.stimset.objects[trial.object]
+        return suggest_score(response, obj, self.stimset.objects.values())
+
+    # -- writing ------------------------------------------------------------------------------
+
+    def record(self, trial: Trial, answer: Answer, flip: FlipRecord) -> None:
+        """Record the answer to the next trial in one durable transaction.
+
+        Raises
+        ------
+        ValueError
+            ``trial`` is not the next unanswered trial, or the score is unknown.
+        """
+        nxt = self.next_trial()
+        if nxt is None:
+            raise ValueError(f"session {self.session_id} is finished; no trial to record")
+        if trial != nxt:
+            raise ValueError(
+                f"trial must be the next unanswered trial (index {nxt.index}), got index "
+                f"{getattr(trial, 'index', trial)!r}"
+            )
+        if answer.score not in SCORES:
+            raise ValueError(
+                f"answer.score must be one of {', '.join(SCORES)}, got {answer.score!r}"
+            )
+        recognized = self.protocol.scoring.is_recognized(answer.score)
+        if self._next + 1 == len(self.schedule):
+            with self.log.atomic():
+                self.log.record(self.session_id, trial, flip, answer, recognized)
+                self.log.finish_session(self.session_id)
+                self.log.add_event(self.session_id, "complete", "", self.clock.now_s())
+        else:
+            self.log.record(self.session_id, trial, flip, answer, recognized)
+        self._next += 1
+
+    def rescore(self, trial_index: int, score: str, rater: str, note: str = "") -> None:
+        """Append a new score for an answered trial (the old ones are kept)."""
+        if not isinstance(rater, str) or not rater.strip():
+            raise ValueError(f"rater must be a non-empty string, got {rater!r}")
+        if score not in SCORES:
+            raise ValueError(f"score must be one of {', '.join(SCORES)}, got {score!r}")
+        self.log.add_score(
+            self.session_id,
+            trial_index,
+            score,
+            self.protocol.scoring.is_recognized(score),
+            rater,
+            note=note,
+        )
+
+    def log_event(self, kind: str, note: str = "") -> None:
+        """Append an event (pause, resume, abort, note, crash, ...) stamped with the clock."""
+        self.log.add_event(self.session_id, kind, note, self.clock.now_s())
+
+    def close(self) -> None:
+        """Log a ``close`` event and release the session lock (the log stays open)."""
+        if self._closed:
+            return
+        a, n = self.progress()
+        try:
+            self.log_event("close", f"{a} of {n} trials answered")
+        finally:
+            self.log.release_lock(self.session_id)
+            self._closed = True
+
+    def __enter__(self) -> Session:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    # -- the headless loop --------------------------------------------------------------------
+
+    def run(
+        self,
+        display: Display,
+        responder: Responder,
+        *,
+        progress: Callable[[int, int], None] | None = None,
+    ) -> None:
+        """Run the remaining trials: show, collect the answer, clear, record; breaks as planned.
+
+        Parameters
+        ----------
+        display : Display
+        responder : Responder
+        progress : callable (answered, total) -> None, optional
+            Called after each recorded trial.
+        """
+        part = None
+        try:
+            for trial in self.schedule.iter_trials(start_after=self._next - 1):
+                if trial.part != part:
+                    part = trial.part
+                    display.show_text(f"{part} part")
+                if trial.break_before:
+                    self.log_event("break", f"before trial {trial.index}")
+                    display.show_text("Break")
+                image = self.image_for(trial)
+                flip = display.show_stimulus(image)
+                answer = responder.respond(trial, image)
+                off = display.clear()
+                self.record(trial, answer, replace(flip, offset_s=off.onset_s))
+                if progress is not None:
+                    progress(*self.progress())
+        except KeyboardInterrupt:
+            self.log_event("abort", f"interrupted at trial {self._next}")
+            raise
+        display.show_text("The session is complete. Thank you.")
+
+
+def _child_rng(seed: int, k: int) -> np.random.Generator:
+    return np.random.default_rng(np.random.SeedSequence(seed).spawn(k + 1)[k])
+
+
+def _verify_files(stimset: StimulusSet, schedule: Schedule) -> None:
+    """Check every stimulus file of the schedule against the sha256 it was planned with."""
+    seen: dict[str, str] = {}
+    for t in schedule.trials:
+        seen.setdefault(t.path, t.sha256)
+    for path, sha in seen.items():
+        p = stimset.root / path
+        if not p.is_file():
+            raise StimulusSetError(f"{p}: stimulus file is missing; refusing to start")
+        h = hashlib.sha256(p.read_bytes()).hexdigest()
+        if h != sha:
+            raise StimulusSetError(
+                f"{p}: stimulus file changed: sha256 {h[:12]}... does not match manifest.csv "
+                f"({sha[:12]}...); refusing to start"
+            )

@@ -1,0 +1,773 @@
+"""The trial log: one append-only SQLite file per study (house style H16).
+
+Schema (created by numbered migrations, recorded in ``schema_migrations``)
+----------------------------------------------------------------------------
+``sessions``   one row per session: subject, protocol (name, content and file sha256, JSON),
+               display spec, stimulus-set path and manifest sha256, seed, software version, git
+               commit, machine, start/end (UTC), status ``open``/``completed``, primary rater.
+``schedule``   the planned trials, written whole before the first trial;
+               primary key (session_id, trial_index).
+``trials``     one row per answered trial: object, condition, level, pixels, stimulus sha256,
+               onset/offset (session clock, s), dropped frames, response text, rt_s, recorded_at;
+               ``UNIQUE(session_id, trial_index)``. Rows are never updated or deleted (triggers).
+``scores``     append-only scorings: score, recognized, rater, is_primary, scored_at. The trial's
+               own scoring is primary; a re-score by the same rater (or by the protocol's primary
+               rater) is primary too; other raters' scores are kept beside it for agreement.
+``events``     pause, resume, abort, note, break, crash (detected at restart), open, close,
+               complete.
+``locks``      the process that has a session open: pid, host, process start time, token.
+``tidy_trials`` (VIEW) one row per answered trial: ``subject, session, object, condition, level,
+               window, pixels, recognized, response, score, rater, rt_s, part, trial_index``, with
+               ``recognized`` from the latest primary score. This is what the analysis reads.
+
+Durability: WAL journal, ``synchronous=FULL``; each answered trial (its ``trials`` row and its
+first ``scores`` row) is one transaction, committed before the next stimulus is shown.
+
+Locking: a session is claimed by a ``locks`` row (pid, host, process start time), written in an
+``IMMEDIATE`` transaction. A second process finding a live holder is refused. A row whose process
+is gone (no such pid, a zombie, or the pid reused by a younger process) is a stale lock left by a
+crash: it is taken over and the caller logs a ``crash`` event. We chose a row over an ``fcntl``
+lock file because the row also tells *who* holds the session (shown by ``session status``) and
+its staleness is exactly the "did the last run end cleanly" fact we must log; a holder on another
+host cannot be checked for liveness and is refused with its host named.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import socket
+import sqlite3
+import uuid
+from collections.abc import Iterator
+from contextlib import contextmanager
+from datetime import UTC, datetime
+from pathlib import Path
+from typing import Any
+
+from experiment.errors import ConfocalError
+from experiment.interfaces import Answer, FlipRecord
+from experiment.protocol import SCORES
+from experiment.schedule import Schedule, Trial
+
+__all__ = [
+    "TrialLogError",
+    "SessionLocked",
+    "ResumeMismatch",
+    "MIGRATIONS",
+    "TIDY_COLUMNS",
+    "TrialLog",
+]
+
+#: Columns of the ``tidy_trials`` view, in order (the contract with ``analysis``).
+TIDY_COLUMNS: tuple[str, ...] = (
+    "subject",
+    "session",
+    "object",
+    "condition",
+    "level",
+    "window",
+    "pixels",
+    "recognized",
+    "response",
+    "score",
+    "rater",
+    "rt_s",
+    "part",
+    "trial_index",
+)
+
+_SCORE_LIST = ", ".join(f"'{s}'" for s in SCORES)
+
+#: Numbered schema migrations: (version, name, SQL). Never edit a released one; append.
+MIGRATIONS: tuple[tuple[int, str, str], ...] = (
+    (
+        1,
+        "initial schema",
+        f"""
+        CREATE TABLE sessions (
+            session_id INTEGER PRIMARY KEY,
+            subject TEXT NOT NULL,
+            protocol_name TEXT NOT NULL,
+            protocol_sha256 TEXT NOT NULL,
+            protocol_file_sha256 TEXT,
+            protocol_path TEXT,
+            protocol_json TEXT NOT NULL,
+            display_json TEXT NOT NULL,
+            stimset_path TEXT NOT NULL,
+            stimset_manifest_sha256 TEXT NOT NULL,
+            seed TEXT NOT NULL,
+            primary_rater TEXT NOT NULL,
+            responder TEXT,
+            software_version TEXT,
+            git_commit TEXT,
+            machine TEXT,
+            started_at TEXT NOT NULL,
+            ended_at TEXT,
+            status TEXT NOT NULL CHECK (status IN ('open', 'completed'))
+        );
+        CREATE INDEX sessions_subject ON sessions(subject);
+        CREATE TABLE schedule (
+            session_id INTEGER NOT NULL REFERENCES sessions(session_id),
+            trial_index INTEGER NOT NULL CHECK (trial_index >= 0),
+            part TEXT NOT NULL,
+            block INTEGER NOT NULL,
+            object TEXT NOT NULL,
+            object_name TEXT NOT NULL,
+            condition TEXT NOT NULL,
+            level INTEGER NOT NULL,
+            window INTEGER NOT NULL,
+            pixels INTEGER NOT NULL,
+            path TEXT NOT NULL,
+            sha256 TEXT NOT NULL,
+            pass_allowed_after_s REAL NOT NULL,
+            repetition INTEGER NOT NULL,
+            break_before INTEGER NOT NULL,
+            PRIMARY KEY (session_id, trial_index)
+        );
+        CREATE TABLE trials (
+            trial_id INTEGER PRIMARY KEY,
+            session_id INTEGER NOT NULL,
+            trial_index INTEGER NOT NULL,
+            object TEXT NOT NULL,
+            condition TEXT NOT NULL,
+            level INTEGER NOT NULL,
+            pixels INTEGER NOT NULL,
+            stimulus_sha256 TEXT NOT NULL,
+            onset_s REAL,
+            offset_s REAL,
+            dropped_frames INTEGER,
+            refresh_hz REAL,
+            frame_intervals_ms TEXT,
+            response TEXT NOT NULL,
+            rt_s REAL,
+            recorded_at TEXT NOT NULL,
+            UNIQUE (session_id, trial_index),
+            FOREIGN KEY (session_id, trial_index) REFERENCES schedule(session_id, trial_index)
+        );
+        CREATE TABLE scores (
+            score_id INTEGER PRIMARY KEY,
+            session_id INTEGER NOT NULL,
+            trial_index INTEGER NOT NULL,
+            score TEXT NOT NULL CHECK (score IN ({_SCORE_LIST})),
+            recognized INTEGER NOT NULL CHECK (recognized IN (0, 1)),
+            rater TEXT NOT NULL,
+            is_primary INTEGER NOT NULL CHECK (is_primary IN (0, 1)),
+            scored_at TEXT NOT NULL,
+            note TEXT NOT NULL DEFAULT '',
+            FOREIGN KEY (session_id, trial_index) REFERENCES trials(session_id, trial_index)
+        );
+        CREATE INDEX scores_trial ON scores(session_id, trial_index);
+        CREATE TABLE events (
+            event_id INTEGER PRIMARY KEY,
+            session_id INTEGER REFERENCES sessions(session_id),
+            kind TEXT NOT NULL,
+            note TEXT NOT NULL DEFAULT '',
+            clock_s REAL,
+            at TEXT NOT NULL,
+            pid INTEGER,
+            host TEXT
+        );
+        CREATE TABLE locks (
+            session_id INTEGER PRIMARY KEY REFERENCES sessions(session_id),
+            pid INTEGER NOT NULL,
+            host TEXT NOT NULL,
+            proc_start TEXT,
+            token TEXT NOT NULL,
+            acquired_at TEXT NOT NULL
+        );
+        CREATE TRIGGER trials_no_update BEFORE UPDATE ON trials
+            BEGIN SELECT RAISE(ABORT, 'trials are append-only'); END;
+        CREATE TRIGGER trials_no_delete BEFORE DELETE ON trials
+            BEGIN SELECT RAISE(ABORT, 'trials are append-only'); END;
+        CREATE TRIGGER scores_no_update BEFORE UPDATE ON scores
+            BEGIN SELECT RAISE(ABORT, 'scores are append-only'); END;
+        CREATE TRIGGER scores_no_delete BEFORE DELETE ON scores
+            BEGIN SELECT RAISE(ABORT, 'scores are append-only'); END;
+        CREATE TRIGGER schedule_no_update BEFORE UPDATE ON schedule
+            BEGIN SELECT RAISE(ABORT, 'the schedule is fixed once written'); END;
+        CREATE VIEW tidy_trials AS
+        SELECT s.subject AS subject,
+               t.session_id AS session,
+               t.object AS object,
+               t.condition AS condition,
+               t.level AS level,
+               p.window AS window,
+               t.pixels AS pixels,
+               sc.recognized AS recognized,
+               t.response AS response,
+               sc.score AS score,
+               sc.rater AS rater,
+               t.rt_s AS rt_s,
+               p.part AS part,
+               t.trial_index AS trial_index
+        FROM trials t
+        JOIN sessions s ON s.session_id = t.session_id
+        JOIN schedule p ON p.session_id = t.session_id AND p.trial_index = t.trial_index
+        JOIN scores sc ON sc.score_id = (
+            SELECT max(q.score_id) FROM scores q
+            WHERE q.session_id = t.session_id AND q.trial_index = t.trial_index
+              AND q.is_primary = 1)
+        ORDER BY t.session_id, t.trial_index;
+        """,
+    ),
+)
+
+_SCHEDULE_COLS = (
+    "trial_index",
+    "part",
+    "block",
+    "object",
+    "object_name",
+    "condition",
+    "level",
+    "window",
+    "pixels",
+    "path",
+    "sha256",
+    "pass_allowed_after_s",
+    "repetition",
+    "break_before",
+)
+
+
+class TrialLogError(ConfocalError):
+    """The trial log cannot be opened or written (read-only, corrupt, not a trial log)."""
+
+
+class SessionLocked(TrialLogError):
+    """Another live process has the session open."""
+
+
+class ResumeMismatch(TrialLogError):
+    """An unfinished session exists but its protocol, stimulus set or seed differ."""
+
+
+def utc_now() -> str:
+    """Return the current UTC wall-clock time, ISO 8601 (for provenance, not for timing)."""
+    return datetime.now(UTC).isoformat(timespec="milliseconds")
+
+
+def _proc_stat(pid: int) -> list[str] | None:
+    try:
+        text = Path(f"/proc/{pid}/stat").read_text()
+    except OSError:
+        return None
+    # the command name (field 2) may hold spaces; it ends at the last ')'
+    return text[text.rfind(")") + 2 :].split()
+
+
+def _proc_start(pid: int) -> str | None:
+    st = _proc_stat(pid)
+    return st[19] if st and len(st) > 19 else None
+
+
+def _pid_alive(pid: int, proc_start: str | None) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True
+    st = _proc_stat(pid)
+    if st is not None:
+        if st[0] in ("Z", "X"):
+            return False
+        if proc_start is not None and len(st) > 19 and st[19] != proc_start:
+            return False  # the pid was reused by another process
+    return True
+
+
+class TrialLog:
+    """An open trial log (SQLite file, or ``":memory:"`` as the test twin).
+
+    Parameters
+    ----------
+    path : str or Path
+        The study's ``.sqlite`` file (created if missing), or ``":memory:"``.
+    readonly : bool
+        Open without writing anything (``session status``/``export``; readers while a session
+        writes). A read-only log is never migrated.
+
+    Raises
+    ------
+    TrialLogError
+        The file is not writable (when ``readonly`` is False), corrupt, not a trial log, or from
+        a newer version of this software.
+    """
+
+    def __init__(self, path: str | Path = ":memory:", *, readonly: bool = False) -> None:
+        self.path = str(path)
+        self.readonly = readonly
+        self._token = uuid.uuid4().hex
+        self._held: set[int] = set()
+        self._depth = 0
+        memory = self.path == ":memory:"
+        if not memory:
+            p = Path(self.path)
+            if readonly and not p.is_file():
+                raise TrialLogError(f"{p}: trial log not found")
+            if not readonly:
+                if p.exists() and not os.access(p, os.W_OK):
+                    raise TrialLogError(
+                        f"{p}: trial log is read-only (no write permission); nothing was changed"
+                    )
+                parent = p.parent if str(p.parent) else Path(".")
+                if not parent.is_dir():
+                    raise TrialLogError(f"{p}: folder {parent} does not exist")
+                if not os.access(parent, os.W_OK):
+                    raise TrialLogError(
+                        f"{p}: folder {parent} is read-only (SQLite needs it for its WAL files); "
+                        "nothing was changed"
+                    )
+        try:
+            if readonly and not memory:
+                uri = Path(self.path).resolve().as_uri() + "?mode=ro"
+                self._con = sqlite3.connect(uri, uri=True, isolation_level=None, timeout=10.0)
+            else:
+                self._con = sqlite3.connect(self.path, isolation_level=None, timeout=10.0)
+            self._con.row_factory = sqlite3.Row
+            self._con.execute("PRAGMA busy_timeout = 10000")
+            tables = {
+                r[0] for r in self._con.execute("SELECT name FROM sqlite_master WHERE type='table'")
+            }
+        except sqlite3.DatabaseError as exc:
+            raise TrialLogError(
+                f"{self.path}: not a readable SQLite trial log ({exc}); nothing was changed"
+            ) from None
+        if tables and "schema_migrations" not in tables:
+            self._con.close()
+            raise TrialLogError(
+                f"{self.path}: an SQLite file but not a confocal trial log "
+                "(no schema_migrations table); nothing was changed"
+            )
+        if readonly:
+            if not tables:
+                self._con.close()
+                raise TrialLogError(f"{self.path}: empty file, not a confocal trial log")
+        else:
+            try:
+                if not memory:
+                    mode = self._con.execute("PRAGMA journal_mode = WAL").fetchone()[0]
+                    if mode.lower() != "wal":
+                        raise TrialLogError(f"{self.path}: could not enable WAL (got {mode})")
+                self._con.execute("PRAGMA synchronous = FULL")
+                self._con.execute("PRAGMA foreign_keys = ON")
+                self._migrate()
+            except sqlite3.OperationalError as exc:
+                self._con.close()
+                raise TrialLogError(f"{self.path}: cannot write the trial log ({exc})") from None
+        v = self.schema_version()
+        if v > MIGRATIONS[-1][0]:
+            self._con.close()
+            raise TrialLogError(
+                f"{self.path}: schema version {v} is newer than this software knows "
+                f"({MIGRATIONS[-1][0]}); upgrade confocal"
+            )
+
+    # -- transactions -------------------------------------------------------------------------
+
+    @contextmanager
+    def atomic(self) -> Iterator[sqlite3.Connection]:
+        """Run a block in one transaction (a savepoint when nested); roll back on any exception."""
+        if self.readonly:
+            raise TrialLogError(f"{self.path}: opened read-only; cannot write")
+        if self._depth == 0:
+            self._con.execute("BEGIN IMMEDIATE")
+            self._depth += 1
+            try:
+                yield self._con
+            except BaseException:
+                self._depth -= 1
+                self._con.execute("ROLLBACK")
+                raise
+            self._depth -= 1
+            self._con.execute("COMMIT")
+        else:
+            name = f"sp{self._depth}"
+            self._con.execute(f"SAVEPOINT {name}")
+            self._depth += 1
+            try:
+                yield self._con
+            except BaseException:
+                self._depth -= 1
+                self._con.execute(f"ROLLBACK TO {name}")
+                self._con.execute(f"RELEASE {name}")
+                raise
+            self._depth -= 1
+            self._con.execute(f"RELEASE {name}")
+
+    def _migrate(self) -> None:
+        self._con.execute(
+            "CREATE TABLE IF NOT EXISTS schema_migrations ("
+            "version INTEGER PRIMARY KEY, name TEXT NOT NULL, applied_at TEXT NOT NULL)"
+        )
+        done = {r[0] for r in self._con.execute("SELECT version FROM schema_migrations")}
+        for version, name, sql in MIGRATIONS:
+            if version in done:
+                continue
+            with self.atomic() as con:
+                for stmt in _split_sql(sql):
+                    con.execute(stmt)
+                con.execute(
+                    "INSERT INTO schema_migrations (version, name, applied_at) VALUES (?, ?, ?)",
+                    (version, name, utc_now()),
+                )
+
+    def schema_version(self) -> int:
+        """Return the highest applied migration number (0 for an empty file)."""
+        try:
+            row = self._con.execute("SELECT max(version) FROM schema_migrations").fetchone()
+        except sqlite3.OperationalError:
+            return 0
+        return int(row[0] or 0)
+
+    def execute(self, sql: str, params: tuple | dict = ()) -> list[sqlite3.Row]:
+        """Run a read query and return all rows (for status, export and tests)."""
+        try:
+            return self._con.execute(sql, params).fetchall()
+        except sqlite3.DatabaseError as exc:
+            raise TrialLogError(f"{self.path}: query failed ({exc})") from None
+
+    # -- sessions -----------------------------------------------------------------------------
+
+    def create_session(self, **columns: Any) -> int:
+        """Insert a ``sessions`` row (status ``open``) and return its ``session_id``."""
+        allowed = {
+            "subject",
+            "protocol_name",
+            "protocol_sha256",
+            "protocol_file_sha256",
+            "protocol_path",
+            "protocol_json",
+            "display_json",
+            "stimset_path",
+            "stimset_manifest_sha256",
+            "seed",
+            "primary_rater",
+            "responder",
+            "software_version",
+            "git_commit",
+            "machine",
+        }
+        bad = sorted(set(columns) - allowed)
+        if bad:
+            raise ValueError(f"unknown sessions column {bad[0]!r}")
+        cols = sorted(columns)
+        with self.atomic() as con:
+            cur = con.execute(
+                f"INSERT INTO sessions ({', '.join(cols)}, started_at, status) "
+                f"VALUES ({', '.join('?' for _ in cols)}, ?, 'open')",
+                tuple(columns[c] for c in cols) + (utc_now(),),
+            )
+            return int(cur.lastrowid)
+
+    def session(self, session_id: int) -> dict[str, Any]:
+        """Return one ``sessions`` row as a dict."""
+        rows = self.execute("SELECT * FROM sessions WHERE session_id = ?", (session_id,))
+        if not rows:
+            raise TrialLogError(f"{self.path}: no session {session_id}")
+        return dict(rows[0])
+
+    def sessions(self) -> list[dict[str, Any]]:
+        """Return all ``sessions`` rows, oldest first."""
+        return [dict(r) for r in self.execute("SELECT * FROM sessions ORDER BY session_id")]
+
+    def unfinished_session(self, subject: str) -> dict[str, Any] | None:
+        """Return the subject's latest ``open`` session, or None."""
+        rows = self.execute(
+            "SELECT * FROM sessions WHERE subject = ? AND status = 'open' "
+            "ORDER BY session_id DESC LIMIT 1",
+            (subject,),
+        )
+        return dict(rows[0]) if rows else None
+
+    def finish_session(self, session_id: int) -> None:
+        """Mark a session completed (all planned trials answered)."""
+        with self.atomic() as con:
+            con.execute(
+                "UPDATE sessions SET status = 'completed', ended_at = ? WHERE session_id = ?",
+                (utc_now(), session_id),
+            )
+
+    # -- schedule -----------------------------------------------------------------------------
+
+    def write_schedule(self, session_id: int, schedule: Schedule) -> None:
+        """Write the whole planned schedule (one transaction, before the first trial)."""
+        with self.atomic() as con:
+            con.executemany(
+                f"INSERT INTO schedule (session_id, {', '.join(_SCHEDULE_COLS)}) "
+                f"VALUES (?, {', '.join('?' for _ in _SCHEDULE_COLS)})",
+                [
+                    (
+                        session_id,
+                        t.index,
+                        t.part,
+                        t.block,
+                        t.object,
+                        t.object_name,
+                        t.condition,
+                        t.level,
+                        t.window,
+                        t.pixels,
+                        t.path,
+                        t.sha256,
+                        t.pass_allowed_after_s,
+                        t.repetition,
+                        int(t.break_before),
+                    )
+                    for t in schedule.trials
+                ],
+            )
+
+    def read_schedule(self, session_id: int) -> Schedule:
+        """Return the saved schedule of a session."""
+        rows = self.execute(
+            f"SELECT {', '.join(_SCHEDULE_COLS)} FROM schedule WHERE session_id = ? "
+            "ORDER BY trial_index",
+            (session_id,),
+        )
+        trials = []
+        for r in rows:
+            d = dict(r)
+            d["index"] = d.pop("trial_index")
+            trials.append(Trial.from_dict(d))
+        return Schedule(trials)
+
+    # -- trials and scores --------------------------------------------------------------------
+
+    def record(
+        self, session_id: int, trial: Trial, flip: FlipRecord, answer: Answer, recognized: bool
+    ) -> None:
+        """Write one answered trial and its first (primary) score in one durable transaction.
+
+        Raises
+        ------
+        TrialLogError
+            The trial was already recorded (``UNIQUE(session_id, trial_index)``).
+        """
+        now = utc_now()
+        try:
+            with self.atomic() as con:
+                con.execute(
+                    "INSERT INTO trials (session_id, trial_index, object, condition, level, "
+                    "pixels, stimulus_sha256, onset_s, offset_s, dropped_frames, refresh_hz, "
+                    "frame_intervals_ms, response, rt_s, recorded_at) "
+                    "VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
+                    (
+                        session_id,
+                        trial.index,
+                        trial.object,
+                        trial.condition,
+                        trial.level,
+                        trial.pixels,
+                        trial.sha256,
+                        flip.onset_s,
+                        flip.offset_s,
+                        flip.dropped_frames,
+                        flip.refresh_hz,
+                        json.dumps(list(flip.frame_intervals_ms)),
+                        answer.response,
+                        answer.rt_s,
+                        now,
+                    ),
+                )
+                con.execute(
+                    "INSERT INTO scores (session_id, trial_index, score, recognized, rater, "
+                    "is_primary, scored_at) VALUES (?, ?, ?, ?, ?, 1, ?)",
+                    (session_id, trial.index, answer.score, int(recognized), answer.rater, now),
+                )
+        except sqlite3.IntegrityError as exc:
+            raise TrialLogError(
+                f"{self.path}: cannot record trial {trial.index} of session {session_id} ({exc})"
+            ) from None
+
+    def add_score(
+        self,
+        session_id: int,
+        trial_index: int,
+        score: str,
+        recognized: bool,
+        rater: str,
+        *,
+        note: str = "",
+    ) -> None:
+        """Append a re-scoring of an answered trial (never updates the old scores)."""
+        if score not in SCORES:
+            raise ValueError(f"score must be one of {', '.join(SCORES)}, got {score!r}")
+        with self.atomic() as con:
+            first = con.execute(
+                "SELECT rater FROM scores WHERE session_id = ? AND trial_index = ? "
+                "ORDER BY score_id LIMIT 1",
+                (session_id, trial_index),
+            ).fetchone()
+            if first is None:
+                raise TrialLogError(
+                    f"{self.path}: trial {trial_index} of session {session_id} has no answer "
+                    "to re-score"
+                )
+            primary_rater = con.execute(
+                "SELECT primary_rater FROM sessions WHERE session_id = ?", (session_id,)
+            ).fetchone()[0]
+            is_primary = int(rater in (first[0], primary_rater))
+            con.execute(
+                "INSERT INTO scores (session_id, trial_index, score, recognized, rater, "
+                "is_primary, scored_at, note) VALUES (?, ?, ?, ?, ?, ?, ?, ?)",
+                (
+                    session_id,
+                    trial_index,
+                    score,
+                    int(recognized),
+                    rater,
+                    is_primary,
+                    utc_now(),
+                    note,
+                ),
+            )
+
+    def last_committed_trial(self, session_id: int) -> int | None:
+        """Return the highest answered ``trial_index`` of a session (None if none)."""
+        row = self.execute(
+            "SELECT max(trial_index) FROM trials WHERE session_id = ?", (session_id,)
+        )[0]
+        return None if row[0] is None else int(row[0])
+
+    def answered_count(self, session_id: int) -> int:
+        """Return the number of answered trials of a session."""
+        return int(
+            self.execute("SELECT count(*) FROM trials WHERE session_id = ?", (session_id,))[0][0]
+        )
+
+    def planned_count(self, session_id: int) -> int:
+        """Return the number of planned trials of a session."""
+        return int(
+            self.execute("SELECT count(*) FROM schedule WHERE session_id = ?", (session_id,))[0][0]
+        )
+
+    def tidy_trials(self) -> list[dict[str, Any]]:
+        """Return the ``tidy_trials`` view as a list of dicts (columns :data:`TIDY_COLUMNS`)."""
+        return [dict(r) for r in self.execute("SELECT * FROM tidy_trials")]
+
+    def latest_scores(self, rater: str) -> dict[tuple[int, int], str]:
+        """Return ``{(session_id, trial_index): score}``: each trial's latest score by ``rater``."""
+        rows = self.execute(
+            "SELECT session_id, trial_index, score FROM scores WHERE rater = ? ORDER BY score_id",
+            (rater,),
+        )
+        return {(r[0], r[1]): r[2] for r in rows}
+
+    # -- events and locks ---------------------------------------------------------------------
+
+    def add_event(
+        self, session_id: int | None, kind: str, note: str = "", clock_s: float | None = None
+    ) -> None:
+        """Append an event (pause, resume, abort, note, break, crash, open, close, complete)."""
+        if not kind or not isinstance(kind, str):
+            raise ValueError(f"kind must be a non-empty string, got {kind!r}")
+        with self.atomic() as con:
+            con.execute(
+                "INSERT INTO events (session_id, kind, note, clock_s, at, pid, host) "
+                "VALUES (?, ?, ?, ?, ?, ?, ?)",
+                (session_id, kind, note, clock_s, utc_now(), os.getpid(), socket.gethostname()),
+            )
+
+    def events(self, session_id: int | None = None) -> list[dict[str, Any]]:
+        """Return events (of one session, or all), oldest first."""
+        if session_id is None:
+            return [dict(r) for r in self.execute("SELECT * FROM events ORDER BY event_id")]
+        return [
+            dict(r)
+            for r in self.execute(
+                "SELECT * FROM events WHERE session_id = ? ORDER BY event_id", (session_id,)
+            )
+        ]
+
+    def acquire_lock(self, session_id: int) -> dict[str, Any] | None:
+        """Claim a session for this process.
+
+        Returns
+        -------
+        dict or None
+            The stale lock row that was taken over (a crashed run), or None.
+
+        Raises
+        ------
+        SessionLocked
+            A live process (or one on another host) holds the session.
+        """
+        host = socket.gethostname()
+        me = os.getpid()
+        with self.atomic() as con:
+            row = con.execute("SELECT * FROM locks WHERE session_id = ?", (session_id,)).fetchone()
+            stale = None
+            if row is not None:
+                row = dict(row)
+                mine = row["pid"] == me and row["token"] == self._token and row["host"] == host
+                if not mine:
+                    if row["host"] != host:
+                        raise SessionLocked(
+                            f"{self.path}: session {session_id} is open on host {row['host']} "
+                            f"(pid {row['pid']}, since {row['acquired_at']}); refusing to open it "
+                            "twice"
+                        )
+                    if _pid_alive(row["pid"], row["proc_start"]):
+                        raise SessionLocked(
+                            f"{self.path}: session {session_id} is already open in another "
+                            f"process (pid {row['pid']} on {host}, since {row['acquired_at']}); "
+                            "refusing to open it twice"
+                        )
+                    stale = row
+                con.execute("DELETE FROM locks WHERE session_id = ?", (session_id,))
+            con.execute(
+                "INSERT INTO locks (session_id, pid, host, proc_start, token, acquired_at) "
+                "VALUES (?, ?, ?, ?, ?, ?)",
+                (session_id, me, host, _proc_start(me), self._token, utc_now()),
+            )
+        self._held.add(session_id)
+        return stale
+
+    def release_lock(self, session_id: int) -> None:
+        """Release this process's claim on a session (no-op if not held)."""
+        if session_id not in self._held:
+            return
+        with self.atomic() as con:
+            con.execute(
+                "DELETE FROM locks WHERE session_id = ? AND token = ?", (session_id, self._token)
+            )
+        self._held.discard(session_id)
+
+    def locks(self) -> list[dict[str, Any]]:
+        """Return the current lock rows."""
+        return [dict(r) for r in self.execute("SELECT * FROM locks ORDER BY session_id")]
+
+    def close(self) -> None:
+        """Release held locks and close the connection."""
+        if getattr(self, "_con", None) is None:
+            return
+        for sid in list(self._held):
+            try:
+                self.release_lock(sid)
+            except (sqlite3.DatabaseError, TrialLogError):
+                pass  # the lock row stays and is detected as stale by the next run
+        self._con.close()
+        self._con = None  # type: ignore[assignment]
+
+    def __enter__(self) -> TrialLog:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
+def _split_sql(script: str) -> list[str]:
+    """Split a migration into statements (triggers contain ';' inside BEGIN ... END)."""
+    out, buf = [], ""
+    for line in script.splitlines(keepends=True):
+        buf += line
+        if sqlite3.complete_statement(buf):
+            if buf.strip():
+                out.append(buf.strip())
+            buf = ""
+    if buf.strip():
+        out.append(buf.strip())
+    return out
