@@ -148,7 +148,8 @@ def parse_edge_ratio(text: str | float | None) -> float | None:
     try:
         v = float(text)
     except (TypeError, ValueError):
-        raise InputError(f"--edge-ratio must be 'auto' or a number in [0, 1), got {text!r}") from None
+        msg = f"--edge-ratio must be 'auto' or a number in [0, 1), got {text!r}"
+        raise InputError(msg) from None
     if not (0.0 <= v < 1.0):
         raise InputError(f"--edge-ratio must be 'auto' or a number in [0, 1), got {text!r}")
     return v
@@ -205,9 +206,7 @@ class BuildParams:
             raise InputError(f"working_shape_px must be (rows, cols) > 0, got {s!r}")
 
     def _check_threshold(self) -> None:
-        if self.threshold is not None and not (
-            np.isfinite(self.threshold) and self.threshold >= 0
-        ):
+        if self.threshold is not None and not (np.isfinite(self.threshold) and self.threshold >= 0):
             raise InputError(f"threshold must be None or a number >= 0, got {self.threshold!r}")
 
     def _check_threshold_method(self) -> None:
@@ -333,8 +332,10 @@ def _pairs_from_folder(root: Path) -> list[PairSource]:
         if lf is not None and wide is None and narrow is None:
             out.append(PairSource(sub.name, lightfield=lf))
             continue
-        missing = "wide.* (wide depth-of-field photo)" if wide is None else (
-            "narrow.* (narrow depth-of-field photo)"
+        missing = (
+            "wide.* (wide depth-of-field photo)"
+            if wide is None
+            else ("narrow.* (narrow depth-of-field photo)")
         )
         raise InputError(f"{sub}: missing {missing}; each object folder needs wide.* and narrow.*")
     return out
@@ -738,8 +739,10 @@ def _prepare(src: PairSource, info: ObjectInfo, params: BuildParams) -> _Work:
             f"but narrow photo {src.narrow} is {narrow_raw.shape[1]}x{narrow_raw.shape[0]}"
         )
         if not params.allow_resize:
-            raise InputError(f"{msg}; the two photos of a pair must have the same pixel size "
-                             "(use --allow-resize to resize each on its own)")
+            raise InputError(
+                f"{msg}; the two photos of a pair must have the same pixel size "
+                "(use --allow-resize to resize each on its own)"
+            )
         notes.append(msg + "; resized each on its own (--allow-resize)")
     crop = info.crop if info.crop is not None else src.crop
     where = f"object {src.object!r} ({name}): field crop"
@@ -994,9 +997,11 @@ def build_stimulus_set(
     _check_out_dir(out_dir, set_id, force)
 
     works = _map(
-        lambda pair: _edges(_prepare(pair[0], pair[1], params), params)
-        if params.mode == "edges"
-        else _prepare(pair[0], pair[1], params),
+        lambda pair: (
+            _edges(_prepare(pair[0], pair[1], params), params)
+            if params.mode == "edges"
+            else _prepare(pair[0], pair[1], params)
+        ),
         list(zip(inp.sources, inp.objects, strict=True)),
         workers,
         progress,
@@ -1062,8 +1067,11 @@ def build_stimulus_set(
             "edge_ratio": edge_ratio,
             "edge_ratio_source": None
             if edge_ratio is None
-            else ("given" if params.edge_ratio is not None else "auto: mean wide-DOF edge "
-                  "fraction of the main objects"),
+            else (
+                "given"
+                if params.edge_ratio is not None
+                else "auto: mean wide-DOF edge fraction of the main objects"
+            ),
             "mean_wide_edge_fraction": mean_wide,
             "levels": [
                 {"level": lv, "window": w, "width": s[1], "height": s[0], "pixels": s[0] * s[1]}
@@ -1154,8 +1162,12 @@ def _write_overview(
                 if r.condition == condition
             ]
             rows.append((f"{w.info.object} {condition[:5]}", imgs))
-    sheet = contact_sheet(rows, cell_shape_px=(65, 98), column_labels=labels,
-                          title="all objects, every level (cluttered / decluttered)")
+    sheet = contact_sheet(
+        rows,
+        cell_shape_px=(65, 98),
+        column_labels=labels,
+        title="all objects, every level (cluttered / decluttered)",
+    )
     save_contact_sheet(sheet, tmp / "contact" / "all.png")
 
 

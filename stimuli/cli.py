@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Annotated
 
 import typer
 
@@ -17,39 +18,50 @@ stimuli_app = typer.Typer(
 
 @stimuli_app.command("build")
 def build_command(
-    pairs: Path = typer.Argument(
-        ...,
-        help="Folder with one sub-folder per object holding wide.* and narrow.* (optional "
-        "objects.csv), or a CSV object,wide,narrow[,crop] with paths relative to it.",
-        show_default=False,
-    ),
-    out: Path = typer.Option(..., "--out", "-o", help="Stimulus-set folder to write."),
-    working_size: str = typer.Option(
-        "492x327", "--working-size", help="Working size WIDTHxHEIGHT, pixels (paper: 492x327)."
-    ),
-    threshold: str = typer.Option(
-        "auto",
-        "--threshold",
-        help="Sobel threshold: 'auto' (Otsu on each narrow-DOF image) or a number; "
-        "objects.csv values win.",
-    ),
-    threshold_method: str = typer.Option(
-        "otsu", "--threshold-method", help="Automatic threshold method: otsu or triangle."
-    ),
-    edge_ratio: str = typer.Option(
-        "auto",
-        "--edge-ratio",
-        help="Compression edge ratio: 'auto' (mean wide-DOF edge fraction; paper 0.077) or a "
-        "number in [0, 1).",
-    ),
-    mode: str = typer.Option("edges", "--mode", help="edges (binary) or grey (Fig. 2)."),
-    grey_levels: int = typer.Option(8, "--grey-levels", help="Grey levels in grey mode."),
-    allow_resize: bool = typer.Option(
-        False, "--allow-resize", help="Accept pairs whose photos differ in pixel size."
-    ),
-    force: bool = typer.Option(
-        False, "--force", help="Replace --out even if it holds a different stimulus set."
-    ),
+    pairs: Annotated[
+        Path,
+        typer.Argument(
+            help="Folder with one sub-folder per object holding wide.* and narrow.* (optional "
+            "objects.csv), or a CSV object,wide,narrow[,crop] with paths relative to it.",
+            show_default=False,
+        ),
+    ],
+    out: Annotated[Path, typer.Option("--out", "-o", help="Stimulus-set folder to write.")],
+    working_size: Annotated[
+        str,
+        typer.Option("--working-size", help="Working size WIDTHxHEIGHT, pixels (paper: 492x327)."),
+    ] = "492x327",
+    threshold: Annotated[
+        str,
+        typer.Option(
+            "--threshold",
+            help="Sobel threshold: 'auto' (Otsu on each narrow-DOF image) or a number; "
+            "objects.csv values win.",
+        ),
+    ] = "auto",
+    threshold_method: Annotated[
+        str,
+        typer.Option("--threshold-method", help="Automatic threshold method: otsu or triangle."),
+    ] = "otsu",
+    edge_ratio: Annotated[
+        str,
+        typer.Option(
+            "--edge-ratio",
+            help="Compression edge ratio: 'auto' (mean wide-DOF edge fraction; paper 0.077) or a "
+            "number in [0, 1).",
+        ),
+    ] = "auto",
+    mode: Annotated[str, typer.Option("--mode", help="edges (binary) or grey (Fig. 2).")] = "edges",
+    grey_levels: Annotated[
+        int, typer.Option("--grey-levels", help="Grey levels in grey mode.")
+    ] = 8,
+    allow_resize: Annotated[
+        bool, typer.Option("--allow-resize", help="Accept pairs whose photos differ in pixel size.")
+    ] = False,
+    force: Annotated[
+        bool,
+        typer.Option("--force", help="Replace --out even if it holds a different stimulus set."),
+    ] = False,
 ) -> None:
     """Build cluttered and de-cluttered stimuli at the paper's eight resolutions."""
     from rich.console import Console
@@ -107,13 +119,15 @@ def build_command(
 
 @stimuli_app.command("synth")
 def synth_command(
-    out: Path = typer.Option(..., "--out", "-o", help="PAIRS folder to write."),
-    objects: int = typer.Option(20, "--objects", help="Number of main objects."),
-    training: int = typer.Option(3, "--training", help="Number of training objects."),
-    seed: int = typer.Option(0, "--seed", help="Random seed (the set is deterministic by seed)."),
-    size: str = typer.Option(
-        "492x327", "--size", help="Photo size WIDTHxHEIGHT, pixels (e.g. 1536x1024)."
-    ),
+    out: Annotated[Path, typer.Option("--out", "-o", help="PAIRS folder to write.")],
+    objects: Annotated[int, typer.Option("--objects", help="Number of main objects.")] = 20,
+    training: Annotated[int, typer.Option("--training", help="Number of training objects.")] = 3,
+    seed: Annotated[
+        int, typer.Option("--seed", help="Random seed (the set is deterministic by seed).")
+    ] = 0,
+    size: Annotated[
+        str, typer.Option("--size", help="Photo size WIDTHxHEIGHT, pixels (e.g. 1536x1024).")
+    ] = "492x327",
 ) -> None:
     """Write synthetic wide/narrow-DOF photo pairs of named objects in front of clutter."""
     from stimuli.build import parse_working_size

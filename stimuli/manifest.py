@@ -162,8 +162,7 @@ def parse_crop(text: str | None, *, where: str) -> tuple[int, int, int, int] | N
         x, y, w, h = (int(p) for p in parts)
     except ValueError:
         raise InputError(
-            f"{where}: crop must be 'x,y,w,h' (four integers, full-resolution pixels), "
-            f"got {text!r}"
+            f"{where}: crop must be 'x,y,w,h' (four integers, full-resolution pixels), got {text!r}"
         ) from None
     if x < 0 or y < 0 or w <= 0 or h <= 0:
         raise InputError(f"{where}: crop must have x, y >= 0 and w, h > 0, got {text!r}")

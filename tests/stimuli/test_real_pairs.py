@@ -120,9 +120,14 @@ def test_working_and_38x25_share_inside_mask_is_higher_decluttered(real_set) -> 
         ):
             shares = {}
             for r in records:
-                if r.object == oid and (r.height, r.width) == (rows, cols) and r.condition in (
-                    "cluttered",
-                    "decluttered",
+                if (
+                    r.object == oid
+                    and (r.height, r.width) == (rows, cols)
+                    and r.condition
+                    in (
+                        "cluttered",
+                        "decluttered",
+                    )
                 ):
                     stim = np.asarray(Image.open(out / r.path)) > 127
                     shares[r.condition] = _share_inside(stim, m)
