@@ -1,11 +1,224 @@
-"""Analysis commands (issue 4): command-line registration (filled in by that issue)."""
+"""The ``confocal analyze`` command group: analyse trial files, and plan studies by power.
+
+``confocal analyze TRIALS... --out REPORT_DIR`` runs the default ``run`` command (the group
+inserts ``run`` when the first word is not a sub-command), and ``confocal analyze power ...``
+estimates how many subjects a study needs.
+"""
 
 from __future__ import annotations
 
-import typer
+import logging
+import warnings
+from enum import StrEnum
+from pathlib import Path
 
-__all__ = ["register"]
+import click
+import typer
+from typer.core import TyperGroup
+
+__all__ = ["register", "analyze_app"]
+
+logger = logging.getLogger(__name__)
+
+
+class _DefaultRunGroup(TyperGroup):
+    """A group whose first argument, when not a sub-command, is a trial file for ``run``."""
+
+    default_command = "run"
+
+    def parse_args(self, ctx: click.Context, args: list[str]) -> list[str]:
+        if args and args[0] not in self.commands and args[0] not in ctx.help_option_names:
+            args = [self.default_command, *args]
+        return super().parse_args(ctx, args)
+
+
+analyze_app = typer.Typer(
+    cls=_DefaultRunGroup,
+    name="analyze",
+    no_args_is_help=True,
+    add_completion=False,
+    help=(
+        "Analyse trial logs (Jung et al. 2015, Sec. 3.2.2) or plan a study.\n\n"
+        "  confocal analyze TRIALS... --out REPORT_DIR [--pc 0.5] [--by subject] [--guess 0] "
+        "[--seed N] [--mixed]\n\n"
+        "  (same as 'confocal analyze run TRIALS...'): Weibull posteriors and thresholds, "
+        "logistic odds ratios, figures, results.json and report.md.\n\n"
+        "  confocal analyze power --odds-ratio 5.6 | --threshold-ratio 2.5 [--subjects 1,2,4,6]: "
+        "subjects needed for a given power, by simulation."
+    ),
+)
+
+
+class By(StrEnum):
+    """How to split the per-group psychometric fits."""
+
+    subject = "subject"
+    none = "none"
+
+
+@analyze_app.command("run")
+def run(
+    trials: list[Path] = typer.Argument(
+        ...,
+        help="Trial files: SQLite session databases, CSV or Parquet tables; pooled.",
+        show_default=False,
+    ),
+    out: Path = typer.Option(..., "--out", "-o", help="Report folder (replaced atomically)."),
+    pc: float = typer.Option(0.5, "--pc", help="Proportion correct of the threshold."),
+    by: By = typer.Option(By.subject, "--by", help="Also fit each subject ('none': pooled only)."),
+    guess: float = typer.Option(0.0, "--guess", help="Guess rate (0.5 for 2AFC data)."),
+    seed: int | None = typer.Option(None, "--seed", help="Seed of the MCMC runs."),
+    mixed: bool = typer.Option(False, "--mixed", help="Also fit the mixed logistic model."),
+    subject_factor: bool = typer.Option(
+        False, "--subject-factor", help="Add subject dummies to the logistic model."
+    ),
+    figures: bool = typer.Option(True, "--figures/--no-figures", help="Draw Figs. 8, 9, S2, S3."),
+) -> None:
+    """Analyse TRIALS and write REPORT_DIR (results.json, report.md, figures)."""
+    from rich.console import Console
+    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+
+    from analysis.data import read_trials
+    from analysis.pipeline import AnalysisOptions, analyze
+    from analysis.report import write_report
+
+    try:
+        options = AnalysisOptions(
+            pc=pc,
+            by_subject=by == By.subject,
+            guess=guess,
+            seed=seed,
+            subject_factor=subject_factor,
+            mixed=mixed,
+        )
+    except ValueError as exc:
+        raise typer.BadParameter(str(exc)) from exc
+    table = read_trials(trials)
+    err = Console(stderr=True)
+    result = None
+    with (
+        Progress(
+            TextColumn("[progress.description]{task.description}"),
+            BarColumn(),
+            TextColumn("{task.completed}/{task.total}"),
+            TimeElapsedColumn(),
+            console=err,
+            transient=True,
+        ) as bar,
+        warnings.catch_warnings(),
+    ):
+        warnings.simplefilter("ignore")  # collected into the report instead
+        task = bar.add_task("fitting", total=None)
+        for step in analyze(table, options):
+            bar.update(task, total=step.total, completed=step.done, description=step.label)
+            result = step.result or result
+    assert result is not None
+    if figures:
+        err.print("drawing figures and writing the report...")
+    folder = write_report(result, out, figures=figures)
+    _print_summary(result, folder)
+
+
+def _fmt(v: float | None) -> str:
+    return "n/a" if v is None else f"{v:,.0f}"
+
+
+def _print_summary(result, folder: Path) -> None:
+    r = result.results_json()
+    typer.echo(f"{r['n_trials']} trials, {r['n_recognized']} recognised")
+    if r["n_training_excluded"]:
+        typer.echo(f"({r['n_training_excluded']} training trials excluded)")
+    for c, t in r["thresholds"].items():
+        conv = "" if t["converged"] else "  NOT CONVERGED"
+        typer.echo(
+            f"50% threshold {c:>11}: {_fmt(t['p50_pixels'])} px "
+            f"(95% CrI {_fmt(t['ci95'][0])}-{_fmt(t['ci95'][1])}; MLE "
+            f"{_fmt(t['mle_p50_pixels'])}){conv}"
+        )
+        if "threshold" in t:
+            typer.echo(
+                f"{100 * r['pc']:g}% threshold {c:>11}: {_fmt(t['threshold'])} px (95% CrI "
+                f"{_fmt(t['threshold_ci95'][0])}-{_fmt(t['threshold_ci95'][1])})"
+            )
+    for term in ("background", "log10_pixels"):
+        o = r["logistic"]["odds_ratios"][term]
+        typer.echo(
+            f"odds ratio {term:>12}: {o['or']:.2f} (95% CI {o['ci95'][0]:.2f}-{o['ci95'][1]:.2f}, "
+            f"p = {o['p']:.2g})"
+        )
+    cl = r["logistic"]["classification"]
+    typer.echo(
+        f"classified correctly: {cl['recognized_correct_pct']:.1f}% recognised, "
+        f"{cl['not_recognized_correct_pct']:.1f}% not recognised"
+    )
+    for w in r["warnings"]:
+        typer.echo(f"warning: {w}", err=True)
+    typer.echo(f"report: {folder / 'report.md'}  (results: {folder / 'results.json'})")
+
+
+class Effect(StrEnum):
+    """Effect kinds for the power analysis."""
+
+    odds_ratio = "odds_ratio"
+    threshold_ratio = "threshold_ratio"
+
+
+@analyze_app.command("power")
+def power(
+    odds_ratio: float | None = typer.Option(
+        None, "--odds-ratio", help="Background odds ratio to detect (paper: 5.6)."
+    ),
+    threshold_ratio: float | None = typer.Option(
+        None, "--threshold-ratio", help="Cluttered / de-cluttered 50% threshold ratio to detect."
+    ),
+    subjects: str = typer.Option(
+        "1,2,3,4,6,8", "--subjects", help="Comma-separated numbers of subjects to simulate."
+    ),
+    target: float = typer.Option(0.8, "--power", help="Power wanted."),
+    sims: int = typer.Option(200, "--sims", help="Simulations per number of subjects."),
+    alpha: float = typer.Option(0.05, "--alpha", help="Test level."),
+    seed: int | None = typer.Option(None, "--seed", help="Seed of the simulations."),
+) -> None:
+    """Estimate how many subjects detect a given odds ratio or threshold ratio (simulation)."""
+    from rich.console import Console
+    from rich.progress import Progress
+
+    from analysis.power import PowerResult, iter_power
+
+    if (odds_ratio is None) == (threshold_ratio is None):
+        raise typer.BadParameter("give exactly one of --odds-ratio and --threshold-ratio")
+    try:
+        ns = sorted({int(s) for s in subjects.split(",") if s.strip()})
+    except ValueError as exc:
+        raise typer.BadParameter(
+            f"--subjects must be integers like 1,2,4, got {subjects!r}"
+        ) from exc
+    effect = "odds_ratio" if odds_ratio is not None else "threshold_ratio"
+    size = odds_ratio if odds_ratio is not None else threshold_ratio
+    points = []
+    try:
+        gen = iter_power(effect, size, ns, n_sims=sims, alpha=alpha, rng=seed)
+        with Progress(console=Console(stderr=True), transient=True) as bar:
+            task = bar.add_task(f"simulating {effect} = {size:g}", total=len(ns) * sims)
+            for p in gen:
+                if p is None:
+                    bar.advance(task)
+                else:
+                    points.append(p)
+    except ValueError as exc:
+        raise typer.BadParameter(str(exc)) from exc
+    n_req = next((p.n_subjects for p in points if p.power >= target), None)
+    res = PowerResult(effect, float(size), alpha, target, tuple(points), n_req)
+    typer.echo(f"{effect} = {size:g}, alpha = {alpha:g}, {sims} simulations per row")
+    typer.echo("subjects  power  (95% CI)")
+    for p in res.points:
+        typer.echo(f"{p.n_subjects:>8}  {p.power:.2f}   ({p.ci95[0]:.2f}-{p.ci95[1]:.2f})")
+    if n_req is None:
+        typer.echo(f"no simulated number of subjects reached power {target:g}")
+    else:
+        typer.echo(f"subjects needed for power {target:g}: {n_req}")
 
 
 def register(app: typer.Typer) -> None:
-    """Add this module's commands to the root ``confocal`` app (none yet)."""
+    """Add the ``analyze`` group (``run`` by default, and ``power``) to the root app."""
+    app.add_typer(analyze_app, name="analyze")

@@ -1,0 +1,328 @@
+"""Read trial logs (SQLite session databases, CSV and Parquet trial tables) into one tidy table.
+
+Columns of the tidy table (one row per answered trial):
+
+==============  ========  ==========================================================
+column          dtype     meaning
+==============  ========  ==========================================================
+``subject``     str       subject identifier
+``object``      str       object identifier (``"1"`` .. ``"20"`` in Jung et al. 2015)
+``condition``   str       ``"cluttered"`` or ``"decluttered"``
+``pixels``      float     stimulus resolution, pixels (> 0)
+``recognized``  int       1 = recognised, 0 = not
+``source``      str       the file the row came from
+``level``       optional  resolution level index, as logged
+``session``     optional  session identifier
+``response``    optional  the subject's words
+``score``       optional  the rater's score (``named``, ``use``, ``shape``, ...)
+``rt_s``        optional  response time, seconds
+``part``        optional  ``"main"`` or ``"training"``; only ``main`` rows are kept
+==============  ========  ==========================================================
+
+SQLite files (recognised by their ``SQLite format 3`` header) are read through the engine's
+``tidy_trials`` view, which has the same columns. Nothing here imports the experiment engine
+(house style H1): the schema is the contract.
+"""
+
+from __future__ import annotations
+
+import sqlite3
+from collections.abc import Iterable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from analysis.errors import DataError
+
+__all__ = [
+    "REQUIRED_COLUMNS",
+    "OPTIONAL_COLUMNS",
+    "CONDITIONS",
+    "TrialTable",
+    "read_trial_file",
+    "read_trials",
+    "check_trials",
+    "object_order",
+]
+
+#: Columns every trial table must have (the data contract with the experiment engine).
+REQUIRED_COLUMNS: tuple[str, ...] = ("subject", "object", "condition", "pixels", "recognized")
+#: Columns read when present.
+OPTIONAL_COLUMNS: tuple[str, ...] = ("level", "session", "response", "score", "rt_s", "part")
+#: Background conditions, reference first. Source: Jung et al. 2015, Sec. 3.2.2 (reference:
+#: background cluttered).
+CONDITIONS: tuple[str, str] = ("cluttered", "decluttered")
+
+_SQLITE_MAGIC = b"SQLite format 3\x00"
+_PARQUET_MAGIC = b"PAR1"
+
+
+@dataclass(frozen=True)
+class TrialTable:
+    """Pooled trials from one or more files.
+
+    Parameters
+    ----------
+    trials : pandas.DataFrame
+        The tidy table (see the module docstring); only ``part == "main"`` rows.
+    sources : tuple of str
+        The files read, in order.
+    n_training_excluded : int
+        Rows dropped because their ``part`` was not ``"main"``.
+    """
+
+    trials: pd.DataFrame
+    sources: tuple[str, ...]
+    n_training_excluded: int = 0
+
+
+def _magic(path: Path) -> bytes:
+    with open(path, "rb") as fh:
+        return fh.read(16)
+
+
+def _read_raw(path: Path) -> pd.DataFrame:
+    if not path.exists():
+        raise DataError(f"{path}: file not found")
+    if path.is_dir():
+        raise DataError(f"{path}: is a folder, expected a trial file (SQLite, CSV or Parquet)")
+    if path.stat().st_size == 0:
+        raise DataError(f"{path}: file is empty (no trials)")
+    head = _magic(path)
+    if head.startswith(_SQLITE_MAGIC):
+        return _read_sqlite(path)
+    if head.startswith(_PARQUET_MAGIC) or path.suffix.lower() in (".parquet", ".pq"):
+        try:
+            return pd.read_parquet(path)
+        except ImportError as exc:
+            raise DataError(f"{path}: reading Parquet needs pyarrow ({exc})") from exc
+        except Exception as exc:  # noqa: BLE001 - any parser failure is a data error here
+            raise DataError(f"{path}: not a readable Parquet file ({_line(exc)})") from exc
+    try:
+        return pd.read_csv(path, dtype=str, keep_default_na=False, skipinitialspace=True)
+    except pd.errors.EmptyDataError as exc:
+        raise DataError(f"{path}: file is empty (no trials)") from exc
+    except (pd.errors.ParserError, UnicodeDecodeError) as exc:
+        raise DataError(f"{path}: not a readable CSV trial table ({_line(exc)})") from exc
+
+
+def _line(exc: BaseException) -> str:
+    return " ".join(str(exc).split())
+
+
+def _read_sqlite(path: Path) -> pd.DataFrame:
+    uri = f"{path.resolve().as_uri()}?mode=ro"
+    try:
+        con = sqlite3.connect(uri, uri=True)
+    except sqlite3.Error as exc:
+        raise DataError(f"{path}: cannot open SQLite file ({_line(exc)})") from exc
+    try:
+        names = {
+            r[0]
+            for r in con.execute(
+                "SELECT name FROM sqlite_master WHERE type IN ('view', 'table')"
+            ).fetchall()
+        }
+        if "tidy_trials" not in names:
+            raise DataError(
+                f"{path}: not a confocal trial log (SQLite file without a 'tidy_trials' view)"
+            )
+        return pd.read_sql_query("SELECT * FROM tidy_trials", con)
+    except sqlite3.DatabaseError as exc:
+        raise DataError(f"{path}: cannot read SQLite trial log ({_line(exc)})") from exc
+    finally:
+        con.close()
+
+
+def _blank(s: pd.Series) -> pd.Series:
+    return s.isna() | (s.astype(str).str.strip().isin(["", "nan", "NaN", "NA", "None", "null"]))
+
+
+def _first_bad(mask: pd.Series, df: pd.DataFrame, col: str) -> str:
+    i = int(np.flatnonzero(mask.to_numpy())[0])
+    return f"row {i + 1} (value {df[col].iloc[i]!r})"
+
+
+def check_trials(df: pd.DataFrame, source: str) -> pd.DataFrame:
+    """Validate and normalise a raw trial table; return the tidy table.
+
+    Parameters
+    ----------
+    df : pandas.DataFrame
+        Raw rows with at least :data:`REQUIRED_COLUMNS`.
+    source : str
+        File name used in error messages and in the ``source`` column.
+
+    Returns
+    -------
+    pandas.DataFrame
+        Tidy rows (``part == "main"`` only when a ``part`` column exists).
+
+    Raises
+    ------
+    DataError
+        Missing columns, no rows, missing values, non-numeric or non-positive pixels,
+        ``recognized`` not 0/1, or an unknown condition; the message names file, column and row.
+    """
+    df = df.copy()
+    df.columns = [str(c).strip() for c in df.columns]
+    if "rt" in df.columns and "rt_s" not in df.columns:
+        df = df.rename(columns={"rt": "rt_s"})
+    missing = [c for c in REQUIRED_COLUMNS if c not in df.columns]
+    if missing:
+        raise DataError(
+            f"{source}: missing required column(s) {', '.join(missing)} "
+            f"(need {', '.join(REQUIRED_COLUMNS)}; found {', '.join(map(str, df.columns))})"
+        )
+    if len(df) == 0:
+        raise DataError(f"{source}: no trials (header only)")
+    if "part" in df.columns:
+        df["part"] = df["part"].astype(str).str.strip()
+    for col in REQUIRED_COLUMNS:
+        blank = _blank(df[col])
+        if blank.any():
+            raise DataError(
+                f"{source}: column '{col}' has a missing value (NaN/empty) at "
+                f"{_first_bad(blank, df, col)}"
+            )
+    pixels = pd.to_numeric(df["pixels"], errors="coerce")
+    bad = pixels.isna() | ~np.isfinite(pixels.astype(float))
+    if bad.any():
+        raise DataError(
+            f"{source}: column 'pixels' must be numeric, got non-numeric {_first_bad(bad, df, 'pixels')}"
+        )
+    if (pixels <= 0).any():
+        raise DataError(
+            f"{source}: column 'pixels' must be > 0, got {_first_bad(pixels <= 0, df, 'pixels')}"
+        )
+    rec = pd.to_numeric(df["recognized"].map(_bool_word), errors="coerce")
+    bad = rec.isna() | ~rec.isin([0, 1])
+    if bad.any():
+        raise DataError(
+            f"{source}: column 'recognized' must be 0 or 1, got {_first_bad(bad, df, 'recognized')}"
+        )
+    cond = df["condition"].astype(str).str.strip().str.lower().str.replace("-", "", regex=False)
+    bad = ~cond.isin(CONDITIONS)
+    if bad.any():
+        raise DataError(
+            f"{source}: column 'condition' must be 'cluttered' or 'decluttered', got "
+            f"{_first_bad(bad, df, 'condition')}"
+        )
+    out = pd.DataFrame(
+        {
+            "subject": df["subject"].map(_id_text),
+            "object": df["object"].map(_id_text),
+            "condition": cond.to_numpy(),
+            "pixels": pixels.astype(float).to_numpy(),
+            "recognized": rec.astype(int).to_numpy(),
+        },
+        index=df.index,
+    )
+    for col in OPTIONAL_COLUMNS:
+        if col in df.columns:
+            out[col] = df[col].to_numpy()
+    if "rt_s" in out.columns:
+        out["rt_s"] = pd.to_numeric(out["rt_s"], errors="coerce")
+    out["source"] = source
+    return out.reset_index(drop=True)
+
+
+def _bool_word(v: Any) -> Any:
+    s = str(v).strip().lower()
+    return {"true": 1, "false": 0, "yes": 1, "no": 0}.get(s, s if isinstance(v, str) else v)
+
+
+def _id_text(v: Any) -> str:
+    """Identifiers as text; '3', 3 and 3.0 are the same object."""
+    if isinstance(v, float) and v.is_integer():
+        return str(int(v))
+    s = str(v).strip()
+    try:
+        f = float(s)
+    except ValueError:
+        return s
+    return str(int(f)) if f.is_integer() and "." in s else s
+
+
+def read_trial_file(path: str | Path) -> tuple[pd.DataFrame, int]:
+    """Read one trial file; return the tidy main-part rows and the number of training rows dropped.
+
+    Parameters
+    ----------
+    path : str or Path
+        A SQLite session database, a CSV or a Parquet trial table.
+
+    Returns
+    -------
+    trials : pandas.DataFrame
+    n_training_excluded : int
+
+    Raises
+    ------
+    DataError
+        Unreadable, empty or invalid file (one line naming the file and the column).
+    """
+    path = Path(path)
+    raw = _read_raw(path)
+    tidy = check_trials(raw, str(path))
+    dropped = 0
+    if "part" in tidy.columns:
+        main = tidy["part"].astype(str) == "main"
+        dropped = int((~main).sum())
+        tidy = tidy[main].reset_index(drop=True)
+        if len(tidy) == 0:
+            raise DataError(f"{path}: no main-part trials (all {dropped} rows are training)")
+    return tidy, dropped
+
+
+def read_trials(paths: Iterable[str | Path]) -> TrialTable:
+    """Read and pool several trial files.
+
+    Parameters
+    ----------
+    paths : iterable of str or Path
+        Trial files (SQLite, CSV, Parquet); at least one.
+
+    Returns
+    -------
+    TrialTable
+
+    Raises
+    ------
+    DataError
+        No files, or any file invalid.
+    """
+    paths = [Path(p) for p in paths]
+    if not paths:
+        raise DataError("no trial files given")
+    frames, dropped = [], 0
+    for p in paths:
+        df, d = read_trial_file(p)
+        frames.append(df)
+        dropped += d
+    trials = pd.concat(frames, ignore_index=True)
+    return TrialTable(trials, tuple(str(p) for p in paths), dropped)
+
+
+def object_order(objects: Iterable[str]) -> list[str]:
+    """Return object identifiers in natural order (numeric when all are numbers).
+
+    The first is the logistic model's reference ("object 1", Jung et al. 2015, Sec. 3.2.2).
+
+    Examples
+    --------
+    >>> object_order(["10", "2", "1"])
+    ['1', '2', '10']
+    """
+    uniq = sorted(set(map(str, objects)))
+
+    def key(s: str) -> tuple[int, float, str]:
+        try:
+            return (0, float(s), s)
+        except ValueError:
+            return (1, 0.0, s)
+
+    return sorted(uniq, key=key)

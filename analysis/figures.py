@@ -1,0 +1,258 @@
+"""Figures after Jung et al. 2015 (Figs. 8, 9, S2, S3). The only module that imports matplotlib.
+
+Functions take result objects and an optional ``ax`` and return the Axes (or Figure). They use
+:class:`matplotlib.figure.Figure` directly, so no backend is chosen and nothing is shown
+(house style H13).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from matplotlib.axes import Axes
+from matplotlib.figure import Figure
+
+from analysis.data import CONDITIONS
+from analysis.logistic import LogisticFit
+from analysis.weibull import WeibullFit
+
+__all__ = [
+    "plot_recognition",
+    "plot_subject_thresholds",
+    "plot_subject_curves",
+    "plot_object_difficulty",
+    "save_all",
+]
+
+#: Colours per condition (ours): grey for cluttered, blue for de-cluttered.
+COLORS: dict[str, str] = {"cluttered": "0.35", "decluttered": "tab:blue"}
+#: Prosthesis resolution line of Fig. 9, pixels. Source: Jung et al. 2015, Fig. 9 caption.
+PROSTHESIS_PX: float = 1500.0
+
+
+def _new_ax(ax: Axes | None, size: tuple[float, float] = (5.0, 3.8)) -> Axes:
+    if ax is not None:
+        return ax
+    fig = Figure(figsize=size, layout="constrained")
+    return fig.add_subplot()
+
+
+def plot_recognition(
+    fits: dict[str, WeibullFit], *, pc: float = 0.5, ax: Axes | None = None, legend: bool = True
+) -> Axes:
+    """Plot recognition rate vs pixels per condition: data, fitted curve, 95 % band, thresholds.
+
+    Parameters
+    ----------
+    fits : dict of str to WeibullFit
+        Condition -> fit (pixels on a log axis).
+    pc : float
+        Proportion correct of the marked thresholds.
+    ax : matplotlib Axes, optional
+        Drawn into when given; a new Figure otherwise.
+    legend : bool
+        Draw a legend.
+
+    Returns
+    -------
+    matplotlib.axes.Axes
+
+    References
+    ----------
+    Jung et al. 2015, Fig. 8.
+    """
+    ax = _new_ax(ax)
+    for cond, fit in fits.items():
+        color = COLORS.get(cond, None)
+        x = np.asarray(fit.levels)
+        rate = np.asarray(fit.k) / np.asarray(fit.n)
+        grid = np.logspace(np.log10(x.min()) - 0.2, np.log10(x.max()) + 0.2, 200)
+        med, lo, hi = fit.curve_band(grid)
+        ax.fill_between(grid, lo, hi, color=color, alpha=0.2, lw=0)
+        ax.plot(grid, med, color=color, label=f"{cond} (fit)")
+        ax.plot(x, rate, "o", color=color, ms=4, label=f"{cond} (data)")
+        t = fit.threshold(pc)
+        if np.isfinite(t.median):
+            ax.axvline(t.median, color=color, ls="--", lw=0.8)
+            ax.axvspan(*t.ci95, color=color, alpha=0.08, lw=0)
+    ax.axhline(pc, color="0.6", lw=0.5)
+    ax.set_xscale("log")
+    ax.set_ylim(-0.02, 1.02)
+    ax.set_xlabel("resolution (pixels)")
+    ax.set_ylabel("recognition rate")
+    if legend:
+        ax.legend(fontsize="small", frameon=False)
+    return ax
+
+
+def plot_subject_thresholds(
+    subject_fits: dict[str, dict[str, WeibullFit]],
+    pooled: dict[str, WeibullFit] | None = None,
+    *,
+    pc: float = 0.5,
+    ax: Axes | None = None,
+) -> Axes:
+    """Plot each subject's threshold (with 95 % CrI) per condition; pooled values as grey bars.
+
+    Parameters
+    ----------
+    subject_fits : dict
+        Subject -> condition -> fit.
+    pooled : dict of str to WeibullFit, optional
+        Pooled fits, drawn as bars.
+    pc : float
+        Proportion correct of the thresholds.
+    ax : matplotlib Axes, optional
+
+    Returns
+    -------
+    matplotlib.axes.Axes
+
+    References
+    ----------
+    Jung et al. 2015, Fig. 9.
+    """
+    ax = _new_ax(ax)
+    subjects = list(subject_fits)
+    for j, cond in enumerate(CONDITIONS):
+        if pooled and cond in pooled:
+            t = pooled[cond].threshold(pc).median
+            if np.isfinite(t):
+                ax.bar(j, t, width=0.6, color="0.85", zorder=0)
+        for i, s in enumerate(subjects):
+            fit = subject_fits[s].get(cond)
+            if fit is None:
+                continue
+            t = fit.threshold(pc)
+            off = (i - (len(subjects) - 1) / 2) * 0.06
+            if np.isfinite(t.median):
+                lo, hi = t.ci95
+                hi = hi if np.isfinite(hi) else t.median * 10
+                ax.errorbar(
+                    j + off,
+                    t.median,
+                    yerr=[[t.median - lo], [hi - t.median]],
+                    fmt="o",
+                    ms=4,
+                    label=s if j == 0 else None,
+                )
+    ax.axhline(PROSTHESIS_PX, color="k", ls="--", lw=0.8)
+    ax.set_yscale("log")
+    ax.set_xticks(range(len(CONDITIONS)), CONDITIONS)
+    ax.set_ylabel(f"pixels for {100 * pc:g} % recognition")
+    if subjects:
+        ax.legend(fontsize="x-small", frameon=False, ncols=2)
+    return ax
+
+
+def plot_subject_curves(
+    subject_fits: dict[str, dict[str, WeibullFit]], *, pc: float = 0.5, fig: Figure | None = None
+) -> Figure:
+    """Plot every subject's fitted curves and data in a grid of panels.
+
+    Parameters
+    ----------
+    subject_fits : dict
+        Subject -> condition -> fit.
+    pc : float
+        Proportion correct of the marked thresholds.
+    fig : matplotlib Figure, optional
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+
+    References
+    ----------
+    Jung et al. 2015, Fig. S2.
+    """
+    n = max(1, len(subject_fits))
+    cols = min(3, n)
+    rows = int(np.ceil(n / cols))
+    fig = fig or Figure(figsize=(3.3 * cols, 2.8 * rows), layout="constrained")
+    axes = fig.subplots(rows, cols, squeeze=False, sharex=True, sharey=True)
+    for ax, (s, fits) in zip(axes.ravel(), subject_fits.items(), strict=False):
+        plot_recognition(fits, pc=pc, ax=ax, legend=False)
+        ax.set_title(f"subject {s}", fontsize="small")
+    for ax in axes.ravel()[len(subject_fits) :]:
+        ax.set_visible(False)
+    return fig
+
+
+def plot_object_difficulty(logistic: LogisticFit, *, ax: Axes | None = None) -> Axes:
+    """Plot object difficulty: log odds ratio of *not* recognising each object vs object 1.
+
+    Positive = harder than the reference object. Error bars are 95 % Wald intervals.
+
+    Parameters
+    ----------
+    logistic : LogisticFit
+    ax : matplotlib Axes, optional
+
+    Returns
+    -------
+    matplotlib.axes.Axes
+
+    References
+    ----------
+    Jung et al. 2015, Fig. S3 (difficulty as the log odds ratio of failure).
+    """
+    ax = _new_ax(ax, (6.0, 3.5))
+    rows = [r for r in logistic.odds_ratios.rows if r[0].startswith("object:")]
+    names = [logistic.reference_object] + [r[0].split(":", 1)[1] for r in rows]
+    # Failure odds ratio = 1 / recognition odds ratio, so its log10 is the negated log10.
+    val = [0.0] + [-np.log10(r[1]) for r in rows]
+    lo = [0.0] + [-np.log10(r[3]) for r in rows]
+    hi = [0.0] + [-np.log10(r[2]) for r in rows]
+    x = np.arange(len(names))
+    ax.errorbar(
+        x,
+        val,
+        yerr=[np.subtract(val, lo), np.subtract(hi, val)],
+        fmt="s",
+        ms=4,
+        color="k",
+    )
+    for xi, r in zip(x[1:], rows, strict=False):
+        mark = "**" if r[4] < 0.01 else "*" if r[4] < 0.05 else ""
+        if mark:
+            ax.annotate(mark, (xi, hi[xi]), ha="center", va="bottom", fontsize="small")
+    ax.axhline(0, color="0.6", lw=0.5)
+    ax.set_xticks(x, names, fontsize="small")
+    ax.set_xlabel("object")
+    ax.set_ylabel("relative difficulty (log10 OR)")
+    return ax
+
+
+def save_all(result: Any, folder: str | Path) -> list[Path]:
+    """Draw Figs. 8, 9, S2 and S3 for an analysis result; save each as PNG and SVG.
+
+    Parameters
+    ----------
+    result : analysis.pipeline.AnalysisResult
+    folder : str or Path
+        Existing folder.
+
+    Returns
+    -------
+    list of Path
+        Files written.
+    """
+    folder = Path(folder)
+    pc = result.options.pc
+    figs: dict[str, Figure] = {}
+    figs["fig8_recognition_vs_pixels"] = plot_recognition(result.thresholds, pc=pc).figure
+    figs["fig9_subject_thresholds"] = plot_subject_thresholds(
+        result.subject_thresholds, result.thresholds, pc=pc
+    ).figure
+    figs["figS2_subject_curves"] = plot_subject_curves(result.subject_thresholds, pc=pc)
+    figs["figS3_object_difficulty"] = plot_object_difficulty(result.logistic).figure
+    written = []
+    for name, fig in figs.items():
+        for ext in ("png", "svg"):
+            p = folder / f"{name}.{ext}"
+            fig.savefig(p, dpi=120)
+            written.append(p)
+    return written

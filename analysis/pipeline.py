@@ -1,0 +1,368 @@
+"""The full analysis of a trial table: pooled and per-subject posteriors, logistic model, Eq. 1.
+
+:func:`analyze` is a generator (house style H5): it yields an :class:`AnalysisStep` after each
+fit, so the command line can draw a progress bar; the last step carries the
+:class:`AnalysisResult`.
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+from collections.abc import Iterator
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from analysis.data import CONDITIONS, TrialTable, object_order
+from analysis.errors import DataError
+from analysis.logistic import (
+    LogisticFit,
+    MixedFit,
+    fit_logistic,
+    fit_mixed,
+    predict_from_odds_ratio,
+)
+from analysis.weibull import PsychometricPrior, WeibullFit, fit_weibull
+
+__all__ = ["AnalysisOptions", "AnalysisStep", "AnalysisResult", "analyze", "first_recognized"]
+
+
+@dataclass(frozen=True)
+class AnalysisOptions:
+    """What to compute.
+
+    Parameters
+    ----------
+    pc : float
+        Proportion correct of the reported threshold, in (0, 1) (the 50 % threshold is always
+        reported too).
+    by_subject : bool
+        Fit each subject's psychometric functions as well as the pooled ones.
+    guess : float
+        Guess rate of the psychometric function in [0, 1) (0: free recognition).
+    seed : int or None
+        Seed of all MCMC runs (one child stream per fit).
+    subject_factor : bool
+        Add subject dummies to the logistic model.
+    mixed : bool
+        Also fit the mixed model with random subject and object intercepts.
+    prior : PsychometricPrior or None
+        Prior of every psychometric fit; the data-dependent default when None.
+    """
+
+    pc: float = 0.5
+    by_subject: bool = True
+    guess: float = 0.0
+    seed: int | None = None
+    subject_factor: bool = False
+    mixed: bool = False
+    prior: PsychometricPrior | None = None
+
+    def __post_init__(self) -> None:
+        if not (0.0 < self.pc < 1.0):
+            raise ValueError(f"pc must be in (0, 1), got {self.pc!r}")
+        if not (0.0 <= self.guess < 1.0):
+            raise ValueError(f"guess must be in [0, 1), got {self.guess!r}")
+        if self.pc <= self.guess:
+            raise ValueError(f"pc must be above the guess rate {self.guess!r}, got {self.pc!r}")
+
+
+@dataclass(frozen=True)
+class AnalysisResult:
+    """Everything the report shows.
+
+    Parameters
+    ----------
+    options : AnalysisOptions
+    sources : tuple of str
+        Trial files pooled.
+    n_training_excluded : int
+        Training rows left out.
+    n_trials, n_recognized : int
+        Trials analysed and how many were recognised.
+    thresholds : dict of str to WeibullFit
+        Pooled fit per condition.
+    subject_thresholds : dict of str to dict of str to WeibullFit
+        Per-subject fits per condition (empty without ``by_subject``).
+    logistic : LogisticFit
+    mixed : MixedFit or None
+    first_recognized : dict
+        ``{subject: {object: {condition: pixels or None}}}``: lowest level recognised.
+    warnings : tuple of str
+        Warnings raised by the fits (also logged).
+    """
+
+    options: AnalysisOptions
+    sources: tuple[str, ...]
+    n_training_excluded: int
+    n_trials: int
+    n_recognized: int
+    thresholds: dict[str, WeibullFit]
+    subject_thresholds: dict[str, dict[str, WeibullFit]]
+    logistic: LogisticFit
+    mixed: MixedFit | None
+    first_recognized: dict[str, dict[str, dict[str, float | None]]]
+    warnings: tuple[str, ...] = field(default_factory=tuple)
+
+    def predictions(self) -> dict[str, Any]:
+        """Return Eq. 1 applied with the fitted background odds ratio."""
+        odds = self.logistic.odds_ratios["background"]["or"]
+        ref = [0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9]
+        return {
+            "background_or": odds,
+            "decluttered_if_cluttered_50pct": predict_from_odds_ratio(0.5, odds),
+            "cluttered_if_decluttered_50pct": predict_from_odds_ratio(0.5, 1.0 / odds),
+            "decluttered_given_cluttered": [
+                {"cluttered": p, "decluttered": predict_from_odds_ratio(p, odds)} for p in ref
+            ],
+        }
+
+    def results_json(self) -> dict[str, Any]:
+        """Return the ``results.json`` content (keys as in issue 4)."""
+        pc = self.options.pc
+        out: dict[str, Any] = {
+            "n_trials": self.n_trials,
+            "n_recognized": self.n_recognized,
+            "pc": pc,
+            "guess": self.options.guess,
+            "seed": self.options.seed,
+            "sources": list(self.sources),
+            "n_training_excluded": self.n_training_excluded,
+            "thresholds": {c: f.summary(pc) for c, f in self.thresholds.items()},
+            "subject_thresholds": {
+                s: {c: f.summary(pc) for c, f in fits.items()}
+                for s, fits in self.subject_thresholds.items()
+            },
+            "logistic": {
+                "odds_ratios": self.logistic.odds_ratios.to_dict(),
+                "classification": self.logistic.classification(),
+                "reference_object": self.logistic.reference_object,
+                "subject_factor": self.logistic.subject_factor,
+                "n_significant_objects": self.logistic.n_significant_objects(),
+            },
+            "predictions": self.predictions(),
+            "first_recognized_pixels": self.first_recognized,
+            "warnings": list(self.warnings),
+        }
+        if self.mixed is not None:
+            out["logistic"]["mixed"] = self.mixed.to_dict()
+        return _clean(out)
+
+    def to_dict(self) -> dict[str, Any]:
+        """Return a JSON-ready dict from which :meth:`from_dict` rebuilds the result."""
+        o = self.options
+        return {
+            "options": {
+                "pc": o.pc,
+                "by_subject": o.by_subject,
+                "guess": o.guess,
+                "seed": o.seed,
+                "subject_factor": o.subject_factor,
+                "mixed": o.mixed,
+                "prior": o.prior.to_dict() if o.prior else None,
+            },
+            "sources": list(self.sources),
+            "n_training_excluded": self.n_training_excluded,
+            "n_trials": self.n_trials,
+            "n_recognized": self.n_recognized,
+            "thresholds": {c: f.to_dict() for c, f in self.thresholds.items()},
+            "subject_thresholds": {
+                s: {c: f.to_dict() for c, f in fits.items()}
+                for s, fits in self.subject_thresholds.items()
+            },
+            "logistic": self.logistic.to_dict(),
+            "mixed": self.mixed.to_dict() if self.mixed else None,
+            "first_recognized": self.first_recognized,
+            "warnings": list(self.warnings),
+        }
+
+    @classmethod
+    def from_dict(cls, d: dict[str, Any]) -> AnalysisResult:
+        """Rebuild from :meth:`to_dict` output."""
+        o = dict(d["options"])
+        o["prior"] = PsychometricPrior.from_dict(o["prior"]) if o.get("prior") else None
+        return cls(
+            options=AnalysisOptions(**o),
+            sources=tuple(d["sources"]),
+            n_training_excluded=int(d["n_training_excluded"]),
+            n_trials=int(d["n_trials"]),
+            n_recognized=int(d["n_recognized"]),
+            thresholds={c: WeibullFit.from_dict(f) for c, f in d["thresholds"].items()},
+            subject_thresholds={
+                s: {c: WeibullFit.from_dict(f) for c, f in fits.items()}
+                for s, fits in d["subject_thresholds"].items()
+            },
+            logistic=LogisticFit.from_dict(d["logistic"]),
+            mixed=MixedFit.from_dict(d["mixed"]) if d.get("mixed") else None,
+            first_recognized=d["first_recognized"],
+            warnings=tuple(d.get("warnings", ())),
+        )
+
+
+def _clean(v: Any) -> Any:
+    """Make a value strict JSON: inf/NaN -> None, numpy scalars -> Python."""
+    if isinstance(v, dict):
+        return {str(k): _clean(x) for k, x in v.items()}
+    if isinstance(v, list | tuple):
+        return [_clean(x) for x in v]
+    if isinstance(v, np.generic):
+        v = v.item()
+    if isinstance(v, float) and not math.isfinite(v):
+        return None
+    return v
+
+
+@dataclass(frozen=True)
+class AnalysisStep:
+    """Progress of :func:`analyze`.
+
+    Parameters
+    ----------
+    done : int
+        Steps finished.
+    total : int
+        Steps in all.
+    label : str
+        What was just finished.
+    result : AnalysisResult or None
+        Set on the last step only.
+    """
+
+    done: int
+    total: int
+    label: str
+    result: AnalysisResult | None = None
+
+
+def first_recognized(trials: pd.DataFrame) -> dict[str, dict[str, dict[str, float | None]]]:
+    """Return the lowest pixel count at which each subject recognised each object, per condition.
+
+    Parameters
+    ----------
+    trials : pandas.DataFrame
+        Tidy trials.
+
+    Returns
+    -------
+    dict
+        ``{subject: {object: {condition: pixels or None}}}`` (None: never recognised).
+    """
+    out: dict[str, dict[str, dict[str, float | None]]] = {}
+    objects = object_order(trials["object"])
+    for s in object_order(trials["subject"]):
+        ts = trials[trials["subject"] == s]
+        out[s] = {}
+        for o in objects:
+            to = ts[ts["object"] == o]
+            out[s][o] = {}
+            for c in CONDITIONS:
+                rec = to[(to["condition"] == c) & (to["recognized"] == 1)]["pixels"]
+                out[s][o][c] = float(rec.min()) if len(rec) else None
+    return out
+
+
+def _check(trials: pd.DataFrame, sources: tuple[str, ...]) -> None:
+    files = ", ".join(sources)
+    for c in CONDITIONS:
+        if not (trials["condition"] == c).any():
+            raise DataError(f"no trials in condition '{c}' in {files}: both conditions are needed")
+    n, k = len(trials), int(trials["recognized"].sum())
+    if k in (0, n):
+        what = "recognised" if k == n else "not recognised"
+        raise DataError(
+            f"all {n} trials in {files} are {what}: no threshold or odds ratio can be estimated"
+        )
+
+
+def analyze(table: TrialTable, options: AnalysisOptions | None = None) -> Iterator[AnalysisStep]:
+    """Run the full analysis, yielding after each fit.
+
+    Parameters
+    ----------
+    table : TrialTable
+        Pooled trials (:func:`analysis.data.read_trials`).
+    options : AnalysisOptions, optional
+        Defaults when omitted.
+
+    Yields
+    ------
+    AnalysisStep
+        The last one has ``result`` set.
+
+    Raises
+    ------
+    DataError
+        A condition without trials; all trials recognised or none.
+
+    References
+    ----------
+    Jung et al. 2015, Sec. 3.2.2 (pooled Weibull fits, Fig. 8; per-subject thresholds, Fig. 9;
+    logistic regression and Eq. 1).
+    """
+    opts = options or AnalysisOptions()
+    trials = table.trials
+    _check(trials, table.sources)
+    subjects = object_order(trials["subject"]) if opts.by_subject else []
+    jobs: list[tuple[str | None, str]] = [(None, c) for c in CONDITIONS]
+    jobs += [(s, c) for s in subjects for c in CONDITIONS]
+    total = len(jobs) + 1 + int(opts.mixed)
+    seeds = np.random.SeedSequence(opts.seed).spawn(len(jobs))
+    notes: list[str] = []
+    pooled: dict[str, WeibullFit] = {}
+    per_subject: dict[str, dict[str, WeibullFit]] = {}
+    done = 0
+    for (subject, cond), ss in zip(jobs, seeds, strict=False):
+        m = trials["condition"] == cond
+        if subject is not None:
+            m &= trials["subject"] == subject
+        sel = trials[m]
+        label = cond if subject is None else f"subject {subject}, {cond}"
+        done += 1
+        if len(sel) == 0:
+            notes.append(f"{label}: no trials, not fitted")
+            yield AnalysisStep(done, total, label)
+            continue
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            fit = fit_weibull(
+                sel["pixels"].to_numpy(),
+                sel["recognized"].to_numpy(),
+                guess=opts.guess,
+                prior=opts.prior,
+                label=label,
+                rng=np.random.default_rng(ss),
+            )
+        notes += [" ".join(str(w.message).split()) for w in caught]
+        if not fit.converged:
+            notes.append(f"{label}: MCMC not converged (tau_max {fit.tau_max:.0f} steps)")
+        if subject is None:
+            pooled[cond] = fit
+        else:
+            per_subject.setdefault(subject, {})[cond] = fit
+        yield AnalysisStep(done, total, label)
+    logistic = fit_logistic(trials, subject_factor=opts.subject_factor)
+    notes += [f"logistic model: {w}" for w in logistic.warnings]
+    done += 1
+    yield AnalysisStep(done, total, "logistic regression")
+    mixed = None
+    if opts.mixed:
+        mixed = fit_mixed(trials)
+        done += 1
+        yield AnalysisStep(done, total, "mixed model")
+    result = AnalysisResult(
+        options=opts,
+        sources=table.sources,
+        n_training_excluded=table.n_training_excluded,
+        n_trials=int(len(trials)),
+        n_recognized=int(trials["recognized"].sum()),
+        thresholds=pooled,
+        subject_thresholds=per_subject,
+        logistic=logistic,
+        mixed=mixed,
+        first_recognized=first_recognized(trials),
+        warnings=tuple(dict.fromkeys(notes)),
+    )
+    yield AnalysisStep(done, total, "done", result)

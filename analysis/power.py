@@ -1,0 +1,298 @@
+"""Simulation-based power: how many subjects are needed to detect an effect of a given size.
+
+Two effects, each simulated in the paper's design (20 objects x 8 levels x 2 conditions per
+subject) and tested at level ``alpha``:
+
+* ``odds_ratio``: data from :class:`analysis.simulate.LogisticObserver` with the given background
+  odds ratio (random subject and object intercepts); detected when the background term of the
+  fixed-effects logistic model (object and subject dummies, log10 pixels) has a Wald p < alpha and
+  OR > 1;
+* ``threshold_ratio``: Weibull observers whose cluttered 50 % threshold is ``ratio`` times the
+  de-cluttered one (shared slope and lapse; per-subject spread of thresholds); detected by a
+  likelihood-ratio test (chi-square, 1 df) of separate vs common thresholds, with the de-cluttered
+  threshold lower.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterator, Sequence
+from dataclasses import dataclass
+from typing import Any, Literal
+
+import numpy as np
+from scipy import optimize, stats
+
+from analysis.jung2015 import PIXEL_COUNTS, THRESHOLD_P50_PX
+from analysis.simulate import (
+    LogisticObserver,
+    WeibullObserver,
+    simulate_logistic_trials,
+    simulate_weibull_trials,
+)
+from analysis.weibull import _log_likelihood
+
+__all__ = ["PowerPoint", "PowerResult", "iter_power", "power_analysis"]
+
+Effect = Literal["odds_ratio", "threshold_ratio"]
+
+#: Weibull shape and lapse of the simulated observers for threshold ratios (ours: close to fits
+#: of the paper's Fig. 8 curves, which rise over about one decade of pixels).
+SIM_BETA: float = 1.2
+SIM_LAPSE: float = 0.05
+#: Per-subject SD of log10 threshold (ours; Fig. 9 spreads subjects over ~0.3 log units).
+SIM_SUBJECT_LOG10_SD: float = 0.15
+
+
+@dataclass(frozen=True)
+class PowerPoint:
+    """Estimated power at one number of subjects.
+
+    Parameters
+    ----------
+    n_subjects : int
+    power : float
+        Fraction of simulations in which the effect was detected.
+    ci95 : (float, float)
+        Clopper-Pearson 95 % interval of that fraction.
+    n_sims : int
+    """
+
+    n_subjects: int
+    power: float
+    ci95: tuple[float, float]
+    n_sims: int
+
+
+@dataclass(frozen=True)
+class PowerResult:
+    """A power curve and the smallest number of subjects reaching the target power.
+
+    Parameters
+    ----------
+    effect : {'odds_ratio', 'threshold_ratio'}
+    size : float
+        The effect size simulated.
+    alpha : float
+        Test level.
+    target_power : float
+    points : tuple of PowerPoint
+    n_required : int or None
+        Smallest simulated number of subjects whose power >= target (None: none reached it).
+    """
+
+    effect: str
+    size: float
+    alpha: float
+    target_power: float
+    points: tuple[PowerPoint, ...]
+    n_required: int | None
+
+    def to_dict(self) -> dict[str, Any]:
+        """Return a JSON-ready dict."""
+        return {
+            "effect": self.effect,
+            "size": self.size,
+            "alpha": self.alpha,
+            "target_power": self.target_power,
+            "points": [
+                {
+                    "n_subjects": p.n_subjects,
+                    "power": p.power,
+                    "ci95": list(p.ci95),
+                    "n_sims": p.n_sims,
+                }
+                for p in self.points
+            ],
+            "n_required": self.n_required,
+        }
+
+    @classmethod
+    def from_dict(cls, d: dict[str, Any]) -> PowerResult:
+        """Rebuild from :meth:`to_dict` output."""
+        return cls(
+            effect=str(d["effect"]),
+            size=float(d["size"]),
+            alpha=float(d["alpha"]),
+            target_power=float(d["target_power"]),
+            points=tuple(
+                PowerPoint(
+                    int(p["n_subjects"]), float(p["power"]), tuple(p["ci95"]), int(p["n_sims"])
+                )
+                for p in d["points"]
+            ),
+            n_required=None if d["n_required"] is None else int(d["n_required"]),
+        )
+
+
+def _clopper_pearson(k: int, n: int) -> tuple[float, float]:
+    lo = 0.0 if k == 0 else float(stats.beta.ppf(0.025, k, n - k + 1))
+    hi = 1.0 if k == n else float(stats.beta.ppf(0.975, k + 1, n - k))
+    return lo, hi
+
+
+def _detect_odds_ratio(size: float, n_subjects: int, alpha: float, rng) -> bool:
+    import statsmodels.api as sm
+
+    d = simulate_logistic_trials(
+        LogisticObserver(background_or=size), n_subjects=n_subjects, rng=rng
+    )
+    y = d["recognized"].to_numpy()
+    if y.min() == y.max():
+        return False
+    obj = np.asarray(d["object"].astype(int))
+    subj = d["subject"].to_numpy()
+    cols = [
+        np.ones(len(d)),
+        (d["condition"] == "decluttered").to_numpy(float),
+        np.log10(d["pixels"].to_numpy()),
+    ]
+    cols += [(obj == o).astype(float) for o in np.unique(obj)[1:]]
+    cols += [(subj == s).astype(float) for s in np.unique(subj)[1:]]
+    X = np.column_stack(cols)
+    try:
+        res = sm.Logit(y, X).fit(method="newton", disp=False, maxiter=100)
+    except Exception:  # noqa: BLE001 - separation in a small simulated data set: not detected
+        return False
+    return bool(res.pvalues[1] < alpha and res.params[1] > 0)
+
+
+def _nll_joint(theta, xs, ks, ns, shared_loc: bool) -> float:
+    if shared_loc:
+        loc_c = loc_d = theta[0]
+        lb, lapse = theta[1], theta[2]
+    else:
+        loc_c, loc_d, lb, lapse = theta
+    total = 0.0
+    for loc, x, k, n in ((loc_c, xs[0], ks[0], ns[0]), (loc_d, xs[1], ks[1], ns[1])):
+        total += float(_log_likelihood(np.array([[loc, lb, lapse]]), x, k, n, 0.0, "weibull")[0])
+    return -total
+
+
+def _detect_threshold_ratio(size: float, n_subjects: int, alpha: float, rng) -> bool:
+    t_d = THRESHOLD_P50_PX["decluttered"]
+    # alpha_px from the 50 % threshold: x50 = a * (-ln(1 - 0.5 / (1 - l))) ** (1 / b)
+    scale = (-math.log(1 - 0.5 / (1 - SIM_LAPSE))) ** (1 / SIM_BETA)
+    obs = {
+        "cluttered": WeibullObserver(size * t_d / scale, SIM_BETA, SIM_LAPSE),
+        "decluttered": WeibullObserver(t_d / scale, SIM_BETA, SIM_LAPSE),
+    }
+    d = simulate_weibull_trials(
+        obs, n_subjects=n_subjects, subject_log10_sd=SIM_SUBJECT_LOG10_SD, rng=rng
+    )
+    xs, ks, ns = [], [], []
+    for c in ("cluttered", "decluttered"):
+        g = d[d["condition"] == c].groupby("pixels")["recognized"].agg(["sum", "size"])
+        xs.append(g.index.to_numpy(float))
+        ks.append(g["sum"].to_numpy(float))
+        ns.append(g["size"].to_numpy(float))
+    lo, hi = math.log10(min(PIXEL_COUNTS)) - 1, math.log10(max(PIXEL_COUNTS)) + 1
+    b_sep = [(lo, hi), (lo, hi), (math.log(0.05), math.log(20)), (0.0, 0.5)]
+    b_com = [(lo, hi), (math.log(0.05), math.log(20)), (0.0, 0.5)]
+    best_sep = min(
+        (
+            optimize.minimize(
+                _nll_joint, s, args=(xs, ks, ns, False), method="L-BFGS-B", bounds=b_sep
+            )
+            for s in ([3.5, 3.5, 0.0, 0.05], [4.0, 3.0, 0.3, 0.05])
+        ),
+        key=lambda r: r.fun,
+    )
+    best_com = optimize.minimize(
+        _nll_joint, [3.7, 0.0, 0.05], args=(xs, ks, ns, True), method="L-BFGS-B", bounds=b_com
+    )
+    lr = 2 * (best_com.fun - best_sep.fun)
+    p = float(stats.chi2.sf(max(lr, 0.0), 1))
+    return bool(p < alpha and best_sep.x[0] > best_sep.x[1])
+
+
+def iter_power(
+    effect: Effect,
+    size: float,
+    n_subjects: Sequence[int],
+    *,
+    n_sims: int = 200,
+    alpha: float = 0.05,
+    rng: np.random.Generator | int | None = None,
+) -> Iterator[PowerPoint | None]:
+    """Simulate and test, yielding ``None`` after each simulation and a PowerPoint per size.
+
+    Parameters
+    ----------
+    effect : {'odds_ratio', 'threshold_ratio'}
+    size : float
+        Odds ratio (> 0) or cluttered / de-cluttered threshold ratio (> 0).
+    n_subjects : sequence of int
+        Numbers of subjects to try (each >= 1).
+    n_sims : int
+        Simulations per number of subjects.
+    alpha : float
+        Test level in (0, 1).
+    rng : numpy.random.Generator or int or None
+
+    Yields
+    ------
+    PowerPoint or None
+    """
+    if effect not in ("odds_ratio", "threshold_ratio"):
+        raise ValueError(f"effect must be 'odds_ratio' or 'threshold_ratio', got {effect!r}")
+    if not size > 0:
+        raise ValueError(f"size must be > 0, got {size!r}")
+    if n_sims < 1:
+        raise ValueError(f"n_sims must be >= 1, got {n_sims!r}")
+    if not (0 < alpha < 1):
+        raise ValueError(f"alpha must be in (0, 1), got {alpha!r}")
+    if not n_subjects or min(n_subjects) < 1:
+        raise ValueError(
+            f"n_subjects must be a non-empty list of integers >= 1, got {n_subjects!r}"
+        )
+    rng = np.random.default_rng(rng)
+    detect = _detect_odds_ratio if effect == "odds_ratio" else _detect_threshold_ratio
+    for n in n_subjects:
+        hits = 0
+        for _ in range(n_sims):
+            hits += detect(size, int(n), alpha, rng)
+            yield None
+        yield PowerPoint(int(n), hits / n_sims, _clopper_pearson(hits, n_sims), n_sims)
+
+
+def power_analysis(
+    effect: Effect,
+    size: float,
+    n_subjects: Sequence[int] = (1, 2, 3, 4, 6, 8),
+    *,
+    target_power: float = 0.8,
+    n_sims: int = 200,
+    alpha: float = 0.05,
+    rng: np.random.Generator | int | None = None,
+) -> PowerResult:
+    """Estimate power at each number of subjects and the smallest number reaching the target.
+
+    Parameters
+    ----------
+    effect : {'odds_ratio', 'threshold_ratio'}
+    size : float
+        Effect size (see :func:`iter_power`).
+    n_subjects : sequence of int
+        Numbers of subjects to try.
+    target_power : float
+        Power wanted, in (0, 1).
+    n_sims : int
+        Simulations per number of subjects.
+    alpha : float
+        Test level.
+    rng : numpy.random.Generator or int or None
+
+    Returns
+    -------
+    PowerResult
+    """
+    if not (0 < target_power < 1):
+        raise ValueError(f"target_power must be in (0, 1), got {target_power!r}")
+    points = [
+        p
+        for p in iter_power(effect, size, sorted(n_subjects), n_sims=n_sims, alpha=alpha, rng=rng)
+        if p is not None
+    ]
+    n_req = next((p.n_subjects for p in points if p.power >= target_power), None)
+    return PowerResult(effect, float(size), float(alpha), float(target_power), tuple(points), n_req)
