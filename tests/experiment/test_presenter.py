@@ -33,7 +33,9 @@ from experiment.presenter import (  # noqa: E402
 @pytest.fixture(scope="module")
 def gl_ok() -> None:
     try:
-        p = Presenter.offscreen(ScreenGeometry.jung2015(screen_shape_px=(8, 8), image_size_cm=(0.1, 0.1)))
+        p = Presenter.offscreen(
+            ScreenGeometry.jung2015(screen_shape_px=(8, 8), image_size_cm=(0.1, 0.1))
+        )
     except PresenterError as exc:
         pytest.skip(f"no headless OpenGL context: {exc}")
     p.close()

@@ -1,0 +1,337 @@
+"""Operator console driven by Textual's pilot: a scripted operator runs a short session end to end.
+
+The log must hold exactly what was typed and scored, including undo (an appended re-score),
+pause/resume and notes; timing data is present for every trial. The presenter-process tests
+(restart after a crash) need a headless GL context and are marked ``gl``.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import csv
+import hashlib
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+from PIL import Image
+
+from experiment.clock import FakeClock, PerfCounterClock
+from experiment.console import OperatorConsole, combine_flips, preview_text
+from experiment.displays import NullDisplay
+from experiment.interfaces import FlipRecord
+from experiment.protocol import load_protocol
+from experiment.session import Session
+from experiment.stimset import StimulusSet
+from experiment.triallog import TrialLog
+
+PROTOCOL = """
+[protocol]
+name = "mini"
+pass_allowed_after_s = 60.0
+[display]
+screen_width_px = 1280
+screen_height_px = 1024
+screen_width_cm = 37.98
+viewing_distance_cm = 80.0
+image_width_cm = 14.6
+image_height_cm = 9.7
+border_rgb = [0, 0, 255]
+border_width_px = 6
+background_rgb = [0, 0, 0]
+[[blocks]]
+part = "main"
+objects = "main"
+levels = [1]
+conditions = ["cluttered", "decluttered"]
+"""
+
+
+def make_stimset(root: Path) -> Path:
+    """Two objects x two conditions x one level (12x8 binary PNGs), with manifest and objects."""
+    root.mkdir(parents=True)
+    objs = [("o1", "cup", "mug", "drinking", "main"), ("o2", "stapler", "", "stapling", "main")]
+    with open(root / "objects.csv", "w", newline="") as f:
+        w = csv.writer(f)
+        w.writerow(["object", "name", "synonyms", "uses", "role"])
+        w.writerows(objs)
+    rng = np.random.default_rng(0)
+    rows = []
+    for o, *_ in objs:
+        for cond in ("cluttered", "decluttered"):
+            p = root / f"{o}_{cond}_1.png"
+            Image.fromarray((rng.random((8, 12)) < 0.3).astype(np.uint8) * 255).save(p)
+            sha = hashlib.sha256(p.read_bytes()).hexdigest()
+            rows.append([o, "main", cond, 1, 40, 12, 8, 96, p.name, sha])
+    with open(root / "manifest.csv", "w", newline="") as f:
+        w = csv.writer(f)
+        w.writerow(
+            [
+                "object",
+                "role",
+                "condition",
+                "level",
+                "window",
+                "width",
+                "height",
+                "pixels",
+                "path",
+                "sha256",
+            ]
+        )
+        w.writerows(rows)
+    return root
+
+
+@pytest.fixture
+def mini(tmp_path):
+    stimset = StimulusSet.load(make_stimset(tmp_path / "set"))
+    proto_path = tmp_path / "mini.toml"
+    proto_path.write_text(PROTOCOL)
+    protocol = load_protocol(proto_path)
+    clock = FakeClock(1000.0)
+    log = TrialLog(tmp_path / "study.sqlite")
+    session = Session.open(log, protocol, stimset, "S01", seed=7, clock=clock)
+    yield session, clock, log, tmp_path
+    session.close()
+    log.close()
+
+
+async def type_text(pilot, text: str) -> None:
+    await pilot.press(*("space" if ch == " " else ch for ch in text))
+
+
+def run(coro) -> None:
+    asyncio.run(asyncio.wait_for(coro, timeout=60))
+
+
+def test_scripted_operator_session_issue_6(mini) -> None:
+    """Typed words, scores, undo, pause and a note all land in the log exactly."""
+    session, clock, log, _ = mini
+    display = NullDisplay(clock)
+    app = OperatorConsole(session, display)
+    typed: dict[int, str] = {}
+
+    async def script() -> None:
+        async with app.run_test() as pilot:
+            await pilot.press("enter")  # "Main part" screen
+            assert display.texts[-1] == "Main part"
+            await pilot.press("enter")  # trial 1 on screen
+            assert app.state == "trial" and len(display.shown) == 1
+            first = app.trial
+            clock.advance(2.0)
+            await type_text(pilot, "a stapler")
+            clock.advance(1.5)
+            await pilot.press("f1")
+            assert app.state == "scored"
+            typed[first.index] = "a stapler"
+            # Undo: re-open scoring, change the words and score "shape".
+            await pilot.press("ctrl+z")
+            assert app.state == "rescoring"
+            assert app.query_one("#response").value == "a stapler"
+            await pilot.press(*["backspace"] * 9)
+            await type_text(pilot, "something to clip")
+            await pilot.press("f3")
+            assert app.state == "scored"
+            # Pause and resume between trials.
+            await pilot.press("f8")
+            assert app.state == "paused" and display.texts[-1] == "Pause"
+            await pilot.press("f8")
+            assert app.state == "scored"
+            # Trial 2: Enter takes the suggested score.
+            await pilot.press("enter")
+            second = app.trial
+            clock.advance(4.0)
+            await type_text(pilot, "a mug")
+            suggested = session.suggest_score(second, "a mug")
+            await pilot.press("enter")
+            typed[second.index] = "a mug"
+            # Trial 3: a pass before 60 s is refused; after 60 s it is taken.
+            await pilot.press("enter")
+            third = app.trial
+            clock.advance(10.0)
+            await pilot.press("f5")
+            assert app.state == "trial"  # refused
+            clock.advance(55.0)
+            await pilot.press("f5")
+            typed[third.index] = ""
+            # Trial 4: a note, then "use"; a pause asked for during the trial waits for the score.
+            await pilot.press("enter")
+            fourth = app.trial
+            await pilot.press("f8")
+            assert app.state == "trial"
+            await pilot.press("f6")
+            await type_text(pilot, "subject tired")
+            await pilot.press("enter")
+            await type_text(pilot, "you drink from it")
+            clock.advance(3.0)
+            await pilot.press("f2")
+            typed[fourth.index] = "you drink from it"
+            assert app.state == "paused"
+            await pilot.press("f8")
+            await pilot.press("enter")
+            assert app.state == "finished"
+            assert display.texts[-1].startswith("The session is complete")
+            await pilot.press("ctrl+q")
+        return suggested
+
+    suggested_box = []
+
+    async def main() -> None:
+        suggested_box.append(await script())
+
+    run(main())
+    (suggested,) = suggested_box
+
+    rows = {r["trial_index"]: dict(r) for r in log.execute("SELECT * FROM trials")}
+    assert {i: r["response"] for i, r in rows.items()} == typed
+    scores = [
+        (r["trial_index"], r["score"], r["rater"], r["note"])
+        for r in log.execute("SELECT * FROM scores ORDER BY score_id")
+    ]
+    idx = sorted(typed, key=lambda i: i)
+    assert [s for s in scores if s[0] == idx[0]] == [
+        (idx[0], "named", "operator", ""),
+        (idx[0], "shape", "operator", "undo by operator; corrected response: 'something to clip'"),
+    ]
+    assert [s[1] for s in scores if s[0] == idx[1]] == [suggested]
+    assert [s[1] for s in scores if s[0] == idx[2]] == ["pass"]
+    assert [s[1] for s in scores if s[0] == idx[3]] == ["use"]
+    tidy = {r["trial_index"]: r["score"] for r in log.tidy_trials()}
+    assert tidy == {idx[0]: "shape", idx[1]: suggested, idx[2]: "pass", idx[3]: "use"}
+    # Response times from the first keystroke (FakeClock), timing present for every trial.
+    assert rows[idx[0]]["rt_s"] == pytest.approx(2.0)
+    assert rows[idx[2]]["rt_s"] == pytest.approx(65.0)  # a pass: time of the score key
+    for r in rows.values():
+        assert r["onset_s"] is not None and r["offset_s"] is not None
+        assert r["offset_s"] >= r["onset_s"]
+        assert json.loads(r["frame_intervals_ms"]) == []  # NullDisplay has no frames
+    assert rows[idx[2]]["offset_s"] - rows[idx[2]]["onset_s"] == pytest.approx(65.0)
+    kinds = [e["kind"] for e in log.events(session.session_id)]
+    assert kinds.count("pause") == 2 and kinds.count("resume") == 2
+    notes = [e["note"] for e in log.events(session.session_id) if e["kind"] == "note"]
+    assert notes == ["subject tired"]
+    corrected = [e for e in log.events(session.session_id) if e["kind"] == "response_corrected"]
+    assert json.loads(corrected[0]["note"]) == {
+        "trial_index": idx[0],
+        "was": "a stapler",
+        "now": "something to clip",
+    }
+    assert "complete" in kinds
+    assert app.return_value.answered == 4 and app.return_value.finished
+
+
+def test_quit_mid_trial_then_resume_shows_it_again(mini) -> None:
+    """Quitting with a stimulus up records nothing for it; the resumed session starts there."""
+    session, clock, log, tmp_path = mini
+    display = NullDisplay(clock)
+    app = OperatorConsole(session, display)
+
+    async def script() -> None:
+        async with app.run_test() as pilot:
+            await pilot.press("enter", "enter")
+            await type_text(pilot, "cup")
+            await pilot.press("f1")
+            await pilot.press("enter")
+            pending = app.trial.index
+            await type_text(pilot, "half typed")
+            await pilot.press("ctrl+q")
+            return pending
+
+    box = []
+
+    async def main() -> None:
+        box.append(await script())
+
+    run(main())
+    session.close()
+    assert log.answered_count(session.session_id) == 1
+    kinds = [e["kind"] for e in log.events(session.session_id)]
+    assert "abort" in kinds
+    resumed = Session.open(log, session.protocol, session.stimset, "S01", clock=clock)
+    assert resumed.next_trial().index == box[0]
+    assert resumed.progress() == (1, 4)
+    resumed.close()
+
+
+def test_undo_only_until_next_trial(mini) -> None:
+    """After the next trial starts, Ctrl+Z changes nothing."""
+    session, clock, log, _ = mini
+    app = OperatorConsole(session, NullDisplay(clock))
+
+    async def script() -> None:
+        async with app.run_test() as pilot:
+            await pilot.press("enter", "enter")
+            await type_text(pilot, "cup")
+            await pilot.press("f4")
+            await pilot.press("enter")
+            await pilot.press("ctrl+z")
+            assert app.state == "trial"
+            await pilot.press("ctrl+q")
+
+    run(script())
+    assert [r["score"] for r in log.execute("SELECT score FROM scores")] == ["wrong"]
+
+
+def test_combine_flips_and_preview() -> None:
+    on = FlipRecord(onset_s=1.0, refresh_hz=60.0)
+    off = FlipRecord(onset_s=1.5, frame_intervals_ms=(16.7, 33.4), dropped_frames=1)
+    f = combine_flips(on, off)
+    assert (f.onset_s, f.offset_s, f.frame_intervals_ms, f.dropped_frames, f.refresh_hz) == (
+        1.0,
+        1.5,
+        (16.7, 33.4),
+        1,
+        60.0,
+    )
+    assert combine_flips(on, None) is on
+    img = np.zeros((8, 12), bool)
+    img[:4, :6] = True
+    text = preview_text(img, cols=12)
+    lines = text.splitlines()
+    # 8 image rows -> 4 text lines of two rows each; the lit quarter is the top-left 2 x 6 cells.
+    assert len(lines) == 4 and all(len(line) == 12 for line in lines)
+    assert lines[0] == lines[1] == "\u2588" * 6 + " " * 6 and lines[2] == lines[3] == " " * 12
+
+
+@pytest.mark.gl
+def test_presenter_process_dies_and_restarts(mini) -> None:
+    """The console says when the presenter dies, and the session continues after F9."""
+    presenter_proc = pytest.importorskip("experiment.presenter_proc")
+    from experiment.presenter import ScreenGeometry
+
+    session, clock, log, _ = mini
+    geometry = ScreenGeometry.from_display_spec(session.protocol.display)
+    try:
+        display = presenter_proc.RemoteDisplay(geometry, mode="offscreen", start_timeout_s=60)
+    except presenter_proc.PresenterDied as exc:
+        pytest.skip(f"no headless OpenGL context for the presenter process: {exc}")
+    app = OperatorConsole(session, display, clock=PerfCounterClock())
+
+    async def script() -> None:
+        async with app.run_test() as pilot:
+            await pilot.press("enter", "enter")
+            assert app.state == "trial"
+            shown = app.trial.index
+            display.kill()
+            await type_text(pilot, "cup")
+            await pilot.pause(0.5)  # the 0.25 s liveness check runs
+            assert app.state == "down"
+            assert "PRESENTER STOPPED" in str(app.query_one("#status").render())
+            await pilot.press("f9")
+            assert display.alive and app.state == "trial" and app.trial.index == shown
+            await type_text(pilot, "cup")
+            await pilot.press("f1")
+            assert app.state == "scored"
+            await pilot.press("ctrl+q")
+
+    try:
+        run(script())
+    finally:
+        display.close()
+    kinds = [e["kind"] for e in log.events(session.session_id)]
+    assert {"presenter_died", "presenter_restart", "trial_reshown"} <= set(kinds)
+    (row,) = log.execute("SELECT * FROM trials")
+    assert row["response"] == "cup" and row["offset_s"] > row["onset_s"]
+    assert len(json.loads(row["frame_intervals_ms"])) == 1  # offscreen: onset -> offset only
