@@ -409,6 +409,8 @@ class StimulusRecord:
         return {k: _fmt(v) for k, v in asdict(self).items()}
 
 
+#: Manifest columns a reader may find missing (added after the first contract); defaults apply.
+_OPTIONAL_COLUMNS = {"grey_levels", "threshold_source"}
 _INT_FIELDS = {"level", "window", "width", "height", "pixels"}
 _OPT_FLOAT_FIELDS = {"sobel_threshold", "edge_ratio"}
 
@@ -425,7 +427,7 @@ def read_manifest(path: str | os.PathLike) -> list[StimulusRecord]:
     if not path.is_file():
         raise InputError(f"{path}: manifest.csv not found")
     names = [f.name for f in fields(StimulusRecord)]
-    required = [n for n in MANIFEST_COLUMNS if n in names]
+    required = [n for n in MANIFEST_COLUMNS if n not in _OPTIONAL_COLUMNS]
     out = []
     for line, row in _read_csv_rows(path, required):
         kw: dict[str, object] = {}
