@@ -51,6 +51,7 @@ from experiment.interfaces import Answer, Display, FlipRecord
 __all__ = [
     "SCORE_KEYS",
     "OperatorConsole",
+    "ScoringApp",
     "ConsoleResult",
     "combine_flips",
     "preview_text",
@@ -491,6 +492,88 @@ class OperatorConsole(App):
         self.result.answered, self.result.total = a, n
         self.result.finished = a >= n
         self.exit(self.result)
+
+
+class ScoringApp(App):
+    """A second rater's walk through logged responses, blind to every other rater's scores.
+
+    Shows each answered trial's object (the right answer), condition, level and the logged words;
+    F1..F5 appends a score by ``rater`` to the log (never the first rater's score, never the
+    suggestion). Returns the number of trials scored.
+
+    Parameters
+    ----------
+    log : experiment.triallog.TrialLog
+    rater : str
+    pending : list of dict
+        Trials to score, from :func:`experiment.present_cli.pending_for_rater`.
+    """
+
+    BINDINGS = [
+        *(Binding(k, f"score('{s}')", s, priority=True) for k, s in SCORE_KEYS.items()),
+        Binding("ctrl+q", "done", "save & quit", priority=True),
+    ]
+
+    def __init__(self, log: Any, rater: str, pending: list[dict[str, Any]]) -> None:
+        super().__init__()
+        self.log = log
+        self.rater = rater
+        self.pending = list(pending)
+        self.position = 0
+        self._recognized: dict[int, Any] = {}
+
+    def compose(self) -> ComposeResult:
+        yield Static(id="item")
+        yield Static(id="status")
+        yield Footer()
+
+    def on_mount(self) -> None:
+        self.title = f"confocal score: rater {self.rater}"
+        self._show()
+
+    def _show(self) -> None:
+        if self.position >= len(self.pending):
+            self.query_one("#item", Static).update("All responses are scored.")
+            self.exit(self.position)
+            return
+        t = self.pending[self.position]
+        self.query_one("#item", Static).update(
+            f"{self.position + 1} of {len(self.pending)}   session {t['session_id']} "
+            f"(subject {t['subject']}), trial {t['trial_index'] + 1}\n"
+            f"object: [b]{t['object_name']}[/b] ({t['object']}), {t['condition']}, "
+            f"level {t['level']}\n\nresponse: [b]{t['response']!r}[/b]"
+        )
+        self.query_one("#status", Static).update("F1 named  F2 use  F3 shape  F4 wrong  F5 pass")
+
+    def _is_recognized(self, session_id: int, score: str) -> bool:
+        if session_id not in self._recognized:
+            from experiment.protocol import ProtocolSpec
+
+            row = self.log.execute(
+                "SELECT protocol_json FROM sessions WHERE session_id = ?", (session_id,)
+            )[0]
+            self._recognized[session_id] = ProtocolSpec.from_dict(json.loads(row[0])).scoring
+        return self._recognized[session_id].is_recognized(score)
+
+    def action_score(self, score: str) -> None:
+        """Append this rater's score for the current trial and move on."""
+        if self.position >= len(self.pending):
+            return
+        t = self.pending[self.position]
+        self.log.add_score(
+            t["session_id"],
+            t["trial_index"],
+            score,
+            self._is_recognized(t["session_id"], score),
+            self.rater,
+            note="blind re-score",
+        )
+        self.position += 1
+        self._show()
+
+    def action_done(self) -> None:
+        """Quit; every score given is already saved."""
+        self.exit(self.position)
 
 
 def make_display(

@@ -1,11 +1,223 @@
-"""Presenter and scoring commands (issue 6): command-line registration (filled in by that issue)."""
+"""Presenter and scoring commands (issue 6): ``confocal present`` and ``confocal score``.
+
+``confocal present --protocol P --stimulus IMG --screenshot OUT.png`` renders one offscreen frame
+at the protocol's full screen resolution, exactly as the subject's screen would show it (EGL, no
+window needed). Without ``--screenshot`` it opens the subject's window and shows the stimulus
+until the window is closed or ``--seconds`` pass.
+
+``confocal score study.sqlite --rater B`` lets a second rater walk through the logged responses
+and score them, blind to the first rater's scores; each score is appended to the log.
+"""
 
 from __future__ import annotations
 
+from pathlib import Path
+from typing import Annotated
+
+import numpy as np
 import typer
 
-__all__ = ["register"]
+from experiment.errors import ConfocalError
+
+__all__ = ["register", "load_stimulus", "geometry_from_options", "pending_for_rater"]
+
+
+def load_stimulus(path: Path) -> np.ndarray:
+    """Read a stimulus image: bool if it has only black and white pixels, else float32 [0, 1]."""
+    from stimuli.io import load_gray
+
+    img = load_gray(path)
+    return img >= 0.5 if np.isin(img, (0.0, 1.0)).all() else img
+
+
+def _pair(text: str, name: str, cast: type = float) -> tuple:
+    try:
+        a, b = text.lower().split("x")
+        return cast(a), cast(b)
+    except ValueError:
+        raise ConfocalError(f"--{name} must look like WIDTHxHEIGHT, got {text!r}") from None
+
+
+def geometry_from_options(
+    protocol: Path | None,
+    *,
+    screen_px: str | None = None,
+    screen_width_cm: float | None = None,
+    distance_cm: float | None = None,
+    image_cm: str | None = None,
+    border_rgb: str | None = None,
+    border_width_px: int | None = None,
+    gamma: float | None = None,
+):
+    """Return the ScreenGeometry of a protocol file (or the paper's), with explicit overrides."""
+    from experiment.presenter import ScreenGeometry
+
+    if protocol is not None:
+        from experiment.protocol import load_protocol
+
+        kw = ScreenGeometry.from_display_spec(load_protocol(protocol).display).to_dict()
+    else:
+        kw = ScreenGeometry.jung2015().to_dict()
+    if screen_px:
+        w, h = _pair(screen_px, "screen-px", int)
+        kw["screen_shape_px"] = (h, w)
+    if screen_width_cm is not None:
+        kw["screen_width_cm"] = screen_width_cm
+    if distance_cm is not None:
+        kw["viewing_distance_cm"] = distance_cm
+    if image_cm:
+        w, h = _pair(image_cm, "image-cm")
+        kw["image_size_cm"] = (h, w)
+    if border_rgb:
+        try:
+            kw["border_rgb"] = tuple(int(v) for v in border_rgb.split(","))
+        except ValueError:
+            raise ConfocalError(
+                f"--border-rgb must look like 0,0,255, got {border_rgb!r}"
+            ) from None
+    if border_width_px is not None:
+        kw["border_width_px"] = None if border_width_px < 0 else border_width_px
+    if gamma is not None:
+        kw["gamma"] = gamma
+    try:
+        return ScreenGeometry.from_dict(kw)
+    except ValueError as exc:
+        raise ConfocalError(f"display geometry: {exc}") from None
+
+
+def pending_for_rater(log, rater: str, *, session_id: int | None = None) -> list[dict]:
+    """Return the answered trials ``rater`` has not scored yet (oldest first), without any scores.
+
+    Each dict has ``session_id, subject, trial_index, object, object_name, condition, level,
+    response``: what a blind second rater needs, and nothing about the first rater's scores.
+    """
+    sql = (
+        "SELECT t.session_id, s.subject, t.trial_index, t.object, p.object_name, t.condition, "
+        "t.level, t.response FROM trials t "
+        "JOIN sessions s ON s.session_id = t.session_id "
+        "JOIN schedule p ON p.session_id = t.session_id AND p.trial_index = t.trial_index "
+        "WHERE NOT EXISTS (SELECT 1 FROM scores q WHERE q.session_id = t.session_id "
+        "AND q.trial_index = t.trial_index AND q.rater = ?)"
+    )
+    params: list = [rater]
+    if session_id is not None:
+        sql += " AND t.session_id = ?"
+        params.append(session_id)
+    sql += " ORDER BY t.session_id, t.trial_index"
+    return [dict(r) for r in log.execute(sql, tuple(params))]
 
 
 def register(app: typer.Typer) -> None:
-    """Add this module's commands to the root ``confocal`` app (none yet)."""
+    """Add ``present`` and ``score`` to the root ``confocal`` app."""
+
+    @app.command("present")
+    def present(
+        stimulus: Annotated[Path, typer.Option("--stimulus", help="Stimulus image (PNG).")],
+        protocol: Annotated[
+            Path | None,
+            typer.Option(
+                help="Protocol TOML whose [display] sets the geometry (default: paper's)."
+            ),
+        ] = None,
+        screenshot: Annotated[
+            Path | None, typer.Option(help="Render one offscreen frame to this PNG and exit.")
+        ] = None,
+        screen_px: Annotated[str | None, typer.Option(help="Override: 1280x1024.")] = None,
+        screen_width_cm: Annotated[float | None, typer.Option(help="Override, cm.")] = None,
+        distance_cm: Annotated[float | None, typer.Option(help="Override, cm.")] = None,
+        image_cm: Annotated[str | None, typer.Option(help="Override: 14.6x9.7 (cm).")] = None,
+        border_rgb: Annotated[str | None, typer.Option(help="Override: 0,0,255.")] = None,
+        border_width_px: Annotated[
+            int | None, typer.Option(help="Frame width; -1 fills the whole surround.")
+        ] = None,
+        gamma: Annotated[float | None, typer.Option(help="Display gamma (default 1).")] = None,
+        integer_scale: Annotated[
+            bool, typer.Option(help="Equal-size cells (size off by < half a cell).")
+        ] = False,
+        phosphenes: Annotated[str | None, typer.Option(help="gaussian or disc.")] = None,
+        phosphene_size: Annotated[float, typer.Option(help="Fraction of the spacing.")] = 0.8,
+        dropout: Annotated[float, typer.Option(help="Fraction of dead phosphenes.")] = 0.0,
+        phosphene_spacing_deg: Annotated[float | None, typer.Option(help="Degrees.")] = None,
+        seed: Annotated[int, typer.Option(help="Seed of the dropout pattern.")] = 0,
+        screen: Annotated[int | None, typer.Option(help="Screen index of the window.")] = None,
+        fullscreen: Annotated[bool, typer.Option("--fullscreen/--window")] = False,
+        seconds: Annotated[float | None, typer.Option(help="Close after this long.")] = None,
+        skip_timing_check: Annotated[bool, typer.Option("--skip-timing-check")] = False,
+    ) -> None:
+        """Show one stimulus as the subject would see it, or render it offscreen (--screenshot)."""
+        geometry = geometry_from_options(
+            protocol,
+            screen_px=screen_px,
+            screen_width_cm=screen_width_cm,
+            distance_cm=distance_cm,
+            image_cm=image_cm,
+            border_rgb=border_rgb,
+            border_width_px=border_width_px,
+            gamma=gamma,
+        )
+        image = load_stimulus(stimulus)
+        from experiment.presenter import PhospheneSpec, Presenter, stimulus_rect_px
+
+        try:
+            phos = (
+                PhospheneSpec(phosphenes, phosphene_size, dropout, phosphene_spacing_deg, seed)
+                if phosphenes
+                else None
+            )
+            rect = stimulus_rect_px(
+                geometry, image.shape, integer_scale=integer_scale, phosphenes=phos
+            )
+        except ValueError as exc:
+            raise ConfocalError(str(exc)) from None
+        kw = dict(integer_scale=integer_scale, phosphenes=phos)
+        if screenshot is not None:
+            with Presenter.offscreen(geometry, **kw) as p:
+                p.show_stimulus(image)
+                p.screenshot(screenshot)
+        else:
+            import time
+
+            with Presenter.windowed(geometry, screen=screen, fullscreen=fullscreen, **kw) as p:
+                hz = p.measure_refresh(check=not skip_timing_check)
+                p.show_stimulus(image)
+                t0 = time.perf_counter()
+                while not p.window.is_closing:
+                    p.pump()
+                    if seconds is not None and time.perf_counter() - t0 >= seconds:
+                        break
+                    if skip_timing_check:
+                        time.sleep(1 / 60)
+                off = p.clear()
+            typer.echo(
+                f"refresh {hz:.2f} Hz; {len(off.frame_intervals_ms)} frames, "
+                f"{off.dropped_frames} dropped",
+                err=True,
+            )
+        top, left, rows, cols = rect
+        typer.echo(
+            f"{geometry.screen_shape_px[1]}x{geometry.screen_shape_px[0]} px screen, "
+            f"{geometry.px_per_cm:.2f} px/cm, {geometry.px_per_deg:.2f} px/deg; stimulus "
+            f"{image.shape[1]}x{image.shape[0]} drawn at {cols}x{rows} px from ({left}, {top})"
+            + (f" -> {screenshot}" if screenshot is not None else "")
+        )
+
+    @app.command("score")
+    def score(
+        log_path: Annotated[Path, typer.Argument(help="The study's trial log (SQLite).")],
+        rater: Annotated[str, typer.Option(help="Your rater name (not the operator's).")],
+        session_id: Annotated[int | None, typer.Option("--session", help="Only this one.")] = None,
+    ) -> None:
+        """Score logged responses as a second rater, blind to the first rater's scores."""
+        from experiment.triallog import TrialLog
+
+        if not log_path.is_file():
+            raise ConfocalError(f"{log_path}: trial log not found")
+        with TrialLog(log_path) as log:
+            pending = pending_for_rater(log, rater, session_id=session_id)
+            if not pending:
+                typer.echo(f"nothing to score: every answered trial has a score by {rater!r}")
+                return
+            from experiment.console import ScoringApp
+
+            done = ScoringApp(log, rater, pending).run() or 0
+            typer.echo(f"{done} trial(s) scored by {rater!r}; {len(pending) - done} left")
