@@ -219,7 +219,7 @@ class ScreenGeometry:
     def image_shape_px(self) -> tuple[int, int]:
         """Image size on screen (rows, cols), pixels: the cm size times px/cm, rounded."""
         return tuple(  # type: ignore[return-value]
-            int(round(s * self.px_per_cm)) for s in self.image_size_cm
+            max(1, int(round(s * self.px_per_cm))) for s in self.image_size_cm
         )
 
     def to_dict(self) -> dict[str, Any]:

@@ -70,7 +70,7 @@ def run_lengths(line: np.ndarray) -> list[int]:
 
 @pytest.mark.parametrize("shape_px", [(8, 12), (25, 38), (65, 98)])
 def test_paper_geometry_blocks_and_border(open_presenter, shape_px) -> None:
-    """The image covers 14.6 x 9.7 cm worth of pixels (+-1), each cell a uniform block, blue around."""
+    """The image covers 14.6 x 9.7 cm of pixels (+-1), each cell a uniform block, blue around."""
     g = ScreenGeometry.jung2015()
     # Independent expectation from the paper's numbers: px = cm * (1280 px / screen width cm).
     want_cols = 14.6 * 1280 / g.screen_width_cm
@@ -110,7 +110,7 @@ def test_paper_geometry_blocks_and_border(open_presenter, shape_px) -> None:
 
 
 def test_integer_scale_is_exact_kron(open_presenter) -> None:
-    """At an integer scale the image is exactly np.kron(image, ones(k, k)) and the rest is border."""
+    """At an integer scale the image is exactly np.kron(image, ones(k, k)), the rest border."""
     g = ScreenGeometry.jung2015()
     rng = np.random.default_rng(6)
     img = rng.random((8, 12)) < 0.5
@@ -141,7 +141,7 @@ def test_full_resolution_is_one_to_one(open_presenter) -> None:
 
 
 def test_protocol_frame_and_background_match_reference(open_presenter) -> None:
-    """A 6 px border frame on black (the shipped protocol's display table) equals the numpy reference."""
+    """A 6 px border frame on black (the shipped protocol's display) equals the numpy reference."""
     g = ScreenGeometry.jung2015(screen_width_cm=40.0, border_width_px=6, background_rgb=(0, 0, 0))
     img = checkerboard((18, 27))
     p = open_presenter(g)
