@@ -19,7 +19,8 @@ The child first sends one event, then answers each request in order with the sam
 
 ==================  ==========================================================================
 child -> console    ``{"event": "ready", "protocol": 1, "pid": int, "screen_shape_px": [rows,
-                    cols], "refresh_hz": float|null, "renderer": str, "timing_check": "passed" |
+                    cols], "refresh_hz": float|null, "measured_refresh_hz":
+                    float|null, "renderer": str, "timing_check": "passed" |
                     "skipped" | "none"}``; or ``{"event": "error", "error": str}`` and exit 2.
 console -> child    ``{"id": int, "cmd": "stimulus", "shape": [rows, cols], "dtype": "bool" |
                     "float32", "data": base64 of the C-order bytes}`` -> reply with ``"flip"``
@@ -183,6 +184,7 @@ def serve(
             "pid": os.getpid(),
             "screen_shape_px": list(presenter.geometry.screen_shape_px),
             "refresh_hz": presenter.refresh_hz,
+            "measured_refresh_hz": getattr(presenter, "measured_refresh_hz", presenter.refresh_hz),
             "renderer": presenter.ctx.info.get("GL_RENDERER", "?"),
             "timing_check": getattr(presenter, "timing_check", "none"),
         }
@@ -266,6 +268,13 @@ def main(argv: list[str] | None = None) -> int:
     except Exception as exc:  # noqa: BLE001 - reported to the console as one line
         return fail(str(exc))
     cap = NO_VSYNC_CAP_HZ if args.skip_timing_check else None
+    presenter.measured_refresh_hz = presenter.refresh_hz
+    if cap is not None and presenter.refresh_hz is not None and presenter.refresh_hz > cap:
+        # No vsync: frames are paced by the cap, so that is the rate dropped frames refer to.
+        logger.warning(
+            "flips do not wait for vsync (%.0f Hz); capped at %g Hz", presenter.refresh_hz, cap
+        )
+        presenter.refresh_hz = cap
     try:
         return serve(presenter, sys.stdin, out, continuous=args.mode == "window", cap_hz=cap)
     finally:
@@ -295,6 +304,8 @@ class RemoteDisplay:
         Called with unsolicited events (``closed``) from the reader thread.
     command : list of str or None
         The child's command line (tests); default runs this module with the current Python.
+    env : dict or None
+        The child's environment (e.g. another ``DISPLAY``); default inherits ours.
     """
 
     def __init__(
@@ -309,6 +320,7 @@ class RemoteDisplay:
         phosphenes: dict[str, Any] | None = None,
         on_event: Callable[[dict[str, Any]], None] | None = None,
         command: list[str] | None = None,
+        env: dict[str, str] | None = None,
         start_timeout_s: float = START_TIMEOUT_S,
         reply_timeout_s: float = REPLY_TIMEOUT_S,
     ) -> None:
@@ -325,10 +337,12 @@ class RemoteDisplay:
         if phosphenes:
             args += ["--phosphenes", json.dumps(phosphenes)]
         self.command = (command or [sys.executable, "-m", "experiment.presenter_proc"]) + args
+        self.env = env
         self.on_event = on_event
         self.reply_timeout_s = reply_timeout_s
         self.start_timeout_s = start_timeout_s
         self.info: dict[str, Any] = {}
+        self.returncode: int | None = None
         self._next_id = 0
         self._proc: subprocess.Popen[str] | None = None
         self._replies: queue.Queue[dict[str, Any] | None] = queue.Queue()
@@ -360,6 +374,7 @@ class RemoteDisplay:
             stdin=subprocess.PIPE,
             stdout=subprocess.PIPE,
             stderr=None,
+            env=self.env,
             text=True,
             encoding="utf-8",
             bufsize=1,
@@ -476,6 +491,7 @@ class RemoteDisplay:
             except (subprocess.TimeoutExpired, OSError):
                 proc.kill()
                 proc.wait(timeout=5)
+        self.returncode = proc.returncode
 
     def close(self) -> None:
         """Ask the presenter to close and wait for it to exit (kill after 5 s)."""
