@@ -23,6 +23,7 @@ from dataclasses import dataclass
 from functools import lru_cache
 
 import numpy as np
+from scipy.ndimage import correlate
 from scipy.signal import fftconvolve
 
 from stimuli import jung2015
@@ -42,6 +43,10 @@ __all__ = [
 #: Supersampling per pixel axis when integrating the disc PSF over each kernel pixel. Ours, not
 #: the paper's: 16x16 sub-samples put the kernel's area error well below 1 % for discs >= 1 px.
 _KERNEL_SUBSAMPLES = 16
+
+#: Kernels up to this side length are applied by direct correlation, larger ones by FFT
+#: (ours: the cross-over measured on 492x327 images, where a 7x7 direct pass costs about one FFT).
+_DIRECT_MAX_SIDE = 7
 
 #: Circles of confusion below this diameter are treated as a point (no blur), pixels. Ours: a
 #: disc smaller than one pixel is inside the pixel's own footprint.
@@ -246,7 +251,7 @@ def centre_crop_offset(
 
 
 def _check_layers(layers: Sequence[Layer], shape_px: tuple[int, int]) -> list[Layer]:
-    if isinstance(layers, Layer) or not isinstance(layers, Sequence):
+    if isinstance(layers, (Layer, str, bytes)) or not isinstance(layers, Sequence):
         raise InputError(f"layers must be a sequence of Layer, got {type(layers).__name__}")
     if len(layers) == 0:
         raise InputError("layers must hold at least one Layer, got an empty sequence")
@@ -280,7 +285,12 @@ def _blur_crop(planes: np.ndarray, kernel: np.ndarray, shape_px: tuple[int, int]
     padded = np.pad(planes, ((0, 0), (h, h), (h, h)), mode="reflect")
     # In padded coordinates the crop starts at (r0 + h, c0 + h); take h more on each side.
     region = padded[:, r0 : r0 + rows + 2 * h, c0 : c0 + cols + 2 * h]
-    return fftconvolve(region, kernel[None, :, :], mode="valid", axes=(1, 2))
+    k32 = kernel.astype(np.float32)
+    if kernel.shape[0] <= _DIRECT_MAX_SIDE:
+        # The disc is symmetric, so correlation equals convolution.
+        full = correlate(region, k32[None, :, :], mode="nearest")
+        return full[:, h : h + rows, h : h + cols]
+    return fftconvolve(region, k32[None, :, :], mode="valid", axes=(1, 2))
 
 
 def render_thin_lens(layers: Sequence[Layer], camera: ThinLensCamera) -> np.ndarray:
@@ -329,11 +339,11 @@ def render_thin_lens(layers: Sequence[Layer], camera: ThinLensCamera) -> np.ndar
     shape_px = (int(camera.shape_px[0]), int(camera.shape_px[1]))
     checked = _check_layers(layers, shape_px)
     order = sorted(range(len(checked)), key=lambda i: -checked[i].depth_m)
-    out = np.zeros(shape_px, dtype=np.float64)
+    out = np.zeros(shape_px, dtype=np.float32)
     for i in order:
         layer = checked[i]
-        texture = np.asarray(layer.texture, dtype=np.float64)
-        alpha = np.asarray(layer.alpha, dtype=np.float64)
+        texture = np.asarray(layer.texture, dtype=np.float32)
+        alpha = np.asarray(layer.alpha, dtype=np.float32)
         kernel = disc_kernel(camera.coc_diameter_px(layer.depth_m))
         if alpha.min() >= 1.0:
             # An opaque layer stays opaque under blur (reflected margins): skip its alpha.

@@ -474,8 +474,8 @@ class _Canvas:
         self.shape = shape_px
         self.ppu = float(px_per_unit)
         self.r0, self.c0 = origin_rc
-        self.c = np.zeros(shape_px, dtype=np.float64)
-        self.a = np.zeros(shape_px, dtype=np.float64)
+        self.c = np.zeros(shape_px, dtype=np.float32)
+        self.a = np.zeros(shape_px, dtype=np.float32)
 
     @property
     def extent(self) -> tuple[float, float, float, float]:
@@ -497,8 +497,8 @@ class _Canvas:
         r_hi = min(rows, int(math.ceil(self.r0 - y0 * self.ppu + pad_px)) + 1)
         if c_lo >= c_hi or r_lo >= r_hi:
             return None
-        xs = (np.arange(c_lo, c_hi, dtype=np.float64) - self.c0) / self.ppu
-        ys = (self.r0 - np.arange(r_lo, r_hi, dtype=np.float64)) / self.ppu
+        xs = ((np.arange(c_lo, c_hi) - self.c0) / self.ppu).astype(np.float32)
+        ys = ((self.r0 - np.arange(r_lo, r_hi)) / self.ppu).astype(np.float32)
         return (slice(r_lo, r_hi), slice(c_lo, c_hi)), xs[None, :], ys[:, None]
 
     def paint(
@@ -514,9 +514,9 @@ class _Canvas:
         grid = self._grid(shape.bbox, 2.0 + outline * self.ppu)
         if grid is None:
             return
-        sl, xs, ys = grid
-        x, y = np.broadcast_arrays(xs, ys)
-        d = shape.sdf(x, y) * self.ppu
+        # Fields broadcast a (1, cols) x against a (rows, 1) y.
+        sl, x, y = grid
+        d = shape.sdf(x, y) * np.float32(self.ppu)
         cov = np.clip(0.5 - d, 0.0, 1.0) * opacity
         v = value(x, y) if callable(value) else value
         self.c[sl] = cov * v + (1.0 - cov) * self.c[sl]
@@ -528,8 +528,7 @@ class _Canvas:
 
     def fill(self, value: Value) -> None:
         """Cover the whole canvas, opaque."""
-        sl, xs, ys = self._grid(self.extent, 0)
-        x, y = np.broadcast_arrays(xs, ys)
+        sl, x, y = self._grid(self.extent, 0)
         v = value(x, y) if callable(value) else value
         self.c[sl] = v
         self.a[sl] = 1.0
@@ -606,7 +605,7 @@ def _draw_desk_lamp(cv: _Canvas, rng: np.random.Generator) -> None:
     shade = _rotate(
         _polygon([(-0.08, 0.0), (0.08, 0.0), (0.22, -0.34), (-0.22, -0.34)])
         | _ellipse(0, 0.0, 0.08, 0.04),
-        -35.0,
+        35.0,
         0,
         0,
     )
@@ -1294,19 +1293,24 @@ def _shirt(cv: _Canvas, rng: np.random.Generator, cx: float, top: float) -> None
         ),
         0.3,
     )
-    shape = _polygon(
-        [
-            (cx - 0.06, top),
-            (cx + 0.06, top),
-            (cx + w / 2, top - 0.05),
-            (cx + w / 2 + 0.08, top - 0.28),
-            (cx + w / 2 - 0.01, top - 0.3),
-            (cx + w / 2 - 0.02, top - h),
-            (cx - w / 2 + 0.02, top - h),
-            (cx - w / 2 + 0.01, top - 0.3),
-            (cx - w / 2 - 0.08, top - 0.28),
-            (cx - w / 2, top - 0.05),
-        ]
+    # Painted as separate pieces (sleeves, torso, shoulders): a union would evaluate every
+    # piece's distance over the whole shirt, and the seams between pieces look like seams.
+    pieces = [
+        _box(cx + sx * (w / 2 + 0.02), top - 0.17, 0.11, 0.25, r=0.01, angle_deg=sx * 18.0)
+        for sx in (-1.0, 1.0)
+    ]
+    pieces.append(_box(cx, top - (h + 0.05) / 2, w - 0.03, h - 0.05, r=0.01))
+    pieces.append(
+        _polygon(
+            [
+                (cx - 0.06, top),
+                (cx + 0.06, top),
+                (cx + w / 2, top - 0.05),
+                (cx + w / 2 - 0.015, top - 0.09),
+                (cx - w / 2 + 0.015, top - 0.09),
+                (cx - w / 2, top - 0.05),
+            ]
+        )
     )
     pat = rng.choice(["stripes", "check", "solid", "hstripes"])
     v0, v1 = rng.uniform(0.05, 0.45), rng.uniform(0.55, 0.95)
@@ -1330,7 +1334,8 @@ def _shirt(cv: _Canvas, rng: np.random.Generator, cx: float, top: float) -> None
     def folds(x, y):
         return np.clip(base(x, y) * (0.8 + 0.2 * np.sin((x - cx) * 60 + y * 5)), 0, 1)
 
-    cv.paint(shape, folds, outline=0.004, outline_value=0.05)
+    for piece in pieces:
+        cv.paint(piece, folds, outline=0.004, outline_value=0.05)
     cv.paint(
         _polygon([(cx - 0.06, top), (cx, top - 0.07), (cx + 0.06, top), (cx, top - 0.02)]),
         0.9,
@@ -1408,7 +1413,7 @@ def _bg_cables(cv: _Canvas, rng: np.random.Generator) -> None:
                 (rng.uniform(x0, x1), rng.uniform(y0 - 0.2, y1)),
                 (x1 + 0.05, rng.uniform(y0, y1)),
             ]
-        pts = _bezier(p, 40)
+        pts = _bezier(p, 24)
         r = rng.uniform(0.003, 0.007)
         v = rng.uniform(0.02, 0.2) if rng.random() < 0.7 else rng.uniform(0.75, 0.95)
         for a, b in zip(pts[:-1], pts[1:], strict=True):
