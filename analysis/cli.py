@@ -11,6 +11,7 @@ import logging
 import warnings
 from enum import StrEnum
 from pathlib import Path
+from typing import Annotated
 
 import click
 import typer
@@ -58,21 +59,29 @@ class By(StrEnum):
 
 @analyze_app.command("run")
 def run(
-    trials: list[Path] = typer.Argument(
-        ...,
-        help="Trial files: SQLite session databases, CSV or Parquet tables; pooled.",
-        show_default=False,
-    ),
-    out: Path = typer.Option(..., "--out", "-o", help="Report folder (replaced atomically)."),
-    pc: float = typer.Option(0.5, "--pc", help="Proportion correct of the threshold."),
-    by: By = typer.Option(By.subject, "--by", help="Also fit each subject ('none': pooled only)."),
-    guess: float = typer.Option(0.0, "--guess", help="Guess rate (0.5 for 2AFC data)."),
-    seed: int | None = typer.Option(None, "--seed", help="Seed of the MCMC runs."),
-    mixed: bool = typer.Option(False, "--mixed", help="Also fit the mixed logistic model."),
-    subject_factor: bool = typer.Option(
-        False, "--subject-factor", help="Add subject dummies to the logistic model."
-    ),
-    figures: bool = typer.Option(True, "--figures/--no-figures", help="Draw Figs. 8, 9, S2, S3."),
+    trials: Annotated[
+        list[Path],
+        typer.Argument(
+            help="Trial files: SQLite session databases, CSV or Parquet tables; pooled.",
+            show_default=False,
+        ),
+    ],
+    out: Annotated[Path, typer.Option("--out", "-o", help="Report folder (replaced atomically).")],
+    pc: Annotated[float, typer.Option("--pc", help="Proportion correct of the threshold.")] = 0.5,
+    by: Annotated[
+        By, typer.Option("--by", help="Also fit each subject ('none': pooled only).")
+    ] = By.subject,
+    guess: Annotated[float, typer.Option("--guess", help="Guess rate (0.5 for 2AFC).")] = 0.0,
+    seed: Annotated[int | None, typer.Option("--seed", help="Seed of the MCMC runs.")] = None,
+    mixed: Annotated[
+        bool, typer.Option("--mixed", help="Also fit the mixed logistic model.")
+    ] = False,
+    subject_factor: Annotated[
+        bool, typer.Option("--subject-factor", help="Add subject dummies to the logistic model.")
+    ] = False,
+    figures: Annotated[
+        bool, typer.Option("--figures/--no-figures", help="Draw Figs. 8, 9, S2, S3.")
+    ] = True,
 ) -> None:
     """Analyse TRIALS and write REPORT_DIR (results.json, report.md, figures)."""
     from rich.console import Console
@@ -165,19 +174,23 @@ class Effect(StrEnum):
 
 @analyze_app.command("power")
 def power(
-    odds_ratio: float | None = typer.Option(
-        None, "--odds-ratio", help="Background odds ratio to detect (paper: 5.6)."
-    ),
-    threshold_ratio: float | None = typer.Option(
-        None, "--threshold-ratio", help="Cluttered / de-cluttered 50% threshold ratio to detect."
-    ),
-    subjects: str = typer.Option(
-        "1,2,3,4,6,8", "--subjects", help="Comma-separated numbers of subjects to simulate."
-    ),
-    target: float = typer.Option(0.8, "--power", help="Power wanted."),
-    sims: int = typer.Option(200, "--sims", help="Simulations per number of subjects."),
-    alpha: float = typer.Option(0.05, "--alpha", help="Test level."),
-    seed: int | None = typer.Option(None, "--seed", help="Seed of the simulations."),
+    odds_ratio: Annotated[
+        float | None,
+        typer.Option("--odds-ratio", help="Background odds ratio to detect (paper: 5.6)."),
+    ] = None,
+    threshold_ratio: Annotated[
+        float | None,
+        typer.Option(
+            "--threshold-ratio", help="Cluttered / de-cluttered 50% threshold ratio to detect."
+        ),
+    ] = None,
+    subjects: Annotated[
+        str, typer.Option("--subjects", help="Comma-separated numbers of subjects to simulate.")
+    ] = "1,2,3,4,6,8",
+    target: Annotated[float, typer.Option("--power", help="Power wanted.")] = 0.8,
+    sims: Annotated[int, typer.Option("--sims", help="Simulations per number of subjects.")] = 200,
+    alpha: Annotated[float, typer.Option("--alpha", help="Test level.")] = 0.05,
+    seed: Annotated[int | None, typer.Option("--seed", help="Seed of the simulations.")] = None,
 ) -> None:
     """Estimate how many subjects detect a given odds ratio or threshold ratio (simulation)."""
     from rich.console import Console

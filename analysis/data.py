@@ -192,7 +192,8 @@ def check_trials(df: pd.DataFrame, source: str) -> pd.DataFrame:
     bad = pixels.isna() | ~np.isfinite(pixels.astype(float))
     if bad.any():
         raise DataError(
-            f"{source}: column 'pixels' must be numeric, got non-numeric {_first_bad(bad, df, 'pixels')}"
+            f"{source}: column 'pixels' must be numeric, got non-numeric "
+            f"{_first_bad(bad, df, 'pixels')}"
         )
     if (pixels <= 0).any():
         raise DataError(

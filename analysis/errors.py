@@ -1,4 +1,4 @@
-"""Errors that mean "the data given to the analysis is wrong" (exit status 2 at the command line)."""
+"""Errors meaning "the data given to the analysis is wrong" (exit status 2 at the command line)."""
 
 from __future__ import annotations
 

@@ -53,7 +53,7 @@ class OddsRatioTable:
     rows: tuple[tuple[str, float, float, float, float], ...]
 
     def to_frame(self) -> pd.DataFrame:
-        """Return the table as a DataFrame with columns term, odds_ratio, ci95_low, ci95_high, p_value."""
+        """Return a DataFrame with columns term, odds_ratio, ci95_low, ci95_high, p_value."""
         return pd.DataFrame(list(self.rows), columns=list(_COLUMNS))
 
     def __getitem__(self, term: str) -> dict[str, Any]:
