@@ -526,6 +526,26 @@ class _Canvas:
             self.c[sl] = cov_o * outline_value + (1.0 - cov_o) * self.c[sl]
             self.a[sl] = cov_o + (1.0 - cov_o) * self.a[sl]
 
+    def place(self, bottom_row: float, centre_col: float) -> None:
+        """Shift the drawing by whole pixels: lowest row to ``bottom_row``, box centred on a column.
+
+        Tilted drawings (utensils, keys) lift off their base or drift sideways when rotated;
+        this puts every object on the same base line, centred, as in the paper's photos.
+        """
+        rows, cols = np.nonzero(self.a > 0.5)
+        if rows.size == 0:
+            return
+        dr = int(round(bottom_row - rows.max()))
+        dc = int(round(centre_col - (cols.min() + cols.max()) / 2.0))
+        for name in ("c", "a"):
+            src = getattr(self, name)
+            dst = np.zeros_like(src)
+            h, w = src.shape
+            dst[max(dr, 0) : h + min(dr, 0), max(dc, 0) : w + min(dc, 0)] = src[
+                max(-dr, 0) : h + min(-dr, 0), max(-dc, 0) : w + min(-dc, 0)
+            ]
+            setattr(self, name, dst)
+
     def fill(self, value: Value) -> None:
         """Cover the whole canvas, opaque."""
         sl, x, y = self._grid(self.extent, 0)
@@ -702,9 +722,9 @@ def _draw_key(cv: _Canvas, rng: np.random.Generator) -> None:
 
 def _draw_glasses(cv: _Canvas, rng: np.random.Generator) -> None:
     frame = rng.uniform(0.05, 0.25)
-    cy = 0.42
+    cy = 0.3
     for sx in (-1.0, 1.0):
-        cv.paint(_capsule(sx * 0.47, cy + 0.1, sx * 0.5, cy - 0.25, 0.02), frame + 0.15, outline=OL)
+        cv.paint(_capsule(sx * 0.47, cy + 0.1, sx * 0.5, 0.03, 0.02), frame + 0.15, outline=OL)
     for sx in (-1.0, 1.0):
         lens = _box(sx * 0.24, cy, 0.4, 0.3, r=0.11)
         cv.paint(
@@ -1521,12 +1541,10 @@ def make_scene(
     r0, _ = centre_crop_offset(shape, cam.shape_px)
     bottom_row = r0 + cam.shape_px[0] - 1 - _BASE_GAP_FRACTION * cam.shape_px[0]
     scale = rng.uniform(0.94, 1.06)
-    obj = _Canvas(
-        shape,
-        object_width_px(cam) * scale,
-        (bottom_row, centre[1] + rng.uniform(-0.03, 0.03) * object_width_px(cam)),
-    )
+    centre_col = centre[1] + rng.uniform(-0.03, 0.03) * object_width_px(cam)
+    obj = _Canvas(shape, object_width_px(cam) * scale, (bottom_row, centre_col))
     _DRAW[k.name](obj, rng)
+    obj.place(bottom_row, centre_col)
     layers.append(obj.layer(f"object:{k.name}", cam.focus_m))
     return layers
 
