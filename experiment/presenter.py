@@ -599,6 +599,7 @@ class Presenter:
         self._stim_tex: moderngl.Texture | None = None
         self._text_tex: moderngl.Texture | None = None
         self._mode = 1
+        self._text_box = (0, 0, 0, 0)
         self._timing: _StimulusTiming | None = None
         self._closed = False
         g = geometry
@@ -618,6 +619,7 @@ class Presenter:
         self._set("u_phos", 0)
         top, left, r, c = stimulus_rect_px(g, g.image_shape_px)
         self._set("u_rect", (left, top, c, r))
+        self._rect = (left, top, c, r)
 
     # -- construction -------------------------------------------------------------------------
 
@@ -692,14 +694,46 @@ class Presenter:
 
     # -- drawing and flipping -----------------------------------------------------------------
 
+    def _gl_box(self, left: int, top: int, cols: int, rows: int) -> tuple[int, int, int, int]:
+        """Convert a top-left-origin box to GL's bottom-left (x, y, width, height), clipped."""
+        screen_rows, screen_cols = self.geometry.screen_shape_px
+        x0, y0 = max(0, left), max(0, top)
+        x1, y1 = min(screen_cols, left + cols), min(screen_rows, top + rows)
+        return x0, screen_rows - y1, max(0, x1 - x0), max(0, y1 - y0)
+
     def _draw(self) -> None:
-        self._fbo.use()
+        # Only the image (or text) rectangle runs the fragment shader; the border frame and the
+        # background are plain clears. The shader alone decides every image pixel; this just
+        # spares a software rasteriser (llvmpipe) shading a million pixels of flat colour.
+        fbo, g = self._fbo, self.geometry
+        fbo.use()
+        if self._mode == 2:
+            fbo.clear(0.0, 0.0, 0.0, 1.0)
+            box = self._gl_box(*self._text_box)
+        else:
+            border = tuple(c / 255 for c in g.border_rgb)
+            left, top, cols, rows = self._rect
+            b = g.border_width_px
+            if b is None:
+                fbo.clear(*border, 1.0)
+            else:
+                fbo.clear(*(c / 255 for c in g.background_rgb), 1.0)
+                fbo.clear(
+                    *border,
+                    1.0,
+                    viewport=self._gl_box(left - b, top - b, cols + 2 * b, rows + 2 * b),
+                )
+            box = self._gl_box(left, top, cols, rows)
         self._prog["u_mode"].value = self._mode
         if self._stim_tex is not None:
             self._stim_tex.use(0)
         if self._text_tex is not None:
             self._text_tex.use(1)
-        self._vao.render(moderngl.TRIANGLES, vertices=3)
+        self.ctx.scissor = box
+        try:
+            self._vao.render(moderngl.TRIANGLES, vertices=3)
+        finally:
+            self.ctx.scissor = None
 
     def _flip(self) -> float:
         if self._closed:
@@ -735,6 +769,7 @@ class Presenter:
             self.geometry, img.shape, integer_scale=self.integer_scale, phosphenes=self.phosphenes
         )
         self._set("u_rect", (left, top, c, r))
+        self._rect = (left, top, c, r)
         self._set("u_grid", (cols, rows))
         if self.phosphenes is not None:
             self._set("u_phos", 1 if self.phosphenes.kind == "gaussian" else 2)
@@ -800,7 +835,8 @@ class Presenter:
             self._text_tex.release()
         self._text_tex = self.ctx.texture((w, h), 1, im.tobytes())
         self._text_tex.filter = (moderngl.NEAREST, moderngl.NEAREST)
-        self._set("u_text_rect", ((cols - w) // 2, (rows - h) // 2, w, h))
+        self._text_box = ((cols - w) // 2, (rows - h) // 2, w, h)
+        self._set("u_text_rect", self._text_box)
         self._timing = None
         self._mode = 2
         self._draw()
