@@ -1,0 +1,473 @@
+"""Simulated observers: responders that answer headless sessions (dry runs, pilots, CI).
+
+Two observers are registered by name (:data:`OBSERVERS`, :func:`make_observer`):
+
+``logistic``
+    Draws "recognised or not" from the logistic model the paper fitted (Jung et al. 2015,
+    Sec. 3.3), plus a subject effect, object effects and lapses::
+
+        logit p = b0 + ln(OR_bg) * decluttered + ln(OR_px) * log10(pixels) + u_subject + v_object
+        P(recognised) = (1 - lapse) * p
+
+    ``b0`` is set so that the 50 % point of the cluttered condition is ``x50_cluttered_px``
+    (for u = v = 0); the de-cluttered 50 % point follows from the odds ratio:
+    ``10 ** (log10(x50_cluttered_px) - ln(OR_bg) / ln(OR_px))`` (3,470 px with the defaults, the
+    paper's Weibull fit gave 3,532 px). Photos (training) are always recognised unless a lapse.
+
+``model``
+    Looks at the image. The shown stimulus plus Gaussian pixel noise is compared, by Pearson
+    correlation, with every candidate object's de-cluttered image at the same level (photos with
+    photos); the correlations get Gaussian decision noise; the best match is answered if its
+    correlation exceeds a criterion, else the observer passes. Clutter lowers the correlation
+    with the right template and low resolution makes templates alike, so both hurt because of the
+    pictures themselves. Nothing about the result is fixed in advance.
+
+Both draw every random number from the ``rng`` they are given (the session's child generator);
+the subject and object effects of ``logistic`` come from ``population_seed`` so the same object
+is equally hard for every simulated subject.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import math
+from collections.abc import Callable
+from dataclasses import dataclass, fields
+from typing import Any
+
+import numpy as np
+
+from experiment.interfaces import Answer
+from experiment.stimset import StimulusSet
+
+__all__ = [
+    "LogisticParams",
+    "LogisticObserver",
+    "TemplateParams",
+    "TemplateObserver",
+    "OBSERVERS",
+    "make_observer",
+    "to_retina",
+]
+
+#: Odds ratio of recognition, de-cluttered vs cluttered. Source: Jung et al. 2015, Sec. 3.3
+#: (OR 5.6, 95 % CI 3.9-8.1).
+PAPER_OR_BACKGROUND: float = 5.6
+#: Odds ratio per log10 pixel. Source: Jung et al. 2015, Sec. 3.3 (OR 74.5, CI 48.9-113.5).
+PAPER_OR_PER_LOG10_PX: float = 74.5
+#: 50 % threshold of the cluttered condition, pixels. Source: Jung et al. 2015, Sec. 3.3 (8,695).
+PAPER_X50_CLUTTERED_PX: float = 8695.0
+
+
+def _stable_seed(*parts: object) -> int:
+    """A seed from strings/ints that is the same on every run and platform (not ``hash()``)."""
+    h = hashlib.sha256("\x1f".join(map(str, parts)).encode()).digest()
+    return int.from_bytes(h[:8], "little")
+
+
+def _rt_s(rng: np.random.Generator, median_s: float, limit_s: float) -> float:
+    return float(min(limit_s, median_s * math.exp(rng.normal(0.0, 0.5))))
+
+
+def _answer_text(
+    rng: np.random.Generator,
+    stimset: StimulusSet,
+    trial: Any,
+    recognized: bool,
+    guess: str | None,
+    p_use: float,
+    p_shape: float,
+    rater: str,
+    rt_s: float,
+) -> Answer:
+    obj = stimset.objects[trial.object]
+    if recognized:
+        if obj.uses and rng.random() < p_use:
+            return Answer(f"you use it for {obj.uses[0]}", "use", rater, rt_s)
+        return Answer(obj.name, "named", rater, rt_s)
+    if guess is not None:
+        return Answer(stimset.objects[guess].name, "wrong", rater, rt_s)
+    if rng.random() < p_shape:
+        return Answer("something round", "shape", rater, rt_s)
+    return Answer("", "pass", rater, max(rt_s, float(trial.pass_allowed_after_s)))
+
+
+@dataclass(frozen=True)
+class LogisticParams:
+    """Parameters of the ``logistic`` observer (see the module docstring for the model).
+
+    Parameters
+    ----------
+    or_background : float > 0
+        Odds ratio de-cluttered vs cluttered (paper: 5.6).
+    or_per_log10_px : float > 1
+        Odds ratio per log10 pixel (paper: 74.5).
+    x50_cluttered_px : float > 0
+        Cluttered 50 % point for an average subject and object, pixels (paper: 8,695).
+    subject_sd : float >= 0
+        SD of the subject effect u, logit units. Ours (the paper's Fig. 9 spreads thresholds by
+        about a factor 2, i.e. ~0.5 logit at slope ln 74.5 / log10).
+    object_sd : float >= 0
+        SD of the object effects v, logit units. Ours (Fig. S3 spans about +-2 log odds).
+    lapse : float in [0, 0.5)
+        Probability of failing a trial that would have been recognised. Ours.
+    p_use : float in [0, 1]
+        Share of recognised answers given as a use instead of a name. Ours.
+    p_wrong : float in [0, 1]
+        Share of unrecognised answers that name another object. Ours.
+    p_shape : float in [0, 1]
+        Share of the remaining unrecognised answers that describe shape (else pass). Ours.
+    median_rt_s : float > 0
+        Median response time, seconds. Ours.
+    population_seed : int
+        Seed of the subject and object effects (shared by all simulated subjects).
+    """
+
+    or_background: float = PAPER_OR_BACKGROUND
+    or_per_log10_px: float = PAPER_OR_PER_LOG10_PX
+    x50_cluttered_px: float = PAPER_X50_CLUTTERED_PX
+    subject_sd: float = 0.5
+    object_sd: float = 1.0
+    lapse: float = 0.02
+    p_use: float = 0.15
+    p_wrong: float = 0.3
+    p_shape: float = 0.3
+    median_rt_s: float = 4.0
+    population_seed: int = 0
+
+    def __post_init__(self) -> None:
+        for f in fields(self):
+            getattr(self, f"_check_{f.name}", lambda: None)()
+
+    def _check_or_background(self) -> None:
+        if not self.or_background > 0:
+            raise ValueError(f"or_background must be > 0, got {self.or_background!r}")
+
+    def _check_or_per_log10_px(self) -> None:
+        if not self.or_per_log10_px > 1:
+            raise ValueError(f"or_per_log10_px must be > 1, got {self.or_per_log10_px!r}")
+
+    def _check_x50_cluttered_px(self) -> None:
+        if not self.x50_cluttered_px > 0:
+            raise ValueError(f"x50_cluttered_px must be > 0, got {self.x50_cluttered_px!r}")
+
+    def _check_lapse(self) -> None:
+        if not 0 <= self.lapse < 0.5:
+            raise ValueError(f"lapse must be in [0, 0.5), got {self.lapse!r}")
+
+    @property
+    def intercept(self) -> float:
+        """Logit intercept b0 (log10 pixel axis), from ``x50_cluttered_px``."""
+        return -math.log(self.or_per_log10_px) * math.log10(self.x50_cluttered_px)
+
+    @property
+    def x50_decluttered_px(self) -> float:
+        """De-cluttered 50 % point for an average subject and object, pixels (no lapse)."""
+        shift = math.log(self.or_background) / math.log(self.or_per_log10_px)
+        return 10 ** (math.log10(self.x50_cluttered_px) - shift)
+
+
+class LogisticObserver:
+    """The ``logistic`` simulated observer (a :class:`~experiment.interfaces.Responder`).
+
+    Parameters
+    ----------
+    stimset : StimulusSet
+        For object names and uses (the answer text).
+    subject : str
+        Subject code; with ``params.population_seed`` it fixes the subject effect.
+    rng : numpy.random.Generator, int or None
+        Trial-level randomness.
+    params : LogisticParams, optional
+    """
+
+    name = "logistic"
+
+    def __init__(
+        self,
+        stimset: StimulusSet,
+        subject: str,
+        *,
+        rng: np.random.Generator | int | None = None,
+        params: LogisticParams | None = None,
+    ) -> None:
+        self.stimset = stimset
+        self.subject = subject
+        self.params = params if params is not None else LogisticParams()
+        self.rng = np.random.default_rng(rng)
+        p = self.params
+        self.subject_effect = float(
+            np.random.default_rng(_stable_seed(p.population_seed, "subject", subject)).normal(
+                0.0, p.subject_sd
+            )
+        )
+        self.object_effects = {
+            oid: float(
+                np.random.default_rng(_stable_seed(p.population_seed, "object", oid)).normal(
+                    0.0, p.object_sd
+                )
+            )
+            for oid in stimset.objects
+        }
+        self.rater = f"sim:{self.name}"
+
+    def p_recognized(self, trial: Any) -> float:
+        """Return P(recognised) for a trial (condition, pixels, object), lapse included."""
+        p = self.params
+        if trial.condition == "photo":
+            return 1.0 - p.lapse
+        eta = (
+            p.intercept
+            + math.log(p.or_per_log10_px) * math.log10(trial.pixels)
+            + (math.log(p.or_background) if trial.condition == "decluttered" else 0.0)
+            + self.subject_effect
+            + self.object_effects.get(trial.object, 0.0)
+        )
+        return (1.0 - p.lapse) / (1.0 + math.exp(-eta))
+
+    def respond(self, trial: Any, image: np.ndarray) -> Answer:
+        """Draw recognised or not, then an answer text and score consistent with it."""
+        p = self.params
+        ok = bool(self.rng.random() < self.p_recognized(trial))
+        guess = None
+        if not ok and self.rng.random() < p.p_wrong:
+            others = [o for o in self.stimset.objects if o != trial.object]
+            if others:
+                guess = others[int(self.rng.integers(len(others)))]
+        rt = _rt_s(self.rng, p.median_rt_s, 600.0)
+        return _answer_text(
+            self.rng, self.stimset, trial, ok, guess, p.p_use, p.p_shape, self.rater, rt
+        )
+
+
+@dataclass(frozen=True)
+class TemplateParams:
+    """Parameters of the ``model`` (template-matching) observer. All are ours, not the paper's.
+
+    Every image (stimulus and templates) is first mapped onto a fixed "retinal" grid, because
+    every level is shown at the same size on screen (14.6 x 9.7 cm): smaller images are enlarged
+    by pixel replication, larger ones averaged over windows. It is then blurred (optics), and
+    standardised to zero mean and unit SD (contrast gain control: thin full-resolution edges and
+    fat compressed cells carry the same contrast energy). Gaussian noise is added to the
+    stimulus, its Pearson correlation with each candidate template computed, and the best match
+    answered when it stands out from the other candidates by ``criterion_z`` SDs.
+
+    Parameters
+    ----------
+    retina_shape_px : (rows, cols)
+        The observer's sampling grid. (82, 123) is a quarter of the 327x492 working size, about
+        5 arcmin per sample for the paper's 10.4 deg wide image.
+    blur_sd_px : float >= 0
+        SD of the Gaussian optical blur, grid samples.
+    pixel_noise_sd : float >= 0
+        SD of the internal noise per grid sample, in units of the standardised image's SD.
+        12 puts the synthetic sets of :mod:`experiment.testing` roughly in the paper's range
+        (about 10 % of cluttered and 70 % of de-cluttered trials recognised at 12x8, 70-95 % at
+        full resolution).
+    criterion_z : float
+        The best correlation must exceed the candidates' mean by this many SDs of the
+        candidates' correlations for the observer to answer; otherwise it passes (or describes a
+        shape).
+    lapse : float in [0, 0.5)
+        Probability of passing regardless of the image.
+    p_use : float in [0, 1]
+        Share of correct answers given as a use.
+    p_shape : float in [0, 1]
+        Share of unanswered trials described by shape (else pass).
+    median_rt_s : float > 0
+        Median response time, seconds.
+    """
+
+    retina_shape_px: tuple[int, int] = (82, 123)
+    blur_sd_px: float = 1.5
+    pixel_noise_sd: float = 12.0
+    criterion_z: float = 2.0
+    lapse: float = 0.02
+    p_use: float = 0.15
+    p_shape: float = 0.3
+    median_rt_s: float = 4.0
+
+    def __post_init__(self) -> None:
+        r = self.retina_shape_px
+        if not (isinstance(r, tuple) and len(r) == 2 and all(int(v) >= 2 for v in r)):
+            raise ValueError(f"retina_shape_px must be (rows, cols) >= 2, got {r!r}")
+        if self.blur_sd_px < 0:
+            raise ValueError(f"blur_sd_px must be >= 0, got {self.blur_sd_px!r}")
+        if self.pixel_noise_sd < 0:
+            raise ValueError(f"pixel_noise_sd must be >= 0, got {self.pixel_noise_sd!r}")
+        if not 0 <= self.lapse < 0.5:
+            raise ValueError(f"lapse must be in [0, 0.5), got {self.lapse!r}")
+
+
+def to_retina(image: np.ndarray, shape_px: tuple[int, int], blur_sd_px: float) -> np.ndarray:
+    """Map an image onto the observer's grid, blur it and standardise it (zero mean, unit SD).
+
+    Parameters
+    ----------
+    image : ndarray of shape (rows, cols), bool or float in [0, 1]
+    shape_px : (rows, cols)
+        The grid.
+    blur_sd_px : float
+        Gaussian blur SD, grid samples.
+
+    Returns
+    -------
+    ndarray of shape ``shape_px``, float64
+    """
+    from scipy.ndimage import gaussian_filter
+
+    from stimuli.compress import block_mean
+
+    a = np.asarray(image, dtype=np.float32)
+    rows, cols = shape_px
+    f = int(np.ceil(max(rows / a.shape[0], cols / a.shape[1])))
+    if f > 1:
+        a = np.repeat(np.repeat(a, f, axis=0), f, axis=1)
+    g = block_mean(a, (rows, cols)).astype(np.float64)
+    if blur_sd_px > 0:
+        g = gaussian_filter(g, blur_sd_px)
+    sd = g.std()
+    return (g - g.mean()) / (sd if sd > 0 else 1.0)
+
+
+class TemplateObserver:
+    """The ``model`` simulated observer: noisy template matching on the shown image.
+
+    Parameters
+    ----------
+    stimset : StimulusSet
+        Supplies the candidate templates (every object of the same role).
+    subject : str
+        Unused by the model except in the rater name (kept for a uniform constructor).
+    rng : numpy.random.Generator, int or None
+    params : TemplateParams, optional
+    """
+
+    name = "model"
+
+    def __init__(
+        self,
+        stimset: StimulusSet,
+        subject: str,
+        *,
+        rng: np.random.Generator | int | None = None,
+        params: TemplateParams | None = None,
+    ) -> None:
+        self.stimset = stimset
+        self.subject = subject
+        self.params = params if params is not None else TemplateParams()
+        self.rng = np.random.default_rng(rng)
+        self.rater = f"sim:{self.name}"
+        self._cache: dict[tuple[str, str, int], tuple[list[str], np.ndarray]] = {}
+
+    def _retina(self, image: np.ndarray) -> np.ndarray:
+        p = self.params
+        return to_retina(image, p.retina_shape_px, p.blur_sd_px).ravel()
+
+    def _templates(self, role: str, condition: str, level: int) -> tuple[list[str], np.ndarray]:
+        tcond = "photo" if condition == "photo" else "decluttered"
+        key = (role, tcond, level)
+        if key not in self._cache:
+            ids, rows = [], []
+            for oid, info in self.stimset.objects.items():
+                if info.role != role:
+                    continue
+                ids.append(oid)
+                rows.append(
+                    self._retina(self.stimset.load_image(self.stimset.get(oid, tcond, level)))
+                )
+            t = np.vstack(rows)
+            t = t - t.mean(axis=1, keepdims=True)
+            norms = np.sqrt(np.sum(t * t, axis=1, keepdims=True))
+            self._cache[key] = (ids, t / np.where(norms > 0, norms, 1.0))
+        return self._cache[key]
+
+    def correlations(self, trial: Any, image: np.ndarray) -> tuple[list[str], np.ndarray]:
+        """Return the candidate ids and the correlations of the noisy image with each template."""
+        p = self.params
+        role = self.stimset.objects[trial.object].role
+        ids, t = self._templates(role, trial.condition, trial.level)
+        x = self._retina(image)
+        if p.pixel_noise_sd > 0:
+            x = x + self.rng.normal(0.0, p.pixel_noise_sd, x.shape)
+        x = x - x.mean()
+        # element-wise sums, not BLAS: a multithreaded BLAS call per trial on a busy machine
+        # costs far more than these 10^4-element products
+        n = float(np.sqrt(np.sum(x * x)))
+        return ids, np.sum(t * x, axis=1) / (n if n > 0 else 1.0)
+
+    def respond(self, trial: Any, image: np.ndarray) -> Answer:
+        """Answer the best-matching object, or pass when no candidate stands out."""
+        p = self.params
+        rt = _rt_s(self.rng, p.median_rt_s, 600.0)
+        ids, r = self.correlations(trial, image)
+        if self.rng.random() < p.lapse:
+            return _answer_text(
+                self.rng, self.stimset, trial, False, None, 0.0, 0.0, self.rater, rt
+            )
+        best = int(np.argmax(r))
+        spread = float(r.std()) if len(r) > 1 else 0.0
+        z = (r[best] - r.mean()) / spread if spread > 0 else float("inf")
+        if len(r) > 2 and z < p.criterion_z:
+            return _answer_text(
+                self.rng, self.stimset, trial, False, None, 0.0, p.p_shape, self.rater, rt
+            )
+        if ids[best] == trial.object:
+            return _answer_text(
+                self.rng, self.stimset, trial, True, None, p.p_use, 0.0, self.rater, rt
+            )
+        return _answer_text(
+            self.rng, self.stimset, trial, False, ids[best], 0.0, 0.0, self.rater, rt
+        )
+
+
+#: Simulated observers by name: a factory ``(stimset, subject, *, rng, **params) -> Responder``.
+OBSERVERS: dict[str, Callable[..., Any]] = {}
+
+
+def _register(name: str, cls: type, params_cls: type) -> None:
+    def factory(stimset: StimulusSet, subject: str, *, rng=None, **params: Any) -> Any:
+        known = {f.name for f in fields(params_cls)}
+        bad = sorted(set(params) - known)
+        if bad:
+            raise ValueError(
+                f"unknown parameter {bad[0]!r} for observer {name!r} "
+                f"(expected one of {', '.join(sorted(known))})"
+            )
+        return cls(stimset, subject, rng=rng, params=params_cls(**params))
+
+    factory.__doc__ = f"Make a {cls.__name__} ({name!r})."
+    OBSERVERS[name] = factory
+
+
+_register("logistic", LogisticObserver, LogisticParams)
+_register("model", TemplateObserver, TemplateParams)
+
+
+def make_observer(
+    name: str,
+    stimset: StimulusSet,
+    subject: str,
+    *,
+    rng: np.random.Generator | int | None = None,
+    **params: Any,
+) -> Any:
+    """Return the simulated observer registered as ``name``.
+
+    Parameters
+    ----------
+    name : {'logistic', 'model'}
+    stimset : StimulusSet
+    subject : str
+    rng : numpy.random.Generator, int or None
+    **params
+        Fields of :class:`LogisticParams` or :class:`TemplateParams`.
+
+    Raises
+    ------
+    ValueError
+        Unknown observer name or parameter.
+    """
+    if name not in OBSERVERS:
+        raise ValueError(f"observer must be one of {', '.join(sorted(OBSERVERS))}, got {name!r}")
+    return OBSERVERS[name](stimset, subject, rng=rng, **params)
