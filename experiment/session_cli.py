@@ -1,11 +1,334 @@
-"""Session commands (issue 5): command-line registration (filled in by that issue)."""
+"""``confocal session``: run a session, show a study's status, export its trials (issue 5).
+
+::
+
+    confocal session run --protocol jung2015 --stimuli STIM_DIR --subject S01 --data study.sqlite
+    confocal session run ... --headless --observer logistic --seed 1
+    confocal session status study.sqlite
+    confocal session export study.sqlite --out trials.csv
+"""
 
 from __future__ import annotations
 
+import csv
+import itertools
+import json
+import logging
+import math
+from datetime import UTC, datetime
+from pathlib import Path
+from typing import Annotated
+
 import typer
 
-__all__ = ["register"]
+from experiment.errors import ConfocalError
+
+__all__ = [
+    "register",
+    "run_command",
+    "status_command",
+    "export_command",
+    "status_report",
+    "export_trials",
+]
+
+logger = logging.getLogger(__name__)
+
+session_app = typer.Typer(
+    name="session",
+    help="Run recognition sessions and inspect or export the study's trial log.",
+    no_args_is_help=True,
+)
+
+#: Descriptions of the exported columns (``dataset_description.json`` variableMeasured).
+COLUMN_DESCRIPTIONS: dict[str, str] = {
+    "subject": "Subject code.",
+    "session": "Session id in the trial log.",
+    "object": "Object id (objects.csv of the stimulus set).",
+    "condition": "cluttered, decluttered or photo (training only).",
+    "level": "Resolution level, 1 = fewest pixels (12x8) ... 8 = full 492x327.",
+    "window": "Compression window side, pixels.",
+    "pixels": "Pixels of the stimulus (width x height).",
+    "recognized": "1 if the latest score of the primary rater counts as recognised, else 0.",
+    "response": "The subject's words as typed by the operator ('' for a pass).",
+    "score": "named, use, shape, wrong or pass (latest score of the primary rater).",
+    "rater": "Who gave that score.",
+    "rt_s": "Response time from stimulus onset, seconds.",
+    "part": "training or main (analyse main only).",
+    "trial_index": "Position in the subject's saved schedule, 0-based.",
+}
+
+
+class _Progress:
+    def __init__(self, every: int) -> None:
+        self.every = every
+
+    def __call__(self, answered: int, total: int) -> None:
+        if self.every and (answered % self.every == 0 or answered == total):
+            typer.echo(f"trial {answered}/{total}")
+
+
+@session_app.command("run")
+def run_command(
+    protocol: Annotated[
+        str,
+        typer.Option("--protocol", "-p", help="Protocol TOML file, or a shipped name (jung2015)."),
+    ],
+    stimuli: Annotated[Path, typer.Option("--stimuli", "-s", help="Stimulus set folder.")],
+    subject: Annotated[str, typer.Option("--subject", help="Subject code, e.g. S01.")],
+    data: Annotated[
+        Path, typer.Option("--data", "-d", help="The study's SQLite trial log.")
+    ] = Path("study.sqlite"),
+    observer: Annotated[
+        str | None,
+        typer.Option("--observer", help="Simulated observer for --headless: logistic or model."),
+    ] = None,
+    headless: Annotated[
+        bool,
+        typer.Option("--headless", help="No screen: a simulated observer answers (dry runs, CI)."),
+    ] = False,
+    seed: Annotated[
+        int | None,
+        typer.Option("--seed", min=0, help="Root seed of a new session (drawn if omitted)."),
+    ] = None,
+    hold_s: Annotated[
+        float,
+        typer.Option("--hold-s", min=0.0, help="Headless: seconds each stimulus stays shown."),
+    ] = 0.0,
+    progress_every: Annotated[
+        int,
+        typer.Option("--progress-every", min=0, help="Print 'trial i/n' every n trials."),
+    ] = 0,
+) -> None:
+    """Run (or resume) a subject's session: console and presenter, or headless simulation."""
+    from experiment.displays import NullDisplay
+    from experiment.observers import OBSERVERS, make_observer
+    from experiment.protocol import load_protocol
+    from experiment.session import Session
+    from experiment.stimset import StimulusSet
+    from experiment.triallog import TrialLog
+
+    if observer is not None and not headless:
+        raise ConfocalError("--observer needs --headless (a simulated subject has no screen)")
+    if headless:
+        observer = observer or "logistic"
+        if observer not in OBSERVERS:
+            raise ConfocalError(
+                f"--observer must be one of {', '.join(sorted(OBSERVERS))}, got {observer!r}"
+            )
+    run_console = None
+    if not headless:
+        try:
+            from experiment.console import run_console
+        except ImportError as exc:
+            raise ConfocalError(
+                f"the operator console is unavailable ({exc}); use --headless --observer NAME "
+                "for a simulated session"
+            ) from None
+    spec = load_protocol(protocol)
+    stimset = StimulusSet.load(stimuli)
+    log = TrialLog(data)
+    try:
+        session = Session.open(
+            log,
+            spec,
+            stimset,
+            subject,
+            seed=seed,
+            responder=f"sim:{observer}" if headless else "console",
+        )
+        try:
+            if headless:
+                responder = make_observer(observer, stimset, subject, rng=session.child_rng(1))
+                session.run(
+                    NullDisplay(hold_s=hold_s), responder, progress=_Progress(progress_every)
+                )
+            else:
+                run_console(session)
+            answered, total = session.progress()
+            typer.echo(
+                f"session {session.session_id} ({subject}): {answered}/{total} trials answered"
+                f"{' - complete' if answered == total else ''}; log {data}"
+            )
+        finally:
+            session.close()
+    finally:
+        log.close()
+
+
+def status_report(path: Path) -> dict:
+    """Return the study's status: sessions, progress, next trial, locks, rater agreement.
+
+    Parameters
+    ----------
+    path : Path
+        The study's SQLite trial log (opened read-only).
+
+    Returns
+    -------
+    dict
+        ``{"sessions": [...], "raters": [...], "kappa": [...]}``; each session has ``answered``,
+        ``planned``, ``left`` and ``next`` (the first unanswered trial or None).
+    """
+    from experiment.scoring import cohen_kappa
+    from experiment.triallog import TrialLog
+
+    with TrialLog(path, readonly=True) as log:
+        locks = {r["session_id"]: r for r in log.locks()}
+        out = []
+        for s in log.sessions():
+            sid = s["session_id"]
+            answered = log.answered_count(sid)
+            planned = log.planned_count(sid)
+            nxt = log.execute(
+                "SELECT trial_index, part, block, object, condition, level FROM schedule "
+                "WHERE session_id = ? AND trial_index NOT IN "
+                "(SELECT trial_index FROM trials WHERE session_id = ?) "
+                "ORDER BY trial_index LIMIT 1",
+                (sid, sid),
+            )
+            crashes = log.execute(
+                "SELECT count(*) FROM events WHERE session_id = ? AND kind = 'crash'", (sid,)
+            )[0][0]
+            out.append(
+                {
+                    "session": sid,
+                    "subject": s["subject"],
+                    "protocol": s["protocol_name"],
+                    "status": s["status"],
+                    "answered": answered,
+                    "planned": planned,
+                    "left": planned - answered,
+                    "next": dict(nxt[0]) if nxt else None,
+                    "started_at": s["started_at"],
+                    "ended_at": s["ended_at"],
+                    "crashes": int(crashes),
+                    "lock": (
+                        {k: locks[sid][k] for k in ("pid", "host", "acquired_at")}
+                        if sid in locks
+                        else None
+                    ),
+                }
+            )
+        raters = [r[0] for r in log.execute("SELECT DISTINCT rater FROM scores ORDER BY rater")]
+        kappas = []
+        for a, b in itertools.combinations(raters, 2):
+            k = cohen_kappa(log, a, b)
+            if k.n > 0:
+                kappas.append(k.to_dict())
+    return {"sessions": out, "raters": raters, "kappa": kappas}
+
+
+@session_app.command("status")
+def status_command(
+    data: Annotated[Path, typer.Argument(help="The study's SQLite trial log.")],
+    as_json: Annotated[bool, typer.Option("--json", help="Print JSON instead of text.")] = False,
+) -> None:
+    """Show subjects, progress, what is left, open locks and rater agreement (Cohen's kappa)."""
+    rep = status_report(data)
+    if as_json:
+        typer.echo(json.dumps(rep, indent=2))
+        return
+    if not rep["sessions"]:
+        typer.echo(f"{data}: no sessions yet")
+    for s in rep["sessions"]:
+        line = (
+            f"session {s['session']:>3}  {s['subject']:<8} {s['protocol']:<12} "
+            f"{s['status']:<9} {s['answered']:>4}/{s['planned']:<4} left {s['left']:>4}"
+        )
+        if s["next"]:
+            n = s["next"]
+            line += (
+                f"  next: #{n['trial_index']} {n['part']} block {n['block']} "
+                f"level {n['level']} {n['condition']}"
+            )
+        if s["crashes"]:
+            line += f"  crashes recovered: {s['crashes']}"
+        if s["lock"]:
+            line += f"  OPEN in pid {s['lock']['pid']} on {s['lock']['host']}"
+        typer.echo(line)
+    for k in rep["kappa"]:
+        kv = "nan" if k["kappa"] is None or math.isnan(k["kappa"]) else f"{k['kappa']:.3f}"
+        typer.echo(
+            f"agreement {k['rater_a']} vs {k['rater_b']}: Cohen's kappa {kv} on {k['n']} trials "
+            f"(observed {k['observed']:.3f}, chance {k['expected']:.3f})"
+        )
+
+
+@session_app.command("export")
+def export_command(
+    data: Annotated[Path, typer.Argument(help="The study's SQLite trial log.")],
+    out: Annotated[Path, typer.Option("--out", "-o", help="CSV file to write (tidy_trials).")],
+) -> None:
+    """Write one row per answered trial (tidy_trials) as CSV plus dataset_description.json."""
+    export_trials(data, out)
+    typer.echo(f"wrote {out} and {out.parent / 'dataset_description.json'}")
+
+
+def export_trials(data: Path, out: Path) -> tuple[Path, Path]:
+    """Export ``tidy_trials`` to ``out`` (CSV) and a Psych-DS-style ``dataset_description.json``.
+
+    Returns
+    -------
+    (csv_path, description_path)
+    """
+    from experiment.triallog import TIDY_COLUMNS, TrialLog
+    from stimuli.io import atomic_path
+
+    with TrialLog(data, readonly=True) as log:
+        rows = log.tidy_trials()
+        sessions = log.sessions()
+        version = log.schema_version()
+    out = Path(out)
+    with atomic_path(out) as tmp:
+        with open(tmp, "w", newline="", encoding="utf-8") as f:
+            w = csv.DictWriter(f, fieldnames=list(TIDY_COLUMNS))
+            w.writeheader()
+            for r in rows:
+                w.writerow({k: ("" if r[k] is None else r[k]) for k in TIDY_COLUMNS})
+    desc = {
+        "@context": "https://schema.org/",
+        "@type": "Dataset",
+        "name": "Object recognition with compressed, cluttered and de-cluttered images",
+        "description": (
+            "Trials exported from a confocal trial log (Jung et al. 2015 paradigm): one row per "
+            "answered trial; 'recognized' from the primary rater's latest score."
+        ),
+        "schemaVersion": "Psych-DS 0.1.0",
+        "dateCreated": datetime.now(UTC).isoformat(timespec="seconds"),
+        "variableMeasured": [
+            {"@type": "PropertyValue", "name": c, "description": COLUMN_DESCRIPTIONS[c]}
+            for c in TIDY_COLUMNS
+        ],
+        "source": str(Path(data).resolve()),
+        "trialLogSchemaVersion": version,
+        "sessions": [
+            {
+                k: s[k]
+                for k in (
+                    "session_id",
+                    "subject",
+                    "protocol_name",
+                    "protocol_sha256",
+                    "protocol_file_sha256",
+                    "stimset_manifest_sha256",
+                    "seed",
+                    "software_version",
+                    "git_commit",
+                    "started_at",
+                    "ended_at",
+                    "status",
+                )
+            }
+            for s in sessions
+        ],
+    }
+    desc_path = out.parent / "dataset_description.json"
+    with atomic_path(desc_path) as tmp:
+        tmp.write_text(json.dumps(desc, indent=2), encoding="utf-8")
+    return out, desc_path
 
 
 def register(app: typer.Typer) -> None:
-    """Add this module's commands to the root ``confocal`` app (none yet)."""
+    """Add the ``session`` command group to the root ``confocal`` app."""
+    app.add_typer(session_app, name="session")
