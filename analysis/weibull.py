@@ -869,7 +869,7 @@ def fit_weibull(
     _check_guess(guess)
     levels, k, n = aggregate(x, correct)
     if sigmoid == "weibull" and levels[0] <= 0:
-        raise ValueError(f"x must be > 0 for the Weibull, got {levels[0]!r}")
+        raise ValueError(f"x must be > 0 for the Weibull, got {float(levels[0])!r}")
     _data_warnings(label, k, n)
     rng = np.random.default_rng(rng)
     prior = prior or default_prior(levels, guess=guess, sigmoid=sigmoid)
