@@ -46,6 +46,7 @@ from textual.containers import Horizontal, Vertical
 from textual.widgets import Footer, Input, Static
 
 from experiment.clock import Clock, PerfCounterClock
+from experiment.errors import ConfocalError
 from experiment.interfaces import Answer, Display, FlipRecord
 
 __all__ = [
@@ -516,7 +517,7 @@ class ScoringApp(App):
 
     def __init__(self, log: Any, rater: str, pending: list[dict[str, Any]]) -> None:
         super().__init__()
-        self.log = log
+        self.trial_log = log
         self.rater = rater
         self.pending = list(pending)
         self.position = 0
@@ -549,7 +550,7 @@ class ScoringApp(App):
         if session_id not in self._recognized:
             from experiment.protocol import ProtocolSpec
 
-            row = self.log.execute(
+            row = self.trial_log.execute(
                 "SELECT protocol_json FROM sessions WHERE session_id = ?", (session_id,)
             )[0]
             self._recognized[session_id] = ProtocolSpec.from_dict(json.loads(row[0])).scoring
@@ -560,7 +561,7 @@ class ScoringApp(App):
         if self.position >= len(self.pending):
             return
         t = self.pending[self.position]
-        self.log.add_score(
+        self.trial_log.add_score(
             t["session_id"],
             t["trial_index"],
             score,
@@ -655,16 +656,23 @@ def run_console(
     from experiment.presenter import ScreenGeometry
 
     if display is None:
-        geometry = ScreenGeometry.from_display_spec(session.protocol.display)
-        display = make_display(
-            geometry,
-            presenter,
-            screen=screen,
-            fullscreen=fullscreen,
-            skip_timing_check=skip_timing_check,
-            clock=session.clock,
-            **presenter_options,
-        )
+        try:
+            geometry = ScreenGeometry.from_display_spec(session.protocol.display)
+            display = make_display(
+                geometry,
+                presenter,
+                screen=screen,
+                fullscreen=fullscreen,
+                skip_timing_check=skip_timing_check,
+                clock=session.clock,
+                **presenter_options,
+            )
+        except (ConfocalError, ValueError) as exc:
+            session.log_event("presenter_failed", " ".join(str(exc).split()))
+            session.close()
+            if isinstance(exc, ConfocalError):
+                raise
+            raise ConfocalError(f"subject's display: {exc}") from None
     try:
         info = getattr(display, "info", None) or {"presenter": presenter}
         session.log_event("display", json.dumps(info, sort_keys=True, default=str))

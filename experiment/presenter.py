@@ -584,7 +584,7 @@ class Presenter:
         self.phosphenes = phosphenes
         self.refresh_hz: float | None = None
         rows, cols = geometry.screen_shape_px
-        if window is None:
+        if window is None or ctx.screen is None:  # offscreen, or a test window without a screen
             self._fbo = ctx.framebuffer(color_attachments=[ctx.renderbuffer((cols, rows), 4)])
         else:
             self._fbo = ctx.screen
@@ -898,8 +898,9 @@ class Presenter:
         if self.window is not None:
             self.window.close()
             self.window.destroy()
-        else:
+        if self._fbo is not self.ctx.screen:
             self._fbo.release()
+        if self.window is None or self.ctx.screen is None:
             self.ctx.release()
 
     def __enter__(self) -> Presenter:

@@ -335,3 +335,78 @@ def test_presenter_process_dies_and_restarts(mini) -> None:
     (row,) = log.execute("SELECT * FROM trials")
     assert row["response"] == "cup" and row["offset_s"] > row["onset_s"]
     assert len(json.loads(row["frame_intervals_ms"])) == 1  # offscreen: onset -> offset only
+
+
+def _answer_all(session, clock, responses: list[str]) -> None:
+    from experiment.interfaces import Answer
+
+    for text in responses:
+        trial = session.next_trial()
+        clock.advance(1.0)
+        session.record(
+            trial,
+            Answer(text, "named", "operator", rt_s=0.5),
+            FlipRecord(onset_s=0.0, offset_s=1.0),
+        )
+
+
+def test_second_rater_scores_blind(mini) -> None:
+    """``confocal score``'s app shows object and words, never the first rater's scores."""
+    from experiment.console import ScoringApp
+    from experiment.present_cli import pending_for_rater
+
+    session, clock, log, _ = mini
+    _answer_all(session, clock, ["a cup", "clip thing", "no idea"])
+    pending = pending_for_rater(log, "B")
+    assert [p["response"] for p in pending] == ["a cup", "clip thing", "no idea"]
+    assert all("score" not in p for p in pending)
+    app = ScoringApp(log, "B", pending)
+    seen = []
+
+    async def script() -> None:
+        async with app.run_test() as pilot:
+            seen.append(str(app.query_one("#item").render()))
+            await pilot.press("f1")
+            seen.append(str(app.query_one("#item").render()))
+            await pilot.press("f3")
+            await pilot.press("ctrl+q")
+
+    run(script())
+    assert app.return_value == 2
+    assert "a cup" in seen[0] and "clip thing" in seen[1]
+    assert not any("named" in s for s in seen)  # the operator's score is not shown
+    rows = log.execute("SELECT trial_index, score, rater, is_primary FROM scores WHERE rater='B'")
+    assert [(r["score"], r["is_primary"]) for r in rows] == [("named", 0), ("shape", 0)]
+    assert [p["response"] for p in pending_for_rater(log, "B")] == ["no idea"]
+    # The operator's (primary) scores are unchanged in tidy_trials.
+    assert {r["score"] for r in log.tidy_trials()} == {"named"}
+
+
+def test_score_command_missing_log_exit_2(tmp_path) -> None:
+    import subprocess
+    import sys
+
+    code = "import sys; from experiment.cli import main; main(sys.argv[1:])"
+    r = subprocess.run(
+        [sys.executable, "-c", code, "score", str(tmp_path / "none.sqlite"), "--rater", "B"],
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    assert r.returncode == 2
+    assert r.stderr.strip() == f"confocal: error: {tmp_path / 'none.sqlite'}: trial log not found"
+
+
+def test_run_console_refuses_when_presenter_cannot_start(mini, monkeypatch) -> None:
+    """No screen for the subject's window: one clear error, the failure logged, nothing shown."""
+    from experiment.console import run_console
+    from experiment.errors import ConfocalError
+
+    session, _, log, _ = mini
+    monkeypatch.delenv("DISPLAY", raising=False)
+    monkeypatch.delenv("WAYLAND_DISPLAY", raising=False)
+    with pytest.raises(ConfocalError, match="the presenter could not start"):
+        run_console(session, presenter="process", fullscreen=False)
+    kinds = [e["kind"] for e in log.events(session.session_id)]
+    assert "presenter_failed" in kinds and kinds[-1] == "close"
+    assert log.answered_count(session.session_id) == 0

@@ -317,3 +317,71 @@ def test_present_invalid_protocol_one_line_exit_2(tmp_path) -> None:
     lines = r.stderr.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith("confocal: error:") and "bad.toml" in lines[0]
     assert not out.exists()
+
+
+class FakeVsyncWindow:
+    """A window twin whose buffer swap advances a FakeClock by the next refresh interval."""
+
+    def __init__(self, clock: FakeClock, shape_px: tuple[int, int], intervals_s) -> None:
+        self.clock = clock
+        self.buffer_size = (shape_px[1], shape_px[0])
+        self.is_closing = False
+        self._intervals = iter(intervals_s)
+
+    def swap_buffers(self) -> None:
+        self.clock.advance(next(self._intervals))
+
+    def close(self) -> None:
+        self.is_closing = True
+
+    def destroy(self) -> None:
+        pass
+
+
+def _windowed_twin(gl_ok, intervals_s):
+    import moderngl
+
+    g = ScreenGeometry.jung2015(
+        screen_shape_px=(64, 80), screen_width_cm=4.0, image_size_cm=(1.0, 1.5)
+    )
+    clock = FakeClock()
+    ctx = moderngl.create_standalone_context(require=330, backend="egl")
+    window = FakeVsyncWindow(clock, g.screen_shape_px, intervals_s)
+    return Presenter(ctx, g, clock=clock, window=window), clock
+
+
+def test_refresh_measured_and_dropped_frames_counted(gl_ok) -> None:
+    """At 60 Hz the self-test passes; a stimulus with one doubled interval has 1 dropped frame."""
+    period = 1 / 60
+    intervals = [period] * 31 + [period, period, 2 * period, period, period]
+    p, clock = _windowed_twin(gl_ok, intervals)
+    try:
+        assert p.measure_refresh(30) == pytest.approx(60.0)
+        on = p.show_stimulus(np.ones((4, 6), bool))
+        for _ in range(3):
+            p.pump()
+        off = p.clear()
+        assert off.frame_intervals_ms == pytest.approx((16.667, 33.333, 16.667, 16.667), abs=1e-3)
+        assert off.dropped_frames == 1 and off.refresh_hz == pytest.approx(60.0)
+        assert off.onset_s - on.onset_s == pytest.approx(5 * period)
+    finally:
+        p.close()
+
+
+def test_timing_self_test_refuses_without_vsync(gl_ok) -> None:
+    """Flips that do not wait for a refresh (2 ms apart) fail the self-test (H12)."""
+    p, _ = _windowed_twin(gl_ok, [0.002] * 31)
+    try:
+        with pytest.raises(presenter.TimingCheckFailed, match="frame-timing self-test failed"):
+            p.measure_refresh(30)
+    finally:
+        p.close()
+
+
+def test_present_missing_stimulus_one_line_exit_2(tmp_path) -> None:
+    """A missing stimulus file is one line, exit status 2, and no screenshot."""
+    out = tmp_path / "shot.png"
+    r = _run_cli("present", "--stimulus", str(tmp_path / "nope.png"), "--screenshot", str(out))
+    assert r.returncode == 2
+    lines = r.stderr.strip().splitlines()
+    assert len(lines) == 1 and "nope.png" in lines[0] and not out.exists()
