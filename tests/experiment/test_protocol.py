@@ -1,0 +1,264 @@
+"""Protocols: loading, checking, round trips, shipped files and their SHA256SUMS (H10, H15)."""
+
+from __future__ import annotations
+
+import hashlib
+import math
+
+import pytest
+
+from experiment.protocol import (
+    PROTOCOLS_DIR,
+    BlockSpec,
+    Condition,
+    DisplaySpec,
+    ProtocolError,
+    ProtocolSpec,
+    ScoringSpec,
+    load_protocol,
+)
+
+MINIMAL = """
+[protocol]
+name = "mini"
+
+[[blocks]]
+part = "main"
+objects = "main"
+levels = [1, 2]
+conditions = ["cluttered", "decluttered"]
+"""
+
+
+def write(tmp_path, text, name="p.toml"):
+    p = tmp_path / name
+    p.write_text(text)
+    return p
+
+
+@pytest.mark.parametrize("path", sorted(PROTOCOLS_DIR.glob("*.toml")), ids=lambda p: p.name)
+def test_every_shipped_protocol_loads_and_round_trips(path):
+    spec = load_protocol(path)
+    again = ProtocolSpec.from_dict(spec.to_dict())
+    assert again == spec
+    assert again.content_sha256() == spec.content_sha256()
+    assert spec.source_sha256 == hashlib.sha256(path.read_bytes()).hexdigest()
+
+
+def test_protocol_files_match_sha256sums():
+    sums = {}
+    for line in (PROTOCOLS_DIR / "SHA256SUMS").read_text().splitlines():
+        digest, name = line.split(maxsplit=1)
+        sums[name.lstrip("*")] = digest
+    files = sorted(p.name for p in PROTOCOLS_DIR.glob("*.toml"))
+    assert sorted(sums) == files, "SHA256SUMS must list exactly the protocol files"
+    for name in files:
+        assert hashlib.sha256((PROTOCOLS_DIR / name).read_bytes()).hexdigest() == sums[name], name
+
+
+def test_jung2015_settings_follow_the_paper():
+    spec = load_protocol("jung2015")
+    assert spec.pass_allowed_after_s == 60.0
+    assert spec.feedback is False
+    d = spec.display
+    assert (d.screen_width_px, d.screen_height_px, d.viewing_distance_cm) == (1280, 1024, 80.0)
+    assert (d.image_width_cm, d.image_height_cm) == (14.6, 9.7)
+    assert d.border_rgb == (0, 0, 255)
+    w_deg, h_deg = d.image_size_deg
+    # Sec. 3.1 gives 10.4 x 6.9 deg: 2 atan(14.6 / 160) rad = 10.43 deg
+    assert math.isclose(w_deg, 10.4, abs_tol=0.05) and math.isclose(h_deg, 6.9, abs_tol=0.05)
+    sc = spec.scoring
+    assert [s for s in ("named", "use", "shape", "wrong", "pass") if sc.is_recognized(s)] == [
+        "named",
+        "use",
+    ]
+    main = spec.main_blocks
+    assert len(main) == 1
+    assert main[0].levels == tuple(range(1, 9))
+    assert main[0].conditions == (Condition.CLUTTERED, Condition.DECLUTTERED)
+    assert main[0].level_order == "ascending" and main[0].trial_order == "random"
+    training = [b for b in spec.blocks if b.part == "training"]
+    assert training[0].conditions == ("photo",), "training starts with the photos"
+
+
+def test_load_by_bare_name_and_missing_file(tmp_path):
+    assert load_protocol("jung2015").name == "jung2015"
+    with pytest.raises(ProtocolError, match=r"nope\.toml: protocol file not found"):
+        load_protocol(tmp_path / "nope.toml")
+
+
+def test_defaults_fill_display_and_scoring(tmp_path):
+    spec = load_protocol(write(tmp_path, MINIMAL))
+    assert spec.display == DisplaySpec()
+    assert spec.scoring == ScoringSpec()
+    assert spec.blocks[0].group_by == "level_condition"
+
+
+@pytest.mark.parametrize(
+    ("edit", "match"),
+    [
+        (
+            ("[protocol]", "[protocol]\ncolour = 1"),
+            r"p\.toml: unknown key 'colour' in \[protocol\]",
+        ),
+        (("[protocol]", "extra = 1\n[protocol]"), r"unknown key 'extra' at top level"),
+        (
+            ('part = "main"', 'part = "main"\nlevel = [1]'),
+            r"unknown key 'level' in \[blocks\[0\]\]",
+        ),
+        (
+            ("[[blocks]]", "[display]\nscreen_widht_px = 3\n[[blocks]]"),
+            r"unknown key 'screen_widht_px' in \[display\]",
+        ),
+        (("levels = [1, 2]", 'levels = [1, "2"]'), r"levels\[\] must be int, got str"),
+        (("levels = [1, 2]", "levels = [1, 1]"), r"levels lists a level twice"),
+        (("levels = [1, 2]", "levels = [0]"), r"levels must be >= 1, got 0"),
+        (("levels = [1, 2]", "levels = []"), r"levels must be a non-empty list"),
+        (('part = "main"', 'part = "warmup"'), r"part must be one of training, main, got 'warmup'"),
+        (
+            ('conditions = ["cluttered", "decluttered"]', 'conditions = ["blurry"]'),
+            r"conditions\[\] must be one of",
+        ),
+        (
+            ('conditions = ["cluttered", "decluttered"]', 'conditions = ["photo", "photo"]'),
+            r"lists a condition twice",
+        ),
+        (('part = "main"', 'part = "main"\ngroup_by = "subject"'), r"group_by must be one of"),
+        (('part = "main"', 'part = "main"\nlevel_order = "up"'), r"level_order must be one of"),
+        (
+            ('part = "main"', 'part = "main"\ncondition_order = "up"'),
+            r"condition_order must be one of",
+        ),
+        (('part = "main"', 'part = "main"\ntrial_order = "up"'), r"trial_order must be one of"),
+        (('part = "main"', 'part = "main"\nblock_order = "up"'), r"block_order must be one of"),
+        (('part = "main"', 'part = "main"\nrepetitions = 0'), r"repetitions must be >= 1, got 0"),
+        (('part = "main"', 'part = "main"\nrepetitions = 1.5'), r"repetitions must be int"),
+        (
+            ('part = "main"', 'part = "main"\nbreak_every_blocks = -1'),
+            r"break_every_blocks must be >= 0",
+        ),
+        (('objects = "main"', "objects = []"), r"objects must be a role name or a list of ids"),
+        (('objects = "main"', 'objects = ""'), r"objects must be a role name"),
+        (('objects = "main"', 'objects = ["a", "a"]'), r"objects lists an object twice"),
+        (('objects = "main"', 'objects = ["a", 3]'), r"objects\[\] must be str"),
+        (('objects = "main"\n', ""), r"\[blocks\[0\]\] is missing field objects"),
+        (('name = "mini"', 'name = ""'), r"protocol.name must not be empty"),
+        (('name = "mini"', "name = 3"), r"protocol.name must be str"),
+        (('name = "mini"', 'description = "x"'), r"\[protocol\] is missing field name"),
+        (('name = "mini"', 'name = "m"\ndescription = 2'), r"protocol.description must be str"),
+        (
+            ('name = "mini"', 'name = "m"\npass_allowed_after_s = -1'),
+            r"pass_allowed_after_s must be >= 0",
+        ),
+        (('name = "mini"', 'name = "m"\nfeedback = 1'), r"protocol.feedback must be bool"),
+        (('[protocol]\nname = "mini"', ""), r"missing table \[protocol\]"),
+        (('part = "main"', 'part = "training"'), r"at least one entry with part = 'main'"),
+        (
+            ("[[blocks]]", "[display]\nscreen_width_px = 0\n[[blocks]]"),
+            r"display.screen_width_px must be >= 1",
+        ),
+        (
+            ("[[blocks]]", "[display]\nscreen_height_px = 1.5\n[[blocks]]"),
+            r"display.screen_height_px must be int",
+        ),
+        (
+            ("[[blocks]]", "[display]\nviewing_distance_cm = 0\n[[blocks]]"),
+            r"viewing_distance_cm must be a positive number",
+        ),
+        (
+            ("[[blocks]]", "[display]\nimage_width_cm = 99\n[[blocks]]"),
+            r"image_width_cm must be <= screen_width_cm",
+        ),
+        (
+            ("[[blocks]]", "[display]\nimage_height_cm = -2\n[[blocks]]"),
+            r"image_height_cm must be a positive number",
+        ),
+        (
+            ("[[blocks]]", '[display]\nscreen_width_cm = "40"\n[[blocks]]'),
+            r"screen_width_cm must be int or float",
+        ),
+        (
+            ("[[blocks]]", "[display]\nborder_rgb = [0, 0, 256]\n[[blocks]]"),
+            r"border_rgb must be 3 integers",
+        ),
+        (
+            ("[[blocks]]", "[display]\nbackground_rgb = [0, 0]\n[[blocks]]"),
+            r"background_rgb must be 3 integers",
+        ),
+        (
+            ("[[blocks]]", "[display]\nborder_width_px = -1\n[[blocks]]"),
+            r"border_width_px must be >= 0",
+        ),
+        (("[protocol]", "display = 3\n[protocol]"), r"\[display\] must be a table"),
+        (
+            ("[[blocks]]", "[scoring]\nrecognized = { named = true }\n[[blocks]]"),
+            r"scoring.recognized is missing score 'use'",
+        ),
+        (
+            ("[[blocks]]", "[scoring]\nrecognized = { named = true, guessed = true }\n[[blocks]]"),
+            r"unknown score 'guessed'",
+        ),
+        (
+            (
+                "[[blocks]]",
+                "[scoring]\nrecognized = { named = 1, use = true, shape = false, wrong = false, pass = false }\n[[blocks]]",
+            ),
+            r"scoring.recognized.named must be true or false",
+        ),
+        (
+            ("[[blocks]]", "[scoring]\nrecognized = 3\n[[blocks]]"),
+            r"scoring.recognized must be a table",
+        ),
+        (
+            ("[[blocks]]", '[scoring]\nprimary_rater = " "\n[[blocks]]'),
+            r"primary_rater must not be empty",
+        ),
+    ],
+)
+def test_bad_protocol_names_the_field(tmp_path, edit, match):
+    old, new = edit
+    assert old in MINIMAL
+    with pytest.raises(ProtocolError, match=match):
+        load_protocol(write(tmp_path, MINIMAL.replace(old, new, 1)))
+
+
+def test_no_blocks_and_bad_toml(tmp_path):
+    with pytest.raises(ProtocolError, match=r"missing \[\[blocks\]\]"):
+        load_protocol(write(tmp_path, '[protocol]\nname = "x"\n'))
+    with pytest.raises(ProtocolError, match=r"p\.toml: not valid TOML"):
+        load_protocol(write(tmp_path, "[protocol\nname="))
+
+
+def test_error_is_one_line(tmp_path):
+    with pytest.raises(ProtocolError) as exc:
+        load_protocol(write(tmp_path, MINIMAL.replace("[protocol]", "[protocol]\nfoo = 1")))
+    assert "\n" not in str(exc.value)
+    assert exc.value.exit_code == 2
+
+
+def test_specs_are_frozen_and_checked_when_built():
+    b = BlockSpec(part="main", objects="main", levels=(1,), conditions=("cluttered",))
+    with pytest.raises(AttributeError):
+        b.levels = (2,)  # type: ignore[misc]
+    with pytest.raises(ProtocolError, match="repetitions must be >= 1"):
+        BlockSpec(
+            part="main", objects="main", levels=(1,), conditions=("cluttered",), repetitions=0
+        )
+    with pytest.raises(ProtocolError, match="blocks must hold BlockSpec"):
+        ProtocolSpec(name="x", blocks=("nope",))  # type: ignore[arg-type]
+    with pytest.raises(ProtocolError, match="display must be a DisplaySpec"):
+        ProtocolSpec(name="x", blocks=(b,), display={})  # type: ignore[arg-type]
+    with pytest.raises(ProtocolError, match="scoring must be a ScoringSpec"):
+        ProtocolSpec(name="x", blocks=(b,), scoring={})  # type: ignore[arg-type]
+    with pytest.raises(ProtocolError, match="a protocol must be a table"):
+        ProtocolSpec.from_dict([])  # type: ignore[arg-type]
+    with pytest.raises(ValueError, match="score must be one of"):
+        ScoringSpec().is_recognized("maybe")
+
+
+def test_content_hash_ignores_formatting_but_not_content(tmp_path):
+    a = load_protocol(write(tmp_path, MINIMAL, "a.toml"))
+    b = load_protocol(write(tmp_path, "# comment\n" + MINIMAL, "b.toml"))
+    c = load_protocol(write(tmp_path, MINIMAL.replace("[1, 2]", "[1, 3]"), "c.toml"))
+    assert a.content_sha256() == b.content_sha256() != c.content_sha256()
+    assert a.source_sha256 != b.source_sha256
