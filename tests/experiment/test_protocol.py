@@ -201,7 +201,8 @@ def test_defaults_fill_display_and_scoring(tmp_path):
         (
             (
                 "[[blocks]]",
-                "[scoring]\nrecognized = { named = 1, use = true, shape = false, wrong = false, pass = false }\n[[blocks]]",
+                "[scoring]\nrecognized = { named = 1, use = true, shape = false, wrong = false, "
+                "pass = false }\n[[blocks]]",
             ),
             r"scoring.recognized.named must be true or false",
         ),
