@@ -47,7 +47,7 @@ from stimuli.compress import compress, compress_grey, resolution_ladder
 from stimuli.contact import contact_sheet, save_contact_sheet
 from stimuli.declutter import AUTO_THRESHOLD_METHODS, auto_threshold, declutter
 from stimuli.errors import InputError
-from stimuli.io import check_gray, load_gray, save_png, sha256_file
+from stimuli.io import check_gray, image_shape_px, load_gray, save_png, sha256_file
 from stimuli.manifest import (
     ObjectInfo,
     StimulusRecord,
@@ -177,6 +177,11 @@ class BuildParams:
         Accept pairs whose two photos differ in pixel size (each is resized on its own).
     windows_px : tuple of int
         Compression windows (paper: 1, 2, 3, 5, 7, 13, 18, 40).
+    fast_decode : bool
+        Decode JPEG photos at reduced size (1/2, 1/4 or 1/8 in the DCT domain, Pillow's
+        ``draft``), just large enough for the working size, before the anti-aliased resize.
+        About 3-5x faster per photo; the images differ slightly from a full decode (on the real
+        VABD/EBB! pairs 96-99 % of edge pixels agree). Off by default; recorded in the set.
     """
 
     working_shape_px: tuple[int, int] = jung2015.WORKING_SHAPE_PX
@@ -187,6 +192,7 @@ class BuildParams:
     grey_levels: int = 8
     allow_resize: bool = False
     windows_px: tuple[int, ...] = jung2015.WINDOWS_PX
+    fast_decode: bool = False
 
     def __post_init__(self) -> None:
         for name in (
@@ -475,14 +481,21 @@ def zoom_crop(
     a = np.asarray(image)
     if crop is None:
         return a.copy()
+    _check_crop_inside(crop, a.shape[:2], where=where)
     x, y, w, h = crop
-    rows, cols = a.shape[:2]
+    return a[y : y + h, x : x + w].copy()
+
+
+def _check_crop_inside(
+    crop: tuple[int, int, int, int], shape_px: tuple[int, int], *, where: str
+) -> None:
+    x, y, w, h = crop
+    rows, cols = shape_px
     if x < 0 or y < 0 or w <= 0 or h <= 0 or x + w > cols or y + h > rows:
         raise InputError(
             f"{where}: crop box x,y,w,h = {format_crop(crop)} lies outside the "
             f"{cols}x{rows} image (expected x + w <= {cols} and y + h <= {rows})"
         )
-    return a[y : y + h, x : x + w].copy()
 
 
 def aspect_crop_box(
@@ -618,6 +631,7 @@ class ObjectSummary:
     original_shape_px: tuple[int, int]
     crop: tuple[int, int, int, int] | None
     aspect_crop: tuple[int, int, int, int] | None
+    decoded_shape_px: tuple[int, int] | None = None
 
 
 @dataclass(frozen=True)
@@ -669,6 +683,7 @@ class _Work:
     threshold_source: str = ""
     wide_edges: np.ndarray | None = None
     narrow_edges: np.ndarray | None = None
+    decoded_shape_px: tuple[int, int] | None = None
 
 
 def _sha256_source(path: Path) -> str:
@@ -709,10 +724,32 @@ def _rel(path: Path, root: Path) -> str:
         return os.path.abspath(path)
 
 
-def _load_raw(src: PairSource, info: ObjectInfo) -> tuple[np.ndarray, np.ndarray]:
+def _draft_shape(
+    full_px: tuple[int, int], region_px: tuple[int, int], working_shape_px: tuple[int, int]
+) -> tuple[int, int]:
+    """Smallest decode size at which the zoom region still covers the working size."""
+    s = max(working_shape_px[0] / region_px[0], working_shape_px[1] / region_px[1])
+    return (int(np.ceil(full_px[0] * s)), int(np.ceil(full_px[1] * s)))
+
+
+def _load_raw(
+    src: PairSource, info: ObjectInfo, params: BuildParams, crop: tuple | None
+) -> tuple[np.ndarray, np.ndarray, tuple[int, int], tuple[int, int]]:
+    """Return ``(wide, narrow, wide_full_px, narrow_full_px)`` (full = size on file)."""
     if src.lightfield is None:
         assert src.wide is not None and src.narrow is not None
-        return load_gray(src.wide), load_gray(src.narrow)
+        if not params.fast_decode:
+            wide, narrow = load_gray(src.wide), load_gray(src.narrow)
+            return wide, narrow, wide.shape, narrow.shape
+        full = [image_shape_px(src.wide), image_shape_px(src.narrow)]
+        out = []
+        for path, f in zip((src.wide, src.narrow), full, strict=True):
+            region = f if crop is None else (crop[3], crop[2])
+            if crop is not None and f != full[0]:
+                region = (crop[3] * f[0] / full[0][0], crop[2] * f[1] / full[0][1])
+            draft = _draft_shape(f, (max(region[0], 1), max(region[1], 1)), params.working_shape_px)
+            out.append(load_gray(path, draft_shape_px=draft))
+        return out[0], out[1], full[0], full[1]
     try:
         from stimuli.lightfield import confocal_pair
     except ImportError:
@@ -726,17 +763,34 @@ def _load_raw(src: PairSource, info: ObjectInfo) -> tuple[np.ndarray, np.ndarray
         src.lightfield, depth_m=info.plane_depth_m, disparity_px=info.plane_disparity_px
     )
     where = f"{src.lightfield}: confocal_pair"
-    return check_gray(centre, f"{where} centre view"), check_gray(confocal, f"{where} image")
+    centre = check_gray(centre, f"{where} centre view")
+    confocal = check_gray(confocal, f"{where} image")
+    return centre, confocal, centre.shape, confocal.shape
+
+
+def _scale_crop(
+    crop: tuple[int, int, int, int] | None, ref_px: tuple[int, int], shape_px: tuple[int, int]
+) -> tuple[int, int, int, int] | None:
+    """Map a crop box given on an image of size ``ref_px`` to one of size ``shape_px``."""
+    if crop is None or tuple(ref_px) == tuple(shape_px):
+        return crop
+    fy, fx = shape_px[0] / ref_px[0], shape_px[1] / ref_px[1]
+    x, y, w, h = crop
+    x0, y0 = int(np.floor(x * fx + 0.5)), int(np.floor(y * fy + 0.5))
+    x1 = min(shape_px[1], int(np.floor((x + w) * fx + 0.5)))
+    y1 = min(shape_px[0], int(np.floor((y + h) * fy + 0.5)))
+    return (x0, y0, max(1, x1 - x0), max(1, y1 - y0))
 
 
 def _prepare(src: PairSource, info: ObjectInfo, params: BuildParams) -> _Work:
-    wide_raw, narrow_raw = _load_raw(src, info)
+    crop = info.crop if info.crop is not None else src.crop
+    wide_raw, narrow_raw, wide_full, narrow_full = _load_raw(src, info, params, crop)
     notes: list[str] = []
     name = src.lightfield if src.lightfield is not None else src.wide
-    if wide_raw.shape != narrow_raw.shape:
+    if tuple(wide_full) != tuple(narrow_full):
         msg = (
-            f"{src.object}: wide photo {src.wide} is {wide_raw.shape[1]}x{wide_raw.shape[0]} "
-            f"but narrow photo {src.narrow} is {narrow_raw.shape[1]}x{narrow_raw.shape[0]}"
+            f"{src.object}: wide photo {src.wide} is {wide_full[1]}x{wide_full[0]} "
+            f"but narrow photo {src.narrow} is {narrow_full[1]}x{narrow_full[0]}"
         )
         if not params.allow_resize:
             raise InputError(
@@ -744,17 +798,11 @@ def _prepare(src: PairSource, info: ObjectInfo, params: BuildParams) -> _Work:
                 "(use --allow-resize to resize each on its own)"
             )
         notes.append(msg + "; resized each on its own (--allow-resize)")
-    crop = info.crop if info.crop is not None else src.crop
     where = f"object {src.object!r} ({name}): field crop"
-    wide = zoom_crop(wide_raw, crop, where=where)
-    if crop is not None and narrow_raw.shape != wide_raw.shape:
-        sy = narrow_raw.shape[0] / wide_raw.shape[0]
-        sx = narrow_raw.shape[1] / wide_raw.shape[1]
-        x, y, w, h = crop
-        ncrop = (int(x * sx), int(y * sy), max(1, int(w * sx)), max(1, int(h * sy)))
-        narrow = zoom_crop(narrow_raw, ncrop, where=where)
-    else:
-        narrow = zoom_crop(narrow_raw, crop, where=where)
+    if crop is not None:
+        _check_crop_inside(crop, wide_full, where=where)
+    wide = zoom_crop(wide_raw, _scale_crop(crop, wide_full, wide_raw.shape), where=where)
+    narrow = zoom_crop(narrow_raw, _scale_crop(crop, wide_full, narrow_raw.shape), where=where)
     box = aspect_crop_box(wide.shape, params.working_shape_px)
     out = []
     for img in (wide, narrow):
@@ -773,10 +821,11 @@ def _prepare(src: PairSource, info: ObjectInfo, params: BuildParams) -> _Work:
         source=src,
         wide=out[0],
         narrow=out[1],
-        original_shape_px=tuple(int(v) for v in wide_raw.shape),
+        original_shape_px=tuple(int(v) for v in wide_full),
         crop=crop,
         aspect_crop=box,
         notes=notes,
+        decoded_shape_px=tuple(int(v) for v in wide_raw.shape),
     )
 
 
@@ -1048,6 +1097,7 @@ def build_stimulus_set(
                 original_shape_px=w.original_shape_px,
                 crop=w.crop,
                 aspect_crop=w.aspect_crop,
+                decoded_shape_px=w.decoded_shape_px,
             )
             for w in works
         )
@@ -1128,7 +1178,7 @@ def _version() -> str:
 
 def _summary_dict(s: ObjectSummary) -> dict:
     d = asdict(s)
-    for k in ("original_shape_px", "crop", "aspect_crop"):
+    for k in ("original_shape_px", "crop", "aspect_crop", "decoded_shape_px"):
         d[k] = None if d[k] is None else list(d[k])
     return d
 

@@ -58,6 +58,14 @@ def build_command(
     allow_resize: Annotated[
         bool, typer.Option("--allow-resize", help="Accept pairs whose photos differ in pixel size.")
     ] = False,
+    fast_decode: Annotated[
+        bool,
+        typer.Option(
+            "--fast-decode",
+            help="Decode JPEGs at reduced size (Pillow draft: 1/2, 1/4 or 1/8) just large enough "
+            "for the working size; 3-5x faster, slightly different pixels.",
+        ),
+    ] = False,
     force: Annotated[
         bool,
         typer.Option("--force", help="Replace --out even if it holds a different stimulus set."),
@@ -83,6 +91,7 @@ def build_command(
         mode=mode,
         grey_levels=grey_levels,
         allow_resize=allow_resize,
+        fast_decode=fast_decode,
     )
     console = Console(stderr=True)
     with Progress(

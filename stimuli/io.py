@@ -22,6 +22,7 @@ from stimuli.errors import InputError
 __all__ = [
     "load_gray",
     "load_rgb",
+    "image_shape_px",
     "save_png",
     "sha256_file",
     "atomic_path",
@@ -33,12 +34,21 @@ __all__ = [
 _LUMA_WEIGHTS = np.array([0.2125, 0.7154, 0.0721], dtype=np.float32)
 
 
-def _open(path: str | os.PathLike) -> Image.Image:
+#: EXIF orientations (tag 0x0112) that swap rows and columns (transpose, rotate 90/270).
+_EXIF_SWAPS_AXES = (5, 6, 7, 8)
+
+
+def _open(path: str | os.PathLike, draft_shape_px: tuple[int, int] | None = None) -> Image.Image:
     path = Path(path)
     if not path.is_file():
         raise InputError(f"{path}: image file not found")
     try:
         img = Image.open(path)
+        if draft_shape_px is not None and img.format == "JPEG":
+            rows, cols = (int(v) for v in draft_shape_px)
+            if img.getexif().get(0x0112) in _EXIF_SWAPS_AXES:
+                rows, cols = cols, rows
+            img.draft("RGB" if img.mode in ("RGB", "YCbCr") else img.mode, (cols, rows))
         img.load()
     except (UnidentifiedImageError, OSError, SyntaxError, ValueError) as exc:
         raise InputError(f"{path}: not a readable image ({exc})") from None
@@ -119,7 +129,29 @@ def load_rgb(path: str | os.PathLike) -> np.ndarray:
     return np.ascontiguousarray(a[..., :3])
 
 
-def load_gray(path: str | os.PathLike) -> np.ndarray:
+def image_shape_px(path: str | os.PathLike) -> tuple[int, int]:
+    """Return an image file's size ``(rows, cols)`` after EXIF orientation, reading the header only.
+
+    Raises
+    ------
+    InputError
+        If the file is missing or not an image.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise InputError(f"{path}: image file not found")
+    try:
+        with Image.open(path) as img:
+            cols, rows = img.size
+            swap = img.getexif().get(0x0112) in _EXIF_SWAPS_AXES
+    except (UnidentifiedImageError, OSError, SyntaxError, ValueError) as exc:
+        raise InputError(f"{path}: not a readable image ({exc})") from None
+    return (cols, rows) if swap else (rows, cols)
+
+
+def load_gray(
+    path: str | os.PathLike, *, draft_shape_px: tuple[int, int] | None = None
+) -> np.ndarray:
     """Read an image file as luminance, ``float32`` in [0, 1], EXIF orientation applied.
 
     Colour is converted with Rec. 709 luma weights (as ``skimage.color.rgb2gray``).
@@ -128,6 +160,11 @@ def load_gray(path: str | os.PathLike) -> np.ndarray:
     ----------
     path : str or path-like
         Any format Pillow reads (JPEG, PNG, TIFF, 16-bit PNG, ...).
+    draft_shape_px : (rows, cols), optional
+        JPEG only: let the decoder shrink the image by 1/2, 1/4 or 1/8 in the DCT domain
+        (Pillow's ``Image.draft``) to the smallest such size that is still at least this size
+        (after EXIF orientation). Much faster for a later down-sampling; the result differs
+        slightly from a full decode followed by a resize. Ignored for other formats.
 
     Returns
     -------
@@ -138,7 +175,7 @@ def load_gray(path: str | os.PathLike) -> np.ndarray:
     InputError
         If the file is missing, unreadable or truncated.
     """
-    a = to_float01(_pil_to_array(_open(path)))
+    a = to_float01(_pil_to_array(_open(path, draft_shape_px)))
     if a.ndim == 3:
         a = a[..., :3] @ _LUMA_WEIGHTS if a.shape[2] >= 3 else a[..., 0]
     return np.ascontiguousarray(np.clip(a, 0.0, 1.0).astype(np.float32))

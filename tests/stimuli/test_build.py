@@ -375,3 +375,57 @@ def test_cli_synth_calls_write_pairs(tmp_path: Path, monkeypatch, capsys) -> Non
         main(["stimuli", "synth", "--out", str(tmp_path), "--objects", "5", "--size", "300x200"])
     assert exc.value.code == 0
     assert calls == [(tmp_path, 5, 3, 0, (200, 300))]
+
+
+def _jpeg_pairs(root: Path, n: int, shape_px: tuple[int, int]) -> Path:
+    for i in range(n):
+        wide, narrow, _ = make_pair(i, shape_px, blur_px=6.0)
+        for name, img in (("wide", wide), ("narrow", narrow)):
+            (root / f"obj{i:02d}").mkdir(parents=True, exist_ok=True)
+            Image.fromarray(np.round(img * 255).astype(np.uint8)).save(
+                root / f"obj{i:02d}" / f"{name}.jpg", quality=92
+            )
+    return root
+
+
+def test_load_gray_draft_decodes_jpeg_at_reduced_size(tmp_path: Path) -> None:
+    """draft_shape_px: the smallest DCT scale (1/2, 1/4, 1/8) still >= the request; EXIF honoured;
+    other formats ignore it."""
+    wide, _, _ = make_pair(0, (400, 600))
+    u8 = np.round(wide * 255).astype(np.uint8)
+    Image.fromarray(u8).save(tmp_path / "a.jpg", quality=92)
+    Image.fromarray(u8).save(tmp_path / "a.png")
+    assert load_gray(tmp_path / "a.jpg", draft_shape_px=(90, 140)).shape == (100, 150)
+    assert load_gray(tmp_path / "a.jpg", draft_shape_px=(101, 150)).shape == (200, 300)
+    assert load_gray(tmp_path / "a.png", draft_shape_px=(90, 140)).shape == (400, 600)
+    exif = Image.Exif()
+    exif[0x0112] = 6  # rotate 90: stored 600 wide, shown 400 wide
+    Image.fromarray(u8).save(tmp_path / "r.jpg", quality=92, exif=exif)
+    from stimuli.io import image_shape_px
+
+    assert image_shape_px(tmp_path / "r.jpg") == (600, 400)
+    assert load_gray(tmp_path / "r.jpg", draft_shape_px=(140, 90)).shape == (150, 100)
+
+
+def test_fast_decode_is_close_to_full_decode(tmp_path: Path) -> None:
+    """--fast-decode: same sizes and crop semantics, pixels close to the full decode."""
+    pairs = _jpeg_pairs(tmp_path / "p", 2, (400, 600))
+    (pairs / "objects.csv").write_text('object,crop\nobj01,"60,80,360,240"\n')
+    small = (82, 123)
+    full = build_stimulus_set(pairs, tmp_path / "a", params=BuildParams(working_shape_px=small))
+    fast = build_stimulus_set(
+        pairs, tmp_path / "b", params=BuildParams(working_shape_px=small, fast_decode=True)
+    )
+    assert [o.decoded_shape_px for o in full.objects] == [(400, 600), (400, 600)]
+    # obj00 needs >= 82 rows of 400 -> 1/4; obj01's 240-row crop needs 82 -> 1/2
+    assert [o.decoded_shape_px for o in fast.objects] == [(100, 150), (200, 300)]
+    for oid in ("obj00", "obj01"):
+        a = load_gray(tmp_path / "a" / oid / "photo.png")
+        b = load_gray(tmp_path / "b" / oid / "photo.png")
+        assert a.shape == b.shape == small
+        assert np.abs(a - b).mean() < 0.02, oid
+    ra, rb = (read_manifest(tmp_path / d / "manifest.csv") for d in ("a", "b"))
+    assert [(r.width, r.height, r.crop) for r in ra] == [(r.width, r.height, r.crop) for r in rb]
+    assert json.loads((tmp_path / "b" / "stimulus_set.json").read_text())["parameters"][
+        "fast_decode"
+    ]

@@ -138,6 +138,11 @@ def _crop_outside(tmp_path):
     )
 
 
+def _crop_outside_fast_decode(tmp_path):
+    args, match = _crop_outside(tmp_path)
+    return [*args, "--fast-decode"], match
+
+
 def _sizes_differ(tmp_path):
     p = _pairs(tmp_path, 1)
     wide, _, _ = make_pair(0, (50, 75))
@@ -172,6 +177,7 @@ CASES = {
     "non-numeric --threshold": _threshold_not_a_number,
     "non-numeric objects.csv threshold": _objects_csv_threshold_not_a_number,
     "crop outside image": _crop_outside,
+    "crop outside image (--fast-decode)": _crop_outside_fast_decode,
     "pair sizes differ": _sizes_differ,
     "PAIRS not found": _pairs_not_found,
     "bad working size": _bad_working_size,
@@ -327,6 +333,13 @@ def test_every_raise(call, match) -> None:
 
 def test_file_level_raises(tmp_path: Path) -> None:
     """CSV/folder readers name the file (and line) and what was expected."""
+    from stimuli.io import image_shape_px
+
+    with pytest.raises(InputError, match=r"nope\.jpg: image file not found"):
+        image_shape_px(tmp_path / "nope.jpg")
+    (tmp_path / "bad.jpg").write_bytes(b"garbage")
+    with pytest.raises(InputError, match=r"bad\.jpg: not a readable image"):
+        image_shape_px(tmp_path / "bad.jpg")
     with pytest.raises(InputError, match=r"objects\.csv not found"):
         read_objects_csv(tmp_path / "objects.csv")
     p = _csv(tmp_path, "o1.csv", "name\nmug\n")
