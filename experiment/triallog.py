@@ -308,14 +308,16 @@ class TrialLog:
             if readonly and not p.is_file():
                 raise TrialLogError(f"{p}: trial log not found")
             if not readonly:
-                if p.exists() and not os.access(p, os.W_OK):
+                # the mode bits too: root may write anything, but a file marked read-only
+                # (chmod a-w) means "do not touch" whoever runs the session
+                if p.exists() and (not os.access(p, os.W_OK) or not p.stat().st_mode & 0o222):
                     raise TrialLogError(
                         f"{p}: trial log is read-only (no write permission); nothing was changed"
                     )
                 parent = p.parent if str(p.parent) else Path(".")
                 if not parent.is_dir():
                     raise TrialLogError(f"{p}: folder {parent} does not exist")
-                if not os.access(parent, os.W_OK):
+                if not os.access(parent, os.W_OK) or not parent.stat().st_mode & 0o222:
                     raise TrialLogError(
                         f"{p}: folder {parent} is read-only (SQLite needs it for its WAL files); "
                         "nothing was changed"
