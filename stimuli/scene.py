@@ -113,12 +113,25 @@ class ThinLensCamera:
     focus_m: float = jung2015.OBJECT_DISTANCE_M
 
     def __post_init__(self) -> None:
-        if self.focal_length_mm <= 0 or self.f_number <= 0:
-            raise InputError("focal_length_mm and f_number must be > 0")
+        shape = self.shape_px
+        if (
+            not isinstance(shape, tuple)
+            or len(shape) != 2
+            or not all(isinstance(v, (int, np.integer)) and not isinstance(v, bool) for v in shape)
+            or min(shape) < 1
+        ):
+            raise InputError(f"shape_px must be (rows, cols) of positive integers, got {shape!r}")
+        for name in ("focal_length_mm", "f_number"):
+            value = getattr(self, name)
+            if not (math.isfinite(value) and value > 0):
+                raise InputError(f"{name} must be a finite number > 0, got {value!r}")
         if not (0 < self.hfov_deg < 180):
             raise InputError(f"hfov_deg must be in (0, 180), got {self.hfov_deg!r}")
-        if self.focus_m * 1000.0 <= self.focal_length_mm:
-            raise InputError(f"focus_m must exceed the focal length, got {self.focus_m!r} m")
+        if not (math.isfinite(self.focus_m) and self.focus_m * 1000.0 > self.focal_length_mm):
+            raise InputError(
+                f"focus_m must exceed the focal length ({self.focal_length_mm} mm), "
+                f"got {self.focus_m!r} m"
+            )
 
     @property
     def sensor_width_mm(self) -> float:

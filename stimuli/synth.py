@@ -1466,7 +1466,27 @@ def _texture_shape(camera: ThinLensCamera, margin_px: int) -> tuple[int, int]:
 
 
 def object_width_px(camera: ThinLensCamera) -> float:
-    """Image width of a 10 deg object seen by ``camera``, pixels (pinhole projection)."""
+    """Return the image width of a 10 deg wide object seen by ``camera``, pixels.
+
+    Parameters
+    ----------
+    camera : ThinLensCamera
+
+    Returns
+    -------
+    float
+        ``2 * focal_length_px * tan(5 deg)`` (pinhole projection of an object centred on the
+        axis); about 194 px for the paper's 492 px wide, 25 deg field.
+
+    References
+    ----------
+    Jung et al. (2015), Sec. 3.1 (objects about 10 deg wide).
+
+    Examples
+    --------
+    >>> round(object_width_px(ThinLensCamera()), 1)
+    194.2
+    """
     return 2.0 * camera.focal_length_px * math.tan(math.radians(OBJECT_WIDTH_DEG) / 2.0)
 
 

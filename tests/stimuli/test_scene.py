@@ -78,8 +78,13 @@ def test_coc_is_zero_at_focus_and_grows_away_from_it() -> None:
 @pytest.mark.parametrize(
     ("kwargs", "match"),
     [
-        ({"focal_length_mm": 0.0}, "focal_length_mm and f_number"),
-        ({"f_number": -1.0}, "focal_length_mm and f_number"),
+        ({"focal_length_mm": 0.0}, "focal_length_mm must be a finite number > 0, got 0.0"),
+        ({"f_number": -1.0}, "f_number must be a finite number > 0, got -1.0"),
+        ({"f_number": float("nan")}, "f_number must be a finite number > 0"),
+        ({"shape_px": (327,)}, "shape_px must be \\(rows, cols\\) of positive integers"),
+        ({"shape_px": (0, 492)}, "shape_px must be \\(rows, cols\\) of positive integers"),
+        ({"shape_px": [327, 492]}, "shape_px must be \\(rows, cols\\) of positive integers"),
+        ({"shape_px": (327.0, 492)}, "shape_px must be \\(rows, cols\\) of positive integers"),
         ({"hfov_deg": 180.0}, "hfov_deg"),
         ({"focus_m": 0.01}, "focus_m"),
     ],
