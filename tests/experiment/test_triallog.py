@@ -1,4 +1,4 @@
-"""The SQLite trial log: schema, durability settings, append-only rules, locks, bad files (H16, H22)."""
+"""The SQLite trial log: schema, durability, append-only rules, locks, bad files (H16, H22)."""
 
 from __future__ import annotations
 
