@@ -5,7 +5,8 @@ the console and the presenter process, never as a side effect of ``import experi
 
 What is drawn
 -------------
-One full-screen triangle and one fragment shader draw every screen:
+The border frame and the background are plain clears; one fragment shader, scissored to the
+image (or text) rectangle, draws every pixel inside it:
 
 - *stimulus*: the stimulus fills a rectangle of the protocol's physical size (cm, converted with the
   monitor's pixels per cm), centred; everything around it has the border colour (Jung et al. 2015,
