@@ -306,3 +306,31 @@ def test_render_rejects_a_non_camera() -> None:
         render_thin_lens([layer], "camera")
     with pytest.raises(InputError, match="camera must be a ThinLensCamera"):
         render_pair([layer], camera="camera")
+
+
+@pytest.mark.parametrize("dtype", [np.float32, np.float64])
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_render_output_is_float32_in_range_for_random_scenes(dtype, seed) -> None:
+    rng = np.random.default_rng(seed)
+    rows, cols = int(rng.integers(8, 40)), int(rng.integers(8, 40))
+    cam = ThinLensCamera(shape_px=(rows, cols), f_number=float(rng.choice([1.7, 4.0, 22.0])))
+    layers = []
+    for i in range(int(rng.integers(1, 5))):
+        shape = (rows + 2 * int(rng.integers(0, 6)), cols + 2 * int(rng.integers(0, 6)))
+        layers.append(
+            Layer(
+                f"l{i}",
+                rng.random(shape).astype(dtype),
+                rng.random(shape).astype(dtype),
+                float(rng.uniform(0.3, 5.0)),
+            )
+        )
+    out = render_thin_lens(layers, cam)
+    assert out.dtype == np.float32 and out.shape == (rows, cols)
+    assert np.all(np.isfinite(out)) and out.min() >= 0.0 and out.max() <= 1.0
+
+
+def test_zero_alpha_scene_renders_black() -> None:
+    cam = ThinLensCamera(shape_px=SMALL, f_number=1.7)
+    layer = _layer("ghost", np.ones(SMALL), 2.0, np.zeros(SMALL))
+    np.testing.assert_array_equal(render_thin_lens([layer], cam), 0.0)
