@@ -459,3 +459,24 @@ def test_synthetic_set_end_to_end_issue_2(tmp_path: Path) -> None:
                     outside = block_mean(mask, (r.height, r.width)) == 0
                     on_outside[r.condition] = int(((_stim(out, r) > 0) & outside).sum())
             assert on_outside["decluttered"] < on_outside["cluttered"], (oid, level, on_outside)
+
+
+def test_lightfield_subfolder_in_a_pairs_folder(tmp_path: Path, monkeypatch) -> None:
+    """Folder form: an object folder holding lightfield.npz (or lightfield/) is a light field."""
+    import stimuli.lightfield
+
+    wide, narrow, _ = make_pair(2, (200, 300))
+    monkeypatch.setattr(
+        stimuli.lightfield, "confocal_pair", lambda p, *, depth_m, disparity_px: (wide, narrow)
+    )
+    (tmp_path / "p" / "bust").mkdir(parents=True)
+    (tmp_path / "p" / "bust" / "lightfield.npz").write_bytes(b"x")
+    (tmp_path / "p" / "doll" / "lightfield").mkdir(parents=True)
+    (tmp_path / "p" / "doll" / "lightfield" / "view0.png").write_bytes(b"y")
+    inp = read_pairs(tmp_path / "p")
+    assert [(s.object, s.kind, s.lightfield.name) for s in inp.sources] == [
+        ("bust", "lightfield", "lightfield.npz"),
+        ("doll", "lightfield", "lightfield"),
+    ]
+    r = build_stimulus_set(tmp_path / "p", tmp_path / "s", workers=1)
+    assert r.n_stimuli == 2 * 17
