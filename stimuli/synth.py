@@ -220,6 +220,16 @@ _KINDS: tuple[ObjectKind, ...] = (
         ("wearing", "walking", "running", "footwear"),
     ),
     ObjectKind("chair", "chair", ("seat", "stool"), ("sitting", "sit on")),
+    ObjectKind("pen", "pen", ("ballpoint pen", "ballpoint", "biro"), ("writing", "write")),
+    ObjectKind(
+        "watch", "wristwatch", ("watch", "wrist watch"), ("telling time", "time", "wear on wrist")
+    ),
+    ObjectKind(
+        "remote",
+        "remote control",
+        ("remote", "tv remote", "controller", "clicker"),
+        ("changing channels", "control the tv", "switching the tv"),
+    ),
 )
 
 
@@ -1151,6 +1161,69 @@ def _draw_chair(cv: _Canvas, rng: np.random.Generator) -> None:
     cv.paint(_box(0, 0.2, 0.66, 0.03), wood * 0.7, outline=OL)
 
 
+def _draw_pen(cv: _Canvas, rng: np.random.Generator) -> None:
+    ang = rng.uniform(22.0, 34.0) * rng.choice([-1, 1])
+    base = rng.uniform(0.15, 0.4)
+
+    def R(s: _Shape) -> _Shape:
+        return _rotate(s, ang, 0.0, 0.7)
+
+    cv.paint(R(_polygon([(-0.035, 0.12), (0.035, 0.12), (0.006, 0.02), (-0.006, 0.02)])), 0.75,
+             outline=OL)  # fmt: skip
+    cv.paint(R(_box(0, 0.3, 0.085, 0.36, r=0.02)), _cyl(0, 0.043, 0.25, spec=0.3), outline=OL)
+    for k in range(6):
+        cv.paint(R(_box(0, 0.2 + 0.04 * k, 0.085, 0.012)), 0.08)
+    cv.paint(R(_box(0, 0.9, 0.1, 0.84, r=0.04)), _cyl(0, 0.05, base + 0.3, spec=0.5), outline=OL)
+    cv.paint(R(_box(0, 1.34, 0.1, 0.04)), _metal(0.8, 90 + ang), outline=OL)
+    cv.paint(R(_box(0.065, 1.15, 0.035, 0.42, r=0.015)), _metal(0.75, 90 + ang), outline=OL)
+    cv.paint(R(_ellipse(0, 1.4, 0.045, 0.04)), base, outline=OL)
+
+
+def _draw_watch(cv: _Canvas, rng: np.random.Generator) -> None:
+    strap = rng.uniform(0.15, 0.35)
+    c = (0.0, 0.62)
+    for sy in (-1.0, 1.0):
+        band = _box(0, c[1] + sy * 0.42, 0.3, 0.5, r=0.04)
+        cv.paint(band, _lin(-0.15, 0, 0.15, 0, strap * 1.4, strap * 0.8), outline=OL)
+        for k in range(3):
+            cv.paint(_box(0, c[1] + sy * (0.3 + 0.1 * k), 0.26, 0.008), strap * 0.5)
+    for k in range(4):
+        cv.paint(_ellipse(0, c[1] - 0.44 - 0.06 * k, 0.022, 0.016), 0.05)
+    cv.paint(_box(0.3, c[1], 0.07, 0.08, r=0.015), _metal(0.7, 90), outline=OL)
+    cv.paint(_circle(*c, 0.3), _sphere(*c, 0.34, 0.75), outline=OL)
+    cv.paint(_circle(*c, 0.245), _lin(-0.2, 0.85, 0.2, 0.4, 0.98, 0.8), outline=OL)
+    for k in range(12):
+        a = k * math.pi / 6
+        r0 = 0.19 if k % 3 else 0.16
+        p0 = (c[0] + r0 * math.sin(a), c[1] + r0 * math.cos(a))
+        p1 = (c[0] + 0.22 * math.sin(a), c[1] + 0.22 * math.cos(a))
+        cv.paint(_capsule(*p0, *p1, 0.008 if k % 3 else 0.014), 0.1)
+    h, m = rng.uniform(0, 2 * math.pi), rng.uniform(0, 2 * math.pi)
+    cv.paint(_capsule(*c, c[0] + 0.11 * math.sin(h), c[1] + 0.11 * math.cos(h), 0.016), 0.05)
+    cv.paint(_capsule(*c, c[0] + 0.18 * math.sin(m), c[1] + 0.18 * math.cos(m), 0.011), 0.05)
+    cv.paint(_circle(*c, 0.02), 0.3)
+
+
+def _draw_remote(cv: _Canvas, rng: np.random.Generator) -> None:
+    ang = rng.uniform(-12.0, 12.0)
+    base = rng.uniform(0.12, 0.3)
+
+    def R(s: _Shape) -> _Shape:
+        return _rotate(s, ang, 0.0, 0.6)
+
+    cv.paint(R(_box(0, 0.62, 0.36, 1.2, r=0.08)), _cyl(0, 0.18, base, spec=0.25), outline=OL)
+    cv.paint(R(_circle(-0.09, 1.1, 0.04)), 0.5, outline=OL / 2)
+    cv.paint(R(_ring(0, 0.84, 0.1, 0.06)), 0.7, outline=OL / 2)
+    cv.paint(R(_circle(0, 0.84, 0.04)), 0.85, outline=OL / 2)
+    for i in range(4):
+        for j in range(3):
+            cv.paint(
+                R(_box(-0.1 + 0.1 * j, 0.58 - 0.09 * i, 0.07, 0.05, r=0.02)), 0.8, outline=OL / 2
+            )
+    for j in range(2):
+        cv.paint(R(_box(-0.07 + 0.14 * j, 0.17, 0.1, 0.08, r=0.03)), 0.55, outline=OL / 2)
+
+
 _DRAW: dict[str, Callable[[_Canvas, np.random.Generator], None]] = {
     "cup": _draw_cup,
     "mug": _draw_mug,
@@ -1175,6 +1248,9 @@ _DRAW: dict[str, Callable[[_Canvas, np.random.Generator], None]] = {
     "screwdriver": _draw_screwdriver,
     "shoe": _draw_shoe,
     "chair": _draw_chair,
+    "pen": _draw_pen,
+    "watch": _draw_watch,
+    "remote": _draw_remote,
 }
 
 
@@ -1654,7 +1730,8 @@ def write_pairs(
     n_objects : int >= 1
         Main objects.
     n_training : int >= 0
-        Training objects (after the main ones); ``n_objects + n_training`` <= 23.
+        Training objects (after the main ones); ``n_objects + n_training`` at most the number
+        of :func:`object_kinds` (26).
     seed : int >= 0
         Seed of every random choice.
     shape_px : (rows, cols)

@@ -255,7 +255,7 @@ def test_write_pairs_leaves_nothing_behind_on_failure(tmp_path, monkeypatch) -> 
         ({"n_objects": 0}, "n_objects must be an integer >= 1"),
         ({"n_objects": 2.5}, "n_objects must be an integer >= 1"),
         ({"n_training": -1}, "n_training must be an integer >= 0"),
-        ({"n_objects": 20, "n_training": 4}, "n_objects \\+ n_training must be <= 23"),
+        ({"n_objects": 20, "n_training": 7}, "n_objects \\+ n_training must be <= 26"),
         ({"seed": -3}, "seed must be an integer >= 0"),
         ({"shape_px": (327,)}, "shape_px must be \\(rows, cols\\)"),
         ({"shape_px": "big"}, "shape_px must be \\(rows, cols\\)"),
