@@ -12,7 +12,8 @@ The pipeline, per object
    to the working size with ``skimage.transform.resize(..., anti_aliasing=True)``.
 4. Sobel magnitude and threshold (:mod:`stimuli.declutter`): the per-object value of
    ``objects.csv``, else the global ``threshold``, else :func:`stimuli.declutter.auto_threshold`
-   on the narrow-DOF image; the same value is applied to the wide-DOF image, as in the paper.
+   on the narrow-DOF image at the working size; the same value is applied to the wide-DOF
+   image, as in the paper.
 5. Edge ratio ``r``: given, or the mean edge-pixel fraction over the wide-DOF edge images of the
    set's main objects (the paper found 1/13 = 7.7 %).
 6. Compression by non-overlapping windows 1, 2, 3, 5, 7, 13, 18, 40 (:mod:`stimuli.compress`);
