@@ -1,0 +1,411 @@
+"""Render light fields from a layered scene (:mod:`stimuli.scene`), and the paper's Fig. 10 scene.
+
+Each view is a pinhole (camera array) or orthographic (lens array) image of fronto-parallel
+layers: every layer is shifted by its own disparity times the view offset (convention of
+:mod:`stimuli.lightfield`: ``I_(du,dv)(y, x) = texture(y + d du, x + d dv)``) and the layers are
+composited back to front with their alpha ("over"), so nearer layers occlude farther ones in
+every view. Sub-pixel shifts use linear interpolation.
+
+The three-plane scene of Jung et al. (2015), Fig. 10 (pedestrian at 1 m, tree at 4 m, building
+at 9 m) is drawn procedurally with Pillow: a person in a striped shirt, a tree with a leafy crown
+and a bark-textured trunk, and a brick building with windows and a door under a plain sky.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from PIL import Image, ImageDraw
+
+from stimuli import jung2015
+from stimuli.errors import InputError
+from stimuli.lightfield import Geometry, LightField, elemental_from_views
+from stimuli.scene import Layer
+
+__all__ = [
+    "render_views",
+    "render_camera_array",
+    "render_elemental_image",
+    "lens_array_geometry",
+    "three_plane_scene",
+    "layer_masks",
+    "SIM_SHAPE_PX",
+]
+
+#: Size (rows, cols) of the simulated confocal images. Source: Jung et al. (2015), Fig. 11
+#: ("Confocal images (308x385)").
+SIM_SHAPE_PX: tuple[int, int] = (308, 385)
+
+
+def lens_array_geometry(
+    *,
+    lens_pitch_mm: float = jung2015.LF_SIM_LENS_PITCH_MM,
+    lens_focal_mm: float = jung2015.LF_SIM_LENS_FOCAL_MM,
+    relay_minification: float = jung2015.LF_SIM_RELAY_MINIFICATION,
+    pixels_per_lens: int = jung2015.LF_SIM_PIXELS_PER_LENS,
+    near_m: float = 0.5,
+    far_m: float = 12.0,
+) -> Geometry:
+    """Return the lens-array geometry of the paper's simulation (Sec. 4.1).
+
+    ``near_m``/``far_m`` (ours) bracket the scene's 1-9 m with a margin.
+    """
+    return Geometry(
+        kind="lens_array",
+        lens_pitch_mm=lens_pitch_mm,
+        lens_focal_mm=lens_focal_mm,
+        relay_minification=relay_minification,
+        pixel_mm=lens_pitch_mm / pixels_per_lens,
+        near_m=near_m,
+        far_m=far_m,
+    )
+
+
+def _check_layers(layers: list[Layer], shape_px: tuple[int, int]) -> None:
+    if not layers:
+        raise InputError("layers must not be empty")
+    for layer in layers:
+        if not isinstance(layer, Layer):
+            raise InputError(f"layers must be stimuli.scene.Layer objects, got {type(layer)}")
+        t = np.asarray(layer.texture)
+        if t.shape[0] < shape_px[0] or t.shape[1] < shape_px[1]:
+            raise InputError(
+                f"layer {layer.name!r}: texture {t.shape} is smaller than the view {shape_px}"
+            )
+
+
+def _sample(a: np.ndarray, oy: float, ox: float, shape_px: tuple[int, int]) -> np.ndarray:
+    """Crop ``shape_px`` from ``a`` at top-left ``(oy, ox)`` (fractional; zero outside)."""
+    rows, cols = shape_px
+    iy, ix = math.floor(oy), math.floor(ox)
+    fy, fx = oy - iy, ox - ix
+    pad = 2
+    big = np.zeros((rows + pad, cols + pad), dtype=np.float32)
+    y0, x0 = iy, ix
+    sy0, sx0 = max(0, y0), max(0, x0)
+    sy1, sx1 = min(a.shape[0], y0 + rows + pad), min(a.shape[1], x0 + cols + pad)
+    if sy1 > sy0 and sx1 > sx0:
+        big[sy0 - y0 : sy1 - y0, sx0 - x0 : sx1 - x0] = a[sy0:sy1, sx0:sx1]
+    out = (
+        (1 - fy) * (1 - fx) * big[:rows, :cols]
+        + (1 - fy) * fx * big[:rows, 1 : cols + 1]
+        + fy * (1 - fx) * big[1 : rows + 1, :cols]
+        + fy * fx * big[1 : rows + 1, 1 : cols + 1]
+    )
+    return out.astype(np.float32)
+
+
+def render_views(
+    layers: list[Layer],
+    disparities_px: list[float],
+    grid: tuple[int, int],
+    shape_px: tuple[int, int],
+) -> np.ndarray:
+    """Render a grid of views of layers with given disparities, composited back to front.
+
+    Parameters
+    ----------
+    layers : list of Layer
+        In any order; sorted far to near by ``depth_m`` before compositing.
+    disparities_px : list of float
+        Disparity of each layer (same order as ``layers``), pixels per view step.
+    grid : (n_u, n_v)
+    shape_px : (rows, cols)
+        View size; each texture is centred on the view (its margin is cropped).
+
+    Returns
+    -------
+    ndarray of shape (n_u, n_v, rows, cols), float32 in [0, 1]
+    """
+    _check_layers(layers, shape_px)
+    if len(disparities_px) != len(layers):
+        raise InputError("disparities_px must give one disparity per layer")
+    n_u, n_v = (int(g) for g in grid)
+    if n_u < 1 or n_v < 1:
+        raise InputError(f"grid must be positive, got {grid!r}")
+    rows, cols = shape_px
+    order = sorted(range(len(layers)), key=lambda i: -layers[i].depth_m)
+    out = np.zeros((n_u, n_v, rows, cols), dtype=np.float32)
+    cu, cv = n_u // 2, n_v // 2
+    for u in range(n_u):
+        for v in range(n_v):
+            img = np.zeros((rows, cols), dtype=np.float32)
+            for i in order:
+                layer, d = layers[i], disparities_px[i]
+                t = np.asarray(layer.texture, dtype=np.float32)
+                a = np.asarray(layer.alpha, dtype=np.float32)
+                oy = (t.shape[0] - rows) / 2 + d * (u - cu)
+                ox = (t.shape[1] - cols) / 2 + d * (v - cv)
+                ts, al = _sample(t, oy, ox, shape_px), _sample(a, oy, ox, shape_px)
+                img = ts * al + img * (1 - al)
+            out[u, v] = np.clip(img, 0.0, 1.0)
+    return out
+
+
+def render_camera_array(
+    layers: list[Layer],
+    *,
+    grid: tuple[int, int] = (9, 9),
+    shape_px: tuple[int, int] = SIM_SHAPE_PX,
+    focal_length_px: float = 400.0,
+    baseline_m: float = 0.01,
+    near_m: float = 0.5,
+    far_m: float = 12.0,
+) -> LightField:
+    """Render a camera-array light field (parallel pinhole cameras on a square grid).
+
+    A layer at depth ``z`` has disparity ``focal_length_px * baseline_m / z``. Defaults (ours)
+    give 4 px per view step at 1 m.
+
+    Returns
+    -------
+    LightField
+        With a camera-array :class:`~stimuli.lightfield.Geometry`.
+    """
+    g = Geometry(
+        kind="camera_array",
+        focal_length_px=focal_length_px,
+        baseline_m=baseline_m,
+        near_m=near_m,
+        far_m=far_m,
+    )
+    ds = [g.disparity_px(layer.depth_m) for layer in layers]
+    return LightField(render_views(layers, ds, grid, shape_px), g, "synthetic camera array")
+
+
+def render_elemental_image(
+    layers: list[Layer],
+    *,
+    shape_px: tuple[int, int] = SIM_SHAPE_PX,
+    geometry: Geometry | None = None,
+    pixels_per_lens: int = jung2015.LF_SIM_PIXELS_PER_LENS,
+) -> tuple[np.ndarray, Geometry]:
+    """Render the elemental image a lens array records of the layers (Jung et al. 2015, Fig. 10).
+
+    Parameters
+    ----------
+    layers : list of Layer
+    shape_px : (rows, cols)
+        Number of lenslets; the elemental image is ``pixels_per_lens`` times larger.
+    geometry : Geometry, optional
+        Lens-array geometry (default :func:`lens_array_geometry`).
+    pixels_per_lens : int
+        Pixels under each lenslet, per axis (paper: 10).
+
+    Returns
+    -------
+    elemental : ndarray of shape (rows * p, cols * p), float32 in [0, 1]
+    geometry : Geometry
+    """
+    g = geometry or lens_array_geometry(pixels_per_lens=pixels_per_lens)
+    if g.kind != "lens_array":
+        raise InputError(f"geometry must be a lens array, got kind {g.kind!r}")
+    ds = [g.disparity_px(layer.depth_m) for layer in layers]
+    p = int(pixels_per_lens)
+    views = render_views(layers, ds, (p, p), shape_px)
+    return elemental_from_views(views), g
+
+
+# --------------------------------------------------------------------------------------------
+# The paper's three-plane scene
+# --------------------------------------------------------------------------------------------
+
+
+#: Relative amplitude of the fine grain drawn on every object (ours): strong enough that each
+#: object's sharpest Haar edges are its own texture, so the depth scan peaks at its plane.
+GRAIN: float = 0.35
+
+
+def _canvas(shape_px: tuple[int, int]) -> tuple[Image.Image, Image.Image]:
+    rows, cols = shape_px
+    return Image.new("L", (cols, rows), 0), Image.new("L", (cols, rows), 0)
+
+
+def _to_arrays(
+    tex: Image.Image, alpha: Image.Image, rng: np.random.Generator, grain: Image.Image | None = None
+) -> tuple[np.ndarray, np.ndarray]:
+    """Return texture and alpha arrays, with fine random grain where ``grain`` (or alpha) is set.
+
+    The grain (ours: +-GRAIN relative noise, like fabric, bark or brick) gives each object fine,
+    aperiodic detail, so that it is sharp at its own plane only and ghost copies of a blurred
+    object never line up into a false focus.
+    """
+    t = np.asarray(tex, dtype=np.float32) / 255.0
+    a = np.asarray(alpha, dtype=np.float32) / 255.0
+    where = (np.asarray(grain) > 0) if grain is not None else (a > 0)
+    noise = rng.uniform(-GRAIN, GRAIN, size=t.shape).astype(np.float32)
+    t = np.where(where, np.clip(t * (1.0 + noise) + 0.02 * noise, 0.0, 1.0), t)
+    return t.astype(np.float32), a
+
+
+def _building(shape_px: tuple[int, int], s: float, rng: np.random.Generator) -> Layer:
+    rows, cols = shape_px
+    tex, alpha = _canvas(shape_px)
+    dt, da = ImageDraw.Draw(tex), ImageDraw.Draw(alpha)
+    da.rectangle([0, 0, cols, rows], fill=255)  # opaque backdrop: sky, building, ground
+    dt.rectangle([0, 0, cols, rows], fill=200)  # plain sky
+    ground = int(rows * 0.86)
+    dt.rectangle([0, ground, cols, rows], fill=110)
+    x0, x1 = int(cols * 0.2), int(cols * 0.92)
+    top = int(rows * 0.12)
+    dt.rectangle([x0, top, x1, ground], fill=150)
+    # Irregular bricks and windows: a periodic facade would make ghost copies of the blurred
+    # building line up at wrong planes (aliasing peaks in the depth scan).
+    y = top
+    while y < ground:
+        bh = max(2, int(rng.integers(2, 5) * s))
+        dt.line([x0, y, x1, y], fill=int(rng.integers(115, 135)))
+        x = x0 + int(rng.integers(0, 8))
+        while x < x1:
+            dt.line([x, y, x, y + bh], fill=125)
+            x += max(3, int(rng.integers(8, 15) * s))
+        y += bh
+    y = top + int(8 * s)
+    while y < ground - int(34 * s):
+        win_h = max(4, int(rng.integers(9, 15) * s))
+        x = x0 + int(rng.integers(4, 12) * s)
+        while x < x1 - int(12 * s):
+            win_w = max(3, int(rng.integers(6, 12) * s))
+            dt.rectangle([x, y, x + win_w, y + win_h], fill=int(rng.integers(20, 70)))
+            dt.line([x + win_w // 2, y, x + win_w // 2, y + win_h], fill=170)
+            x += win_w + max(4, int(rng.integers(7, 16) * s))
+        y += win_h + max(5, int(rng.integers(8, 16) * s))
+    door_x = (x0 + x1) // 2
+    dt.rectangle([door_x - int(8 * s), ground - int(26 * s), door_x + int(8 * s), ground], fill=30)
+    dt.polygon([(x0 - 6 * s, top), (x1 + 6 * s, top), ((x0 + x1) / 2, top - 18 * s)], fill=90)
+    facade = Image.new("L", tex.size, 0)
+    ImageDraw.Draw(facade).rectangle([x0, top, x1, ground], fill=255)
+    t, a = _to_arrays(tex, alpha, rng, facade)
+    return Layer("building", t, a, jung2015.LF_SIM_PLANES_M[2])
+
+
+def _tree(shape_px: tuple[int, int], s: float, rng: np.random.Generator) -> Layer:
+    rows, cols = shape_px
+    tex, alpha = _canvas(shape_px)
+    dt, da = ImageDraw.Draw(tex), ImageDraw.Draw(alpha)
+    cx, ground = int(cols * 0.62), int(rows * 0.93)
+    tw = int(11 * s)
+    trunk_top = int(rows * 0.42)
+    da.rectangle([cx - tw, trunk_top, cx + tw, ground], fill=255)
+    dt.rectangle([cx - tw, trunk_top, cx + tw, ground], fill=70)
+    for y in range(trunk_top, ground, max(2, int(4 * s))):
+        dx = int(rng.integers(-tw + 1, tw))
+        dt.line([cx + dx, y, cx + dx + int(rng.integers(-2, 3)), y + int(3 * s)], fill=30)
+    cy, r = int(rows * 0.3), int(min(rows, cols) * 0.2)
+    for _ in range(int(160 * s)):
+        ang, rad = rng.uniform(0, 2 * math.pi), r * math.sqrt(rng.uniform(0, 1))
+        x, y = cx + rad * math.cos(ang) * 1.2, cy + rad * math.sin(ang)
+        lr = rng.uniform(4, 10) * s
+        box = [x - lr, y - lr, x + lr, y + lr]
+        da.ellipse(box, fill=255)
+        dt.ellipse(box, fill=int(rng.integers(40, 150)), outline=20)
+    t, a = _to_arrays(tex, alpha, rng)
+    return Layer("tree", t, a, jung2015.LF_SIM_PLANES_M[1])
+
+
+def _pedestrian(shape_px: tuple[int, int], s: float, rng: np.random.Generator) -> Layer:
+    rows, cols = shape_px
+    tex, alpha = _canvas(shape_px)
+    dt, da = ImageDraw.Draw(tex), ImageDraw.Draw(alpha)
+    cx = int(cols * 0.3)
+    foot = int(rows * 0.98)
+    h = rows * 0.8  # figure height, px
+    head_r = h * 0.07
+    head_cy = foot - h + head_r
+    shoulder = head_cy + head_r * 1.5
+    hip = foot - h * 0.47
+    body_w = h * 0.13
+
+    def both(shape: str, xy, fill: int, width: int = 0) -> None:
+        getattr(da, shape)(xy, fill=255, **({"width": width} if width else {}))
+        getattr(dt, shape)(xy, fill=fill, **({"width": width} if width else {}))
+
+    leg_w = int(h * 0.06)
+    both("line", [cx - body_w * 0.5, hip, cx - body_w * 0.7, foot], 35, leg_w)
+    both("line", [cx + body_w * 0.5, hip, cx + body_w * 0.8, foot], 35, leg_w)
+    arm_w = int(h * 0.045)
+    both("line", [cx - body_w, shoulder, cx - body_w * 1.6, hip], 210, arm_w)
+    both("line", [cx + body_w, shoulder, cx + body_w * 1.7, hip - h * 0.05], 210, arm_w)
+    both("rectangle", [cx - body_w, shoulder, cx + body_w, hip], 230)
+    y = shoulder
+    while y < hip:  # shirt with irregular stripes (no periodic texture: see _building)
+        w = max(1, int(rng.integers(1, 4) * s))
+        dt.line([cx - body_w, y, cx + body_w, y], fill=int(rng.integers(40, 90)), width=w)
+        y += w + max(2, int(rng.integers(3, 9) * s))
+    both("ellipse", [cx - head_r, head_cy - head_r, cx + head_r, head_cy + head_r], 180)
+    dt.ellipse(
+        [cx - head_r, head_cy - head_r, cx + head_r, head_cy - head_r * 0.2], fill=25
+    )  # hair
+    t, a = _to_arrays(tex, alpha, rng)
+    return Layer("pedestrian", t, a, jung2015.LF_SIM_PLANES_M[0])
+
+
+def three_plane_scene(
+    shape_px: tuple[int, int] = SIM_SHAPE_PX,
+    *,
+    margin_px: int = 48,
+    rng: np.random.Generator | int | None = 0,
+) -> list[Layer]:
+    """Return the paper's simulated scene: pedestrian 1 m, tree 4 m, building 9 m (Fig. 10).
+
+    Parameters
+    ----------
+    shape_px : (rows, cols)
+        View size; the textures are ``2 * margin_px`` larger so shifted views stay covered.
+    margin_px : int >= 0
+        Texture margin on each side, pixels (48 covers the lens-array sim's 5 x 7.5 px shift).
+    rng : numpy Generator, int or None
+        Seeds the leaf and bark texture.
+
+    Returns
+    -------
+    list of Layer
+        Building, tree, pedestrian (far to near), textures float32 in [0, 1].
+
+    References
+    ----------
+    Jung et al. (2015), Sec. 4.1 and Fig. 10.
+    """
+    rng = np.random.default_rng(rng)
+    rows, cols = (int(v) for v in shape_px)
+    if rows < 16 or cols < 16:
+        raise InputError(f"shape_px must be at least 16x16, got {shape_px!r}")
+    if margin_px < 0:
+        raise InputError(f"margin_px must be >= 0, got {margin_px!r}")
+    big = (rows + 2 * margin_px, cols + 2 * margin_px)
+    s = min(rows / SIM_SHAPE_PX[0], cols / SIM_SHAPE_PX[1])
+
+    def centred(layer_fn) -> Layer:
+        inner = layer_fn((rows, cols), s, rng)
+        t = np.zeros(big, np.float32)
+        a = np.zeros(big, np.float32)
+        t[margin_px : margin_px + rows, margin_px : margin_px + cols] = inner.texture
+        a[margin_px : margin_px + rows, margin_px : margin_px + cols] = inner.alpha
+        if inner.name == "building":  # the backdrop extends into the margin
+            t = np.pad(inner.texture, margin_px, mode="edge")
+            a = np.ones(big, np.float32)
+        return Layer(inner.name, t, a, inner.depth_m)
+
+    return [centred(_building), centred(_tree), centred(_pedestrian)]
+
+
+def layer_masks(layers: list[Layer], shape_px: tuple[int, int]) -> dict[str, np.ndarray]:
+    """Return, per layer name, where it is visible in the centre view (after occlusion).
+
+    Returns
+    -------
+    dict of str -> ndarray of shape ``shape_px``, bool
+        A pixel belongs to the nearest layer whose alpha there is > 0.5.
+    """
+    _check_layers(layers, shape_px)
+    rows, cols = shape_px
+    covered = np.zeros(shape_px, bool)
+    out: dict[str, np.ndarray] = {}
+    for layer in sorted(layers, key=lambda lay: lay.depth_m):
+        a = np.asarray(layer.alpha)
+        oy, ox = (a.shape[0] - rows) // 2, (a.shape[1] - cols) // 2
+        m = a[oy : oy + rows, ox : ox + cols] > 0.5
+        out[layer.name] = m & ~covered
+        covered |= m
+    return out
