@@ -475,7 +475,7 @@ def fit_mle(
     def nll(theta: np.ndarray) -> float:
         return -float(_log_likelihood(theta[None, :], x, k, n, guess, sigmoid)[0])
 
-    # Coarse vectorised grid over the whole box, then one polish from its best point: robust
+    # Coarse vectorised grid over the whole box, then local polishing: robust
     # against the flat regions and local optima of lapse-rate models, and cheap.
     (l0, l1), (b0, b1), (_, lmax) = bounds
     g = np.stack(
@@ -487,13 +487,26 @@ def fit_mle(
         ),
         axis=-1,
     ).reshape(-1, 3)
-    start = g[int(np.argmax(_log_likelihood(g, x, k, n, guess, sigmoid)))]
-    # SLSQP: with bounds, and much cheaper per call than L-BFGS-B here; Nelder-Mead as fallback.
-    best = optimize.minimize(nll, start, method="SLSQP", bounds=bounds)
-    if not best.success or not np.isfinite(best.fun):
-        best = optimize.minimize(nll, start, method="Nelder-Mead", bounds=bounds)
-    if not np.isfinite(best.fun) or best.fun > nll(start):
-        best = optimize.OptimizeResult(x=start, fun=nll(start))
+    ll = _log_likelihood(g, x, k, n, guess, sigmoid)
+    # The likelihood can be multimodal in the slope (a local maximum with lapse 0 and a ridge
+    # towards steep curves with a lapse, as in the MPDiR staircase), so polish the best grid point
+    # of each of several slopes and keep the best result.
+    per_slope = ll.reshape(61, 25, 11).transpose(1, 0, 2).reshape(25, -1)
+    best_in_row = per_slope.max(axis=1)
+    starts = []
+    for j in np.argsort(best_in_row)[::-1][:4]:
+        i_loc, i_lapse = np.unravel_index(int(np.argmax(per_slope[j])), (61, 11))
+        starts.append(g.reshape(61, 25, 11, 3)[i_loc, j, i_lapse])
+    best = None
+    for start in starts:
+        # SLSQP: bounded, and much cheaper per call than L-BFGS-B here; Nelder-Mead as fallback.
+        r = optimize.minimize(nll, start, method="SLSQP", bounds=bounds, options={"ftol": 1e-10})
+        if not r.success or not np.isfinite(r.fun):
+            r = optimize.minimize(nll, start, method="Nelder-Mead", bounds=bounds)
+        if not np.isfinite(r.fun) or r.fun > nll(start):
+            r = optimize.OptimizeResult(x=start, fun=nll(start))
+        if best is None or r.fun < best.fun:
+            best = r
     alpha, beta, lapse = _params(best.x[None, :], sigmoid)
     return MLEstimate(float(alpha[0]), float(beta[0]), float(lapse[0]), float(-best.fun))
 

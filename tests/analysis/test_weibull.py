@@ -29,12 +29,13 @@ from .conftest import TRUTH
 PX = np.array(sorted(PIXEL_COUNTS), dtype=float)
 
 
-def independent_mle(x, k, n, *, guess, sigmoid, lapse_max):
+def independent_mle(x, k, n, *, guess, sigmoid, lapse_max, log_beta_bounds=(None, None)):
     """Second method: hand-written binomial likelihood in (alpha, beta, lapse) with Nelder-Mead.
 
     Different parametrisation (log alpha in natural log, log beta), a different optimizer
     (bounded Nelder-Mead, xatol/fatol 1e-10) and starts on a grid over the levels; returns the
-    best (alpha, beta, lapse).
+    best (alpha, beta, lapse). The parameter space is the same as ours: lapse in
+    [0, lapse_max] and, where given, log(beta) within ``log_beta_bounds``.
     """
     x, k, n = (np.asarray(v, float) for v in (x, k, n))
 
@@ -60,11 +61,14 @@ def independent_mle(x, k, n, *, guess, sigmoid, lapse_max):
     best = None
     for a_start in a_starts:
         for b0 in b_starts:
+            lb0 = math.log(b0)
+            if log_beta_bounds[0] is not None:
+                lb0 = min(max(lb0, log_beta_bounds[0]), log_beta_bounds[1])
             r = optimize.minimize(
                 nll,
-                [a_start, math.log(b0), lapse_max / 4],
+                [a_start, lb0, lapse_max / 4],
                 method="Nelder-Mead",
-                bounds=[(None, None), (None, None), (0, lapse_max)],
+                bounds=[(None, None), tuple(log_beta_bounds), (0, lapse_max)],
                 options={"xatol": 1e-10, "fatol": 1e-10, "maxiter": 20000, "maxfev": 20000},
             )
             if best is None or r.fun < best.fun:

@@ -1,0 +1,159 @@
+"""Logistic regression: agreement with an independent fit, classification table, Eq. 1."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+from scipy import optimize, special, stats
+
+from analysis.errors import DataError
+from analysis.jung2015 import EQ1_EXAMPLES, eq1
+from analysis.logistic import (
+    LogisticFit,
+    MixedFit,
+    OddsRatioTable,
+    fit_logistic,
+    fit_mixed,
+    predict_from_odds_ratio,
+)
+from analysis.simulate import LogisticObserver, simulate_logistic_trials
+
+
+@pytest.fixture(scope="module")
+def trials():
+    return simulate_logistic_trials(LogisticObserver(lapse=0.03), rng=2015)
+
+
+@pytest.fixture(scope="module")
+def fit(trials):
+    return fit_logistic(trials)
+
+
+def independent_fit(trials):
+    """Hand-built design matrix; log-likelihood maximised with scipy (trust-exact, gtol 1e-12).
+
+    Columns: intercept, de-cluttered indicator, one indicator per object other than object "1",
+    log10(pixels). Returns (coefficients by term name, Wald standard errors, predictions).
+    """
+    obj = trials["object"].astype(int).to_numpy()
+    others = sorted(set(obj) - {1})
+    X = np.column_stack(
+        [np.ones(len(trials)), (trials["condition"] == "decluttered").to_numpy(float)]
+        + [(obj == o).astype(float) for o in others]
+        + [np.log10(trials["pixels"].to_numpy(float))]
+    )
+    y = trials["recognized"].to_numpy(float)
+
+    def nll(b):
+        eta = X @ b
+        return float(np.sum(np.logaddexp(0, eta) - y * eta))
+
+    def grad(b):
+        return X.T @ (special.expit(X @ b) - y)
+
+    def hess(b):
+        p = special.expit(X @ b)
+        return (X * (p * (1 - p))[:, None]).T @ X
+
+    r = optimize.minimize(
+        nll,
+        np.zeros(X.shape[1]),
+        jac=grad,
+        hess=hess,
+        method="trust-exact",
+        options={"gtol": 1e-12},
+    )
+    se = np.sqrt(np.diag(np.linalg.inv(hess(r.x))))
+    names = ["Intercept", "background"] + [f"object:{o}" for o in others] + ["log10_pixels"]
+    return (
+        dict(zip(names, r.x, strict=True)),
+        dict(zip(names, se, strict=True)),
+        special.expit(X @ r.x),
+    )
+
+
+def test_odds_ratios_match_independent_fit(trials, fit):
+    coef, se, _ = independent_fit(trials)
+    table = fit.odds_ratios
+    assert table.terms()[:2] == ["object:2", "object:3"] and len(table.terms()) == 21
+    for term in table.terms():
+        assert table[term]["or"] == pytest.approx(math.exp(coef[term]), rel=1e-6), term
+        lo, hi = table[term]["ci95"]
+        z = stats.norm.ppf(0.975)
+        assert lo == pytest.approx(math.exp(coef[term] - z * se[term]), rel=1e-6)
+        assert hi == pytest.approx(math.exp(coef[term] + z * se[term]), rel=1e-6)
+        p = 2 * stats.norm.sf(abs(coef[term]) / se[term])
+        assert table[term]["p"] == pytest.approx(p, rel=1e-5, abs=1e-300)
+
+
+def test_classification_table_matches_independent_predictions(trials, fit):
+    _, _, p = independent_fit(trials)
+    y = trials["recognized"].to_numpy()
+    assert fit.recognized_correct_pct == pytest.approx(100 * np.mean(p[y == 1] >= 0.5))
+    assert fit.not_recognized_correct_pct == pytest.approx(100 * np.mean(p[y == 0] < 0.5))
+
+
+def test_recovers_the_simulated_odds_ratio(fit):
+    # Data simulated with OR 5.6 (random effects and lapses attenuate it a little); a 95 % CI
+    # should contain a value near it.
+    lo, hi = fit.odds_ratios["background"]["ci95"]
+    assert lo < 5.6 * 1.3 and hi > 5.6 / 1.3
+
+
+def test_subject_factor(trials):
+    f = fit_logistic(trials, subject_factor=True)
+    subjects = [t for t in f.odds_ratios.terms() if t.startswith("subject:")]
+    assert subjects == [f"subject:s{i}" for i in range(2, 7)]
+    assert f.subject_factor
+
+
+def test_mixed_model(trials):
+    m = fit_mixed(trials)
+    o = m.odds_ratios["background"]
+    assert o["ci95"][0] < o["or"] < o["ci95"][1]
+    assert o["or"] > 1 and m.subject_sd > 0 and m.object_sd > 0
+    back = MixedFit.from_dict(json.loads(json.dumps(m.to_dict())))
+    assert back == m
+
+
+def test_roundtrip(fit):
+    d = json.loads(json.dumps(fit.to_dict()))
+    assert LogisticFit.from_dict(d) == fit
+    t = OddsRatioTable.from_dict(fit.odds_ratios.to_dict())
+    assert t == fit.odds_ratios
+    assert list(t.to_frame().columns) == ["term", "odds_ratio", "ci95_low", "ci95_high", "p_value"]
+
+
+def test_all_recognised_is_an_error(trials):
+    t = trials.copy()
+    t["recognized"] = 1
+    with pytest.raises(DataError, match="all 1920 trials are recognised"):
+        fit_logistic(t)
+
+
+def test_missing_condition_is_an_error(trials):
+    t = trials[trials["condition"] == "cluttered"]
+    with pytest.raises(DataError, match="no trials in condition 'decluttered'"):
+        fit_logistic(t)
+
+
+def test_eq1_paper_examples():
+    # Eq. 1 with OR = 5.6 exactly gives 84.85 % and 15.15 %; the paper's 84.9 % and 15.1 % come
+    # from its unrounded OR. Any OR that rounds to 5.6 (5.55-5.65) brackets the paper's values.
+    for p_ref, odds, paper in EQ1_EXAMPLES:
+        assert eq1(p_ref, odds) == pytest.approx(paper, abs=0.001)
+    assert eq1(0.5, 5.55) < 0.849 < eq1(0.5, 5.65)
+    assert eq1(0.5, 1 / 5.65) < 0.151 < eq1(0.5, 1 / 5.55)
+    assert predict_from_odds_ratio(0.5, 5.6) == pytest.approx(5.6 / 6.6, rel=1e-15)
+
+
+def test_eq1_bad_arguments():
+    with pytest.raises(ValueError, match=r"p_ref must be in \(0, 1\), got 1.0"):
+        predict_from_odds_ratio(1.0, 2.0)
+    with pytest.raises(ValueError, match="odds_ratio must be > 0, got -1"):
+        predict_from_odds_ratio(0.5, -1)
+    with pytest.raises(ValueError, match=r"cutoff must be in \(0, 1\), got 0"):
+        fit_logistic(simulate_logistic_trials(rng=1, n_subjects=1), cutoff=0)
