@@ -1,11 +1,403 @@
-"""Light-field commands (issue 3): command-line registration (filled in by that issue)."""
+"""``confocal lightfield ...``: scan depth planes, refocus, and write the paper's simulated scene.
+
+Commands
+--------
+``scan LF --out DIR``
+    Sweep confocal planes, detect the planes that hold objects (Jung et al. 2015, Sec. 4.2) and
+    write ``planes.csv``, the score-versus-depth plot ``scores.png`` (Fig. 15; drawn with Pillow,
+    no matplotlib in ``stimuli``), ``scan.json``, and per detected plane the confocal image, its
+    de-cluttered edge image and the compressed grid (Figs. 11-13, 16).
+``refocus LF (--depth Z | --disparity D) --out IMG``
+    One confocal image; ``--grid`` adds its edge and grid images, ``--zoom x,y,w,h`` crops
+    first (Fig. 14); ``--stack`` writes a whole focal stack into the folder ``--out``.
+``synth --out LF``
+    The three-plane scene of Fig. 10 (pedestrian 1 m, tree 4 m, building 9 m) as a lens-array
+    elemental image (``.png`` + ``.toml``), a folder of views, or an ``.npz``.
+
+Grid sizes are written ``COLSxROWS`` as in the paper ("38x25"); the library uses
+``shape_px=(rows, cols)``.
+"""
 
 from __future__ import annotations
 
+import csv
+import json
+import math
+from pathlib import Path
+from typing import Annotated
+
+import numpy as np
 import typer
 
-__all__ = ["register"]
+from stimuli.errors import InputError
+
+__all__ = ["register", "lightfield_app", "plot_scores", "parse_zoom", "parse_grid"]
+
+lightfield_app = typer.Typer(
+    name="lightfield",
+    help="Light fields (Jung et al. 2015, Sec. 4): scan depth planes, refocus, zoom, synthesise.",
+    no_args_is_help=True,
+)
+
+_LoaderPattern = Annotated[
+    str | None,
+    typer.Option(
+        "--pattern", help="View file-name pattern, e.g. 'img_{row}_{col}' or 'cam{index}'."
+    ),
+]
+_LoaderGridCols = Annotated[
+    int | None, typer.Option("--grid-cols", help="Columns of the camera grid for {index} patterns.")
+]
+_LoaderPitch = Annotated[
+    int | None, typer.Option("--pitch", help="Elemental image: lenslet pitch, pixels.")
+]
+_LoaderBorder = Annotated[
+    int | None, typer.Option("--border", help="Elemental image: invalid border per lenslet, px.")
+]
+_LoaderOffset = Annotated[
+    str | None,
+    typer.Option("--offset", help="Elemental image: ROW,COL pixels before the first lenslet."),
+]
+
+
+def parse_grid(text: str) -> tuple[int, int]:
+    """Parse ``"38x25"`` (cols x rows, as the paper writes it) into ``shape_px=(rows, cols)``."""
+    try:
+        cols, rows = (int(v) for v in text.lower().split("x"))
+    except ValueError:
+        raise InputError(f"--grid must be COLSxROWS like 38x25, got {text!r}") from None
+    if rows < 1 or cols < 1:
+        raise InputError(f"--grid must be positive, got {text!r}")
+    return rows, cols
+
+
+def parse_zoom(text: str, shape_px: tuple[int, int]) -> tuple[slice, slice]:
+    """Parse ``"x,y,w,h"`` (pixels, x = column) into slices, checking it lies inside the image."""
+    try:
+        x, y, w, h = (int(v) for v in text.split(","))
+    except ValueError:
+        raise InputError(f"--zoom must be x,y,w,h in pixels, got {text!r}") from None
+    rows, cols = shape_px
+    if w < 2 or h < 2 or x < 0 or y < 0 or x + w > cols or y + h > rows:
+        raise InputError(
+            f"--zoom {text!r} must be a box of at least 2x2 px inside the {cols}x{rows} image"
+        )
+    return slice(y, y + h), slice(x, x + w)
+
+
+def _parse_range(text: str) -> tuple[float, float]:
+    try:
+        a, b = (float(v) for v in text.split(":"))
+    except ValueError:
+        raise InputError(f"--disparities must be FROM:TO (pixels per view), got {text!r}") from None
+    if not (math.isfinite(a) and math.isfinite(b)) or a == b:
+        raise InputError(f"--disparities must be two different finite numbers, got {text!r}")
+    return a, b
+
+
+def _load(path, pattern, grid_cols, pitch, border, offset):
+    from stimuli.lightfield import load_lightfield
+
+    off = None
+    if offset is not None:
+        try:
+            off = tuple(int(v) for v in offset.split(","))
+            if len(off) != 2:
+                raise ValueError
+        except ValueError:
+            raise InputError(f"--offset must be ROW,COL, got {offset!r}") from None
+    return load_lightfield(
+        path, pattern=pattern, grid_cols=grid_cols, pitch_px=pitch, border_px=border, offset_px=off
+    ).gray()
+
+
+def _disparities(lf, planes: int, near: float | None, far: float | None, disparities: str | None):
+    from stimuli.planes import default_disparities
+
+    if disparities is not None and (near is not None or far is not None):
+        raise InputError("give --near/--far or --disparities, not both")
+    if disparities is not None:
+        a, b = _parse_range(disparities)
+        return np.linspace(a, b, planes)
+    if near is not None or far is not None:
+        if near is None or far is None:
+            raise InputError("--near and --far go together")
+        if lf.geometry is None:
+            raise InputError(
+                f"{lf.source}: no geometry (lightfield.toml), so --near/--far in metres cannot be "
+                "used; give --disparities FROM:TO"
+            )
+        if not near < far:
+            raise InputError(f"--near must be < --far, got {near} and {far}")
+        depths = np.linspace(near, far, planes)
+        return np.array([lf.disparity_px(z) for z in depths])
+    return default_disparities(lf, planes)
+
+
+def _declutter_and_compress(image: np.ndarray, grid: tuple[int, int], threshold: str, ratio: float):
+    from stimuli.compress import compress
+    from stimuli.declutter import auto_threshold, declutter
+
+    if threshold == "auto":
+        t = auto_threshold(image)
+    else:
+        try:
+            t = float(threshold)
+        except ValueError:
+            raise InputError(f"--threshold must be 'auto' or a number, got {threshold!r}") from None
+    edges = declutter(image, threshold=t)
+    return edges, compress(edges, grid, edge_ratio=ratio), t
+
+
+def plot_scores(scan, path: Path, *, size_px: tuple[int, int] = (360, 640)) -> Path:
+    """Draw the overlap score versus depth (or disparity) as a PNG with Pillow (Fig. 15).
+
+    Detected planes are marked with red dots and labelled. Returns the written path.
+    """
+    from PIL import Image, ImageDraw
+
+    from stimuli.io import atomic_path
+
+    rows, cols = size_px
+    img = Image.new("RGB", (cols, rows), "white")
+    d = ImageDraw.Draw(img)
+    left, right, top, bottom = 60, cols - 20, 30, rows - 45
+    use_depth = scan.depths_m is not None and np.all(np.isfinite(scan.depths_m))
+    xs = np.asarray(scan.depths_m if use_depth else scan.disparities_px, dtype=float)
+    ys = np.asarray(scan.scores, dtype=float)
+    x0, x1 = float(xs.min()), float(xs.max())
+    y1 = max(float(ys.max()), 1e-6) * 1.1
+
+    def px(x: float, y: float) -> tuple[float, float]:
+        return (
+            left + (x - x0) / (x1 - x0 or 1.0) * (right - left),
+            bottom - y / y1 * (bottom - top),
+        )
+
+    d.rectangle([left, top, right, bottom], outline="black")
+    for k in range(6):
+        xv = x0 + (x1 - x0) * k / 5
+        x, _ = px(xv, 0)
+        d.line([x, bottom, x, bottom + 4], fill="black")
+        d.text((x - 12, bottom + 6), f"{xv:.3g}", fill="black")
+        yv = y1 * k / 5
+        _, y = px(x0, yv)
+        d.line([left - 4, y, left, y], fill="black")
+        d.text((8, y - 6), f"{yv:.2f}", fill="black")
+    d.text(
+        ((left + right) // 2 - 60, rows - 18),
+        "depth (m)" if use_depth else "disparity (px per view)",
+        fill="black",
+    )
+    d.text((left, 8), "fraction of edge pixels coinciding with the centre view", fill="black")
+    order = np.argsort(xs)
+    d.line([px(xs[i], ys[i]) for i in order], fill=(0, 70, 160), width=2)
+    for p in scan.peaks:
+        xv = p.depth_m if use_depth else p.disparity_px
+        x, y = px(xv, p.score)
+        d.ellipse([x - 4, y - 4, x + 4, y + 4], fill=(200, 0, 0))
+        d.text((x + 5, y - 14), f"{xv:.3g}", fill=(200, 0, 0))
+    path = Path(path)
+    with atomic_path(path) as tmp:
+        img.save(tmp, format="PNG")
+    return path
+
+
+@lightfield_app.command("scan")
+def scan_command(
+    lightfield: Annotated[
+        Path, typer.Argument(help="Folder of views, .npy/.npz, or elemental image.")
+    ],
+    out: Annotated[Path, typer.Option("--out", "-o", help="Folder to write.")],
+    planes: Annotated[int, typer.Option("--planes", help="Number of planes (paper: 200).")] = 200,
+    near: Annotated[float | None, typer.Option("--near", help="Nearest depth, m.")] = None,
+    far: Annotated[float | None, typer.Option("--far", help="Farthest depth, m.")] = None,
+    disparities: Annotated[
+        str | None, typer.Option("--disparities", help="FROM:TO, pixels per view step.")
+    ] = None,
+    grid: Annotated[str, typer.Option("--grid", help="Prosthesis grid COLSxROWS.")] = "38x25",
+    binning: Annotated[int, typer.Option("--binning", help="View binning for the scan.")] = 2,
+    threshold: Annotated[
+        str, typer.Option("--threshold", help="Sobel threshold: 'auto' (Otsu) or a number.")
+    ] = "auto",
+    edge_ratio: Annotated[
+        float, typer.Option("--edge-ratio", help="Compression edge ratio (paper: 1/13).")
+    ] = 1.0 / 13.0,
+    pattern: _LoaderPattern = None,
+    grid_cols: _LoaderGridCols = None,
+    pitch: _LoaderPitch = None,
+    border: _LoaderBorder = None,
+    offset: _LoaderOffset = None,
+) -> None:
+    """Scan confocal planes and write the object planes with their edge and grid images."""
+    from rich.progress import Progress
+
+    from stimuli.io import atomic_path, save_png
+    from stimuli.planes import iter_plane_scores, scan_result
+    from stimuli.refocus import refocus
+
+    shape = parse_grid(grid)
+    if planes < 3:
+        raise InputError(f"--planes must be >= 3, got {planes}")
+    lf = _load(lightfield, pattern, grid_cols, pitch, border, offset)
+    ds = _disparities(lf, planes, near, far, disparities)
+    scores = np.zeros(len(ds))
+    with Progress(transient=True) as bar:
+        task = bar.add_task("scanning planes", total=len(ds))
+        for i, _, s in iter_plane_scores(lf, ds, binning=binning):
+            scores[i] = s
+            bar.advance(task)
+    scan = scan_result(lf, ds, scores, binning=binning)
+    out.mkdir(parents=True, exist_ok=True)
+    rows = scan.rows()
+    with atomic_path(out / "planes.csv") as tmp, open(tmp, "w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=list(rows[0]))
+        w.writeheader()
+        w.writerows(rows)
+    with atomic_path(out / "scan.json") as tmp:
+        tmp.write_text(json.dumps({"source": lf.source, **scan.to_dict()}, indent=1))
+    plot_scores(scan, out / "scores.png")
+    save_png(lf.centre_view(), out / "centre.png")
+    for k, p in enumerate(scan.peaks):
+        img = refocus(lf, p.disparity_px)
+        edges, cells, t = _declutter_and_compress(img, shape, threshold, edge_ratio)
+        stem = f"plane{k + 1:02d}"
+        save_png(img, out / f"{stem}_confocal.png")
+        save_png(edges, out / f"{stem}_edges.png")
+        save_png(cells, out / f"{stem}_grid.png")
+        where = f"{p.depth_m:.3g} m, " if p.depth_m is not None else ""
+        typer.echo(
+            f"{stem}: {where}disparity {p.disparity_px:.3f} px/view, score {p.score:.3f}, "
+            f"threshold {t:.4g}"
+        )
+    typer.echo(f"{len(scan.peaks)} object plane(s) in {len(ds)} planes; wrote {out}")
+
+
+@lightfield_app.command("refocus")
+def refocus_command(
+    lightfield: Annotated[
+        Path, typer.Argument(help="Folder of views, .npy/.npz, or elemental image.")
+    ],
+    out: Annotated[Path, typer.Option("--out", "-o", help="PNG to write (folder with --stack).")],
+    depth: Annotated[float | None, typer.Option("--depth", help="Plane depth, m.")] = None,
+    disparity: Annotated[
+        float | None, typer.Option("--disparity", help="Plane disparity, px per view step.")
+    ] = None,
+    stack: Annotated[bool, typer.Option("--stack", help="Write a focal stack into --out.")] = False,
+    planes: Annotated[int, typer.Option("--planes", help="Planes in the stack.")] = 20,
+    near: Annotated[float | None, typer.Option("--near", help="Stack: nearest depth, m.")] = None,
+    far: Annotated[float | None, typer.Option("--far", help="Stack: farthest depth, m.")] = None,
+    disparities: Annotated[
+        str | None, typer.Option("--disparities", help="Stack: FROM:TO, px per view step.")
+    ] = None,
+    zoom: Annotated[str | None, typer.Option("--zoom", help="Crop x,y,w,h before edges.")] = None,
+    grid: Annotated[
+        str | None, typer.Option("--grid", help="Also write edges and a COLSxROWS grid.")
+    ] = None,
+    threshold: Annotated[
+        str, typer.Option("--threshold", help="Sobel threshold: 'auto' (Otsu) or a number.")
+    ] = "auto",
+    edge_ratio: Annotated[
+        float, typer.Option("--edge-ratio", help="Compression edge ratio (paper: 1/13).")
+    ] = 1.0 / 13.0,
+    pattern: _LoaderPattern = None,
+    grid_cols: _LoaderGridCols = None,
+    pitch: _LoaderPitch = None,
+    border: _LoaderBorder = None,
+    offset: _LoaderOffset = None,
+) -> None:
+    """Write the confocal image at one plane (or a focal stack); optionally zoom and compress."""
+    from stimuli.io import save_png
+    from stimuli.refocus import iter_focal_stack, refocus
+
+    lf = _load(lightfield, pattern, grid_cols, pitch, border, offset)
+    if stack:
+        if depth is not None or disparity is not None:
+            raise InputError("--stack scans --near/--far or --disparities, not --depth/--disparity")
+        ds = _disparities(lf, planes, near, far, disparities)
+        out.mkdir(parents=True, exist_ok=True)
+        for k, (d, img) in enumerate(iter_focal_stack(lf, ds)):
+            save_png(img, out / f"plane{k:03d}_{d:+.3f}px.png")
+        typer.echo(f"wrote {len(ds)} planes to {out}")
+        return
+    if (depth is None) == (disparity is None):
+        raise InputError("give exactly one of --depth (m) or --disparity (px per view step)")
+    d = lf.disparity_px(depth) if depth is not None else float(disparity)
+    img = refocus(lf, d)
+    if zoom is not None:
+        rs, cs = parse_zoom(zoom, img.shape)
+        img = np.ascontiguousarray(img[rs, cs])
+    save_png(img, out)
+    if grid is not None:
+        edges, cells, t = _declutter_and_compress(img, parse_grid(grid), threshold, edge_ratio)
+        save_png(edges, out.with_name(out.stem + "_edges.png"))
+        save_png(cells, out.with_name(out.stem + "_grid.png"))
+    typer.echo(f"disparity {d:.4g} px/view -> {out}")
+
+
+@lightfield_app.command("synth")
+def synth_command(
+    out: Annotated[
+        Path,
+        typer.Option(
+            "--out",
+            "-o",
+            help="NAME.png: lens-array elemental image (+ NAME.toml); NAME.npz: views; "
+            "otherwise a folder of views with lightfield.toml.",
+        ),
+    ],
+    kind: Annotated[
+        str, typer.Option("--kind", help="lens (paper's lens array) or camera (9x9 camera array).")
+    ] = "lens",
+    size: Annotated[str, typer.Option("--size", help="View size COLSxROWS (paper: 385x308).")] = (
+        "385x308"
+    ),
+    seed: Annotated[int, typer.Option("--seed", help="Seed of the textures.")] = 0,
+) -> None:
+    """Write the paper's simulated three-plane scene (Fig. 10)."""
+    from stimuli.io import atomic_path, save_png
+    from stimuli.lfsynth import (
+        render_camera_array,
+        render_elemental_image,
+        three_plane_scene,
+    )
+    from stimuli.lightfield import views_from_elemental
+
+    shape = parse_grid(size)
+    layers = three_plane_scene(shape, rng=seed)
+    if kind == "lens":
+        ei, geometry = render_elemental_image(layers, shape_px=shape)
+        views = views_from_elemental(ei, ei.shape[0] // shape[0])
+    elif kind == "camera":
+        lf = render_camera_array(layers, shape_px=shape, baseline_m=0.03)
+        views, geometry = lf.views, lf.geometry
+    else:
+        raise InputError(f"--kind must be 'lens' or 'camera', got {kind!r}")
+    gtoml = "[geometry]\n" + "".join(
+        f"{k} = {json.dumps(v)}\n" for k, v in geometry.to_dict().items()
+    )
+    suffix = out.suffix.lower()
+    if suffix == ".npz":
+        out.parent.mkdir(parents=True, exist_ok=True)
+        with atomic_path(out) as tmp, open(tmp, "wb") as f:
+            np.savez_compressed(f, views=views, geometry=json.dumps(geometry.to_dict()))
+    elif suffix == ".png":
+        if kind != "lens":
+            raise InputError("a .png output is an elemental image: use --kind lens")
+        save_png(ei, out)
+        p = ei.shape[0] // shape[0]
+        with atomic_path(out.with_suffix(".toml")) as tmp:
+            tmp.write_text(gtoml + f"\n[elemental]\npitch_px = {p}\nborder_px = 0\n")
+    else:
+        out.mkdir(parents=True, exist_ok=True)
+        for u in range(views.shape[0]):
+            for v in range(views.shape[1]):
+                save_png(views[u, v], out / f"view_{u:02d}_{v:02d}.png")
+        with atomic_path(out / "lightfield.toml") as tmp:
+            tmp.write_text(gtoml)
+    typer.echo(f"wrote {out} ({views.shape[0]}x{views.shape[1]} views of {shape[1]}x{shape[0]})")
 
 
 def register(app: typer.Typer) -> None:
-    """Add this module's commands to the root ``confocal`` app (none yet)."""
+    """Add the ``lightfield`` group to the root ``confocal`` app."""
+    app.add_typer(lightfield_app, name="lightfield")
