@@ -77,23 +77,31 @@ def normalize(text: str) -> str:
 
 
 def _similar(a: str, b: str) -> bool:
-    return a == b or difflib.SequenceMatcher(None, a, b).ratio() >= MATCH_RATIO
+    if a == b:
+        return True
+    # a typo changes a word's length by a letter or two; a different word ("coffee" for
+    # "coffeecup") differs more, even when difflib's ratio is high
+    if abs(len(a) - len(b)) > 2:
+        return False
+    return difflib.SequenceMatcher(None, a, b).ratio() >= MATCH_RATIO
 
 
 def _mentions(response: str, phrase: str) -> bool:
-    """Whether the normalised ``response`` contains ``phrase`` (normalised), typos allowed."""
+    """Whether the normalised ``response`` contains ``phrase``, typos and spacing allowed.
+
+    Runs of response words are joined without spaces and compared with the phrase joined the
+    same way, so "tooth brush" matches "toothbrush" and "coffeecup" matches "coffee cup".
+    """
     r_words = response.split()
     p_words = normalize(phrase).split()
     if not p_words or not r_words:
         return False
-    n = len(p_words)
-    for i in range(len(r_words) - n + 1):
-        window = r_words[i : i + n]
-        if all(_similar(a, b) for a, b in zip(window, p_words, strict=True)):
-            return True
-    # compounds typed as one word ("tooth brush" vs "toothbrush")
-    joined = "".join(p_words)
-    return any(_similar(w, joined) for w in r_words) if n > 1 else False
+    target = "".join(p_words)
+    for size in range(max(1, len(p_words) - 1), len(p_words) + 2):
+        for i in range(len(r_words) - size + 1):
+            if _similar("".join(r_words[i : i + size]), target):
+                return True
+    return False
 
 
 def suggest_score(response: str, obj: ObjectInfo, others: Iterable[ObjectInfo] = ()) -> str:
