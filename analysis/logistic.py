@@ -261,25 +261,31 @@ def fit_logistic(
     for w in caught:
         if issubclass(w.category, (ConvergenceWarning, PerfectSeparationWarning, RuntimeWarning)):
             notes.append(" ".join(str(w.message).split()))
-    if notes:
-        notes = sorted(set(notes))
-        for n in notes:
-            logger.warning("logistic model: %s", n)
     params = res.params
     ci = res.conf_int(alpha=0.05)
     rows = []
     for name in params.index:
         if name == "Intercept":
             continue
-        rows.append(
-            (
+        with np.errstate(over="ignore"):
+            row = (
                 _term_name(name),
-                float(math.exp(params[name])),
-                float(math.exp(ci.loc[name, 0])),
-                float(math.exp(ci.loc[name, 1])),
+                float(np.exp(params[name])),
+                float(np.exp(ci.loc[name, 0])),
+                float(np.exp(ci.loc[name, 1])),
                 float(res.pvalues[name]),
             )
-        )
+        # |log OR| > 15 (OR > 3e6) or an unbounded interval: (quasi-)complete separation, e.g. a
+        # condition or object recognised on every trial; the estimate is not identified.
+        if abs(params[name]) > 15 or not np.all(np.isfinite(row[1:4])):
+            notes.append(
+                f"term '{row[0]}' is (quasi-)separated (log odds ratio {params[name]:.1f}): "
+                "its odds ratio is not identified by these data"
+            )
+        rows.append(row)
+    notes = sorted(set(notes))
+    for n in notes:
+        logger.warning("logistic model: %s", n)
     p = np.asarray(res.predict(d))
     y = d["recognized"].to_numpy()
     rec_ok = float(100.0 * np.mean(p[y == 1] >= cutoff))
