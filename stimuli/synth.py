@@ -236,7 +236,9 @@ _KINDS: tuple[ObjectKind, ...] = (
 def object_kinds() -> list[ObjectKind]:
     """Return the object kinds the synthetic set can draw, in the order :func:`write_pairs` uses.
 
-    The first 20 are the main set, the next 3 are for training trials.
+    The first 20 are the main set (the paper's study had 20 objects), the next 3 are for
+    training trials, and the rest are spares that :func:`write_pairs` uses when asked for more
+    objects.
 
     Returns
     -------
@@ -1607,6 +1609,9 @@ def make_scene(
     """
     k = _kind(kind)
     rng = np.random.default_rng(rng)
+    # The object gets its own stream, drawn first: how many numbers the background uses
+    # (which varies with the image size) then never changes the object.
+    obj_rng = np.random.default_rng(rng.integers(0, 2**63))
     cam = ThinLensCamera() if camera is None else camera
     if not isinstance(cam, ThinLensCamera):
         raise InputError(f"camera must be a ThinLensCamera, got {type(cam).__name__}")
@@ -1645,10 +1650,10 @@ def make_scene(
 
     r0, _ = centre_crop_offset(shape, cam.shape_px)
     bottom_row = r0 + cam.shape_px[0] - 1 - _BASE_GAP_FRACTION * cam.shape_px[0]
-    scale = rng.uniform(0.94, 1.06)
-    centre_col = centre[1] + rng.uniform(-0.03, 0.03) * object_width_px(cam)
+    scale = obj_rng.uniform(0.94, 1.06)
+    centre_col = centre[1] + obj_rng.uniform(-0.03, 0.03) * object_width_px(cam)
     obj = _Canvas(shape, object_width_px(cam) * scale, (bottom_row, centre_col))
-    _DRAW[k.name](obj, rng)
+    _DRAW[k.name](obj, obj_rng)
     obj.place(bottom_row, centre_col)
     layers.append(obj.layer(f"object:{k.name}", cam.focus_m))
     return layers
@@ -1687,6 +1692,20 @@ def object_mask(layers: Sequence[Layer], camera: ThinLensCamera) -> np.ndarray:
 # --------------------------------------------------------------------------------------------
 
 
+#: Kinds used for main objects, in order: the 20 main kinds, then the spares (ours).
+_MAIN_ORDER: tuple[int, ...] = (*range(20), *range(23, len(_KINDS)))
+#: Kinds used for training objects, in order (ours).
+_TRAINING_ORDER: tuple[int, ...] = (20, 21, 22)
+
+
+def _assign_kinds(n_main: int, n_training: int) -> tuple[list[ObjectKind], list[ObjectKind]]:
+    """Main kinds first from the main order; training kinds from what is left."""
+    order = list(_MAIN_ORDER) + list(_TRAINING_ORDER)
+    main = order[:n_main]
+    left = [i for i in list(_TRAINING_ORDER) + list(_MAIN_ORDER)[::-1] if i not in main]
+    return [_KINDS[i] for i in main], [_KINDS[i] for i in left[:n_training]]
+
+
 def _check_count(name: str, value: object, minimum: int) -> int:
     if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < minimum:
         raise InputError(f"{name} must be an integer >= {minimum}, got {value!r}")
@@ -1704,9 +1723,11 @@ def write_pairs(
 ) -> Path:
     """Render synthetic photo pairs and write a PAIRS folder for the stimulus builder.
 
-    Object ``i`` (0-based, main objects first, then training objects) is kind
-    ``object_kinds()[i]``; its scene is drawn from ``SeedSequence(seed).spawn(n)[i]``, so it
-    does not depend on how many objects are written.
+    Main objects are drawn from the 20 main kinds of :func:`object_kinds` (then the spare
+    kinds), training objects from the 3 training kinds (then unused main kinds, last first).
+    Main object ``i`` (0-based) is drawn from ``SeedSequence(seed, spawn_key=(0, i))`` and
+    training object ``j`` from ``spawn_key=(1, j)``, so a scene does not depend on how many
+    objects are written.
 
     Layout of ``out_dir``:
 
@@ -1776,20 +1797,20 @@ def write_pairs(
         raise InputError(f"out_dir {out} is not empty; use force=True (--force) to replace it")
 
     camera = ThinLensCamera(shape_px=(rows, cols))
-    kinds = _KINDS[: n_obj + n_tr]
-    children = np.random.SeedSequence(seed_i).spawn(len(kinds))
+    main_kinds, training_kinds = _assign_kinds(n_obj, n_tr)
+    jobs = [("main", i, k) for i, k in enumerate(main_kinds)]
+    jobs += [("training", i, k) for i, k in enumerate(training_kinds)]
     out.parent.mkdir(parents=True, exist_ok=True)
     tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", suffix=".tmp", dir=out.parent))
     try:
         records = []
         scenes = []
-        for i, (kind, child) in enumerate(zip(kinds, children, strict=True)):
-            role = "main" if i < n_obj else "training"
-            folder = (
-                f"obj{i + 1:02d}_{kind.name}"
-                if role == "main"
-                else f"train{i - n_obj + 1:02d}_{kind.name}"
-            )
+        for role, i, kind in jobs:
+            prefix = "obj" if role == "main" else "train"
+            folder = f"{prefix}{i + 1:02d}_{kind.name}"
+            # One independent stream per (role, index): an object's scene does not depend on
+            # how many objects of either role are written.
+            child = np.random.SeedSequence(seed_i, spawn_key=(int(role == "training"), i))
             layers = make_scene(kind, rng=np.random.default_rng(child), camera=camera)
             wide, narrow = render_pair(layers, camera=camera)
             d = tmp / folder

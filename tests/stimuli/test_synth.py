@@ -194,14 +194,28 @@ def test_pairs_images_have_the_working_size_and_the_masks_are_bottom_centre(pair
 
 
 def test_write_pairs_is_deterministic_and_independent_of_the_count(pairs: Path, tmp_path) -> None:
-    small = write_pairs(tmp_path / "two", n_objects=2, n_training=0, seed=0)
-    for name in ("obj01_cup", "obj02_mug"):
+    small = write_pairs(tmp_path / "two", n_objects=2, n_training=1, seed=0)
+    assert sorted(p.name for p in small.iterdir() if p.is_dir()) == [
+        "obj01_cup",
+        "obj02_mug",
+        "train01_screwdriver",
+    ]
+    for name in ("obj01_cup", "obj02_mug", "train01_screwdriver"):
         for f in ("wide.png", "narrow.png", "mask.png"):
             assert (small / name / f).read_bytes() == (pairs / name / f).read_bytes()
     other = write_pairs(tmp_path / "seed1", n_objects=1, n_training=0, seed=1)
     assert (other / "obj01_cup" / "wide.png").read_bytes() != (
         pairs / "obj01_cup" / "wide.png"
     ).read_bytes()
+
+
+@pytest.mark.parametrize(("n_main", "n_training"), [(20, 3), (2, 1), (26, 0), (1, 25), (23, 3)])
+def test_every_object_written_is_a_different_kind(n_main, n_training) -> None:
+    main, training = synth._assign_kinds(n_main, n_training)
+    assert len(main) == n_main and len(training) == n_training
+    assert len({k.name for k in main + training}) == n_main + n_training
+    if n_training <= 3:
+        assert [k.name for k in training] == ["screwdriver", "shoe", "chair"][:n_training]
 
 
 def test_write_pairs_larger_shape_scales_the_scene(tmp_path) -> None:
