@@ -70,7 +70,9 @@ class Layer:
     name : str
         What the layer is ("mug", "shelf", "wall").
     texture : ndarray of shape (rows, cols), float32 in [0, 1]
-        Luminance seen by the reference pinhole camera, centred on the optical axis.
+        Luminance seen by the reference pinhole camera, centred on the optical axis; at least
+        the camera image's size, larger for a margin (see :func:`centre_crop_offset` for
+        where the camera image lies in it). Not premultiplied by ``alpha``.
     alpha : ndarray of shape (rows, cols), float32 in [0, 1]
         Coverage of the layer (1 = opaque). Same shape as ``texture``.
     depth_m : float > 0
