@@ -217,6 +217,9 @@ def scan_command(
     ] = None,
     grid: Annotated[str, typer.Option("--grid", help="Prosthesis grid COLSxROWS.")] = "38x25",
     binning: Annotated[int, typer.Option("--binning", help="View binning for the scan.")] = 2,
+    fast: Annotated[
+        bool, typer.Option("--fast", help="Whole-pixel shifts during the scan (faster).")
+    ] = False,
     threshold: Annotated[
         str, typer.Option("--threshold", help="Sobel threshold: 'auto' (Otsu) or a number.")
     ] = "auto",
@@ -244,7 +247,7 @@ def scan_command(
     scores = np.zeros(len(ds))
     with Progress(transient=True) as bar:
         task = bar.add_task("scanning planes", total=len(ds))
-        for i, _, s in iter_plane_scores(lf, ds, binning=binning):
+        for i, _, s in iter_plane_scores(lf, ds, binning=binning, nearest_shifts=fast):
             scores[i] = s
             bar.advance(task)
     scan = scan_result(lf, ds, scores, binning=binning)

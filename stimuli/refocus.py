@@ -124,13 +124,23 @@ def _check_disparity(lf: LightField, disparity_px: float) -> float:
 
 
 def _refocus_views(
-    views: np.ndarray, d: float, workers: int, out: np.ndarray | None = None
+    views: np.ndarray,
+    d: float,
+    workers: int,
+    out: np.ndarray | None = None,
+    offsets: tuple[Sequence[float], Sequence[float]] | None = None,
+    nearest: bool = False,
 ) -> np.ndarray:
+    """Shift-and-add ``views`` at disparity ``d``; ``offsets``: (du per u, dv per v)."""
     n_u, n_v, rows, cols = views.shape[:4]
-    cu, cv = n_u // 2, n_v // 2
     extra = views.shape[4:]
-    col_shifts = [d * (v - cv) for v in range(n_v)]
-    row_shifts = [d * (u - cu) for u in range(n_u)]
+    if offsets is None:
+        offsets = ([u - n_u // 2 for u in range(n_u)], [v - n_v // 2 for v in range(n_v)])
+    row_shifts = [d * du for du in offsets[0]]
+    col_shifts = [d * dv for dv in offsets[1]]
+    if nearest:  # whole-pixel shifts: one add per view instead of two weighted adds
+        row_shifts = [float(math.floor(s + 0.5)) for s in row_shifts]
+        col_shifts = [float(math.floor(s + 0.5)) for s in col_shifts]
 
     partial = np.zeros((n_u, rows, cols, *extra), dtype=np.float32)
     scratch = np.empty_like(partial)
