@@ -137,13 +137,19 @@ def synth_command(
     size: Annotated[
         str, typer.Option("--size", help="Photo size WIDTHxHEIGHT, pixels (e.g. 1536x1024).")
     ] = "492x327",
+    force: Annotated[bool, typer.Option("--force", help="Replace a non-empty --out.")] = False,
 ) -> None:
     """Write synthetic wide/narrow-DOF photo pairs of named objects in front of clutter."""
     from stimuli.build import parse_working_size
     from stimuli.synth import write_pairs
 
     path = write_pairs(
-        out, n_objects=objects, n_training=training, seed=seed, shape_px=parse_working_size(size)
+        out,
+        n_objects=objects,
+        n_training=training,
+        seed=seed,
+        shape_px=parse_working_size(size),
+        force=force,
     )
     typer.echo(f"wrote {objects} + {training} synthetic photo pairs to {path}")
 
