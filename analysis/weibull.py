@@ -127,6 +127,22 @@ class PsychometricPrior:
             raise ValueError(
                 f"lapse_a and lapse_b must be > 0, got {(self.lapse_a, self.lapse_b)!r}"
             )
+        mass = self.lapse_mass_above(0.2)
+        if mass > 0.2:
+            warnings.warn(
+                f"the lapse prior puts {100 * mass:.0f} % of its mass above a lapse rate of 0.2; "
+                "lapses that large usually mean a wrong model (as psignifit warns)",
+                FitWarning,
+                stacklevel=3,
+            )
+
+    def lapse_mass_above(self, lapse: float) -> float:
+        """Return the prior probability that the lapse rate exceeds ``lapse``."""
+        from scipy import stats
+
+        dist = stats.beta(self.lapse_a, self.lapse_b)
+        total = dist.cdf(self.lapse_max)
+        return float(max(0.0, total - dist.cdf(min(lapse, self.lapse_max))) / total)
 
     def bounds(self) -> list[tuple[float, float]]:
         """Return the box of the three sampled parameters (loc, log_beta, lapse)."""

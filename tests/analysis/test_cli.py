@@ -144,3 +144,50 @@ def test_power_needs_one_effect(capsys):
     with pytest.raises(SystemExit) as exc:
         main(["analyze", "power", "--sims", "2"])
     assert exc.value.code == 2
+
+
+def test_sqlite_and_csv_pooled_options_first(tmp_path, small_trials, capsys):
+    """Options before TRIALS, explicit 'run', a SQLite log pooled with a CSV, --mixed, --pc."""
+    import sqlite3
+
+    half = len(small_trials) // 2
+    db = tmp_path / "session.sqlite"
+    con = sqlite3.connect(db)
+    t = small_trials.iloc[:half].copy()
+    t["part"] = "main"
+    t.to_sql("log", con, index=False)
+    con.execute("CREATE VIEW tidy_trials AS SELECT * FROM log")
+    con.commit()
+    con.close()
+    csv = tmp_path / "rest.csv"
+    small_trials.iloc[half:].to_csv(csv, index=False)
+    out = tmp_path / "rep"
+    with pytest.raises(SystemExit) as exc:
+        main(
+            [
+                "analyze",
+                "run",
+                "--out",
+                str(out),
+                "--by",
+                "none",
+                "--mixed",
+                "--no-figures",
+                "--pc",
+                "0.75",
+                "--seed",
+                "2",
+                str(db),
+                str(csv),
+            ]
+        )
+    assert exc.value.code in (0, None)
+    r = json.loads((out / "results.json").read_text())
+    assert r["n_trials"] == len(small_trials)
+    assert r["sources"] == [str(db), str(csv)]
+    assert r["subject_thresholds"] == {}
+    assert set(r["logistic"]["mixed"]["odds_ratios"]) == {"background", "log10_pixels"}
+    assert r["thresholds"]["cluttered"]["pc"] == 0.75
+    stdout = capsys.readouterr().out
+    assert "50% threshold" in stdout and "odds ratio   background" in stdout
+    assert f"report: {out / 'report.md'}" in stdout

@@ -214,6 +214,12 @@ def test_few_trials_warns():
         fit_weibull(PX, [0, 0, 1, 0, 1, 1, 1, 1], rng=0)
 
 
+def test_wide_lapse_prior_warns():
+    with pytest.warns(FitWarning, match=r"the lapse prior puts \d+ % of its mass above .* 0.2"):
+        PsychometricPrior(loc_range=(0, 1), log_beta_range=(0, 1), lapse_a=1, lapse_b=1)
+    assert default_prior(PX).lapse_mass_above(0.2) < 0.15
+
+
 def test_default_prior_bounds():
     p = default_prior(PX)
     assert p.loc_range[0] < math.log10(96) and p.loc_range[1] > math.log10(160884)
