@@ -736,8 +736,9 @@ def confocal_pair(
 
     The confocal image is the shift-and-add refocus at ``depth_m`` (needs a geometry) or at
     ``disparity_px``; with neither, at the strongest object plane found by
-    :func:`stimuli.planes.find_object_planes` (the plane with the highest overlap score among
-    the detected peaks).
+    :func:`stimuli.planes.find_object_planes` with its default planes and
+    :func:`stimuli.planes.auto_binning` (the plane with the highest overlap score among the
+    detected peaks).
 
     Parameters
     ----------
@@ -762,7 +763,7 @@ def confocal_pair(
     ----------
     Jung et al. (2015), Sec. 4.1-4.2; Ng et al. (2005) for shift-and-add refocusing.
     """
-    from stimuli.planes import find_object_planes
+    from stimuli.planes import auto_binning, find_object_planes
     from stimuli.refocus import refocus
 
     if depth_m is not None and disparity_px is not None:
@@ -775,7 +776,7 @@ def confocal_pair(
         if not math.isfinite(d):
             raise InputError(f"disparity_px must be finite, got {disparity_px!r}")
     else:
-        scan = find_object_planes(lf)
+        scan = find_object_planes(lf, binning=auto_binning(lf))
         if not scan.peaks:
             raise InputError(f"{lf.source}: no object plane found in the depth scan")
         d = max(scan.peaks, key=lambda p: p.score).disparity_px

@@ -40,6 +40,7 @@ blurred ones still do not. ``binning=1`` is the paper's procedure at full resolu
 from __future__ import annotations
 
 import math
+import warnings
 from collections.abc import Iterator, Sequence
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
@@ -68,12 +69,18 @@ __all__ = [
     "DEFAULT_BINNING",
     "DEFAULT_N_PLANES",
     "DEFAULT_PRESMOOTH_PX",
+    "MIN_EDGE_PIXELS",
+    "auto_binning",
 ]
 
 #: A local maximum of the overlap score is an object plane when its prominence is at least this
 #: fraction of the score's range over the scan (ours, not the paper's: the paper picks the
 #: maxima by eye in Fig. 15; 0.1 keeps both of its peaks and drops noise wiggles).
 MIN_PROMINENCE_FRACTION: float = 0.1
+
+#: Fewer edge pixels per sub-band than this make the overlap score too coarse to trust (ours):
+#: the scan warns.
+MIN_EDGE_PIXELS: int = 25
 
 #: Box binning of the views during the scan (ours; see "Detection at reduced cost").
 DEFAULT_BINNING: int = 2
@@ -270,6 +277,16 @@ class PlaneScan:
         )
 
 
+def auto_binning(lightfield: LightField, *, fraction: float = jung2015.HAAR_EDGE_FRACTION) -> int:
+    """Return :data:`DEFAULT_BINNING`, or less when the binned views would leave fewer than
+    :data:`MIN_EDGE_PIXELS` edge pixels per Haar sub-band."""
+    rows, cols = lightfield.shape_px
+    for b in range(DEFAULT_BINNING, 1, -1):
+        if fraction * (rows // (2 * b)) * (cols // (2 * b)) >= MIN_EDGE_PIXELS:
+            return b
+    return 1
+
+
 def default_disparities(lightfield: LightField, n_planes: int = DEFAULT_N_PLANES) -> np.ndarray:
     """Return the disparities scanned when none are given.
 
@@ -359,6 +376,15 @@ def iter_plane_scores(
     lf = _as_lightfield(lightfield)
     ds = [_check_disparity(lf, d) for d in disparities_px]
     small, ref = _prepare(lf, binning, fraction, presmooth_px)
+    r2, c2 = small.shape_px[0] // 2, small.shape_px[1] // 2
+    k = math.ceil(fraction * r2 * c2)
+    if k < MIN_EDGE_PIXELS:
+        warnings.warn(
+            f"only {k} edge pixels per Haar sub-band ({small.shape_px[0]}x{small.shape_px[1]} px "
+            f"views after binning {binning}): the overlap score will be coarse; use a smaller "
+            "binning or a larger light field",
+            stacklevel=2,
+        )
     n = workers or default_workers()
     views, offsets = _scan_views(small)
     bands = _informative_bands(small)
