@@ -159,7 +159,8 @@ def check_trials(df: pd.DataFrame, source: str) -> pd.DataFrame:
     Returns
     -------
     pandas.DataFrame
-        Tidy rows (``part == "main"`` only when a ``part`` column exists).
+        Tidy rows (``part == "main"`` only when a ``part`` column exists; the number dropped is
+        ``df.attrs["n_training_excluded"]``).
 
     Raises
     ------
@@ -180,7 +181,13 @@ def check_trials(df: pd.DataFrame, source: str) -> pd.DataFrame:
     if len(df) == 0:
         raise DataError(f"{source}: no trials (header only)")
     if "part" in df.columns:
+        # Training rows (e.g. full-resolution 'photo' trials) need not follow the main design, so
+        # they are dropped before the values are checked.
         df["part"] = df["part"].astype(str).str.strip()
+        n_all = len(df)
+        df = df[df["part"] == "main"]
+        if len(df) == 0:
+            raise DataError(f"{source}: no main-part trials (all {n_all} rows are training)")
     for col in REQUIRED_COLUMNS:
         blank = _blank(df[col])
         if blank.any():
@@ -228,7 +235,9 @@ def check_trials(df: pd.DataFrame, source: str) -> pd.DataFrame:
     if "rt_s" in out.columns:
         out["rt_s"] = pd.to_numeric(out["rt_s"], errors="coerce")
     out["source"] = source
-    return out.reset_index(drop=True)
+    out = out.reset_index(drop=True)
+    out.attrs["n_training_excluded"] = int(n_all - len(df)) if "part" in df.columns else 0
+    return out
 
 
 def _bool_word(v: Any) -> Any:
@@ -269,14 +278,7 @@ def read_trial_file(path: str | Path) -> tuple[pd.DataFrame, int]:
     path = Path(path)
     raw = _read_raw(path)
     tidy = check_trials(raw, str(path))
-    dropped = 0
-    if "part" in tidy.columns:
-        main = tidy["part"].astype(str) == "main"
-        dropped = int((~main).sum())
-        tidy = tidy[main].reset_index(drop=True)
-        if len(tidy) == 0:
-            raise DataError(f"{path}: no main-part trials (all {dropped} rows are training)")
-    return tidy, dropped
+    return tidy, int(tidy.attrs.get("n_training_excluded", 0))
 
 
 def read_trials(paths: Iterable[str | Path]) -> TrialTable:

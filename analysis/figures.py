@@ -136,6 +136,7 @@ def plot_subject_thresholds(
                     yerr=[[t.median - lo], [hi - t.median]],
                     fmt="o",
                     ms=4,
+                    color=f"C{i % 10}",
                     label=s if j == 0 else None,
                 )
     ax.axhline(PROSTHESIS_PX, color="k", ls="--", lw=0.8)

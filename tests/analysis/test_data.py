@@ -38,7 +38,7 @@ def test_pooling_and_training_exclusion(tmp_path):
     b = _write(
         tmp_path,
         "subject,object,condition,pixels,recognized,part,rt\n"
-        "s2,1,cluttered,96,0,training,1.5\n"
+        "s2,1,photo,,0,training,1.5\n"
         "s2,1,cluttered,950,1,main,2.5\n",
         "b.csv",
     )
@@ -47,6 +47,18 @@ def test_pooling_and_training_exclusion(tmp_path):
     assert t.n_training_excluded == 1
     assert t.sources == (str(a), str(b))
     assert t.trials["rt_s"].dropna().tolist() == [2.5]
+
+
+def test_training_only_file(tmp_path):
+    p = _write(
+        tmp_path,
+        "subject,object,condition,pixels,recognized,part\ns1,1,photo,,1,training\n",
+        "train.csv",
+    )
+    with pytest.raises(
+        DataError, match=r"train\.csv: no main-part trials \(all 1 rows are training\)"
+    ):
+        read_trial_file(p)
 
 
 def test_parquet(tmp_path):
