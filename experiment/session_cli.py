@@ -87,6 +87,13 @@ def run_command(
         bool,
         typer.Option("--headless", help="No screen: a simulated observer answers (dry runs, CI)."),
     ] = False,
+    observer_param: Annotated[
+        list[str] | None,
+        typer.Option(
+            "--observer-param",
+            help="Simulated observer parameter KEY=VALUE (repeatable), e.g. lapse=0.02.",
+        ),
+    ] = None,
     seed: Annotated[
         int | None,
         typer.Option("--seed", min=0, help="Root seed of a new session (drawn if omitted)."),
@@ -116,6 +123,9 @@ def run_command(
             raise ConfocalError(
                 f"--observer must be one of {', '.join(sorted(OBSERVERS))}, got {observer!r}"
             )
+    params = _parse_params(observer_param or [])
+    if params and not headless:
+        raise ConfocalError("--observer-param needs --headless")
     run_console = None
     if not headless:
         try:
@@ -127,6 +137,11 @@ def run_command(
             ) from None
     spec = load_protocol(protocol)
     stimset = StimulusSet.load(stimuli)
+    if headless:
+        try:  # check the parameters before anything is written
+            make_observer(observer, stimset, subject, rng=0, **params)
+        except (TypeError, ValueError) as exc:
+            raise ConfocalError(f"--observer-param: {exc}") from None
     log = TrialLog(data)
     try:
         session = Session.open(
@@ -139,7 +154,9 @@ def run_command(
         )
         try:
             if headless:
-                responder = make_observer(observer, stimset, subject, rng=session.child_rng(1))
+                responder = make_observer(
+                    observer, stimset, subject, rng=session.child_rng(1), **params
+                )
                 session.run(
                     NullDisplay(hold_s=hold_s), responder, progress=_Progress(progress_every)
                 )
@@ -154,6 +171,21 @@ def run_command(
             session.close()
     finally:
         log.close()
+
+
+def _parse_params(items: list[str]) -> dict[str, object]:
+    out: dict[str, object] = {}
+    for item in items:
+        key, sep, value = item.partition("=")
+        if not sep or not key.strip():
+            raise ConfocalError(f"--observer-param must be KEY=VALUE, got {item!r}")
+        try:
+            out[key.strip()] = json.loads(value)
+        except json.JSONDecodeError:
+            out[key.strip()] = value
+        if isinstance(out[key.strip()], list):
+            out[key.strip()] = tuple(out[key.strip()])
+    return out
 
 
 def status_report(path: Path) -> dict:

@@ -127,6 +127,8 @@ def test_status_shows_what_is_left(study, capsys):
         ("observer_without_headless", r"--observer needs --headless"),
         ("unknown_observer", r"--observer must be one of logistic, model, got 'oracle'"),
         ("resume_other_seed", r"unfinished session 2 with seed 11, not 12"),
+        ("bad_observer_param", r"--observer-param: unknown parameter 'lapsy' for observer"),
+        ("observer_param_syntax", r"--observer-param must be KEY=VALUE, got 'lapse'"),
     ],
 )
 def test_bad_input_one_line_exit_2_no_data_lost(study, tmp_path, capsys, case, match):
@@ -155,6 +157,10 @@ def test_bad_input_one_line_exit_2_no_data_lost(study, tmp_path, capsys, case, m
         args = run_args(stim, proto, db, "S09", "--observer", "logistic")
     elif case == "unknown_observer":
         args = run_args(stim, proto, db, "S09", "--headless", "--observer", "oracle")
+    elif case == "bad_observer_param":
+        args = [*args, "--observer-param", "lapsy=0.1"]
+    elif case == "observer_param_syntax":
+        args = [*args, "--observer-param", "lapse"]
     elif case == "resume_other_seed":
         with TrialLog(db) as log:
             from experiment.protocol import load_protocol
