@@ -21,7 +21,8 @@ it is made):
   every plane; the displayed confocal images use all views;
 * a single row of views has no vertical parallax, so its horizontal-detail sub-band (cH) is
   sharp at every plane and is not used (likewise cV for a single column);
-* a small Gaussian pre-smoothing (:data:`DEFAULT_PRESMOOTH_PX`) before the Haar transform.
+* optionally, a small Gaussian pre-smoothing before the Haar transform
+  (:data:`DEFAULT_PRESMOOTH_PX`).
 
 Object planes are the local maxima of the score over the scan. A local maximum counts when its
 *prominence* (``scipy.signal.find_peaks``: its height above the higher of the two minima that
@@ -85,13 +86,13 @@ MIN_EDGE_PIXELS: int = 25
 #: Box binning of the views during the scan (ours; see "Detection at reduced cost").
 DEFAULT_BINNING: int = 2
 
-#: Gaussian pre-smoothing (sigma, pixels of the binned views) of every image before the Haar
-#: transform (ours, not the paper's). Linear interpolation blurs a shifted view by an amount
-#: that depends on the sub-pixel phase of its shift (none at whole pixels, a half-pixel box at
-#: half pixels), so without it the score wobbles from plane to plane with the phase and that
-#: wobble makes false local maxima. A common small blur makes every plane equally smooth at
-#: the finest scale. 0 gives the paper's plain first-scale Haar.
-DEFAULT_PRESMOOTH_PX: float = 0.8
+#: Optional Gaussian pre-smoothing (sigma, pixels of the binned views) of every image before
+#: the Haar transform (ours; 0 = the paper's plain first-scale Haar, the default). Linear
+#: interpolation blurs a shifted view by an amount that depends on the sub-pixel phase of its
+#: shift, which makes the score wobble from plane to plane; a common small blur (0.8 px)
+#: removes that wobble on scenes with pixel-fine texture (the simulated three-plane scene) but
+#: flattens the peaks of smoother scenes, so it is an option, not the default.
+DEFAULT_PRESMOOTH_PX: float = 0.0
 
 #: Number of planes scanned by default. Source: Jung et al. (2015), Fig. 15 (200 planes).
 DEFAULT_N_PLANES: int = 200

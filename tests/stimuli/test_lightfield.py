@@ -90,7 +90,10 @@ def test_camera_array_geometry_round_trip():
 def test_lens_array_geometry_paper_values():
     """Paper's sim (Sec. 4.1): 1 mm pitch, 3 mm focal length, 40x relay, 10 px per lens."""
     g = Geometry(
-        kind="lens_array", lens_pitch_mm=1.0, lens_focal_mm=3.0, relay_minification=40.0,
+        kind="lens_array",
+        lens_pitch_mm=1.0,
+        lens_focal_mm=3.0,
+        relay_minification=40.0,
         pixel_mm=0.1,
     )
     # 1 m -> 25 mm after the relay -> 25 * 0.1 / (3 * 1) lenslets per view step, negative
@@ -115,8 +118,13 @@ def test_depth_outside_the_geometry_range_raises():
         ({"focal_length_px": 1.0}, "'kind' is required"),
         ({"kind": "camera_array", "focal": 1.0}, "unknown keys"),
         (
-            {"kind": "camera_array", "focal_length_px": 1.0, "baseline_m": 1.0, "near_m": 5.0,
-             "far_m": 1.0},
+            {
+                "kind": "camera_array",
+                "focal_length_px": 1.0,
+                "baseline_m": 1.0,
+                "near_m": 5.0,
+                "far_m": 1.0,
+            },
             "near_m must be < far_m",
         ),
     ],
