@@ -82,6 +82,9 @@ def run(
     figures: Annotated[
         bool, typer.Option("--figures/--no-figures", help="Draw Figs. 8, 9, S2, S3.")
     ] = True,
+    lapse_prior: Annotated[
+        str, typer.Option("--lapse-prior", help="Beta(a,b) prior of the lapse rate, as 'a,b'.")
+    ] = "1,10",
 ) -> None:
     """Analyse TRIALS and write REPORT_DIR (results.json, report.md, figures)."""
     from rich.console import Console
@@ -92,7 +95,12 @@ def run(
     from analysis.report import write_report
 
     try:
+        lp = tuple(float(v) for v in lapse_prior.split(","))
+    except ValueError as exc:
+        raise typer.BadParameter(f"--lapse-prior must be 'a,b', got {lapse_prior!r}") from exc
+    try:
         options = AnalysisOptions(
+            lapse_prior=lp,
             pc=pc,
             by_subject=by == By.subject,
             guess=guess,

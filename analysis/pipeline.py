@@ -25,7 +25,7 @@ from analysis.logistic import (
     fit_mixed,
     predict_from_odds_ratio,
 )
-from analysis.weibull import PsychometricPrior, WeibullFit, fit_weibull
+from analysis.weibull import PsychometricPrior, WeibullFit, default_prior, fit_weibull
 
 __all__ = ["AnalysisOptions", "AnalysisStep", "AnalysisResult", "analyze", "first_recognized"]
 
@@ -51,6 +51,8 @@ class AnalysisOptions:
         Also fit the mixed model with random subject and object intercepts.
     prior : PsychometricPrior or None
         Prior of every psychometric fit; the data-dependent default when None.
+    lapse_prior : (float, float)
+        Beta(a, b) prior of the lapse rate for the default prior (ignored with ``prior``).
     """
 
     pc: float = 0.5
@@ -60,8 +62,11 @@ class AnalysisOptions:
     subject_factor: bool = False
     mixed: bool = False
     prior: PsychometricPrior | None = None
+    lapse_prior: tuple[float, float] = (1.0, 10.0)
 
     def __post_init__(self) -> None:
+        if len(self.lapse_prior) != 2 or min(self.lapse_prior) <= 0:
+            raise ValueError(f"lapse_prior must be two numbers > 0, got {self.lapse_prior!r}")
         if not (0.0 < self.pc < 1.0):
             raise ValueError(f"pc must be in (0, 1), got {self.pc!r}")
         if not (0.0 <= self.guess < 1.0):
@@ -129,6 +134,7 @@ class AnalysisResult:
             "pc": pc,
             "guess": self.options.guess,
             "seed": self.options.seed,
+            "prior": {c: f.prior.to_dict() for c, f in self.thresholds.items()},
             "sources": list(self.sources),
             "n_training_excluded": self.n_training_excluded,
             "thresholds": {c: f.summary(pc) for c, f in self.thresholds.items()},
@@ -163,6 +169,7 @@ class AnalysisResult:
                 "subject_factor": o.subject_factor,
                 "mixed": o.mixed,
                 "prior": o.prior.to_dict() if o.prior else None,
+                "lapse_prior": list(o.lapse_prior),
             },
             "sources": list(self.sources),
             "n_training_excluded": self.n_training_excluded,
@@ -184,6 +191,7 @@ class AnalysisResult:
         """Rebuild from :meth:`to_dict` output."""
         o = dict(d["options"])
         o["prior"] = PsychometricPrior.from_dict(o["prior"]) if o.get("prior") else None
+        o["lapse_prior"] = tuple(o.get("lapse_prior", (1.0, 10.0)))
         return cls(
             options=AnalysisOptions(**o),
             sources=tuple(d["sources"]),
@@ -327,11 +335,17 @@ def analyze(table: TrialTable, options: AnalysisOptions | None = None) -> Iterat
             continue
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
+            prior = opts.prior or default_prior(
+                np.unique(sel["pixels"].to_numpy()),
+                guess=opts.guess,
+                lapse_a=opts.lapse_prior[0],
+                lapse_b=opts.lapse_prior[1],
+            )
             fit = fit_weibull(
                 sel["pixels"].to_numpy(),
                 sel["recognized"].to_numpy(),
                 guess=opts.guess,
-                prior=opts.prior,
+                prior=prior,
                 label=label,
                 rng=np.random.default_rng(ss),
             )

@@ -339,7 +339,12 @@ def _axis(x: np.ndarray, sigmoid: str) -> np.ndarray:
 
 
 def default_prior(
-    levels: Any, *, guess: float = 0.0, sigmoid: Sigmoid = "weibull"
+    levels: Any,
+    *,
+    guess: float = 0.0,
+    sigmoid: Sigmoid = "weibull",
+    lapse_a: float = 1.0,
+    lapse_b: float = 10.0,
 ) -> PsychometricPrior:
     """Return the default prior for stimulus levels ``levels`` (see the module docstring).
 
@@ -350,6 +355,8 @@ def default_prior(
     guess : float
         Guess rate in [0, 1).
     sigmoid : {'weibull', 'logistic'}
+    lapse_a, lapse_b : float
+        Beta prior of the lapse rate (> 0).
 
     Returns
     -------
@@ -370,8 +377,8 @@ def default_prior(
     return PsychometricPrior(
         loc_range=(lo - span, hi + span),
         log_beta_range=(math.log(0.5 / span_natural), math.log(100.0 / span_natural)),
-        lapse_a=1.0,
-        lapse_b=10.0,
+        lapse_a=float(lapse_a),
+        lapse_b=float(lapse_b),
         lapse_max=min(0.5, (1.0 - guess) / 2.0),
     )
 

@@ -188,6 +188,7 @@ def test_sqlite_and_csv_pooled_options_first(tmp_path, small_trials, capsys):
     assert r["subject_thresholds"] == {}
     assert set(r["logistic"]["mixed"]["odds_ratios"]) == {"background", "log10_pixels"}
     assert r["thresholds"]["cluttered"]["pc"] == 0.75
+    assert r["prior"]["cluttered"]["lapse_b"] == 20.0
     stdout = capsys.readouterr().out
     assert "50% threshold" in stdout and "odds ratio   background" in stdout
     assert f"report: {out / 'report.md'}" in stdout

@@ -45,6 +45,8 @@ def test_options_checked():
         AnalysisOptions(pc=1.2)
     with pytest.raises(ValueError, match="pc must be above the guess rate 0.5, got 0.5"):
         AnalysisOptions(pc=0.5, guess=0.5)
+    with pytest.raises(ValueError, match=r"lapse_prior must be two numbers > 0, got \(1.0, 0.0\)"):
+        AnalysisOptions(lapse_prior=(1.0, 0.0))
 
 
 def test_condition_without_trials_is_a_data_error(small_trials):
