@@ -175,6 +175,8 @@ def test_sqlite_and_csv_pooled_options_first(tmp_path, small_trials, capsys):
                 "--no-figures",
                 "--pc",
                 "0.75",
+                "--lapse-prior",
+                "1,20",
                 "--seed",
                 "2",
                 str(db),
