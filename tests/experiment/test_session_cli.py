@@ -1,4 +1,4 @@
-"""``confocal session``: run, status, export; bad input (one line, exit 2, no data lost); round trip."""
+"""``confocal session``: run, status, export; bad input (exit 2, no data lost); round trip."""
 
 from __future__ import annotations
 
@@ -217,6 +217,7 @@ def test_without_headless_the_console_is_called_or_refused(study, monkeypatch, c
     assert "0/19 trials answered" in out
 
 
+@pytest.mark.slow  # ~30 s: 10 sessions of 371 trials, then the Weibull MCMC of the analysis
 def test_round_trip_logistic_observer_through_confocal_analyze(tmp_path, capsys):
     """Headless sessions with the logistic observer; `confocal analyze` recovers its odds ratios."""
     pytest.importorskip("analysis.pipeline")
