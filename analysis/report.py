@@ -163,7 +163,8 @@ def render_markdown(result: AnalysisResult, *, figures: bool = True) -> str:
             f"{mb['or']:.1f} ({mb['ci95'][0]:.1f}-{mb['ci95'][1]:.1f}) and {ml['or']:.1f} "
             f"({ml['ci95'][0]:.1f}-{ml['ci95'][1]:.1f}) per log10 pixels; random-intercept SDs "
             f"{lo['mixed']['subject_sd']:.2f} (subjects) and {lo['mixed']['object_sd']:.2f} "
-            "(objects), log-odds units.",
+            "(objects), log-odds units. Variational-Bayes intervals understate the uncertainty; "
+            "read the point estimates.",
         ]
     st = r["subject_thresholds"]
     if st:
