@@ -249,3 +249,25 @@ def test_round_trip_logistic_observer_through_confocal_analyze(tmp_path, capsys)
     # of log OR is ~0.1 (background) and ~0.12 (slope). Allow +-0.35 on the log scale (~3 SE).
     assert abs(__import__("math").log(bg / truth.or_background)) < 0.35
     assert abs(__import__("math").log(px / truth.or_per_log10_px)) < 0.35
+
+
+def test_integration_with_a_built_stimulus_set(tmp_path, capsys):
+    """`confocal stimuli synth` + `build` (the stimulus builder's real output) runs jung2015."""
+    pairs, stim, db = tmp_path / "PAIRS", tmp_path / "STIM", tmp_path / "study.sqlite"
+    code, _, err = confocal(["stimuli", "synth", "--objects", 4, "--training", 3, "--out", pairs,
+                             "--size", "246x164"], capsys)  # fmt: skip
+    assert code == 0, err
+    code, _, err = confocal(["stimuli", "build", pairs, "--out", stim], capsys)
+    assert code == 0, err
+    for subject, observer in (("S01", "model"), ("S02", "logistic")):
+        code, out, err = confocal(
+            ["session", "run", "--protocol", "jung2015", "--stimuli", stim, "--subject", subject,
+             "--data", db, "--headless", "--observer", observer], capsys)  # fmt: skip
+        assert code == 0, err
+        assert "complete" in out
+    with TrialLog(db, readonly=True) as log:
+        rows = log.tidy_trials()
+    main = [r for r in rows if r["part"] == "main"]
+    assert len(main) == 2 * 4 * 8 * 2
+    assert len(rows) - len(main) == 2 * (3 + 3 * 8 * 2)  # training: photos, then 8 x 2 each
+    assert {r["pixels"] for r in main} == {96, 486, 950, 3290, 6370, 17876, 40344, 160884}
