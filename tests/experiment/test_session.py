@@ -274,3 +274,45 @@ def test_bad_arguments(log, protocol, stimset):
         NullDisplay(hold_s=-1)
     with pytest.raises(ValueError, match="image must be 2-D"):
         NullDisplay().show_stimulus(np.zeros((2, 2, 2)))
+
+
+def test_stimulus_set_reader_errors(tmp_path, stim_dir):
+    from experiment.stimset import StimulusSet as SS
+
+    with pytest.raises(StimulusSetError, match="stimulus set folder not found"):
+        SS.load(tmp_path / "none")
+    (stim_dir / "stimulus_set.json").write_text("{")
+    with pytest.raises(StimulusSetError, match=r"stimulus_set\.json: not valid JSON"):
+        SS.load(stim_dir)
+    (stim_dir / "stimulus_set.json").write_text("{}")
+    objects = (stim_dir / "objects.csv").read_text().splitlines()
+    (stim_dir / "objects.csv").write_text("\n".join(objects[:-1]) + "\n")
+    with pytest.raises(StimulusSetError, match=r"object 'obj04' of the manifest is not listed"):
+        SS.load(stim_dir)
+    (stim_dir / "objects.csv").write_text("\n".join(objects) + "\n")
+    manifest = (stim_dir / "manifest.csv").read_text()
+    lines = manifest.splitlines()
+    parts = lines[1].split(",")
+    parts[3] = "high"
+    (stim_dir / "manifest.csv").write_text("\n".join([lines[0], ",".join(parts), *lines[2:]]))
+    with pytest.raises(StimulusSetError, match=r"line 2: level/window/width/height/pixels must"):
+        SS.load(stim_dir)
+    (stim_dir / "manifest.csv").write_text(lines[0] + "\n")
+    with pytest.raises(StimulusSetError, match="no stimuli listed"):
+        SS.load(stim_dir)
+    (stim_dir / "manifest.csv").write_bytes(b"\xff\xfe\x00bad")
+    with pytest.raises(StimulusSetError, match="not a readable CSV file|missing column"):
+        SS.load(stim_dir)
+    (stim_dir / "manifest.csv").write_text(manifest)
+    s = SS.load(stim_dir)
+    assert s.verify() == len(s.records)
+    with pytest.raises(
+        StimulusSetError, match="no stimulus for object 'obj01', condition 'photo', level 1"
+    ):
+        s.get("obj01", "photo", 1)
+    (stim_dir / s.records[0].path).unlink()
+    with pytest.raises(StimulusSetError, match="listed in manifest.csv is missing"):
+        s.verify()
+    (stim_dir / s.records[1].path).write_bytes(b"x")
+    with pytest.raises(StimulusSetError, match="stimulus file changed"):
+        s.verify(s.records[1:2])
