@@ -216,7 +216,12 @@ def scan_command(
         str | None, typer.Option("--disparities", help="FROM:TO, pixels per view step.")
     ] = None,
     grid: Annotated[str, typer.Option("--grid", help="Prosthesis grid COLSxROWS.")] = "38x25",
-    binning: Annotated[int, typer.Option("--binning", help="View binning for the scan.")] = 2,
+    binning: Annotated[
+        int | None,
+        typer.Option(
+            "--binning", help="View binning for the scan (default: 2, less for small views)."
+        ),
+    ] = None,
     fast: Annotated[
         bool, typer.Option("--fast", help="Whole-pixel shifts during the scan (faster).")
     ] = False,
@@ -236,7 +241,7 @@ def scan_command(
     from rich.progress import Progress
 
     from stimuli.io import atomic_path, save_png
-    from stimuli.planes import iter_plane_scores, scan_result
+    from stimuli.planes import auto_binning, iter_plane_scores, scan_result
     from stimuli.refocus import refocus
 
     shape = parse_grid(grid)
@@ -244,6 +249,8 @@ def scan_command(
         raise InputError(f"--planes must be >= 3, got {planes}")
     lf = _load(lightfield, pattern, grid_cols, pitch, border, offset)
     ds = _disparities(lf, planes, near, far, disparities)
+    if binning is None:
+        binning = auto_binning(lf)
     scores = np.zeros(len(ds))
     with Progress(transient=True) as bar:
         task = bar.add_task("scanning planes", total=len(ds))
