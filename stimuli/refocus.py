@@ -149,8 +149,11 @@ def _refocus_views(
         n_threads = 1
 
     def pass_cols(u0: int, u1: int) -> None:
-        for v in range(n_v):
-            _accumulate(partial[u0:u1], views[u0:u1, v], col_shifts[v], 2, scratch[u0:u1])
+        # One grid row at a time: its partial sum and scratch (one view each) stay in cache
+        # while the row's views stream through once.
+        for u in range(u0, u1):
+            for v in range(n_v):
+                _accumulate(partial[u], views[u, v], col_shifts[v], 1, scratch[u])
 
     def pass_rows(c0: int, c1: int) -> None:
         for u in range(n_u):
