@@ -318,6 +318,25 @@ class LightField:
         v = v.mean(axis=(3, 5), dtype=np.float32)
         return LightField(np.clip(v, 0.0, 1.0), None, self.source, dict(self.meta))
 
+    def cropped(self, box_xywh: tuple[int, int, int, int]) -> LightField:
+        """Return the light field with every view cropped to ``(x, y, w, h)`` pixels.
+
+        Disparities and geometry are unchanged. Use it to drop borders that are the same in
+        every view (lens vignetting, a sensor frame): such borders have zero disparity and
+        make a false plane at 0 in a depth scan.
+        """
+        try:
+            x, y, w, h = (int(v) for v in box_xywh)
+        except (TypeError, ValueError):
+            raise InputError(f"crop box must be (x, y, w, h), got {box_xywh!r}") from None
+        rows, cols = self.shape_px
+        if w < 2 or h < 2 or x < 0 or y < 0 or x + w > cols or y + h > rows:
+            raise InputError(
+                f"crop box {box_xywh!r} must be at least 2x2 px inside the {cols}x{rows} views"
+            )
+        v = np.ascontiguousarray(self.views[:, :, y : y + h, x : x + w])
+        return LightField(v, self.geometry, self.source, dict(self.meta, crop=[x, y, w, h]))
+
     def disparity_px(self, depth_m: float) -> float:
         """Return the disparity of a plane at ``depth_m`` (needs a geometry)."""
         if self.geometry is None:

@@ -54,6 +54,13 @@ _LoaderPitch = Annotated[
 _LoaderBorder = Annotated[
     int | None, typer.Option("--border", help="Elemental image: invalid border per lenslet, px.")
 ]
+_ViewCrop = Annotated[
+    str | None,
+    typer.Option(
+        "--view-crop",
+        help="Crop every view to x,y,w,h first (e.g. to drop a Lytro's vignetted corners).",
+    ),
+]
 _LoaderOffset = Annotated[
     str | None,
     typer.Option("--offset", help="Elemental image: ROW,COL pixels before the first lenslet."),
@@ -95,7 +102,7 @@ def _parse_range(text: str) -> tuple[float, float]:
     return a, b
 
 
-def _load(path, pattern, grid_cols, pitch, border, offset):
+def _load(path, pattern, grid_cols, pitch, border, offset, view_crop=None):
     from stimuli.lightfield import load_lightfield
 
     off = None
@@ -106,9 +113,13 @@ def _load(path, pattern, grid_cols, pitch, border, offset):
                 raise ValueError
         except ValueError:
             raise InputError(f"--offset must be ROW,COL, got {offset!r}") from None
-    return load_lightfield(
+    lf = load_lightfield(
         path, pattern=pattern, grid_cols=grid_cols, pitch_px=pitch, border_px=border, offset_px=off
     ).gray()
+    if view_crop is not None:
+        rs, cs = parse_zoom(view_crop, lf.shape_px)
+        lf = lf.cropped((cs.start, rs.start, cs.stop - cs.start, rs.stop - rs.start))
+    return lf
 
 
 def _disparities(lf, planes: int, near: float | None, far: float | None, disparities: str | None):
@@ -231,6 +242,7 @@ def scan_command(
     edge_ratio: Annotated[
         float, typer.Option("--edge-ratio", help="Compression edge ratio (paper: 1/13).")
     ] = 1.0 / 13.0,
+    view_crop: _ViewCrop = None,
     pattern: _LoaderPattern = None,
     grid_cols: _LoaderGridCols = None,
     pitch: _LoaderPitch = None,
@@ -247,7 +259,7 @@ def scan_command(
     shape = parse_grid(grid)
     if planes < 3:
         raise InputError(f"--planes must be >= 3, got {planes}")
-    lf = _load(lightfield, pattern, grid_cols, pitch, border, offset)
+    lf = _load(lightfield, pattern, grid_cols, pitch, border, offset, view_crop)
     ds = _disparities(lf, planes, near, far, disparities)
     if binning is None:
         binning = auto_binning(lf)
@@ -310,6 +322,7 @@ def refocus_command(
     edge_ratio: Annotated[
         float, typer.Option("--edge-ratio", help="Compression edge ratio (paper: 1/13).")
     ] = 1.0 / 13.0,
+    view_crop: _ViewCrop = None,
     pattern: _LoaderPattern = None,
     grid_cols: _LoaderGridCols = None,
     pitch: _LoaderPitch = None,
@@ -320,7 +333,7 @@ def refocus_command(
     from stimuli.io import save_png
     from stimuli.refocus import iter_focal_stack, refocus
 
-    lf = _load(lightfield, pattern, grid_cols, pitch, border, offset)
+    lf = _load(lightfield, pattern, grid_cols, pitch, border, offset, view_crop)
     if stack:
         if depth is not None or disparity is not None:
             raise InputError("--stack scans --near/--far or --disparities, not --depth/--disparity")

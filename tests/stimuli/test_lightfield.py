@@ -77,6 +77,14 @@ def test_gray_and_binned():
         LightField(_views()).binned(0)
 
 
+def test_cropped_views():
+    lf = LightField(_views(3, 3, 12, 16))
+    c = lf.cropped((2, 3, 10, 6))
+    np.testing.assert_array_equal(c.views, lf.views[:, :, 3:9, 2:12])
+    with pytest.raises(InputError, match="inside the 16x12 views"):
+        lf.cropped((10, 0, 10, 6))
+
+
 # --- geometry ------------------------------------------------------------------------------
 
 
