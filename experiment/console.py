@@ -47,14 +47,13 @@ from textual.widgets import Footer, Input, Static
 
 from experiment.clock import Clock, PerfCounterClock
 from experiment.errors import ConfocalError
-from experiment.interfaces import Answer, Display, FlipRecord
+from experiment.interfaces import Answer, Display, FlipRecord, combine_flips
 
 __all__ = [
     "SCORE_KEYS",
     "OperatorConsole",
     "ScoringApp",
     "ConsoleResult",
-    "combine_flips",
     "preview_text",
     "make_display",
     "run_console",
@@ -74,19 +73,6 @@ SCORE_KEYS: dict[str, str] = {
 
 #: Preview width in terminal cells (ours: fits an 80-column terminal beside the trial panel).
 PREVIEW_COLS = 48
-
-
-def combine_flips(onset: FlipRecord, offset: FlipRecord | None) -> FlipRecord:
-    """Return one trial's flip record from the onset flip and the offset flip (``clear()``)."""
-    if offset is None:
-        return onset
-    return FlipRecord(
-        onset_s=onset.onset_s,
-        offset_s=offset.onset_s,
-        frame_intervals_ms=tuple(offset.frame_intervals_ms),
-        dropped_frames=int(offset.dropped_frames),
-        refresh_hz=onset.refresh_hz if onset.refresh_hz is not None else offset.refresh_hz,
-    )
 
 
 def preview_text(image: np.ndarray, cols: int = PREVIEW_COLS) -> str:
@@ -316,7 +302,12 @@ class OperatorConsole(App):
             self.action_score(self.session.suggest_score(self.trial, event.value.strip()))
         elif self.state in ("ready", "scored"):
             if event.value.strip():
-                self._status("Clear the input line (the trial is already scored), then Enter.")
+                why = (
+                    "the trial is already scored"
+                    if self.state == "scored"
+                    else "no stimulus is on the subject's screen yet"
+                )
+                self._status(f"Clear the input line ({why}), then Enter.")
                 return
             self._start_next_trial()
 

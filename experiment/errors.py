@@ -1,4 +1,4 @@
-"""Errors of the experiment engine that mean "the user's input or files are wrong" (exit status 2)."""
+"""Errors of the experiment engine meaning "the user's input or files are wrong" (exit status 2)."""
 
 from __future__ import annotations
 

@@ -12,7 +12,7 @@ from typing import Protocol, runtime_checkable
 
 import numpy as np
 
-__all__ = ["FlipRecord", "Answer", "Display", "Responder"]
+__all__ = ["FlipRecord", "Answer", "Display", "Responder", "combine_flips"]
 
 
 @dataclass(frozen=True)
@@ -38,6 +38,24 @@ class FlipRecord:
     frame_intervals_ms: tuple[float, ...] = field(default_factory=tuple)
     dropped_frames: int = 0
     refresh_hz: float | None = None
+
+
+def combine_flips(onset: FlipRecord, offset: FlipRecord | None) -> FlipRecord:
+    """Return one trial's flip record from its onset flip and its offset flip (``clear()``).
+
+    The onset time and the refresh rate come from the onset flip; the offset time, the frame
+    intervals and the dropped frames measured while the stimulus was up come from the offset
+    flip (the display reports them when the stimulus is removed).
+    """
+    if offset is None:
+        return onset
+    return FlipRecord(
+        onset_s=onset.onset_s,
+        offset_s=offset.onset_s,
+        frame_intervals_ms=tuple(offset.frame_intervals_ms),
+        dropped_frames=int(offset.dropped_frames),
+        refresh_hz=onset.refresh_hz if onset.refresh_hz is not None else offset.refresh_hz,
+    )
 
 
 @dataclass(frozen=True)
@@ -70,7 +88,7 @@ class Display(Protocol):
         ...
 
     def clear(self) -> FlipRecord:
-        """Remove the stimulus (blank/fixation screen); return the flip (its onset is the offset)."""
+        """Remove the stimulus (blank or fixation); return the flip (its onset is the offset)."""
         ...
 
     def show_text(self, text: str) -> None:

@@ -215,7 +215,12 @@ def register(app: typer.Typer) -> None:
         with TrialLog(log_path) as log:
             pending = pending_for_rater(log, rater, session_id=session_id)
             if not pending:
-                typer.echo(f"nothing to score: every answered trial has a score by {rater!r}")
+                answered = log.execute("SELECT COUNT(*) AS n FROM trials")[0]["n"]
+                typer.echo(
+                    f"nothing to score: every answered trial has a score by {rater!r}"
+                    if answered
+                    else "nothing to score: the log has no answered trials yet"
+                )
                 return
             from experiment.console import ScoringApp
 

@@ -174,17 +174,24 @@ class DisplaySpec(_Spec):
         Frame width, screen pixels (0 = no frame).
     background_rgb : (r, g, b) ints in [0, 255]
         Screen colour around the stimulus.
+    gamma : float > 0
+        Display gamma (measure it with a photometer); the presenter sends stimulus luminance
+        ``v`` to the screen as ``v ** (1 / gamma)``. 1 = no correction.
     """
 
     screen_width_px: int = 1280
     screen_height_px: int = 1024
-    screen_width_cm: float = 40.0
+    #: Inferred, not stated in the paper: 14.6 cm for the 492 px image means 0.2967 mm per
+    #: pixel if it was shown pixel for pixel, so 1280 px span 37.98 cm, the visible width of a
+    #: 21-inch CRT. Measure your own monitor.
+    screen_width_cm: float = 37.98
     viewing_distance_cm: float = 80.0
     image_width_cm: float = 14.6
     image_height_cm: float = 9.7
     border_rgb: tuple[int, int, int] = (0, 0, 255)
     border_width_px: int = 6
     background_rgb: tuple[int, int, int] = (0, 0, 0)
+    gamma: float = 1.0
 
     def _check_positive_int(self, name: str) -> None:
         v = getattr(self, name)
@@ -236,6 +243,9 @@ class DisplaySpec(_Spec):
 
     def _check_background_rgb(self) -> None:
         self._check_rgb("background_rgb")
+
+    def _check_gamma(self) -> None:
+        self._check_positive_float("gamma")
 
     def _check_border_width_px(self) -> None:
         _need(self.border_width_px, int, "display.border_width_px")

@@ -20,13 +20,12 @@ import platform
 import socket
 import subprocess
 from collections.abc import Callable
-from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 
 from experiment.clock import Clock, PerfCounterClock
-from experiment.interfaces import Answer, Display, FlipRecord, Responder
+from experiment.interfaces import Answer, Display, FlipRecord, Responder, combine_flips
 from experiment.protocol import SCORES, ProtocolSpec
 from experiment.schedule import Schedule, Trial, build_schedule
 from experiment.scoring import suggest_score
@@ -378,7 +377,7 @@ class Session:
                 flip = display.show_stimulus(image)
                 answer = responder.respond(trial, image)
                 off = display.clear()
-                self.record(trial, answer, replace(flip, offset_s=off.onset_s))
+                self.record(trial, answer, combine_flips(flip, off))
                 if progress is not None:
                     progress(*self.progress())
         except KeyboardInterrupt:

@@ -106,6 +106,34 @@ def run_command(
         int,
         typer.Option("--progress-every", min=0, help="Print 'trial i/n' every n trials."),
     ] = 0,
+    screen: Annotated[
+        int | None,
+        typer.Option("--screen", min=0, help="Screen index of the subject's window."),
+    ] = None,
+    fullscreen: Annotated[
+        bool,
+        typer.Option("--fullscreen/--window", help="Subject's window full screen or windowed."),
+    ] = True,
+    presenter: Annotated[
+        str,
+        typer.Option(
+            "--presenter",
+            envvar="CONFOCAL_PRESENTER",
+            help="process (a window, in its own process), offscreen (no window: GL renders "
+            "into memory), or none.",
+        ),
+    ] = "process",
+    skip_timing_check: Annotated[
+        bool,
+        typer.Option(
+            "--skip-timing-check",
+            help="Start even if the frame-timing self-test fails (the choice is logged).",
+        ),
+    ] = False,
+    integer_scale: Annotated[
+        bool,
+        typer.Option("--integer-scale", help="Magnify stimuli by a whole number of pixels."),
+    ] = False,
 ) -> None:
     """Run (or resume) a subject's session: console and presenter, or headless simulation."""
     from experiment.displays import NullDisplay
@@ -115,6 +143,10 @@ def run_command(
     from experiment.stimset import StimulusSet
     from experiment.triallog import TrialLog
 
+    if presenter not in ("process", "offscreen", "none"):
+        raise ConfocalError(
+            f"--presenter must be one of process, offscreen, none; got {presenter!r}"
+        )
     if observer is not None and not headless:
         raise ConfocalError("--observer needs --headless (a simulated subject has no screen)")
     if headless:
@@ -161,7 +193,14 @@ def run_command(
                     NullDisplay(hold_s=hold_s), responder, progress=_Progress(progress_every)
                 )
             else:
-                run_console(session)
+                run_console(
+                    session,
+                    screen=screen,
+                    fullscreen=fullscreen,
+                    presenter=presenter,
+                    skip_timing_check=skip_timing_check,
+                    integer_scale=integer_scale,
+                )
             answered, total = session.progress()
             typer.echo(
                 f"session {session.session_id} ({subject}): {answered}/{total} trials answered"

@@ -86,9 +86,7 @@ def to_float01(array: np.ndarray) -> np.ndarray:
     if not np.all(np.isfinite(a)):
         raise InputError("image has NaN or infinite values; expected finite values in [0, 1]")
     if a.size and (a.min() < 0.0 or a.max() > 1.0):
-        raise InputError(
-            f"float image must be in [0, 1], got range [{a.min():.4g}, {a.max():.4g}]"
-        )
+        raise InputError(f"float image must be in [0, 1], got range [{a.min():.4g}, {a.max():.4g}]")
     return a
 
 

@@ -1,4 +1,5 @@
-"""Numbers fixed by Jung, Aloni, Yitzhaky & Peli (2015), "Active confocal imaging for visual prostheses".
+"""Numbers fixed by Jung, Aloni, Yitzhaky & Peli (2015), "Active confocal imaging for visual
+prostheses".
 
 Every constant cites the section it comes from (house style H9).
 """
@@ -28,7 +29,8 @@ __all__ = [
 #: Working size (rows, cols) of the edge images. Source: Sec. 3.1 ("492x327").
 WORKING_SHAPE_PX: tuple[int, int] = (327, 492)
 
-#: Compression windows in pixels, 1 = uncompressed. Source: Sec. 3.1 (windows 2, 3, 5, 7, 13, 18, 40).
+#: Compression windows in pixels, 1 = uncompressed.
+#: Source: Sec. 3.1 (windows 2, 3, 5, 7, 13, 18, 40).
 WINDOWS_PX: tuple[int, ...] = (1, 2, 3, 5, 7, 13, 18, 40)
 
 #: Stimulus resolutions (rows, cols) for each window, level 8 (full) first as in the paper's list.

@@ -54,7 +54,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 from scipy.ndimage import gaussian_filter
-from scipy.signal import find_peaks
+from scipy.signal import find_peaks, peak_prominences
 
 from stimuli import jung2015
 from stimuli.errors import InputError
@@ -417,7 +417,12 @@ def score_peaks(
 
     A peak is an interior local maximum whose prominence is at least
     ``min_prominence_fraction * (max(scores) - min(scores))``. Plateaus count once (their
-    middle sample, as ``scipy.signal.find_peaks``).
+    middle sample, as ``scipy.signal.find_peaks``). Two peaks separated by a dip shallower than
+    that same threshold are one object plane and are merged (the higher is kept):
+    ``find_peaks`` does not count a neighbour of *equal* height as higher, so two equal tops of
+    one hill would otherwise both pass (seen on the simulated scene's 4 m plane). Tops of nearly
+    equal height (within a quarter of the threshold) are one flat top: its middle is kept, as
+    for a plateau.
 
     Returns
     -------
@@ -432,8 +437,20 @@ def score_peaks(
     span = float(s.max() - s.min())
     if span <= 0:
         return np.zeros(0, dtype=int), np.zeros(0)
-    idx, props = find_peaks(s, prominence=min_prominence_fraction * span)
-    return idx.astype(int), props["prominences"]
+    thr = min_prominence_fraction * span
+    idx, _ = find_peaks(s, prominence=thr)
+    merged: list[tuple[int, int]] = []  # (reported index, index of the hill's highest top)
+    for i in (int(v) for v in idx):
+        if merged and s[merged[-1][1] : i + 1].min() >= min(s[merged[-1][1]], s[i]) - thr:
+            pos, top = merged[-1]
+            best = i if s[i] > s[top] else top
+            merged[-1] = ((pos + i) // 2 if abs(s[i] - s[top]) <= 0.25 * thr else best, best)
+        else:
+            merged.append((i, i))
+    if not merged:
+        return np.zeros(0, dtype=int), np.zeros(0)
+    out = np.asarray([m[0] for m in merged], dtype=int)
+    return out, peak_prominences(s, np.asarray([m[1] for m in merged], dtype=int))[0]
 
 
 def find_object_planes(

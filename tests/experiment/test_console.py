@@ -18,9 +18,9 @@ import pytest
 from PIL import Image
 
 from experiment.clock import FakeClock, PerfCounterClock
-from experiment.console import OperatorConsole, combine_flips, preview_text
+from experiment.console import OperatorConsole, preview_text
 from experiment.displays import NullDisplay
-from experiment.interfaces import FlipRecord
+from experiment.interfaces import FlipRecord, combine_flips
 from experiment.protocol import load_protocol
 from experiment.session import Session
 from experiment.stimset import StimulusSet

@@ -189,3 +189,27 @@ def test_model_observer_is_hurt_by_clutter_and_low_resolution(medium_set):
     # 480 trials per condition: SE of a difference of rates <= 0.033; margins are > 3 SE
     assert decl - clut > 0.1
     assert high - low > 0.15
+
+
+def test_model_observer_template_level_is_checked():
+    with pytest.raises(ValueError, match="template_level must be a level >= 1 or None"):
+        TemplateParams(template_level=0)
+
+
+def test_model_observer_full_resolution_memory_makes_coarse_stimuli_harder(medium_set):
+    """With same-level templates a coarse de-cluttered stimulus matches its own template exactly;
+    remembering the objects at full resolution (the default) must make a coarse level harder.
+    Level 4 of this quarter-size set is 18x12 cells (levels 1-3 are too coarse for either)."""
+    rates = {}
+    for tl in (None, 8):
+        obs = make_observer("model", medium_set, "S1", rng=5, template_level=tl)
+        hits = []
+        for _ in range(10):
+            for oid in medium_set.object_ids("main"):
+                rec = medium_set.get(oid, "decluttered", 4)
+                t = trial(obj=oid, condition="decluttered", level=4, pixels=rec.pixels)
+                hits.append(obs.respond(t, medium_set.load_image(rec)).score in ("named", "use"))
+        rates[tl] = float(np.mean(hits))
+    print(f"de-cluttered 18x12: same-level templates {rates[None]:.2f}, full-res {rates[8]:.2f}")
+    # 200 trials each: SE of the difference <= 0.05; require a 0.15 drop (3 SE)
+    assert rates[None] - rates[8] > 0.15

@@ -172,3 +172,18 @@ def test_scan_arguments_checked():
         find_object_planes(lf, [0.0, 1.0])
     with pytest.raises(InputError, match="presmooth_px"):
         find_object_planes(lf, [0.0, 0.5, 1.0], presmooth_px=-1, binning=1)
+
+
+def test_equal_tops_of_one_hill_are_one_plane() -> None:
+    """Two equal maxima with a shallow dip between them are one plane; a deep dip keeps two."""
+    from stimuli.planes import score_peaks
+
+    x = np.linspace(0, 1, 201)
+    hill = np.exp(-0.5 * ((x - 0.5) / 0.1) ** 2)
+    shallow = hill - 0.02 * np.exp(-0.5 * ((x - 0.5) / 0.01) ** 2)  # twin tops, 2 % dip
+    idx, prom = score_peaks(shallow)
+    assert len(idx) == 1 and abs(x[idx[0]] - 0.5) < 0.006  # the flat top's middle
+    assert prom[0] > 0.9
+    two = np.exp(-0.5 * ((x - 0.3) / 0.05) ** 2) + np.exp(-0.5 * ((x - 0.7) / 0.05) ** 2)
+    idx, _ = score_peaks(two)
+    assert np.allclose(x[idx], [0.3, 0.7], atol=0.01)
