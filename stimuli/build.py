@@ -685,6 +685,7 @@ class _Work:
     wide_edges: np.ndarray | None = None
     narrow_edges: np.ndarray | None = None
     decoded_shape_px: tuple[int, int] | None = None
+    plane: str = ""
 
 
 def _sha256_source(path: Path) -> str:
@@ -735,13 +736,16 @@ def _draft_shape(
 
 def _load_raw(
     src: PairSource, info: ObjectInfo, params: BuildParams, crop: tuple | None
-) -> tuple[np.ndarray, np.ndarray, tuple[int, int], tuple[int, int]]:
-    """Return ``(wide, narrow, wide_full_px, narrow_full_px)`` (full = size on file)."""
+) -> tuple[np.ndarray, np.ndarray, tuple[int, int], tuple[int, int], str]:
+    """Return ``(wide, narrow, wide_full_px, narrow_full_px, plane)`` (full = size on file).
+
+    ``plane`` describes the confocal plane of a light-field object (provenance), else ``""``.
+    """
     if src.lightfield is None:
         assert src.wide is not None and src.narrow is not None
         if not params.fast_decode:
             wide, narrow = load_gray(src.wide), load_gray(src.narrow)
-            return wide, narrow, wide.shape, narrow.shape
+            return wide, narrow, wide.shape, narrow.shape, ""
         full = [image_shape_px(src.wide), image_shape_px(src.narrow)]
         out = []
         for path, f in zip((src.wide, src.narrow), full, strict=True):
@@ -750,23 +754,19 @@ def _load_raw(
                 region = (crop[3] * f[0] / full[0][0], crop[2] * f[1] / full[0][1])
             draft = _draft_shape(f, (max(region[0], 1), max(region[1], 1)), params.working_shape_px)
             out.append(load_gray(path, draft_shape_px=draft))
-        return out[0], out[1], full[0], full[1]
-    try:
-        from stimuli.lightfield import confocal_pair
-    except ImportError:
-        raise InputError(
-            f"{src.lightfield}: light-field objects need stimuli.lightfield.confocal_pair, "
-            "which this installation lacks"
-        ) from None
+        return out[0], out[1], full[0], full[1], ""
+    from stimuli.lightfield import confocal_plane
+
     if info.plane_depth_m is None and info.plane_disparity_px is None:
         logger.info("%s: no plane in objects.csv; light-field module picks it", src.object)
-    centre, confocal = confocal_pair(
+    plane = confocal_plane(
         src.lightfield, depth_m=info.plane_depth_m, disparity_px=info.plane_disparity_px
     )
-    where = f"{src.lightfield}: confocal_pair"
-    centre = check_gray(centre, f"{where} centre view")
-    confocal = check_gray(confocal, f"{where} image")
-    return centre, confocal, centre.shape, confocal.shape
+    where = f"{src.lightfield}: confocal_plane"
+    centre = check_gray(plane.centre_view, f"{where} centre view")
+    confocal = check_gray(plane.confocal_image, f"{where} image")
+    logger.info("%s: confocal image at %s", src.object, plane.describe())
+    return centre, confocal, centre.shape, confocal.shape, plane.describe()
 
 
 def _scale_crop(
@@ -785,7 +785,7 @@ def _scale_crop(
 
 def _prepare(src: PairSource, info: ObjectInfo, params: BuildParams) -> _Work:
     crop = info.crop if info.crop is not None else src.crop
-    wide_raw, narrow_raw, wide_full, narrow_full = _load_raw(src, info, params, crop)
+    wide_raw, narrow_raw, wide_full, narrow_full, plane = _load_raw(src, info, params, crop)
     notes: list[str] = []
     name = src.lightfield if src.lightfield is not None else src.wide
     if tuple(wide_full) != tuple(narrow_full):
@@ -827,6 +827,7 @@ def _prepare(src: PairSource, info: ObjectInfo, params: BuildParams) -> _Work:
         aspect_crop=box,
         notes=notes,
         decoded_shape_px=tuple(int(v) for v in wide_raw.shape),
+        plane=plane,
     )
 
 
@@ -928,7 +929,10 @@ def _write_object(
     if src.lightfield is not None:
         sources = {
             "cluttered": (_rel(src.lightfield, root) + "#centre", hashes["lightfield"]),
-            "decluttered": (_rel(src.lightfield, root) + "#confocal", hashes["lightfield"]),
+            "decluttered": (
+                _rel(src.lightfield, root) + "#confocal@" + work.plane,
+                hashes["lightfield"],
+            ),
         }
     else:
         sources = {

@@ -271,16 +271,19 @@ def test_lightfield_object_goes_through_confocal_pair(tmp_path: Path, monkeypatc
 
     def fake(path, *, depth_m=None, disparity_px=None):
         calls.append((Path(path).name, depth_m, disparity_px))
-        return wide, narrow
+        return stimuli.lightfield.ConfocalPlane(wide, narrow, 1.5, None, "disparity_px")
 
-    monkeypatch.setattr(stimuli.lightfield, "confocal_pair", fake)
+    monkeypatch.setattr(stimuli.lightfield, "confocal_plane", fake)
     (tmp_path / "lf.npz").write_bytes(b"not read by the fake")
     (tmp_path / "pairs.csv").write_text("object,lightfield\nbust,lf.npz\n")
     (tmp_path / "objects.csv").write_text("object,plane_disparity_px\nbust,1.5\n")
     build_stimulus_set(tmp_path / "pairs.csv", tmp_path / "s", workers=1)
     assert calls == [("lf.npz", None, 1.5)]
     recs = read_manifest(tmp_path / "s" / "manifest.csv")
-    assert {r.source for r in recs} == {"lf.npz#centre", "lf.npz#confocal"}
+    assert {r.source for r in recs} == {
+        "lf.npz#centre",
+        "lf.npz#confocal@disparity=1.5px,disparity_px",
+    }
     assert recs[1].source_sha256 == sha256_file(tmp_path / "lf.npz")
 
 
@@ -364,8 +367,10 @@ def test_cli_synth_calls_write_pairs(tmp_path: Path, monkeypatch, capsys) -> Non
     """confocal stimuli synth passes its options to stimuli.synth.write_pairs."""
     calls = []
 
-    def write_pairs(out_dir, *, n_objects=20, n_training=3, seed=0, shape_px=(327, 492)):
-        calls.append((Path(out_dir), n_objects, n_training, seed, shape_px))
+    def write_pairs(
+        out_dir, *, n_objects=20, n_training=3, seed=0, shape_px=(327, 492), force=False
+    ):
+        calls.append((Path(out_dir), n_objects, n_training, seed, shape_px, force))
         return Path(out_dir)
 
     monkeypatch.setitem(
@@ -374,7 +379,11 @@ def test_cli_synth_calls_write_pairs(tmp_path: Path, monkeypatch, capsys) -> Non
     with pytest.raises(SystemExit) as exc:
         main(["stimuli", "synth", "--out", str(tmp_path), "--objects", "5", "--size", "300x200"])
     assert exc.value.code == 0
-    assert calls == [(tmp_path, 5, 3, 0, (200, 300))]
+    assert calls == [(tmp_path, 5, 3, 0, (200, 300), False)]
+    with pytest.raises(SystemExit) as exc:
+        main(["stimuli", "synth", "--out", str(tmp_path), "--force"])
+    assert exc.value.code == 0
+    assert calls[-1] == (tmp_path, 20, 3, 0, (327, 492), True)
 
 
 def _jpeg_pairs(root: Path, n: int, shape_px: tuple[int, int]) -> Path:
@@ -467,7 +476,11 @@ def test_lightfield_subfolder_in_a_pairs_folder(tmp_path: Path, monkeypatch) -> 
 
     wide, narrow, _ = make_pair(2, (200, 300))
     monkeypatch.setattr(
-        stimuli.lightfield, "confocal_pair", lambda p, *, depth_m, disparity_px: (wide, narrow)
+        stimuli.lightfield,
+        "confocal_plane",
+        lambda p, *, depth_m, disparity_px: stimuli.lightfield.ConfocalPlane(
+            wide, narrow, 0.0, None, "nearest detected plane"
+        ),
     )
     (tmp_path / "p" / "bust").mkdir(parents=True)
     (tmp_path / "p" / "bust" / "lightfield.npz").write_bytes(b"x")

@@ -384,8 +384,8 @@ def test_file_level_raises(tmp_path: Path) -> None:
         read_pairs(tmp_path / "bad id")
 
 
-def test_lightfield_raises(tmp_path: Path, monkeypatch) -> None:
-    """Light-field sources: missing path, empty folder, module without confocal_pair."""
+def test_lightfield_raises(tmp_path: Path) -> None:
+    """Light-field sources: missing path, empty folder."""
     (tmp_path / "p1.csv").write_text("object,lightfield\nbust,lf.npz\n")
     with pytest.raises(InputError, match=r"lf\.npz: light field of object 'bust' not found"):
         build_stimulus_set(tmp_path / "p1.csv", tmp_path / "s")
@@ -393,10 +393,6 @@ def test_lightfield_raises(tmp_path: Path, monkeypatch) -> None:
     (tmp_path / "p2.csv").write_text("object,lightfield\nbust,lfdir\n")
     with pytest.raises(InputError, match=r"lfdir: light-field folder is empty"):
         build_stimulus_set(tmp_path / "p2.csv", tmp_path / "s")
-    (tmp_path / "lf.npz").write_bytes(b"x")
-    monkeypatch.setitem(sys.modules, "stimuli.lightfield", None)
-    with pytest.raises(InputError, match=r"need stimuli\.lightfield\.confocal_pair"):
-        build_stimulus_set(tmp_path / "p1.csv", tmp_path / "s")
     assert not (tmp_path / "s").exists()
 
 

@@ -86,19 +86,33 @@ def test_decluttered_is_the_confocal_image_and_drops_the_wall(built):
     assert edge_fraction("lfplane", "decluttered") < 0.5 * edge_fraction("lfplane", "cluttered")
 
 
-def test_auto_plane_is_the_strongest_detected_plane(built):
-    """Without a plane in objects.csv the scan's strongest plane is used: here the striped wall
-    (disparity 0), whose stripes outscore the disc, so 'lfauto' is refocused on the wall."""
+def test_auto_plane_is_the_nearest_detected_plane_issue_3(built):
+    """Without a plane in objects.csv the *nearest* detected plane is used (issue 3: "the
+    object's plane ... or the nearest detected plane"): the disc at disparity 3 in front of the
+    striped wall at 0, even though the wall's stripes outscore the disc. The manifest records
+    the plane it used (H15)."""
+    from stimuli.lightfield import confocal_plane, load_lightfield
     from stimuli.planes import auto_binning, find_object_planes
 
-    _, lf, _ = built
-    from stimuli.lightfield import load_lightfield
-
+    root, lf, _ = built
     field = load_lightfield(lf)
     scan = find_object_planes(field, binning=auto_binning(field))
     found = sorted(p.disparity_px for p in scan.peaks)
     assert any(abs(d) < 0.2 for d in found) and any(abs(d - 3.0) < 0.3 for d in found), found
-    strongest = max(scan.peaks, key=lambda p: p.score).disparity_px
+    strongest = max(scan.peaks, key=lambda p: p.score)
+    assert abs(strongest.disparity_px) < 0.2  # the wall scores higher: the old rule's trap
+    plane = confocal_plane(lf)
+    assert plane.chosen_by == "nearest detected plane"
+    assert abs(plane.disparity_px - 3.0) < 0.3
     _, auto = confocal_pair(lf)
-    _, expect = confocal_pair(lf, disparity_px=strongest)
+    _, expect = confocal_pair(lf, disparity_px=plane.disparity_px)
     np.testing.assert_array_equal(auto, expect)
+    recs = read_manifest(root / "set" / "manifest.csv")
+    (auto_row,) = [
+        r for r in recs if r.object == "lfauto" and r.condition == "decluttered" and r.level == 8
+    ]
+    assert auto_row.source.endswith(f"#confocal@{plane.describe()}")
+    (given_row,) = [
+        r for r in recs if r.object == "lfplane" and r.condition == "decluttered" and r.level == 8
+    ]
+    assert given_row.source.endswith("#confocal@disparity=3px,disparity_px")

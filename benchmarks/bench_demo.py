@@ -1,0 +1,73 @@
+"""Benchmark: ``confocal demo`` end to end (issue 7). Goal: under 2 minutes on 2 cores.
+
+Runs the whole demo (synthesise 23 photo pairs, build the stimulus set, 6 simulated subjects
+through the session engine, analysis with figures) and reports each stage's wall time. Because
+machines are noisy, it also reports the total as a ratio to a baseline measured in the same
+process right after: decoding every PNG the demo wrote once (``PIL.Image.open(...).load()``),
+the least work any pipeline over these files could do.
+
+Run: ``python benchmarks/bench_demo.py [--subjects 6] [--repeat 1]``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import statistics
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+from PIL import Image
+
+REPO = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(REPO))
+
+from experiment.demo import run_demo, summary_lines  # noqa: E402
+
+__all__ = ["main"]
+
+
+def _decode_all(root: Path) -> tuple[float, int]:
+    files = sorted(root.rglob("*.png"))
+    t0 = time.perf_counter()
+    for f in files:
+        with Image.open(f) as im:
+            im.load()
+    return time.perf_counter() - t0, len(files)
+
+
+def main(argv: list[str] | None = None) -> None:
+    """Run the demo ``--repeat`` times and print stage times and the ratio to the baseline."""
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--subjects", type=int, default=6)
+    ap.add_argument("--repeat", type=int, default=1)
+    args = ap.parse_args(argv)
+    totals, bases = [], []
+    for k in range(args.repeat):
+        with tempfile.TemporaryDirectory() as tmp:
+            t0 = time.perf_counter()
+            result = run_demo(
+                Path(tmp) / "demo", n_subjects=args.subjects, seed=k, show_progress=False
+            )
+            total = time.perf_counter() - t0
+            base, n_files = _decode_all(Path(tmp) / "demo")
+            totals.append(total)
+            bases.append(base)
+            stages = ", ".join(f"{s} {v:.1f} s" for s, v in result.seconds.items())
+            print(
+                f"run {k + 1}: total {total:.1f} s ({stages}); "
+                f"baseline: decode {n_files} PNGs {base:.2f} s"
+            )
+            if k == 0:
+                print("\n".join("  " + line for line in summary_lines(result)[:6]))
+    total, base = statistics.median(totals), statistics.median(bases)
+    print(
+        f"demo total (median of {args.repeat}): {total:.1f} s; goal < 120 s: "
+        f"{'met' if total < 120 else 'NOT met'}; ratio to decoding its own PNGs: "
+        f"{total / base:.0f}x"
+    )
+
+
+if __name__ == "__main__":
+    main()
