@@ -385,7 +385,16 @@ class RemoteDisplay:
         first = self._get(self.start_timeout_s, "start")
         if first.get("event") == "error":
             self._stop_process()
-            raise PresenterDied(f"the presenter could not start: {first.get('error')}")
+            env = self.env if self.env is not None else os.environ
+            hint = (
+                " (no display: DISPLAY is unset; run on the machine with the subject's screen, "
+                "or use --presenter offscreen for a dry run)"
+                if sys.platform.startswith("linux")
+                and not env.get("DISPLAY")
+                and not env.get("WAYLAND_DISPLAY")
+                else ""
+            )
+            raise PresenterDied(f"the presenter could not start: {first.get('error')}{hint}")
         if first.get("event") != "ready" or first.get("protocol") != PROTOCOL_VERSION:
             self._stop_process()
             raise PresenterDied(f"the presenter spoke an unknown protocol: {first!r}")

@@ -34,21 +34,14 @@ from pathlib import Path
 import numpy as np
 
 from experiment.errors import ConfocalError
+from stimuli.manifest import MANIFEST_COLUMNS as _BUILDER_MANIFEST_COLUMNS
 
 __all__ = ["StimulusSetError", "StimulusRecord", "ObjectInfo", "StimulusSet"]
 
-MANIFEST_COLUMNS = (
-    "object",
-    "role",
-    "condition",
-    "level",
-    "window",
-    "width",
-    "height",
-    "pixels",
-    "path",
-    "sha256",
-)
+#: Columns the engine requires in ``manifest.csv``: the builder's first ten (the rest are the
+#: builder's provenance, which the engine carries but does not need, so stimulus sets made by
+#: hand or by other tools need only these).
+MANIFEST_COLUMNS: tuple[str, ...] = _BUILDER_MANIFEST_COLUMNS[:10]
 OBJECT_COLUMNS = ("object", "name", "synonyms", "uses", "role")
 
 

@@ -17,6 +17,8 @@ from pathlib import Path
 
 import numpy as np
 
+from experiment.stimset import MANIFEST_COLUMNS
+
 __all__ = ["make_stimulus_set", "DEFAULT_WINDOWS_PX", "OBJECT_WORDS"]
 
 #: Windows of levels 1..8 (level 1 = fewest pixels). Source: Jung et al. 2015, Sec. 3.1.
@@ -154,20 +156,7 @@ def make_stimulus_set(
             rows_out.append((oid, role, "photo", 8, 1, grey.shape[1], grey.shape[0], rel))
     with open(root / "manifest.csv", "w", newline="", encoding="utf-8") as f:
         wr = csv.writer(f)
-        wr.writerow(
-            [
-                "object",
-                "role",
-                "condition",
-                "level",
-                "window",
-                "width",
-                "height",
-                "pixels",
-                "path",
-                "sha256",
-            ]
-        )
+        wr.writerow(MANIFEST_COLUMNS)
         for oid, role, cond, lv, w, wd, ht, rel in rows_out:
             sha = hashlib.sha256((root / rel).read_bytes()).hexdigest()
             wr.writerow([oid, role, cond, lv, w, wd, ht, wd * ht, rel, sha])

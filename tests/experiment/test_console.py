@@ -23,7 +23,7 @@ from experiment.displays import NullDisplay
 from experiment.interfaces import FlipRecord, combine_flips
 from experiment.protocol import load_protocol
 from experiment.session import Session
-from experiment.stimset import StimulusSet
+from experiment.stimset import MANIFEST_COLUMNS, StimulusSet
 from experiment.triallog import TrialLog
 
 PROTOCOL = """
@@ -66,20 +66,7 @@ def make_stimset(root: Path) -> Path:
             rows.append([o, "main", cond, 1, 40, 12, 8, 96, p.name, sha])
     with open(root / "manifest.csv", "w", newline="") as f:
         w = csv.writer(f)
-        w.writerow(
-            [
-                "object",
-                "role",
-                "condition",
-                "level",
-                "window",
-                "width",
-                "height",
-                "pixels",
-                "path",
-                "sha256",
-            ]
-        )
+        w.writerow(MANIFEST_COLUMNS)
         w.writerows(rows)
     return root
 

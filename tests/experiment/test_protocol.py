@@ -263,3 +263,36 @@ def test_content_hash_ignores_formatting_but_not_content(tmp_path):
     c = load_protocol(write(tmp_path, MINIMAL.replace("[1, 2]", "[1, 3]"), "c.toml"))
     assert a.content_sha256() == b.content_sha256() != c.content_sha256()
     assert a.source_sha256 != b.source_sha256
+
+
+@pytest.mark.slow
+def test_wheel_ships_the_protocols(tmp_path, repo_root) -> None:
+    """A non-editable install finds the shipped protocols: the wheel carries every file of
+    protocols/SHA256SUMS as data under share/confocal/protocols, where PROTOCOLS_DIR looks
+    when there is no source checkout."""
+    import subprocess
+    import sys
+    import zipfile
+
+    r = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "pip",
+            "wheel",
+            "-q",
+            "--no-deps",
+            "-w",
+            str(tmp_path),
+            str(repo_root),
+        ],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+    assert r.returncode == 0, r.stderr[-2000:]
+    (wheel,) = tmp_path.glob("active_confocal-*.whl")
+    names = zipfile.ZipFile(wheel).namelist()
+    listed = [line.split()[1] for line in (PROTOCOLS_DIR / "SHA256SUMS").read_text().splitlines()]
+    for name in [*listed, "SHA256SUMS"]:
+        assert any(n.endswith(f".data/data/share/confocal/protocols/{name}") for n in names), name
