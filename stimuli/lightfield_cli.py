@@ -39,6 +39,12 @@ lightfield_app = typer.Typer(
     no_args_is_help=True,
 )
 
+_Threshold = Annotated[
+    str, typer.Option("--threshold", help="Sobel threshold: 'auto' (Otsu) or a number.")
+]
+_EdgeRatio = Annotated[
+    float, typer.Option("--edge-ratio", help="Compression edge ratio (paper: 1/13).")
+]
 _LoaderPattern = Annotated[
     str | None,
     typer.Option(
@@ -236,12 +242,8 @@ def scan_command(
     fast: Annotated[
         bool, typer.Option("--fast", help="Whole-pixel shifts during the scan (faster).")
     ] = False,
-    threshold: Annotated[
-        str, typer.Option("--threshold", help="Sobel threshold: 'auto' (Otsu) or a number.")
-    ] = "auto",
-    edge_ratio: Annotated[
-        float, typer.Option("--edge-ratio", help="Compression edge ratio (paper: 1/13).")
-    ] = 1.0 / 13.0,
+    threshold: _Threshold = "auto",
+    edge_ratio: _EdgeRatio = 1.0 / 13.0,
     view_crop: _ViewCrop = None,
     pattern: _LoaderPattern = None,
     grid_cols: _LoaderGridCols = None,
@@ -316,12 +318,8 @@ def refocus_command(
     grid: Annotated[
         str | None, typer.Option("--grid", help="Also write edges and a COLSxROWS grid.")
     ] = None,
-    threshold: Annotated[
-        str, typer.Option("--threshold", help="Sobel threshold: 'auto' (Otsu) or a number.")
-    ] = "auto",
-    edge_ratio: Annotated[
-        float, typer.Option("--edge-ratio", help="Compression edge ratio (paper: 1/13).")
-    ] = 1.0 / 13.0,
+    threshold: _Threshold = "auto",
+    edge_ratio: _EdgeRatio = 1.0 / 13.0,
     view_crop: _ViewCrop = None,
     pattern: _LoaderPattern = None,
     grid_cols: _LoaderGridCols = None,
