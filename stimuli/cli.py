@@ -94,22 +94,31 @@ def build_command(
         fast_decode=fast_decode,
     )
     console = Console(stderr=True)
-    with Progress(
-        TextColumn("{task.description}"),
-        BarColumn(),
-        MofNCompleteColumn(),
-        console=console,
-        transient=True,
-    ) as bar:
-        tasks: dict[str, int] = {}
+    # The bar starts at the first progress report, so bad input prints its one line alone.
+    bar: Progress | None = None
+    tasks: dict[str, int] = {}
 
-        def progress(stage: str, done: int, total: int) -> None:
-            if stage not in tasks:
-                label = "reading and de-cluttering" if stage == "read" else "writing stimuli"
-                tasks[stage] = bar.add_task(label, total=total)
-            bar.update(tasks[stage], completed=done)
+    def progress(stage: str, done: int, total: int) -> None:
+        nonlocal bar
+        if bar is None:
+            bar = Progress(
+                TextColumn("{task.description}"),
+                BarColumn(),
+                MofNCompleteColumn(),
+                console=console,
+                transient=True,
+            )
+            bar.start()
+        if stage not in tasks:
+            label = "reading and de-cluttering" if stage == "read" else "writing stimuli"
+            tasks[stage] = bar.add_task(label, total=total)
+        bar.update(tasks[stage], completed=done)
 
+    try:
         result = build_stimulus_set(pairs, out, params=params, force=force, progress=progress)
+    finally:
+        if bar is not None:
+            bar.stop()
     for note in result.notes:
         console.print(f"note: {note}", highlight=False)
     n = len(result.objects)
