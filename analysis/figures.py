@@ -140,6 +140,16 @@ def plot_subject_thresholds(
                     label=s if j == 0 else None,
                 )
     ax.axhline(PROSTHESIS_PX, color="k", ls="--", lw=0.8)
+    ax.annotate(
+        f"prostheses, {PROSTHESIS_PX:,.0f} px",
+        (0.5, PROSTHESIS_PX),
+        xycoords=("axes fraction", "data"),
+        xytext=(0, 3),
+        textcoords="offset points",
+        ha="center",
+        va="bottom",
+        fontsize="x-small",
+    )
     ax.set_yscale("log")
     ax.set_xticks(range(len(CONDITIONS)), CONDITIONS)
     ax.set_ylabel(f"pixels for {100 * pc:g} % recognition")
@@ -200,7 +210,7 @@ def plot_object_difficulty(logistic: LogisticFit, *, ax: Axes | None = None) -> 
     ----------
     Jung et al. 2015, Fig. S3 (difficulty as the log odds ratio of failure).
     """
-    ax = _new_ax(ax, (6.0, 3.5))
+    ax = _new_ax(ax, (7.0, 4.2))
     rows = [r for r in logistic.odds_ratios.rows if r[0].startswith("object:")]
     names = [logistic.reference_object] + [r[0].split(":", 1)[1] for r in rows]
     # Failure odds ratio = 1 / recognition odds ratio, so its log10 is the negated log10.
@@ -221,7 +231,7 @@ def plot_object_difficulty(logistic: LogisticFit, *, ax: Axes | None = None) -> 
         if mark:
             ax.annotate(mark, (xi, hi[xi]), ha="center", va="bottom", fontsize="small")
     ax.axhline(0, color="0.6", lw=0.5)
-    ax.set_xticks(x, names, fontsize="small")
+    ax.set_xticks(x, names, fontsize="small", rotation=55, ha="right", rotation_mode="anchor")
     ax.set_xlabel("object")
     ax.set_ylabel("relative difficulty (log10 OR)")
     return ax
