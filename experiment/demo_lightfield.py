@@ -70,15 +70,6 @@ def _montage(tiles: list[tuple[str, np.ndarray]], path: Path, *, height_px: int 
     return path
 
 
-def _edges_and_grid(image: np.ndarray, grid_px: tuple[int, int], edge_ratio: float):
-    from stimuli.compress import compress
-    from stimuli.declutter import auto_threshold, declutter
-
-    t = auto_threshold(image)
-    edges = declutter(image, threshold=t)
-    return edges, compress(edges, grid_px, edge_ratio=edge_ratio), t
-
-
 def run_lightfield_demo(out_dir: str | Path, *, seed: int = 0, force: bool = False) -> list[str]:
     """Render the paper's three-plane light field, scan it, and write Figs. 10-16 analogues.
 
@@ -106,7 +97,7 @@ def run_lightfield_demo(out_dir: str | Path, *, seed: int = 0, force: bool = Fal
     from stimuli.io import atomic_path, save_png
     from stimuli.lfsynth import render_elemental_image, three_plane_scene
     from stimuli.lightfield import LightField, views_from_elemental
-    from stimuli.lightfield_cli import plot_scores
+    from stimuli.lightfield_cli import declutter_and_compress, plot_scores
     from stimuli.planes import iter_plane_scores, scan_result
     from stimuli.refocus import refocus
 
@@ -140,7 +131,7 @@ def run_lightfield_demo(out_dir: str | Path, *, seed: int = 0, force: bool = Fal
     confocal, edges, grids = [], [], []
     for z in FIG11_DEPTHS_M:
         img = refocus(lf, lf.disparity_px(z))
-        e, g, _ = _edges_and_grid(img, FIG13_GRID_PX, ratio)
+        e, g, _ = declutter_and_compress(img, FIG13_GRID_PX, edge_ratio=ratio)
         confocal.append((f"{z:g} m", img))
         edges.append((f"{z:g} m", e))
         grids.append((f"{z:g} m ({FIG13_GRID_PX[1]}x{FIG13_GRID_PX[0]})", g))
@@ -173,8 +164,8 @@ def run_lightfield_demo(out_dir: str | Path, *, seed: int = 0, force: bool = Fal
     y0 = int(np.clip(cy - h // 2, 0, rows - h))
     x0 = int(np.clip(cx - w // 2, 0, cols - w))
     zoomed = np.ascontiguousarray(near[y0 : y0 + h, x0 : x0 + w])
-    _, grid_full, _ = _edges_and_grid(near, FIG13_GRID_PX, ratio)
-    ze, zg, _ = _edges_and_grid(zoomed, FIG13_GRID_PX, ratio)
+    _, grid_full, _ = declutter_and_compress(near, FIG13_GRID_PX, edge_ratio=ratio)
+    ze, zg, _ = declutter_and_compress(zoomed, FIG13_GRID_PX, edge_ratio=ratio)
     _montage(
         [
             ("1 m, no zoom", grid_full),
@@ -207,7 +198,7 @@ def run_lightfield_demo(out_dir: str | Path, *, seed: int = 0, force: bool = Fal
     tiles, lines = [], []
     for k, plane in enumerate(scan.peaks):
         img = refocus(lf, plane.disparity_px)
-        e, g, _ = _edges_and_grid(img, FIG13_GRID_PX, ratio)
+        e, g, _ = declutter_and_compress(img, FIG13_GRID_PX, edge_ratio=ratio)
         label = f"plane {k + 1}: {plane.depth_m:.2f} m"
         tiles += [(label, img), ("edges", e), ("980 cells", g)]
         layer = min(layers, key=lambda la: abs(lf.disparity_px(la.depth_m) - plane.disparity_px))

@@ -31,7 +31,14 @@ import typer
 
 from stimuli.errors import InputError
 
-__all__ = ["register", "lightfield_app", "plot_scores", "parse_zoom", "parse_grid"]
+__all__ = [
+    "register",
+    "lightfield_app",
+    "plot_scores",
+    "parse_zoom",
+    "parse_grid",
+    "declutter_and_compress",
+]
 
 lightfield_app = typer.Typer(
     name="lightfield",
@@ -151,19 +158,41 @@ def _disparities(lf, planes: int, near: float | None, far: float | None, dispari
     return default_disparities(lf, planes)
 
 
-def _declutter_and_compress(image: np.ndarray, grid: tuple[int, int], threshold: str, ratio: float):
+def declutter_and_compress(
+    image: np.ndarray,
+    grid_px: tuple[int, int],
+    *,
+    threshold: str | float = "auto",
+    edge_ratio: float,
+) -> tuple[np.ndarray, np.ndarray, float]:
+    """De-clutter a confocal image and compress it to the prosthesis grid.
+
+    Parameters
+    ----------
+    image : ndarray of shape (rows, cols), float32 in [0, 1]
+    grid_px : (rows, cols)
+        Prosthesis grid.
+    threshold : 'auto' or float >= 0
+        Sobel threshold; ``'auto'`` is :func:`stimuli.declutter.auto_threshold` (Otsu).
+    edge_ratio : float in [0, 1)
+        Compression edge ratio (paper: 1/13).
+
+    Returns
+    -------
+    edges : ndarray of shape (rows, cols), bool
+    grid : ndarray of shape ``grid_px``, bool
+    threshold : float
+        The threshold used.
+    """
+    from stimuli.build import parse_threshold
     from stimuli.compress import compress
     from stimuli.declutter import auto_threshold, declutter
 
-    if threshold == "auto":
+    t = parse_threshold(threshold)
+    if t is None:
         t = auto_threshold(image)
-    else:
-        try:
-            t = float(threshold)
-        except ValueError:
-            raise InputError(f"--threshold must be 'auto' or a number, got {threshold!r}") from None
     edges = declutter(image, threshold=t)
-    return edges, compress(edges, grid, edge_ratio=ratio), t
+    return edges, compress(edges, grid_px, edge_ratio=edge_ratio), t
 
 
 def plot_scores(scan, path: Path, *, size_px: tuple[int, int] = (360, 640)) -> Path:
@@ -284,7 +313,9 @@ def scan_command(
     save_png(lf.centre_view(), out / "centre.png")
     for k, p in enumerate(scan.peaks):
         img = refocus(lf, p.disparity_px)
-        edges, cells, t = _declutter_and_compress(img, shape, threshold, edge_ratio)
+        edges, cells, t = declutter_and_compress(
+            img, shape, threshold=threshold, edge_ratio=edge_ratio
+        )
         stem = f"plane{k + 1:02d}"
         save_png(img, out / f"{stem}_confocal.png")
         save_png(edges, out / f"{stem}_edges.png")
@@ -350,7 +381,9 @@ def refocus_command(
         img = np.ascontiguousarray(img[rs, cs])
     save_png(img, out)
     if grid is not None:
-        edges, cells, t = _declutter_and_compress(img, parse_grid(grid), threshold, edge_ratio)
+        edges, cells, t = declutter_and_compress(
+            img, parse_grid(grid), threshold=threshold, edge_ratio=edge_ratio
+        )
         save_png(edges, out.with_name(out.stem + "_edges.png"))
         save_png(cells, out.with_name(out.stem + "_grid.png"))
     typer.echo(f"disparity {d:.4g} px/view -> {out}")

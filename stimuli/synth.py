@@ -36,6 +36,7 @@ from scipy.ndimage import gaussian_filter
 from stimuli import jung2015
 from stimuli.errors import InputError
 from stimuli.io import save_png
+from stimuli.manifest import OBJECTS_COLUMNS
 from stimuli.scene import Layer, ThinLensCamera, centre_crop_offset, render_pair
 
 __all__ = [
@@ -58,18 +59,8 @@ OBJECT_WIDTH_DEG: float = 10.0
 #: 1.5-3 m gives circles of confusion of about 20-32 px at f/1.7 and 1.6-2.5 px at f/22.
 BACKGROUND_DEPTHS_M: tuple[float, float] = (1.5, 3.0)
 
-#: Columns of ``objects.csv`` (the builder's per-object table; see issue 2).
-OBJECTS_CSV_COLUMNS: tuple[str, ...] = (
-    "object",
-    "name",
-    "synonyms",
-    "uses",
-    "role",
-    "sobel_threshold",
-    "crop",
-    "plane_depth_m",
-    "plane_disparity_px",
-)
+#: Columns of ``objects.csv``: the builder's per-object table, defined in :mod:`stimuli.manifest`.
+OBJECTS_CSV_COLUMNS: tuple[str, ...] = OBJECTS_COLUMNS
 
 #: Texture margin around the camera image on each side, as a fraction of the image width.
 #: Ours: enough for the parallax of the outermost views of a small-baseline light field.
