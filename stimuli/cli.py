@@ -35,14 +35,18 @@ def build_command(
         str,
         typer.Option(
             "--threshold",
-            help="Sobel threshold: 'auto' (Otsu on each narrow-DOF image) or a number; "
-            "objects.csv values win.",
+            help="Sobel threshold: 'auto' (per object, --threshold-method) or a number; "
+            "objects.csv values win (see 'confocal stimuli tune').",
         ),
     ] = "auto",
     threshold_method: Annotated[
         str,
-        typer.Option("--threshold-method", help="Automatic threshold method: otsu or triangle."),
-    ] = "otsu",
+        typer.Option(
+            "--threshold-method",
+            help="Automatic threshold method: retention (both photos of a pair; as 'stimuli "
+            "tune'), otsu or triangle (narrow photo only).",
+        ),
+    ] = "retention",
     edge_ratio: Annotated[
         str,
         typer.Option(
@@ -163,6 +167,77 @@ def synth_command(
     typer.echo(f"wrote {objects} + {training} synthetic photo pairs to {path}")
 
 
+@stimuli_app.command("tune")
+def tune_command(
+    pairs: Annotated[
+        Path,
+        typer.Argument(
+            help="PAIRS folder or CSV, as for 'stimuli build'.",
+            show_default=False,
+        ),
+    ],
+    sheet: Annotated[
+        Path | None,
+        typer.Option(
+            "--sheet",
+            help="Contact sheet of the candidates to write (PNG; default: tune_sheet.png in "
+            "the PAIRS folder).",
+            show_default=False,
+        ),
+    ] = None,
+    working_size: Annotated[
+        str,
+        typer.Option("--working-size", help="Working size WIDTHxHEIGHT, pixels (paper: 492x327)."),
+    ] = "492x327",
+    dry_run: Annotated[
+        bool,
+        typer.Option("--dry-run", help="Show the proposals and the sheet; keep objects.csv."),
+    ] = False,
+) -> None:
+    """Propose each object's Sobel threshold, draw the candidates, write them to objects.csv."""
+    from stimuli.build import parse_working_size, read_pairs
+    from stimuli.errors import InputError
+    from stimuli.tune import save_tuning_sheet, tune_pairs, tuning_sheet, write_thresholds
+
+    shape = parse_working_size(working_size)
+    inp = read_pairs(pairs)
+    if pairs.is_dir():
+        objects_csv = pairs / "objects.csv"
+    else:
+        objects_csv = pairs.parent / "objects.csv"
+        if objects_csv.resolve() == pairs.resolve():
+            raise InputError(
+                f"{pairs}: the PAIRS CSV is named objects.csv; rename it (e.g. pairs.csv) so the "
+                "thresholds can go into objects.csv beside it"
+            )
+    sheet = sheet if sheet is not None else inp.root / "tune_sheet.png"
+    if sheet.suffix.lower() != ".png":
+        raise InputError(f"--sheet must be a .png file, got {str(sheet)!r}")
+    results = tune_pairs(pairs, working_shape_px=shape)
+    save_tuning_sheet(tuning_sheet(results), sheet)
+    n = max(6, *(len(r.object) for r in results))
+    typer.echo(
+        f"{'object':<{n}} {'was':>8} {'proposed':>9} {'wide %':>7} {'narrow %':>9} {'Otsu':>7}"
+    )
+    for r in results:
+        was = "" if r.previous_threshold is None else f"{r.previous_threshold:.4g}"
+        typer.echo(
+            f"{r.object:<{n}} {was:>8} {r.threshold:>9.4f} {100 * r.wide_edge_fraction:>7.1f} "
+            f"{100 * r.narrow_edge_fraction:>9.1f} {r.otsu_threshold:>7.4f}"
+        )
+    main = [r for r in results if r.role == "main"] or results
+    mean_wide = sum(r.wide_edge_fraction for r in main) / len(main)
+    typer.echo(
+        f"mean wide-DOF edge fraction {mean_wide:.3f} (the set's edge ratio; paper 0.077); "
+        f"contact sheet: {sheet}"
+    )
+    if dry_run:
+        typer.echo("dry run: objects.csv not changed")
+        return
+    write_thresholds(objects_csv, {r.object: r.threshold for r in results})
+    typer.echo(f"wrote {len(results)} thresholds to {objects_csv}")
+
+
 def register(app: typer.Typer) -> None:
-    """Add the ``stimuli`` command group (``build``, ``synth``) to the root ``confocal`` app."""
+    """Add the ``stimuli`` command group (``build``, ``synth``, ``tune``) to the root app."""
     app.add_typer(stimuli_app, name="stimuli")

@@ -173,13 +173,15 @@ def test_decluttered_has_less_edge_mass_outside_the_object_at_every_level(built)
 
 
 def test_thresholds_per_object_global_and_auto(tmp_path: Path) -> None:
-    """objects.csv value wins, then the global value; auto is Otsu on the narrow image."""
+    """objects.csv value wins, then the global value; auto (method otsu) is Otsu on narrow."""
     csv_text = "object,sobel_threshold\nobj00,0.2\n"
     pairs = write_pairs_folder(tmp_path / "p", 2, (200, 300), csv_text)
     r = build_stimulus_set(pairs, tmp_path / "g", params=BuildParams(threshold=0.05), workers=1)
     got = {o.object: (o.sobel_threshold, o.threshold_source) for o in r.objects}
     assert got == {"obj00": (0.2, "objects.csv"), "obj01": (0.05, "global")}
-    r = build_stimulus_set(pairs, tmp_path / "a", workers=1)
+    r = build_stimulus_set(
+        pairs, tmp_path / "a", workers=1, params=BuildParams(threshold_method="otsu")
+    )
     narrow = load_gray(pairs / "obj01" / "narrow.png")
     x, y, w, h = aspect_crop_box(narrow.shape, (327, 492))
     expected = auto_threshold(to_working_size(narrow[y : y + h, x : x + w], (327, 492)))
