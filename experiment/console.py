@@ -33,9 +33,13 @@ changed (the log is append-only).
 
 from __future__ import annotations
 
+import contextlib
 import json
 import logging
+import sys
+from collections.abc import Iterator
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -57,6 +61,8 @@ __all__ = [
     "preview_text",
     "make_display",
     "run_console",
+    "session_log_path",
+    "logs_to_file",
 ]
 
 logger = logging.getLogger(__name__)
@@ -134,23 +140,31 @@ class OperatorConsole(App):
         Rater name stored with the operator's scores.
     """
 
+    # Responsive layout (issue 15): the input line, the status and the key footer keep fixed
+    # rows at the bottom; the trial panel and the preview share what is left, and the preview is
+    # re-drawn to fit it (see _fit_preview), so nothing is clipped from 80x24 upward.
     CSS = """
-    #top { height: auto; }
-    #trial { width: 1fr; padding: 0 1; }
+    #top { height: 1fr; overflow: hidden; }
+    #trial { width: 1fr; min-width: 30; padding: 0 1; }
     #preview { width: auto; border: solid $accent; padding: 0 1; }
-    #timer { padding: 0 1; }
-    #suggest { padding: 0 1; color: $success; }
-    #status { padding: 0 1; min-height: 2; }
+    #bottom { height: auto; }
+    #timer { padding: 0 1; height: 1; }
+    #suggest { padding: 0 1; height: 1; color: $success; }
+    #status { padding: 0 1; height: 2; }
     #note { display: none; }
     """
 
+    ENABLE_COMMAND_PALETTE = False
+
+    # Short labels so that the whole footer fits in 80 columns; F9 is named in the status line
+    # when the presenter stops, the only time it is needed.
     BINDINGS = [
         *(Binding(k, f"score('{s}')", s, priority=True) for k, s in SCORE_KEYS.items()),
         Binding("ctrl+z", "undo", "undo", priority=True),
         Binding("f6", "note", "note", priority=True),
         Binding("f8", "pause", "pause", priority=True),
-        Binding("f9", "restart_presenter", "restart presenter", priority=True),
-        Binding("ctrl+q", "save_quit", "save & quit", priority=True),
+        Binding("f9", "restart_presenter", "restart presenter", show=False, priority=True),
+        Binding("ctrl+q", "save_quit", "quit", priority=True),
     ]
 
     def __init__(
@@ -172,6 +186,7 @@ class OperatorConsole(App):
         self._down_from = "ready"
         self._shown_part: str | None = None
         self._breaks_shown: set[int] = set()
+        self._preview_image: np.ndarray | None = None
 
     # -- layout -----------------------------------------------------------------------------------
 
@@ -179,13 +194,31 @@ class OperatorConsole(App):
         with Horizontal(id="top"):
             yield Static(id="trial")
             yield Static(id="preview")
-        with Vertical():
+        with Vertical(id="bottom"):
             yield Static(id="timer")
             yield Static(id="suggest")
             yield Static(id="status")
             yield Input(placeholder="the subject's words", id="response")
             yield Input(placeholder="note for the log (Enter saves, Esc cancels)", id="note")
-        yield Footer()
+        yield Footer(compact=True)
+
+    def on_resize(self) -> None:
+        self.call_after_refresh(self._fit_preview)
+
+    def _fit_preview(self) -> None:
+        """Draw the preview as large as the space beside the trial panel allows."""
+        if self._preview_image is None:
+            return
+        top = self.query_one("#top").size
+        trial_min = 30
+        # preview border (2) and padding (2) around the text
+        max_cols = max(4, min(2 * PREVIEW_COLS, top.width - trial_min - 4))
+        max_lines = max(1, top.height - 2)
+        rows_px, cols_px = self._preview_image.shape
+        cols = max_cols
+        while cols > 4 and (cols * rows_px / cols_px) / 2 > max_lines:
+            cols -= 1
+        self.query_one("#preview", Static).update(Text(preview_text(self._preview_image, cols)))
 
     def on_mount(self) -> None:
         self.title = f"confocal: session {self.session.session_id}, subject {self.session.subject}"
@@ -272,7 +305,8 @@ class OperatorConsole(App):
             return
         self.trial = trial
         image = self.session.image_for(trial)
-        self.query_one("#preview", Static).update(Text(preview_text(image)))
+        self._preview_image = np.asarray(image)
+        self._fit_preview()
         onset = self._safe(self.subject_display.show_stimulus, image)
         if onset is None:
             return
@@ -423,6 +457,8 @@ class OperatorConsole(App):
     def action_note(self) -> None:
         """Open the note line."""
         note = self.query_one("#note", Input)
+        # the note line takes the input line's place, so the layout keeps its height
+        self.query_one("#response", Input).styles.display = "none"
         note.styles.display = "block"
         note.value = ""
         note.focus()
@@ -434,7 +470,9 @@ class OperatorConsole(App):
         note = self.query_one("#note", Input)
         note.value = ""
         note.styles.display = "none"
-        self.query_one("#response", Input).focus()
+        response = self.query_one("#response", Input)
+        response.styles.display = "block"
+        response.focus()
 
     def action_restart_presenter(self) -> None:
         """Restart the presenter process after it died, and carry on where the session was."""
@@ -609,6 +647,62 @@ def make_display(
     raise ValueError(f"presenter must be 'process', 'offscreen' or 'none', got {presenter!r}")
 
 
+def session_log_path(session: Any) -> Path | None:
+    """Return the session log file beside the trial log (``study.sqlite`` -> ``study.log``).
+
+    ``None`` for an in-memory trial log.
+    """
+    db = str(getattr(getattr(session, "log", None), "path", ":memory:"))
+    return None if db == ":memory:" else Path(db).with_suffix(".log")
+
+
+@contextlib.contextmanager
+def logs_to_file(path: str | Path | None, *, prefix: str = "") -> Iterator[None]:
+    """Send every log record (moderngl-window's included) to ``path`` instead of the terminal.
+
+    While the console owns the terminal, a log line written there would tear its screen. Handlers
+    that write to stdout or stderr are detached from every logger, a file handler (append, level
+    INFO) is put on the root logger, and everything is put back on exit. ``path=None`` only
+    silences the terminal.
+
+    Parameters
+    ----------
+    path : str or Path or None
+        The session log file.
+    prefix : str
+        Written after the time stamp on every line (e.g. ``"session 3"``).
+    """
+    root = logging.getLogger()
+    terminal = (sys.stderr, sys.stdout, sys.__stderr__, sys.__stdout__)
+    moved: list[tuple[logging.Logger, logging.Handler]] = []
+    loggers = [root, *(logging.getLogger(n) for n in list(logging.root.manager.loggerDict))]
+    for lg in loggers:
+        for h in list(lg.handlers):
+            if (
+                isinstance(h, logging.StreamHandler)
+                and not isinstance(h, logging.FileHandler)
+                and getattr(h, "stream", None) in terminal
+            ):
+                lg.removeHandler(h)
+                moved.append((lg, h))
+    handler: logging.Handler = (
+        logging.NullHandler() if path is None else logging.FileHandler(path, encoding="utf-8")
+    )
+    tag = f" {prefix}" if prefix else ""
+    handler.setFormatter(logging.Formatter(f"%(asctime)s{tag} %(name)s %(levelname)s: %(message)s"))
+    old_level = root.level
+    root.setLevel(min(old_level, logging.INFO) if old_level else logging.INFO)
+    root.addHandler(handler)
+    try:
+        yield
+    finally:
+        root.removeHandler(handler)
+        handler.close()
+        root.setLevel(old_level)
+        for lg, h in moved:
+            lg.addHandler(h)
+
+
 def run_console(
     session: Any,
     *,
@@ -639,6 +733,11 @@ def run_console(
     **presenter_options
         ``integer_scale``, ``phosphenes`` (passed to the presenter).
 
+    Notes
+    -----
+    While the console runs, log lines (ours, and moderngl-window's in the presenter process) go
+    to the session log file :func:`session_log_path`, not the terminal.
+
     Raises
     ------
     ConfocalError
@@ -646,6 +745,9 @@ def run_console(
     """
     from experiment.presenter import ScreenGeometry
 
+    log_path = session_log_path(session)
+    if presenter == "process" and log_path is not None:
+        presenter_options.setdefault("stderr_path", log_path)
     if display is None:
         try:
             geometry = ScreenGeometry.from_display_spec(session.protocol.display)
@@ -670,7 +772,8 @@ def run_console(
         if skip_timing_check:
             session.log_event("timing_check", "skipped by the operator (--skip-timing-check)")
         app = OperatorConsole(session, display, rater=rater)
-        result = app.run()
+        with logs_to_file(log_path, prefix=f"session {session.session_id}"):
+            result = app.run()
     finally:
         try:
             display.close()

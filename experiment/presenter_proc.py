@@ -306,6 +306,9 @@ class RemoteDisplay:
         The child's command line (tests); default runs this module with the current Python.
     env : dict or None
         The child's environment (e.g. another ``DISPLAY``); default inherits ours.
+    stderr_path : str or Path or None
+        File the child's stderr (its log, moderngl-window's included) is appended to; default
+        inherits ours (the terminal).
     """
 
     def __init__(
@@ -323,7 +326,9 @@ class RemoteDisplay:
         env: dict[str, str] | None = None,
         start_timeout_s: float = START_TIMEOUT_S,
         reply_timeout_s: float = REPLY_TIMEOUT_S,
+        stderr_path: str | os.PathLike | None = None,
     ) -> None:
+        self.stderr_path = stderr_path
         gdict = geometry if isinstance(geometry, dict) else geometry.to_dict()
         args = ["--geometry", json.dumps(gdict), "--mode", mode]
         if screen is not None:
@@ -369,16 +374,21 @@ class RemoteDisplay:
         """
         self._stop_process()
         self._replies = queue.Queue()
-        self._proc = subprocess.Popen(
-            self.command,
-            stdin=subprocess.PIPE,
-            stdout=subprocess.PIPE,
-            stderr=None,
-            env=self.env,
-            text=True,
-            encoding="utf-8",
-            bufsize=1,
-        )
+        err = None if self.stderr_path is None else open(self.stderr_path, "a", encoding="utf-8")
+        try:
+            self._proc = subprocess.Popen(
+                self.command,
+                stdin=subprocess.PIPE,
+                stdout=subprocess.PIPE,
+                stderr=err,
+                env=self.env,
+                text=True,
+                encoding="utf-8",
+                bufsize=1,
+            )
+        finally:
+            if err is not None:
+                err.close()  # the child holds its own copy
         threading.Thread(
             target=self._read, args=(self._proc, self._replies), daemon=True, name="presenter-out"
         ).start()
