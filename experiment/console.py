@@ -87,6 +87,8 @@ def preview_text(image: np.ndarray, cols: int = PREVIEW_COLS) -> str:
     Nearest-neighbour sampling at ``cols`` characters wide, aspect kept; values >= 0.5 are lit.
     """
     img = np.asarray(image, dtype=np.float32)
+    if img.ndim == 3:  # a colour training photo: its luminance (Rec. 709)
+        img = img[..., :3] @ np.array([0.2125, 0.7154, 0.0721], np.float32)
     rows_px, cols_px = img.shape
     cols = max(1, min(cols, cols_px))
     # Terminal cells are about twice as tall as wide; two image rows per cell keeps the aspect.
@@ -214,7 +216,7 @@ class OperatorConsole(App):
         # preview border (2) and padding (2) around the text
         max_cols = max(4, min(2 * PREVIEW_COLS, top.width - trial_min - 4))
         max_lines = max(1, top.height - 2)
-        rows_px, cols_px = self._preview_image.shape
+        rows_px, cols_px = self._preview_image.shape[:2]
         cols = max_cols
         while cols > 4 and (cols * rows_px / cols_px) / 2 > max_lines:
             cols -= 1
@@ -225,7 +227,7 @@ class OperatorConsole(App):
         self.set_interval(0.25, self._tick)
         self._update_trial_panel()
         a, n = self.session.progress()
-        self._safe(self.subject_display.show_text, "Please wait for the experimenter.")
+        self._safe(self.subject_display.show_text, self._instructions.wait)
         if self.session.next_trial() is None:
             self._finish()
         else:
@@ -233,6 +235,13 @@ class OperatorConsole(App):
         self.query_one("#response", Input).focus()
 
     # -- helpers ----------------------------------------------------------------------------------
+
+    @property
+    def _instructions(self) -> Any:
+        """The protocol's instruction screens (``[instructions]``)."""
+        from experiment.protocol import InstructionsSpec
+
+        return getattr(self.session.protocol, "instructions", None) or InstructionsSpec()
 
     def _status(self, text: str) -> None:
         self.query_one("#status", Static).update(text)
@@ -294,14 +303,15 @@ class OperatorConsole(App):
         announce = None
         if trial.part != self._shown_part:
             self._shown_part = trial.part
-            announce = f"{trial.part.capitalize()} part"
+            announce = self._instructions.for_part(trial.part)
         elif trial.break_before and trial.index not in self._breaks_shown:
             self._breaks_shown.add(trial.index)
             self.session.log_event("break", f"before trial {trial.index}")
-            announce = "Break"
+            announce = self._instructions.rest
         if announce is not None:
             self._safe(self.subject_display.show_text, announce)
-            self._status(f"'{announce}' is on the subject's screen. Press Enter to continue.")
+            title = announce.strip().splitlines()[0]
+            self._status(f"'{title}' is on the subject's screen. Press Enter to continue.")
             return
         self.trial = trial
         image = self.session.image_for(trial)
@@ -450,7 +460,7 @@ class OperatorConsole(App):
             return
         self._paused_from = self.state
         self.session.log_event("pause", "")
-        self._safe(self.subject_display.show_text, "Pause")
+        self._safe(self.subject_display.show_text, self._instructions.pause)
         self._set_state("paused")
         self._status("Paused. F8 resumes.")
 
@@ -502,12 +512,12 @@ class OperatorConsole(App):
             self.trial = None
             self._start_next_trial()
             return
-        self._safe(self.subject_display.show_text, "Please wait for the experimenter.")
+        self._safe(self.subject_display.show_text, self._instructions.wait)
         self._set_state(back if back in ("ready", "scored") else "ready")
         self._status("Presenter restarted. Enter starts the next trial.")
 
     def _finish(self) -> None:
-        self._safe(self.subject_display.show_text, "The session is complete. Thank you.")
+        self._safe(self.subject_display.show_text, self._instructions.end)
         self._set_state("finished")
         self._status("Session complete. Ctrl+Q closes the console.")
 

@@ -38,7 +38,7 @@ from typing import Any
 import numpy as np
 
 from experiment.interfaces import Answer
-from experiment.stimset import StimulusSet
+from experiment.stimset import PHOTO_CONDITIONS, StimulusSet
 
 __all__ = [
     "LogisticParams",
@@ -218,7 +218,7 @@ class LogisticObserver:
     def p_recognized(self, trial: Any) -> float:
         """Return P(recognised) for a trial (condition, pixels, object), lapse included."""
         p = self.params
-        if trial.condition == "photo":
+        if trial.condition in PHOTO_CONDITIONS:
             return 1.0 - p.lapse
         eta = (
             p.intercept
@@ -380,10 +380,15 @@ class TemplateObserver:
 
     def _retina(self, image: np.ndarray) -> np.ndarray:
         p = self.params
+        image = np.asarray(image)
+        if image.ndim == 3:  # a colour training photo: its luminance (Rec. 709, as load_gray)
+            image = (image[..., :3] @ np.array([0.2125, 0.7154, 0.0721], np.float32)).astype(
+                np.float32
+            )
         return to_retina(image, p.retina_shape_px, p.blur_sd_px).ravel()
 
     def _templates(self, role: str, condition: str, level: int) -> tuple[list[str], np.ndarray]:
-        tcond = "photo" if condition == "photo" else "decluttered"
+        tcond = "photo" if condition in PHOTO_CONDITIONS else "decluttered"
         if tcond == "decluttered" and self.params.template_level is not None:
             level = self.params.template_level
         key = (role, tcond, level)

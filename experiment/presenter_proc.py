@@ -90,10 +90,15 @@ class PresenterDied(ConfocalError):
 
 
 def encode_image(image: np.ndarray) -> dict[str, Any]:
-    """Return the message fields (shape, dtype, data) of a bool or float32 (rows, cols) image."""
+    """Return the message fields (shape, dtype, data) of a bool or float32 (rows, cols) image,
+    or of a float32 colour photo (rows, cols, 3)."""
     image = np.asarray(image)
-    if image.ndim != 2:
-        raise ValueError(f"image must be 2-D (rows, cols), got shape {image.shape}")
+    colour = image.ndim == 3 and image.shape[2] == 3 and image.dtype == np.float32
+    if image.ndim != 2 and not colour:
+        raise ValueError(
+            f"image must be 2-D (rows, cols) or a float32 colour photo (rows, cols, 3), "
+            f"got shape {image.shape}"
+        )
     if image.dtype not in (np.bool_, np.float32):
         raise TypeError(f"image must be bool or float32, got dtype {image.dtype}")
     return {

@@ -261,7 +261,7 @@ class Session:
         StimulusSetError
             The file changed since the session started (sha256 differs).
         """
-        from stimuli.io import load_gray
+        from experiment.stimset import decode_stimulus
 
         p = self.stimset.root / trial.path
         try:
@@ -270,8 +270,7 @@ class Session:
             raise StimulusSetError(f"{p}: stimulus file is missing") from None
         if hashlib.sha256(data).hexdigest() != trial.sha256:
             raise StimulusSetError(f"{p}: stimulus file changed during the session (sha256)")
-        img = load_gray(p)
-        return img if trial.condition == "photo" else img >= 0.5
+        return decode_stimulus(p, trial.condition)
 
     def suggest_score(self, trial: Trial, response: str) -> str:
         """Return a suggested score for ``response`` from ``objects.csv`` names, synonyms, uses."""
@@ -369,10 +368,10 @@ class Session:
             for trial in self.schedule.iter_trials(start_after=self._next - 1):
                 if trial.part != part:
                     part = trial.part
-                    display.show_text(f"{part} part")
+                    display.show_text(self.protocol.instructions.for_part(part))
                 if trial.break_before:
                     self.log_event("break", f"before trial {trial.index}")
-                    display.show_text("Break")
+                    display.show_text(self.protocol.instructions.rest)
                 image = self.image_for(trial)
                 flip = display.show_stimulus(image)
                 answer = responder.respond(trial, image)
@@ -383,7 +382,7 @@ class Session:
         except KeyboardInterrupt:
             self.log_event("abort", f"interrupted at trial {self._next}")
             raise
-        display.show_text("The session is complete. Thank you.")
+        display.show_text(self.protocol.instructions.end)
 
 
 def _child_rng(seed: int, k: int) -> np.random.Generator:

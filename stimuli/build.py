@@ -50,7 +50,7 @@ from stimuli.compress import compress, compress_grey, resolution_ladder
 from stimuli.contact import contact_sheet, save_contact_sheet
 from stimuli.declutter import AUTO_THRESHOLD_METHODS, auto_threshold, declutter
 from stimuli.errors import InputError
-from stimuli.io import check_gray, image_shape_px, load_gray, save_png, sha256_file
+from stimuli.io import check_gray, image_shape_px, load_gray, load_rgb, save_png, sha256_file
 from stimuli.manifest import (
     ObjectInfo,
     StimulusRecord,
@@ -928,6 +928,32 @@ def _map(fn: Callable, items: Sequence, workers: int, progress: ProgressFn | Non
     return results
 
 
+def _colour_photos(work: _Work, params: BuildParams) -> tuple[np.ndarray, np.ndarray]:
+    """Full-resolution colour photos (wide, narrow) for training (Jung et al. 2015, Sec. 3.1).
+
+    The same zoom crop, aspect crop and anti-aliased resize as the grey images, per channel; a
+    light-field object's grey centre view and confocal image on three channels.
+    """
+    src = work.source
+    if src.lightfield is not None:
+        return tuple(np.repeat(g[..., None], 3, axis=2) for g in (work.wide, work.narrow))
+    out = []
+    for path in (src.wide, src.narrow):
+        rgb = load_rgb(path)
+        crop = _scale_crop(work.crop, work.original_shape_px, rgb.shape[:2])
+        if crop is not None:
+            x, y, w, h = crop
+            rgb = rgb[y : y + h, x : x + w]
+        box = aspect_crop_box(rgb.shape[:2], params.working_shape_px)
+        if box is not None:
+            x, y, w, h = box
+            rgb = rgb[y : y + h, x : x + w]
+        shape = (*params.working_shape_px, 3)
+        rgb = resize(rgb, shape, order=1, mode="reflect", anti_aliasing=True)
+        out.append(np.clip(rgb, 0.0, 1.0).astype(np.float32))
+    return out[0], out[1]
+
+
 def _write_object(
     work: _Work,
     tmp: Path,
@@ -955,6 +981,8 @@ def _write_object(
             "decluttered": (_rel(src.narrow, root), hashes["narrow"]),
         }
     sources["photo"] = sources["cluttered"]
+    sources["colour_wide"] = sources["cluttered"]
+    sources["colour_confocal"] = sources["decluttered"]
     grey = params.mode == "grey"
     common = dict(
         object=oid,
@@ -970,7 +998,7 @@ def _write_object(
 
     def emit(img: np.ndarray, condition: str, level: int, window: int, name: str) -> None:
         path = save_png(img, folder / name)
-        h, w = img.shape
+        h, w = img.shape[:2]
         records.append(
             StimulusRecord(
                 condition=condition,
@@ -989,6 +1017,10 @@ def _write_object(
 
     n_levels = len(params.windows_px)
     emit(work.wide, "photo", n_levels, 1, "photo.png")
+    if work.info.role == "training":
+        colour_wide, colour_confocal = _colour_photos(work, params)
+        emit(colour_wide, "colour_wide", n_levels, 1, "colour_wide.png")
+        emit(colour_confocal, "colour_confocal", n_levels, 1, "colour_confocal.png")
     rows = []
     for condition, img, edges in (
         ("cluttered", work.wide, work.wide_edges),
