@@ -140,6 +140,10 @@ class OperatorConsole(App):
         share its time base with the display's flips (``perf_counter`` does across processes).
     rater : str
         Rater name stored with the operator's scores.
+    recorder : experiment.audio.TrialAudio or None
+        Records each trial's spoken answer (issue 15); None: no recording.
+    audio_note : str
+        Shown once at start (e.g. why there is no recording).
     """
 
     # Responsive layout (issue 15): the input line, the status and the key footer keep fixed
@@ -170,9 +174,18 @@ class OperatorConsole(App):
     ]
 
     def __init__(
-        self, session: Any, display: Display, *, clock: Clock | None = None, rater: str = "operator"
+        self,
+        session: Any,
+        display: Display,
+        *,
+        clock: Clock | None = None,
+        rater: str = "operator",
+        recorder: Any = None,
+        audio_note: str = "",
     ) -> None:
         super().__init__()
+        self.recorder = recorder
+        self.audio_note = audio_note
         self.session = session
         self.subject_display = display
         self.clock = clock or getattr(session, "clock", None) or PerfCounterClock()
@@ -231,7 +244,10 @@ class OperatorConsole(App):
         if self.session.next_trial() is None:
             self._finish()
         else:
-            self._status(f"{a} of {n} trials answered. Press Enter to show the next stimulus.")
+            note = f"{self.audio_note}\n" if self.audio_note else ""
+            self._status(
+                f"{note}{a} of {n} trials answered. Press Enter to show the next stimulus."
+            )
         self.query_one("#response", Input).focus()
 
     # -- helpers ----------------------------------------------------------------------------------
@@ -285,6 +301,19 @@ class OperatorConsole(App):
             self._presenter_down(str(exc))
             return None
 
+    def _audio(self, what: str, *args: Any) -> Any:
+        """Drive the recorder; a failing recorder is switched off, the session goes on."""
+        if self.recorder is None:
+            return None
+        try:
+            return getattr(self.recorder, what)(*args)
+        except Exception as exc:  # a sound-card or disk error must not stop the session
+            why = " ".join(str(exc).split()) or type(exc).__name__
+            self.session.log_event("audio_failed", why)
+            self.recorder = None
+            self.notify(f"Recording stopped: {why}", severity="error")
+            return None
+
     def _presenter_down(self, why: str) -> None:
         if self.state == "down":
             return
@@ -321,6 +350,7 @@ class OperatorConsole(App):
         if onset is None:
             return
         self.onset = onset
+        self._audio("start", trial, onset.onset_s)
         self.first_key_s = None
         response = self.query_one("#response", Input)
         response.value = ""
@@ -381,6 +411,7 @@ class OperatorConsole(App):
         flip = combine_flips(self.onset, offset)
         rt = (self.first_key_s if self.first_key_s is not None else now) - self.onset.onset_s
         self.session.record(trial, Answer(response, score, self.rater, rt_s=rt), flip)
+        audio = self._audio("finish", trial)
         self.result.recorded.append(trial.index)
         self.last = {
             "index": trial.index,
@@ -396,8 +427,15 @@ class OperatorConsole(App):
             self._down_from = "scored"
             return
         self._set_state("scored")
+        voice = ""
+        if audio is not None:
+            voice = (
+                " No voice found in the recording."
+                if audio.voice_rt_s is None
+                else f" Voice onset {audio.voice_rt_s:.2f} s."
+            )
         self._status(
-            f"Recorded trial {trial.index + 1}: {response!r} -> {score}. "
+            f"Recorded trial {trial.index + 1}: {response!r} -> {score}.{voice} "
             "Ctrl+Z changes it; Enter starts the next trial."
         )
         if self.pause_requested:
@@ -527,6 +565,7 @@ class OperatorConsole(App):
             self.session.log_event(
                 "abort", f"quit during trial {self.trial.index}; it is shown again on resume"
             )
+            self._audio("discard")
             self._safe(self.subject_display.clear)
         a, n = self.session.progress()
         self.result.answered, self.result.total = a, n
@@ -657,6 +696,37 @@ def make_display(
     raise ValueError(f"presenter must be 'process', 'offscreen' or 'none', got {presenter!r}")
 
 
+def _open_recorder(session: Any, record_audio: bool, microphone: Any) -> tuple[Any, str]:
+    """Return ``(recorder or None, note for the operator)``; log what happened once."""
+    if not record_audio and microphone is None:
+        return None, ""
+    from experiment.audio import TrialAudio, open_microphone
+
+    why = ""
+    if microphone is None:
+        microphone, why = open_microphone(session.clock)
+    if microphone is not None:
+        try:
+            recorder = TrialAudio(session, microphone)
+        except (ImportError, ValueError) as exc:
+            microphone.close()
+            why = " ".join(str(exc).split())
+        else:
+            session.log_event(
+                "audio",
+                json.dumps(
+                    {
+                        "device": getattr(microphone, "device_name", "?"),
+                        "samplerate_hz": microphone.samplerate_hz,
+                    }
+                ),
+            )
+            return recorder, ""
+    session.log_event("audio_unavailable", why)
+    logger.warning("recording the answers is off: %s", why)
+    return None, f"[b]Recording off[/b]: {why}. The session runs without audio."
+
+
 def session_log_path(session: Any) -> Path | None:
     """Return the session log file beside the trial log (``study.sqlite`` -> ``study.log``).
 
@@ -722,6 +792,8 @@ def run_console(
     skip_timing_check: bool = False,
     rater: str = "operator",
     display: Display | None = None,
+    record_audio: bool = False,
+    microphone: Any = None,
     **presenter_options: Any,
 ) -> ConsoleResult:
     """Run the operator console for ``session`` until the operator quits; return what happened.
@@ -740,6 +812,11 @@ def run_console(
     rater : str
     display : Display or None
         Use this display instead of opening one.
+    record_audio : bool
+        Record each trial's spoken answer (:mod:`experiment.audio`). Without the ``audio`` extra
+        or a microphone the session runs without, and says so once (console and log event).
+    microphone : experiment.audio.Microphone or None
+        Use this input (a test twin) instead of opening the default one.
     **presenter_options
         ``integer_scale``, ``phosphenes`` (passed to the presenter).
 
@@ -776,17 +853,23 @@ def run_console(
             if isinstance(exc, ConfocalError):
                 raise
             raise ConfocalError(f"subject's display: {exc}") from None
+    recorder = None
     try:
         info = getattr(display, "info", None) or {"presenter": presenter}
         session.log_event("display", json.dumps(info, sort_keys=True, default=str))
         if skip_timing_check:
             session.log_event("timing_check", "skipped by the operator (--skip-timing-check)")
-        app = OperatorConsole(session, display, rater=rater)
+        recorder, audio_note = _open_recorder(session, record_audio, microphone)
+        app = OperatorConsole(
+            session, display, rater=rater, recorder=recorder, audio_note=audio_note
+        )
         with logs_to_file(log_path, prefix=f"session {session.session_id}"):
             result = app.run()
     finally:
         try:
             display.close()
+            if recorder is not None:
+                recorder.close()
         finally:
             session.close()
     if result is None:

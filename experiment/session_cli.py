@@ -134,6 +134,14 @@ def run_command(
         bool,
         typer.Option("--integer-scale", help="Magnify stimuli by a whole number of pixels."),
     ] = False,
+    record_audio: Annotated[
+        bool,
+        typer.Option(
+            "--record-audio",
+            help="Record each spoken answer beside the log and find its voice onset "
+            "(needs the 'audio' extra and a microphone; without them the session runs silent).",
+        ),
+    ] = False,
 ) -> None:
     """Run (or resume) a subject's session: console and presenter, or headless simulation."""
     from experiment.displays import NullDisplay
@@ -200,6 +208,7 @@ def run_command(
                     presenter=presenter,
                     skip_timing_check=skip_timing_check,
                     integer_scale=integer_scale,
+                    record_audio=record_audio,
                 )
             answered, total = session.progress()
             typer.echo(

@@ -211,6 +211,43 @@ MIGRATIONS: tuple[tuple[int, str, str], ...] = (
         ORDER BY t.session_id, t.trial_index;
         """,
     ),
+    # Issue 15, point 3 (self-contained; see experiment/audio/): the subject's spoken answer per
+    # trial, its file beside the log, and the voice onset found in it. The operator's keystroke
+    # time stays in trials.rt_s; the view names both.
+    (
+        2,
+        "audio recordings and voice onset",
+        """
+        CREATE TABLE audio (
+            session_id INTEGER NOT NULL,
+            trial_index INTEGER NOT NULL,
+            path TEXT NOT NULL,
+            sha256 TEXT NOT NULL,
+            samplerate_hz INTEGER NOT NULL CHECK (samplerate_hz > 0),
+            duration_s REAL NOT NULL CHECK (duration_s >= 0),
+            start_s REAL NOT NULL,
+            voice_rt_s REAL,
+            method_json TEXT NOT NULL,
+            recorded_at TEXT NOT NULL,
+            UNIQUE (session_id, trial_index),
+            FOREIGN KEY (session_id, trial_index) REFERENCES trials(session_id, trial_index)
+        );
+        CREATE TRIGGER audio_no_update BEFORE UPDATE ON audio
+            BEGIN SELECT RAISE(ABORT, 'audio rows are append-only'); END;
+        CREATE TRIGGER audio_no_delete BEFORE DELETE ON audio
+            BEGIN SELECT RAISE(ABORT, 'audio rows are append-only'); END;
+        CREATE VIEW voice_trials AS
+        SELECT t.session_id AS session,
+               t.trial_index AS trial_index,
+               t.rt_s AS key_rt_s,
+               a.voice_rt_s AS voice_rt_s,
+               a.path AS audio_path,
+               a.sha256 AS audio_sha256
+        FROM trials t
+        LEFT JOIN audio a ON a.session_id = t.session_id AND a.trial_index = t.trial_index
+        ORDER BY t.session_id, t.trial_index;
+        """,
+    ),
 )
 
 _SCHEDULE_COLS = (
