@@ -590,8 +590,23 @@ class ScoringApp(App):
 
     BINDINGS = [
         *(Binding(k, f"score('{s}')", s, priority=True) for k, s in SCORE_KEYS.items()),
+        Binding("f7", "replay", "replay voice", priority=True),
         Binding("ctrl+q", "done", "save & quit", priority=True),
     ]
+
+    #: Plays a recording and returns "" or why not (tests replace it).
+    player: Any = None
+
+    def action_replay(self) -> None:
+        """Play the current trial's recorded answer, if there is one (issue 15)."""
+        from experiment.audio.playback import play, recording_for
+
+        if self.position >= len(self.pending):
+            return
+        t = self.pending[self.position]
+        path = recording_for(self.trial_log, t["session_id"], t["trial_index"])
+        why = "no recording of this answer" if path is None else (self.player or play)(path)
+        self.query_one("#status", Static).update(why or f"playing {path.name}")
 
     def __init__(self, log: Any, rater: str, pending: list[dict[str, Any]]) -> None:
         super().__init__()

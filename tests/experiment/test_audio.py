@@ -178,6 +178,25 @@ def test_console_records_each_answer_and_its_voice_onset(session) -> None:
         with log.atomic() as con:
             con.execute("UPDATE audio SET voice_rt_s = 0")
 
+    # the second rater replays the recorded answer (F7)
+    from experiment.console import ScoringApp
+    from experiment.present_cli import pending_for_rater
+
+    played: list[Path] = []
+    rater_app = ScoringApp(log, "B", pending_for_rater(log, "B"))
+    rater_app.player = lambda path: played.append(Path(path)) or ""
+
+    async def rate() -> None:
+        async with rater_app.run_test(size=(100, 30)) as pilot:
+            await pilot.press("f7")
+            assert "playing trial-0000.wav" in str(rater_app.query_one("#status").render())
+            await pilot.press("f1", "f7")
+            await pilot.press("ctrl+q")
+
+    asyncio.run(asyncio.wait_for(rate(), timeout=60))
+    assert [p.name for p in played] == ["trial-0000.wav", "trial-0001.wav"]
+    assert all(p.is_file() for p in played)
+
 
 def test_without_a_microphone_the_session_says_so_once(session, monkeypatch) -> None:
     s, clock, log, _ = session
@@ -202,6 +221,20 @@ def test_without_a_microphone_the_session_says_so_once(session, monkeypatch) -> 
     asyncio.run(asyncio.wait_for(script(), timeout=60))
     assert log.execute("SELECT count(*) FROM audio")[0][0] == 0
     assert log.execute("SELECT count(*) FROM trials")[0][0] == 1
+
+    from experiment.console import ScoringApp
+    from experiment.present_cli import pending_for_rater
+
+    rater_app = ScoringApp(log, "B", pending_for_rater(log, "B"))
+    rater_app.player = lambda path: pytest.fail("nothing to play")
+
+    async def rate() -> None:
+        async with rater_app.run_test(size=(100, 30)) as pilot:
+            await pilot.press("f7")
+            assert "no recording" in str(rater_app.query_one("#status").render())
+            await pilot.press("ctrl+q")
+
+    asyncio.run(asyncio.wait_for(rate(), timeout=60))
 
 
 def test_a_failing_microphone_stops_recording_not_the_session(session) -> None:
