@@ -36,17 +36,17 @@ PAIRS = [
 #: Measured shares of edge pixels inside the in-focus mask, cluttered -> decluttered. Native:
 #: Otsu threshold on the narrow photo (2026-11-21). Levels 8 and 3: the built set, whose
 #: automatic threshold is the pair's minimum edge retention since issue 15 (stimuli/tune.py;
-#: edge ratio 0.072 = mean wide-DOF edge fraction; with Otsu it was 0.28); 2026-11-23:
+#: edge ratio 0.068 = mean wide-DOF edge fraction; with Otsu it was 0.28); 2026-11-23:
 #:
 #: ========  =====================  =====================  =====================
 #: pair      native 1536x1021       level 8, 492x327       level 3, 38x25
 #: ========  =====================  =====================  =====================
-#: vabd0001  0.149 -> 0.833         0.261 -> 0.701         0.289 -> 0.733
-#: vabd0002  0.413 -> 0.942         0.301 -> 0.902         0.260 -> 0.902
-#: vabd0003  0.160 -> 0.385         0.149 -> 0.293         0.158 -> 0.326
-#: ebb2977   0.014 -> 0.062         0.020 -> 0.193         0.022 -> 0.143
-#: ebb2978   0.017 -> 0.133         0.025 -> 0.108         0.018 -> 0.083
-#: ebb2979   0.011 -> 0.035         0.016 -> 0.054         0.026 -> 0.065
+#: vabd0001  0.149 -> 0.833         0.261 -> 0.701         0.285 -> 0.727
+#: vabd0002  0.413 -> 0.942         0.301 -> 0.902         0.262 -> 0.872
+#: vabd0003  0.160 -> 0.385         0.149 -> 0.293         0.163 -> 0.333
+#: ebb2977   0.014 -> 0.062         0.020 -> 0.193         0.022 -> 0.163
+#: ebb2978   0.017 -> 0.133         0.025 -> 0.108         0.018 -> 0.082
+#: ebb2979   0.011 -> 0.035         0.013 -> 0.048         0.020 -> 0.061
 #: ========  =====================  =====================  =====================
 #:
 #: The EBB! masks are small (1-14 % of the frame) and its pairs slightly misaligned, so shares
@@ -110,7 +110,7 @@ def test_working_and_38x25_share_inside_mask_is_higher_decluttered(real_set) -> 
     """The built set at level 8 (492x327) and level 3 (38x25, mask downsampled the same way)."""
     paths, result, out = real_set
     records = read_manifest(out / "manifest.csv")
-    # the set's own edge ratio: mean wide-DOF edge fraction (paper: 0.077; 0.072 here with the
+    # the set's own edge ratio: mean wide-DOF edge fraction (paper: 0.077; 0.068 here with the
     # build's default retention threshold, 0.28 with Otsu's)
     assert result.edge_ratio == pytest.approx(
         np.mean([o.wide_edge_fraction for o in result.objects])
