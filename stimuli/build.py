@@ -92,7 +92,7 @@ SET_FORMAT_VERSION = 1
 #: Automatic threshold methods of the build (ours, not the paper's: the paper set the threshold
 #: by hand). ``'retention'`` (the default) uses both photos of a pair; the others only the narrow
 #: photo. On the six real photo pairs in ``dof_pairs/`` Otsu leaves a mean wide-DOF edge fraction
-#: of 0.28 and a cluttered bust, retention 0.07 (paper 0.077); see ``stimuli/tune.py``.
+#: of 0.28, retention 0.068 (paper 0.077); see ``stimuli/tune.py``.
 THRESHOLD_METHODS: tuple[str, ...] = ("retention", *AUTO_THRESHOLD_METHODS)
 
 _MODES = ("edges", "grey")
