@@ -12,7 +12,7 @@ __all__ = ["recording_for", "play"]
 
 
 def recording_for(log: Any, session_id: int, trial_index: int) -> Path | None:
-    """Return the WAV file of a trial's spoken answer, or None (none recorded, old log)."""
+    """Return the audio file of a trial's spoken answer, or None (none recorded, old log)."""
     try:
         rows = log.execute(
             "SELECT path FROM audio WHERE session_id = ? AND trial_index = ?",
@@ -26,7 +26,7 @@ def recording_for(log: Any, session_id: int, trial_index: int) -> Path | None:
 
 
 def play(path: str | Path) -> str:
-    """Start playing a WAV file on the default output (returns at once); return "" or why not."""
+    """Start playing an audio file on the default output (returns at once); return "" or why not."""
     try:
         import sounddevice as sd
         import soundfile as sf

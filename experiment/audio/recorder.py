@@ -1,7 +1,8 @@
 """Record each trial's spoken answer beside the trial log and find its voice onset.
 
-Files: ``<log stem>_audio/session-<id>/trial-<index>.wav`` (16-bit PCM WAV, mono) next to the
-SQLite trial log, written to a temporary name and renamed. Each file gets a row in the log's
+Files: ``<log stem>_audio/session-<id>/trial-<index>.flac`` (mono, 16-bit, FLAC: lossless and
+about half the size of WAV; a 10 s answer at 44.1 kHz is about 0.5 MB) next to the SQLite trial
+log, written to a temporary name and renamed. Each file gets a row in the log's
 ``audio`` table (migration 2): its path relative to the log's folder, sha256, sample rate,
 duration, the clock time of its first sample (``start_s``), and ``voice_rt_s``, the voice onset
 after the stimulus onset (:func:`experiment.audio.voice.voice_onset_s`). The operator's first
@@ -9,7 +10,7 @@ keystroke stays in ``trials.rt_s``; the view ``voice_trials`` shows both as ``ke
 ``voice_rt_s``.
 
 The trial is committed first (its answer is never at risk), then the recording; a crash
-between the two leaves a WAV file without a row, never a row without a file.
+between the two leaves a file without a row, never a row without a file.
 """
 
 from __future__ import annotations
@@ -46,7 +47,7 @@ class AudioResult:
     Parameters
     ----------
     path : Path
-        The WAV file.
+        The recording (FLAC).
     duration_s : float
     voice_rt_s : float or None
         Voice onset after the stimulus onset, s; None when no voice was found.
@@ -137,11 +138,11 @@ class TrialAudio:
         import soundfile as sf
 
         self.folder.mkdir(parents=True, exist_ok=True)
-        path = self.folder / f"trial-{index:04d}.wav"
-        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".wav", dir=self.folder)
+        path = self.folder / f"trial-{index:04d}.flac"
+        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".flac", dir=self.folder)
         os.close(fd)
         try:
-            sf.write(tmp, samples, fs, subtype="PCM_16", format="WAV")
+            sf.write(tmp, samples, fs, subtype="PCM_16", format="FLAC")
             os.replace(tmp, path)
         finally:
             if os.path.exists(tmp):

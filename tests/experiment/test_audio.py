@@ -189,12 +189,12 @@ def test_console_records_each_answer_and_its_voice_onset(session) -> None:
     async def rate() -> None:
         async with rater_app.run_test(size=(100, 30)) as pilot:
             await pilot.press("f7")
-            assert "playing trial-0000.wav" in str(rater_app.query_one("#status").render())
+            assert "playing trial-0000.flac" in str(rater_app.query_one("#status").render())
             await pilot.press("f1", "f7")
             await pilot.press("ctrl+q")
 
     asyncio.run(asyncio.wait_for(rate(), timeout=60))
-    assert [p.name for p in played] == ["trial-0000.wav", "trial-0001.wav"]
+    assert [p.name for p in played] == ["trial-0000.flac", "trial-0001.flac"]
     assert all(p.is_file() for p in played)
 
 
