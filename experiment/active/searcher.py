@@ -188,6 +188,15 @@ class EdgeRecogniser:
         r = np.sum(t * x, axis=1) / (n if n > 0 else 1.0)
         return {k: float(v) for k, v in zip(names, r, strict=True)}
 
+    def suspect_box(self, name: str, grid: np.ndarray, shape_px: tuple[int, int]):
+        """Return a zoom box (x, y, w, h) where ``name`` would be: its template's lit cells that
+        are also lit in the view (all its template's cells when none are), or None."""
+        names, _ = self.templates(None)
+        look = self.scene.appearances[name]
+        tg = adapter.object_edge_template(look, self.grid_px)
+        both = tg & np.asarray(grid, dtype=bool)
+        return _lit_box(both if both.any() else tg, shape_px)
+
     def judge(self, grid: np.ndarray, zoom) -> tuple[str | None, bool, dict[str, float]]:
         """Return ``(recognised object or None, unsure, correlations)``."""
         r = self.correlations(grid, zoom)
@@ -254,6 +263,7 @@ class SimulatedSearcher:
         self.rng = np.random.default_rng(rng)
         self._zoomed_here = False
         self._visits = 0
+        self._last_r: dict[str, float] = {}
 
     def start(self, target: str, trial_index: int) -> None:
         """Reset for a trial; the trial's randomness depends only on (seed, trial index)."""
@@ -263,6 +273,7 @@ class SimulatedSearcher:
         self.recogniser.rng = np.random.default_rng(seq.spawn(1)[0])
         self._zoomed_here = False
         self._visits = 0
+        self._last_r: dict[str, float] = {}
 
     def _t(self, median_s: float) -> float:
         return float(median_s * np.exp(0.3 * self.rng.standard_normal()))
@@ -281,13 +292,18 @@ class SimulatedSearcher:
     def next_action(self, obs: Observation) -> Action:
         """Look at the view; answer, zoom, un-zoom or move on."""
         look = self._t(self.look_s)
-        found, unsure, _ = self.recogniser.judge(obs.view.grid, obs.state.zoom)
+        found, unsure, self._last_r = self.recogniser.judge(obs.view.grid, obs.state.zoom)
         if found is not None and found == obs.target:
             return Action("Enter", "answer", look + self._t(self.say_s), response=found)
         if obs.state.zoom is not None:
             return Action("Escape", "unzoom", look + self._t(self.key_s))
-        if unsure and obs.zoom_allowed and not self._zoomed_here:
-            box = _lit_box(obs.view.grid, obs.context.shape_px)
+        r_target = self._last_r.get(obs.target, -1.0)
+        if (
+            (unsure or r_target >= self.recogniser.params.unsure_r)
+            and obs.zoom_allowed
+            and not self._zoomed_here
+        ):
+            box = self.recogniser.suspect_box(obs.target, obs.view.grid, obs.context.shape_px)
             if box is not None:
                 self._zoomed_here = True
                 return Action("drag", "zoom", look + self._t(self.key_s), box=box)
