@@ -119,6 +119,9 @@ class RecogniserParams:
         ... and beat the second best by this much.
     unsure_r : float
         Below ``min_r`` but at least this: unsure (worth a zoom).
+    max_lit_fraction : float in (0, 1]
+        A view with more of its cells lit than this shows no shape (defocused texture lights
+        every cell) and is never recognised.
     """
 
     retina_shape_px: tuple[int, int] = (56, 70)
@@ -127,6 +130,7 @@ class RecogniserParams:
     min_r: float = 0.35
     margin: float = 0.1
     unsure_r: float = 0.2
+    max_lit_fraction: float = 0.5
 
 
 class EdgeRecogniser:
@@ -200,6 +204,8 @@ class EdgeRecogniser:
     def judge(self, grid: np.ndarray, zoom) -> tuple[str | None, bool, dict[str, float]]:
         """Return ``(recognised object or None, unsure, correlations)``."""
         r = self.correlations(grid, zoom)
+        if float(np.mean(grid)) > self.params.max_lit_fraction:
+            return None, False, r
         order = sorted(r, key=r.get, reverse=True)
         best = order[0]
         second = r[order[1]] if len(order) > 1 else -1.0
@@ -227,6 +233,9 @@ def _lit_box(grid: np.ndarray, shape_px: tuple[int, int], pad_cells: int = 1):
 
 class SimulatedSearcher:
     """Scan planes in order until the model observer recognises the target (simulated).
+
+    Past the last detected plane (or with none detected) both strategies go on with depth keys
+    to the far end of the range, then pass.
 
     Parameters
     ----------
@@ -281,10 +290,10 @@ class SimulatedSearcher:
     def _move(self, obs: Observation) -> Action:
         ctx, st = obs.context, obs.state
         if self.strategy == "planes":
-            at_last = st.plane is not None and st.plane >= len(ctx.planes_px) - 1
-            if not ctx.planes_px or at_last:
-                return Action("Escape", "pass", self._t(self.key_s))
-            return Action("PageDown", "plane_next", self._t(self.key_s))
+            # jump between the detected planes; past the last one, sweep the rest by depth keys
+            last = ctx.planes_px[-1] if ctx.planes_px else ctx.near_px
+            if st.depth_px > last + 1e-9:
+                return Action("PageDown", "plane_next", self._t(self.key_s))
         if st.depth_px <= ctx.far_px + 1e-9:
             return Action("Escape", "pass", self._t(self.key_s))
         return Action("Down", "depth_far", self._t(self.key_s))

@@ -89,7 +89,7 @@ class ActiveSearchSpec(_Spec):
     n_planes: int = 200
     depth_step_px: float | None = None
     scene_shape_px: tuple[int, int] | None = None
-    scene_grid: tuple[int, int] = (5, 5)
+    scene_grid: tuple[int, int] = (7, 7)
     repetitions: int = 1
     trial_order: str = "random"
 
