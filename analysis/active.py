@@ -55,6 +55,8 @@ __all__ = [
     "analyze_active",
     "render_active_markdown",
     "add_active_results",
+    "only_active",
+    "write_active_report",
 ]
 
 #: Columns of :func:`active_trials` (see the module docstring).
@@ -110,6 +112,24 @@ def has_active_events(path: str | Path) -> bool:
         raise DataError(f"{p}: cannot read SQLite trial log ({exc})") from None
     finally:
         con.close()
+
+
+def only_active(paths: Iterable[str | Path]) -> bool:
+    """Return whether every file is a trial log with active-search events and no static trials."""
+    paths = [Path(p) for p in paths]
+    if not paths or not all(has_active_events(p) for p in paths):
+        return False
+    for p in paths:
+        con = _connect(p)
+        try:
+            n = con.execute("SELECT count(*) FROM trials").fetchone()[0]
+        except sqlite3.DatabaseError:
+            n = 0
+        finally:
+            con.close()
+        if n:
+            return False
+    return True
 
 
 def read_active_events(paths: Iterable[str | Path]) -> pd.DataFrame:
@@ -432,4 +452,38 @@ def add_active_results(paths: Iterable[str | Path], folder: str | Path) -> Activ
     md = folder / "report.md"
     head = md.read_text(encoding="utf-8") if md.is_file() else "# Report\n"
     _write_atomic(md, head.rstrip("\n") + "\n\n" + render_active_markdown(result))
+    return result
+
+
+def write_active_report(paths: Iterable[str | Path], out_dir: str | Path) -> ActiveSearchResult:
+    """Write a report folder with only active-search results, replacing ``out_dir`` atomically.
+
+    Raises
+    ------
+    DataError
+        No file has active-search events.
+    """
+    import shutil
+
+    paths = [Path(p) for p in paths]
+    out = Path(out_dir).resolve()
+    if out.exists() and not out.is_dir():
+        raise DataError(f"--out {out} exists and is not a folder")
+    out.parent.mkdir(parents=True, exist_ok=True)
+    tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.tmp-", dir=out.parent))
+    try:
+        result = add_active_results(paths, tmp)
+        if result is None:
+            raise DataError(f"{paths[0] if paths else 'no files'}: no active-search events")
+        os.chmod(tmp, 0o755)
+        if out.exists():
+            old = Path(tempfile.mkdtemp(prefix=f".{out.name}.old-", dir=out.parent))
+            os.replace(out, old / out.name)
+            os.replace(tmp, out)
+            shutil.rmtree(old, ignore_errors=True)
+        else:
+            os.replace(tmp, out)
+    except BaseException:
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise
     return result

@@ -383,6 +383,36 @@ class ActiveSession:
             for s, (k, p, tt) in zip(seqs, rows, strict=True)
         ]
 
+    def rescore(self, trial_index: int, score: str, rater: str) -> dict:
+        """Append a new score for an answered trial (old scores are kept; H16).
+
+        The new score is primary when ``rater`` is the trial's first rater or the protocol's
+        primary rater.
+        """
+        if score not in SCORES:
+            raise ValueError(f"score must be one of {', '.join(SCORES)}, got {score!r}")
+        if not isinstance(rater, str) or not rater.strip():
+            raise ValueError(f"rater must be a non-empty string, got {rater!r}")
+        rows = [
+            r for r in self.events.rows() if r["trial"] == trial_index and r["kind"] == "score"
+        ]
+        if not rows:
+            raise ValueError(f"trial {trial_index} has no answer to re-score")
+        first = rows[0]["payload"]["rater"]
+        primary = rater in (first, self.protocol.scoring.primary_rater)
+        payload = {
+            "score": score,
+            "recognized": self.protocol.scoring.is_recognized(score),
+            "rater": rater,
+            "primary": primary,
+        }
+        t = self.clock.now_s()
+        seq = self.events.append(
+            "score", payload, t, trial=trial_index, attempt=rows[-1]["attempt"]
+        )
+        return {"trial": trial_index, "attempt": rows[-1]["attempt"], "seq": seq, "t_s": t,
+                "kind": "score", "payload": payload}
+
     # -- the headless loop --------------------------------------------------------------------
 
     def _wait(self, dt_s: float) -> None:
