@@ -277,7 +277,7 @@ def run_active_demo(
                     duration=durations, loop=0)
     with atomic_path(out / "search.png") as tmp:
         frames[0].save(tmp, format="PNG", save_all=True, append_images=frames[1:],
-                       duration=durations, loop=0)
+                       duration=durations, loop=0, compress_level=3)
     with atomic_path(out / "contact_sheet.png") as tmp:
         _contact_sheet(frames, captions).save(tmp, format="PNG")
     result = add_active_results([db], out / "report")
