@@ -426,7 +426,9 @@ def _write_atomic(path: Path, text: str) -> None:
         raise
 
 
-def add_active_results(paths: Iterable[str | Path], folder: str | Path) -> ActiveSearchResult | None:
+def add_active_results(
+    paths: Iterable[str | Path], folder: str | Path
+) -> ActiveSearchResult | None:
     """Add active-search results to a report folder, if the trial logs have any.
 
     Writes (each atomically) ``active_trials.csv``, the ``active_search`` key of

@@ -518,7 +518,9 @@ class ProtocolSpec:
             from experiment.active.task import ActiveSearchSpec
 
             if not isinstance(self.task, ActiveSearchSpec):
-                raise ProtocolError(f"task must be an ActiveSearchSpec, got {_type_name(self.task)}")
+                raise ProtocolError(
+                    f"task must be an ActiveSearchSpec, got {_type_name(self.task)}"
+                )
 
     def _check_display(self) -> None:
         if not isinstance(self.display, DisplaySpec):

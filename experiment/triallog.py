@@ -220,7 +220,6 @@ MIGRATIONS: tuple[tuple[int, str, str], ...] = (
 )
 
 
-
 def _active_events_migration() -> tuple[int, str, str]:
     """Migration 3: the ``active_events`` table of the active-search task (issue 14).
 

@@ -32,7 +32,7 @@ active_app = typer.Typer(
 @active_app.command("run")
 def run_command(
     protocol: Annotated[
-        Path, typer.Argument(help="Protocol with [task] type = \"active_search\" (or its name).")
+        Path, typer.Argument(help='Protocol with [task] type = "active_search" (or its name).')
     ],
     data: Annotated[Path, typer.Option("--data", help="The study's SQLite trial log.")],
     subject: Annotated[str, typer.Option("--subject", help="Subject code, e.g. S01.")],
@@ -56,7 +56,7 @@ def run_command(
     spec = load_protocol(protocol)
     if spec.task is None:
         raise ConfocalError(
-            f"{protocol}: not an active-search protocol (needs [task] type = \"active_search\")"
+            f'{protocol}: not an active-search protocol (needs [task] type = "active_search")'
         )
     with TrialLog(data) as log:
         session = ActiveSession.open(

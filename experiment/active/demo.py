@@ -273,11 +273,19 @@ def run_active_demo(
         raise RuntimeError("the simulated search logged no displayed states")
     with atomic_path(out / "search.gif") as tmp:
         pal = [f.convert("P", palette=Image.ADAPTIVE, colors=128) for f in frames]
-        pal[0].save(tmp, format="GIF", save_all=True, append_images=pal[1:],
-                    duration=durations, loop=0)
+        pal[0].save(
+            tmp, format="GIF", save_all=True, append_images=pal[1:], duration=durations, loop=0
+        )
     with atomic_path(out / "search.png") as tmp:
-        frames[0].save(tmp, format="PNG", save_all=True, append_images=frames[1:],
-                       duration=durations, loop=0, compress_level=3)
+        frames[0].save(
+            tmp,
+            format="PNG",
+            save_all=True,
+            append_images=frames[1:],
+            duration=durations,
+            loop=0,
+            compress_level=3,
+        )
     with atomic_path(out / "contact_sheet.png") as tmp:
         _contact_sheet(frames, captions).save(tmp, format="PNG")
     result = add_active_results([db], out / "report")

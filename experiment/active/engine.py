@@ -94,9 +94,7 @@ def _check_box(box, shape_px: tuple[int, int]) -> tuple[int, int, int, int]:
     return x, y, w, h
 
 
-def apply_action(
-    state: ViewerState, action: str, ctx: SearchContext, *, box=None
-) -> ViewerState:
+def apply_action(state: ViewerState, action: str, ctx: SearchContext, *, box=None) -> ViewerState:
     """Return the state after one input action (``answer``/``pass`` leave it unchanged).
 
     Parameters

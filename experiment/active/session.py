@@ -38,13 +38,19 @@ logger = logging.getLogger(__name__)
 #: Names, synonyms and uses of the synthetic three-plane scene's objects (for scoring answers).
 SCENE_OBJECTS: dict[str, ObjectInfo] = {
     "pedestrian": ObjectInfo(
-        "pedestrian", "pedestrian", ("person", "man", "woman", "human", "walker", "people"),
-        ("walking",), "main",
+        "pedestrian",
+        "pedestrian",
+        ("person", "man", "woman", "human", "walker", "people"),
+        ("walking",),
+        "main",
     ),
     "tree": ObjectInfo("tree", "tree", ("bush", "plant", "oak"), ("shade",), "main"),
     "building": ObjectInfo(
-        "building", "building", ("house", "wall", "block", "brick building", "home"),
-        ("living in", "shelter"), "main",
+        "building",
+        "building",
+        ("house", "wall", "block", "brick building", "home"),
+        ("living in", "shelter"),
+        "main",
     ),
 }
 
@@ -57,7 +63,9 @@ def _object_info(name: str) -> ObjectInfo:
     return SCENE_OBJECTS.get(name, ObjectInfo(name, name, (), (), "main"))
 
 
-def auto_scorer(trial: ActiveTrial, response: str, targets: tuple[str, ...] = ()) -> tuple[str, str]:
+def auto_scorer(
+    trial: ActiveTrial, response: str, targets: tuple[str, ...] = ()
+) -> tuple[str, str]:
     """Score an answer as the console suggests it (:func:`experiment.scoring.suggest_score`)."""
     from experiment.scoring import suggest_score
 
@@ -142,7 +150,7 @@ class ActiveSession:
         if not isinstance(task, ActiveSearchSpec):
             raise ProtocolError(
                 f"{protocol.source_path or protocol.name}: not an active-search protocol "
-                "(needs [task] type = \"active_search\")"
+                '(needs [task] type = "active_search")'
             )
         if not isinstance(subject, str) or not subject.strip():
             raise ValueError(f"subject must be a non-empty string, got {subject!r}")
@@ -318,8 +326,14 @@ class ActiveSession:
     def _append(self, kind: str, payload: dict, t_s: float) -> dict:
         trial, attempt, _ = self._current  # type: ignore[misc]
         seq = self.events.append(kind, payload, t_s, trial=trial.index, attempt=attempt)
-        return {"trial": trial.index, "attempt": attempt, "seq": seq, "t_s": t_s, "kind": kind,
-                "payload": json.loads(json.dumps(payload, sort_keys=True))}
+        return {
+            "trial": trial.index,
+            "attempt": attempt,
+            "seq": seq,
+            "t_s": t_s,
+            "kind": kind,
+            "payload": json.loads(json.dumps(payload, sort_keys=True)),
+        }
 
     def elapsed_s(self) -> float:
         """Seconds since the current trial's onset."""
@@ -346,7 +360,12 @@ class ActiveSession:
         return out
 
     def answer(
-        self, response: str, *, key: str = "Enter", score: str | None = None, rater: str | None = None,
+        self,
+        response: str,
+        *,
+        key: str = "Enter",
+        score: str | None = None,
+        rater: str | None = None,
         scorer: Scorer | None = None,
     ) -> list[dict]:
         """Record the answer and its score in one transaction; the trial is then committed."""
@@ -365,10 +384,21 @@ class ActiveSession:
         action = "pass" if not response.strip() else "answer"
         rows = [
             ("key", {"key": key, "action": action}, t),
-            ("answer", {"response": response, "rt_s": t - onset, "state": self._state_payload()},
-             t),
-            ("score", {"score": score, "recognized": self.protocol.scoring.is_recognized(score),
-                       "rater": rater, "primary": True}, t),
+            (
+                "answer",
+                {"response": response, "rt_s": t - onset, "state": self._state_payload()},
+                t,
+            ),
+            (
+                "score",
+                {
+                    "score": score,
+                    "recognized": self.protocol.scoring.is_recognized(score),
+                    "rater": rater,
+                    "primary": True,
+                },
+                t,
+            ),
         ]
         finished = self.progress()[0] + 1 == len(self.trials)
         with self.log.atomic():
@@ -378,8 +408,14 @@ class ActiveSession:
                 self.log.add_event(self.session_id, "complete", "", t)
         self._current = None
         return [
-            {"trial": trial.index, "attempt": attempt, "seq": s, "t_s": tt, "kind": k,
-             "payload": json.loads(json.dumps(p, sort_keys=True))}
+            {
+                "trial": trial.index,
+                "attempt": attempt,
+                "seq": s,
+                "t_s": tt,
+                "kind": k,
+                "payload": json.loads(json.dumps(p, sort_keys=True)),
+            }
             for s, (k, p, tt) in zip(seqs, rows, strict=True)
         ]
 
@@ -393,9 +429,7 @@ class ActiveSession:
             raise ValueError(f"score must be one of {', '.join(SCORES)}, got {score!r}")
         if not isinstance(rater, str) or not rater.strip():
             raise ValueError(f"rater must be a non-empty string, got {rater!r}")
-        rows = [
-            r for r in self.events.rows() if r["trial"] == trial_index and r["kind"] == "score"
-        ]
+        rows = [r for r in self.events.rows() if r["trial"] == trial_index and r["kind"] == "score"]
         if not rows:
             raise ValueError(f"trial {trial_index} has no answer to re-score")
         first = rows[0]["payload"]["rater"]
@@ -410,8 +444,14 @@ class ActiveSession:
         seq = self.events.append(
             "score", payload, t, trial=trial_index, attempt=rows[-1]["attempt"]
         )
-        return {"trial": trial_index, "attempt": rows[-1]["attempt"], "seq": seq, "t_s": t,
-                "kind": "score", "payload": payload}
+        return {
+            "trial": trial_index,
+            "attempt": rows[-1]["attempt"],
+            "seq": seq,
+            "t_s": t,
+            "kind": "score",
+            "payload": payload,
+        }
 
     # -- the headless loop --------------------------------------------------------------------
 
@@ -433,8 +473,13 @@ class ActiveSession:
             yield from rows
             for _ in range(max_actions):
                 obs = Observation(
-                    trial.target, trial.condition, self.state, self.view, self._ctx,
-                    self.elapsed_s(), self.task.zoom_allowed,
+                    trial.target,
+                    trial.condition,
+                    self.state,
+                    self.view,
+                    self._ctx,
+                    self.elapsed_s(),
+                    self.task.zoom_allowed,
                 )
                 act: Action = searcher.next_action(obs)
                 if self.elapsed_s() + act.delay_s >= self.task.time_limit_s:
@@ -460,8 +505,9 @@ class ActiveSession:
             return
         a, n = self.progress()
         try:
-            self.log.add_event(self.session_id, "close", f"{a} of {n} trials answered",
-                               self.clock.now_s())
+            self.log.add_event(
+                self.session_id, "close", f"{a} of {n} trials answered", self.clock.now_s()
+            )
         finally:
             self.log.release_lock(self.session_id)
             self._closed = True

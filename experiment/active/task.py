@@ -111,7 +111,9 @@ class ActiveSearchSpec(_Spec):
 
     def _check_conditions(self) -> None:
         if not isinstance(self.conditions, tuple) or not self.conditions:
-            raise ProtocolError(f"task.conditions must be a non-empty list, got {self.conditions!r}")
+            raise ProtocolError(
+                f"task.conditions must be a non-empty list, got {self.conditions!r}"
+            )
         for c in self.conditions:
             _choice(c, ACTIVE_CONDITIONS, "task.conditions[]")
         if len(set(self.conditions)) != len(self.conditions):
@@ -218,8 +220,12 @@ class ActiveTrial:
     @classmethod
     def from_dict(cls, data: dict[str, Any]) -> ActiveTrial:
         """Inverse of :meth:`to_dict`."""
-        return cls(int(data["index"]), str(data["target"]), str(data["condition"]),
-                   int(data.get("repetition", 0)))
+        return cls(
+            int(data["index"]),
+            str(data["target"]),
+            str(data["condition"]),
+            int(data.get("repetition", 0)),
+        )
 
 
 def plan_trials(task: ActiveSearchSpec, rng: np.random.Generator | int | None) -> list[ActiveTrial]:

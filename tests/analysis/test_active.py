@@ -24,15 +24,28 @@ from analysis.errors import DataError
 
 def _session(log, subject):
     return log.create_session(
-        subject=subject, protocol_name="active_search", protocol_sha256="p", protocol_json="{}",
-        display_json="{}", stimset_path="synthetic:three_plane", stimset_manifest_sha256="s",
-        seed="1", primary_rater="operator",
+        subject=subject,
+        protocol_name="active_search",
+        protocol_sha256="p",
+        protocol_json="{}",
+        display_json="{}",
+        stimset_path="synthetic:three_plane",
+        stimset_manifest_sha256="s",
+        seed="1",
+        primary_rater="operator",
     )
 
 
 def _state(depth, zoom=None, plane=None):
-    return {"depth_px": depth, "depth_m": None, "plane": plane, "zoom": zoom,
-            "grid_px": [2, 2], "on_cells": 1, "implant": "80"}
+    return {
+        "depth_px": depth,
+        "depth_m": None,
+        "plane": plane,
+        "zoom": zoom,
+        "grid_px": [2, 2],
+        "on_cells": 1,
+        "implant": "80",
+    }
 
 
 @pytest.fixture()
@@ -44,55 +57,102 @@ def db(tmp_path):
     path = tmp_path / "hand.sqlite"
     log = TrialLog(path)
     ev = ActiveEventLog(log, _session(log, "S07"))
-    ev.append("plan", {"trials": [], "objects_px": {"tree": 3.0, "pedestrian": 12.0},
-                       "depth_step_px": 0.5}, 0.0)
+    ev.append(
+        "plan",
+        {"trials": [], "objects_px": {"tree": 3.0, "pedestrian": 12.0}, "depth_step_px": 0.5},
+        0.0,
+    )
 
     def add(trial, attempt, rows):
         for kind, payload, t in rows:
             ev.append(kind, payload, t, trial=trial, attempt=attempt)
 
-    start = {"target": "tree", "condition": "decluttered", "cue": "find the tree",
-             "searcher": "sim:planes"}
+    start = {
+        "target": "tree",
+        "condition": "decluttered",
+        "cue": "find the tree",
+        "searcher": "sim:planes",
+    }
     # trial 0, decluttered, tree: 10 -> 8 (zoom 3..5 s) -> 3.2; named at 6.5 s after onset 1.0
-    add(0, 0, [
-        ("trial_start", start, 1.0),
-        ("state", _state(10.0), 1.0),
-        ("key", {"key": "PageDown", "action": "plane_next"}, 2.0),
-        ("state", _state(8.0, plane=0), 2.0),
-        ("key", {"key": "drag", "action": "zoom", "box": [0, 0, 4, 4]}, 4.0),
-        ("state", _state(8.0, [0, 0, 4, 4], 0), 4.0),
-        ("key", {"key": "Escape", "action": "unzoom"}, 6.0),
-        ("state", _state(8.0, plane=0), 6.0),
-        ("key", {"key": "Down", "action": "depth_far"}, 6.5),
-        ("state", _state(3.2), 6.5),
-        ("key", {"key": "Enter", "action": "answer"}, 7.5),
-        ("answer", {"response": "tree", "rt_s": 6.5, "state": _state(3.2)}, 7.5),
-        ("score", {"score": "named", "recognized": True, "rater": "operator", "primary": True},
-         7.5),
-    ])
+    add(
+        0,
+        0,
+        [
+            ("trial_start", start, 1.0),
+            ("state", _state(10.0), 1.0),
+            ("key", {"key": "PageDown", "action": "plane_next"}, 2.0),
+            ("state", _state(8.0, plane=0), 2.0),
+            ("key", {"key": "drag", "action": "zoom", "box": [0, 0, 4, 4]}, 4.0),
+            ("state", _state(8.0, [0, 0, 4, 4], 0), 4.0),
+            ("key", {"key": "Escape", "action": "unzoom"}, 6.0),
+            ("state", _state(8.0, plane=0), 6.0),
+            ("key", {"key": "Down", "action": "depth_far"}, 6.5),
+            ("state", _state(3.2), 6.5),
+            ("key", {"key": "Enter", "action": "answer"}, 7.5),
+            ("answer", {"response": "tree", "rt_s": 6.5, "state": _state(3.2)}, 7.5),
+            (
+                "score",
+                {"score": "named", "recognized": True, "rater": "operator", "primary": True},
+                7.5,
+            ),
+        ],
+    )
     # trial 1, decluttered, pedestrian: attempt 0 cut by a crash, attempt 1 passes after 4 s
     ped = {**start, "target": "pedestrian", "cue": "find the pedestrian"}
-    add(1, 0, [("trial_start", ped, 8.0), ("state", _state(10.0), 8.0),
-               ("key", {"key": "Down", "action": "depth_far"}, 9.0),
-               ("state", _state(9.5), 9.0)])
+    add(
+        1,
+        0,
+        [
+            ("trial_start", ped, 8.0),
+            ("state", _state(10.0), 8.0),
+            ("key", {"key": "Down", "action": "depth_far"}, 9.0),
+            ("state", _state(9.5), 9.0),
+        ],
+    )
     add(1, 0, [("attempt_abandoned", {"reason": "session resumed"}, 20.0)])
-    add(1, 1, [("trial_start", ped, 20.0), ("state", _state(10.0), 20.0),
-               ("key", {"key": "Escape", "action": "pass"}, 24.0),
-               ("answer", {"response": "", "rt_s": 4.0, "state": _state(10.0)}, 24.0),
-               ("score", {"score": "pass", "recognized": False, "rater": "operator",
-                          "primary": True}, 24.0)])
+    add(
+        1,
+        1,
+        [
+            ("trial_start", ped, 20.0),
+            ("state", _state(10.0), 20.0),
+            ("key", {"key": "Escape", "action": "pass"}, 24.0),
+            ("answer", {"response": "", "rt_s": 4.0, "state": _state(10.0)}, 24.0),
+            (
+                "score",
+                {"score": "pass", "recognized": False, "rater": "operator", "primary": True},
+                24.0,
+            ),
+        ],
+    )
     # trial 2, cluttered, tree: named after 3 s, then re-scored by operator as 'use' and by
     # a second rater (not primary) as 'wrong'
     clut = {**start, "condition": "cluttered"}
-    add(2, 0, [("trial_start", clut, 30.0), ("state", _state(10.0), 30.0),
-               ("key", {"key": "Enter", "action": "answer"}, 33.0),
-               ("answer", {"response": "a tree", "rt_s": 3.0, "state": _state(10.0)}, 33.0),
-               ("score", {"score": "named", "recognized": True, "rater": "operator",
-                          "primary": True}, 33.0),
-               ("score", {"score": "use", "recognized": True, "rater": "operator",
-                          "primary": True}, 40.0),
-               ("score", {"score": "wrong", "recognized": False, "rater": "B",
-                          "primary": False}, 41.0)])
+    add(
+        2,
+        0,
+        [
+            ("trial_start", clut, 30.0),
+            ("state", _state(10.0), 30.0),
+            ("key", {"key": "Enter", "action": "answer"}, 33.0),
+            ("answer", {"response": "a tree", "rt_s": 3.0, "state": _state(10.0)}, 33.0),
+            (
+                "score",
+                {"score": "named", "recognized": True, "rater": "operator", "primary": True},
+                33.0,
+            ),
+            (
+                "score",
+                {"score": "use", "recognized": True, "rater": "operator", "primary": True},
+                40.0,
+            ),
+            (
+                "score",
+                {"score": "wrong", "recognized": False, "rater": "B", "primary": False},
+                41.0,
+            ),
+        ],
+    )
     log.close()
     return path
 

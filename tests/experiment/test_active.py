@@ -44,8 +44,9 @@ def small_protocol(**task) -> ProtocolSpec:
 
 def run_session(log: TrialLog, protocol: ProtocolSpec, *, seed: int = 5, strategy="planes"):
     s = ActiveSession.open(log, protocol, "S01", seed=seed, clock=FakeClock())
-    sim = SimulatedSearcher(EdgeRecogniser(s.scene, protocol.task.grid_px, rng=seed), strategy,
-                            rng=seed)
+    sim = SimulatedSearcher(
+        EdgeRecogniser(s.scene, protocol.task.grid_px, rng=seed), strategy, rng=seed
+    )
     events = s.run(sim)
     s.close()
     return s, events
@@ -101,7 +102,7 @@ def test_task_table_shape_errors() -> None:
 
 
 def test_bad_task_in_protocol_file_is_one_line_naming_file(tmp_path) -> None:
-    text = (load_protocol("active_search").source_path or "")
+    text = load_protocol("active_search").source_path or ""
     raw = open(text, encoding="utf-8").read().replace("n_planes = 200", "n_planes = 1")
     p = tmp_path / "bad.toml"
     p.write_text(raw)
@@ -168,8 +169,14 @@ def test_zoom_and_its_errors() -> None:
 def test_event_log_is_append_only_and_checks_input(tmp_path) -> None:
     log = TrialLog(tmp_path / "e.sqlite")
     sid = log.create_session(
-        subject="S", protocol_name="p", protocol_sha256="x", protocol_json="{}",
-        display_json="{}", stimset_path="s", stimset_manifest_sha256="y", seed="1",
+        subject="S",
+        protocol_name="p",
+        protocol_sha256="x",
+        protocol_json="{}",
+        display_json="{}",
+        stimset_path="s",
+        stimset_manifest_sha256="y",
+        seed="1",
         primary_rater="operator",
     )
     ev = ActiveEventLog(log, sid)
@@ -280,8 +287,12 @@ def test_scripted_search_logs_each_key_and_state(protocol) -> None:
     assert (score["score"], score["recognized"]) == ("named", True)
     s.rescore(0, "shape", "operator")
     last = ActiveEventLog(log, s.session_id).rows()[-1]
-    assert last["payload"] == {"score": "shape", "recognized": False, "rater": "operator",
-                               "primary": True}
+    assert last["payload"] == {
+        "score": "shape",
+        "recognized": False,
+        "rater": "operator",
+        "primary": True,
+    }
     with pytest.raises(ValueError, match=r"score must be one of"):
         s.rescore(0, "great", "operator")
     log.close()
@@ -385,8 +396,7 @@ def test_resume_after_kill_keeps_events_exact_issue_14(tmp_path, protocol) -> No
     ]
     s = ActiveSession.open(log, protocol, "S01", clock=FakeClock())  # resume
     assert s.next_trial().index == 1
-    sim = SimulatedSearcher(EdgeRecogniser(s.scene, protocol.task.grid_px, rng=5), "planes",
-                            rng=5)
+    sim = SimulatedSearcher(EdgeRecogniser(s.scene, protocol.task.grid_px, rng=5), "planes", rng=5)
     s.run(sim)
     s.close()
     rows = ActiveEventLog(log, sid).rows()

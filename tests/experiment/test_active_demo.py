@@ -43,7 +43,9 @@ def test_demo_writes_animation_contact_sheet_log_and_report(demo_dir) -> None:
     out, lines = demo_dir
     con = sqlite3.connect(out / "active.sqlite")
     n_states = con.execute("SELECT count(*) FROM active_events WHERE kind = 'state'").fetchone()[0]
-    n_answers = con.execute("SELECT count(*) FROM active_events WHERE kind = 'answer'").fetchone()[0]
+    n_answers = con.execute("SELECT count(*) FROM active_events WHERE kind = 'answer'").fetchone()[
+        0
+    ]
     con.close()
     assert n_answers == 3  # pedestrian, tree, building
     for name in ("search.gif", "search.png"):
