@@ -110,6 +110,13 @@ def test_bad_task_in_protocol_file_is_one_line_naming_file(tmp_path) -> None:
         load_protocol(p)
 
 
+def test_static_schedule_refuses_an_active_protocol() -> None:
+    from experiment.schedule import build_schedule
+
+    with pytest.raises(ProtocolError, match=r"runs with 'confocal active run'"):
+        build_schedule(load_protocol("active_search"), stimset=None, rng=0)
+
+
 def test_plan_is_every_target_by_condition_and_seeded() -> None:
     task = task_from_table({**SMALL, "repetitions": 2})
     a, b = plan_trials(task, 1), plan_trials(task, 1)
