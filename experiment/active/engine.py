@@ -15,7 +15,7 @@ import numpy as np
 
 from experiment.active import adapter
 
-__all__ = ["ACTIONS", "ViewerState", "SearchContext", "View", "apply_action", "Renderer"]
+__all__ = ["ACTIONS", "KEYMAP", "ViewerState", "SearchContext", "View", "apply_action", "Renderer"]
 
 #: Input actions of the active-search task (keys map onto these).
 ACTIONS: tuple[str, ...] = (
@@ -28,6 +28,18 @@ ACTIONS: tuple[str, ...] = (
     "answer",
     "pass",
 )
+
+#: Default keys of a live viewer (moderngl-window key names) and the actions they send; a drag
+#: sends ``zoom`` with its box. The session logs the key and the action separately, so a viewer
+#: may remap keys without changing what the analysis counts.
+KEYMAP: dict[str, str] = {
+    "Up": "depth_near",
+    "Down": "depth_far",
+    "PageUp": "plane_prev",
+    "PageDown": "plane_next",
+    "Escape": "unzoom",
+    "Enter": "answer",
+}
 
 _EPS = 1e-9
 

@@ -231,3 +231,27 @@ def test_files_without_active_events(tmp_path) -> None:
         write_active_report([plain], tmp_path / "r")
     empty = active_trials(pd.DataFrame(columns=["source", "session", "trial", "kind"]))
     assert summarize_active(empty).n_trials == 0
+
+
+def test_inconsistent_logs_are_refused(tmp_path) -> None:
+    from experiment.active.eventlog import ActiveEventLog
+    from experiment.triallog import TrialLog
+
+    path = tmp_path / "bad.sqlite"
+    log = TrialLog(path)
+    ev = ActiveEventLog(log, _session(log, "S01"))
+    ev.append("answer", {"response": "x", "rt_s": 1.0, "state": _state(1.0)}, 1.0, trial=0)
+    log.close()
+    with pytest.raises(DataError, match=r"trial 0: answer without trial_start"):
+        analyze_active([path])
+    path2 = tmp_path / "bad2.sqlite"
+    log = TrialLog(path2)
+    ev = ActiveEventLog(log, _session(log, "S01"))
+    ev.append("trial_start", {"target": "tree", "condition": "cluttered"}, 0.0, trial=0)
+    ev.append("answer", {"response": "x", "rt_s": 1.0, "state": _state(1.0)}, 1.0, trial=0)
+    log.close()
+    with pytest.raises(DataError, match=r"trial 0: answer without score"):
+        analyze_active([path2])
+    (tmp_path / "file").write_text("x")
+    with pytest.raises(DataError, match=r"--out .*file exists and is not a folder"):
+        write_active_report([path2], tmp_path / "file")

@@ -415,3 +415,76 @@ def test_resume_after_kill_keeps_events_exact_issue_14(tmp_path, protocol) -> No
     assert _by_trial(rows) == _by_trial(ref_rows)  # the resumed trial replays exactly
     assert {e["kind"] for e in log.events(sid)} >= {"crash", "resume", "complete"}
     log.close()
+
+
+# -- every other refusal names what was wrong (H11) ----------------------------------------------
+
+
+def test_scene_and_component_errors(tmp_path) -> None:
+    from experiment.active import adapter
+    from experiment.active.engine import KEYMAP, ACTIONS, Renderer
+    from stimuli.errors import InputError
+
+    assert set(KEYMAP.values()) <= set(ACTIONS)
+    with pytest.raises(InputError, match=r"scene must be 'synthetic:three_plane' or a path"):
+        adapter.load_scene("synthetic:forest")
+    with pytest.raises(InputError, match=r"nowhere.npy: light field not found"):
+        adapter.load_scene(str(tmp_path / "nowhere.npy"))
+    views = np.random.default_rng(0).random((3, 3, 20, 24)).astype(np.float32)
+    np.save(tmp_path / "lf.npy", views)
+    plain = adapter.load_scene(str(tmp_path / "lf.npy"))
+    assert plain.shape_px == (20, 24) and not plain.objects
+    with pytest.raises(ValueError, match=r"needs a synthetic scene"):
+        EdgeRecogniser(plain, (4, 5))
+    with pytest.raises(ValueError, match=r"condition must be decluttered or cluttered"):
+        Renderer(plain, (4, 5), "photo")
+    scene = adapter.load_scene("synthetic:three_plane", shape_px=(40, 50), grid=(3, 3))
+    with pytest.raises(ValueError, match=r"strategy must be one of planes, ordered"):
+        SimulatedSearcher(EdgeRecogniser(scene, (4, 5)), "random")
+
+
+def test_session_api_refusals(protocol) -> None:
+    log = TrialLog(":memory:")
+    with pytest.raises(ValueError, match=r"subject must be a non-empty string"):
+        ActiveSession.open(log, protocol, " ")
+    with pytest.raises(ValueError, match=r"seed must be a non-negative integer"):
+        ActiveSession.open(log, protocol, "S01", seed=-3)
+    p = small_protocol(targets=["tree"], conditions=["cluttered"])
+    s = ActiveSession.open(log, p, "S01", seed=0, clock=FakeClock())
+    with pytest.raises(ValueError, match=r"no trial is running; call start_trial"):
+        s.answer("tree")
+    with pytest.raises(ValueError, match=r"trial 0 has no answer to re-score"):
+        s.rescore(0, "named", "operator")
+    s.start_trial()
+    with pytest.raises(ValueError, match=r"use answer\(\) for answer and pass"):
+        s.press("Enter", "answer")
+    with pytest.raises(ValueError, match=r"score must be one of"):
+        s.answer("tree", score="perfect")
+    s.answer("tree", score="named", rater="operator")
+    with pytest.raises(ValueError, match=r"rater must be a non-empty string"):
+        s.rescore(0, "use", "")
+    with pytest.raises(ValueError, match=r"session \d+ is finished; no trial to start"):
+        s.start_trial()
+    assert log.session(s.session_id)["status"] == "completed"
+    s2 = ActiveSession.open(log, p, "S02", seed=0, clock=FakeClock())
+    stuck = ScriptedSearcher([Action("Up", "depth_near", 0.0)] * 5)
+    with pytest.raises(RuntimeError, match=r"did not finish trial 0"):
+        list(s2.iter_run(stuck, max_actions=3))
+    with pytest.raises(ProtocolError, match=r"task must be an ActiveSearchSpec"):
+        replace(p, task={"type": "active_search"})
+    log.close()
+
+
+def test_cli_user_errors_are_one_line(tmp_path) -> None:
+    exe = os.path.join(os.path.dirname(sys.executable), "confocal")
+    for args, msg in [
+        (["active_search", "--searcher", "person"], "--searcher must be one of sim:planes"),
+        (["jung2015"], "jung2015: not an active-search protocol"),
+    ]:
+        r = subprocess.run(
+            [exe, "active", "run", *args, "--data", str(tmp_path / "x.sqlite"), "--subject", "S"],
+            capture_output=True,
+            text=True,
+        )
+        assert r.returncode == 2 and "Traceback" not in r.stderr
+        assert r.stderr.strip().count("\n") == 0 and msg in r.stderr
