@@ -422,7 +422,7 @@ def test_resume_after_kill_keeps_events_exact_issue_14(tmp_path, protocol) -> No
 
 def test_scene_and_component_errors(tmp_path) -> None:
     from experiment.active import adapter
-    from experiment.active.engine import KEYMAP, ACTIONS, Renderer
+    from experiment.active.engine import ACTIONS, KEYMAP, Renderer
     from stimuli.errors import InputError
 
     assert set(KEYMAP.values()) <= set(ACTIONS)
