@@ -65,7 +65,8 @@ class ActiveSearchSpec(_Spec):
     zoom_allowed : bool
         Whether the zoom keys work.
     time_limit_s : float > 0
-        A trial ends with a pass after this long, seconds.
+        A trial ends with a pass after this long, seconds. Default 60: the static study's
+        pass after 1 min (Jung et al. 2015, Sec. 3.2).
     n_planes : int >= 3
         Planes of the depth scan that finds the object planes (paper Fig. 15: 200).
     depth_step_px : float > 0 or None
@@ -74,7 +75,8 @@ class ActiveSearchSpec(_Spec):
     scene_shape_px : (rows, cols) or None
         View size of a synthetic scene (None: the paper's 308x385).
     scene_grid : (n_u, n_v)
-        Views of a synthetic scene.
+        Views of a synthetic scene (ours: 7x7 with the adapter's 3 cm baseline blurs each
+        plane's neighbours by several pixels; the paper's lens array had 10x10).
     repetitions : int >= 1
     trial_order : {'random', 'listed'}
     """

@@ -13,6 +13,8 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
+from hypothesis import given
+from hypothesis import strategies as st
 
 from experiment.active.engine import SearchContext, ViewerState, apply_action
 from experiment.active.eventlog import ActiveEventLog
@@ -154,6 +156,21 @@ def test_plane_jumps_and_depth_keys() -> None:
     assert apply_action(ViewerState(7.5), "depth_near", CTX).plane == 0  # lands on a plane
 
 
+@given(
+    st.lists(
+        st.sampled_from(["depth_near", "depth_far", "plane_next", "plane_prev", "unzoom"]),
+        max_size=30,
+    ),
+    st.floats(0.5, 10.0),
+)
+def test_state_stays_in_range_and_plane_matches_depth(actions, start) -> None:
+    s = ViewerState(start, CTX.plane_at(start))
+    for a in actions:
+        s = apply_action(s, a, CTX)
+        assert CTX.far_px <= s.depth_px <= CTX.near_px
+        assert s.plane == CTX.plane_at(s.depth_px)
+
+
 def test_zoom_and_its_errors() -> None:
     s = apply_action(ViewerState(8.0, 0), "zoom", CTX, box=(5, 6, 20, 10))
     assert s.zoom == (5, 6, 20, 10)
@@ -241,6 +258,27 @@ def test_headless_session_log_matches_generated_events(tmp_path, protocol) -> No
             v = r.render(ViewerState(p["depth_px"], p["plane"], zoom))
             assert _grid_hex(v.grid) == p["implant"]
             assert int(v.grid.sum()) == p["on_cells"]
+    log.close()
+
+
+def test_analysis_reads_the_log_while_a_session_writes_it(tmp_path, protocol) -> None:
+    """A read-only reader (analysis) sees every committed event of a running session (H22)."""
+    from analysis.active import read_active_events
+
+    db = tmp_path / "live.sqlite"
+    log = TrialLog(db)
+    s = ActiveSession.open(log, protocol, "S01", seed=2, clock=FakeClock())
+    sim = SimulatedSearcher(EdgeRecogniser(s.scene, protocol.task.grid_px, rng=2), "ordered", rng=2)
+    seen = []
+    for ev in s.iter_run(sim):
+        seen.append(ev)
+        if len(seen) == 7:
+            break
+    read = read_active_events([db])
+    # the plan, the 7 events so far, and any event committed with the 7th (a key's new state)
+    assert list(read["seq"]) == list(range(len(read))) and 8 <= len(read) <= 9
+    assert list(read["kind"])[1:8] == [e["kind"] for e in seen]
+    s.close()
     log.close()
 
 
