@@ -54,6 +54,7 @@ __all__ = [
     "summarize_active",
     "analyze_active",
     "render_active_markdown",
+    "summary_lines",
     "add_active_results",
     "only_active",
     "write_active_report",
@@ -413,6 +414,19 @@ def render_active_markdown(result: ActiveSearchResult) -> str:
             + " |"
         )
     return "\n".join(lines) + "\n"
+
+
+def summary_lines(result: ActiveSearchResult) -> list[str]:
+    """Return one printable line per condition (time to recognition, planes, zoom use)."""
+    sim = " (SIMULATED searcher)" if result.simulated else ""
+    out = [f"active search: {result.n_trials} trials{sim}"]
+    for c in result.conditions.values():
+        out.append(
+            f"{c.condition:>11}: {c.n_recognized}/{c.n_trials} recognised, time to recognition "
+            f"median {_f(c.time_to_recognition_median_s)} s, planes visited "
+            f"{c.planes_visited_mean:.1f}, zoom use {100 * c.zoom_use_rate:.0f}%"
+        )
+    return out
 
 
 def _write_atomic(path: Path, text: str) -> None:

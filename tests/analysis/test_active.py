@@ -255,3 +255,17 @@ def test_inconsistent_logs_are_refused(tmp_path) -> None:
     (tmp_path / "file").write_text("x")
     with pytest.raises(DataError, match=r"--out .*file exists and is not a folder"):
         write_active_report([path2], tmp_path / "file")
+
+
+def test_confocal_analyze_on_an_active_only_log(db, tmp_path, capsys) -> None:
+    """``confocal analyze LOG --out DIR`` reports the active-search metrics per condition."""
+    from experiment import cli
+
+    out = tmp_path / "rep"
+    with pytest.raises(SystemExit) as exc:
+        cli.main(["analyze", str(db), "--out", str(out)])
+    assert exc.value.code in (0, None)
+    text = capsys.readouterr().out
+    assert "active search: 3 trials (SIMULATED searcher)" in text
+    assert "decluttered: 1/2 recognised, time to recognition median 6.5 s" in text
+    assert json.loads((out / "results.json").read_text())["active_search"]["n_trials"] == 3
