@@ -58,6 +58,11 @@ def run_command(
         raise ConfocalError(
             f'{protocol}: not an active-search protocol (needs [task] type = "active_search")'
         )
+    if not spec.task.scene.startswith("synthetic:"):
+        raise ConfocalError(
+            f"{protocol}: task.scene {spec.task.scene!r} is a recorded light field; the simulated "
+            "searcher needs a synthetic scene (its model observer knows the objects' looks)"
+        )
     with TrialLog(data) as log:
         session = ActiveSession.open(
             log, spec, subject, seed=seed, clock=FakeClock(), responder=searcher

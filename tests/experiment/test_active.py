@@ -515,9 +515,14 @@ def test_session_api_refusals(protocol) -> None:
 
 def test_cli_user_errors_are_one_line(tmp_path) -> None:
     exe = os.path.join(os.path.dirname(sys.executable), "confocal")
+    lines = open(load_protocol("active_search").source_path, encoding="utf-8").read()
+    (tmp_path / "rec.toml").write_text(
+        lines.replace('scene = "synthetic:three_plane"', f'scene = "{tmp_path / "lf"}"')
+    )
     for args, msg in [
         (["active_search", "--searcher", "person"], "--searcher must be one of sim:planes"),
         (["jung2015"], "jung2015: not an active-search protocol"),
+        ([str(tmp_path / "rec.toml")], "the simulated searcher needs a synthetic scene"),
     ]:
         r = subprocess.run(
             [exe, "active", "run", *args, "--data", str(tmp_path / "x.sqlite"), "--subject", "S"],
@@ -526,3 +531,4 @@ def test_cli_user_errors_are_one_line(tmp_path) -> None:
         )
         assert r.returncode == 2 and "Traceback" not in r.stderr
         assert r.stderr.strip().count("\n") == 0 and msg in r.stderr
+    assert not (tmp_path / "x.sqlite").exists()  # nothing written
