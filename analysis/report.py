@@ -211,6 +211,13 @@ def render_markdown(result: AnalysisResult, *, figures: bool = True) -> str:
     return "\n".join(lines) + "\n"
 
 
+def _folder_mode() -> int:
+    """Return the mode ``mkdir`` would give a new folder under the user's umask."""
+    mask = os.umask(0o022)
+    os.umask(mask)
+    return 0o777 & ~mask
+
+
 def write_report(result: AnalysisResult, out_dir: str | Path, *, figures: bool = True) -> Path:
     """Write ``results.json``, ``report.md`` and figures to ``out_dir``, atomically.
 
@@ -241,7 +248,7 @@ def write_report(result: AnalysisResult, out_dir: str | Path, *, figures: bool =
             from analysis.figures import save_all
 
             save_all(result, tmp)
-        os.chmod(tmp, 0o755)
+        os.chmod(tmp, _folder_mode())  # mkdtemp makes it private (0700)
         old = None
         if out.exists():
             old = Path(tempfile.mkdtemp(prefix=f".{out.name}.old-", dir=out.parent))
