@@ -116,7 +116,7 @@ def register(app: typer.Typer) -> None:
         protocol: Annotated[
             Path | None,
             typer.Option(
-                help="Protocol TOML whose [display] sets the geometry (default: paper's)."
+                help="Protocol TOML whose \\[display] sets the geometry (default: paper's)."
             ),
         ] = None,
         screenshot: Annotated[
