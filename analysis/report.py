@@ -73,6 +73,11 @@ def render_markdown(result: AnalysisResult, *, figures: bool = True) -> str:
     lines.append(
         f"Data: {len(result.sources)} file(s) ({', '.join(Path(s).name for s in result.sources)})."
     )
+    if result.simulated_sessions:
+        lines.append(
+            "**Simulated data**: these sessions were answered by a simulated observer, not a "
+            f"person: {'; '.join(result.simulated_sessions)}."
+        )
     if result.n_training_excluded:
         lines.append(
             f"Only main-part trials are analysed: {result.n_training_excluded} training trials "
