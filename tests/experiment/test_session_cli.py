@@ -9,9 +9,9 @@ import sys
 import pytest
 
 from experiment import cli
+from experiment.data.psychds import EXPORT_COLUMNS
 from experiment.observers import LogisticParams
 from experiment.testing import make_stimulus_set
-from experiment.data.psychds import EXPORT_COLUMNS
 from experiment.triallog import TrialLog
 
 PROTOCOL = """
