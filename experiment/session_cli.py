@@ -38,6 +38,7 @@ session_app = typer.Typer(
     no_args_is_help=True,
 )
 
+
 class _Progress:
     def __init__(self, every: int) -> None:
         self.every = every

@@ -219,6 +219,7 @@ MIGRATIONS: tuple[tuple[int, str, str], ...] = (
     ),
 )
 
+
 def _migration_study_metadata(version: int) -> tuple[int, str, str]:
     """Return the migration that labels simulated sessions and stores study metadata (issue 15).
 

@@ -140,9 +140,7 @@ class MonitorProfile:
             raise MonitorError(
                 f"unknown key {unknown[0]!r} in [monitor] (expected one of {', '.join(known)})"
             )
-        required = [
-            f.name for f in dataclasses.fields(cls) if f.default is dataclasses.MISSING
-        ]
+        required = [f.name for f in dataclasses.fields(cls) if f.default is dataclasses.MISSING]
         missing = [k for k in required if k not in data]
         if missing:
             raise MonitorError(f"[monitor] is missing field {missing[0]}")

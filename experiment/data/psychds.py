@@ -337,8 +337,11 @@ def export_dataset(data: str | Path, out_dir: str | Path, *, study: str | None =
     now = datetime.now(UTC).isoformat(timespec="seconds")
     sim_note = (
         " Simulated sessions (no person answered): "
-        + ", ".join(f"{s['session_id']} ({s['subject']}, {s['observer']})" for s in sessions
-                    if s.get("observer"))  # fmt: skip
+        + ", ".join(
+            f"{s['session_id']} ({s['subject']}, {s['observer']})"
+            for s in sessions
+            if s.get("observer")
+        )  # fmt: skip
         + "."
         if simulated
         else ""
