@@ -223,8 +223,8 @@ def test_bad_participant_metadata(study, capsys, text, match):
 
 
 def test_names():
-    assert parse_participant("age=31.5, acuity_logmar=1.3") == {"age": 31.5,
-                                                                 "acuity_logmar": "1.3"}  # fmt: skip
+    meta = parse_participant("age=31.5, acuity_logmar=1.3")
+    assert meta == {"age": 31.5, "acuity_logmar": "1.3"}
     assert keyword_value("S_01-b") == "S01b"
     assert FILE_REGEX.fullmatch(datafile_name("jung 2015", "S01", 3))
     with pytest.raises(ValueError, match="must contain a letter or digit"):
