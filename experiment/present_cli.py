@@ -48,11 +48,24 @@ def geometry_from_options(
     border_rgb: str | None = None,
     border_width_px: int | None = None,
     gamma: float | None = None,
+    monitor: str | None = None,
 ):
-    """Return the ScreenGeometry of a protocol file (or the paper's), with explicit overrides."""
+    """Return the ScreenGeometry of a protocol file (or the paper's), with explicit overrides.
+
+    A monitor profile (``monitor``: a name in ``protocols/monitors`` or a file) replaces the
+    protocol's width, distance, resolution and gamma; the single-value options override both.
+    """
     from experiment.presenter import ScreenGeometry
 
-    if protocol is not None:
+    if monitor is not None:
+        from experiment.data.monitors import apply_monitor, load_monitor
+        from experiment.protocol import DisplaySpec, load_protocol
+
+        display = load_protocol(protocol).display if protocol is not None else DisplaySpec()
+        kw = ScreenGeometry.from_display_spec(
+            apply_monitor(display, load_monitor(monitor)[0])
+        ).to_dict()
+    elif protocol is not None:
         from experiment.protocol import load_protocol
 
         kw = ScreenGeometry.from_display_spec(load_protocol(protocol).display).to_dict()
@@ -122,6 +135,10 @@ def register(app: typer.Typer) -> None:
         screenshot: Annotated[
             Path | None, typer.Option(help="Render one offscreen frame to this PNG and exit.")
         ] = None,
+        monitor: Annotated[
+            str | None,
+            typer.Option(help="Monitor profile (name in protocols/monitors, or a .toml file)."),
+        ] = None,
         screen_px: Annotated[str | None, typer.Option(help="Override: 1280x1024.")] = None,
         screen_width_cm: Annotated[float | None, typer.Option(help="Override, cm.")] = None,
         distance_cm: Annotated[float | None, typer.Option(help="Override, cm.")] = None,
@@ -154,6 +171,7 @@ def register(app: typer.Typer) -> None:
             border_rgb=border_rgb,
             border_width_px=border_width_px,
             gamma=gamma,
+            monitor=monitor,
         )
         image = load_stimulus(stimulus)
         from experiment.presenter import PhospheneSpec, Presenter, stimulus_rect_px
