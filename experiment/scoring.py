@@ -12,6 +12,7 @@ import difflib
 import json
 import math
 import re
+import warnings
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 
@@ -280,6 +281,10 @@ def kappa_interval(
     table = np.zeros((len(labels), len(labels)))
     for a, b in zip(scores_a, scores_b, strict=True):
         table[index[a], index[b]] += 1
-    res = cohens_kappa(table)  # its default alpha, 0.025 per side: a 95 % interval
+    with warnings.catch_warnings():
+        # its z test against kappa = 0 divides by zero when one rater used one score only;
+        # we report kappa and its interval, not that test
+        warnings.simplefilter("ignore", RuntimeWarning)
+        res = cohens_kappa(table)  # its default alpha, 0.025 per side: a 95 % interval
     k, se = float(res["kappa"]), float(res["std_kappa"])
     return k, se, max(-1.0, float(res["kappa_low"])), min(1.0, float(res["kappa_upp"]))
