@@ -44,6 +44,20 @@ def test_a_sub_command_is_imported_when_it_runs(capsys):
     assert "trial log not found" in capsys.readouterr().err
 
 
+def test_every_registered_command_is_in_the_table():
+    """A module that registers a new top-level command must list it in SUBCOMMANDS."""
+    import importlib
+
+    import typer
+
+    for module in sorted({m for m, _ in cli.SUBCOMMANDS.values()}):
+        holder = typer.Typer()
+        importlib.import_module(module).register(holder)
+        names = set(typer.main.get_group(holder).commands)
+        assert names <= set(cli.SUBCOMMANDS), f"{module} registers {names - set(cli.SUBCOMMANDS)}"
+        assert {n for n, (m, _) in cli.SUBCOMMANDS.items() if m == module} <= names
+
+
 def test_listing_matches_the_modules():
     """The static table's one-line helps are those of the commands it stands in for."""
     for name, (_, short) in cli.SUBCOMMANDS.items():
