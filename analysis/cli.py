@@ -84,6 +84,13 @@ def run(
     lapse_prior: Annotated[
         str, typer.Option("--lapse-prior", help="Beta(a,b) prior of the lapse rate, as 'a,b'.")
     ] = "1,10",
+    include_simulated: Annotated[
+        bool,
+        typer.Option(
+            "--include-simulated",
+            help="Pool simulated observers' sessions with human ones (refused otherwise).",
+        ),
+    ] = False,
 ) -> None:
     """Analyse TRIALS and write REPORT_DIR (results.json, report.md, figures)."""
     from rich.console import Console
@@ -115,7 +122,7 @@ def run(
         res = write_active_report(trials, out)
         typer.echo("\n".join([*summary_lines(res), f"report: {Path(out) / 'report.md'}"]))
         return
-    table = read_trials(trials)
+    table = read_trials(trials, include_simulated=include_simulated)
     err = Console(stderr=True)
     result = None
     with (
@@ -151,6 +158,8 @@ def _fmt(v: float | None) -> str:
 def _print_summary(result, folder: Path) -> None:
     r = result.results_json()
     typer.echo(f"{r['n_trials']} trials, {r['n_recognized']} recognised")
+    if r.get("simulated_sessions"):
+        typer.echo(f"SIMULATED (no person answered): {'; '.join(r['simulated_sessions'])}")
     if r["n_training_excluded"]:
         typer.echo(f"({r['n_training_excluded']} training trials excluded)")
     for c, t in r["thresholds"].items():

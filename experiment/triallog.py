@@ -4,7 +4,9 @@ Schema (created by numbered migrations, recorded in ``schema_migrations``)
 ----------------------------------------------------------------------------
 ``sessions``   one row per session: subject, protocol (name, content and file sha256, JSON),
                display spec, stimulus-set path and manifest sha256, seed, software version, git
-               commit, machine, start/end (UTC), status ``open``/``completed``, primary rater.
+               commit, machine, start/end (UTC), status ``open``/``completed``, primary rater,
+               the simulated observer with its parameters (NULL for a person), participant
+               metadata and monitor profile (JSON; migration 2).
 ``schedule``   the planned trials, written whole before the first trial;
                primary key (session_id, trial_index).
 ``trials``     one row per answered trial: object, condition, level, pixels, stimulus sha256,
@@ -23,8 +25,10 @@ Schema (created by numbered migrations, recorded in ``schema_migrations``)
                ``key``, ``state``, ``answer``, ``score``, ``attempt_abandoned``. The schema of each
                payload is documented in :mod:`experiment.active.eventlog`.
 ``tidy_trials`` (VIEW) one row per answered trial: ``subject, session, object, condition, level,
-               window, pixels, recognized, response, score, rater, rt_s, part, trial_index``, with
-               ``recognized`` from the latest primary score. This is what the analysis reads.
+               window, pixels, recognized, response, score, rater, rt_s, part, trial_index,
+               simulated, observer``, with ``recognized`` from the latest primary score and
+               ``simulated`` 1 for a simulated observer's session (``observer`` names it; it is
+               ``human`` otherwise). This is what the analysis reads.
 
 Durability: WAL journal, ``synchronous=FULL``; each answered trial (its ``trials`` row and its
 first ``scores`` row) is one transaction, committed before the next stimulus is shown.
@@ -81,6 +85,8 @@ TIDY_COLUMNS: tuple[str, ...] = (
     "rt_s",
     "part",
     "trial_index",
+    "simulated",
+    "observer",
 )
 
 _SCORE_LIST = ", ".join(f"'{s}'" for s in SCORES)
@@ -220,6 +226,56 @@ MIGRATIONS: tuple[tuple[int, str, str], ...] = (
 )
 
 
+def _migration_study_metadata(version: int) -> tuple[int, str, str]:
+    """Return the migration that labels simulated sessions and stores study metadata (issue 15).
+
+    ``sessions`` gains ``observer`` (the simulated observer's name; NULL for a human subject) and
+    ``observer_params`` (its parameters, JSON), back-filled from ``responder = 'sim:NAME'``;
+    ``participant_json`` (participant metadata entered at session start: age, sex, ...) and
+    ``monitor_json`` (the monitor profile used: name, sha256, fields). The ``tidy_trials`` view
+    gains ``simulated`` (1/0) and ``observer`` (``human`` for people), so every export and
+    analysis can tell simulated data from real data.
+    """
+    return (
+        version,
+        "observer, observer_params, participant_json, monitor_json; simulated in tidy_trials",
+        """
+        ALTER TABLE sessions ADD COLUMN observer TEXT;
+        ALTER TABLE sessions ADD COLUMN observer_params TEXT;
+        ALTER TABLE sessions ADD COLUMN participant_json TEXT;
+        ALTER TABLE sessions ADD COLUMN monitor_json TEXT;
+        UPDATE sessions SET observer = substr(responder, 5)
+            WHERE responder LIKE 'sim:%' AND observer IS NULL;
+        DROP VIEW tidy_trials;
+        CREATE VIEW tidy_trials AS
+        SELECT s.subject AS subject,
+               t.session_id AS session,
+               t.object AS object,
+               t.condition AS condition,
+               t.level AS level,
+               p.window AS window,
+               t.pixels AS pixels,
+               sc.recognized AS recognized,
+               t.response AS response,
+               sc.score AS score,
+               sc.rater AS rater,
+               t.rt_s AS rt_s,
+               p.part AS part,
+               t.trial_index AS trial_index,
+               CASE WHEN s.observer IS NULL THEN 0 ELSE 1 END AS simulated,
+               COALESCE(s.observer, 'human') AS observer
+        FROM trials t
+        JOIN sessions s ON s.session_id = t.session_id
+        JOIN schedule p ON p.session_id = t.session_id AND p.trial_index = t.trial_index
+        JOIN scores sc ON sc.score_id = (
+            SELECT max(q.score_id) FROM scores q
+            WHERE q.session_id = t.session_id AND q.trial_index = t.trial_index
+              AND q.is_primary = 1)
+        ORDER BY t.session_id, t.trial_index;
+        """,
+    )
+
+
 def _active_events_migration() -> tuple[int, str, str]:
     """Migration 3: the ``active_events`` table of the active-search task (issue 14).
 
@@ -251,7 +307,7 @@ def _active_events_migration() -> tuple[int, str, str]:
     )
 
 
-MIGRATIONS = (*MIGRATIONS, _active_events_migration())
+MIGRATIONS += (_migration_study_metadata(2), _active_events_migration())
 
 _SCHEDULE_COLS = (
     "trial_index",
@@ -491,6 +547,10 @@ class TrialLog:
             "software_version",
             "git_commit",
             "machine",
+            "observer",
+            "observer_params",
+            "participant_json",
+            "monitor_json",
         }
         bad = sorted(set(columns) - allowed)
         if bad:

@@ -48,7 +48,14 @@ from stimuli.compress import compress, compress_grey, resolution_ladder
 from stimuli.contact import contact_sheet, save_contact_sheet
 from stimuli.declutter import AUTO_THRESHOLD_METHODS, auto_threshold, declutter
 from stimuli.errors import InputError
-from stimuli.io import check_gray, image_shape_px, load_gray, save_png, sha256_file
+from stimuli.io import (
+    check_gray,
+    default_mode,
+    image_shape_px,
+    load_gray,
+    save_png,
+    sha256_file,
+)
 from stimuli.manifest import (
     ObjectInfo,
     StimulusRecord,
@@ -1155,7 +1162,7 @@ def build_stimulus_set(
             "manifest_sha256": sha256_file(tmp / "manifest.csv"),
         }
         (tmp / "stimulus_set.json").write_text(json.dumps(meta, indent=2) + "\n", "utf-8")
-        os.chmod(tmp, 0o755)  # mkdtemp makes it private; a stimulus set is ordinary data
+        os.chmod(tmp, default_mode(directory=True))  # mkdtemp makes it private
         _swap_in(tmp, out_dir)
     except BaseException:
         shutil.rmtree(tmp, ignore_errors=True)

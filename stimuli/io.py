@@ -26,6 +26,8 @@ __all__ = [
     "save_png",
     "sha256_file",
     "atomic_path",
+    "current_umask",
+    "default_mode",
     "check_gray",
     "to_float01",
 ]
@@ -201,12 +203,41 @@ def check_gray(image: np.ndarray, name: str = "image") -> np.ndarray:
     return a.astype(np.float32, copy=False)
 
 
+def current_umask() -> int:
+    """Return the process's umask (e.g. ``0o022``) without changing it.
+
+    Read from ``/proc/self/status`` where the kernel offers it (thread-safe); elsewhere the
+    umask is set and restored at once, the only portable way to read it.
+    """
+    try:
+        with open("/proc/self/status", encoding="ascii") as f:
+            for line in f:
+                if line.startswith("Umask:"):
+                    return int(line.split()[1], 8)
+    except (OSError, ValueError, IndexError):
+        pass
+    mask = os.umask(0o022)
+    os.umask(mask)
+    return mask
+
+
+def default_mode(*, directory: bool = False) -> int:
+    """Return the mode a plain ``open()`` (or ``mkdir``) would give a new file (or folder).
+
+    ``tempfile.mkstemp``/``mkdtemp`` create private ``0600``/``0700`` entries whatever the
+    umask; atomic writes chmod their temporary file or folder to this mode before the rename,
+    so shared lab accounts (umask ``0o002``) and servers (``0o022``) get ordinary files.
+    """
+    return (0o777 if directory else 0o666) & ~current_umask()
+
+
 @contextmanager
 def atomic_path(path: str | os.PathLike) -> Iterator[Path]:
     """Yield a temporary path beside ``path``; rename it onto ``path`` only if the block succeeds.
 
     Readers never see a half-written file: on any exception the temporary file is removed and
-    ``path`` is left as it was.
+    ``path`` is left as it was. The file gets the user's umask (:func:`default_mode`), not
+    ``mkstemp``'s private ``0600``.
     """
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
@@ -215,6 +246,8 @@ def atomic_path(path: str | os.PathLike) -> Iterator[Path]:
     tmp_path = Path(tmp)
     try:
         yield tmp_path
+        if tmp_path.exists():
+            os.chmod(tmp_path, default_mode())
         os.replace(tmp_path, path)
     finally:
         if tmp_path.exists():
