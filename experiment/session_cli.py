@@ -22,6 +22,7 @@ from typing import Annotated
 import typer
 
 from experiment.errors import ConfocalError
+from stimuli.resources import check_memory, finite_option
 
 __all__ = [
     "register",
@@ -33,6 +34,12 @@ __all__ = [
 ]
 
 logger = logging.getLogger(__name__)
+
+#: Longest headless hold, seconds (ours: one day; longer is a typo, and inf overflows sleep()).
+_MAX_HOLD_S = 86400.0
+#: Memory per planned trial, bytes: the Trial object, its schedule row and its index entries
+#: (ours, rounded up; the check only has to catch absurd repetition counts before allocating).
+_BYTES_PER_TRIAL = 4096
 
 session_app = typer.Typer(
     name="session",
@@ -56,6 +63,10 @@ COLUMN_DESCRIPTIONS: dict[str, str] = {
     "rt_s": "Response time from stimulus onset, seconds.",
     "part": "training or main (analyse main only).",
     "trial_index": "Position in the subject's saved schedule, 0-based.",
+    "viewings": "Times the stimulus was shown (logged at onset); 0 for trials logged before "
+    "onsets were recorded (trial-log schema < 2).",
+    "repeat_viewing": "1 if the subject saw this stimulus more than once (a crash between onset "
+    "and answer, then a resume that showed it again), else 0.",
 }
 
 
@@ -100,7 +111,11 @@ def run_command(
     ] = None,
     hold_s: Annotated[
         float,
-        typer.Option("--hold-s", min=0.0, help="Headless: seconds each stimulus stays shown."),
+        typer.Option(
+            "--hold-s",
+            callback=finite_option(0.0, _MAX_HOLD_S),
+            help="Headless: seconds each stimulus stays shown.",
+        ),
     ] = 0.0,
     progress_every: Annotated[
         int,
@@ -139,6 +154,7 @@ def run_command(
     from experiment.displays import NullDisplay
     from experiment.observers import OBSERVERS, make_observer
     from experiment.protocol import load_protocol
+    from experiment.schedule import planned_trials
     from experiment.session import Session
     from experiment.stimset import StimulusSet
     from experiment.triallog import TrialLog
@@ -167,8 +183,17 @@ def run_command(
                 f"the operator console is unavailable ({exc}); use --headless --observer NAME "
                 "for a simulated session"
             ) from None
+    if not subject.strip() or subject != subject.strip() or not subject.isprintable():
+        raise ConfocalError(
+            f"--subject must be a subject code without surrounding spaces, e.g. S01; got "
+            f"{subject!r}"
+        )
+    if data.is_dir():
+        raise ConfocalError(f"--data {data} is a folder; expected the study's .sqlite file")
     spec = load_protocol(protocol)
     stimset = StimulusSet.load(stimuli)
+    # the whole plan is checked before the trial log is created or touched
+    check_memory(planned_trials(spec, stimset) * _BYTES_PER_TRIAL, f"protocol {protocol}")
     if headless:
         try:  # check the parameters before anything is written
             make_observer(observer, stimset, subject, rng=0, **params)

@@ -77,6 +77,7 @@ __all__ = [
     "edge_ladder",
     "grey_ladder",
     "build_stimulus_set",
+    "min_photo_shape_px",
 ]
 
 logger = logging.getLogger(__name__)
@@ -348,6 +349,16 @@ def _pairs_from_folder(root: Path) -> list[PairSource]:
     return out
 
 
+def _check_inside(base: Path, rel: str, where: str) -> None:
+    """Refuse a listed path that reaches outside ``base`` (absolute, ``..`` or a symlink)."""
+    target = (base / rel).resolve()
+    if Path(rel).is_absolute() or not target.is_relative_to(base.resolve()):
+        raise InputError(
+            f"{where}: path {rel!r} points outside {base}; expected a path inside the folder "
+            "of the CSV"
+        )
+
+
 def _pairs_from_csv(path: Path) -> list[PairSource]:
     import csv
 
@@ -378,6 +389,9 @@ def _pairs_from_csv(path: Path) -> list[PairSource]:
         oid = check_object_id(r.get("object", ""), where=f"{where}: field object")
         crop = parse_crop(r.get("crop"), where=f"{where}: field crop")
         wide, narrow, lf = r.get("wide", ""), r.get("narrow", ""), r.get("lightfield", "")
+        for field_name in ("wide", "narrow", "lightfield"):
+            if r.get(field_name):
+                _check_inside(base, r[field_name], f"{where}: field {field_name}")
         if wide and narrow:
             out.append(PairSource(oid, wide=base / wide, narrow=base / narrow, crop=crop))
         elif lf and not (wide or narrow):
@@ -783,6 +797,18 @@ def _scale_crop(
     return (x0, y0, max(1, x1 - x0), max(1, y1 - y0))
 
 
+def min_photo_shape_px(params: BuildParams) -> tuple[int, int]:
+    """Return the smallest photo ``(rows, cols)`` the builder accepts for ``params``.
+
+    A photo must give at least one pixel per cell of the coarsest level (working size divided
+    by the largest window, rounded up) and at least 3x3 for the Sobel filter; anything smaller
+    would be upsampled into a stimulus set with no information in it (issue 10: a 1x1 photo).
+    """
+    w = max(params.windows_px)
+    rows, cols = params.working_shape_px
+    return max(3, -(-rows // w)), max(3, -(-cols // w))
+
+
 def _prepare(src: PairSource, info: ObjectInfo, params: BuildParams) -> _Work:
     crop = info.crop if info.crop is not None else src.crop
     wide_raw, narrow_raw, wide_full, narrow_full, plane = _load_raw(src, info, params, crop)
@@ -799,6 +825,13 @@ def _prepare(src: PairSource, info: ObjectInfo, params: BuildParams) -> _Work:
                 "(use --allow-resize to resize each on its own)"
             )
         notes.append(msg + "; resized each on its own (--allow-resize)")
+    min_px = min_photo_shape_px(params)
+    if wide_full[0] < min_px[0] or wide_full[1] < min_px[1]:
+        raise InputError(
+            f"{name}: photo is {wide_full[1]}x{wide_full[0]} px; expected at least "
+            f"{min_px[1]}x{min_px[0]} px (one pixel per cell of the coarsest level at working "
+            f"size {params.working_shape_px[1]}x{params.working_shape_px[0]})"
+        )
     where = f"object {src.object!r} ({name}): field crop"
     if crop is not None:
         _check_crop_inside(crop, wide_full, where=where)
