@@ -25,6 +25,7 @@ the end, so the output folder is untouched by any error.
 
 from __future__ import annotations
 
+import errno
 import hashlib
 import json
 import logging
@@ -1190,8 +1191,13 @@ def build_stimulus_set(
         (tmp / "stimulus_set.json").write_text(json.dumps(meta, indent=2) + "\n", "utf-8")
         os.chmod(tmp, 0o755)  # mkdtemp makes it private; a stimulus set is ordinary data
         _swap_in(tmp, out_dir)
-    except BaseException:
+    except BaseException as exc:
         shutil.rmtree(tmp, ignore_errors=True)
+        if isinstance(exc, OSError) and exc.errno in (errno.ENOSPC, errno.EDQUOT):
+            raise InputError(
+                f"{out_dir}: the disk is full ({exc.strerror or exc}) while writing the stimulus "
+                f"set; the partial set was removed and {out_dir} was left as it was"
+            ) from None
         raise
     t_end = time.perf_counter()
     for n in notes:
