@@ -168,7 +168,14 @@ def synth_command(
     from stimuli.resources import check_memory
     from stimuli.synth import write_pairs
 
-    shape = parse_working_size(size)
+    from stimuli.errors import InputError
+
+    try:
+        shape = parse_working_size(size)
+    except InputError:
+        raise InputError(
+            f"--size must be WIDTHxHEIGHT in pixels (e.g. 492x327), got {size!r}"
+        ) from None
     check_memory(shape[0] * shape[1] * _SYNTH_BYTES_PER_PX, f"--size {size}")
     path = write_pairs(
         out,
