@@ -121,8 +121,9 @@ _TIDY_VIEW_V2 = """
 
 #: Environment variable that injects a fault at a write step (tests of crash safety):
 #: ``STEP@N=ACTION``, where STEP is a step name of :data:`FAULT_STEPS` or ``any``, N counts the
-#: hits of that step in this process (1-based), and ACTION is ``exit`` (``os._exit(137)``, as a
-#: SIGKILL would end the process) or ``enospc`` (SQLite's "database or disk is full").
+#: hits of that step in this process (1-based), and ACTION is ``exit`` (``os._exit(137)`` at that
+#: hit, as a SIGKILL would end the process) or ``enospc`` (SQLite's "database or disk is full" at
+#: that hit and every later one).
 FAULT_ENV = "CONFOCAL_FAULT"
 
 #: The write steps where a fault can be injected, in the order a trial passes through them.
@@ -153,9 +154,11 @@ def fault_point(step: str) -> None:
     want, n, action = _fault_spec
     _fault_hits[step] = _fault_hits.get(step, 0) + 1
     _fault_hits["any"] = _fault_hits.get("any", 0) + 1
-    if want in (step, "any") and _fault_hits[want] == n:
-        if action == "exit":
-            os._exit(137)
+    if want not in (step, "any"):
+        return
+    if action == "exit" and _fault_hits[want] == n:
+        os._exit(137)
+    if action == "enospc" and _fault_hits[want] >= n:  # a full disk stays full
         raise sqlite3.OperationalError("database or disk is full")
 
 
