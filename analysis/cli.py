@@ -33,13 +33,15 @@ _TRIALS_PER_SUBJECT = 320
 
 def _finite(lo: float | None = None, hi: float | None = None, *, open_lo=False, open_hi=False):
     """Return a typer callback refusing NaN, infinities and values outside the range."""
-    want = "a finite number"
-    if lo is not None:
-        want += f" {'>' if open_lo else '>='} {lo:g}"
-    if hi is not None:
-        want += f"{' and' if lo is not None else ''} {'<' if open_hi else '<='} {hi:g}"
+    interval = (
+        ("(" if open_lo or lo is None else "[")
+        + ("-inf" if lo is None else f"{lo:g}")
+        + ", "
+        + ("inf" if hi is None else f"{hi:g}")
+        + (")" if open_hi or hi is None else "]")
+    )
 
-    def callback(value):
+    def callback(param: typer.CallbackParam, value):
         if value is None:
             return value
         v = float(value)
@@ -47,7 +49,9 @@ def _finite(lo: float | None = None, hi: float | None = None, *, open_lo=False, 
         bad = bad or (lo is not None and (v <= lo if open_lo else v < lo))
         bad = bad or (hi is not None and (v >= hi if open_hi else v > hi))
         if bad:
-            raise typer.BadParameter(f"must be {want}, got {value!r}")
+            raise typer.BadParameter(
+                f"{param.name} must be in {interval}, a finite number; got {value!r}"
+            )
         return value
 
     return callback

@@ -359,8 +359,6 @@ def export_command(
     """Write one row per answered trial (tidy_trials) as CSV plus dataset_description.json."""
     if out.is_dir():
         raise ConfocalError(f"--out {out} is a folder; expected a CSV file path")
-    if not out.parent.is_dir():
-        raise ConfocalError(f"--out {out}: folder {out.parent} does not exist")
     export_trials(data, out)
     typer.echo(f"wrote {out} and {out.parent / 'dataset_description.json'}")
 

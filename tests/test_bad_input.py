@@ -554,8 +554,9 @@ ROWS: list[Row] = [
     R("session export", "out is a folder",
       lambda w, t: ["session", "export", w.db, "--out", (t / "o").mkdir() or t / "o"], "--out",
       "folder"),  # fmt: skip
-    R("session export", "out in a missing folder",
-      lambda w, t: ["session", "export", w.db, "--out", t / "nodir" / "o.csv"], "nodir"),
+    R("session export", "missing log",
+      lambda w, t: ["session", "export", t / "none.sqlite", "--out", t / "o.csv"], "none.sqlite",
+      "not found"),  # fmt: skip
     R("session export", "out under a file",
       lambda w, t: ["session", "export", w.db, "--out", under_a_file(t, "o.csv")], "plain.txt"),
     # score
@@ -588,7 +589,7 @@ ROWS: list[Row] = [
     R("analyze run", "out is an existing file",
       lambda w, t: ["analyze", w.csv, "--out", text_file(t / "rep.txt")], "rep.txt", "file"),
     R("analyze run", "pc 2", lambda w, t: analyze(w, t, w.csv, extra=("--pc", "2")), "--pc",
-      "< 1"),  # fmt: skip
+      "(0, 1)"),  # fmt: skip
     R("analyze run", "NaN pc", lambda w, t: analyze(w, t, w.csv, extra=("--pc", "nan")), "--pc"),
     R("analyze run", "negative guess", lambda w, t: analyze(w, t, w.csv, extra=("--guess", "-1")),
       "--guess"),  # fmt: skip
@@ -598,13 +599,13 @@ ROWS: list[Row] = [
       "--seed"),  # fmt: skip
     # analyze power
     R("analyze power", "power 2", lambda w, t: ["analyze", "power", "--odds-ratio", "2",
-                                                "--power", "2"], "--power", "< 1"),
+                                                "--power", "2"], "--power", "(0, 1)"),
     R("analyze power", "odds ratio inf", lambda w, t: ["analyze", "power", "--odds-ratio", "inf"],
-      "--odds-ratio", "finite"),  # fmt: skip
+      "--odds-ratio", "(0, inf)", "finite"),  # fmt: skip
     R("analyze power", "odds ratio NaN", lambda w, t: ["analyze", "power", "--odds-ratio", "nan"],
       "--odds-ratio"),  # fmt: skip
     R("analyze power", "negative odds ratio",
-      lambda w, t: ["analyze", "power", "--odds-ratio", "-2"], "--odds-ratio", "> 0"),
+      lambda w, t: ["analyze", "power", "--odds-ratio", "-2"], "--odds-ratio", "(0, inf)"),
     R("analyze power", "huge subject count",
       lambda w, t: ["analyze", "power", "--odds-ratio", "2", "--subjects", "1000000000"],
       "--subjects", "memory"),  # fmt: skip
