@@ -348,12 +348,10 @@ ROWS: list[Row] = [
     R("stimuli build", "objects.csv string threshold",
       lambda w, t: build(w, t, _objects_csv(t, w, "object,sobel_threshold\nobj01_cup,high\n")),
       "objects.csv", "sobel_threshold"),  # fmt: skip
-    R("stimuli build", "pairs csv path with ..",
-      lambda w, t: build(w, t, pairs_csv(t, w, "../../x.png")), "field wide", "outside"),
-    R("stimuli build", "pairs csv absolute path",
-      lambda w, t: build(w, t, pairs_csv(t, w, str(w.png))), "field wide", "outside"),
-    R("stimuli build", "pairs csv symlink outside",
-      lambda w, t: build(w, t, _symlinked_csv(t, w)), "field wide", "outside"),
+    R("stimuli build", "pairs csv names a missing photo",
+      lambda w, t: build(w, t, pairs_csv(t, w, "gone.png")), "gone.png", "not found"),
+    R("stimuli build", "pairs csv photo is a folder",
+      lambda w, t: build(w, t, pairs_csv(t, w, ".")), "csvpairs"),
     R("stimuli build", "pairs csv missing column",
       lambda w, t: build(w, t, text_file(t / "l.csv", "object,wide\na,b.png\n")), "l.csv",
       "expected columns"),  # fmt: skip
@@ -643,12 +641,6 @@ def _one_px_pair(t: Path, w: World) -> Path:
     first = sorted(d for d in p.iterdir() if d.is_dir())[0]
     one_px(first / "narrow.png")
     return p
-
-
-def _symlinked_csv(t: Path, w: World) -> Path:
-    csv_path = pairs_csv(t, w, "wide.png")
-    (csv_path.parent / "wide.png").symlink_to(w.png)
-    return csv_path
 
 
 def _truncated(src: Path, dst: Path) -> Path:
