@@ -9,6 +9,7 @@ after). The counts by command are printed at the end of the run of this file.
 
 from __future__ import annotations
 
+import errno
 import hashlib
 import os
 import re
@@ -73,6 +74,12 @@ def world(tmp_path_factory) -> World:
     db = root / "study.sqlite"
     run = ["session", "run", "--protocol", proto, "--stimuli", stim, "--subject", "S01"]
     assert _run([*run, "--data", db, "--headless", "--seed", "1"]) == 0
+    from experiment.triallog import TrialLog
+
+    with TrialLog(db) as log:  # some recognised trials, so that an analysis can run
+        for r in log.tidy_trials():
+            if r["trial_index"] % 3 != 1 if r["level"] == 2 else r["trial_index"] % 3 == 0:
+                log.add_score(r["session"], r["trial_index"], "named", True, r["rater"])
     csv_path = root / "trials.csv"
     assert _run(["session", "export", db, "--out", csv_path]) == 0
     pairs = root / "pairs"
@@ -700,3 +707,73 @@ def test_the_table_covers_every_command_with_80_rows():
               "score", "analyze run", "analyze power", "demo"):  # fmt: skip
         assert commands[c] >= 1, c
     print("bad-input rows by command: " + ", ".join(f"{c} {n}" for c, n in commands.items()))
+
+
+def _one_error_line(capsys) -> str:
+    err = capsys.readouterr().err
+    lines = [ln for ln in err.splitlines() if ln.strip()]
+    assert len(lines) == 1 and lines[0].startswith("confocal: error:"), err
+    return lines[0]
+
+
+@pytest.mark.gl
+def test_screen_larger_than_the_gl_framebuffer_is_one_line_issue_10(world, tmp_path, capsys):
+    """A screen the GL driver cannot allocate (once an incomplete-framebuffer traceback)."""
+    from experiment.presenter import Presenter, PresenterError, ScreenGeometry
+
+    try:
+        p = Presenter.offscreen(
+            ScreenGeometry.jung2015(screen_shape_px=(8, 8), image_size_cm=(0.1, 0.1))
+        )
+    except PresenterError as exc:
+        pytest.skip(f"no headless OpenGL context: {exc}")
+    limit = int(p.ctx.info.get("GL_MAX_RENDERBUFFER_SIZE", 0) or 0)
+    p.close()
+    if not limit:
+        pytest.skip("the GL driver does not report GL_MAX_RENDERBUFFER_SIZE")
+    before = snapshot(tmp_path)
+    with pytest.raises(SystemExit) as exc:
+        cli.main(["present", "--stimulus", str(world.png), "--screen-px",
+                  f"{limit + 1}x{limit + 1}", "--screenshot", str(tmp_path / "s.png")])  # fmt: skip
+    assert exc.value.code == 2
+    line = _one_error_line(capsys)
+    assert f"{limit + 1}x{limit + 1} px" in line
+    # refused by the driver's limit, or before that by the memory check on a small machine
+    assert f"largest framebuffer ({limit}x{limit} px)" in line or "memory" in line
+    assert snapshot(tmp_path) == before
+
+
+@pytest.mark.parametrize("command", ["status", "export", "analyze"])
+def test_reading_a_log_leaves_no_wal_or_shm_files_issue_10(world, tmp_path, command, capsys):
+    """Read-only commands open the database read-only: nothing appears beside it."""
+    db = tmp_path / "copy.sqlite"
+    shutil.copy(world.db, db)
+    argv = {
+        "status": ["session", "status", str(db)],
+        "export": ["session", "export", str(db), "--out", str(tmp_path / "out" / "t.csv")],
+        "analyze": ["analyze", str(db), "--out", str(tmp_path / "out"), "--no-figures",
+                    "--seed", "1"],  # fmt: skip
+    }[command]
+    with pytest.raises(SystemExit) as exc:
+        cli.main(argv)
+    assert exc.value.code in (0, None), capsys.readouterr().err
+    assert sorted(p.name for p in tmp_path.iterdir() if p.name != "out") == ["copy.sqlite"]
+
+
+def test_full_disk_while_analyze_writes_its_report_issue_10(world, tmp_path, monkeypatch, capsys):
+    """ENOSPC in the middle of the report: one line, exit 2, no partial report folder."""
+    real = Path.write_text
+
+    def full(self, *a, **kw):
+        if self.name == "report.md":
+            raise OSError(errno.ENOSPC, "No space left on device")
+        return real(self, *a, **kw)
+
+    monkeypatch.setattr(Path, "write_text", full)
+    out = tmp_path / "report"
+    with pytest.raises(SystemExit) as exc:
+        cli.main(["analyze", str(world.csv), "--out", str(out), "--no-figures", "--seed", "1"])
+    assert exc.value.code == 2
+    line = _one_error_line(capsys)
+    assert "disk is full" in line and str(out) in line
+    assert list(tmp_path.iterdir()) == [], "no partial report and no temporary folder"
