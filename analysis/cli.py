@@ -315,10 +315,11 @@ def power(
     if not ns or ns[0] < 1:
         raise typer.BadParameter(f"--subjects must be integers >= 1 like 1,2,4, got {subjects!r}")
     need = ns[-1] * _TRIALS_PER_SUBJECT * _POWER_BYTES_PER_TRIAL
-    if need > _available_memory_bytes():
+    avail = _available_memory_bytes()
+    if need > avail:
         raise typer.BadParameter(
             f"--subjects {ns[-1]} needs about {need / 2**30:.1f} GiB of memory per simulation but "
-            f"only {_available_memory_bytes() / 2**30:.1f} GiB is available; simulate fewer subjects"
+            f"only {avail / 2**30:.1f} GiB is available; simulate fewer subjects"
         )
     effect = "odds_ratio" if odds_ratio is not None else "threshold_ratio"
     size = odds_ratio if odds_ratio is not None else threshold_ratio

@@ -175,6 +175,7 @@ def _parse_fault(text: str) -> tuple[str, int, str] | None:
         raise ValueError(f"{FAULT_ENV} must look like STEP@N=exit|enospc, got {text!r}")
     return spec
 
+
 #: Numbered schema migrations: (version, name, SQL). Never edit a released one; append.
 MIGRATIONS: tuple[tuple[int, str, str], ...] = (
     (

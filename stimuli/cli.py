@@ -88,7 +88,6 @@ def build_command(
         parse_threshold,
         parse_working_size,
     )
-
     from stimuli.resources import check_memory
 
     shape = parse_working_size(working_size)
@@ -149,9 +148,7 @@ def build_command(
 @stimuli_app.command("synth")
 def synth_command(
     out: Annotated[Path, typer.Option("--out", "-o", help="PAIRS folder to write.")],
-    objects: Annotated[
-        int, typer.Option("--objects", min=1, help="Number of main objects.")
-    ] = 20,
+    objects: Annotated[int, typer.Option("--objects", min=1, help="Number of main objects.")] = 20,
     training: Annotated[
         int, typer.Option("--training", min=0, help="Number of training objects.")
     ] = 3,
@@ -165,10 +162,9 @@ def synth_command(
 ) -> None:
     """Write synthetic wide/narrow-DOF photo pairs of named objects in front of clutter."""
     from stimuli.build import parse_working_size
+    from stimuli.errors import InputError
     from stimuli.resources import check_memory
     from stimuli.synth import write_pairs
-
-    from stimuli.errors import InputError
 
     try:
         shape = parse_working_size(size)

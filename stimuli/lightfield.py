@@ -56,13 +56,13 @@ for a folder of views, ``lightfield.toml`` inside it) gives the geometry and loa
 from __future__ import annotations
 
 import json
-import zipfile
-import zlib
 import logging
 import math
 import os
 import re
 import tomllib
+import zipfile
+import zlib
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Literal

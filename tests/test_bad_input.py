@@ -83,8 +83,23 @@ def world(tmp_path_factory) -> World:
     csv_path = root / "trials.csv"
     assert _run(["session", "export", db, "--out", csv_path]) == 0
     pairs = root / "pairs"
-    assert _run(["stimuli", "synth", "--objects", "2", "--training", "1", "--size", "120x80",
-                 "--out", pairs]) == 0  # fmt: skip
+    assert (
+        _run(
+            [
+                "stimuli",
+                "synth",
+                "--objects",
+                "2",
+                "--training",
+                "1",
+                "--size",
+                "120x80",
+                "--out",
+                pairs,
+            ]
+        )
+        == 0
+    )
     lf = root / "lf.npz"
     assert _run(["lightfield", "synth", "--size", "40x32", "--out", lf]) == 0
     png = next(stim.rglob("*.png"))
@@ -119,7 +134,8 @@ def png_header(path: Path, cols: int, rows: int) -> Path:
     """A PNG whose header claims ``cols x rows`` px, with a tiny (truncated) body."""
 
     def chunk(kind: bytes, data: bytes) -> bytes:
-        return struct.pack(">I", len(data)) + kind + data + struct.pack(">I", zlib.crc32(kind + data))
+        crc = struct.pack(">I", zlib.crc32(kind + data))
+        return struct.pack(">I", len(data)) + kind + data + crc
 
     ihdr = struct.pack(">IIBBBBB", cols, rows, 8, 0, 0, 0, 0)
     body = b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", ihdr) + chunk(b"IDAT", zlib.compress(b"\0" * 64))
@@ -168,8 +184,12 @@ def protocol(t: Path, text: str) -> Path:
 
 
 def block(**fields) -> str:
-    base = {"part": '"main"', "objects": '"main"', "levels": "[1, 2]",
-            "conditions": '["cluttered", "decluttered"]'}  # fmt: skip
+    base = {
+        "part": '"main"',
+        "objects": '"main"',
+        "levels": "[1, 2]",
+        "conditions": '["cluttered", "decluttered"]',
+    }
     base.update(fields)
     body = "".join(f"{k} = {v}\n" for k, v in base.items() if v is not None)
     return f'[protocol]\nname = "bad"\n\n[[blocks]]\n{body}'
@@ -276,9 +296,20 @@ def R(command: str, name: str, argv, *expect: str) -> Row:
 
 
 def session(w: World, t: Path, *extra, proto=None, stim=None, data=None, subject="S09"):
-    return ["session", "run", "--protocol", proto or w.proto, "--stimuli", stim or w.stim,
-            "--subject", subject, "--data", data or t / "new.sqlite", "--headless",
-            *extra]  # fmt: skip
+    return [
+        "session",
+        "run",
+        "--protocol",
+        proto or w.proto,
+        "--stimuli",
+        stim or w.stim,
+        "--subject",
+        subject,
+        "--data",
+        data or t / "new.sqlite",
+        "--headless",
+        *extra,
+    ]
 
 
 def synth(w, t, *extra):
@@ -305,24 +336,25 @@ def analyze(w, t, *files, extra=()):
     return ["analyze", *files, "--out", t / "report", "--no-figures", *extra]
 
 
+# fmt: off
 ROWS: list[Row] = [
     # stimuli synth
     R("stimuli synth", "huge size", lambda w, t: synth(w, t, "--size", HUGE), "--size", "memory"),
     R("stimuli synth", "negative seed", lambda w, t: synth(w, t, "--seed", "-1"), "--seed",
-      "greater than or equal to 0"),  # fmt: skip
+      "greater than or equal to 0"),
     R("stimuli synth", "negative objects", lambda w, t: synth(w, t, "--objects", "-3"),
-      "--objects", "greater than or equal to 1"),  # fmt: skip
+      "--objects", "greater than or equal to 1"),
     R("stimuli synth", "zero objects", lambda w, t: synth(w, t, "--objects", "0"), "--objects"),
     R("stimuli synth", "1x1 size", lambda w, t: synth(w, t, "--size", "1x1"), "shape_px", "32"),
     R("stimuli synth", "size not a size", lambda w, t: synth(w, t, "--size", "big"),
-      "--size", "WIDTHxHEIGHT"),  # fmt: skip
+      "--size", "WIDTHxHEIGHT"),
     R("stimuli synth", "too many objects", lambda w, t: synth(w, t, "--objects", "100000"),
-      "n_objects", "<="),  # fmt: skip
+      "n_objects", "<="),
     R("stimuli synth", "out is an existing file",
       lambda w, t: ["stimuli", "synth", "--out", text_file(t / "f.txt")], "f.txt", "not a folder"),
     R("stimuli synth", "out under a file",
       lambda w, t: ["stimuli", "synth", "--out", under_a_file(t, "pairs"), "--objects", "1",
-                    "--training", "0", "--size", "40x40"], "plain.txt"),  # fmt: skip
+                    "--training", "0", "--size", "40x40"], "plain.txt"),
     # stimuli build
     R("stimuli build", "missing pairs", lambda w, t: build(w, t, t / "nope"), "nope", "not found"),
     R("stimuli build", "empty pairs folder",
@@ -331,58 +363,58 @@ ROWS: list[Row] = [
       lambda w, t: build(w, t, pairs_with(t, w, text_file)), "wide.png", "not a readable image"),
     R("stimuli build", "wide photo empty",
       lambda w, t: build(w, t, pairs_with(t, w, lambda p: text_file(p, ""))), "wide.png",
-      "not a readable image"),  # fmt: skip
+      "not a readable image"),
     R("stimuli build", "wide photo truncated",
       lambda w, t: build(w, t, pairs_with(t, w, truncated_png(next(w.pairs.glob("*/wide.png"))))),
-      "wide.png", "not a readable image"),  # fmt: skip
+      "wide.png", "not a readable image"),
     R("stimuli build", "decompression bomb header",
       lambda w, t: build(w, t, pairs_with(t, w, lambda p: png_header(p, 100000, 100000))),
-      "wide.png", "decompression bomb"),  # fmt: skip
+      "wide.png", "decompression bomb"),
     R("stimuli build", "bomb warning size, truncated body",
       lambda w, t: build(w, t, pairs_with(t, w, lambda p: png_header(p, 10000, 10000))),
-      "wide.png"),  # fmt: skip
+      "wide.png"),
     R("stimuli build", "1x1 photos", lambda w, t: build(w, t, _one_px_pair(t, w)),
-      "1x1 px", "at least 13x9"),  # fmt: skip
+      "1x1 px", "at least 13x9"),
     R("stimuli build", "unicode and spaces in a path",
       lambda w, t: build(w, t, pairs_with(t, w, text_file, name="paires d'été ü")),
-      "paires d'été ü", "wide.png"),  # fmt: skip
+      "paires d'été ü", "wide.png"),
     R("stimuli build", "objects.csv missing column",
       lambda w, t: build(w, t, _objects_csv(t, w, "name,role\ncup,main\n")), "objects.csv",
-      "object"),  # fmt: skip
+      "object"),
     R("stimuli build", "objects.csv NaN threshold",
       lambda w, t: build(w, t, _objects_csv(t, w, "object,sobel_threshold\nobj01_cup,nan\n")),
-      "objects.csv", "sobel_threshold"),  # fmt: skip
+      "objects.csv", "sobel_threshold"),
     R("stimuli build", "objects.csv string threshold",
       lambda w, t: build(w, t, _objects_csv(t, w, "object,sobel_threshold\nobj01_cup,high\n")),
-      "objects.csv", "sobel_threshold"),  # fmt: skip
+      "objects.csv", "sobel_threshold"),
     R("stimuli build", "pairs csv names a missing photo",
       lambda w, t: build(w, t, pairs_csv(t, w, "gone.png")), "gone.png", "not found"),
     R("stimuli build", "pairs csv photo is a folder",
       lambda w, t: build(w, t, pairs_csv(t, w, ".")), "csvpairs"),
     R("stimuli build", "pairs csv missing column",
       lambda w, t: build(w, t, text_file(t / "l.csv", "object,wide\na,b.png\n")), "l.csv",
-      "expected columns"),  # fmt: skip
+      "expected columns"),
     R("stimuli build", "huge working size",
       lambda w, t: build(w, t, w.pairs, "--working-size", HUGE), "--working-size", "memory"),
     R("stimuli build", "zero working size",
       lambda w, t: build(w, t, w.pairs, "--working-size", "0x0"), "--working-size"),
     R("stimuli build", "NaN threshold", lambda w, t: build(w, t, w.pairs, "--threshold", "nan"),
-      "--threshold", ">= 0"),  # fmt: skip
+      "--threshold", ">= 0"),
     R("stimuli build", "negative threshold",
       lambda w, t: build(w, t, w.pairs, "--threshold", "-1"), "--threshold", ">= 0"),
     R("stimuli build", "edge ratio 2", lambda w, t: build(w, t, w.pairs, "--edge-ratio", "2"),
-      "--edge-ratio", "[0, 1)"),  # fmt: skip
+      "--edge-ratio", "[0, 1)"),
     R("stimuli build", "NaN edge ratio",
       lambda w, t: build(w, t, w.pairs, "--edge-ratio", "nan"), "--edge-ratio", "[0, 1)"),
     R("stimuli build", "unknown mode", lambda w, t: build(w, t, w.pairs, "--mode", "colour"),
-      "mode", "edges"),  # fmt: skip
+      "mode", "edges"),
     R("stimuli build", "grey levels 1000",
       lambda w, t: build(w, t, w.pairs, "--grey-levels", "1000"), "--grey-levels", "256"),
     R("stimuli build", "unknown threshold method",
       lambda w, t: build(w, t, w.pairs, "--threshold-method", "magic"), "threshold_method"),
     R("stimuli build", "out is an existing file",
       lambda w, t: ["stimuli", "build", w.pairs, "--out", text_file(t / "set.txt")], "set.txt",
-      "not a folder"),  # fmt: skip
+      "not a folder"),
     R("stimuli build", "out in a read-only folder",
       lambda w, t: ["stimuli", "build", w.pairs, "--out", readonly_dir(t) / "set"], "ro"),
     R("stimuli build", "out under a file",
@@ -390,59 +422,59 @@ ROWS: list[Row] = [
     # lightfield synth
     R("lightfield synth", "huge size",
       lambda w, t: ["lightfield", "synth", "--size", HUGE, "--out", t / "lf.npz"], "--size",
-      "memory"),  # fmt: skip
+      "memory"),
     R("lightfield synth", "zero size",
       lambda w, t: ["lightfield", "synth", "--size", "0x5", "--out", t / "lf.npz"], "--grid"),
     R("lightfield synth", "unknown kind",
       lambda w, t: ["lightfield", "synth", "--kind", "mirror", "--out", t / "lf.npz"], "--kind"),
     R("lightfield synth", "png with camera kind",
       lambda w, t: ["lightfield", "synth", "--kind", "camera", "--out", t / "lf.png"],
-      "--kind lens"),  # fmt: skip
+      "--kind lens"),
     R("lightfield synth", "folder output is an existing file",
       lambda w, t: ["lightfield", "synth", "--size", "40x32", "--out", text_file(t / "views")],
-      "views", "folder"),  # fmt: skip
+      "views", "folder"),
     R("lightfield synth", "negative seed",
       lambda w, t: ["lightfield", "synth", "--seed", "-2", "--out", t / "lf.npz"], "--seed"),
     # lightfield scan
     R("lightfield scan", "missing light field", lambda w, t: scan(w, t, lf=t / "none.npz"),
-      "none.npz"),  # fmt: skip
+      "none.npz"),
     R("lightfield scan", "truncated npz",
       lambda w, t: scan(w, t, lf=_truncated(w.lf, t / "cut.npz")), "cut.npz", "not a readable"),
     R("lightfield scan", "empty npz", lambda w, t: scan(w, t, lf=text_file(t / "e.npz", "")),
-      "e.npz"),  # fmt: skip
+      "e.npz"),
     R("lightfield scan", "text as elemental image",
       lambda w, t: scan(w, t, lf=text_file(t / "lf.png")), "lf.png"),
     R("lightfield scan", "bad threshold", lambda w, t: scan(w, t, "--threshold", "lots"),
-      "--threshold"),  # fmt: skip
+      "--threshold"),
     R("lightfield scan", "edge ratio 2", lambda w, t: scan(w, t, "--edge-ratio", "2"),
-      "--edge-ratio", "< 1"),  # fmt: skip
+      "--edge-ratio", "< 1"),
     R("lightfield scan", "NaN edge ratio", lambda w, t: scan(w, t, "--edge-ratio", "nan"),
-      "--edge-ratio", "finite"),  # fmt: skip
+      "--edge-ratio", "finite"),
     R("lightfield scan", "huge plane count", lambda w, t: scan(w, t, "--planes", "10" * 7),
-      "--planes", "memory"),  # fmt: skip
+      "--planes", "memory"),
     R("lightfield scan", "two planes", lambda w, t: scan(w, t, "--planes", "2"), "--planes"),
     R("lightfield scan", "zero grid", lambda w, t: scan(w, t, "--grid", "0x0"), "--grid"),
     R("lightfield scan", "grid not a grid", lambda w, t: scan(w, t, "--grid", "big"), "--grid"),
     R("lightfield scan", "equal disparities", lambda w, t: scan(w, t, "--disparities", "1:1"),
-      "--disparities"),  # fmt: skip
+      "--disparities"),
     R("lightfield scan", "near beyond far", lambda w, t: scan(w, t, "--near", "5", "--far", "1"),
-      "--near"),  # fmt: skip
+      "--near"),
     R("lightfield scan", "zero binning", lambda w, t: scan(w, t, "--binning", "0"), "--binning"),
     R("lightfield scan", "out is an existing file",
       lambda w, t: ["lightfield", "scan", w.lf, "--out", text_file(t / "scan.txt")], "scan.txt"),
     R("lightfield scan", "bad view crop", lambda w, t: scan(w, t, "--view-crop", "1,2"),
-      "--zoom"),  # fmt: skip
+      "--zoom"),
     # lightfield refocus
     R("lightfield refocus", "bad grid", lambda w, t: refocus(w, t, "--disparity", "0",
                                                              "--grid", "axb"), "--grid"),
     R("lightfield refocus", "bad threshold with grid",
       lambda w, t: refocus(w, t, "--disparity", "0", "--grid", "38x25", "--threshold", "-3"),
-      "--threshold"),  # fmt: skip
+      "--threshold"),
     R("lightfield refocus", "no plane", lambda w, t: refocus(w, t), "--depth", "--disparity"),
     R("lightfield refocus", "NaN disparity", lambda w, t: refocus(w, t, "--disparity", "nan"),
-      "--disparity", "finite"),  # fmt: skip
+      "--disparity", "finite"),
     R("lightfield refocus", "infinite depth", lambda w, t: refocus(w, t, "--depth", "inf"),
-      "--depth", "finite"),  # fmt: skip
+      "--depth", "finite"),
     R("lightfield refocus", "bad zoom", lambda w, t: refocus(w, t, "--disparity", "0",
                                                              "--zoom", "a,b"), "--zoom"),
     R("lightfield refocus", "zoom outside",
@@ -451,51 +483,51 @@ ROWS: list[Row] = [
       lambda w, t: refocus(w, t, "--disparity", "0", "--edge-ratio", "-1"), "--edge-ratio"),
     R("lightfield refocus", "huge stack",
       lambda w, t: ["lightfield", "refocus", w.lf, "--out", t / "stack", "--stack",
-                    "--planes", "10" * 7], "--planes", "memory"),  # fmt: skip
+                    "--planes", "10" * 7], "--planes", "memory"),
     R("lightfield refocus", "out is an existing folder",
       lambda w, t: ["lightfield", "refocus", w.lf, "--disparity", "0", "--out",
-                    (t / "d.png").mkdir() or t / "d.png"], "d.png", "folder"),  # fmt: skip
+                    (t / "d.png").mkdir() or t / "d.png"], "d.png", "folder"),
     # present
     R("present", "missing stimulus", lambda w, t: present(w, t, stimulus=t / "no.png"), "no.png",
-      "not found"),  # fmt: skip
+      "not found"),
     R("present", "stimulus is text", lambda w, t: present(w, t, stimulus=text_file(t / "s.png")),
-      "s.png", "not a readable image"),  # fmt: skip
+      "s.png", "not a readable image"),
     R("present", "dropout 2 with phosphenes",
       lambda w, t: present(w, t, "--phosphenes", "disc", "--dropout", "2"), "--dropout", "< 1"),
     R("present", "dropout 2 without phosphenes", lambda w, t: present(w, t, "--dropout", "2"),
-      "--dropout", "< 1"),  # fmt: skip
+      "--dropout", "< 1"),
     R("present", "dropout without phosphenes", lambda w, t: present(w, t, "--dropout", "0.5"),
-      "--dropout", "--phosphenes"),  # fmt: skip
+      "--dropout", "--phosphenes"),
     R("present", "NaN gamma", lambda w, t: present(w, t, "--gamma", "nan"), "--gamma", "finite"),
     R("present", "negative distance", lambda w, t: present(w, t, "--distance-cm", "-5"),
-      "--distance-cm", "> 0"),  # fmt: skip
+      "--distance-cm", "> 0"),
     R("present", "huge screen", lambda w, t: present(w, t, "--screen-px", "100000x100000"),
-      "screen", "memory"),  # fmt: skip
+      "screen", "memory"),
     R("present", "zero screen", lambda w, t: present(w, t, "--screen-px", "0x0"),
-      "display geometry"),  # fmt: skip
+      "display geometry"),
     R("present", "screen not a size", lambda w, t: present(w, t, "--screen-px", "wide"),
-      "--screen-px", "WIDTHxHEIGHT"),  # fmt: skip
+      "--screen-px", "WIDTHxHEIGHT"),
     R("present", "unknown phosphenes", lambda w, t: present(w, t, "--phosphenes", "stars"),
-      "kind"),  # fmt: skip
+      "kind"),
     R("present", "border colour out of range",
       lambda w, t: present(w, t, "--border-rgb", "300,0,0"), "border_rgb"),
     R("present", "screenshot is a folder",
       lambda w, t: ["present", "--stimulus", w.png, "--screenshot", (t / "shots").mkdir() or
-                    t / "shots"], "--screenshot", "folder"),  # fmt: skip
+                    t / "shots"], "--screenshot", "folder"),
     R("present", "infinite seconds", lambda w, t: present(w, t, "--seconds", "inf"), "--seconds"),
     # session run
     R("session run", "missing protocol", lambda w, t: session(w, t, proto=t / "none.toml"),
-      "none.toml", "not found"),  # fmt: skip
+      "none.toml", "not found"),
     R("session run", "empty protocol", lambda w, t: session(w, t, proto=protocol(t, "")),
-      "p.toml"),  # fmt: skip
+      "p.toml"),
     R("session run", "protocol not TOML", lambda w, t: session(w, t, proto=protocol(t, "[[[x")),
-      "p.toml", "TOML"),  # fmt: skip
+      "p.toml", "TOML"),
     R("session run", "unknown block field",
       lambda w, t: session(w, t, proto=protocol(t, block(colour='"red"'))), "colour"),
     R("session run", "mistyped levels",
       lambda w, t: session(w, t, proto=protocol(t, block(levels='"one"'))), "levels"),
     R("session run", "no levels", lambda w, t: session(w, t, proto=protocol(t, block(levels="[]"))),
-      "levels", "non-empty"),  # fmt: skip
+      "levels", "non-empty"),
     R("session run", "missing level",
       lambda w, t: session(w, t, proto=protocol(t, block(levels="[7]"))), "level 7"),
     R("session run", "missing role",
@@ -504,45 +536,45 @@ ROWS: list[Row] = [
       lambda w, t: session(w, t, proto=protocol(t, block(objects='["unicorn"]'))), "unicorn"),
     R("session run", "huge repetition count",
       lambda w, t: session(w, t, proto=protocol(t, block(repetitions="1000000000000"))),
-      "memory"),  # fmt: skip
+      "memory"),
     R("session run", "empty subject", lambda w, t: session(w, t, subject=""), "--subject"),
     R("session run", "blank subject", lambda w, t: session(w, t, subject="   "), "--subject"),
     R("session run", "negative seed", lambda w, t: session(w, t, "--seed", "-1"), "--seed"),
     R("session run", "infinite hold", lambda w, t: session(w, t, "--hold-s", "inf"), "--hold-s",
-      "finite"),  # fmt: skip
+      "finite"),
     R("session run", "NaN hold", lambda w, t: session(w, t, "--hold-s", "nan"), "--hold-s"),
     R("session run", "data not SQLite", lambda w, t: session(w, t, data=text_file(t / "x.sqlite")),
-      "x.sqlite", "SQLite"),  # fmt: skip
+      "x.sqlite", "SQLite"),
     R("session run", "data of a newer schema",
       lambda w, t: session(w, t, data=newer_schema(t, w)), "newer.sqlite", "newer"),
     R("session run", "data is a folder",
       lambda w, t: session(w, t, data=(t / "d.sqlite").mkdir() or t / "d.sqlite"), "--data"),
     R("session run", "data under a file", lambda w, t: session(w, t, data=under_a_file(t, "s.db")),
-      "plain.txt"),  # fmt: skip
+      "plain.txt"),
     R("session run", "data in a read-only folder",
       lambda w, t: session(w, t, data=readonly_dir(t) / "s.sqlite"), "read-only"),
     R("session run", "missing stimulus set", lambda w, t: session(w, t, stim=t / "nostim"),
-      "nostim", "not found"),  # fmt: skip
+      "nostim", "not found"),
     R("session run", "stimulus path with ..", lambda w, t: session(w, t, stim=stim_copy(t, w)),
-      "manifest.csv", "outside"),  # fmt: skip
+      "manifest.csv", "outside"),
     R("session run", "stimulus path absolute",
       lambda w, t: session(w, t, stim=stim_copy(t, w, outside=str(t / "outside.png"))),
-      "manifest.csv", "outside"),  # fmt: skip
+      "manifest.csv", "outside"),
     R("session run", "stimulus symlink outside",
       lambda w, t: session(w, t, stim=stim_copy(t, w, symlink=True)), "manifest.csv", "outside"),
     R("session run", "unknown observer", lambda w, t: session(w, t, "--observer", "oracle"),
-      "--observer"),  # fmt: skip
+      "--observer"),
     R("session run", "bad observer param",
       lambda w, t: session(w, t, "--observer-param", "nonsense"), "--observer-param"),
     R("session run", "negative progress", lambda w, t: session(w, t, "--progress-every", "-1"),
-      "--progress-every"),  # fmt: skip
+      "--progress-every"),
     R("session run", "unicode path of a missing set",
       lambda w, t: session(w, t, stim=t / "Sätze mit Leerzeichen"), "Sätze mit Leerzeichen"),
     # session status
     R("session status", "missing", lambda w, t: ["session", "status", t / "no.sqlite"],
-      "no.sqlite", "not found"),  # fmt: skip
+      "no.sqlite", "not found"),
     R("session status", "not SQLite", lambda w, t: ["session", "status", text_file(t / "x.db")],
-      "x.db", "SQLite"),  # fmt: skip
+      "x.db", "SQLite"),
     R("session status", "empty file",
       lambda w, t: ["session", "status", text_file(t / "e.sqlite", "")], "e.sqlite", "empty"),
     R("session status", "newer schema",
@@ -558,27 +590,27 @@ ROWS: list[Row] = [
       lambda w, t: ["session", "export", text_file(t / "x.db"), "--out", t / "o.csv"], "x.db"),
     R("session export", "out is a folder",
       lambda w, t: ["session", "export", w.db, "--out", (t / "o").mkdir() or t / "o"], "--out",
-      "folder"),  # fmt: skip
+      "folder"),
     R("session export", "missing log",
       lambda w, t: ["session", "export", t / "none.sqlite", "--out", t / "o.csv"], "none.sqlite",
-      "not found"),  # fmt: skip
+      "not found"),
     R("session export", "out under a file",
       lambda w, t: ["session", "export", w.db, "--out", under_a_file(t, "o.csv")], "plain.txt"),
     # score
     R("score", "session 999", lambda w, t: ["score", w.db, "--rater", "B", "--session", "999"],
-      "--session 999", "expected one of 1"),  # fmt: skip
+      "--session 999", "expected one of 1"),
     R("score", "missing log", lambda w, t: ["score", t / "no.sqlite", "--rater", "B"],
-      "no.sqlite", "not found"),  # fmt: skip
+      "no.sqlite", "not found"),
     R("score", "not SQLite", lambda w, t: ["score", text_file(t / "x.sqlite"), "--rater", "B"],
-      "x.sqlite", "SQLite"),  # fmt: skip
+      "x.sqlite", "SQLite"),
     R("score", "blank rater", lambda w, t: ["score", w.db, "--rater", " "], "--rater"),
     R("score", "newer schema", lambda w, t: ["score", newer_schema(t, w), "--rater", "B"],
-      "newer"),  # fmt: skip
+      "newer"),
     # analyze run
     R("analyze run", "missing file", lambda w, t: analyze(w, t, t / "no.csv"), "no.csv",
-      "not found"),  # fmt: skip
+      "not found"),
     R("analyze run", "empty CSV", lambda w, t: analyze(w, t, text_file(t / "e.csv", "")),
-      "e.csv", "empty"),  # fmt: skip
+      "e.csv", "empty"),
     R("analyze run", "CSV missing a column",
       lambda w, t: analyze(w, t, csv_table(t, w, drop_col("pixels"))), "pixels"),
     R("analyze run", "CSV NaN in a numeric column",
@@ -588,32 +620,32 @@ ROWS: list[Row] = [
     R("analyze run", "CSV string in recognized",
       lambda w, t: analyze(w, t, csv_table(t, w, set_col("recognized", "maybe"))), "recognized"),
     R("analyze run", "not SQLite", lambda w, t: analyze(w, t, text_file(t / "x.sqlite")),
-      "x.sqlite"),  # fmt: skip
+      "x.sqlite"),
     R("analyze run", "SQLite but not a trial log", lambda w, t: analyze(w, t, _other_sqlite(t)),
-      "other.sqlite", "not a confocal"),  # fmt: skip
+      "other.sqlite", "not a confocal"),
     R("analyze run", "out is an existing file",
       lambda w, t: ["analyze", w.csv, "--out", text_file(t / "rep.txt")], "rep.txt", "file"),
     R("analyze run", "pc 2", lambda w, t: analyze(w, t, w.csv, extra=("--pc", "2")), "--pc",
-      "(0, 1)"),  # fmt: skip
+      "(0, 1)"),
     R("analyze run", "NaN pc", lambda w, t: analyze(w, t, w.csv, extra=("--pc", "nan")), "--pc"),
     R("analyze run", "negative guess", lambda w, t: analyze(w, t, w.csv, extra=("--guess", "-1")),
-      "--guess"),  # fmt: skip
+      "--guess"),
     R("analyze run", "bad lapse prior",
       lambda w, t: analyze(w, t, w.csv, extra=("--lapse-prior", "x")), "--lapse-prior"),
     R("analyze run", "negative seed", lambda w, t: analyze(w, t, w.csv, extra=("--seed", "-1")),
-      "--seed"),  # fmt: skip
+      "--seed"),
     # analyze power
     R("analyze power", "power 2", lambda w, t: ["analyze", "power", "--odds-ratio", "2",
                                                 "--power", "2"], "--power", "(0, 1)"),
     R("analyze power", "odds ratio inf", lambda w, t: ["analyze", "power", "--odds-ratio", "inf"],
-      "--odds-ratio", "(0, inf)", "finite"),  # fmt: skip
+      "--odds-ratio", "(0, inf)", "finite"),
     R("analyze power", "odds ratio NaN", lambda w, t: ["analyze", "power", "--odds-ratio", "nan"],
-      "--odds-ratio"),  # fmt: skip
+      "--odds-ratio"),
     R("analyze power", "negative odds ratio",
       lambda w, t: ["analyze", "power", "--odds-ratio", "-2"], "--odds-ratio", "(0, inf)"),
     R("analyze power", "huge subject count",
       lambda w, t: ["analyze", "power", "--odds-ratio", "2", "--subjects", "1000000000"],
-      "--subjects", "memory"),  # fmt: skip
+      "--subjects", "memory"),
     R("analyze power", "zero subjects",
       lambda w, t: ["analyze", "power", "--odds-ratio", "2", "--subjects", "0"], "--subjects"),
     R("analyze power", "subjects not numbers",
@@ -624,17 +656,18 @@ ROWS: list[Row] = [
       lambda w, t: ["analyze", "power", "--odds-ratio", "2", "--alpha", "2"], "--alpha"),
     R("analyze power", "both effects",
       lambda w, t: ["analyze", "power", "--odds-ratio", "2", "--threshold-ratio", "2"],
-      "exactly one"),  # fmt: skip
+      "exactly one"),
     # demo
     R("demo", "out is an existing file", lambda w, t: ["demo", "--out", text_file(t / "d.txt")],
-      "d.txt"),  # fmt: skip
+      "d.txt"),
     R("demo", "zero subjects", lambda w, t: ["demo", "--out", t / "d", "--subjects", "0"],
-      "--subjects"),  # fmt: skip
+      "--subjects"),
     R("demo", "negative seed", lambda w, t: ["demo", "--out", t / "d", "--seed", "-1"], "--seed"),
     R("demo", "out not empty",
       lambda w, t: ["demo", "--out", text_file(t / "full" / "keep.txt").parent], "full",
-      "--force"),  # fmt: skip
+      "--force"),
 ]
+# fmt: on
 
 
 def _objects_csv(t: Path, w: World, text: str) -> Path:
@@ -702,9 +735,21 @@ def test_the_table_covers_every_command_with_80_rows():
     commands = Counter(r.command for r in ROWS)
     assert len(ROWS) >= 80
     assert len({(r.command, r.name) for r in ROWS}) == len(ROWS), "row names repeat"
-    for c in ("stimuli synth", "stimuli build", "lightfield synth", "lightfield scan",
-              "lightfield refocus", "present", "session run", "session status", "session export",
-              "score", "analyze run", "analyze power", "demo"):  # fmt: skip
+    for c in (
+        "stimuli synth",
+        "stimuli build",
+        "lightfield synth",
+        "lightfield scan",
+        "lightfield refocus",
+        "present",
+        "session run",
+        "session status",
+        "session export",
+        "score",
+        "analyze run",
+        "analyze power",
+        "demo",
+    ):
         assert commands[c] >= 1, c
     print("bad-input rows by command: " + ", ".join(f"{c} {n}" for c, n in commands.items()))
 
@@ -733,8 +778,17 @@ def test_screen_larger_than_the_gl_framebuffer_is_one_line_issue_10(world, tmp_p
         pytest.skip("the GL driver does not report GL_MAX_RENDERBUFFER_SIZE")
     before = snapshot(tmp_path)
     with pytest.raises(SystemExit) as exc:
-        cli.main(["present", "--stimulus", str(world.png), "--screen-px",
-                  f"{limit + 1}x{limit + 1}", "--screenshot", str(tmp_path / "s.png")])  # fmt: skip
+        cli.main(
+            [
+                "present",
+                "--stimulus",
+                str(world.png),
+                "--screen-px",
+                f"{limit + 1}x{limit + 1}",
+                "--screenshot",
+                str(tmp_path / "s.png"),
+            ]
+        )
     assert exc.value.code == 2
     line = _one_error_line(capsys)
     assert f"{limit + 1}x{limit + 1} px" in line
@@ -751,8 +805,15 @@ def test_reading_a_log_leaves_no_wal_or_shm_files_issue_10(world, tmp_path, comm
     argv = {
         "status": ["session", "status", str(db)],
         "export": ["session", "export", str(db), "--out", str(tmp_path / "out" / "t.csv")],
-        "analyze": ["analyze", str(db), "--out", str(tmp_path / "out"), "--no-figures",
-                    "--seed", "1"],  # fmt: skip
+        "analyze": [
+            "analyze",
+            str(db),
+            "--out",
+            str(tmp_path / "out"),
+            "--no-figures",
+            "--seed",
+            "1",
+        ],
     }[command]
     with pytest.raises(SystemExit) as exc:
         cli.main(argv)

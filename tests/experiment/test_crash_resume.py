@@ -162,7 +162,9 @@ def check_complete(db, stim, proto, *, repeats: set[int]) -> None:
         assert [r[0] for r in rows] == list(range(len(planned))) == [t.index for t in planned]
         assert [tuple(r[1:]) for r in rows] == [(t.object, t.condition, t.level) for t in planned]
         assert con.execute("SELECT count(*) FROM scores").fetchone()[0] == len(planned)
-        tidy = con.execute("SELECT trial_index, viewings, repeat_viewing FROM tidy_trials").fetchall()
+        tidy = con.execute(
+            "SELECT trial_index, viewings, repeat_viewing FROM tidy_trials"
+        ).fetchall()
         assert len(tidy) == len(planned)
         assert all(v >= 1 for _, v, _ in tidy), "every answered trial has its onset on record"
         assert {i for i, _, r in tidy if r} == repeats
@@ -242,7 +244,9 @@ def test_full_disk_during_a_session_keeps_every_acknowledged_trial_issue_10(stud
         lines = err.strip().splitlines()
         assert len(lines) == 1 and "disk is full" in lines[0], err
         assert str(db) in lines[0]
-        acked = [int(ln.split()[1].split("/")[0]) for ln in out.splitlines() if ln.startswith("trial")]
+        acked = [
+            int(ln.split()[1].split("/")[0]) for ln in out.splitlines() if ln.startswith("trial")
+        ]
         # readable, intact, and complete up to the last trial the session acknowledged
         assert db_rows(db, "PRAGMA integrity_check")[0][0] == "ok"
         got = [r[0] for r in db_rows(db, "SELECT trial_index FROM trials ORDER BY trial_id")]
