@@ -13,15 +13,23 @@ Schema (created by numbered migrations, recorded in ``schema_migrations``)
 ``scores``     append-only scorings: score, recognized, rater, is_primary, scored_at. The trial's
                own scoring is primary; a re-score by the same rater (or by the protocol's primary
                rater) is primary too; other raters' scores are kept beside it for agreement.
+``viewings``   (schema 2) one row per stimulus onset, committed when the frame is shown and
+               before any answer exists, so a crash between onset and answer leaves the viewing
+               on record; append-only.
 ``events``     pause, resume, abort, note, break, crash (detected at restart), open, close,
-               complete.
+               complete, repeat_viewing (a trial shown again, e.g. after such a crash).
 ``locks``      the process that has a session open: pid, host, process start time, token.
 ``tidy_trials`` (VIEW) one row per answered trial: ``subject, session, object, condition, level,
-               window, pixels, recognized, response, score, rater, rt_s, part, trial_index``, with
-               ``recognized`` from the latest primary score. This is what the analysis reads.
+               window, pixels, recognized, response, score, rater, rt_s, part, trial_index,
+               viewings, repeat_viewing``, with ``recognized`` from the latest primary score.
+               This is what the analysis reads.
 
-Durability: WAL journal, ``synchronous=FULL``; each answered trial (its ``trials`` row and its
-first ``scores`` row) is one transaction, committed before the next stimulus is shown.
+Durability: WAL journal, ``synchronous=FULL``; each onset is one transaction, and each answered
+trial (its ``trials`` row and its first ``scores`` row) is one transaction, committed before the
+next stimulus is shown. A full disk rolls the open transaction back and ends with one line
+(:class:`TrialLogError`); every acknowledged trial stays. Read-only opens never write beside the
+file: without a ``-wal`` file (no writer) the database is opened ``immutable``. The crash tests
+inject faults at each write step through :data:`FAULT_ENV` (:func:`fault_point`).
 
 Locking: a session is claimed by a ``locks`` row (pid, host, process start time), written in an
 ``IMMEDIATE`` transaction. A second process finding a live holder is refused. A row whose process
