@@ -135,6 +135,9 @@ def _line(exc: BaseException) -> str:
 
 def _read_sqlite(path: Path) -> pd.DataFrame:
     uri = f"{path.resolve().as_uri()}?mode=ro"
+    if not Path(f"{path}-wal").exists():
+        # no writer has it open; mode=ro alone would leave -wal/-shm files beside a WAL log
+        uri += "&immutable=1"
     try:
         con = sqlite3.connect(uri, uri=True)
     except sqlite3.Error as exc:

@@ -13,6 +13,7 @@ only when one of its commands runs. ``confocal --help`` and ``--version`` import
 
 from __future__ import annotations
 
+import errno
 import importlib
 import logging
 import sys
@@ -167,6 +168,14 @@ def main(argv: list[str] | None = None) -> None:
     except Exception as exc:  # noqa: BLE001 - classified just below
         if getattr(exc, "exit_code", None) == 2:
             typer.echo(f"confocal: error: {_one_line(exc)}", err=True)
+            sys.exit(2)
+        if isinstance(exc, OSError) and exc.errno in (errno.ENOSPC, errno.EDQUOT):
+            where = f"{exc.filename}: " if exc.filename is not None else ""
+            typer.echo(
+                f"confocal: error: {where}the disk is full ({exc.strerror or exc}); the command "
+                "stopped; free space and run it again",
+                err=True,
+            )
             sys.exit(2)
         if isinstance(exc, OSError) and exc.filename is not None:
             typer.echo(f"confocal: error: {exc.filename}: {exc.strerror or exc}", err=True)

@@ -277,6 +277,7 @@ class OperatorConsole(App):
         if onset is None:
             return
         self.onset = onset
+        self.session.mark_shown(trial, onset)  # durable before any answer (issue 10)
         self.first_key_s = None
         response = self.query_one("#response", Input)
         response.value = ""

@@ -18,6 +18,7 @@ import numpy as np
 import typer
 
 from experiment.errors import ConfocalError
+from stimuli.resources import check_memory, finite_option
 
 __all__ = ["register", "load_stimulus", "geometry_from_options", "pending_for_rater"]
 
@@ -127,6 +128,9 @@ def pending_for_rater(
     return [dict(r) for r in log.execute(sql, tuple(params))]
 
 
+_positive = finite_option(0.0, lo_open=True)
+
+
 def register(app: typer.Typer) -> None:
     """Add ``present`` and ``score`` to the root ``confocal`` app."""
 
@@ -147,28 +151,51 @@ def register(app: typer.Typer) -> None:
             typer.Option(help="Monitor profile (name in protocols/monitors, or a .toml file)."),
         ] = None,
         screen_px: Annotated[str | None, typer.Option(help="Override: 1280x1024.")] = None,
-        screen_width_cm: Annotated[float | None, typer.Option(help="Override, cm.")] = None,
-        distance_cm: Annotated[float | None, typer.Option(help="Override, cm.")] = None,
+        screen_width_cm: Annotated[
+            float | None, typer.Option(callback=_positive, help="Override, cm.")
+        ] = None,
+        distance_cm: Annotated[
+            float | None, typer.Option(callback=_positive, help="Override, cm.")
+        ] = None,
         image_cm: Annotated[str | None, typer.Option(help="Override: 14.6x9.7 (cm).")] = None,
         border_rgb: Annotated[str | None, typer.Option(help="Override: 0,0,255.")] = None,
         border_width_px: Annotated[
             int | None, typer.Option(help="Frame width; -1 fills the whole surround.")
         ] = None,
-        gamma: Annotated[float | None, typer.Option(help="Display gamma (default 1).")] = None,
+        gamma: Annotated[
+            float | None, typer.Option(callback=_positive, help="Display gamma (default 1).")
+        ] = None,
         integer_scale: Annotated[
             bool, typer.Option(help="Equal-size cells (size off by < half a cell).")
         ] = False,
         phosphenes: Annotated[str | None, typer.Option(help="gaussian or disc.")] = None,
-        phosphene_size: Annotated[float, typer.Option(help="Fraction of the spacing.")] = 0.8,
-        dropout: Annotated[float, typer.Option(help="Fraction of dead phosphenes.")] = 0.0,
-        phosphene_spacing_deg: Annotated[float | None, typer.Option(help="Degrees.")] = None,
-        seed: Annotated[int, typer.Option(help="Seed of the dropout pattern.")] = 0,
+        phosphene_size: Annotated[
+            float, typer.Option(callback=_positive, help="Fraction of the spacing.")
+        ] = 0.8,
+        dropout: Annotated[
+            float,
+            typer.Option(
+                callback=finite_option(0.0, 1.0, hi_open=True),
+                help="Fraction of dead phosphenes, in [0, 1).",
+            ),
+        ] = 0.0,
+        phosphene_spacing_deg: Annotated[
+            float | None, typer.Option(callback=_positive, help="Degrees.")
+        ] = None,
+        seed: Annotated[int, typer.Option(min=0, help="Seed of the dropout pattern.")] = 0,
         screen: Annotated[int | None, typer.Option(help="Screen index of the window.")] = None,
         fullscreen: Annotated[bool, typer.Option("--fullscreen/--window")] = False,
-        seconds: Annotated[float | None, typer.Option(help="Close after this long.")] = None,
+        seconds: Annotated[
+            float | None,
+            typer.Option(callback=finite_option(0.0), help="Close after this long."),
+        ] = None,
         skip_timing_check: Annotated[bool, typer.Option("--skip-timing-check")] = False,
     ) -> None:
         """Show one stimulus as the subject would see it, or render it offscreen (--screenshot)."""
+        if not phosphenes and (dropout != 0.0 or phosphene_spacing_deg is not None):
+            raise ConfocalError("--dropout and --phosphene-spacing-deg need --phosphenes")
+        if screenshot is not None and screenshot.is_dir():
+            raise ConfocalError(f"--screenshot {screenshot} is a folder; expected a PNG file path")
         geometry = geometry_from_options(
             protocol,
             screen_px=screen_px,
@@ -180,6 +207,9 @@ def register(app: typer.Typer) -> None:
             gamma=gamma,
             monitor=monitor,
         )
+        rows, cols = geometry.screen_shape_px
+        # the framebuffer, its read-back and the PNG: a few RGBA copies of the screen
+        check_memory(rows * cols * 4 * 4, f"screen {cols}x{rows} px")
         image = load_stimulus(stimulus)
         from experiment.presenter import PhospheneSpec, Presenter, stimulus_rect_px
 
@@ -243,6 +273,15 @@ def register(app: typer.Typer) -> None:
 
         if not log_path.is_file():
             raise ConfocalError(f"{log_path}: trial log not found")
+        if not rater.strip() or rater != rater.strip():
+            raise ConfocalError(f"--rater must be a name without surrounding spaces, got {rater!r}")
+        with TrialLog(log_path, readonly=True) as ro:  # check before the log is opened to write
+            ids = [s["session_id"] for s in ro.sessions()]
+        if session_id is not None and session_id not in ids:
+            raise ConfocalError(
+                f"{log_path}: --session {session_id} does not exist; expected one of "
+                f"{', '.join(map(str, ids)) or '(no sessions yet)'}"
+            )
         with TrialLog(log_path) as log:
             pending = pending_for_rater(
                 log, rater, session_id=session_id, include_training=include_training

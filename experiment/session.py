@@ -270,6 +270,17 @@ class Session:
             log.add_event(
                 sid, "resume", f"resuming at trial {done} of {len(schedule)}", clock.now_s()
             )
+            nxt = log.last_committed_trial(sid)
+            nxt = 0 if nxt is None else nxt + 1
+            seen = log.viewings(sid, nxt) if nxt < len(schedule) else 0
+            if seen:
+                log.add_event(
+                    sid,
+                    "note",
+                    f"trial {nxt} was shown {seen} time(s) but not answered before the run "
+                    "ended; it is shown again and marked as a repeat viewing",
+                    clock.now_s(),
+                )
         if stale is not None:
             logger.warning("session %s: previous run crashed; resuming at trial %d", sid, done)
         return cls(log, protocol, stimset, subject, sid, stored, schedule, clock)
@@ -350,6 +361,23 @@ class Session:
             self.log.record(self.session_id, trial, flip, answer, recognized)
         self._next += 1
 
+    def mark_shown(self, trial: Trial, flip: FlipRecord) -> int:
+        """Log the stimulus onset durably, as soon as the frame is on the subject's screen.
+
+        Returns
+        -------
+        int
+            How many times the trial has now been shown; 2 or more (a repeat viewing, e.g. after
+            a crash between onset and answer) is also logged as a ``repeat_viewing`` event.
+        """
+        n = self.log.record_onset(self.session_id, trial.index, flip.onset_s)
+        if n > 1:
+            self.log_event(
+                "repeat_viewing",
+                f"trial {trial.index} shown again (viewing {n}); the subject saw it before",
+            )
+        return n
+
     def rescore(self, trial_index: int, score: str, rater: str, note: str = "") -> None:
         """Append a new score for an answered trial (the old ones are kept)."""
         if not isinstance(rater, str) or not rater.strip():
@@ -415,6 +443,7 @@ class Session:
                     display.show_text("Break")
                 image = self.image_for(trial)
                 flip = display.show_stimulus(image)
+                self.mark_shown(trial, flip)
                 answer = responder.respond(trial, image)
                 off = display.clear()
                 self.record(trial, answer, combine_flips(flip, off))

@@ -21,6 +21,7 @@ from typing import Annotated
 import typer
 
 from experiment.errors import ConfocalError
+from stimuli.resources import check_memory, finite_option
 
 __all__ = [
     "register",
@@ -31,6 +32,12 @@ __all__ = [
 ]
 
 logger = logging.getLogger(__name__)
+
+#: Longest headless hold, seconds (ours: one day; longer is a typo, and inf overflows sleep()).
+_MAX_HOLD_S = 86400.0
+#: Memory per planned trial, bytes: the Trial object, its schedule row and its index entries
+#: (ours, rounded up; the check only has to catch absurd repetition counts before allocating).
+_BYTES_PER_TRIAL = 4096
 
 session_app = typer.Typer(
     name="session",
@@ -80,7 +87,11 @@ def run_command(
     ] = None,
     hold_s: Annotated[
         float,
-        typer.Option("--hold-s", min=0.0, help="Headless: seconds each stimulus stays shown."),
+        typer.Option(
+            "--hold-s",
+            callback=finite_option(0.0, _MAX_HOLD_S),
+            help="Headless: seconds each stimulus stays shown.",
+        ),
     ] = 0.0,
     progress_every: Annotated[
         int,
@@ -135,6 +146,7 @@ def run_command(
     from experiment.displays import NullDisplay
     from experiment.observers import OBSERVERS, make_observer
     from experiment.protocol import load_protocol
+    from experiment.schedule import planned_trials
     from experiment.session import Session
     from experiment.stimset import StimulusSet
     from experiment.triallog import TrialLog
@@ -163,6 +175,13 @@ def run_command(
                 f"the operator console is unavailable ({exc}); use --headless --observer NAME "
                 "for a simulated session"
             ) from None
+    if not subject.strip() or subject != subject.strip() or not subject.isprintable():
+        raise ConfocalError(
+            f"--subject must be a subject code without surrounding spaces, e.g. S01; got "
+            f"{subject!r}"
+        )
+    if data.is_dir():
+        raise ConfocalError(f"--data {data} is a folder; expected the study's .sqlite file")
     meta = None
     if participant is not None:
         from experiment.data.psychds import parse_participant
@@ -178,6 +197,8 @@ def run_command(
         profile, monitor_record = load_monitor(monitor)
         spec = dataclasses.replace(spec, display=apply_monitor(spec.display, profile))
     stimset = StimulusSet.load(stimuli)
+    # the whole plan is checked before the trial log is created or touched
+    check_memory(planned_trials(spec, stimset) * _BYTES_PER_TRIAL, f"protocol {protocol}")
     effective_params = None
     if headless:
         try:  # check the parameters before anything is written
@@ -371,6 +392,9 @@ def export_command(
 ) -> None:
     """Write a Psych-DS dataset: data/ (one CSV per session), participants.tsv, description."""
     from experiment.data.psychds import export_dataset
+
+    if out.exists() and not out.is_dir():
+        raise ConfocalError(f"--out {out} is a file; expected a dataset folder")
 
     try:
         info = export_dataset(data, out, study=study)

@@ -45,7 +45,7 @@ def _open(path: str | os.PathLike, draft_shape_px: tuple[int, int] | None = None
     if not path.is_file():
         raise InputError(f"{path}: image file not found")
     try:
-        img = Image.open(path)
+        img = _open_checked(path)
         if draft_shape_px is not None and img.format == "JPEG":
             rows, cols = (int(v) for v in draft_shape_px)
             if img.getexif().get(0x0112) in _EXIF_SWAPS_AXES:
@@ -54,10 +54,44 @@ def _open(path: str | os.PathLike, draft_shape_px: tuple[int, int] | None = None
         img.load()
     except (UnidentifiedImageError, OSError, SyntaxError, ValueError) as exc:
         raise InputError(f"{path}: not a readable image ({exc})") from None
+    except Image.DecompressionBombError as exc:
+        raise InputError(f"{path}: refused as a decompression bomb ({exc})") from None
     try:
         return ImageOps.exif_transpose(img)
     except (OSError, ValueError, SyntaxError):  # broken EXIF block: keep the pixels as stored
         return img
+
+
+#: Bytes per pixel of a decoded image and its float32 copies (ours: RGBA uint8 + float32 RGB +
+#: float32 grey, rounded up), for the memory check before decoding a very large image.
+_DECODE_BYTES_PER_PX = 32
+
+
+def _open_checked(path: Path) -> Image.Image:
+    """Open an image lazily; a header larger than Pillow's bomb limit is decoded only if it fits.
+
+    Pillow warns (``DecompressionBombWarning``) above ``Image.MAX_IMAGE_PIXELS`` and raises above
+    twice that; the warning becomes a memory check and one log line instead of a multi-line
+    Python warning.
+    """
+    import logging
+    import warnings
+
+    from stimuli.resources import check_memory
+
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", Image.DecompressionBombWarning)
+        img = Image.open(path)
+    if any(issubclass(w.category, Image.DecompressionBombWarning) for w in caught):
+        cols, rows = img.size
+        check_memory(rows * cols * _DECODE_BYTES_PER_PX, f"{path}: decoding {cols}x{rows} px")
+        logging.getLogger(__name__).warning(
+            "%s: very large image (%dx%d px, above Pillow's decompression-bomb limit)",
+            path,
+            cols,
+            rows,
+        )
+    return img
 
 
 def to_float01(array: np.ndarray) -> np.ndarray:
@@ -141,11 +175,13 @@ def image_shape_px(path: str | os.PathLike) -> tuple[int, int]:
     if not path.is_file():
         raise InputError(f"{path}: image file not found")
     try:
-        with Image.open(path) as img:
+        with _open_checked(path) as img:
             cols, rows = img.size
             swap = img.getexif().get(0x0112) in _EXIF_SWAPS_AXES
     except (UnidentifiedImageError, OSError, SyntaxError, ValueError) as exc:
         raise InputError(f"{path}: not a readable image ({exc})") from None
+    except Image.DecompressionBombError as exc:
+        raise InputError(f"{path}: refused as a decompression bomb ({exc})") from None
     return (cols, rows) if swap else (rows, cols)
 
 
