@@ -18,7 +18,7 @@ def recording_for(log: Any, session_id: int, trial_index: int) -> Path | None:
             "SELECT path FROM audio WHERE session_id = ? AND trial_index = ?",
             (session_id, trial_index),
         )
-    except (sqlite3.Error, ValueError, RuntimeError):  # e.g. a log from before migration 2
+    except (sqlite3.Error, ValueError, RuntimeError):  # e.g. a log from before migration 5
         return None
     if not rows:
         return None

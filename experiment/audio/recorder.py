@@ -3,7 +3,7 @@
 Files: ``<log stem>_audio/session-<id>/trial-<index>.flac`` (mono, 16-bit, FLAC: lossless and
 about half the size of WAV; a 10 s answer at 44.1 kHz is about 0.5 MB) next to the SQLite trial
 log, written to a temporary name and renamed. Each file gets a row in the log's
-``audio`` table (migration 2): its path relative to the log's folder, sha256, sample rate,
+``audio`` table (migration 5): its path relative to the log's folder, sha256, sample rate,
 duration, the clock time of its first sample (``start_s``), and ``voice_rt_s``, the voice onset
 after the stimulus onset (:func:`experiment.audio.voice.voice_onset_s`). The operator's first
 keystroke stays in ``trials.rt_s``; the view ``voice_trials`` shows both as ``key_rt_s`` and

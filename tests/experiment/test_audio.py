@@ -126,7 +126,7 @@ def session(tmp_path):
 
 def test_migration_adds_append_only_audio_table(session) -> None:
     _, _, log, _ = session
-    assert 2 in [v for v, _, _ in MIGRATIONS] and log.schema_version() >= 2
+    assert 5 in [v for v, _, _ in MIGRATIONS] and log.schema_version() >= 5
     cols = [r[1] for r in log.execute("PRAGMA table_info(audio)")]
     assert {"path", "sha256", "voice_rt_s", "start_s", "method_json"} <= set(cols)
 
