@@ -4,7 +4,7 @@ The pipeline, per object
 ------------------------
 1. Read the wide-DOF ("conventional") and narrow-DOF ("confocal") photos with
    :func:`stimuli.io.load_gray` (luminance, float32 in [0, 1], EXIF orientation applied). A
-   light-field object gives the pair through ``stimuli.lightfield.confocal_pair`` instead: its
+   light-field object gives the pair through ``stimuli.planes.confocal_pair`` instead: its
    centre view is the cluttered image and the confocal image the de-cluttered one.
 2. Zoom (optional, paper Sec. 4.1, Fig. 14): the ``crop`` box ``x,y,w,h`` of ``objects.csv`` is
    cut out at full resolution before anything else.
@@ -274,7 +274,7 @@ class PairSource:
     wide, narrow : Path or None
         Wide-DOF and narrow-DOF photos (both set, or both ``None`` for a light field).
     lightfield : Path or None
-        Light-field folder or ``.npz`` file, read by ``stimuli.lightfield.confocal_pair``.
+        Light-field folder or ``.npz`` file, read by ``stimuli.planes.confocal_pair``.
     crop : (x, y, w, h) or None
         Crop box from the PAIRS CSV (``objects.csv`` wins when both give one).
     """
@@ -755,7 +755,7 @@ def _load_raw(
             draft = _draft_shape(f, (max(region[0], 1), max(region[1], 1)), params.working_shape_px)
             out.append(load_gray(path, draft_shape_px=draft))
         return out[0], out[1], full[0], full[1], ""
-    from stimuli.lightfield import confocal_plane
+    from stimuli.planes import confocal_plane
 
     if info.plane_depth_m is None and info.plane_disparity_px is None:
         logger.info("%s: no plane in objects.csv; light-field module picks it", src.object)

@@ -71,9 +71,6 @@ from stimuli.errors import InputError
 from stimuli.io import _LUMA_WEIGHTS, load_rgb
 
 __all__ = [
-    "NEAREST_PLANE_MIN_PROMINENCE",
-    "ConfocalPlane",
-    "confocal_plane",
     "Geometry",
     "LightField",
     "load_lightfield",
@@ -81,7 +78,6 @@ __all__ = [
     "elemental_from_views",
     "read_pfm",
     "write_pfm",
-    "confocal_pair",
 ]
 
 log = logging.getLogger(__name__)
@@ -746,123 +742,3 @@ def _as_lightfield(lf: LightField | np.ndarray | str | os.PathLike) -> LightFiel
     if isinstance(lf, np.ndarray):
         return LightField(lf)
     return load_lightfield(lf)
-
-
-#: When the plane is chosen automatically, the nearest detected plane whose prominence is at
-#: least this fraction of the strongest plane's is the object's (ours, not the paper's). Measured
-#: with the default scan: Middlebury Baby1's doll has 0.25 of the wall's prominence (kept); a
-#: spurious peak where the views barely overlap had 0.10 in the builder's test light field
-#: (dropped).
-NEAREST_PLANE_MIN_PROMINENCE: float = 0.2
-
-
-@dataclass(frozen=True)
-class ConfocalPlane:
-    """A light field's centre view and its confocal image at one plane, with that plane.
-
-    Parameters
-    ----------
-    centre_view, confocal_image : ndarray of shape (rows, cols), float32 in [0, 1]
-    disparity_px : float
-        The plane, pixels per view step.
-    depth_m : float or None
-        The plane's depth, metres (None without geometry).
-    chosen_by : {'depth_m', 'disparity_px', 'nearest detected plane'}
-        How the plane was chosen (provenance).
-    """
-
-    centre_view: np.ndarray
-    confocal_image: np.ndarray
-    disparity_px: float
-    depth_m: float | None
-    chosen_by: str
-
-    def describe(self) -> str:
-        """One-line provenance: ``disparity=...px,depth=...m,<chosen_by>``."""
-        depth = "" if self.depth_m is None else f",depth={self.depth_m:.4g}m"
-        return f"disparity={self.disparity_px:.4g}px{depth},{self.chosen_by}"
-
-
-def confocal_plane(
-    path: str | os.PathLike | LightField,
-    *,
-    depth_m: float | None = None,
-    disparity_px: float | None = None,
-) -> ConfocalPlane:
-    """Return a light field's centre view and its confocal image at one plane, with the plane.
-
-    The confocal image is the shift-and-add refocus at ``depth_m`` (needs a geometry) or at
-    ``disparity_px``; with neither, at the *nearest* object plane found by
-    :func:`stimuli.planes.find_object_planes` (default planes, :func:`stimuli.planes.auto_binning`)
-    among those at least :data:`NEAREST_PLANE_MIN_PROMINENCE` as prominent as the strongest: the
-    object of interest stands in front of the clutter (Jung et al. 2015, Sec. 4), so the nearest
-    clear plane is the object's, even when a large background wall scores higher.
-
-    Parameters
-    ----------
-    path : str, path-like or LightField
-        Any input :func:`load_lightfield` reads.
-    depth_m : float, optional
-        Depth of the plane, metres.
-    disparity_px : float, optional
-        Disparity of the plane, pixels per view step.
-
-    Returns
-    -------
-    ConfocalPlane
-
-    Raises
-    ------
-    InputError
-        Both ``depth_m`` and ``disparity_px`` given, a depth without geometry or out of range,
-        no object plane found, or any loading error.
-
-    References
-    ----------
-    Jung et al. (2015), Sec. 4.1-4.2; Ng et al. (2005) for shift-and-add refocusing.
-    """
-    from stimuli.planes import auto_binning, find_object_planes
-    from stimuli.refocus import refocus
-
-    if depth_m is not None and disparity_px is not None:
-        raise InputError("give depth_m or disparity_px, not both")
-    lf = _as_lightfield(path).gray()
-    if depth_m is not None:
-        d, how = lf.disparity_px(depth_m), "depth_m"
-    elif disparity_px is not None:
-        d, how = float(disparity_px), "disparity_px"
-        if not math.isfinite(d):
-            raise InputError(f"disparity_px must be finite, got {disparity_px!r}")
-    else:
-        scan = find_object_planes(lf, binning=auto_binning(lf))
-        if not scan.peaks:
-            raise InputError(f"{lf.source}: no object plane found in the depth scan")
-        floor = NEAREST_PLANE_MIN_PROMINENCE * max(p.prominence for p in scan.peaks)
-        nearest = next(p for p in scan.peaks if p.prominence >= floor)  # peaks: nearest first
-        d, how = nearest.disparity_px, "nearest detected plane"
-    confocal = np.clip(refocus(lf, d), 0.0, 1.0).astype(np.float32)
-    return ConfocalPlane(lf.centre_view(), confocal, float(d), lf.depth_m(d), how)
-
-
-def confocal_pair(
-    path: str | os.PathLike | LightField,
-    *,
-    depth_m: float | None = None,
-    disparity_px: float | None = None,
-) -> tuple[np.ndarray, np.ndarray]:
-    """Return ``(centre_view, confocal_image)`` of a light field, grey float32 in [0, 1].
-
-    The same as :func:`confocal_plane` without the plane: at ``depth_m``, at ``disparity_px``,
-    or at the nearest detected object plane.
-
-    Returns
-    -------
-    centre_view, confocal_image : ndarray of shape (rows, cols), float32 in [0, 1]
-
-    Raises
-    ------
-    InputError
-        As :func:`confocal_plane`.
-    """
-    c = confocal_plane(path, depth_m=depth_m, disparity_px=disparity_px)
-    return c.centre_view, c.confocal_image

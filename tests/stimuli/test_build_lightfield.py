@@ -16,7 +16,7 @@ from scipy import ndimage
 
 from stimuli.build import build_stimulus_set
 from stimuli.io import sha256_file
-from stimuli.lightfield import confocal_pair
+from stimuli.planes import confocal_pair
 from stimuli.manifest import read_manifest
 
 
@@ -91,12 +91,12 @@ def test_auto_plane_is_the_nearest_detected_plane_issue_3(built):
     object's plane ... or the nearest detected plane"): the disc at disparity 3 in front of the
     striped wall at 0, even though the wall's stripes outscore the disc. The manifest records
     the plane it used (H15)."""
-    from stimuli.lightfield import confocal_plane, load_lightfield
-    from stimuli.planes import auto_binning, find_object_planes
+    from stimuli.lightfield import load_lightfield
+    from stimuli.planes import confocal_plane, find_object_planes
 
     root, lf, _ = built
     field = load_lightfield(lf)
-    scan = find_object_planes(field, binning=auto_binning(field))
+    scan = find_object_planes(field)
     found = sorted(p.disparity_px for p in scan.peaks)
     assert any(abs(d) < 0.2 for d in found) and any(abs(d - 3.0) < 0.3 for d in found), found
     strongest = max(scan.peaks, key=lambda p: p.score)

@@ -13,13 +13,13 @@ from stimuli.errors import InputError
 from stimuli.lightfield import (
     Geometry,
     LightField,
-    confocal_pair,
     elemental_from_views,
     load_lightfield,
     read_pfm,
     views_from_elemental,
     write_pfm,
 )
+from stimuli.planes import confocal_pair
 
 
 def _views(n_u=3, n_v=3, rows=12, cols=16, seed=0):
