@@ -277,12 +277,16 @@ def test_grid_with_holes_raises(tmp_path):
         load_lightfield(tmp_path / "lf")
 
 
-def test_pitch_that_does_not_divide_raises(tmp_path):
-    ei = np.zeros((30, 41), np.float32)
-    with pytest.raises(InputError, match="pitch 10 px does not divide the elemental image"):
-        views_from_elemental(ei, 10)
-    Image.fromarray(np.zeros((30, 41), np.uint8)).save(tmp_path / "ei.png")
-    with pytest.raises(InputError, match="does not divide"):
+def test_partial_lenslets_are_dropped_and_too_few_raise(tmp_path):
+    """Issue 12: a sensor is rarely a whole number of lenslets; the partial ones are dropped."""
+    ei = np.arange(30 * 41, dtype=np.float32).reshape(30, 41) / (30 * 41)
+    v = views_from_elemental(ei, 10)
+    assert v.shape == (10, 10, 3, 4)
+    np.testing.assert_array_equal(v[:, :, 2, 3], ei[20:30, 30:40])
+    with pytest.raises(InputError, match="fewer than 2x2 whole lenslets"):
+        views_from_elemental(ei[:15], 10)
+    Image.fromarray(np.zeros((15, 41), np.uint8)).save(tmp_path / "ei.png")
+    with pytest.raises(InputError, match=r"ei.png: lenslet pitch 10 px leaves fewer than 2x2"):
         load_lightfield(tmp_path / "ei.png", pitch_px=10)
     with pytest.raises(InputError, match="needs its lenslet pitch"):
         load_lightfield(tmp_path / "ei.png")
