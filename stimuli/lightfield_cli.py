@@ -4,15 +4,20 @@ Commands
 --------
 ``scan LF --out DIR``
     Sweep confocal planes, detect the planes that hold objects (Jung et al. 2015, Sec. 4.2) and
-    write ``planes.csv``, the score-versus-depth plot ``scores.png`` (Fig. 15; drawn with Pillow,
-    no matplotlib in ``stimuli``), ``scan.json``, and per detected plane the confocal image, its
-    de-cluttered edge image and the compressed grid (Figs. 11-13, 16).
+    write ``planes.csv`` (with each plane's support, prominence and evidence), the
+    score-versus-depth plot ``scores.png`` (Fig. 15, matplotlib), ``scan.json``, and per
+    detected plane the confocal image, its de-cluttered edge image (``--declutter sobel`` or
+    ``depth``) and the compressed grid (Figs. 11-13, 16). The range is the one the scene
+    occupies unless ``--near/--far`` or ``--disparities`` give it.
 ``refocus LF (--depth Z | --disparity D) --out IMG``
     One confocal image; ``--grid`` adds its edge and grid images, ``--zoom x,y,w,h`` crops
     first (Fig. 14); ``--stack`` writes a whole focal stack into the folder ``--out``.
 ``synth --out LF``
-    The three-plane scene of Fig. 10 (pedestrian 1 m, tree 4 m, building 9 m) as a lens-array
-    elemental image (``.png`` + ``.toml``), a folder of views, or an ``.npz``.
+    The three-plane scene of Fig. 10 (pedestrian 1 m, tree 4 m, building 9 m; simulated) as a
+    lens-array elemental image (``.png`` + ``.toml``), a folder of views, or an ``.npz``, with
+    the centre view's ground-truth disparity and depth maps (PFM beside the image or in the
+    folder: ``*_disparity.pfm``, ``*_depth.pfm``; arrays ``disparity_px``, ``depth_m`` in the
+    ``.npz``).
 
 Grid sizes are written ``COLSxROWS`` as in the paper ("38x25"); the library uses
 ``shape_px=(rows, cols)``.
@@ -89,6 +94,14 @@ _BitDepth = Annotated[
         help="Bits used in 16-bit images (e.g. 12); default: from the data's maximum.",
     ),
 ]
+_Background = Annotated[
+    float,
+    typer.Option(
+        "--background",
+        help="Grey level (0-1) that views with an alpha channel are composited over; use the "
+        "protocol's background (jung2015: 0, black).",
+    ),
+]
 _Axes = Annotated[
     str | None,
     typer.Option("--axes", help=".npy/.npz axis order, e.g. 'uvhw' (default) or 'hwuv'."),
@@ -145,6 +158,7 @@ def _load(
     view_bin=1,
     bit_depth=None,
     axes=None,
+    background=0.0,
 ):
     from stimuli.lightfield import load_lightfield
 
@@ -165,6 +179,7 @@ def _load(
         offset_px=off,
         bit_depth=bit_depth,
         axes=axes,
+        background=background,
         gray=True,
     ).gray()
     if view_bin != 1:
@@ -377,6 +392,7 @@ def scan_command(
     view_bin: _ViewBin = 1,
     bit_depth: _BitDepth = None,
     axes: _Axes = None,
+    background: _Background = 0.0,
 ) -> None:
     """Scan planes, detect the object planes and write them with their edge and grid images."""
     import warnings
@@ -400,8 +416,19 @@ def scan_command(
         raise InputError(f"--method must be one of {', '.join(SCAN_METHODS)}, got {method!r}")
     if planes < 3:
         raise InputError(f"--planes must be >= 3, got {planes}")
-    lf = _load(lightfield, pattern, grid_cols, pitch, border, offset, view_crop, view_bin,
-               bit_depth, axes)
+    lf = _load(
+        lightfield,
+        pattern,
+        grid_cols,
+        pitch,
+        border,
+        offset,
+        view_crop,
+        view_bin,
+        bit_depth,
+        axes,
+        background,
+    )
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         ds = _disparities(lf, planes, near, far, disparities)
@@ -488,6 +515,7 @@ def refocus_command(
     view_bin: _ViewBin = 1,
     bit_depth: _BitDepth = None,
     axes: _Axes = None,
+    background: _Background = 0.0,
 ) -> None:
     """Write the confocal image at one plane (or a focal stack); optionally zoom and compress."""
     from stimuli.declutter import in_focus_mask
@@ -496,8 +524,19 @@ def refocus_command(
 
     _check_mode(declutter_mode)
     grid_px = parse_grid(grid) if grid is not None else None
-    lf = _load(lightfield, pattern, grid_cols, pitch, border, offset, view_crop, view_bin,
-               bit_depth, axes)
+    lf = _load(
+        lightfield,
+        pattern,
+        grid_cols,
+        pitch,
+        border,
+        offset,
+        view_crop,
+        view_bin,
+        bit_depth,
+        axes,
+        background,
+    )
     if stack:
         if depth is not None or disparity is not None:
             raise InputError("--stack scans --near/--far or --disparities, not --depth/--disparity")
@@ -554,11 +593,12 @@ def synth_command(
     """Write the paper's simulated three-plane scene (Fig. 10)."""
     from stimuli.io import atomic_path, save_png
     from stimuli.lfsynth import (
+        ground_truth_maps,
         render_camera_array,
         render_elemental_image,
         three_plane_scene,
     )
-    from stimuli.lightfield import views_from_elemental
+    from stimuli.lightfield import views_from_elemental, write_pfm
 
     shape = parse_grid(size)
     layers = three_plane_scene(shape, rng=seed)
@@ -573,15 +613,31 @@ def synth_command(
     gtoml = "[geometry]\n" + "".join(
         f"{k} = {json.dumps(v)}\n" for k, v in geometry.to_dict().items()
     )
+    disp, depth = ground_truth_maps(layers, geometry, shape)
+
+    def write_truth(disp_path: Path, depth_path: Path) -> None:
+        for arr, p in ((disp, disp_path), (depth, depth_path)):
+            with atomic_path(p) as tmp:
+                write_pfm(arr, tmp)
+
     suffix = out.suffix.lower()
     if suffix == ".npz":
         out.parent.mkdir(parents=True, exist_ok=True)
         with atomic_path(out) as tmp, open(tmp, "wb") as f:
-            np.savez_compressed(f, views=views, geometry=json.dumps(geometry.to_dict()))
+            np.savez_compressed(
+                f,
+                views=views,
+                geometry=json.dumps(geometry.to_dict()),
+                disparity_px=disp,
+                depth_m=depth,
+            )
     elif suffix == ".png":
         if kind != "lens":
             raise InputError("a .png output is an elemental image: use --kind lens")
         save_png(ei, out)
+        write_truth(
+            out.with_name(out.stem + "_disparity.pfm"), out.with_name(out.stem + "_depth.pfm")
+        )
         p = ei.shape[0] // shape[0]
         with atomic_path(out.with_suffix(".toml")) as tmp:
             tmp.write_text(gtoml + f"\n[elemental]\npitch_px = {p}\nborder_px = 0\n")
@@ -592,6 +648,7 @@ def synth_command(
                 save_png(views[u, v], out / f"view_{u:02d}_{v:02d}.png")
         with atomic_path(out / "lightfield.toml") as tmp:
             tmp.write_text(gtoml)
+        write_truth(out / "disparity.pfm", out / "depth.pfm")
     typer.echo(f"wrote {out} ({views.shape[0]}x{views.shape[1]} views of {shape[1]}x{shape[0]})")
 
 
