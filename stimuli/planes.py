@@ -55,7 +55,7 @@ from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.ndimage import gaussian_filter, gaussian_filter1d, uniform_filter
+from scipy.ndimage import gaussian_filter, gaussian_filter1d, uniform_filter1d
 from scipy.signal import find_peaks, peak_prominences
 
 from stimuli import jung2015
@@ -693,8 +693,9 @@ SHOULDER_FRACTION: float = 0.5
 SMOOTH_SHIFT_PX: float = 0.25
 
 #: The scan's views are binned until their short side is about this many pixels, but never by
-#: more than the largest view offset (so disparities keep a quarter-pixel precision; ours).
-SCAN_SHORT_SIDE_PX: int = 160
+#: more than the largest view offset (2 for a 3x3 grid), so that a quarter of a binned pixel of
+#: the outermost view is at most a quarter pixel per view step (half on 3x3 grids; ours).
+SCAN_SHORT_SIDE_PX: int = 100
 
 #: The coarse range-finding sweep works on views about this small (short side, pixels; ours).
 COARSE_SHORT_SIDE_PX: int = 64
@@ -703,7 +704,7 @@ COARSE_SHORT_SIDE_PX: int = 64
 def scan_binning(lightfield: LightField) -> int:
     """Return the view binning of the agreement scan (:data:`SCAN_SHORT_SIDE_PX`)."""
     m = _max_offset(lightfield)
-    return int(max(1, min(2 * m, min(lightfield.shape_px) // SCAN_SHORT_SIDE_PX)))
+    return int(max(1, min(max(m, 2), min(lightfield.shape_px) // SCAN_SHORT_SIDE_PX)))
 
 
 def _max_offset(lf: LightField) -> int:
@@ -757,24 +758,21 @@ def _sweep(
             np.subtract(p[:, :-1], p[:, 1:], out=g[:, 1:])
         prepared.append((p, g, axis, du or dv))
 
+    n_views = len(prepared)
+
     def run(idx: np.ndarray):
-        best = np.full((rows, cols), np.inf, np.float32)
-        best_i = np.zeros((rows, cols), np.int32)
-        total = np.zeros((rows, cols), np.float32)
-        nbest = np.full((rows, cols), np.inf, np.float32)
-        nbest_i = np.zeros((rows, cols), np.int32)
-        ntotal = np.zeros((rows, cols), np.float32)
-        cost = np.empty((rows, cols), np.float32)
-        ncost = np.empty_like(cost)
+        # Index 0 of the stacked buffers is the scan against the centre view, 1 the null.
+        best = np.full((2, rows, cols), np.inf, np.float32)
+        best_i = np.zeros((2, rows, cols), np.int32)
+        total = np.zeros((2, rows, cols), np.float32)
+        shifted = np.empty((n_views, rows, cols), np.float32)
+        diff = np.empty_like(shifted)
+        cost = np.empty((2, rows, cols), np.float32)
         agg = np.empty_like(cost)
-        sh = np.empty_like(cost)
-        tmp = np.empty_like(cost)
-        mask = np.empty((rows, cols), bool)
+        mask = np.empty((2, rows, cols), bool)
         for k in idx:
             d = float(ds[k])
-            cost.fill(0.0)
-            ncost.fill(0.0)
-            for p, g, axis, off in prepared:
+            for j, (p, g, axis, off) in enumerate(prepared):
                 s = d * off  # sample the view at x - s
                 n = math.floor(s)
                 f = np.float32(s - n)
@@ -782,21 +780,19 @@ def _sweep(
                     win = np.s_[pad - n : pad - n + rows, pad : pad + cols]
                 else:
                     win = np.s_[pad : pad + rows, pad - n : pad - n + cols]
-                np.multiply(g[win], f, out=sh)
-                np.add(sh, p[win], out=sh)
-                np.subtract(sh, centre, out=tmp)
-                np.abs(tmp, out=tmp)
-                cost += tmp
-                np.subtract(sh, null_centre, out=tmp)
-                np.abs(tmp, out=tmp)
-                ncost += tmp
-            for c, b, bi, tot in ((cost, best, best_i, total), (ncost, nbest, nbest_i, ntotal)):
-                uniform_filter(c, COST_WINDOW_PX, output=agg, mode="nearest")
-                tot += agg
-                np.less(agg, b, out=mask)
-                np.copyto(b, agg, where=mask)
-                np.copyto(bi, np.int32(k), where=mask)
-        return best, best_i, total, nbest, nbest_i, ntotal
+                np.multiply(g[win], f, out=shifted[j])
+                np.add(shifted[j], p[win], out=shifted[j])
+            for r, ref in enumerate((centre, null_centre)):
+                np.subtract(shifted, ref, out=diff)
+                np.abs(diff, out=diff)
+                np.sum(diff, axis=0, out=cost[r])
+            uniform_filter1d(cost, COST_WINDOW_PX, axis=1, output=agg, mode="nearest")
+            uniform_filter1d(agg, COST_WINDOW_PX, axis=2, output=cost, mode="nearest")
+            total += cost
+            np.less(cost, best, out=mask)
+            np.copyto(best, cost, where=mask)
+            np.copyto(best_i, np.int32(k), where=mask)
+        return best, best_i, total
 
     n_threads = max(1, min(workers, len(ds)))
     parts = np.array_split(np.arange(len(ds)), n_threads)
@@ -806,13 +802,13 @@ def _sweep(
         with ThreadPoolExecutor(n_threads) as ex:
             results = list(ex.map(run, parts))
     out = []
-    for j in (0, 3):
-        best, best_i, total = (np.array(results[0][j + q]) for q in range(3))
+    for j in (0, 1):
+        best, best_i, total = (np.array(results[0][q][j]) for q in range(3))
         for r in results[1:]:
-            better = r[j] < best
-            best[better] = r[j][better]
-            best_i[better] = r[j + 1][better]
-            total += r[j + 2]
+            better = r[0][j] < best
+            best[better] = r[0][j][better]
+            best_i[better] = r[1][j][better]
+            total += r[2][j]
         mean = total / np.float32(len(ds))
         agrees = (best < np.float32(AGREEMENT_RATIO) * mean) & (
             mean > np.float32(MIN_CONTRAST * len(offsets))
@@ -829,12 +825,24 @@ def _sweep(
     return out[0], out[1], out[2], out[3]
 
 
+def _bin_view(view: np.ndarray, b: int) -> np.ndarray:
+    if b == 1:
+        return np.ascontiguousarray(view, dtype=np.float32)
+    r, c = view.shape[0] // b, view.shape[1] // b
+    v = view[: r * b, : c * b].reshape(r, b, c * b).sum(axis=1, dtype=np.float32)
+    v = v.reshape(r, c, b).sum(axis=2, dtype=np.float32)
+    return v * np.float32(1.0 / (b * b))
+
+
 def _scan_inputs(lf: LightField, binning: int):
-    small = lf.gray().binned(binning)
-    offsets = _cross_offsets(small)
-    cu, cv = small.centre_index
-    views = [small.views[cu + du, cv + dv] for du, dv in offsets]
-    centre = small.views[cu, cv]
+    """The views the agreement scan uses (only those are converted and binned)."""
+    if lf.views.ndim == 5:
+        lf = lf.gray()
+    offsets = _cross_offsets(lf)
+    cu, cv = lf.centre_index
+    views = [_bin_view(lf.views[cu + du, cv + dv], binning) for du, dv in offsets]
+    centre = _bin_view(lf.views[cu, cv], binning)
+    small = lf  # grid and offsets are unchanged by binning pixels
     # Non-coincident reference: the centre view shifted (circularly) by half its size plus a
     # pixel has the same grey levels and texture statistics but no scene point where the views
     # put it, at any plane. (Turning it by 180 degrees is not enough: a periodic texture turned
@@ -884,7 +892,7 @@ def estimate_disparity_range(
     b = max(1, min(lf.shape_px) // COARSE_SHORT_SIDE_PX)
     small, views, offsets, centre, null_centre = _scan_inputs(lf, b)
     step = 0.5 / m  # binned px per view step
-    dmax = min(small.shape_px) / (2.0 * m)
+    dmax = min(centre.shape) / (2.0 * m)
     ds = np.arange(-dmax, dmax + step / 2, step)
     best_i, agrees, _, _ = _sweep(
         views, offsets, centre, null_centre, ds, workers or default_workers()
