@@ -229,7 +229,7 @@ class Plane:
         plane's hill of the support curve (NaN for the paper's Haar scan).
     evidence : float
         Agreement scan: the peak's prominence divided by the largest prominence the same scan
-        gives on non-coincident data (the centre view shifted by half its size); NaN for Haar.
+        gives on non-coincident data (the centre view mirrored and shifted); NaN for Haar.
     """
 
     disparity_px: float
@@ -743,49 +743,76 @@ def _sweep(
 
     Returns ``(best_index, agrees, null_best_index, null_agrees)``; the null uses
     ``null_centre`` as the reference.
+
+    How it is fast: every view is shifted along one axis only (centre row and column), so each
+    view is stored padded along that axis and *transposed* when it shifts along columns; a shift
+    by ``n + f`` pixels is then a contiguous block copy plus one BLAS ``saxpy`` of the
+    precomputed pixel differences (linear interpolation ``I(x - n) + f (I(x - n - 1) - I(x - n))``).
+    Column-shifted views are compared with the transposed centre view, and their cost is
+    transposed once per plane.
     """
+    from stimuli.refocus import _one_blas_thread, _saxpy
+
     rows, cols = centre.shape
     m = max(max(abs(a), abs(b)) for a, b in offsets)
     pad = int(math.ceil(float(np.abs(ds).max()) * m)) + 2
-    prepared = []
+    groups: dict[int, list] = {0: [], 1: []}
     for img, (du, dv) in zip(views, offsets, strict=True):
-        p = np.pad(img, pad, mode="edge")
         axis = 0 if du else 1
+        a = np.ascontiguousarray(img if axis == 0 else img.T, dtype=np.float32)
+        p = np.pad(a, ((pad, pad), (0, 0)), mode="edge")
         g = np.zeros_like(p)  # g[j] = p[j - 1] - p[j]: the linear-interpolation increment
-        if axis == 0:
-            np.subtract(p[:-1], p[1:], out=g[1:])
-        else:
-            np.subtract(p[:, :-1], p[:, 1:], out=g[:, 1:])
-        prepared.append((p, g, axis, du or dv))
-
-    n_views = len(prepared)
+        np.subtract(p[:-1], p[1:], out=g[1:])
+        groups[axis].append((p, g.reshape(-1), du or dv))
+    refs = {
+        0: (centre, null_centre),
+        1: (np.ascontiguousarray(centre.T), np.ascontiguousarray(null_centre.T)),
+    }
 
     def run(idx: np.ndarray):
         # Index 0 of the stacked buffers is the scan against the centre view, 1 the null.
         best = np.full((2, rows, cols), np.inf, np.float32)
         best_i = np.zeros((2, rows, cols), np.int32)
         total = np.zeros((2, rows, cols), np.float32)
-        shifted = np.empty((n_views, rows, cols), np.float32)
-        diff = np.empty_like(shifted)
         cost = np.empty((2, rows, cols), np.float32)
         agg = np.empty_like(cost)
         mask = np.empty((2, rows, cols), bool)
+        bufs = {}
+        for axis, items in groups.items():
+            if items:
+                shape = (len(items), rows, cols) if axis == 0 else (len(items), cols, rows)
+                bufs[axis] = (
+                    np.empty(shape, np.float32),
+                    np.empty(shape, np.float32),
+                    np.empty(shape[1:], np.float32),
+                )
         for k in idx:
             d = float(ds[k])
-            for j, (p, g, axis, off) in enumerate(prepared):
-                s = d * off  # sample the view at x - s
-                n = math.floor(s)
-                f = np.float32(s - n)
-                if axis == 0:
-                    win = np.s_[pad - n : pad - n + rows, pad : pad + cols]
-                else:
-                    win = np.s_[pad : pad + rows, pad - n : pad - n + cols]
-                np.multiply(g[win], f, out=shifted[j])
-                np.add(shifted[j], p[win], out=shifted[j])
-            for r, ref in enumerate((centre, null_centre)):
-                np.subtract(shifted, ref, out=diff)
-                np.abs(diff, out=diff)
-                np.sum(diff, axis=0, out=cost[r])
+            first = True
+            for axis, items in groups.items():
+                if not items:
+                    continue
+                shifted, diff, part = bufs[axis]
+                length = shifted.shape[1]
+                size = shifted.shape[1] * shifted.shape[2]
+                width = shifted.shape[2]
+                for j, (p, gflat, off) in enumerate(items):
+                    s = d * off  # sample the view at x - s
+                    n = math.floor(s)
+                    f = float(s - n)
+                    np.copyto(shifted[j], p[pad - n : pad - n + length])
+                    if f > 0.0:
+                        _saxpy(gflat, shifted[j].reshape(-1), n=size, a=f, offx=(pad - n) * width)
+                for r in (0, 1):
+                    np.subtract(shifted, refs[axis][r], out=diff)
+                    np.abs(diff, out=diff)
+                    np.sum(diff, axis=0, out=part)
+                    view = part if axis == 0 else part.T
+                    if first:
+                        np.copyto(cost[r], view)
+                    else:
+                        cost[r] += view
+                first = False
             uniform_filter1d(cost, COST_WINDOW_PX, axis=1, output=agg, mode="nearest")
             uniform_filter1d(agg, COST_WINDOW_PX, axis=2, output=cost, mode="nearest")
             total += cost
@@ -796,11 +823,12 @@ def _sweep(
 
     n_threads = max(1, min(workers, len(ds)))
     parts = np.array_split(np.arange(len(ds)), n_threads)
-    if n_threads == 1:
-        results = [run(parts[0])]
-    else:
-        with ThreadPoolExecutor(n_threads) as ex:
-            results = list(ex.map(run, parts))
+    with _one_blas_thread():
+        if n_threads == 1:
+            results = [run(parts[0])]
+        else:
+            with ThreadPoolExecutor(n_threads) as ex:
+                results = list(ex.map(run, parts))
     out = []
     for j in (0, 1):
         best, best_i, total = (np.array(results[0][q][j]) for q in range(3))
@@ -843,12 +871,15 @@ def _scan_inputs(lf: LightField, binning: int):
     views = [_bin_view(lf.views[cu + du, cv + dv], binning) for du, dv in offsets]
     centre = _bin_view(lf.views[cu, cv], binning)
     small = lf  # grid and offsets are unchanged by binning pixels
-    # Non-coincident reference: the centre view shifted (circularly) by half its size plus a
-    # pixel has the same grey levels and texture statistics but no scene point where the views
-    # put it, at any plane. (Turning it by 180 degrees is not enough: a periodic texture turned
-    # is the same texture, and views shuffled still agree at disparity 0.)
+    # Non-coincident reference: the centre view mirrored left-right and shifted (circularly) by
+    # half its size plus a pixel has the same grey levels and texture statistics but no scene
+    # point where the views put it, at any plane. (Turning it by 180 degrees is not enough: a
+    # periodic texture turned is the same texture; views shuffled still agree at disparity 0;
+    # mirroring changes the orientation of oblique periodic texture.)
     rows, cols = centre.shape
-    null_centre = np.ascontiguousarray(np.roll(centre, (rows // 2 + 1, cols // 2 + 1), (0, 1)))
+    null_centre = np.ascontiguousarray(
+        np.roll(centre[:, ::-1], (rows // 2 + 1, cols // 2 + 1), (0, 1))
+    )
     return small, views, offsets, centre, null_centre
 
 
