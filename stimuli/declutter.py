@@ -47,6 +47,8 @@ __all__ = [
     "VOTE_WINDOW_PX",
     "in_focus_mask",
     "declutter_depth",
+    "bokeh_guard",
+    "BOKEH_GUARD_RADIUS_PX",
 ]
 
 #: Automatic threshold methods, by name (ours, not the paper's: the paper set it by hand).
@@ -285,3 +287,43 @@ def declutter_depth(
     agree = uniform_filter(e * m, VOTE_WINDOW_PX, mode="constant")
     total = uniform_filter(e, VOTE_WINDOW_PX, mode="constant")
     return edges & (agree >= 0.5 * total)
+
+
+#: Bokeh-rim guard: a narrow-DOF edge is kept only with a wide-DOF edge within this many pixels
+#: (ours: the two photos of a pair may be misaligned by a pixel or two, EBB! pairs more).
+BOKEH_GUARD_RADIUS_PX: int = 3
+
+
+def bokeh_guard(
+    narrow_edges: np.ndarray, wide_edges: np.ndarray, *, radius_px: int = BOKEH_GUARD_RADIUS_PX
+) -> np.ndarray:
+    """Drop narrow-DOF edges that the wide-DOF photo does not have at the same place.
+
+    A sharp-rimmed bokeh disc (an out-of-focus highlight in the narrow-DOF photo) has strong
+    edges where the wide-DOF photo shows a small point or nothing; a real in-focus edge is sharp
+    in both photos. Ours, beyond the paper; optional.
+
+    Parameters
+    ----------
+    narrow_edges, wide_edges : ndarray of shape (rows, cols), bool
+        Edge images of the narrow- and wide-DOF photos (same threshold).
+    radius_px : int >= 0
+        How far a wide-DOF edge may be from the narrow-DOF edge it confirms, pixels.
+
+    Returns
+    -------
+    ndarray of shape (rows, cols), bool
+        ``narrow_edges`` without the unconfirmed edges.
+    """
+    from scipy.ndimage import maximum_filter
+
+    n, w = np.asarray(narrow_edges), np.asarray(wide_edges)
+    if n.dtype != bool or w.dtype != bool or n.shape != w.shape or n.ndim != 2:
+        raise InputError(
+            f"narrow_edges and wide_edges must be bool images of one shape, got {n.dtype} "
+            f"{n.shape} and {w.dtype} {w.shape}"
+        )
+    if isinstance(radius_px, bool) or not isinstance(radius_px, int) or radius_px < 0:
+        raise InputError(f"radius_px must be an integer >= 0, got {radius_px!r}")
+    near = maximum_filter(w, size=2 * radius_px + 1, mode="constant") if radius_px else w
+    return n & near

@@ -1039,6 +1039,9 @@ class ConfocalPlane:
         The plane's depth, metres (None without geometry).
     chosen_by : {'depth_m', 'disparity_px', 'nearest detected plane'}
         How the plane was chosen (provenance).
+    focus_mask : ndarray of shape (rows, cols), bool, or None
+        Where the light field is in focus at the plane (:func:`stimuli.declutter.in_focus_mask`),
+        when asked for.
     """
 
     centre_view: np.ndarray
@@ -1046,6 +1049,7 @@ class ConfocalPlane:
     disparity_px: float
     depth_m: float | None
     chosen_by: str
+    focus_mask: np.ndarray | None = None
 
     def describe(self) -> str:
         """One-line provenance: ``disparity=...px,depth=...m,<chosen_by>``."""
@@ -1058,6 +1062,7 @@ def confocal_plane(
     *,
     depth_m: float | None = None,
     disparity_px: float | None = None,
+    focus_mask: bool = False,
 ) -> ConfocalPlane:
     """Return a light field's centre view and its confocal image at one plane, with the plane.
 
@@ -1076,6 +1081,8 @@ def confocal_plane(
         Depth of the plane, metres.
     disparity_px : float, optional
         Disparity of the plane, pixels per view step.
+    focus_mask : bool
+        Also return where the light field is in focus at the plane (depth de-cluttering).
 
     Returns
     -------
@@ -1106,7 +1113,12 @@ def confocal_plane(
             raise InputError(f"{lf.source}: no object plane found in the depth scan")
         d, how = scan.peaks[0].disparity_px, "nearest detected plane"  # peaks: nearest first
     confocal = np.clip(refocus(lf, d), 0.0, 1.0).astype(np.float32)
-    return ConfocalPlane(lf.centre_view(), confocal, float(d), lf.depth_m(d), how)
+    mask = None
+    if focus_mask:
+        from stimuli.declutter import in_focus_mask
+
+        mask = in_focus_mask(lf, d)
+    return ConfocalPlane(lf.centre_view(), confocal, float(d), lf.depth_m(d), how, mask)
 
 
 def confocal_pair(
