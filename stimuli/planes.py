@@ -225,8 +225,8 @@ class Plane:
     index : int
         Position in the scan.
     support : float
-        Agreement scan: fraction of the (binned) view's pixels whose views agree best on this
-        plane's hill of the support curve (NaN for the paper's Haar scan).
+        Agreement scan: fraction of the (binned) view's pixels whose views agree best within two
+        smoothing widths of this plane, above the base of its peak (NaN for the Haar scan).
     evidence : float
         Agreement scan: the peak's prominence divided by the largest prominence the same scan
         gives on non-coincident data (the centre view mirrored and shifted); NaN for Haar.
@@ -976,15 +976,19 @@ def _agreement_scan(
     for (a, _), (b, _) in itertools.pairwise(keep):
         bounds.append(a + int(np.argmin(s[a : b + 1])))
     bounds.append(len(ds))
-    # A hill's support is the smoothed support above its base (the peak's height minus its
-    # prominence), so a long flat tail under a small wiggle does not count.
+    # A plane's support is the smoothed support above its base (the peak's height minus its
+    # prominence) within two smoothing widths of the peak: a plane is sharp in disparity, while
+    # a long flat tail under a small wiggle, or the broad smear of pixels at occlusion
+    # boundaries (which match between two depths), holds little there.
     depths = None
     if lf.geometry is not None:
         depths = np.array([lf.geometry.depth_m(d) for d in ds])
     peaks = []
     for k, (i, p) in enumerate(keep):
         base = s[i] - p
-        support = float(np.clip(s[bounds[k] : bounds[k + 1]] - base, 0.0, None).sum())
+        w = int(math.ceil(2 * sigma))
+        lo, hi = max(bounds[k], i - w), min(bounds[k + 1], i + w + 1)
+        support = float(np.clip(s[lo:hi] - base, 0.0, None).sum())
         if support < MIN_SUPPORT:
             continue
         d = float(ds[i])
