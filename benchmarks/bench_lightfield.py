@@ -92,7 +92,6 @@ def main(argv=None):
     dst = np.empty_like(views)
     np.copyto(dst, views)
     floor_s, _ = _best(lambda: np.copyto(dst, views), args.repeat)
-    del dst
     int_s, _ = _best(lambda: integer_shift_and_add(views, d), args.repeat)
 
     def pipeline():
@@ -112,32 +111,46 @@ def main(argv=None):
     sweep_s, _ = _best(lambda: find_object_planes(lf, ds), args.repeat)
 
     rows = [
-        ("memory floor (np.copyto of the light field)", floor_s, lambda: np.copyto(
-            np.empty_like(views), views)),
+        (
+            "memory floor (np.copyto of the light field)",
+            floor_s,
+            lambda: np.copyto(np.empty_like(views), views),
+        ),
         ("numpy integer shift-and-add (one plane)", int_s, lambda: integer_shift_and_add(views, d)),
         ("refocus, sub-pixel (one plane)", ref_s, lambda: refocus(lf, d)),
         ("refocus + Sobel de-clutter + compress", pipe_s, pipeline),
         ("refocus + depth de-clutter + compress", depth_s, pipeline_depth),
-        ("200-plane scan + detection, range from the data", scan_s,
-         lambda: find_object_planes(lf, n_planes=N_PLANES)),
+        (
+            "200-plane scan + detection, range from the data",
+            scan_s,
+            lambda: find_object_planes(lf, n_planes=N_PLANES),
+        ),
         ("200-plane scan + detection, range given", sweep_s, lambda: find_object_planes(lf, ds)),
     ]
-    print(f"light field {GRID[0]}x{GRID[1]}x{SHAPE[0]}x{SHAPE[1]} float32 "
-          f"({views.nbytes / 1e6:.0f} MB), {default_workers()} worker threads, "
-          f"load average {os.getloadavg()[0]:.1f}")
+    print(
+        f"light field {GRID[0]}x{GRID[1]}x{SHAPE[0]}x{SHAPE[1]} float32 "
+        f"({views.nbytes / 1e6:.0f} MB), {default_workers()} worker threads, "
+        f"load average {os.getloadavg()[0]:.1f}"
+    )
     print(f"{'':48s} {'ms':>8s} {'x floor':>8s} {'x int':>8s} {'peak MB':>8s}")
     res = {"light_field_mb": views.nbytes / 1e6, "workers": default_workers(), "rows": {}}
     for name, t, fn in rows:
         peak = _peak_mb(fn)
         print(f"{name:48s} {t * 1e3:8.1f} {t / floor_s:8.2f} {t / int_s:8.2f} {peak:8.1f}")
-        res["rows"][name] = {"ms": t * 1e3, "x_floor": t / floor_s, "x_int": t / int_s,
-                             "peak_mb": peak}
+        res["rows"][name] = {
+            "ms": t * 1e3,
+            "x_floor": t / floor_s,
+            "x_int": t / int_s,
+            "peak_mb": peak,
+        }
     res["pipeline_goal_met"] = pipe_s / floor_s <= PIPELINE_GOAL_X_FLOOR
     res["scan_goal_met"] = scan_s < SCAN_GOAL_S
     res["scan_planes_m"] = [round(p.depth_m, 3) for p in scan.peaks]
-    print(f"pipeline <= {PIPELINE_GOAL_X_FLOOR}x floor: {res['pipeline_goal_met']}; "
-          f"scan < {SCAN_GOAL_S} s: {res['scan_goal_met']}; planes found (m): "
-          f"{res['scan_planes_m']} (truth 1, 4, 9)")
+    print(
+        f"pipeline <= {PIPELINE_GOAL_X_FLOOR}x floor: {res['pipeline_goal_met']}; "
+        f"scan < {SCAN_GOAL_S} s: {res['scan_goal_met']}; planes found (m): "
+        f"{res['scan_planes_m']} (truth 1, 4, 9)"
+    )
     if args.json:
         with open(args.json, "w") as f:
             json.dump(res, f, indent=1)

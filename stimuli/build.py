@@ -813,9 +813,7 @@ def _scale_crop(
 
 def _prepare(src: PairSource, info: ObjectInfo, params: BuildParams) -> _Work:
     crop = info.crop if info.crop is not None else src.crop
-    wide_raw, narrow_raw, wide_full, narrow_full, plane, focus = _load_raw(
-        src, info, params, crop
-    )
+    wide_raw, narrow_raw, wide_full, narrow_full, plane, focus = _load_raw(src, info, params, crop)
     notes: list[str] = []
     name = src.lightfield if src.lightfield is not None else src.wide
     if tuple(wide_full) != tuple(narrow_full):

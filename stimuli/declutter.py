@@ -254,9 +254,7 @@ def in_focus_mask(
     return out
 
 
-def declutter_depth(
-    image: np.ndarray, focus_mask: np.ndarray, *, threshold: float
-) -> np.ndarray:
+def declutter_depth(image: np.ndarray, focus_mask: np.ndarray, *, threshold: float) -> np.ndarray:
     """Return the depth-mode edge image: Sobel edges that the light field says are in focus.
 
     An edge pixel of :func:`declutter` is kept when at least half of the edge pixels in the

@@ -262,7 +262,9 @@ def _check_mode(declutter_mode: str) -> str:
     from stimuli.declutter import DECLUTTER_MODES
 
     if declutter_mode not in DECLUTTER_MODES:
-        raise InputError(f"--declutter must be one of {', '.join(DECLUTTER_MODES)}, got {declutter_mode!r}")
+        raise InputError(
+            f"--declutter must be one of {', '.join(DECLUTTER_MODES)}, got {declutter_mode!r}"
+        )
     return declutter_mode
 
 

@@ -903,10 +903,10 @@ def estimate_disparity_range(
 
     A coarse plane sweep of view agreement (:func:`find_object_planes`, ``method='agreement'``)
     on views binned to about :data:`COARSE_SHORT_SIDE_PX` pixels, over every disparity that
-    moves the outermost view by up to half the image, in steps of half a coarse pixel
-    of the outermost view. The range is the 1-99 % span of the best planes of the pixels whose
-    views agree, widened by one coarse step on each side, and clipped to the geometry's ``near_m``/``far_m``
-    when it has them.
+    moves the outermost view by up to half the image, in steps of half a coarse pixel of the
+    outermost view. The range is the 1-99 % span of the best planes of the pixels whose views
+    agree, widened by one coarse step on each side, and clipped to the geometry's
+    ``near_m``/``far_m`` when it has them.
 
     Returns
     -------
@@ -1030,6 +1030,8 @@ def _agreement_scan(
         "agreement",
         ns,
     )
+
+
 @dataclass(frozen=True)
 class ConfocalPlane:
     """A light field's centre view and its confocal image at one plane, with that plane.

@@ -41,6 +41,7 @@ from concurrent.futures import ThreadPoolExecutor
 import numpy as np
 
 from stimuli.errors import InputError
+from stimuli.lightfield import LightField, _as_lightfield
 
 try:  # BLAS y += a x: one pass instead of numpy's two (scipy is a core dependency)
     from scipy.linalg.blas import saxpy as _saxpy
@@ -65,7 +66,7 @@ def _one_blas_thread():
             _BLAS["ctl"] = None
     ctl = _BLAS["ctl"]
     return contextlib.nullcontext() if ctl is None else ctl.limit(limits=1, user_api="blas")
-from stimuli.lightfield import LightField, _as_lightfield
+
 
 __all__ = ["refocus", "focal_stack", "iter_focal_stack", "centre_view", "default_workers"]
 
@@ -171,9 +172,7 @@ def _refocus_views_flat(
     flat = views.reshape(n_u, n_v, size)
     partial = np.zeros((n_v, rows, cols), dtype=np.float32)
     pflat = partial.reshape(n_v, size)
-    taps = [
-        [(m, w) for m, w in _shift_weights(row_shifts[u]) if abs(m) < rows] for u in range(n_u)
-    ]
+    taps = [[(m, w) for m, w in _shift_weights(row_shifts[u]) if abs(m) < rows] for u in range(n_u)]
 
     def pass_rows(v0: int, v1: int) -> None:
         for v in range(v0, v1):
@@ -182,7 +181,9 @@ def _refocus_views_flat(
                 x = flat[u, v]
                 for m, w in taps[u]:
                     k = abs(m) * cols
-                    z = _saxpy(x, y, n=size - k, a=w, offx=0 if m >= 0 else k, offy=k if m >= 0 else 0)
+                    z = _saxpy(
+                        x, y, n=size - k, a=w, offx=0 if m >= 0 else k, offy=k if m >= 0 else 0
+                    )
                     if z is not y:  # the wrapper copied: should not happen for contiguous float32
                         raise RuntimeError("saxpy did not work in place")
 

@@ -19,8 +19,8 @@ from scipy import ndimage
 from stimuli.build import build_stimulus_set
 from stimuli.errors import InputError
 from stimuli.io import sha256_file
-from stimuli.planes import confocal_pair
 from stimuli.manifest import read_manifest
+from stimuli.planes import confocal_pair
 
 
 def _write_lightfield(path: Path, d_near: float = 3.0, shape=(200, 300), grid=(5, 5)) -> Path:

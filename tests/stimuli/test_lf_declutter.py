@@ -45,7 +45,9 @@ def _compare(lf, d, obj):
 
 
 def _check(name, sobel, depth):
-    print(f"{name}: outside white {sobel[0]:.3f} -> {depth[0]:.3f}; object {sobel[1]} -> {depth[1]}")
+    print(
+        f"{name}: outside white {sobel[0]:.3f} -> {depth[0]:.3f}; object {sobel[1]} -> {depth[1]}"
+    )
     assert sobel[0] > 0.02  # there is clutter to remove (else the test could not fail)
     assert depth[0] <= 0.5 * sobel[0]
     assert depth[1] >= 0.8 * sobel[1]

@@ -32,6 +32,8 @@ the MS views which are already small (binning 1).
 
 from __future__ import annotations
 
+import itertools
+
 import numpy as np
 import pytest
 from scipy.ndimage import zoom
@@ -183,7 +185,7 @@ def _truth_modes(disp: np.ndarray, *, bin_px: float = 0.125, sigma_px: float = 0
     hs = gaussian_filter1d(h.astype(float), sigma_px / bin_px)
     peaks, _ = find_peaks(np.r_[0.0, hs, 0.0])
     peaks -= 1
-    cuts = [0, *(a + int(np.argmin(hs[a:b])) for a, b in zip(peaks[:-1], peaks[1:])), len(hs)]
+    cuts = [0, *(a + int(np.argmin(hs[a:b])) for a, b in itertools.pairwise(peaks)), len(hs)]
     return [
         (float(centres[p]), float(h[cuts[k] : cuts[k + 1]].sum() / h.sum()))
         for k, p in enumerate(peaks)

@@ -41,8 +41,17 @@ def test_pattern_format_widths_issue_12(tmp_path, capsys):
     assert lf.grid == (2, 3)
     np.testing.assert_allclose(lf.gray().views, g / 255.0, atol=1e-6)
     code, out = _code(
-        ["lightfield", "refocus", str(tmp_path), "--pattern", "{row:02d}{col:02d}",
-         "--disparity", "0", "--out", str(tmp_path / "o" / "r.png")],
+        [
+            "lightfield",
+            "refocus",
+            str(tmp_path),
+            "--pattern",
+            "{row:02d}{col:02d}",
+            "--disparity",
+            "0",
+            "--out",
+            str(tmp_path / "o" / "r.png"),
+        ],
         capsys,
     )
     assert code == 0, out.err
@@ -90,8 +99,17 @@ def test_alpha_is_composited_over_the_background_issue_12(tmp_path, capsys):
     np.testing.assert_allclose(lf.views[0, 1, 10, 15], 0.0, atol=1e-6)
     assert lf.meta["alpha_background"] == 0.5
     code, _ = _code(
-        ["lightfield", "refocus", str(tmp_path), "--disparity", "0", "--background", "0.25",
-         "--out", str(tmp_path / "r.png")],
+        [
+            "lightfield",
+            "refocus",
+            str(tmp_path),
+            "--disparity",
+            "0",
+            "--background",
+            "0.25",
+            "--out",
+            str(tmp_path / "r.png"),
+        ],
         capsys,
     )
     assert code == 0
@@ -112,8 +130,17 @@ def test_sixteen_bit_data_scaled_by_its_bit_depth_issue_12(tmp_path, capsys):
     lf16 = load_lightfield(tmp_path, gray=True, bit_depth=16)
     np.testing.assert_allclose(lf16.views, raw / 65535.0, atol=1e-6)
     code, out = _code(
-        ["lightfield", "refocus", str(tmp_path), "--disparity", "0", "--bit-depth", "10",
-         "--out", str(tmp_path / "r.png")],
+        [
+            "lightfield",
+            "refocus",
+            str(tmp_path),
+            "--disparity",
+            "0",
+            "--bit-depth",
+            "10",
+            "--out",
+            str(tmp_path / "r.png"),
+        ],
         capsys,
     )
     assert code == 2 and "view0.png: value 4095 does not fit --bit-depth 10" in out.err
@@ -123,16 +150,38 @@ def test_zoom_box_aspect_refused_with_a_fitting_grid_issue_12(tmp_path, capsys):
     views = _grid(1, 3, 120, 160).astype(np.float32) / 255.0
     np.save(tmp_path / "lf.npy", views)
     code, out = _code(
-        ["lightfield", "refocus", str(tmp_path / "lf.npy"), "--disparity", "0",
-         "--zoom", "10,10,40,100", "--grid", "38x25", "--out", str(tmp_path / "r.png")],
+        [
+            "lightfield",
+            "refocus",
+            str(tmp_path / "lf.npy"),
+            "--disparity",
+            "0",
+            "--zoom",
+            "10,10,40,100",
+            "--grid",
+            "38x25",
+            "--out",
+            str(tmp_path / "r.png"),
+        ],
         capsys,
     )
     assert code == 2
     assert "--zoom box 40x100 px" in out.err and "use --grid 10x25" in out.err
     assert not (tmp_path / "r.png").exists()
     code, out = _code(
-        ["lightfield", "refocus", str(tmp_path / "lf.npy"), "--disparity", "0",
-         "--zoom", "10,10,40,100", "--grid", "10x25", "--out", str(tmp_path / "r.png")],
+        [
+            "lightfield",
+            "refocus",
+            str(tmp_path / "lf.npy"),
+            "--disparity",
+            "0",
+            "--zoom",
+            "10,10,40,100",
+            "--grid",
+            "10x25",
+            "--out",
+            str(tmp_path / "r.png"),
+        ],
         capsys,
     )
     assert code == 0, out.err
@@ -143,8 +192,9 @@ def test_synth_writes_ground_truth_disparity_and_depth_issue_12(tmp_path, capsys
     """Simulated scene: the maps hold the three layers' depths and their disparities."""
     from stimuli.lfsynth import layer_masks, three_plane_scene
 
-    code, out = _code(["lightfield", "synth", "--out", str(tmp_path / "sim.png"),
-                       "--size", "48x40"], capsys)
+    code, out = _code(
+        ["lightfield", "synth", "--out", str(tmp_path / "sim.png"), "--size", "48x40"], capsys
+    )
     assert code == 0, out.err
     depth = read_pfm(tmp_path / "sim_depth.pfm")
     disp = read_pfm(tmp_path / "sim_disparity.pfm")
@@ -155,12 +205,24 @@ def test_synth_writes_ground_truth_disparity_and_depth_issue_12(tmp_path, capsys
         assert m.any()
         np.testing.assert_allclose(depth[m], z)
         np.testing.assert_allclose(disp[m], lf.geometry.disparity_px(z), rtol=1e-6)
-    code, _ = _code(["lightfield", "synth", "--out", str(tmp_path / "s.npz"), "--size", "48x40"],
-                    capsys)
+    code, _ = _code(
+        ["lightfield", "synth", "--out", str(tmp_path / "s.npz"), "--size", "48x40"], capsys
+    )
     with np.load(tmp_path / "s.npz") as z:
         np.testing.assert_array_equal(z["depth_m"], depth)
-    _code(["lightfield", "synth", "--out", str(tmp_path / "f"), "--size", "48x40", "--kind",
-           "camera"], capsys)
+    _code(
+        [
+            "lightfield",
+            "synth",
+            "--out",
+            str(tmp_path / "f"),
+            "--size",
+            "48x40",
+            "--kind",
+            "camera",
+        ],
+        capsys,
+    )
     assert read_pfm(tmp_path / "f" / "depth.pfm").shape == (40, 48)
 
 
@@ -169,12 +231,14 @@ def test_errors_name_the_file_issue_12(tmp_path, capsys):
     for v in range(3):
         Image.fromarray(_grid(1, 1, 20, 30)[0, 0]).save(tmp_path / "v" / f"view{v}.png")
     (tmp_path / "v" / "view1.png").write_bytes(b"not a png")
-    code, out = _code(["lightfield", "scan", str(tmp_path / "v"), "--out", str(tmp_path / "o")],
-                      capsys)
+    code, out = _code(
+        ["lightfield", "scan", str(tmp_path / "v"), "--out", str(tmp_path / "o")], capsys
+    )
     assert code == 2 and "view1.png" in out.err and len(out.err.strip().splitlines()) == 1
     (tmp_path / "bad.npy").write_bytes(b"garbage")
-    code, out = _code(["lightfield", "scan", str(tmp_path / "bad.npy"), "--out",
-                       str(tmp_path / "o")], capsys)
+    code, out = _code(
+        ["lightfield", "scan", str(tmp_path / "bad.npy"), "--out", str(tmp_path / "o")], capsys
+    )
     assert code == 2 and "bad.npy" in out.err
 
 
@@ -194,8 +258,9 @@ def test_ms_elemental_image_opens_from_the_command_line_issue_12(data_dir, tmp_p
         f"pixel_mm = {1 / 41}\n[elemental]\npitch_px = 41\nborder_px = 3\noffset_px = [18, 37]\n"
     )
     out = tmp_path / "scan"
-    code, res = _code(["lightfield", "scan", str(link), "--view-bin", "5", "--out", str(out)],
-                      capsys)
+    code, res = _code(
+        ["lightfield", "scan", str(link), "--view-bin", "5", "--out", str(out)], capsys
+    )
     assert code == 0, res.err
     with open(out / "planes.csv") as f:
         peaks = [r for r in csv.DictReader(f) if r["peak"] == "1"]

@@ -135,6 +135,8 @@ def test_scan_is_the_same_with_threads_and_as_a_generator():
     one = find_object_planes(lf, ds, workers=1, binning=1, method="haar")
     two = find_object_planes(lf, ds, workers=2, binning=1, method="haar")
     np.testing.assert_array_equal(one.scores, two.scores)
+    gen = [s for _, _, s in iter_plane_scores(lf, ds, workers=1, binning=1)]
+    np.testing.assert_array_equal(gen, one.scores)
     one = find_object_planes(lf, ds, workers=1, binning=1)
     two = find_object_planes(lf, ds, workers=2, binning=1)
     np.testing.assert_array_equal(one.scores, two.scores)
@@ -200,8 +202,11 @@ def test_a_single_texture_at_one_depth_is_one_plane_with_evidence_issue_12():
     tex = ndimage.gaussian_filter(rng.random((200, 300)), 1.0).astype(np.float32)
     tex = (tex - tex.min()) / np.ptp(tex)
     views = np.stack(
-        [np.stack([ndimage.shift(tex, (0, -1.5 * (v - 3)), order=1, mode="reflect")]) for v in
-         range(7)], axis=1
+        [
+            np.stack([ndimage.shift(tex, (0, -1.5 * (v - 3)), order=1, mode="reflect")])
+            for v in range(7)
+        ],
+        axis=1,
     )[0][None]
     lf = LightField(np.clip(views, 0, 1).astype(np.float32))
     scan = find_object_planes(lf, np.linspace(-4, 5, 91))
