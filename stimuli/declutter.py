@@ -181,13 +181,23 @@ _FOCUS_STEPS_PER_PX = 4
 VOTE_WINDOW_PX: int = 9
 
 
-def _sample(img: np.ndarray, shift_px: float, axis: int) -> np.ndarray:
-    """``img`` sampled at ``x - shift_px`` along ``axis`` (linear, edges replicated)."""
-    n = int(np.floor(shift_px))
-    f = np.float32(shift_px - n)
-    idx = np.arange(img.shape[axis])
-    a = np.take(img, np.clip(idx - n, 0, img.shape[axis] - 1), axis=axis)
-    b = np.take(img, np.clip(idx - n - 1, 0, img.shape[axis] - 1), axis=axis)
+def _sample(padded: np.ndarray, pad: int, shift_px: float, axis: int, n: int) -> np.ndarray:
+    """An edge-padded image sampled at ``x - shift_px`` along ``axis`` (linear interpolation).
+
+    ``padded`` is the image padded by ``pad`` samples (edge values) along ``axis``; ``n`` is the
+    image's length along it.
+    """
+    k = int(np.floor(shift_px))
+    f = np.float32(shift_px - k)
+    if abs(k) + 1 > pad:
+        raise InputError(f"shift {shift_px:g} px exceeds the padding {pad} px")
+    a0 = pad - k
+    idx_a = [slice(None)] * padded.ndim
+    idx_b = [slice(None)] * padded.ndim
+    idx_a[axis] = slice(a0, a0 + n)
+    idx_b[axis] = slice(a0 - 1, a0 - 1 + n)
+    a = padded[tuple(idx_a)]
+    b = padded[tuple(idx_b)]
     return a + f * (b - a)
 
 
@@ -240,16 +250,25 @@ def in_focus_mask(
     steps = max(1, int(np.ceil(2 * tol * _FOCUS_STEPS_PER_PX)))
     ds = np.linspace(d0 - tol, d0 + tol, steps + 1) if tol > 0 else np.array([d0])
     out = np.zeros(centre.shape, bool)
+    pad = int(np.ceil(np.abs(ds).max())) + 2
     for axis, n, c in ((0, n_u, cu), (1, n_v, cv)):
+        if n < 2:
+            continue
+        widths = [(0, 0), (0, 0)]
+        widths[axis] = (pad, pad)
+        pc = np.pad(centre, widths, mode="edge")
         for side in (-1, 1):
             if not 0 <= c + side < n:
                 continue
             nb = views[cu + side, cv] if axis == 0 else views[cu, cv + side]
-            one_px = _sample(centre, float(side), axis)
+            pn = np.pad(nb, widths, mode="edge")
+            one_px = _sample(pc, pad, float(side), axis, centre.shape[axis])
             texture = uniform_filter(np.abs(one_px - centre), 3, mode="nearest")
             limit = np.float32(FOCUS_AGREEMENT_RATIO) * texture + np.float32(FOCUS_NOISE)
             for d in ds:
-                diff = uniform_filter(np.abs(_sample(nb, d * side, axis) - centre), 3)
+                diff = uniform_filter(
+                    np.abs(_sample(pn, pad, d * side, axis, centre.shape[axis]) - centre), 3
+                )
                 out |= diff < limit
     return out
 
