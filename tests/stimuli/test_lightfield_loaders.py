@@ -269,3 +269,74 @@ def test_ms_elemental_image_opens_from_the_command_line_issue_12(data_dir, tmp_p
     assert abs(float(best["disparity_px"]) - (-0.56 * 5)) <= 0.3
     assert 0.035 <= float(best["depth_m"]) <= 0.080
     assert json.loads((out / "scan.json").read_text())["method"] == "agreement"
+
+
+def test_remaining_loader_and_option_errors_issue_12(tmp_path, capsys):
+    """One line each, naming what was expected."""
+    from stimuli.declutter import bokeh_guard
+    from stimuli.lightfield import LightField
+    from stimuli.planes import find_object_planes
+
+    v = np.random.default_rng(0).random((3, 3, 40, 50)).astype(np.float32)
+    np.save(tmp_path / "lf.npy", v)
+    with pytest.raises(InputError, match="--axes 'hwuvc' names 5 axes, array has 4"):
+        load_lightfield(tmp_path / "lf.npy", axes="hwuvc")
+    np.save(tmp_path / "three.npy", v[0])
+    with pytest.raises(InputError, match="three.npy: a light-field array must be 4-D"):
+        load_lightfield(tmp_path / "three.npy")
+    np.save(tmp_path / "big.npy", v * 2)
+    with pytest.raises(InputError, match=r"big.npy: float light field must be in \[0, 1\]"):
+        load_lightfield(tmp_path / "big.npy")
+    with pytest.raises(InputError, match="background must be a grey level"):
+        load_lightfield(tmp_path / "lf.npy", background=2.0)
+    Image.fromarray(np.zeros((20, 30), np.uint16)).save(tmp_path / "e.png")
+    with pytest.raises(InputError, match="--bit-depth must be an integer in 1..16"):
+        load_lightfield(tmp_path / "e.png", pitch_px=10, bit_depth=20)
+    lf = LightField(v)
+    with pytest.raises(InputError, match="view binning must be an integer"):
+        lf.view_binned(0)
+    with pytest.raises(InputError, match="cannot bin a 3x3 grid of views by 4"):
+        lf.view_binned(4)
+    with pytest.raises(InputError, match="at least two views"):
+        find_object_planes(LightField(v[:1, :1]), [0.0, 0.5, 1.0])
+    with pytest.raises(InputError, match="radius_px must be"):
+        bokeh_guard(np.zeros((4, 4), bool), np.zeros((4, 4), bool), radius_px=-1)
+    for opt, bad, msg in (
+        ("--declutter", "canny", "--declutter must be one of sobel, depth"),
+        ("--method", "sift", "--method must be one of agreement, haar"),
+    ):
+        code, out = _code(
+            [
+                "lightfield",
+                "scan",
+                str(tmp_path / "lf.npy"),
+                "--out",
+                str(tmp_path / "o"),
+                opt,
+                bad,
+            ],
+            capsys,
+        )
+        assert code == 2 and msg in out.err
+
+
+def test_view_binning_scales_disparity_and_geometry_issue_12():
+    """Averaging 2x2 blocks of views: one new view step is two old ones, so a scene at 1 px
+    per view step is at 2 px per new step, and the camera baseline doubles."""
+    from stimuli.lightfield import Geometry, LightField
+    from stimuli.refocus import refocus
+
+    rng = np.random.default_rng(2)
+    tex = rng.random((60, 80)).astype(np.float32)
+    views = np.stack(
+        [np.stack([np.roll(tex, (-(u - 2), -(v - 2)), (0, 1)) for v in range(4)]) for u in range(4)]
+    )
+    g = Geometry(kind="camera_array", focal_length_px=100.0, baseline_m=0.01)
+    lf = LightField(views, g).view_binned(2)
+    assert lf.grid == (2, 2) and lf.geometry.baseline_m == pytest.approx(0.02)
+    assert lf.geometry.disparity_px(10.0) == pytest.approx(2 * g.disparity_px(10.0))
+    np.testing.assert_allclose(lf.views[0, 0], views[:2, :2].mean(axis=(0, 1)), atol=1e-6)
+    inner = np.s_[6:-6, 6:-6]
+    sharp = refocus(lf, 2.0)[inner]
+    blurred = refocus(lf, 0.0)[inner]
+    assert np.std(sharp) > 1.2 * np.std(blurred)
