@@ -697,7 +697,8 @@ SMOOTH_SHIFT_PX: float = 0.25
 #: the outermost view is at most a quarter pixel per view step (half on 3x3 grids; ours).
 SCAN_SHORT_SIDE_PX: int = 100
 
-#: The coarse range-finding sweep works on views about this small (short side, pixels; ours).
+#: The coarse range-finding sweep works on views about this small (short side, pixels; ours),
+#: binned by at most four times the largest view offset (a 3x3 grid keeps 2 px steps).
 COARSE_SHORT_SIDE_PX: int = 64
 
 
@@ -920,7 +921,7 @@ def estimate_disparity_range(
     """
     lf = _as_lightfield(lightfield).gray()
     m = _max_offset(lf)
-    b = max(1, min(lf.shape_px) // COARSE_SHORT_SIDE_PX)
+    b = max(1, min(min(lf.shape_px) // COARSE_SHORT_SIDE_PX, 4 * m))
     small, views, offsets, centre, null_centre = _scan_inputs(lf, b)
     step = 0.5 / m  # binned px per view step
     dmax = min(centre.shape) / (2.0 * m)
