@@ -25,10 +25,17 @@ Inputs
 * a folder of views named by grid position: ``..._{row}_{col}.png`` (e.g. Lytro/EPINET
   ``2067_05_05.png``), a 1-D row ``view0.png .. viewN.png`` (Middlebury; one row, ``n_u = 1``),
   HCI's ``input_CamNNN.png`` (``NNN = 9 * row + col``), or any name pattern given as a format
-  string with fields ``{row}``, ``{col}`` or ``{index}`` (``index`` needs ``grid_cols``);
-* an ``.npy`` file holding the 4-D (or 5-D) array, or an ``.npz`` with key ``views``;
-* a lens-array elemental image (one picture) with its lenslet pitch in pixels and an optional
-  invalid border per lenslet.
+  string with fields ``{row}``, ``{col}`` or ``{index}`` (``index`` needs ``grid_cols``); a
+  width (``{row:02d}``) matches exactly that many digits and ``*`` matches anything;
+* an ``.npy`` file holding the 4-D (or 5-D) array, or an ``.npz`` with key ``views``; the shape
+  is checked against ``(n_u, n_v, rows, cols[, C])`` (``axes`` reads other orders);
+* a lens-array elemental image (one picture) with its lenslet pitch in pixels, an optional
+  invalid border per lenslet and the offset of the first whole lenslet (partial lenslets at
+  the far edges are dropped); :meth:`LightField.view_binned` averages neighbouring views.
+
+16-bit images are scaled by their bit depth (the smallest that holds the largest value, or
+``bit_depth``), and an alpha channel is composited over ``background``. Every error names the
+file.
 
 An optional TOML file beside the input (``<name>.toml`` or ``lightfield.toml`` in the folder;
 for a folder of views, ``lightfield.toml`` inside it) gives the geometry and loader options::

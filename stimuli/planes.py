@@ -1,6 +1,22 @@
 """Find the depth planes that hold objects (Jung et al. 2015, Sec. 4.2; Aloni & Yitzhaky 2014).
 
-For the centre view and for the confocal image at each scanned plane:
+Two scans (``find_object_planes(..., method=...)``):
+
+* ``'agreement'`` (default; ours, issue 12): where the scene lies is measured, not assumed.
+  :func:`estimate_disparity_range` finds the disparities the scene occupies with a coarse
+  sweep; the fine sweep shifts the views on the centre row and column onto the centre view at
+  each plane and, per pixel, finds the plane where they agree best. The score is the smoothed
+  fraction of pixels per plane (support). The same sweep against a non-coincident reference
+  (the centre view mirrored and shifted) is the null. A plane is reported when its peak holds
+  :data:`MIN_SUPPORT` of the pixels, stands :data:`MIN_EVIDENCE` times above the null's largest
+  peak, and is not a shoulder of a higher hill. Each plane carries its ``support`` and
+  ``evidence``; a pile-up of pixels at either end of the range warns that it is too narrow.
+  On Middlebury Baby1 and Aloe and HCI antinous every ground-truth mode holding >= 5 % of the
+  pixels is found within 0.5 px per view step, with no other plane
+  (``tests/stimuli/test_lf_real.py``).
+* ``'haar'``: the paper's method, below.
+
+The paper's method: for the centre view and for the confocal image at each scanned plane:
 
 1. first-scale Haar wavelet transform (``pywt.dwt2(image, 'haar')``, computed here with the
    identical closed form on 2x2 blocks), three detail sub-bands (horizontal, vertical,
