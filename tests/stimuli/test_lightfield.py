@@ -387,3 +387,21 @@ def test_confocal_pair_with_depth(tmp_path):
     _, by_depth = confocal_pair(tmp_path / "g.npz", depth_m=1.0)
     _, by_disp = confocal_pair(tmp_path / "g.npz", disparity_px=1.0)
     np.testing.assert_array_equal(by_depth, by_disp)
+
+
+def test_the_data_type_imports_no_operation_issue_12():
+    """Issue 12, point 6: ``stimuli/lightfield.py`` (the data type) imports neither the scan nor
+    refocusing, anywhere in the file (no import circle, no methods that import them back)."""
+    import ast
+    from pathlib import Path
+
+    import stimuli.lightfield
+
+    tree = ast.parse(Path(stimuli.lightfield.__file__).read_text())
+    names = set()
+    for node in ast.walk(tree):
+        if isinstance(node, ast.ImportFrom) and node.module:
+            names.add(node.module)
+        elif isinstance(node, ast.Import):
+            names.update(a.name for a in node.names)
+    assert not names & {"stimuli.planes", "stimuli.refocus", "stimuli.declutter"}, names
