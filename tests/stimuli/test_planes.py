@@ -250,3 +250,11 @@ def test_equal_tops_of_one_hill_are_one_plane() -> None:
     two = np.exp(-0.5 * ((x - 0.3) / 0.05) ** 2) + np.exp(-0.5 * ((x - 0.7) / 0.05) ** 2)
     idx, _ = score_peaks(two)
     assert np.allclose(x[idx], [0.3, 0.7], atol=0.01)
+
+
+def test_range_outside_the_geometry_is_refused_issue_12():
+    """A scene the geometry's near/far cannot hold: one line saying the range is empty."""
+    lf = _two_plane_lf(d_near=-1.0, d_far=-1.0, grid=(5, 5), shape=(160, 200))
+    g = Geometry(kind="camera_array", focal_length_px=100.0, baseline_m=0.01, near_m=0.5, far_m=2)
+    with pytest.raises(InputError, match="estimated disparity range is empty"):
+        estimate_disparity_range(LightField(lf.views, g))
