@@ -215,9 +215,7 @@ class ViewerEventLog:
             )
         payload = {} if payload is None else payload
         if not isinstance(payload, dict):
-            raise ViewerEventLogError(
-                f"payload must be a dict, got {type(payload).__name__}"
-            )
+            raise ViewerEventLogError(f"payload must be a dict, got {type(payload).__name__}")
         try:
             text = json.dumps(payload, default=_json_default, sort_keys=True, allow_nan=False)
         except (TypeError, ValueError) as exc:
@@ -247,7 +245,11 @@ class ViewerEventLog:
         rows = self._con.execute(sql + " ORDER BY seq", params).fetchall()
         return [
             ViewerEvent(
-                seq=r[0], t_s=r[1], kind=r[2], payload=json.loads(r[3]), session_id=r[4],
+                seq=r[0],
+                t_s=r[1],
+                kind=r[2],
+                payload=json.loads(r[3]),
+                session_id=r[4],
                 recorded_at=r[5],
             )
             for r in rows

@@ -14,8 +14,11 @@ from experiment.viewer.events import ViewerEventLog, ViewerEventLogError
 
 def test_append_and_read_back_in_order(tmp_path) -> None:
     path = tmp_path / "ev.sqlite"
-    sent = [(0.0, "key", {"key": "page_down"}), (0.5, "drag", {"box": [1, 2, 30, 40]}),
-            (0.75, "state", {"depth_px": np.float32(1.5), "plane": np.int64(2)})]
+    sent = [
+        (0.0, "key", {"key": "page_down"}),
+        (0.5, "drag", {"box": [1, 2, 30, 40]}),
+        (0.75, "state", {"depth_px": np.float32(1.5), "plane": np.int64(2)}),
+    ]
     with ViewerEventLog(path) as log:
         seqs = [log.append(*e) for e in sent]
     assert seqs == [0, 1, 2]
@@ -102,6 +105,7 @@ def test_bad_targets_are_refused(tmp_path) -> None:
     newer = tmp_path / "newer.sqlite"
     ViewerEventLog(newer).close()
     sqlite3.connect(newer, isolation_level=None).execute(
-        "INSERT INTO viewer_events_schema VALUES (99, 'x')")
+        "INSERT INTO viewer_events_schema VALUES (99, 'x')"
+    )
     with pytest.raises(ViewerEventLogError, match="newer"):
         ViewerEventLog(newer)
