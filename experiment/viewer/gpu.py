@@ -194,7 +194,8 @@ uniform ivec4 u_crop;   // x0, y0, w, h
 out float f_out;
 int refl(int i, int n) { return i < 0 ? -i - 1 : (i >= n ? 2 * n - i - 1 : i); }
 float px(int x, int y) {
-    return texelFetch(u_src, ivec2(u_crop.x + refl(x, u_crop.z), u_crop.y + refl(y, u_crop.w)), 0).r;
+    ivec2 at = ivec2(u_crop.x + refl(x, u_crop.z), u_crop.y + refl(y, u_crop.w));
+    return texelFetch(u_src, at, 0).r;
 }
 void main() {
     ivec2 q = ivec2(gl_FragCoord.xy);
