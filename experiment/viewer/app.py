@@ -217,16 +217,17 @@ class Viewer:
         self.track_bright = track_bright
         lf = source.frame(0)
         self.lf = lf
-        ds = default_disparities(lf, n_planes)
+        dmax = lf.max_disparity_px()
+        ds = np.clip(default_disparities(lf, n_planes), -dmax, dmax)
         with _quiet_warnings():
             scan = find_object_planes(lf, ds, binning=auto_binning(lf))
         self.scan = scan
-        lo, hi = float(ds.min()), float(ds.max())
+        lo, hi = max(float(ds.min()), -dmax), min(float(ds.max()), dmax)
         self.model = ViewerModel(
             shape_px=lf.shape_px,
             disparity_range_px=(lo, hi),
             step_px=(hi - lo) / STEPS_PER_RANGE,
-            planes_px=tuple(p.disparity_px for p in scan.peaks),
+            planes_px=tuple(p.disparity_px for p in scan.peaks if lo <= p.disparity_px <= hi),
             implants=tuple(names),
             auto_threshold=0.0,
             n_frames=source.n_frames,
@@ -507,6 +508,7 @@ _NAMED_KEYS = {
 def run_window(
     viewer_factory: Any,
     *,
+    size_px: tuple[int, int] = (720, 1080),
     seconds: float | None = None,
     script: list[dict] | None = None,
     shots_dir: Path | None = None,
@@ -517,6 +519,8 @@ def run_window(
     Parameters
     ----------
     viewer_factory : callable(ctx) -> Viewer
+    size_px : (rows, cols)
+        Window size.
     seconds : float, optional
         Close after this long.
     script : list of events, optional
@@ -531,7 +535,7 @@ def run_window(
         raise ConfocalError(f"cannot open a window (no display?): {exc}") from exc
     try:
         window_cls = moderngl_window.get_local_window_cls("pyglet")
-        rows, cols = 720, 1080
+        rows, cols = size_px
         window = window_cls(
             title="confocal view",
             size=(cols, rows),

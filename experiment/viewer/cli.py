@@ -118,6 +118,15 @@ def view_command(
         raise ConfocalError(f"--log {log}: folder {log.parent} does not exist")
     if screenshot is not None and screenshot.suffix.lower() != ".png":
         raise ConfocalError(f"--screenshot must name a .png file, got {screenshot}")
+    zoom_box = _ints(zoom, 4, "--zoom") if zoom is not None else None
+    marker_xy = _ints(marker, 2, "--marker") if marker is not None else None
+    obstacle_px = None
+    if obstacle is not None:
+        try:
+            far, near = (float(x) for x in obstacle.split(":"))
+        except ValueError:
+            raise ConfocalError(f"--obstacle must be FAR:NEAR, got {obstacle!r}") from None
+        obstacle_px = (max(far, near), min(far, near))
     source = open_source(
         lightfield, pattern=pattern, grid_cols=grid_cols, pitch_px=pitch, border_px=border
     )
@@ -146,21 +155,17 @@ def view_command(
             if not lo <= disparity <= hi:
                 raise ConfocalError(f"--disparity must be in [{lo:.4g}, {hi:.4g}], got {disparity}")
             s = replace(s, disparity_px=disparity, plane=m.plane_of(disparity))
-        if zoom is not None:
-            x, y, w, h = _ints(zoom, 4, "--zoom")
+        if zoom_box is not None:
+            x, y, w, h = zoom_box
             rows, cols = m.shape_px
             if w < 8 or h < 8 or x < 0 or y < 0 or x + w > cols or y + h > rows:
                 raise ConfocalError(f"--zoom {zoom!r} must be at least 8x8 inside {cols}x{rows}")
             s = replace(s, zoom=(x, y, w, h))
         s = replace(s, levels=levels, threshold=t, averaging=average, extension_px=extension)
-        if obstacle is not None:
-            try:
-                far, near = (float(x) for x in obstacle.split(":"))
-            except ValueError:
-                raise ConfocalError(f"--obstacle must be FAR:NEAR, got {obstacle!r}") from None
-            s = replace(s, mode="obstacle", obstacle_px=(max(far, near), min(far, near)))
-        if marker is not None:
-            mx, my = _ints(marker, 2, "--marker")
+        if obstacle_px is not None:
+            s = replace(s, mode="obstacle", obstacle_px=obstacle_px)
+        if marker_xy is not None:
+            mx, my = marker_xy
             s = replace(s, mode="extension", marker=(mx, my))
             d = m.clamp(v.depth().at(mx, my) + extension)
             s = replace(s, disparity_px=d, plane=m.plane_of(d))
@@ -171,7 +176,7 @@ def view_command(
     if screenshot is None:
         from experiment.viewer.app import run_window
 
-        n = run_window(make, seconds=seconds, script=events, shots_dir=shots, video_fps=video_fps)
+        n = run_window(make, size_px=shape, seconds=seconds, script=events, shots_dir=shots, video_fps=video_fps)
         typer.echo(f"{n} frames shown", err=True)
         return
     ctx = None

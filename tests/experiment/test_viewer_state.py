@@ -1,0 +1,265 @@
+"""Viewer state machine, implant layouts, CPU modes and the ``confocal view`` command (issue 14).
+
+All GL-free except the CLI screenshot test, which uses ``--cpu``.
+"""
+
+from __future__ import annotations
+
+import math
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from experiment.viewer.implants import (
+    RETINA_UM_PER_DEG,
+    ImplantError,
+    ImplantLayout,
+    implant_names,
+    load_implant,
+    render_phosphenes,
+)
+from experiment.viewer.reference import DepthMap, depth_map, obstacle_mask, track_point
+from experiment.viewer.state import GREY_LEVELS, ViewerModel, ViewerState, apply_event
+
+MODEL = ViewerModel(
+    shape_px=(100, 150),
+    disparity_range_px=(-5.0, 15.0),
+    step_px=0.2,
+    planes_px=(12.0, 3.0, 1.0),
+    implants=("argus2", "alpha_ims", "brainport"),
+    auto_threshold=0.08,
+)
+
+
+def run(state, *events):
+    for kind, payload in events:
+        state = apply_event(MODEL, state, kind, payload)
+    return state
+
+
+def test_initial_state_is_nearest_plane() -> None:
+    s = MODEL.initial_state()
+    assert (s.disparity_px, s.plane, s.implant) == (12.0, 0, "argus2")
+
+
+def test_plane_keys_walk_the_detected_planes_and_clamp() -> None:
+    s = MODEL.initial_state()
+    s = run(s, ("key", {"key": "page_down"}))
+    assert (s.disparity_px, s.plane) == (3.0, 1)
+    s = run(s, ("key", {"key": "page_down"}), ("key", {"key": "page_down"}))
+    assert (s.disparity_px, s.plane) == (1.0, 2)
+    s = run(s, ("key", {"key": "2"}))
+    assert s.plane == 1
+    assert run(s, ("key", {"key": "9"})) == s  # no ninth plane: unchanged
+    s = run(s, ("key", {"key": "page_up"}), ("key", {"key": "page_up"}))
+    assert s.plane == 0
+
+
+def test_depth_steps_leave_the_plane_and_clamp_to_range() -> None:
+    s = MODEL.initial_state()
+    s = run(s, ("key", {"key": "up"}))
+    assert s.disparity_px == pytest.approx(12.2) and s.plane is None
+    s = run(s, *[("wheel", {"dy": 1})] * 50)
+    assert s.disparity_px == 15.0
+    # off-plane page_down goes to the first plane farther than here
+    s = run(s, ("wheel", {"dy": -40}), ("key", {"key": "page_down"}))
+    assert s.disparity_px == pytest.approx(3.0) and s.plane == 1
+
+
+def test_zoom_box_is_normalised_clipped_and_escape_unzooms() -> None:
+    s = MODEL.initial_state()
+    s = run(s, ("drag", {"box": [140, 90, -40, -30]}))
+    assert s.zoom == (100, 60, 40, 30)
+    s = run(s, ("drag", {"box": [140, 90, 40, 30]}))
+    assert s.zoom == (140, 90, 10, 10)  # clipped to the view
+    assert run(s, ("drag", {"box": [0, 0, 3, 3]})).zoom == s.zoom  # too small: ignored
+    assert run(s, ("key", {"key": "escape"})).zoom is None
+
+
+def test_implant_levels_threshold_keys_cycle() -> None:
+    s = MODEL.initial_state()
+    names = [run(s, *[("key", {"key": "i"})] * k).implant for k in range(4)]
+    assert names == ["argus2", "alpha_ims", "brainport", "argus2"]
+    levels = [run(s, *[("key", {"key": "g"})] * k).levels for k in range(len(GREY_LEVELS) + 1)]
+    assert levels == [*GREY_LEVELS, GREY_LEVELS[0]]
+    t = run(s, ("key", {"key": "]"})).threshold
+    assert t == pytest.approx(0.08 * 1.25)
+    assert run(s, ("key", {"key": "]"}), ("key", {"key": "a"})).threshold is None
+
+
+def test_obstacle_mode_wheel_moves_the_far_edge() -> None:
+    s = MODEL.initial_state()
+    s = run(s, ("key", {"key": "page_down"}), ("key", {"key": "o"}))
+    assert s.mode == "obstacle" and s.obstacle_px == (15.0, 3.0)
+    s = run(s, ("wheel", {"dy": -5}))
+    assert s.obstacle_px == pytest.approx((15.0, 2.0)) and s.disparity_px == 3.0
+    assert run(s, ("key", {"key": "o"})).mode == "free"
+
+
+def test_extension_click_focuses_in_front_of_the_marked_depth() -> None:
+    model = ViewerModel(**{**MODEL.__dict__, "depth_at": lambda x, y: 2.0 + x / 100})
+    s = apply_event(model, model.initial_state(), "key", {"key": "e"})
+    s = apply_event(model, s, "key", {"key": "="})
+    s = apply_event(model, s, "click", {"x": 50, "y": 10})
+    assert s.marker == (50, 10) and s.disparity_px == pytest.approx(2.5 + 0.2)
+    assert apply_event(model, s, "click", {"x": 500, "y": 10}) == s  # outside the view
+
+
+def test_state_round_trips_through_json() -> None:
+    import json
+
+    s = ViewerState(3.0, "argus2", 1, (1, 2, 30, 40), 4, 0.1, "obstacle", (5.0, 2.0), (3, 4))
+    assert ViewerState.from_dict(json.loads(json.dumps(s.to_dict()))) == s
+
+
+# -- implants --------------------------------------------------------------------------------
+
+
+def test_shipped_layouts_follow_their_sources() -> None:
+    assert implant_names() == ["alpha_ims", "argus2", "brainport"]
+    a = load_implant("argus2")
+    assert (a.rows, a.cols, a.pitch_um) == (6, 10, 575.0)  # Humayun et al. 2012
+    assert load_implant("brainport").shape == (20, 20)  # Nau et al. 2013
+    ims = load_implant("alpha_ims")
+    assert ims.n_electrodes == pytest.approx(1500, rel=0.02)  # Stingl et al. 2013 (39x39 grid)
+    for lay in (a, ims):  # field of view = n * pitch at 288 um/deg (closed form)
+        assert lay.fov_width_deg == pytest.approx(lay.cols * lay.pitch_um / RETINA_UM_PER_DEG, 1e-3)
+        assert lay.fov_height_deg == pytest.approx(lay.rows * lay.pitch_um / RETINA_UM_PER_DEG, 1e-3)
+
+
+@pytest.mark.parametrize(
+    ("text", "match"),
+    [
+        ('label = "x"\nkind = "epiretinal"\nrows = 0\ncols = 3\nfov_width_deg = 5\n'
+         "fov_height_deg = 5\n", "field 'rows' must be an integer >= 1"),
+        ('label = "x"\nkind = "ear"\nrows = 2\ncols = 3\nfov_width_deg = 5\nfov_height_deg = 5\n',
+         "field 'kind' must be one of"),
+        ('label = "x"\nkind = "other"\nrows = 2\ncols = 3\nfov_width_deg = 5\n', "'fov_height_deg' is missing"),
+        ('label = "x"\nkind = "other"\nrows = 2\ncols = 3\nfov_width_deg = 5\nfov_height_deg = 5\n'
+         "dropout = 1.0\n", "field 'dropout' must be a number in"),
+        ('label = "x"\nkind = "other"\nrows = 2\ncols = 3\nfov_width_deg = 5\nfov_height_deg = 5\n'
+         "colour = 1\n", "unknown field 'colour'"),
+        ("rows = [", "not valid TOML"),
+    ],
+)
+def test_bad_layout_files_give_one_line_errors(tmp_path, text, match) -> None:
+    f = tmp_path / "mine.toml"
+    f.write_text(text)
+    with pytest.raises(ImplantError, match=match) as exc:
+        load_implant(f)
+    assert str(f) in str(exc.value) and "\n" not in str(exc.value)
+
+
+def test_user_grid_and_unknown_name(tmp_path) -> None:
+    f = tmp_path / "mine.toml"
+    f.write_text('label = "Mine"\nkind = "cortical"\nrows = 4\ncols = 5\nfov_width_deg = 10\n'
+                 'fov_height_deg = 8\ndropout = 0.5\nseed = 3\n')
+    lay = load_implant(f)
+    assert lay.name == "mine" and lay.shape == (4, 5)
+    assert ImplantLayout.from_dict(lay.to_dict()) == lay
+    assert 0 < lay.alive_mask().sum() < 20
+    with pytest.raises(ImplantError, match="unknown implant 'argus9'"):
+        load_implant("argus9")
+
+
+def test_phosphenes_disc_covers_expected_area_and_zero_in_zero_out() -> None:
+    cells = np.zeros((3, 4), bool)
+    assert not render_phosphenes(cells, (60, 80), shape="disc").any()
+    cells[1, 2] = True
+    img = render_phosphenes(cells, (60, 80), shape="disc", size=0.8)
+    # a disc of diameter 0.8 * 20 px: area pi * 8^2 ~ 201 px (pixel-centre sampling, +-10 %)
+    assert img.sum() == pytest.approx(math.pi * 8**2, rel=0.1)
+    ys, xs = np.nonzero(img)
+    assert (ys.mean(), xs.mean()) == pytest.approx((29.5, 49.5), abs=0.01)
+    g = render_phosphenes(cells, (60, 80), shape="gaussian", size=0.5)
+    assert g.max() == pytest.approx(np.exp(-0.5**2 / 2 / (10 / 2.3548) ** 2 * 2), abs=0.02)
+    dead = render_phosphenes(cells, (60, 80), alive=~cells)
+    assert not dead.any()
+
+
+# -- depth by agreement, obstacle, tracking --------------------------------------------------
+
+
+def test_depth_map_recovers_the_planes_of_a_layered_scene() -> None:
+    from stimuli.lfsynth import layer_masks, render_camera_array, three_plane_scene
+
+    shape = (96, 128)
+    layers = three_plane_scene(shape, rng=0)
+    lf = render_camera_array(layers, shape_px=shape, baseline_m=0.03)
+    g = lf.geometry
+    cands = np.linspace(0.5, 14.0, 28)
+    dm = depth_map(lf, cands, binning=1)
+    masks = layer_masks(layers, shape)
+    hits = 0
+    for layer in layers:
+        true_d = g.disparity_px(layer.depth_m)
+        m = masks[layer.name] & dm.valid
+        err = np.abs(dm.disparity_px[m] - true_d)
+        hits += np.median(err) < 1.0
+    assert hits == len(layers)
+    near = obstacle_mask(dm, 14.0, g.disparity_px(2.0))
+    ped = masks[layers[0].name] if layers[0].depth_m < 2 else None
+    if ped is not None:
+        assert (near & ped).sum() > 0.5 * (near.sum())
+
+
+def test_track_point_follows_a_shifted_pattern() -> None:
+    rng = np.random.default_rng(1)
+    a = rng.random((80, 100)).astype(np.float32)
+    b = np.roll(a, (3, -5), (0, 1))
+    assert track_point(a, b, (50, 40)) == (45, 43)
+
+
+def test_depth_at_falls_back_to_the_image_median() -> None:
+    d = np.full((10, 10), 2.0, np.float32)
+    v = np.zeros((10, 10), bool)
+    v[0, 0] = True
+    assert DepthMap(d, v, np.array([2.0]), 1).at(9, 9, radius_px=1) == 2.0
+
+
+# -- command line ----------------------------------------------------------------------------
+
+
+def _confocal(*args):
+    code = "import sys; from experiment.cli import main; main(sys.argv[1:])"
+    return subprocess.run([sys.executable, "-c", code, *args], capture_output=True, text=True,
+                          timeout=300)
+
+
+@pytest.fixture(scope="module")
+def small_lf(tmp_path_factory):
+    out = tmp_path_factory.mktemp("lf") / "scene.npz"
+    r = _confocal("lightfield", "synth", "--kind", "camera", "--size", "128x96", "--out", str(out))
+    assert r.returncode == 0, r.stderr
+    return out
+
+
+@pytest.mark.parametrize(
+    ("args", "match"),
+    [
+        (["--implant", "argus9"], "unknown implant 'argus9'"),
+        (["--size", "10x10"], "--size must be at least"),
+        (["--levels", "3"], "--levels must be one of"),
+        (["--zoom", "1,2,3"], "--zoom must be 4 comma-separated integers"),
+        (["--plane", "99"], "--plane must be in 1.."),
+        (["--obstacle", "near"], "--obstacle must be FAR:NEAR"),
+    ],
+)
+def test_view_bad_options_one_line_exit_2(small_lf, tmp_path, args, match) -> None:
+    r = _confocal("view", str(small_lf), "--cpu", "--screenshot", str(tmp_path / "s.png"), *args)
+    assert r.returncode == 2, r.stderr
+    assert match in r.stderr and "Traceback" not in r.stderr
+    assert len(r.stderr.strip().splitlines()) == 1
+    assert not (tmp_path / "s.png").exists()
+
+
+def test_view_missing_lightfield_and_bad_script(small_lf, tmp_path) -> None:
+    r = _confocal("view", str(tmp_path / "none.npz"), "--cpu", "--screenshot", "x.png")
+    assert r.returncode == 2 and "light field not found" in r.stderr
+    script = tmp_path / "s.jsonl"
+    script.write_text('{"kind": "key", "payload": {"key": "i"}}\nnot json\n')
+    r = _confocal("view", str(small_lf), "--cpu", "--script", str(script), "--screenshot",
+                  str(tmp_path / "s.png"))
+    assert r.returncode == 2 and "s.jsonl:2: not JSON" in r.stderr
