@@ -176,7 +176,14 @@ def view_command(
     if screenshot is None:
         from experiment.viewer.app import run_window
 
-        n = run_window(make, size_px=shape, seconds=seconds, script=events, shots_dir=shots, video_fps=video_fps)
+        n = run_window(
+            make,
+            size_px=shape,
+            seconds=seconds,
+            script=events,
+            shots_dir=shots,
+            video_fps=video_fps,
+        )
         typer.echo(f"{n} frames shown", err=True)
         return
     ctx = None

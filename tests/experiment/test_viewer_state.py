@@ -126,21 +126,37 @@ def test_shipped_layouts_follow_their_sources() -> None:
     assert ims.n_electrodes == pytest.approx(1500, rel=0.02)  # Stingl et al. 2013 (39x39 grid)
     for lay in (a, ims):  # field of view = n * pitch at 288 um/deg (closed form)
         assert lay.fov_width_deg == pytest.approx(lay.cols * lay.pitch_um / RETINA_UM_PER_DEG, 1e-3)
-        assert lay.fov_height_deg == pytest.approx(lay.rows * lay.pitch_um / RETINA_UM_PER_DEG, 1e-3)
+        assert lay.fov_height_deg == pytest.approx(
+            lay.rows * lay.pitch_um / RETINA_UM_PER_DEG, 1e-3
+        )
 
 
 @pytest.mark.parametrize(
     ("text", "match"),
     [
-        ('label = "x"\nkind = "epiretinal"\nrows = 0\ncols = 3\nfov_width_deg = 5\n'
-         "fov_height_deg = 5\n", "field 'rows' must be an integer >= 1"),
-        ('label = "x"\nkind = "ear"\nrows = 2\ncols = 3\nfov_width_deg = 5\nfov_height_deg = 5\n',
-         "field 'kind' must be one of"),
-        ('label = "x"\nkind = "other"\nrows = 2\ncols = 3\nfov_width_deg = 5\n', "'fov_height_deg' is missing"),
-        ('label = "x"\nkind = "other"\nrows = 2\ncols = 3\nfov_width_deg = 5\nfov_height_deg = 5\n'
-         "dropout = 1.0\n", "field 'dropout' must be a number in"),
-        ('label = "x"\nkind = "other"\nrows = 2\ncols = 3\nfov_width_deg = 5\nfov_height_deg = 5\n'
-         "colour = 1\n", "unknown field 'colour'"),
+        (
+            'label = "x"\nkind = "epiretinal"\nrows = 0\ncols = 3\nfov_width_deg = 5\n'
+            "fov_height_deg = 5\n",
+            "field 'rows' must be an integer >= 1",
+        ),
+        (
+            'label = "x"\nkind = "ear"\nrows = 2\ncols = 3\nfov_width_deg = 5\nfov_height_deg = 5\n',
+            "field 'kind' must be one of",
+        ),
+        (
+            'label = "x"\nkind = "other"\nrows = 2\ncols = 3\nfov_width_deg = 5\n',
+            "'fov_height_deg' is missing",
+        ),
+        (
+            'label = "x"\nkind = "other"\nrows = 2\ncols = 3\nfov_width_deg = 5\nfov_height_deg = 5\n'
+            "dropout = 1.0\n",
+            "field 'dropout' must be a number in",
+        ),
+        (
+            'label = "x"\nkind = "other"\nrows = 2\ncols = 3\nfov_width_deg = 5\nfov_height_deg = 5\n'
+            "colour = 1\n",
+            "unknown field 'colour'",
+        ),
         ("rows = [", "not valid TOML"),
     ],
 )
@@ -154,8 +170,10 @@ def test_bad_layout_files_give_one_line_errors(tmp_path, text, match) -> None:
 
 def test_user_grid_and_unknown_name(tmp_path) -> None:
     f = tmp_path / "mine.toml"
-    f.write_text('label = "Mine"\nkind = "cortical"\nrows = 4\ncols = 5\nfov_width_deg = 10\n'
-                 'fov_height_deg = 8\ndropout = 0.5\nseed = 3\n')
+    f.write_text(
+        'label = "Mine"\nkind = "cortical"\nrows = 4\ncols = 5\nfov_width_deg = 10\n'
+        "fov_height_deg = 8\ndropout = 0.5\nseed = 3\n"
+    )
     lay = load_implant(f)
     assert lay.name == "mine" and lay.shape == (4, 5)
     assert ImplantLayout.from_dict(lay.to_dict()) == lay
@@ -174,7 +192,7 @@ def test_phosphenes_disc_covers_expected_area_and_zero_in_zero_out() -> None:
     ys, xs = np.nonzero(img)
     assert (ys.mean(), xs.mean()) == pytest.approx((29.5, 49.5), abs=0.01)
     g = render_phosphenes(cells, (60, 80), shape="gaussian", size=0.5)
-    assert g.max() == pytest.approx(np.exp(-0.5**2 / 2 / (10 / 2.3548) ** 2 * 2), abs=0.02)
+    assert g.max() == pytest.approx(np.exp(-(0.5**2) / 2 / (10 / 2.3548) ** 2 * 2), abs=0.02)
     dead = render_phosphenes(cells, (60, 80), alive=~cells)
     assert not dead.any()
 
@@ -224,8 +242,9 @@ def test_depth_at_falls_back_to_the_image_median() -> None:
 
 def _confocal(*args):
     code = "import sys; from experiment.cli import main; main(sys.argv[1:])"
-    return subprocess.run([sys.executable, "-c", code, *args], capture_output=True, text=True,
-                          timeout=300)
+    return subprocess.run(
+        [sys.executable, "-c", code, *args], capture_output=True, text=True, timeout=300
+    )
 
 
 @pytest.fixture(scope="module")
@@ -260,6 +279,13 @@ def test_view_missing_lightfield_and_bad_script(small_lf, tmp_path) -> None:
     assert r.returncode == 2 and "light field not found" in r.stderr
     script = tmp_path / "s.jsonl"
     script.write_text('{"kind": "key", "payload": {"key": "i"}}\nnot json\n')
-    r = _confocal("view", str(small_lf), "--cpu", "--script", str(script), "--screenshot",
-                  str(tmp_path / "s.png"))
+    r = _confocal(
+        "view",
+        str(small_lf),
+        "--cpu",
+        "--script",
+        str(script),
+        "--screenshot",
+        str(tmp_path / "s.png"),
+    )
     assert r.returncode == 2 and "s.jsonl:2: not JSON" in r.stderr
