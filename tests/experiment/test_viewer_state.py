@@ -140,7 +140,8 @@ def test_shipped_layouts_follow_their_sources() -> None:
             "field 'rows' must be an integer >= 1",
         ),
         (
-            'label = "x"\nkind = "ear"\nrows = 2\ncols = 3\nfov_width_deg = 5\nfov_height_deg = 5\n',
+            'label = "x"\nkind = "ear"\nrows = 2\ncols = 3\nfov_width_deg = 5\n'
+            "fov_height_deg = 5\n",
             "field 'kind' must be one of",
         ),
         (
@@ -148,13 +149,13 @@ def test_shipped_layouts_follow_their_sources() -> None:
             "'fov_height_deg' is missing",
         ),
         (
-            'label = "x"\nkind = "other"\nrows = 2\ncols = 3\nfov_width_deg = 5\nfov_height_deg = 5\n'
-            "dropout = 1.0\n",
+            'label = "x"\nkind = "other"\nrows = 2\ncols = 3\nfov_width_deg = 5\n'
+            "fov_height_deg = 5\ndropout = 1.0\n",
             "field 'dropout' must be a number in",
         ),
         (
-            'label = "x"\nkind = "other"\nrows = 2\ncols = 3\nfov_width_deg = 5\nfov_height_deg = 5\n'
-            "colour = 1\n",
+            'label = "x"\nkind = "other"\nrows = 2\ncols = 3\nfov_width_deg = 5\n'
+            "fov_height_deg = 5\ncolour = 1\n",
             "unknown field 'colour'",
         ),
         ("rows = [", "not valid TOML"),
