@@ -107,7 +107,7 @@ def view_command(
     from stimuli.build import parse_threshold
 
     shape = _size(size)
-    names = list(implant) if implant else implant_names()
+    names = list(implant) if implant else sorted(implant_names(), key=lambda n: n != "argus2")
     for n in names:
         load_implant(n)  # one-line error before anything is opened
     if levels not in GREY_LEVELS:
