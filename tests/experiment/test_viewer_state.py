@@ -290,3 +290,40 @@ def test_view_missing_lightfield_and_bad_script(small_lf, tmp_path) -> None:
         str(tmp_path / "s.png"),
     )
     assert r.returncode == 2 and "s.jsonl:2: not JSON" in r.stderr
+
+
+@pytest.mark.gl
+def test_present_implant_draws_one_phosphene_per_lit_electrode(tmp_path) -> None:
+    """``confocal present --implant argus2``: the edge stimulus compressed to 6x10 (paper's rule)
+    and drawn as separate phosphenes, one blob per lit electrode."""
+    from PIL import Image
+    from scipy.ndimage import label
+
+    from stimuli.compress import compress
+
+    edges = np.zeros((60, 100), bool)
+    edges[10:50:3, 20:70] = True  # a block of dense lines
+    stim = tmp_path / "edges.png"
+    Image.fromarray(edges.astype(np.uint8) * 255).save(stim)
+    shot = tmp_path / "shot.png"
+    r = _confocal(
+        "present", "--stimulus", str(stim), "--implant", "argus2", "--screenshot", str(shot)
+    )
+    if r.returncode != 0 and "OpenGL" in r.stderr:
+        pytest.skip(f"no headless OpenGL context: {r.stderr.strip()}")
+    assert r.returncode == 0, r.stderr
+    assert "stimulus 10x6" in r.stdout
+    lit = int(compress(edges, (6, 10), edge_ratio=1 / 13).sum())
+    frame = np.asarray(Image.open(shot).convert("RGB")).astype(int)
+    white = (frame[..., 0] > 128) & (frame[..., 2] > 128) & (frame[..., 1] > 128)
+    assert 0 < lit == label(white)[1]
+    r = _confocal(
+        "present",
+        "--stimulus",
+        str(stim),
+        "--implant",
+        "argus9",
+        "--screenshot",
+        str(tmp_path / "x.png"),
+    )
+    assert r.returncode == 2 and "unknown implant 'argus9'" in r.stderr
