@@ -516,6 +516,9 @@ def run_window(
 ) -> int:
     """Open a moderngl-window (pyglet) window and run the viewer until closed; return frames.
 
+    A frame is drawn when the state changes (input, script, video); otherwise the loop only
+    dispatches window events.
+
     Parameters
     ----------
     viewer_factory : callable(ctx) -> Viewer
@@ -588,6 +591,7 @@ def run_window(
     t0 = time.perf_counter()
     last_video = t0
     n = shot = 0
+    drawn = None
     try:
         while not window.is_closing:
             now = time.perf_counter()
@@ -600,13 +604,19 @@ def run_window(
                 ev = pending.pop(0)
                 viewer.handle(ev["kind"], ev["payload"])
                 injected = True
-            viewer.render(window.fbo)
-            if injected and shots_dir is not None:
-                shots_dir.mkdir(parents=True, exist_ok=True)
-                _window_shot(window, shots_dir / f"shot_{shot:03d}.png")
-                shot += 1
-            window.swap_buffers()
-            n += 1
+            if viewer.state == drawn and not injected:
+                # nothing changed: no redraw (a software renderer's cores stay free)
+                window._window.dispatch_events()
+                time.sleep(0.005)
+            else:
+                drawn = viewer.state
+                viewer.render(window.fbo)
+                if injected and shots_dir is not None:
+                    shots_dir.mkdir(parents=True, exist_ok=True)
+                    _window_shot(window, shots_dir / f"shot_{shot:03d}.png")
+                    shot += 1
+                window.swap_buffers()
+                n += 1
             if seconds is not None and time.perf_counter() - t0 >= seconds and not pending:
                 break
     finally:

@@ -28,6 +28,7 @@ tolerances. Only this module imports :mod:`moderngl` in the viewer (house style 
 from __future__ import annotations
 
 import math
+from collections import OrderedDict
 from dataclasses import dataclass
 
 import moderngl
@@ -45,6 +46,7 @@ from experiment.viewer.screen import (
 
 __all__ = [
     "MAX_GRID",
+    "CACHE_BYTES",
     "GpuError",
     "GpuResult",
     "GpuPipeline",
@@ -56,6 +58,9 @@ __all__ = [
 
 #: Largest number of views along one grid axis (size of the shaders' uniform arrays).
 MAX_GRID = 32
+
+#: GPU memory for cached confocal images, bytes (ours: 64 MiB, about 80 Lytro-size images).
+CACHE_BYTES = 64 << 20
 
 
 class GpuError(ConfocalError):
@@ -369,12 +374,18 @@ class GpuPipeline:
         self._views.filter = (moderngl.NEAREST, moderngl.NEAREST)
         self._partial = ctx.texture((cols, n_u * rows), 1, dtype="f4")
         self._partial_fbo = ctx.framebuffer([self._partial])
-        self._confocal = ctx.texture((cols, rows), 1, dtype="f4")
-        self._confocal_fbo = ctx.framebuffer([self._confocal])
+        # Confocal images by disparity, least recently used last out: scanning back over
+        # depths already seen costs no refocus (ours: up to CACHE_BYTES of images).
+        self._cache: OrderedDict[float, tuple[moderngl.Texture, moderngl.Framebuffer]] = (
+            OrderedDict()
+        )
+        self._cache_max = max(2, CACHE_BYTES // (4 * rows * cols))
+        self._blank = self._new_confocal()  # the source before any refocus
+        self._confocal = self._blank
         self._inv = ctx.texture((cols, rows), 1, dtype="f4")
         self._upload = ctx.texture((cols, rows), 1, dtype="f4")  # obstacle-masked source
         self._centre = ctx.texture((cols, rows), 1, dtype="f4")
-        for t in (self._partial, self._confocal, self._inv, self._upload, self._centre):
+        for t in (self._partial, self._inv, self._upload, self._centre):
             t.filter = (moderngl.NEAREST, moderngl.NEAREST)
         self._mag: moderngl.Texture | None = None
         self._mag_fbo: moderngl.Framebuffer | None = None
@@ -399,6 +410,19 @@ class GpuPipeline:
         self._views.write(v.reshape(n_u * n_v, rows, cols).tobytes())
         self._centre.write(np.ascontiguousarray(v[n_u // 2, n_v // 2]).tobytes())
         self._disparity = None
+        while self._cache:
+            tex, fbo = self._cache.popitem()[1]
+            fbo.release()
+            tex.release()
+        if self._src is self._confocal:
+            self._src = self._blank
+        self._confocal = self._blank
+
+    def _new_confocal(self) -> moderngl.Texture:
+        rows, cols = self.shape_px
+        t = self.ctx.texture((cols, rows), 1, dtype="f4")
+        t.filter = (moderngl.NEAREST, moderngl.NEAREST)
+        return t
 
     # -- passes --------------------------------------------------------------------------------
 
@@ -414,11 +438,21 @@ class GpuPipeline:
         return m.tobytes(), w.tobytes()
 
     def refocus(self, slope_px_per_view: float) -> None:
-        """Shift-and-add the views at one disparity into the confocal texture."""
+        """Shift-and-add the views at one disparity into a confocal texture (cached by disparity)."""
         d = float(slope_px_per_view)
-        self._src = self._confocal
-        if self._disparity == d:
+        hit = self._cache.get(d)
+        if hit is not None:
+            self._cache.move_to_end(d)
+            self._src = self._confocal = hit[0]
+            self._disparity = d
             return
+        if len(self._cache) >= self._cache_max:
+            tex, fbo = self._cache.popitem(last=False)[1]
+        else:
+            tex = self._new_confocal()
+            fbo = self.ctx.framebuffer([tex])
+        self._cache[d] = (tex, fbo)
+        self._src = self._confocal = tex
         n_u, n_v = self.grid
         rows, cols = self.shape_px
         row_shifts = [d * (u - n_u // 2) for u in range(n_u)]
@@ -446,7 +480,7 @@ class GpuPipeline:
         self._partial.use(0)
         self._inv.use(1)
         p2["u_partial"].value, p2["u_inv"].value = 0, 1
-        self._confocal_fbo.use()
+        fbo.use()
         self._vaos["pass2"].render(moderngl.TRIANGLES, vertices=3)
         self._disparity = d
 
@@ -627,14 +661,17 @@ class GpuPipeline:
         for t in list(self._aux.values()):
             t.release()
         self._aux.clear()
+        for tex, fbo in self._cache.values():
+            fbo.release()
+            tex.release()
+        self._cache.clear()
         for obj in (
             self._views,
             self._partial_fbo,
             self._partial,
-            self._confocal_fbo,
-            self._confocal,
             self._inv,
             self._upload,
+            self._blank,
             self._centre,
             self._mag_fbo,
             self._mag,

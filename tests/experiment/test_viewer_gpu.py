@@ -168,3 +168,22 @@ def test_panes_and_screen_match_cpu(ctx, pipeline, scene, implant, levels) -> No
 def test_grid_too_large_is_refused(ctx) -> None:
     with pytest.raises(GpuError, match="exceeds 32x32"):
         GpuPipeline(ctx, np.zeros((33, 1, 4, 4), np.float32))
+
+
+def test_refocus_cache_serves_revisits_and_is_dropped_with_new_views(ctx, scene) -> None:
+    lf = scene.gray()
+    g = GpuPipeline(ctx, lf.views)
+    try:
+        for d in (1.0, 2.0, 1.0):
+            g.refocus(d)
+            g.sobel(None)
+            np.testing.assert_allclose(g.read_source(), refocus(lf, d), rtol=0, atol=1e-6)
+        assert len(g._cache) == 2
+        other = np.ascontiguousarray(lf.views[:, :, ::-1, :])  # the next "video frame"
+        g.set_views(other)
+        assert not g._cache
+        g.refocus(1.0)
+        g.sobel(None)
+        np.testing.assert_allclose(g.read_source(), refocus(other, 1.0), rtol=0, atol=1e-6)
+    finally:
+        g.release()
