@@ -438,7 +438,7 @@ class GpuPipeline:
         return m.tobytes(), w.tobytes()
 
     def refocus(self, slope_px_per_view: float) -> None:
-        """Shift-and-add the views at one disparity into a confocal texture (cached by disparity)."""
+        """Shift-and-add the views at one disparity into a confocal texture (cached)."""
         d = float(slope_px_per_view)
         hit = self._cache.get(d)
         if hit is not None:

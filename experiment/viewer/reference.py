@@ -18,7 +18,8 @@ Per-pixel depth ("agreement across views", for obstacle avoidance and confocal e
 the disparity at which the views agree best: the smallest variance across the shifted views,
 ``E[I^2] - E[I]^2`` over the views, both terms from shift-and-add refocusing of ``I`` and
 ``I^2``. Pixels whose variance barely changes with disparity (flat, texture-less regions) have
-no reliable depth and are left out (:data:`DEPTH_CONFIDENCE_FRACTION`).
+no reliable depth and are left out (:data:`DEPTH_CONFIDENCE_FRACTION`), as are pixels whose best
+disparity is the first or last candidate (the true one may lie beyond the range).
 """
 
 from __future__ import annotations
@@ -146,13 +147,15 @@ def depth_map(lightfield: LightField, candidates_px: np.ndarray, *, binning: int
     lf = lightfield.gray().binned(binning) if binning > 1 else lightfield.gray()
     sq = LightField(lf.views * lf.views)
     ds = np.asarray(candidates_px, dtype=np.float64)
-    var = np.stack(
-        [np.maximum(refocus(sq, d / binning) - refocus(lf, d / binning) ** 2, 0.0) for d in ds]
-    )
+    dmax = lf.max_disparity_px()  # binning shrinks the views, and so the usable range
+    binned = np.clip(ds / binning, -dmax, dmax)
+    var = np.stack([np.maximum(refocus(sq, d) - refocus(lf, d) ** 2, 0.0) for d in binned])
     best = np.argmin(var, axis=0)
     spread = np.median(var, axis=0) - np.min(var, axis=0)
     ref = float(np.median(spread))
     valid = spread > DEPTH_CONFIDENCE_FRACTION * ref if ref > 0 else np.zeros_like(spread, bool)
+    # a best match at either end of the candidates is not bracketed: the depth may lie beyond
+    valid &= (best > 0) & (best < ds.size - 1)
     rows, cols = lightfield.shape_px
     disp = ds[best].astype(np.float32)
     full = np.repeat(np.repeat(disp, binning, axis=0), binning, axis=1)

@@ -327,3 +327,97 @@ def test_present_implant_draws_one_phosphene_per_lit_electrode(tmp_path) -> None
         str(tmp_path / "x.png"),
     )
     assert r.returncode == 2 and "unknown implant 'argus9'" in r.stderr
+
+
+# -- the Viewer with the CPU renderer: video, temporal averaging, extension, event log ---------
+
+
+@pytest.fixture(scope="module")
+def video_dir(tmp_path_factory):
+    """Three frames of the simulated camera-array scene, the scene moving 4 px right per frame."""
+    from stimuli.lfsynth import render_camera_array, three_plane_scene
+    from stimuli.lightfield import LightField
+
+    out = tmp_path_factory.mktemp("video")
+    shape = (72, 96)
+    lf = render_camera_array(three_plane_scene(shape, rng=2), shape_px=shape, baseline_m=0.03)
+    v = lf.gray().views
+    import json
+
+    geometry = json.dumps(lf.geometry.to_dict())
+    for k in range(3):
+        np.savez(out / f"frame_{k:02d}.npz", views=np.roll(v, 4 * k, axis=3), geometry=geometry)
+    del LightField
+    return out
+
+
+def test_video_folder_plays_frames_tracks_marker_and_averages(video_dir) -> None:
+    from experiment.viewer.app import Viewer, open_source
+    from experiment.viewer.reference import cpu_panes
+
+    src = open_source(video_dir)
+    assert src.n_frames == 3
+    v = Viewer(src, ["brainport"], screen_shape_px=(240, 320), n_planes=30)
+    try:
+        v.handle("click", {"x": 40, "y": 30})
+        v.handle("key", {"key": "v"})
+        singles = [cpu_panes(v.lf, v.state, v.layout).cells]
+        v.render()
+        for k in (1, 2):
+            s = v.handle("key", {"key": "n"})
+            assert s.frame == k and s.marker == (40 + 4 * k, 30)  # followed frame to frame
+            singles.append(cpu_panes(src.frame(k), s, v.layout).cells)
+            v.render()
+        np.testing.assert_allclose(v._history[-1], singles[-1])
+        averaged = np.mean(np.stack(singles), axis=0)
+        np.testing.assert_allclose(np.mean(np.stack(v._history), axis=0), averaged, atol=1e-7)
+        kinds = [e.kind for e in v.log.events()]
+        assert kinds.count("key") == 3 and kinds.count("click") == 1
+    finally:
+        v.close()
+
+
+def test_extension_mode_focuses_in_front_of_the_clicked_object(video_dir) -> None:
+    from experiment.viewer.app import Viewer, open_source
+
+    v = Viewer(
+        open_source(video_dir / "frame_00.npz"), ["argus2"], screen_shape_px=(240, 320), n_planes=30
+    )
+    try:
+        v.handle("key", {"key": "e"})
+        for _ in range(3):
+            v.handle("key", {"key": "="})
+        s = v.handle("click", {"x": 40, "y": 30})
+        want = v.model.clamp(v.depth().at(40, 30) + 3 * v.model.step_px)
+        assert s.mode == "extension" and s.disparity_px == pytest.approx(want)
+        assert "extension" in v.status_text()
+    finally:
+        v.close()
+
+
+def test_obstacle_alert_is_visible_audible_and_logged(video_dir, capfd) -> None:
+    from dataclasses import replace
+
+    from experiment.viewer.app import Viewer, open_source
+    from experiment.viewer.screen import ALERT_RGB
+
+    v = Viewer(
+        open_source(video_dir / "frame_00.npz"), ["argus2"], screen_shape_px=(240, 320), n_planes=30
+    )
+    try:
+        hi = v.model.disparity_range_px[1]
+        v.state = replace(v.state, mode="obstacle", obstacle_px=(hi, hi - 0.01))  # nothing there
+        frame = v.render()
+        assert "ALERT" not in v.status_text()
+        assert not (frame == ALERT_RGB).all(axis=2).any()
+        nearest = v.model.planes_px[0] - 2 * v.model.step_px  # the nearest detected object
+        v.state = replace(v.state, obstacle_px=(hi, nearest))
+        frame = v.render()
+        assert "ALERT" in v.status_text()
+        assert (frame == ALERT_RGB).all(axis=2).sum() > 100  # the red frame
+        assert "\a" in capfd.readouterr().err  # the terminal bell
+        assert [e.kind for e in v.log.events()].count("alert") == 1
+        v.render()
+        assert [e.kind for e in v.log.events()].count("alert") == 1  # once per onset
+    finally:
+        v.close()
