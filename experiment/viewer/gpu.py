@@ -3,11 +3,14 @@
 Same images as the CPU pipeline (:mod:`experiment.viewer.reference`), computed on the GPU
 (or llvmpipe, the floor: no GPU is ever required):
 
-* the views live in one ``R32F`` 2-D texture array (a layer per view);
+* the views live in one ``RGBA32F`` 2-D texture array: a layer per (group of four grid rows
+  ``u``, grid column ``v``), the four rows in the four channels (they share their column
+  shifts, so one fetch serves four views: 1.7x faster on llvmpipe than a layer per view);
 * shift-and-add at a sub-pixel disparity in two passes, as :func:`stimuli.refocus.refocus`:
   first, per grid row ``u``, the views summed over ``v`` with column shifts (linear
   interpolation as two integer-shifted samples, zero outside the view) into a tall
-  ``(n_u rows) x cols`` texture; then those partial images summed over ``u`` with row shifts,
+  ``(n_u / 4 rows) x cols`` RGBA texture; then those partial images summed over ``u`` with row
+  shifts,
   times the inverse of the separable weight ``W(y, x)`` (computed once per disparity in numpy,
   exactly as the CPU does, and uploaded), clipped to [0, 1]. The integer shifts and weights are
   computed in Python with the CPU's rules (a fraction within 1e-6 of a whole pixel snaps to it);
@@ -139,27 +142,27 @@ void main() {
 
 _PASS1 = """
 #version 330
-uniform sampler2DArray u_views;
+uniform sampler2DArray u_views;  // RGBA32F: layer (group, v), channel k = grid row 4 group + k
 uniform int u_rows;
 uniform int u_cols;
 uniform int u_nv;
 uniform ivec2 u_m[32];
 uniform vec2 u_w[32];
-out float f_out;
+out vec4 f_out;
 void main() {
     ivec2 q = ivec2(gl_FragCoord.xy);
-    int u = q.y / u_rows;
-    int y = q.y - u * u_rows;
-    float acc = 0.0;
+    int grp = q.y / u_rows;
+    int y = q.y - grp * u_rows;
+    vec4 acc = vec4(0.0);
     for (int v = 0; v < u_nv; v++) {
-        int layer = u * u_nv + v;
+        int layer = grp * u_nv + v;
         int xs = q.x - u_m[v].x;
         if (xs >= 0 && xs < u_cols)
-            acc += u_w[v].x * texelFetch(u_views, ivec3(xs, y, layer), 0).r;
+            acc += u_w[v].x * texelFetch(u_views, ivec3(xs, y, layer), 0);
         if (u_w[v].y != 0.0) {
             xs = q.x - u_m[v].y;
             if (xs >= 0 && xs < u_cols)
-                acc += u_w[v].y * texelFetch(u_views, ivec3(xs, y, layer), 0).r;
+                acc += u_w[v].y * texelFetch(u_views, ivec3(xs, y, layer), 0);
         }
     }
     f_out = acc;
@@ -168,7 +171,7 @@ void main() {
 
 _PASS2 = """
 #version 330
-uniform sampler2D u_partial;
+uniform sampler2D u_partial;     // RGBA32F, band = group of 4 grid rows
 uniform sampler2D u_inv;
 uniform int u_rows;
 uniform int u_nu;
@@ -179,13 +182,15 @@ void main() {
     ivec2 q = ivec2(gl_FragCoord.xy);
     float acc = 0.0;
     for (int u = 0; u < u_nu; u++) {
+        int grp = u / 4;
+        int k = u - 4 * grp;
         int ys = q.y - u_m[u].x;
         if (ys >= 0 && ys < u_rows)
-            acc += u_w[u].x * texelFetch(u_partial, ivec2(q.x, u * u_rows + ys), 0).r;
+            acc += u_w[u].x * texelFetch(u_partial, ivec2(q.x, grp * u_rows + ys), 0)[k];
         if (u_w[u].y != 0.0) {
             ys = q.y - u_m[u].y;
             if (ys >= 0 && ys < u_rows)
-                acc += u_w[u].y * texelFetch(u_partial, ivec2(q.x, u * u_rows + ys), 0).r;
+                acc += u_w[u].y * texelFetch(u_partial, ivec2(q.x, grp * u_rows + ys), 0)[k];
         }
     }
     f_out = clamp(acc * texelFetch(u_inv, q, 0).r, 0.0, 1.0);
@@ -355,7 +360,7 @@ class GpuPipeline:
         n_u, n_v, rows, cols = views.shape
         if n_u > MAX_GRID or n_v > MAX_GRID:
             raise GpuError(f"light field grid {n_u}x{n_v} exceeds {MAX_GRID}x{MAX_GRID} views")
-        if n_u * n_v > ctx.info["GL_MAX_ARRAY_TEXTURE_LAYERS"]:
+        if (n_u + 3) // 4 * n_v > ctx.info["GL_MAX_ARRAY_TEXTURE_LAYERS"]:
             raise GpuError(f"{n_u * n_v} views exceed the GPU's texture-array layers")
         self.grid = (n_u, n_v)
         self.shape_px = (rows, cols)
@@ -370,9 +375,11 @@ class GpuPipeline:
             )
         }
         self._vaos = {k: ctx.vertex_array(p, []) for k, p in self._progs.items()}
-        self._views = ctx.texture_array((cols, rows, n_u * n_v), 1, dtype="f4")
+        n_g = (n_u + 3) // 4
+        self._n_groups = n_g
+        self._views = ctx.texture_array((cols, rows, n_g * n_v), 4, dtype="f4")
         self._views.filter = (moderngl.NEAREST, moderngl.NEAREST)
-        self._partial = ctx.texture((cols, n_u * rows), 1, dtype="f4")
+        self._partial = ctx.texture((cols, n_g * rows), 4, dtype="f4")
         self._partial_fbo = ctx.framebuffer([self._partial])
         # Confocal images by disparity, least recently used last out: scanning back over
         # depths already seen costs no refocus (ours: up to CACHE_BYTES of images).
@@ -406,8 +413,13 @@ class GpuPipeline:
         n_u, n_v, rows, cols = views.shape
         if (n_u, n_v) != self.grid or (rows, cols) != self.shape_px:
             raise GpuError(f"views {views.shape} differ from the pipeline's {self.grid}")
-        v = np.ascontiguousarray(views, dtype=np.float32)
-        self._views.write(v.reshape(n_u * n_v, rows, cols).tobytes())
+        v = np.asarray(views, dtype=np.float32)
+        n_g = self._n_groups
+        packed = np.zeros((n_g * 4, n_v, rows, cols), np.float32)
+        packed[:n_u] = v
+        # layer (group, v) holds grid rows 4 group .. 4 group + 3 as its RGBA channels
+        packed = packed.reshape(n_g, 4, n_v, rows, cols).transpose(0, 2, 3, 4, 1)
+        self._views.write(np.ascontiguousarray(packed).tobytes())
         self._centre.write(np.ascontiguousarray(v[n_u // 2, n_v // 2]).tobytes())
         self._disparity = None
         while self._cache:
