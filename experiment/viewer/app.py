@@ -240,6 +240,9 @@ class Viewer:
         self._depth: dict[int, DepthMap] = {}
         self._history: deque[np.ndarray] = deque(maxlen=AVERAGING_FRAMES)
         self._hist_key: tuple | None = None
+        self._hist_frame = -1
+        self._memo_key: tuple | None = None
+        self._memo_t = 0.0
         self._alert = False
         self.frame_ms = 0.0
         self.gpu = None
@@ -370,11 +373,18 @@ class Viewer:
         )
 
     def _averaged(self, cells: np.ndarray) -> np.ndarray:
-        key = (self.state.implant, self.state.levels, self.state.zoom)
-        if not self.state.averaging or key != self._hist_key:
+        # An average over the last AVERAGING_FRAMES *video frames*: redrawing the same frame
+        # (a depth step, a key) replaces its entry instead of adding one.
+        s = self.state
+        key = (s.implant, s.levels, s.zoom)
+        if not s.averaging or key != self._hist_key:
             self._history.clear()
             self._hist_key = key
-        self._history.append(cells)
+        if self._history and self._hist_frame == s.frame:
+            self._history[-1] = cells
+        else:
+            self._history.append(cells)
+        self._hist_frame = s.frame
         return np.mean(np.stack(self._history), axis=0).astype(np.float32)
 
     def render(self, fbo: Any = None) -> np.ndarray | None:
@@ -408,15 +418,20 @@ class Viewer:
             g.refocus(s.disparity_px)
         else:
             g.set_source(src)
-        g.sobel(s.zoom)
-        if s.threshold is None:
-            t = _otsu(g.read_magnitude())
-        else:
-            t = float(s.threshold)
         levels = effective_levels(s, lay)
-        g.compress(lay.shape, t, levels, EDGE_RATIO)
-        if s.averaging or self._history:
-            g.write_cells(self._averaged(g.read_cells()))
+        depth_key = s.disparity_px if src is None else ("obstacle", s.obstacle_px)
+        key = (s.frame, depth_key, s.zoom, s.threshold, lay.name, levels, s.averaging)
+        if key != self._memo_key:  # else the edges and electrodes on the GPU are current
+            g.sobel(s.zoom)
+            if s.threshold is None:
+                t = _otsu(g.read_magnitude())
+            else:
+                t = float(s.threshold)
+            g.compress(lay.shape, t, levels, EDGE_RATIO)
+            if s.averaging or self._history:
+                g.write_cells(self._averaged(g.read_cells()))
+            self._memo_key, self._memo_t = key, t
+        t = self._memo_t
         zoom_shape = (s.zoom[3], s.zoom[2]) if s.zoom is not None else self.lf.shape_px
         g.draw(
             fbo,

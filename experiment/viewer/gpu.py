@@ -280,6 +280,7 @@ float phosphene(ivec2 p, ivec2 grid) {
             ivec2 c = c0 + ivec2(dx, dy);
             if (c.x < 0 || c.y < 0 || c.x >= grid.x || c.y >= grid.y) continue;
             float v = texelFetch(u_tex, c, 0).r * texelFetch(u_alive, c, 0).r;
+            if (v == 0.0) continue;  // adds exactly 0: skipping it only saves an exp
             vec2 d = pos - (vec2(c) + 0.5) * pitch;
             float r2 = d.y * d.y + d.x * d.x;
             if (u_phos == 1) total += v * exp(-r2 / (2.0 * sigma * sigma));
