@@ -187,3 +187,18 @@ def test_refocus_cache_serves_revisits_and_is_dropped_with_new_views(ctx, scene)
         np.testing.assert_allclose(g.read_source(), refocus(other, 1.0), rtol=0, atol=1e-6)
     finally:
         g.release()
+
+
+@pytest.mark.parametrize("grid", [(1, 5), (4, 3), (5, 1), (6, 2)])
+def test_refocus_matches_cpu_for_any_grid_shape(ctx, grid) -> None:
+    """One row of views (Middlebury), a grid row count not a multiple of four, one column."""
+    rng = np.random.default_rng(grid[0] * 10 + grid[1])
+    views = rng.random((*grid, 30, 40)).astype(np.float32)
+    g = GpuPipeline(ctx, views)
+    try:
+        for d in (0.0, 1.5, -2.25):
+            g.refocus(d)
+            g.sobel(None)
+            np.testing.assert_allclose(g.read_source(), refocus(views, d), rtol=0, atol=1e-6)
+    finally:
+        g.release()
