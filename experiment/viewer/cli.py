@@ -94,6 +94,13 @@ def view_command(
     ] = None,
     seconds: Annotated[float | None, typer.Option(help="Window: close after this long.")] = None,
     video_fps: Annotated[float, typer.Option(help="Video: frames per second (0: keys).")] = 0.0,
+    p2p: Annotated[
+        str | None,
+        typer.Option(
+            help="With --screenshot: also write NAME_p2p.png, the implant view through "
+            "pulse2percept's scoreboard or axonmap model (the p2p extra)."
+        ),
+    ] = None,
     pattern: Annotated[str | None, typer.Option(help="View file-name pattern.")] = None,
     grid_cols: Annotated[int | None, typer.Option(help="Grid columns for {index}.")] = None,
     pitch: Annotated[int | None, typer.Option(help="Elemental image: lenslet pitch, px.")] = None,
@@ -118,6 +125,13 @@ def view_command(
         raise ConfocalError(f"--log {log}: folder {log.parent} does not exist")
     if screenshot is not None and screenshot.suffix.lower() != ".png":
         raise ConfocalError(f"--screenshot must name a .png file, got {screenshot}")
+    if p2p is not None:
+        from experiment.viewer.p2p import P2P_MODELS
+
+        if screenshot is None:
+            raise ConfocalError("--p2p needs --screenshot (it renders a still)")
+        if p2p not in P2P_MODELS:
+            raise ConfocalError(f"--p2p must be one of {P2P_MODELS}, got {p2p!r}")
     zoom_box = _ints(zoom, 4, "--zoom") if zoom is not None else None
     marker_xy = _ints(marker, 2, "--marker") if marker is not None else None
     obstacle_px = None
@@ -196,12 +210,22 @@ def view_command(
         for ev in events:
             v.handle(ev["kind"], ev["payload"])
         v.screenshot(screenshot)
-        line = v.status_text()
+        line = f"{v.status_text()} -> {screenshot}"
+        if p2p is not None:
+            from experiment.viewer.p2p import p2p_percept
+            from experiment.viewer.reference import cpu_panes
+            from stimuli.io import save_png
+
+            depth = v.depth() if v.state.mode == "obstacle" else None
+            cells = cpu_panes(v.lf, v.state, v.layout, depth=depth).cells
+            percept = p2p_percept(cells * v.layout.alive_mask(), v.layout, model=p2p)
+            out = save_png(percept, screenshot.with_name(screenshot.stem + "_p2p.png"))
+            line += f"; pulse2percept {p2p} -> {out}"
     finally:
         v.close()
         if ctx is not None:
             ctx.release()
-    typer.echo(f"{line} -> {screenshot}")
+    typer.echo(line)
 
 
 def register(app: typer.Typer) -> None:
