@@ -66,7 +66,8 @@ AVERAGING_FRAMES: int = 4
 #: One arrow/wheel step is this fraction of the scanned disparity range (ours: 100 steps).
 STEPS_PER_RANGE: int = 100
 
-#: Candidate disparities of the per-pixel depth map (ours).
+#: Candidate disparities of the per-pixel depth map, spread over the viewer's depth range
+#: (ours: about two per detected-plane width on the shipped light fields).
 DEPTH_CANDIDATES: int = 48
 
 
@@ -271,12 +272,10 @@ class Viewer:
         """Per-pixel depth of the current frame (computed once per frame, on the CPU)."""
         k = self.state.frame
         if k not in self._depth:
-            from stimuli.planes import default_disparities
-
             lf = self.source.frame(k)
             lo, hi = self.model.disparity_range_px
             cands = np.linspace(lo, hi, DEPTH_CANDIDATES)
-            del default_disparities
+            # binning 2 (a quarter of the work) unless the views are small (ours)
             self._depth = {k: depth_map(lf, cands, binning=2 if min(lf.shape_px) >= 64 else 1)}
         return self._depth[k]
 

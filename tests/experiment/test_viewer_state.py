@@ -421,3 +421,24 @@ def test_obstacle_alert_is_visible_audible_and_logged(video_dir, capfd) -> None:
         assert [e.kind for e in v.log.events()].count("alert") == 1  # once per onset
     finally:
         v.close()
+
+
+def test_brightest_point_and_screen_to_view_mapping(video_dir) -> None:
+    from experiment.viewer.app import Viewer, open_source
+    from experiment.viewer.reference import brightest_point
+
+    img = np.zeros((50, 80), np.float32)
+    img[30:33, 60:63] = 1.0
+    img[5, 5] = 1.0  # a single hot pixel is weaker after smoothing than the 3x3 spot
+    assert brightest_point(img) == (61, 31)
+    v = Viewer(
+        open_source(video_dir / "frame_00.npz"), ["argus2"], screen_shape_px=(240, 320), n_planes=30
+    )
+    try:
+        left, top, w, h = v.screen(v.lf.shape_px).images[0]
+        rows, cols = v.lf.shape_px
+        assert v.view_pixel(left, top) == (0, 0)
+        assert v.view_pixel(left + w - 1, top + h - 1) == (cols - 1, rows - 1)
+        assert v.view_pixel(left - 1, top) is None
+    finally:
+        v.close()
