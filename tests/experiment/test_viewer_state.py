@@ -256,6 +256,18 @@ def small_lf(tmp_path_factory):
     return out
 
 
+def _confocal_in_process(capsys, *args) -> tuple[int, str]:
+    """Run the command line in this process (no interpreter start-up); return (status, stderr)."""
+    from experiment.cli import main
+
+    try:
+        main(list(args))
+        code = 0
+    except SystemExit as exc:
+        code = exc.code if isinstance(exc.code, int) else 1
+    return code, capsys.readouterr().err
+
+
 @pytest.mark.parametrize(
     ("args", "match"),
     [
@@ -267,20 +279,26 @@ def small_lf(tmp_path_factory):
         (["--obstacle", "near"], "--obstacle must be FAR:NEAR"),
     ],
 )
-def test_view_bad_options_one_line_exit_2(small_lf, tmp_path, args, match) -> None:
-    r = _confocal("view", str(small_lf), "--cpu", "--screenshot", str(tmp_path / "s.png"), *args)
-    assert r.returncode == 2, r.stderr
-    assert match in r.stderr and "Traceback" not in r.stderr
-    assert len(r.stderr.strip().splitlines()) == 1
-    assert not (tmp_path / "s.png").exists()
+def test_view_bad_options_one_line_exit_2(small_lf, tmp_path, capsys, args, match) -> None:
+    shot = tmp_path / "s.png"
+    code, err = _confocal_in_process(
+        capsys, "view", str(small_lf), "--cpu", "--screenshot", str(shot), *args
+    )
+    assert code == 2, err
+    assert match in err and "Traceback" not in err
+    assert len(err.strip().splitlines()) == 1
+    assert not shot.exists()
 
 
-def test_view_missing_lightfield_and_bad_script(small_lf, tmp_path) -> None:
-    r = _confocal("view", str(tmp_path / "none.npz"), "--cpu", "--screenshot", "x.png")
-    assert r.returncode == 2 and "light field not found" in r.stderr
+def test_view_missing_lightfield_and_bad_script(small_lf, tmp_path, capsys) -> None:
+    code, err = _confocal_in_process(
+        capsys, "view", str(tmp_path / "none.npz"), "--cpu", "--screenshot", "x.png"
+    )
+    assert code == 2 and "light field not found" in err
     script = tmp_path / "s.jsonl"
     script.write_text('{"kind": "key", "payload": {"key": "i"}}\nnot json\n')
-    r = _confocal(
+    code, err = _confocal_in_process(
+        capsys,
         "view",
         str(small_lf),
         "--cpu",
@@ -289,7 +307,7 @@ def test_view_missing_lightfield_and_bad_script(small_lf, tmp_path) -> None:
         "--screenshot",
         str(tmp_path / "s.png"),
     )
-    assert r.returncode == 2 and "s.jsonl:2: not JSON" in r.stderr
+    assert code == 2 and "s.jsonl:2: not JSON" in err
 
 
 @pytest.mark.gl
