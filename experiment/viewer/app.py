@@ -80,10 +80,21 @@ class LightFieldSource:
         Frame inputs in order, or one loaded still.
     loader : dict
         Keyword arguments for :func:`stimuli.lightfield.load_lightfield`.
+    view_crop : (x, y, w, h), optional
+        Crop every view first (:meth:`stimuli.lightfield.LightField.cropped`).
     """
 
-    def __init__(self, frames: list[Path] | LightField, loader: dict | None = None) -> None:
+    def __init__(
+        self,
+        frames: list[Path] | LightField,
+        loader: dict | None = None,
+        *,
+        view_crop: tuple[int, int, int, int] | None = None,
+    ) -> None:
         self._loader = loader or {}
+        self._crop = view_crop
+        if isinstance(frames, LightField) and view_crop is not None:
+            frames = frames.cropped(view_crop)
         if isinstance(frames, LightField):
             self._paths: list[Path] = []
             self._cache = {0: frames.gray()}
@@ -98,6 +109,8 @@ class LightFieldSource:
             from stimuli.lightfield import load_lightfield
 
             lf = load_lightfield(self._paths[k], **self._loader).gray()
+            if self._crop is not None:
+                lf = lf.cropped(self._crop)
             first = self._cache.get(0)
             if first is not None and lf.views.shape != first.views.shape:
                 raise ConfocalError(
@@ -110,7 +123,9 @@ class LightFieldSource:
         return self._cache[k]
 
 
-def open_source(path: Path, **loader: Any) -> LightFieldSource:
+def open_source(
+    path: Path, *, view_crop: tuple[int, int, int, int] | None = None, **loader: Any
+) -> LightFieldSource:
     """Open a light field (any input ``confocal lightfield`` reads) or a folder of frames.
 
     A folder is a *video* when it holds no view images of its own but two or more light-field
@@ -129,10 +144,10 @@ def open_source(path: Path, **loader: Any) -> LightFieldSource:
             p for p in path.iterdir() if p.is_dir() or p.suffix.lower() in (".npy", ".npz")
         )
         if not images and len(frames) >= 2:
-            src = LightFieldSource(frames, loader)
+            src = LightFieldSource(frames, loader, view_crop=view_crop)
             src.frame(0)
             return src
-    return LightFieldSource(load_lightfield(path, **loader))
+    return LightFieldSource(load_lightfield(path, **loader), view_crop=view_crop)
 
 
 def read_script(path: Path) -> list[dict]:

@@ -105,6 +105,12 @@ def view_command(
     grid_cols: Annotated[int | None, typer.Option(help="Grid columns for {index}.")] = None,
     pitch: Annotated[int | None, typer.Option(help="Elemental image: lenslet pitch, px.")] = None,
     border: Annotated[int | None, typer.Option(help="Elemental image: border, px.")] = None,
+    offset: Annotated[
+        str | None, typer.Option(help="Elemental image: ROW,COL pixels before the first lens.")
+    ] = None,
+    view_crop: Annotated[
+        str | None, typer.Option(help="Crop every view to x,y,w,h first (vignetted corners).")
+    ] = None,
 ) -> None:
     """Scan depth, jump to object planes, zoom and see the implant's view, live."""
     from experiment.viewer.app import Viewer, open_source, read_script
@@ -141,8 +147,16 @@ def view_command(
         except ValueError:
             raise ConfocalError(f"--obstacle must be FAR:NEAR, got {obstacle!r}") from None
         obstacle_px = (max(far, near), min(far, near))
+    crop = _ints(view_crop, 4, "--view-crop") if view_crop is not None else None
+    off = _ints(offset, 2, "--offset") if offset is not None else None
     source = open_source(
-        lightfield, pattern=pattern, grid_cols=grid_cols, pitch_px=pitch, border_px=border
+        lightfield,
+        view_crop=crop,
+        pattern=pattern,
+        grid_cols=grid_cols,
+        pitch_px=pitch,
+        border_px=border,
+        offset_px=off,
     )
 
     def make(ctx):

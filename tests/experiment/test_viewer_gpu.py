@@ -202,3 +202,31 @@ def test_refocus_matches_cpu_for_any_grid_shape(ctx, grid) -> None:
             np.testing.assert_allclose(g.read_source(), refocus(views, d), rtol=0, atol=1e-6)
     finally:
         g.release()
+
+
+@pytest.mark.data
+def test_lytro_light_field_gpu_equals_cpu(ctx, data_dir) -> None:
+    """The real Lytro Illum 7x7 light field: the GPU confocal image, edges and Argus II grid equal
+    the CPU pipeline's (tolerances as above), zoomed on the stegosaurus' head."""
+    from stimuli.lightfield import load_lightfield
+    from tests.conftest import require_data
+
+    lf = load_lightfield(require_data(data_dir, "lightfield", "lytro_illum_2067_epinet")).gray()
+    layout = load_implant("argus2")
+    g = GpuPipeline(ctx, lf.views)
+    try:
+        for d, zoom in ((0.43, None), (-0.8, (20, 20, 200, 150))):
+            state = ViewerState(disparity_px=d, implant="argus2", zoom=zoom)
+            p = cpu_panes(lf, state, layout)
+            g.refocus(d)
+            g.sobel(zoom)
+            np.testing.assert_allclose(g.read_source(), p.source, rtol=0, atol=1e-6)
+            mag = g.read_magnitude()
+            np.testing.assert_allclose(mag, p.magnitude, rtol=0, atol=1e-6)
+            differ = (mag > p.threshold) != p.edges
+            assert not (differ & (np.abs(p.magnitude - p.threshold) > 1e-6)).any()
+            g.compress(layout.shape, p.threshold, 2, EDGE_RATIO)
+            if not differ.any():
+                np.testing.assert_array_equal(g.read_cells(), p.cells)
+    finally:
+        g.release()
