@@ -578,7 +578,11 @@ def run_window(
     except Exception as exc:  # noqa: BLE001
         raise ConfocalError(f"cannot open a window (no display?): {exc}") from exc
     moderngl_window.activate_context(window=window)
-    viewer = viewer_factory(window.ctx)
+    try:
+        viewer = viewer_factory(window.ctx)
+    except BaseException:
+        window.close()
+        raise
     viewer.screen_shape_px = (window.buffer_height, window.buffer_width)
     keys = window.keys
     named = {getattr(keys, k): v for k, v in _NAMED_KEYS.items()}

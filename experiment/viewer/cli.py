@@ -216,9 +216,12 @@ def view_command(
         return
     ctx = None
     if not cpu:
-        from experiment.viewer.gpu import create_headless_context
+        from experiment.viewer.gpu import GpuError, create_headless_context
 
-        ctx = create_headless_context()
+        try:
+            ctx = create_headless_context()
+        except GpuError as exc:  # the product never requires a GPU, nor even GL
+            typer.echo(f"confocal view: {exc}; drawing with the CPU pipeline", err=True)
     v = make(ctx)
     try:
         for ev in events:
