@@ -460,3 +460,19 @@ def test_brightest_point_and_screen_to_view_mapping(video_dir) -> None:
         assert v.view_pixel(left - 1, top) is None
     finally:
         v.close()
+
+
+def test_view_falls_back_to_cpu_without_gl(small_lf, tmp_path, capsys, monkeypatch) -> None:
+    """No OpenGL at all: the screenshot is still drawn (CPU pipeline), with one warning line."""
+    gpu = pytest.importorskip("experiment.viewer.gpu", reason="moderngl not importable")
+
+    def no_gl():
+        raise gpu.GpuError("no headless OpenGL 3.3 context: test")
+
+    monkeypatch.setattr(gpu, "create_headless_context", no_gl)
+    shot = tmp_path / "s.png"
+    code, err = _confocal_in_process(capsys, "view", str(small_lf), "--screenshot", str(shot))
+    assert code == 0 and "drawing with the CPU pipeline" in err
+    from PIL import Image
+
+    assert Image.open(shot).size == (1080, 720)
