@@ -89,10 +89,16 @@ def p2p_percept(
     half_w, half_h = layout.fov_width_deg / 2 + sx, layout.fov_height_deg / 2 + sy
     kw = dict(rho=rho_um, xrange=(-half_w, half_w), yrange=(-half_h, half_h), step=min(sx, sy) / 8)
     if model == "scoreboard":
-        m = ScoreboardModel(implant, **kw)
+        m = ScoreboardModel(implant, **kw).build()
     else:
-        m = AxonMapModel(implant, lam=lambda_um, **kw)
-    m.build()
+        import tempfile
+
+        # pulse2percept caches its axon bundles in a file, by default in the current folder;
+        # keep it in a temporary folder instead (nothing left behind)
+        with tempfile.TemporaryDirectory(prefix="confocal-p2p-") as tmp:
+            m = AxonMapModel(
+                implant, lam=lambda_um, axon_pickle=f"{tmp}/axons.pickle", verbose=False, **kw
+            ).build()
     if not v.any():
         p = m.predict_percept(np.full(v.size, 1e-9)).data[..., 0]
         return np.zeros(p.shape, np.float32)

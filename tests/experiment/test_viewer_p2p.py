@@ -29,8 +29,9 @@ def test_bad_model_or_layout_refused() -> None:
 
 
 @pytest.mark.parametrize("model", ["scoreboard", "axonmap"])
-def test_single_electrode_lands_where_it_is_on_the_grid(model) -> None:
+def test_single_electrode_lands_where_it_is_on_the_grid(model, tmp_path, monkeypatch) -> None:
     pytest.importorskip("pulse2percept", reason="the p2p extra is not installed")
+    monkeypatch.chdir(tmp_path)
     lay = load_implant("argus2")
     cells = np.zeros(lay.shape)
     assert not p2p_percept(cells, lay, model=model).any()  # zero in, zero out
@@ -46,6 +47,7 @@ def test_single_electrode_lands_where_it_is_on_the_grid(model) -> None:
         fx = (1 + (c + 0.5)) / (lay.cols + 2)
         tol = 0.5 / (lay.rows + 2) if model == "scoreboard" else 2.0 / (lay.rows + 2)
         assert abs(y / p.shape[0] - fy) < tol and abs(x / p.shape[1] - fx) < 2 * tol
+    assert list(tmp_path.iterdir()) == []  # no axon cache left in the current folder
 
 
 def test_view_command_writes_the_p2p_still(tmp_path) -> None:
