@@ -50,6 +50,7 @@ from stimuli.lightfield import LightField
 __all__ = [
     "AVERAGING_FRAMES",
     "STEPS_PER_RANGE",
+    "PREFETCH_STEPS",
     "LightFieldSource",
     "open_source",
     "Viewer",
@@ -65,6 +66,9 @@ AVERAGING_FRAMES: int = 4
 
 #: One arrow/wheel step is this fraction of the scanned disparity range (ours: 100 steps).
 STEPS_PER_RANGE: int = 100
+
+#: Arrow steps either side of the current depth refocused ahead while the window is idle (ours).
+PREFETCH_STEPS: int = 8
 
 #: Candidate disparities of the per-pixel depth map, spread over the viewer's depth range
 #: (ours: about two per detected-plane width on the shipped light fields).
@@ -460,6 +464,24 @@ class Viewer:
         self.frame_ms = (time.perf_counter() - t0) * 1e3
         return None
 
+    def prefetch(self) -> bool:
+        """Refocus one depth the user may go to next into the GPU cache; False if none left.
+
+        Candidates, in order: the detected planes, then up to :data:`PREFETCH_STEPS` arrow
+        steps nearer and farther (computed exactly as the state machine steps, so they hit).
+        """
+        if self.gpu is None or self.state.mode == "obstacle":
+            return False
+        m, d = self.model, self.state.disparity_px
+        up = down = d
+        ahead: list[float] = list(m.planes_px)
+        for _ in range(PREFETCH_STEPS):
+            up, down = m.clamp(up + m.step_px), m.clamp(down - m.step_px)
+            ahead += [up, down]
+        if self._gpu_frame != self.state.frame:
+            return False
+        return any(self.gpu.prefetch(x) for x in ahead)
+
     def screenshot(self, path: Path | None = None) -> np.ndarray:
         """Render the current state offscreen and return (and optionally save) the RGB frame."""
         rows, cols = self.screen_shape_px
@@ -638,9 +660,11 @@ def run_window(
                 viewer.handle(ev["kind"], ev["payload"])
                 injected = True
             if viewer.state == drawn and not injected:
-                # nothing changed: no redraw (a software renderer's cores stay free)
+                # nothing changed: no redraw; refocus the depths the user may go to next
+                # (one per loop, so input stays responsive), then idle
+                if not viewer.prefetch():
+                    time.sleep(0.005)
                 window._window.dispatch_events()
-                time.sleep(0.005)
             else:
                 drawn = viewer.state
                 viewer.render(window.fbo)

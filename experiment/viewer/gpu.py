@@ -460,6 +460,9 @@ class GpuPipeline:
             self._disparity = d
             return
         if len(self._cache) >= self._cache_max:
+            oldest = next(iter(self._cache))
+            if self._cache[oldest][0] is self._confocal:  # never recycle the shown image
+                self._cache.move_to_end(oldest)
             tex, fbo = self._cache.popitem(last=False)[1]
         else:
             tex = self._new_confocal()
@@ -496,6 +499,20 @@ class GpuPipeline:
         fbo.use()
         self._vaos["pass2"].render(moderngl.TRIANGLES, vertices=3)
         self._disparity = d
+
+    def prefetch(self, slope_px_per_view: float) -> bool:
+        """Refocus into the cache without changing what is shown; False if already cached."""
+        d = float(slope_px_per_view)
+        if d in self._cache:
+            return False
+        shown = (self._src, self._confocal, self._disparity)
+        self.refocus(d)
+        self._src, self._confocal, self._disparity = shown
+        for key, (tex, _) in self._cache.items():
+            if tex is self._confocal:  # the shown image stays the most recently used
+                self._cache.move_to_end(key)
+                break
+        return True
 
     def set_source(self, image: np.ndarray) -> None:
         """Use an uploaded image (rows, cols, float32) as the source instead of the refocus."""

@@ -230,3 +230,27 @@ def test_lytro_light_field_gpu_equals_cpu(ctx, data_dir) -> None:
                 np.testing.assert_array_equal(g.read_cells(), p.cells)
     finally:
         g.release()
+
+
+def test_prefetch_fills_the_cache_without_changing_the_shown_image(ctx, scene) -> None:
+    from experiment.viewer.app import LightFieldSource, Viewer
+
+    v = Viewer(
+        LightFieldSource(scene), ["argus2"], screen_shape_px=(240, 320), ctx=ctx, n_planes=30
+    )
+    try:
+        fbo = ctx.simple_framebuffer((320, 240))
+        v.render(fbo)
+        before = v.gpu.read_source()
+        n = 0
+        while v.prefetch():
+            n += 1
+        assert n >= 8 and not v.prefetch()
+        np.testing.assert_array_equal(v.gpu.read_source(), before)
+        d_next = v.handle("key", {"key": "up"}).disparity_px
+        assert d_next in v.gpu._cache  # the state machine's next step was prefetched
+        v.render(fbo)
+        np.testing.assert_allclose(v.gpu.read_source(), refocus(scene.gray(), d_next), atol=1e-6)
+        fbo.release()
+    finally:
+        v.close()
