@@ -4,7 +4,8 @@ For each light field, the viewer draws all four panes (centre view, confocal ima
 implant phosphenes) and the status line into a 1080x720 frame. *scan*: a new depth every frame
 (the worst case: every frame refocuses, de-clutters with the automatic threshold, compresses
 and draws); *revisit*: depths already shown, or refocused ahead while the window was idle
-(``Viewer.prefetch``: the next arrow steps and the detected planes; cached confocal images); *redraw*: no change.
+(``Viewer.prefetch``: the next arrow steps and the detected planes; cached confocal images);
+*redraw*: no change.
 
 - *gpu*: :class:`experiment.viewer.gpu.GpuPipeline` in a headless EGL context (llvmpipe when no
   GPU: the floor);
