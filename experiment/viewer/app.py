@@ -266,6 +266,8 @@ class Viewer:
         self._alert = False
         self.frame_ms = 0.0
         self.gpu = None
+        self._composite = None
+        self._pane0_key: tuple | None = None
         if ctx is not None:
             from experiment.viewer.gpu import GpuPipeline
 
@@ -451,15 +453,28 @@ class Viewer:
             self._memo_key, self._memo_t = key, t
         t = self._memo_t
         zoom_shape = (s.zoom[3], s.zoom[2]) if s.zoom is not None else self.lf.shape_px
+        # Draw into a persistent frame and copy it out: the centre-view pane, which only
+        # changes with the zoom box or the video frame, is not redrawn on a depth step.
+        rows, cols = self.screen_shape_px
+        if self._composite is None or self._composite.size != (cols, rows):
+            if self._composite is not None:
+                self._composite.release()
+            self._composite = self.ctx.simple_framebuffer((cols, rows))
+            self._pane0_key = None
+        pane0_key = (s.zoom, s.frame, self.screen_shape_px)
+        full = pane0_key != self._pane0_key
         g.draw(
-            fbo,
+            self._composite,
             self.screen(zoom_shape),
             lay,
             threshold=t,
             zoom=s.zoom,
             alert=self._alert,
             status=status,
+            panes=(True, True, True, True) if full else (False, True, True, True),
         )
+        self._pane0_key = pane0_key
+        self.ctx.copy_framebuffer(fbo, self._composite)
         self.last_threshold = t
         self.frame_ms = (time.perf_counter() - t0) * 1e3
         return None
@@ -520,6 +535,8 @@ class Viewer:
         """Release the GPU objects and close the event log."""
         if self.gpu is not None:
             self.gpu.release()
+        if self._composite is not None:
+            self._composite.release()
         self.log.append(self.clock(), "close", {})
         self.log.close()
 

@@ -618,28 +618,36 @@ class GpuPipeline:
         zoom: tuple[int, int, int, int] | None,
         alert: bool,
         status: np.ndarray,
+        panes: tuple[bool, bool, bool, bool] = (True, True, True, True),
     ) -> None:
-        """Draw the four panes and the status line into ``fbo`` (top-left origin)."""
+        """Draw the panes and the status line into ``fbo`` (top-left origin).
+
+        ``panes`` says which of the four to redraw; the others keep what ``fbo`` holds (the
+        caller's persistent frame). The status line is always redrawn.
+        """
         ctx = self.ctx
         rows, cols = screen.screen_shape_px
         fbo.use()
         ctx.scissor = None
-        fbo.clear(*(c / 255 for c in BACKGROUND_RGB), 1.0)
+        bg = tuple(c / 255 for c in BACKGROUND_RGB)
 
         def gl_box(left, top, w, h):
             return (left, rows - (top + h), w, h)
 
+        if all(panes):
+            fbo.clear(*bg, 1.0)
+        else:
+            for k, redraw in enumerate(panes):
+                if redraw:
+                    fbo.clear(*bg, 1.0, viewport=gl_box(*screen.panes[k]))
+
         p = self._progs["draw"]
         p["u_screen_rows"].value = rows
         alive = self._ensure("alive", (layout.cols, layout.rows))
-        if self._aux.get("alive_key") is None or getattr(self, "_alive_for", None) != (
-            layout.name,
-            layout.shape,
-            layout.seed,
-            layout.dropout,
-        ):
+        alive_key = (id(alive), layout.name, layout.shape, layout.seed, layout.dropout)
+        if getattr(self, "_alive_for", None) != alive_key:
             alive.write(layout.alive_mask().astype(np.float32).tobytes())
-            self._alive_for = (layout.name, layout.shape, layout.seed, layout.dropout)
+            self._alive_for = alive_key
         r, c = self.shape_px
         x, y, w, h = self._crop
         items = [
@@ -648,7 +656,8 @@ class GpuPipeline:
             (1, screen.images[2], self._mag, (0, 0, w, h), None),
             (2, screen.images[3], self._cells, (0, 0, layout.cols, layout.rows), None),
         ]
-        if alert:
+        items = [it for it, redraw in zip(items, panes, strict=True) if redraw]
+        if alert and panes[3]:
             left, top, iw, ih = screen.images[3]
             b = ALERT_BORDER_PX
             ctx.scissor = None
