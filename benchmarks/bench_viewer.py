@@ -3,9 +3,9 @@
 For each light field, the viewer draws all four panes (centre view, confocal image, edges,
 implant phosphenes) and the status line into a 1080x720 frame. *scan*: a new depth every frame
 (the worst case: every frame refocuses, de-clutters with the automatic threshold, compresses
-and draws); *revisit*: depths already shown, or refocused ahead while the window was idle
-(``Viewer.prefetch``: the next arrow steps and the detected planes; cached confocal images);
-*redraw*: no change.
+and draws); *revisit*: depths already shown (their confocal images and automatic thresholds
+are cached; depths refocused ahead while the window is idle, ``Viewer.prefetch``, have the
+image but not yet the threshold); *redraw*: no change.
 
 - *gpu*: :class:`experiment.viewer.gpu.GpuPipeline` in a headless EGL context (llvmpipe when no
   GPU: the floor);

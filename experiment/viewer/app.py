@@ -263,6 +263,7 @@ class Viewer:
         self._hist_frame = -1
         self._memo_key: tuple | None = None
         self._memo_t = 0.0
+        self._auto_t: dict[tuple, float] = {}
         self._alert = False
         self.frame_ms = 0.0
         self.gpu = None
@@ -444,7 +445,13 @@ class Viewer:
         if key != self._memo_key:  # else the edges and electrodes on the GPU are current
             g.sobel(s.zoom)
             if s.threshold is None:
-                t = _otsu(g.read_magnitude())
+                # the automatic threshold of an image already seen is remembered (no readback)
+                tkey = (s.frame, depth_key, s.zoom)
+                if tkey not in self._auto_t:
+                    if len(self._auto_t) > 4096:
+                        self._auto_t.clear()
+                    self._auto_t[tkey] = _otsu(g.read_magnitude())
+                t = self._auto_t[tkey]
             else:
                 t = float(s.threshold)
             g.compress(lay.shape, t, levels, EDGE_RATIO)
