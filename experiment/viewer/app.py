@@ -491,6 +491,8 @@ class Viewer:
 
         Candidates, in order: the detected planes, then up to :data:`PREFETCH_STEPS` arrow
         steps nearer and farther (computed exactly as the state machine steps, so they hit).
+        Each call does one piece of work: a refocus, or the automatic threshold of a cached
+        image.
         """
         if self.gpu is None or self.state.mode == "obstacle":
             return False
@@ -502,7 +504,17 @@ class Viewer:
             ahead += [up, down]
         if self._gpu_frame != self.state.frame:
             return False
-        return any(self.gpu.prefetch(x) for x in ahead)
+        s = self.state
+        for x in ahead:
+            if self.gpu.prefetch(x):
+                return True
+            tkey = (s.frame, x, s.zoom)
+            if s.threshold is None and tkey not in self._auto_t:
+                mag = self.gpu.magnitude_at(x, s.zoom)
+                if mag is not None:
+                    self._auto_t[tkey] = _otsu(mag)
+                    return True
+        return False
 
     def screenshot(self, path: Path | None = None) -> np.ndarray:
         """Render the current state offscreen and return (and optionally save) the RGB frame."""

@@ -549,6 +549,33 @@ class GpuPipeline:
         self._mag_fbo.use()
         self._vaos["sobel"].render(moderngl.TRIANGLES, vertices=3)
 
+    def magnitude_at(
+        self, slope_px_per_view: float, zoom: tuple[int, int, int, int] | None
+    ) -> np.ndarray | None:
+        """Sobel magnitude of a cached confocal image, without touching what is shown.
+
+        Returns None when that disparity is not cached. Used to find the automatic threshold of
+        a prefetched depth while the window is idle.
+        """
+        hit = self._cache.get(float(slope_px_per_view))
+        if hit is None:
+            return None
+        rows, cols = self.shape_px
+        crop = tuple(zoom) if zoom is not None else (0, 0, cols, rows)
+        tex = self._ensure("scratch_mag", (crop[2], crop[3]))
+        fbo = self.ctx.framebuffer([tex])
+        try:
+            p = self._progs["sobel"]
+            p["u_crop"].value = crop
+            hit[0].use(0)
+            p["u_src"].value = 0
+            fbo.use()
+            self._vaos["sobel"].render(moderngl.TRIANGLES, vertices=3)
+            raw = tex.read()
+        finally:
+            fbo.release()
+        return np.frombuffer(raw, np.float32).reshape(crop[3], crop[2]).copy()
+
     def read_magnitude(self) -> np.ndarray:
         """Return the Sobel magnitude, float32 (h, w)."""
         w, h = self._mag.size

@@ -249,6 +249,13 @@ def test_prefetch_fills_the_cache_without_changing_the_shown_image(ctx, scene) -
         np.testing.assert_array_equal(v.gpu.read_source(), before)
         d_next = v.handle("key", {"key": "up"}).disparity_px
         assert d_next in v.gpu._cache  # the state machine's next step was prefetched
+        from stimuli.declutter import auto_threshold
+
+        t_cpu = auto_threshold(refocus(scene.gray(), d_next))
+        # Otsu on a 256-bin histogram: the GPU magnitude (a few ulps off) may move it one bin
+        mag = sobel_magnitude(refocus(scene.gray(), d_next))
+        bin_w = float(mag.max() - mag.min()) / 256
+        assert v._auto_t[(0, d_next, None)] == pytest.approx(t_cpu, abs=bin_w)
         v.render(fbo)
         np.testing.assert_allclose(v.gpu.read_source(), refocus(scene.gray(), d_next), atol=1e-6)
         fbo.release()
