@@ -52,7 +52,12 @@ SUBCOMMANDS: dict[str, tuple[str, str]] = {
     ),
     "active": (
         "experiment.active.cli",
-        "Active search (Jung et al. 2015, Sec. 5): the subject drives the viewer to find objects.",
+        "Active search (Jung et al. 2015, Sec. 5): a subject drives the confocal viewer to "
+        "find and name objects; every key and displayed state is logged.",
+    ),
+    "view": (
+        "experiment.viewer.cli",
+        "Scan depth, jump to object planes, zoom and see the implant's view, live.",
     ),
     "demo": (
         "experiment.demo",

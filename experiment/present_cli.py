@@ -183,6 +183,12 @@ def register(app: typer.Typer) -> None:
             float | None, typer.Option(callback=_positive, help="Degrees.")
         ] = None,
         seed: Annotated[int, typer.Option(min=0, help="Seed of the dropout pattern.")] = 0,
+        implant: Annotated[
+            str | None,
+            typer.Option(
+                help="Show as this implant's phosphenes: argus2, alpha_ims, ... or .toml."
+            ),
+        ] = None,
         screen: Annotated[int | None, typer.Option(help="Screen index of the window.")] = None,
         fullscreen: Annotated[bool, typer.Option("--fullscreen/--window")] = False,
         seconds: Annotated[
@@ -212,6 +218,33 @@ def register(app: typer.Typer) -> None:
         check_memory(rows * cols * 4 * 4, f"screen {cols}x{rows} px")
         image = load_stimulus(stimulus)
         from experiment.presenter import PhospheneSpec, Presenter, stimulus_rect_px
+
+        if implant is not None:
+            # The stimulus resampled to the implant's grid (binary: the paper's compression;
+            # grey: window means at the implant's brightness levels) and drawn as its
+            # phosphenes at its field of view (issue 14).
+            from experiment.viewer.implants import load_implant
+            from stimuli.compress import compress_grey
+
+            lay = load_implant(implant)
+            if lay.rows > image.shape[0] or lay.cols > image.shape[1]:
+                raise ConfocalError(
+                    f"--implant {implant}: its {lay.cols}x{lay.rows} grid is finer than the "
+                    f"{image.shape[1]}x{image.shape[0]} stimulus"
+                )
+            if image.dtype == bool:  # edges: on where the window's edge fraction > 1/13
+                from stimuli.compress import compress
+                from stimuli.jung2015 import EDGE_RATIO
+
+                image = compress(image, lay.shape, edge_ratio=EDGE_RATIO)
+            else:
+                image = compress_grey(image, lay.shape, levels=lay.levels)
+            phosphenes, phosphene_size, dropout = (
+                lay.phosphene_shape,
+                lay.phosphene_size,
+                lay.dropout,
+            )
+            phosphene_spacing_deg, seed = lay.fov_width_deg / lay.cols, lay.seed
 
         try:
             phos = (
