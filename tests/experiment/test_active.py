@@ -421,9 +421,11 @@ def test_resume_after_kill_keeps_events_exact_issue_14(tmp_path, protocol) -> No
     ref, _ = run_session(ref_log, protocol)
     ref_rows = ActiveEventLog(ref_log, ref.session_id).rows()
     ref_log.close()
-    # kill inside the second trial, after an input event
+    # kill inside the second trial, after its first displayed state (before its answer)
     second = next(r["seq"] for r in ref_rows if r["kind"] == "trial_start" and r["trial"] == 1)
-    kill_after = second + 3
+    kill_after = second + 2
+    assert ref_rows[kill_after - 1]["kind"] == "state"
+    assert "answer" not in {r["kind"] for r in ref_rows[second:kill_after]}
     db = tmp_path / "crash.sqlite"
     child = subprocess.run(
         [sys.executable, "-c", _CHILD, str(db), str(kill_after), json.dumps(protocol.to_dict())],
