@@ -38,9 +38,12 @@ from typing import Any
 import numpy as np
 
 from experiment.interfaces import Answer
+from experiment.observers.exemplar import ExemplarObserver, ExemplarParams
 from experiment.stimset import StimulusSet
 
 __all__ = [
+    "ExemplarParams",
+    "ExemplarObserver",
     "LogisticParams",
     "LogisticObserver",
     "TemplateParams",
@@ -464,6 +467,7 @@ def _register(name: str, cls: type, params_cls: type) -> None:
 
 _register("logistic", LogisticObserver, LogisticParams)
 _register("model", TemplateObserver, TemplateParams)
+_register("exemplar", ExemplarObserver, ExemplarParams)
 
 
 def make_observer(
