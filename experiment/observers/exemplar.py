@@ -64,8 +64,10 @@ Thurstone LL (1927). A law of comparative judgment. Psychological Review 34, 273
 from __future__ import annotations
 
 import hashlib
+import json
 import math
 from dataclasses import asdict, dataclass
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -221,9 +223,9 @@ class ExemplarParams:
         Folder of the knowledge set: a stimulus set of *other* exemplars of the categories (for
         the synthetic study, ``confocal stimuli synth`` with another seed, then ``stimuli
         build``). Required.
-    exemplar_level : int >= 1
-        Level of the exemplar images remembered (8: full resolution; what a person remembers
-        of an object is not a compressed picture).
+    exemplar_level : int >= 1 or None
+        Level of the exemplar images remembered. None: the knowledge set's highest level (full
+        resolution; what a person remembers of an object is not a compressed picture).
     exemplar_condition : {'decluttered', 'cluttered'}
         Which exemplar image is remembered. De-cluttered: the object alone, the knowledge of
         its shape; cluttered would add the exemplar's own background, which no test stimulus
@@ -265,7 +267,7 @@ class ExemplarParams:
     """
 
     knowledge: str | None = None
-    exemplar_level: int = 8
+    exemplar_level: int | None = None
     exemplar_condition: str = "decluttered"
     mirror: bool = True
     image_width_cm: float = JUNG2015_IMAGE_CM[0]
@@ -303,6 +305,9 @@ class ExemplarParams:
                 f"cell_deg must span >= 2 retinal samples (>= {2 / self.samples_per_deg:g} deg), "
                 f"got {self.cell_deg!r}"
             )
+        lv = self.exemplar_level
+        if lv is not None and (isinstance(lv, bool) or int(lv) != lv or lv < 1):
+            raise ValueError(f"exemplar_level must be a level >= 1 or None, got {lv!r}")
         if self.exemplar_condition not in ("decluttered", "cluttered"):
             raise ValueError(
                 "exemplar_condition must be 'decluttered' or 'cluttered', "
@@ -371,7 +376,10 @@ class Knowledge:
         One per exemplar image read: ``object``, ``name``, ``path``, ``file_sha256`` (from the
         manifest, checked), ``pixel_sha256`` (:func:`image_sha256` of the pixels as read).
     info : dict
-        The knowledge set's ``stimulus_set.json`` (provenance: its seed, if synthetic).
+        The knowledge set's ``stimulus_set.json``.
+    synth : dict or None
+        ``generator``, ``seed`` and ``version`` from the ``synth.json`` of the photo pairs it
+        was built from, when they were synthetic and are still there; else None.
     """
 
     categories: tuple[str, ...]
@@ -381,6 +389,7 @@ class Knowledge:
     manifest_sha256: str
     sources: tuple[dict, ...]
     info: dict
+    synth: dict | None = None
 
     def similarities(self, feature: np.ndarray) -> np.ndarray:
         """Return each category's similarity (its best exemplar's correlation) to ``feature``."""
@@ -388,6 +397,19 @@ class Knowledge:
         out = np.full(len(self.categories), -np.inf)
         np.maximum.at(out, self.category_of_row, r)
         return out
+
+
+def _synth_provenance(info: dict) -> dict | None:
+    """``generator``, ``seed``, ``version`` of the synthetic pairs a stimulus set was built from."""
+    pairs = info.get("pairs")
+    if not isinstance(pairs, str):
+        return None
+    p = Path(pairs) / "synth.json"
+    try:
+        d = json.loads(p.read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return None
+    return {k: d.get(k) for k in ("generator", "seed", "version")}
 
 
 def load_knowledge(params: ExemplarParams) -> Knowledge:
@@ -409,11 +431,12 @@ def load_knowledge(params: ExemplarParams) -> Knowledge:
         image at ``exemplar_level`` / ``exemplar_condition``.
     """
     ks = StimulusSet.load(params.knowledge)
+    level = max(ks.levels()) if params.exemplar_level is None else int(params.exemplar_level)
     key = (
         str(ks.root),
         ks.manifest_sha256,
         params.frontend_key(),
-        params.exemplar_level,
+        level,
         params.exemplar_condition,
         params.mirror,
     )
@@ -422,7 +445,7 @@ def load_knowledge(params: ExemplarParams) -> Knowledge:
     categories: list[str] = []
     rows, cats, sources = [], [], []
     for oid, info in ks.objects.items():
-        rec = ks.get(oid, params.exemplar_condition, params.exemplar_level)
+        rec = ks.get(oid, params.exemplar_condition, level)
         ks.verify([rec])
         img = ks.load_image(rec)
         name = normalize(info.name)
@@ -449,6 +472,7 @@ def load_knowledge(params: ExemplarParams) -> Knowledge:
         manifest_sha256=ks.manifest_sha256,
         sources=tuple(sources),
         info=dict(ks.info),
+        synth=_synth_provenance(ks.info),
     )
     _KNOWLEDGE_CACHE[key] = k
     return k
@@ -619,9 +643,7 @@ class ExemplarObserver:
             "knowledge": {
                 "root": k.root,
                 "manifest_sha256": k.manifest_sha256,
-                "synth_seed": (k.info.get("synth") or {}).get("seed")
-                if isinstance(k.info.get("synth"), dict)
-                else k.info.get("seed"),
+                "synth": k.synth,
                 "categories": list(k.categories),
                 "exemplars": list(k.sources),
             },
