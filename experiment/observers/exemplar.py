@@ -318,9 +318,7 @@ class ExemplarParams:
         if not self.wrong_cost > 0:
             raise ValueError(f"wrong_cost must be > 0, got {self.wrong_cost!r}")
         if int(self.calibration_repeats) < 1:
-            raise ValueError(
-                f"calibration_repeats must be >= 1, got {self.calibration_repeats!r}"
-            )
+            raise ValueError(f"calibration_repeats must be >= 1, got {self.calibration_repeats!r}")
         if not 0 <= self.lapse < 0.5:
             raise ValueError(f"lapse must be in [0, 0.5), got {self.lapse!r}")
 
@@ -605,9 +603,7 @@ class ExemplarObserver:
             "n_training_stimuli": len(recs),
             "repeats": int(p.calibration_repeats),
             "answered": float(answered.mean()),
-            "correct_when_answered": (
-                float((g[answered] > 0).mean()) if answered.any() else None
-            ),
+            "correct_when_answered": (float((g[answered] > 0).mean()) if answered.any() else None),
             "stimuli": shown,
         }
         return crit
@@ -648,4 +644,3 @@ class ExemplarObserver:
                 "exemplars": list(k.sources),
             },
         }
-
