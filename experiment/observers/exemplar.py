@@ -81,6 +81,7 @@ __all__ = [
     "ExemplarObserver",
     "Knowledge",
     "load_knowledge",
+    "best_criterion",
     "retinal_image",
     "hog_features",
     "image_sha256",
@@ -361,7 +362,8 @@ class Knowledge:
     Parameters
     ----------
     categories : tuple of str
-        Category names (the vocabulary), in knowledge-set order.
+        Category names (the vocabulary), in knowledge-set order; objects whose names are equal
+        after :func:`experiment.scoring.normalize` are one category.
     features : ndarray of shape (n_exemplars, n_features)
         Unit-length HOG rows.
     category_of_row : ndarray of shape (n_exemplars,), int
@@ -395,6 +397,48 @@ class Knowledge:
         out = np.full(len(self.categories), -np.inf)
         np.maximum.at(out, self.category_of_row, r)
         return out
+
+
+def best_criterion(margins: np.ndarray, gains: np.ndarray) -> float:
+    """Return the criterion that maximises the summed gain of the trials it lets through.
+
+    A trial is answered when its margin exceeds the criterion; it then earns its gain
+    (+1 for a right name, ``-wrong_cost`` for a wrong one); passing earns 0.
+
+    Parameters
+    ----------
+    margins : ndarray of shape (n,)
+        Noisy margins (best minus second-best similarity) of the training trials.
+    gains : ndarray of shape (n,)
+        What answering each trial would earn.
+
+    Returns
+    -------
+    float
+        Midway between the last margin answered and the first one passed (just above the
+        largest margin when answering nothing is best; ties go to the higher criterion).
+
+    Examples
+    --------
+    >>> best_criterion(np.array([0.5, 0.25, 0.125, 0.0625]), np.array([1.0, 1.0, -1.0, 1.0]))
+    0.1875
+    """
+    m = np.asarray(margins, dtype=float)
+    g = np.asarray(gains, dtype=float)
+    if m.ndim != 1 or m.shape != g.shape or m.size == 0:
+        raise ValueError(
+            f"margins and gains must be 1-D arrays of one non-zero length, got shapes "
+            f"{m.shape} and {g.shape}"
+        )
+    order = np.argsort(-m, kind="stable")
+    m, g = m[order], g[order]
+    score = np.concatenate([[0.0], np.cumsum(g)])  # score[k]: answer the k largest margins
+    k = int(np.argmax(score))  # the first maximum: the fewest answers, the higher criterion
+    if k == 0:
+        return float(m[0]) + 1e-9
+    if k == len(m):
+        return float(m[-1]) - 1e-9
+    return float(0.5 * (m[k - 1] + m[k]))
 
 
 def _synth_provenance(info: dict) -> dict | None:
@@ -446,13 +490,14 @@ def load_knowledge(params: ExemplarParams) -> Knowledge:
         rec = ks.get(oid, params.exemplar_condition, level)
         ks.verify([rec])
         img = ks.load_image(rec)
-        name = normalize(info.name)
-        if name not in categories:
-            categories.append(name)
+        keys = [normalize(c) for c in categories]
+        if normalize(info.name) not in keys:
+            categories.append(info.name)
+            keys.append(normalize(info.name))
         views = (img, img[:, ::-1]) if params.mirror else (img,)
         for v in views:
             rows.append(params.features(v))
-            cats.append(categories.index(name))
+            cats.append(keys.index(normalize(info.name)))
         sources.append(
             {
                 "object": oid,
@@ -556,7 +601,7 @@ class ExemplarObserver:
     def _is_correct(self, category: int, object_id: str) -> bool:
         obj = self.stimset.objects[object_id]
         names = {normalize(obj.name), *(normalize(s) for s in obj.synonyms)}
-        return self.knowledge.categories[category] in names
+        return normalize(self.knowledge.categories[category]) in names
 
     # -- the training phase ---------------------------------------------------------------------
 
@@ -587,16 +632,7 @@ class ExemplarObserver:
                 gains.append(1.0 if self._is_correct(best, r.object) else -p.wrong_cost)
         m = np.asarray(margins)
         g = np.asarray(gains)
-        order = np.argsort(m)[::-1]
-        m, g = m[order], g[order]
-        score = np.concatenate([[0.0], np.cumsum(g)])  # score[k]: answer the k largest margins
-        k = int(np.argmax(score))
-        if k == 0:
-            crit = float(m[0]) + 1e-9
-        elif k == len(m):
-            crit = float(m[-1]) - 1e-9
-        else:
-            crit = float(0.5 * (m[k - 1] + m[k]))
+        crit = best_criterion(m, g)
         answered = m > crit
         self.calibration = {
             "method": "training phase: criterion maximising (correct - wrong_cost * wrong)",
