@@ -185,6 +185,19 @@ def make_knowledge_set(pairs: Path, out: Path, seed: int) -> Path:
     return Path(out)
 
 
+def _brief(desc: dict[str, Any]) -> dict[str, Any]:
+    """An observer description with its per-image lists replaced by their lengths."""
+    out = dict(desc)
+    for part in ("knowledge", "calibration"):
+        if isinstance(out.get(part), dict):
+            out[part] = {
+                k: (f"{len(v)} entries (full list in the trial log)" if isinstance(v, list) and
+                    v and isinstance(v[0], dict) else v)
+                for k, v in out[part].items()
+            }  # fmt: skip
+    return out
+
+
 def _observer_params(observer: str, knowledge: Path, protocol: Any) -> dict[str, Any]:
     """Parameters the demo gives an observer: the exemplar observer's knowledge and geometry."""
     if observer != "exemplar":
@@ -395,7 +408,7 @@ def run_demo(
         "subjects": subjects,
         "observer": observer,
         "simulated": True,
-        "observers": observers,
+        "observers": [_brief(o) for o in observers],
         "paper": PAPER_RESULTS,
         "paths": {k: str(v) for k, v in paths.items()},
         "seconds": seconds,
