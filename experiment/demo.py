@@ -51,7 +51,6 @@ __all__ = [
     "DemoResult",
     "run_demo",
     "summary_lines",
-    "describe_observer",
     "make_knowledge_set",
     "simulated_section",
     "append_simulated_section",
@@ -211,23 +210,6 @@ def _observer_params(observer: str, knowledge: Path, protocol: Any) -> dict[str,
     }
 
 
-def describe_observer(responder: Any) -> dict[str, Any]:
-    """Return a simulated observer's description for the trial log (JSON-able).
-
-    Uses the observer's own ``describe()`` where it has one, else its name and parameters.
-    """
-    if hasattr(responder, "describe"):
-        return responder.describe()
-    from dataclasses import asdict, is_dataclass
-
-    params = getattr(responder, "params", None)
-    return {
-        "observer": getattr(responder, "name", type(responder).__name__),
-        "simulated": True,
-        "params": asdict(params) if is_dataclass(params) else None,
-    }
-
-
 def run_demo(
     out_dir: str | Path,
     *,
@@ -273,7 +255,7 @@ def run_demo(
     from analysis.pipeline import AnalysisOptions, analyze
     from analysis.report import write_report
     from experiment.displays import NullDisplay
-    from experiment.observers import OBSERVERS, make_observer
+    from experiment.observers import OBSERVERS, describe_observer, make_observer
     from experiment.protocol import load_protocol
     from experiment.session import Session
     from experiment.stimset import StimulusSet
