@@ -137,7 +137,7 @@ def run_command(
 ) -> None:
     """Run (or resume) a subject's session: console and presenter, or headless simulation."""
     from experiment.displays import NullDisplay
-    from experiment.observers import OBSERVERS, make_observer
+    from experiment.observers import OBSERVERS, describe_observer, make_observer
     from experiment.protocol import load_protocol
     from experiment.session import Session
     from experiment.stimset import StimulusSet
@@ -189,6 +189,7 @@ def run_command(
                 responder = make_observer(
                     observer, stimset, subject, rng=session.child_rng(1), **params
                 )
+                session.log_event("observer", json.dumps(describe_observer(responder)))
                 session.run(
                     NullDisplay(hold_s=hold_s), responder, progress=_Progress(progress_every)
                 )

@@ -437,3 +437,39 @@ def test_exemplar_observer_generalises_issue_13(synth_sets):
     # and no image of the test set at all (training objects included) is an exemplar
     all_test = {r.sha256 for r in test.records}
     assert not {e["file_sha256"] for e in observers[0].knowledge.sources} & all_test
+
+
+def test_headless_session_logs_its_observer_issue_13(tmp_path, tiny_knowledge, capsys):
+    """``session run --headless --observer exemplar`` logs who answered, and from what."""
+    import json
+    import sqlite3
+
+    from experiment import cli
+
+    stim = make_stimulus_set(tmp_path / "stim", n_main=5, n_training=1, levels=(1, 8))
+    proto = tmp_path / "p.toml"
+    proto.write_text(
+        '[protocol]\nname = "p"\n[[blocks]]\npart = "main"\nobjects = "main"\n'
+        'levels = [1, 8]\nconditions = ["cluttered", "decluttered"]\n'
+    )
+    db = tmp_path / "s.sqlite"
+    args = ["session", "run", "--protocol", proto, "--stimuli", stim, "--subject", "S09"]
+    args += ["--data", db, "--headless", "--observer", "exemplar"]
+    with pytest.raises(SystemExit) as exc:
+        cli.main([str(a) for a in args])
+    assert exc.value.code == 2
+    assert "--observer-param: knowledge must be the folder" in capsys.readouterr().err
+    assert not db.exists()
+    with pytest.raises(SystemExit) as exc:
+        cli.main([str(a) for a in [*args, "--observer-param", f"knowledge={tiny_knowledge}"]])
+    assert exc.value.code == 0, capsys.readouterr().err
+    con = sqlite3.connect(f"file:{db}?mode=ro", uri=True)
+    try:
+        (note,) = con.execute("SELECT note FROM events WHERE kind = 'observer'").fetchone()
+        n = con.execute("SELECT COUNT(*) FROM trials").fetchone()[0]
+    finally:
+        con.close()
+    d = json.loads(note)
+    assert n == 5 * 2 * 2
+    assert d["observer"] == "exemplar" and d["params"]["knowledge"] == str(tiny_knowledge)
+    assert d["knowledge"]["manifest_sha256"] == StimulusSet.load(tiny_knowledge).manifest_sha256
