@@ -72,7 +72,10 @@ def main(argv: list[str] | None = None) -> None:
             base, n_files = _decode_all(Path(tmp) / "demo")
             totals.append(total)
             bases.append(base)
-            stages = ", ".join(f"{s} {v:.1f} s" for s, v in result.seconds.items())
+            stages = ", ".join(
+                f"{s} {v:.1f} s (CPU {result.cpu_seconds.get(s, float('nan')):.1f} s)"
+                for s, v in result.seconds.items()
+            )
             print(
                 f"run {k + 1}: total {total:.1f} s ({stages}); CPU {cpu:.1f} s (this process "
                 f"and children); load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} "
