@@ -109,6 +109,12 @@ def run(
         )
     except ValueError as exc:
         raise typer.BadParameter(str(exc)) from exc
+    from analysis.active import add_active_results, only_active, summary_lines, write_active_report
+
+    if only_active(trials):  # active-search logs only (issue 14): no static trials to fit
+        res = write_active_report(trials, out)
+        typer.echo("\n".join([*summary_lines(res), f"report: {Path(out) / 'report.md'}"]))
+        return
     table = read_trials(trials)
     err = Console(stderr=True)
     result = None
@@ -132,7 +138,10 @@ def run(
     if figures:
         err.print("drawing figures and writing the report...")
     folder = write_report(result, out, figures=figures)
+    active = add_active_results(trials, folder)
     _print_summary(result, folder)
+    if active is not None:
+        typer.echo("\n".join(summary_lines(active)))
 
 
 def _fmt(v: float | None) -> str:

@@ -55,6 +55,9 @@ def _register_all() -> None:
 
     for module in (stimuli_cli, lightfield_cli, session_cli, present_cli, analysis_cli, demo):
         module.register(app)
+    from experiment.active import cli as active_cli
+
+    active_cli.register(app)
 
 
 _register_all()

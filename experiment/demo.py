@@ -621,12 +621,22 @@ def register(app: typer.Typer) -> None:
             typer.Option("--lightfield", help="Run the light-field demo (paper Figs. 10-16)."),
         ] = False,
         force: Annotated[bool, typer.Option("--force", help="Replace a non-empty --out.")] = False,
+        active: Annotated[
+            bool, typer.Option("--active", help="Draw a simulated active search (issue 14).")
+        ] = False,
     ) -> None:
         """Run the whole study on synthetic data: scenes, stimuli, sessions, analysis, report.
 
         With --lightfield: render the paper's three-plane light field, scan it for object
         planes, and write confocal, de-cluttered and compressed images of each plane.
         """
+        if active:
+            from experiment.active.demo import run_active_demo
+
+            out_a = out if out != Path("confocal-demo") else Path("confocal-demo-active")
+            for line in run_active_demo(out_a, seed=seed, force=force):
+                typer.echo(line)
+            return
         if lightfield:
             from experiment.demo_lightfield import run_lightfield_demo
 

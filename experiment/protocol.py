@@ -463,6 +463,9 @@ class ProtocolSpec:
         The file it was loaded from (provenance only; not compared, not in ``to_dict``).
     source_sha256 : str or None
         SHA-256 of that file's bytes (H15).
+    task : experiment.active.task.ActiveSearchSpec or None
+        A ``[task]`` table (``type = "active_search"``, issue 14); such a protocol needs no
+        ``[[blocks]]``.
     """
 
     name: str
@@ -472,6 +475,7 @@ class ProtocolSpec:
     feedback: bool = False
     display: DisplaySpec = field(default_factory=DisplaySpec)
     scoring: ScoringSpec = field(default_factory=ScoringSpec)
+    task: Any = None
     source_path: str | None = field(default=None, compare=False)
     source_sha256: str | None = field(default=None, compare=False)
 
@@ -499,6 +503,8 @@ class ProtocolSpec:
         _need(self.feedback, bool, "protocol.feedback")
 
     def _check_blocks(self) -> None:
+        if self.task is not None and self.blocks == ():
+            return
         if not isinstance(self.blocks, tuple) or not self.blocks:
             raise ProtocolError("blocks must have at least one [[blocks]] entry")
         for b in self.blocks:
@@ -506,6 +512,15 @@ class ProtocolSpec:
                 raise ProtocolError(f"blocks must hold BlockSpec, got {_type_name(b)}")
         if not any(b.part == "main" for b in self.blocks):
             raise ProtocolError("blocks must have at least one entry with part = 'main'")
+
+    def _check_task(self) -> None:
+        if self.task is not None:
+            from experiment.active.task import ActiveSearchSpec
+
+            if not isinstance(self.task, ActiveSearchSpec):
+                raise ProtocolError(
+                    f"task must be an ActiveSearchSpec, got {_type_name(self.task)}"
+                )
 
     def _check_display(self) -> None:
         if not isinstance(self.display, DisplaySpec):
@@ -517,7 +532,7 @@ class ProtocolSpec:
 
     def to_dict(self) -> dict[str, Any]:
         """Return the protocol in the TOML file's structure (plain data)."""
-        return {
+        out = {
             "protocol": {
                 "name": self.name,
                 "description": self.description,
@@ -528,6 +543,9 @@ class ProtocolSpec:
             "scoring": self.scoring.to_dict(),
             "blocks": [b.to_dict() for b in self.blocks],
         }
+        if self.task is not None:
+            out["task"] = self.task.to_dict()
+        return out
 
     @classmethod
     def from_dict(
@@ -540,7 +558,7 @@ class ProtocolSpec:
         """Build a protocol from the TOML file's structure, checking every key and value."""
         if not isinstance(data, dict):
             raise ProtocolError(f"a protocol must be a table, got {_type_name(data)}")
-        allowed = ("protocol", "display", "scoring", "blocks")
+        allowed = ("protocol", "display", "scoring", "blocks", "task")
         unknown = sorted(set(data) - set(allowed))
         if unknown:
             raise ProtocolError(
@@ -559,8 +577,15 @@ class ProtocolSpec:
             )
         if "name" not in head:
             raise ProtocolError("[protocol] is missing field name")
-        raw_blocks = data.get("blocks")
-        if not isinstance(raw_blocks, list) or not raw_blocks:
+        task = None
+        if "task" in data:
+            from experiment.active.task import task_from_table
+
+            task = task_from_table(data["task"])
+        raw_blocks = data.get("blocks", [] if task is not None else None)
+        if task is not None and raw_blocks == []:
+            pass
+        elif not isinstance(raw_blocks, list) or not raw_blocks:
             raise ProtocolError("missing [[blocks]]: a protocol needs at least one block entry")
         blocks = tuple(
             BlockSpec.from_dict(b, where=f"blocks[{i}]") for i, b in enumerate(raw_blocks)
@@ -582,6 +607,7 @@ class ProtocolSpec:
             display=display,
             scoring=scoring,
             blocks=blocks,
+            task=task,
             source_path=source_path,
             source_sha256=source_sha256,
         )

@@ -16,6 +16,12 @@ Schema (created by numbered migrations, recorded in ``schema_migrations``)
 ``events``     pause, resume, abort, note, break, crash (detected at restart), open, close,
                complete.
 ``locks``      the process that has a session open: pid, host, process start time, token.
+``active_events`` (migration 3, active search, :mod:`experiment.active`) one row per event of an
+               active-search session, append-only: ``session_id, trial, attempt, seq, t_s, kind,
+               payload`` (JSON object), ``recorded_at``; ``UNIQUE(session_id, seq)``. ``trial``
+               is NULL for session-level rows (the ``plan``). Kinds: ``plan``, ``trial_start``,
+               ``key``, ``state``, ``answer``, ``score``, ``attempt_abandoned``. The schema of each
+               payload is documented in :mod:`experiment.active.eventlog`.
 ``tidy_trials`` (VIEW) one row per answered trial: ``subject, session, object, condition, level,
                window, pixels, recognized, response, score, rater, rt_s, part, trial_index``, with
                ``recognized`` from the latest primary score. This is what the analysis reads.
@@ -213,6 +219,40 @@ MIGRATIONS: tuple[tuple[int, str, str], ...] = (
     ),
 )
 
+
+def _active_events_migration() -> tuple[int, str, str]:
+    """Migration 3: the ``active_events`` table of the active-search task (issue 14).
+
+    Self-contained so that it can be renumbered at a merge; numbered 3 so that it applies in any
+    order relative to migration 2 (``_migrate`` applies every version not yet recorded).
+    """
+    return (
+        3,
+        "active-search events",
+        """
+        CREATE TABLE active_events (
+            event_id INTEGER PRIMARY KEY,
+            session_id INTEGER NOT NULL REFERENCES sessions(session_id),
+            trial INTEGER CHECK (trial IS NULL OR trial >= 0),
+            attempt INTEGER NOT NULL DEFAULT 0 CHECK (attempt >= 0),
+            seq INTEGER NOT NULL CHECK (seq >= 0),
+            t_s REAL NOT NULL,
+            kind TEXT NOT NULL,
+            payload TEXT NOT NULL DEFAULT '{}' CHECK (json_valid(payload)),
+            recorded_at TEXT NOT NULL,
+            UNIQUE (session_id, seq)
+        );
+        CREATE INDEX active_events_trial ON active_events(session_id, trial, attempt);
+        CREATE TRIGGER active_events_no_update BEFORE UPDATE ON active_events
+            BEGIN SELECT RAISE(ABORT, 'active events are append-only'); END;
+        CREATE TRIGGER active_events_no_delete BEFORE DELETE ON active_events
+            BEGIN SELECT RAISE(ABORT, 'active events are append-only'); END;
+        """,
+    )
+
+
+MIGRATIONS = (*MIGRATIONS, _active_events_migration())
+
 _SCHEDULE_COLS = (
     "trial_index",
     "part",
@@ -360,11 +400,11 @@ class TrialLog:
                 self._con.close()
                 raise TrialLogError(f"{self.path}: cannot write the trial log ({exc})") from None
         v = self.schema_version()
-        if v > MIGRATIONS[-1][0]:
+        if v > max(m[0] for m in MIGRATIONS):
             self._con.close()
             raise TrialLogError(
                 f"{self.path}: schema version {v} is newer than this software knows "
-                f"({MIGRATIONS[-1][0]}); upgrade confocal"
+                f"({max(m[0] for m in MIGRATIONS)}); upgrade confocal"
             )
 
     # -- transactions -------------------------------------------------------------------------
