@@ -517,7 +517,8 @@ def simulated_section(demo: DemoResult) -> str:
         "## Simulated observers",
         "",
         "**Every number in this report comes from simulated observers, not from people.** "
-        f"{len(demo.observers)} simulated subjects answered the synthetic stimuli through the "
+        f"{len(demo.observers)} simulated subject{'' if len(demo.observers) == 1 else 's'} "
+        "answered the synthetic stimuli through the "
         "session engine; each session's observer (name, parameters, criterion and the data its "
         "knowledge came from) is logged as an `observer` event in the trial log.",
         "",
