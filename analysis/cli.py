@@ -7,7 +7,9 @@ estimates how many subjects a study needs.
 
 from __future__ import annotations
 
+import errno
 import logging
+import math
 import warnings
 from enum import StrEnum
 from pathlib import Path
@@ -16,9 +18,61 @@ from typing import Annotated
 import typer
 from typer.core import TyperGroup
 
+from analysis.errors import DataError
+
 __all__ = ["register", "analyze_app"]
 
 logger = logging.getLogger(__name__)
+
+#: Memory per simulated trial in ``power``, bytes (ours, rounded up: the trial table and the
+#: logistic model's design matrix); checked before simulating so a huge --subjects is refused.
+_POWER_BYTES_PER_TRIAL = 2048
+#: Trials per simulated subject in the paper's design (20 objects x 8 levels x 2 conditions).
+_TRIALS_PER_SUBJECT = 320
+
+
+def _finite(lo: float | None = None, hi: float | None = None, *, open_lo=False, open_hi=False):
+    """Return a typer callback refusing NaN, infinities and values outside the range."""
+    interval = (
+        ("(" if open_lo or lo is None else "[")
+        + ("-inf" if lo is None else f"{lo:g}")
+        + ", "
+        + ("inf" if hi is None else f"{hi:g}")
+        + (")" if open_hi or hi is None else "]")
+    )
+
+    def callback(param: typer.CallbackParam, value):
+        if value is None:
+            return value
+        v = float(value)
+        bad = not math.isfinite(v)
+        bad = bad or (lo is not None and (v <= lo if open_lo else v < lo))
+        bad = bad or (hi is not None and (v >= hi if open_hi else v > hi))
+        if bad:
+            raise typer.BadParameter(
+                f"{param.name} must be in {interval}, a finite number; got {value!r}"
+            )
+        return value
+
+    return callback
+
+
+def _available_memory_bytes() -> int:
+    try:
+        with open("/proc/meminfo", encoding="ascii") as f:
+            for line in f:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except (OSError, ValueError, IndexError):
+        pass
+    return 1 << 62
+
+
+def _disk_full(exc: OSError, out: Path) -> DataError:
+    return DataError(
+        f"--out {out}: the disk is full ({exc.strerror or exc}) while writing the report; the "
+        "partial report was removed and any earlier report left as it was"
+    )
 
 
 class _DefaultRunGroup(TyperGroup):
@@ -66,12 +120,26 @@ def run(
         ),
     ],
     out: Annotated[Path, typer.Option("--out", "-o", help="Report folder (replaced atomically).")],
-    pc: Annotated[float, typer.Option("--pc", help="Proportion correct of the threshold.")] = 0.5,
+    pc: Annotated[
+        float,
+        typer.Option(
+            "--pc",
+            callback=_finite(0.0, 1.0, open_lo=True, open_hi=True),
+            help="Proportion correct of the threshold, in (0, 1).",
+        ),
+    ] = 0.5,
     by: Annotated[
         By, typer.Option("--by", help="Also fit each subject ('none': pooled only).")
     ] = By.subject,
-    guess: Annotated[float, typer.Option("--guess", help="Guess rate (0.5 for 2AFC).")] = 0.0,
-    seed: Annotated[int | None, typer.Option("--seed", help="Seed of the MCMC runs.")] = None,
+    guess: Annotated[
+        float,
+        typer.Option(
+            "--guess", callback=_finite(0.0, 1.0, open_hi=True), help="Guess rate (0.5 for 2AFC)."
+        ),
+    ] = 0.0,
+    seed: Annotated[
+        int | None, typer.Option("--seed", min=0, help="Seed of the MCMC runs.")
+    ] = None,
     mixed: Annotated[
         bool, typer.Option("--mixed", help="Also fit the mixed logistic model.")
     ] = False,
@@ -84,6 +152,13 @@ def run(
     lapse_prior: Annotated[
         str, typer.Option("--lapse-prior", help="Beta(a,b) prior of the lapse rate, as 'a,b'.")
     ] = "1,10",
+    include_simulated: Annotated[
+        bool,
+        typer.Option(
+            "--include-simulated",
+            help="Pool simulated observers' sessions with human ones (refused otherwise).",
+        ),
+    ] = False,
 ) -> None:
     """Analyse TRIALS and write REPORT_DIR (results.json, report.md, figures)."""
     from rich.console import Console
@@ -115,7 +190,9 @@ def run(
         res = write_active_report(trials, out)
         typer.echo("\n".join([*summary_lines(res), f"report: {Path(out) / 'report.md'}"]))
         return
-    table = read_trials(trials)
+    if out.exists() and not out.is_dir():
+        raise DataError(f"--out {out} exists and is a file; expected a report folder")
+    table = read_trials(trials, include_simulated=include_simulated)
     err = Console(stderr=True)
     result = None
     with (
@@ -137,7 +214,12 @@ def run(
     assert result is not None
     if figures:
         err.print("drawing figures and writing the report...")
-    folder = write_report(result, out, figures=figures)
+    try:
+        folder = write_report(result, out, figures=figures)
+    except OSError as exc:
+        if exc.errno in (errno.ENOSPC, errno.EDQUOT):
+            raise _disk_full(exc, out) from None
+        raise
     active = add_active_results(trials, folder)
     _print_summary(result, folder)
     if active is not None:
@@ -151,6 +233,8 @@ def _fmt(v: float | None) -> str:
 def _print_summary(result, folder: Path) -> None:
     r = result.results_json()
     typer.echo(f"{r['n_trials']} trials, {r['n_recognized']} recognised")
+    if r.get("simulated_sessions"):
+        typer.echo(f"SIMULATED (no person answered): {'; '.join(r['simulated_sessions'])}")
     if r["n_training_excluded"]:
         typer.echo(f"({r['n_training_excluded']} training trials excluded)")
     for c, t in r["thresholds"].items():
@@ -192,21 +276,45 @@ class Effect(StrEnum):
 def power(
     odds_ratio: Annotated[
         float | None,
-        typer.Option("--odds-ratio", help="Background odds ratio to detect (paper: 5.6)."),
+        typer.Option(
+            "--odds-ratio",
+            callback=_finite(0.0, open_lo=True),
+            help="Background odds ratio to detect, > 0 (paper: 5.6).",
+        ),
     ] = None,
     threshold_ratio: Annotated[
         float | None,
         typer.Option(
-            "--threshold-ratio", help="Cluttered / de-cluttered 50% threshold ratio to detect."
+            "--threshold-ratio",
+            callback=_finite(0.0, open_lo=True),
+            help="Cluttered / de-cluttered 50% threshold ratio to detect, > 0.",
         ),
     ] = None,
     subjects: Annotated[
         str, typer.Option("--subjects", help="Comma-separated numbers of subjects to simulate.")
     ] = "1,2,3,4,6,8",
-    target: Annotated[float, typer.Option("--power", help="Power wanted.")] = 0.8,
-    sims: Annotated[int, typer.Option("--sims", help="Simulations per number of subjects.")] = 200,
-    alpha: Annotated[float, typer.Option("--alpha", help="Test level.")] = 0.05,
-    seed: Annotated[int | None, typer.Option("--seed", help="Seed of the simulations.")] = None,
+    target: Annotated[
+        float,
+        typer.Option(
+            "--power",
+            callback=_finite(0.0, 1.0, open_lo=True, open_hi=True),
+            help="Power wanted, in (0, 1).",
+        ),
+    ] = 0.8,
+    sims: Annotated[
+        int, typer.Option("--sims", min=1, help="Simulations per number of subjects.")
+    ] = 200,
+    alpha: Annotated[
+        float,
+        typer.Option(
+            "--alpha",
+            callback=_finite(0.0, 1.0, open_lo=True, open_hi=True),
+            help="Test level, in (0, 1).",
+        ),
+    ] = 0.05,
+    seed: Annotated[
+        int | None, typer.Option("--seed", min=0, help="Seed of the simulations.")
+    ] = None,
 ) -> None:
     """Estimate how many subjects detect a given odds ratio or threshold ratio (simulation)."""
     from rich.console import Console
@@ -222,6 +330,15 @@ def power(
         raise typer.BadParameter(
             f"--subjects must be integers like 1,2,4, got {subjects!r}"
         ) from exc
+    if not ns or ns[0] < 1:
+        raise typer.BadParameter(f"--subjects must be integers >= 1 like 1,2,4, got {subjects!r}")
+    need = ns[-1] * _TRIALS_PER_SUBJECT * _POWER_BYTES_PER_TRIAL
+    avail = _available_memory_bytes()
+    if need > avail:
+        raise typer.BadParameter(
+            f"--subjects {ns[-1]} needs about {need / 2**30:.1f} GiB of memory per simulation but "
+            f"only {avail / 2**30:.1f} GiB is available; simulate fewer subjects"
+        )
     effect = "odds_ratio" if odds_ratio is not None else "threshold_ratio"
     size = odds_ratio if odds_ratio is not None else threshold_ratio
     points = []

@@ -98,6 +98,8 @@ class AnalysisResult:
         ``{subject: {object: {condition: pixels or None}}}``: lowest level recognised.
     warnings : tuple of str
         Warnings raised by the fits (also logged).
+    simulated_sessions : tuple of str
+        Sessions answered by a simulated observer (from :attr:`TrialTable.simulated_sessions`).
     """
 
     options: AnalysisOptions
@@ -111,6 +113,7 @@ class AnalysisResult:
     mixed: MixedFit | None
     first_recognized: dict[str, dict[str, dict[str, float | None]]]
     warnings: tuple[str, ...] = field(default_factory=tuple)
+    simulated_sessions: tuple[str, ...] = ()
 
     def predictions(self) -> dict[str, Any]:
         """Return Eq. 1 applied with the fitted background odds ratio."""
@@ -136,6 +139,7 @@ class AnalysisResult:
             "seed": self.options.seed,
             "prior": {c: f.prior.to_dict() for c, f in self.thresholds.items()},
             "sources": list(self.sources),
+            "simulated_sessions": list(self.simulated_sessions),
             "n_training_excluded": self.n_training_excluded,
             "thresholds": {c: f.summary(pc) for c, f in self.thresholds.items()},
             "subject_thresholds": {
@@ -184,6 +188,7 @@ class AnalysisResult:
             "mixed": self.mixed.to_dict() if self.mixed else None,
             "first_recognized": self.first_recognized,
             "warnings": list(self.warnings),
+            "simulated_sessions": list(self.simulated_sessions),
         }
 
     @classmethod
@@ -207,6 +212,7 @@ class AnalysisResult:
             mixed=MixedFit.from_dict(d["mixed"]) if d.get("mixed") else None,
             first_recognized=d["first_recognized"],
             warnings=tuple(d.get("warnings", ())),
+            simulated_sessions=tuple(d.get("simulated_sessions", ())),
         )
 
 
@@ -378,5 +384,6 @@ def analyze(table: TrialTable, options: AnalysisOptions | None = None) -> Iterat
         mixed=mixed,
         first_recognized=first_recognized(trials),
         warnings=tuple(dict.fromkeys(notes)),
+        simulated_sessions=table.simulated_sessions,
     )
     yield AnalysisStep(done, total, "done", result)

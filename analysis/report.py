@@ -73,6 +73,11 @@ def render_markdown(result: AnalysisResult, *, figures: bool = True) -> str:
     lines.append(
         f"Data: {len(result.sources)} file(s) ({', '.join(Path(s).name for s in result.sources)})."
     )
+    if result.simulated_sessions:
+        lines.append(
+            "**Simulated data**: these sessions were answered by a simulated observer, not a "
+            f"person: {'; '.join(result.simulated_sessions)}."
+        )
     if result.n_training_excluded:
         lines.append(
             f"Only main-part trials are analysed: {result.n_training_excluded} training trials "
@@ -211,6 +216,13 @@ def render_markdown(result: AnalysisResult, *, figures: bool = True) -> str:
     return "\n".join(lines) + "\n"
 
 
+def _folder_mode() -> int:
+    """Return the mode ``mkdir`` would give a new folder under the user's umask."""
+    mask = os.umask(0o022)
+    os.umask(mask)
+    return 0o777 & ~mask
+
+
 def write_report(result: AnalysisResult, out_dir: str | Path, *, figures: bool = True) -> Path:
     """Write ``results.json``, ``report.md`` and figures to ``out_dir``, atomically.
 
@@ -241,7 +253,7 @@ def write_report(result: AnalysisResult, out_dir: str | Path, *, figures: bool =
             from analysis.figures import save_all
 
             save_all(result, tmp)
-        os.chmod(tmp, 0o755)
+        os.chmod(tmp, _folder_mode())  # mkdtemp makes it private (0700)
         old = None
         if out.exists():
             old = Path(tempfile.mkdtemp(prefix=f".{out.name}.old-", dir=out.parent))

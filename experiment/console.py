@@ -277,6 +277,7 @@ class OperatorConsole(App):
         if onset is None:
             return
         self.onset = onset
+        self.session.mark_shown(trial, onset)  # durable before any answer (issue 10)
         self.first_key_s = None
         response = self.query_one("#response", Input)
         response.value = ""
@@ -491,7 +492,9 @@ class ScoringApp(App):
 
     Shows each answered trial's object (the right answer), condition, level and the logged words;
     F1..F5 appends a score by ``rater`` to the log (never the first rater's score, never the
-    suggestion). Returns the number of trials scored.
+    suggestion). Ctrl+Z steps back to the previous trial: the score given next is appended and,
+    being this rater's latest, replaces the undone one (scores are never deleted). A progress
+    line shows how many are scored and left. Returns the number of trials scored.
 
     Parameters
     ----------
@@ -503,6 +506,7 @@ class ScoringApp(App):
 
     BINDINGS = [
         *(Binding(k, f"score('{s}')", s, priority=True) for k, s in SCORE_KEYS.items()),
+        Binding("ctrl+z", "undo", "undo", priority=True),
         Binding("ctrl+q", "done", "save & quit", priority=True),
     ]
 
@@ -513,6 +517,8 @@ class ScoringApp(App):
         self.pending = list(pending)
         self.position = 0
         self._recognized: dict[int, Any] = {}
+        self._undone: dict[int, str] = {}
+        self._last_scores: dict[int, str] = {}
 
     def compose(self) -> ComposeResult:
         yield Static(id="item")
@@ -523,19 +529,46 @@ class ScoringApp(App):
         self.title = f"confocal score: rater {self.rater}"
         self._show()
 
+    def progress_text(self) -> str:
+        """Return the progress line: scored, left and a 20-cell bar."""
+        n = len(self.pending)
+        done = min(self.position, n)
+        cells = round(20 * done / n) if n else 20
+        return (
+            f"scored {done} of {n}, {n - done} left  "
+            + "\u2588" * cells
+            + "\u2591" * (20 - cells)
+            + f"  {100 * done / n if n else 100:.0f} %"
+        )
+
     def _show(self) -> None:
+        from rich.markup import escape
+
+        progress = self.progress_text()
         if self.position >= len(self.pending):
-            self.query_one("#item", Static).update("All responses are scored.")
-            self.exit(self.position)
+            self.query_one("#item", Static).update(
+                f"All {len(self.pending)} responses are scored.\n\n"
+                "Ctrl+Z undoes the last score; Ctrl+Q quits (every score is saved)."
+            )
+            self.query_one("#status", Static).update(progress)
             return
         t = self.pending[self.position]
+        redo = self.position in self._undone
         self.query_one("#item", Static).update(
             f"{self.position + 1} of {len(self.pending)}   session {t['session_id']} "
-            f"(subject {t['subject']}), trial {t['trial_index'] + 1}\n"
-            f"object: [b]{t['object_name']}[/b] ({t['object']}), {t['condition']}, "
-            f"level {t['level']}\n\nresponse: [b]{t['response']!r}[/b]"
+            f"(subject {escape(str(t['subject']))}), trial {t['trial_index'] + 1}\n"
+            f"object: [b]{escape(str(t['object_name']))}[/b] ({escape(str(t['object']))}), "
+            f"{t['condition']}, level {t['level']}\n\n"
+            f"response: [b]{escape(repr(t['response']))}[/b]"
+            + (
+                f"\n\nundone: you gave {self._undone[self.position]}; score it again"
+                if redo
+                else ""
+            )
         )
-        self.query_one("#status", Static).update("F1 named  F2 use  F3 shape  F4 wrong  F5 pass")
+        self.query_one("#status", Static).update(
+            f"{progress}\nF1 named  F2 use  F3 shape  F4 wrong  F5 pass  Ctrl+Z undo"
+        )
 
     def _is_recognized(self, session_id: int, score: str) -> bool:
         if session_id not in self._recognized:
@@ -552,15 +585,26 @@ class ScoringApp(App):
         if self.position >= len(self.pending):
             return
         t = self.pending[self.position]
+        undone = self._undone.pop(self.position, None)
         self.trial_log.add_score(
             t["session_id"],
             t["trial_index"],
             score,
             self._is_recognized(t["session_id"], score),
             self.rater,
-            note="blind re-score",
+            note="blind re-score" + (f" (replaces this rater's undone {undone})" if undone else ""),
         )
+        self._last_scores[self.position] = score
         self.position += 1
+        self._show()
+
+    def action_undo(self) -> None:
+        """Step back to the previous trial; its next score replaces the undone one."""
+        if self.position == 0:
+            self.notify("nothing to undo")
+            return
+        self.position -= 1
+        self._undone[self.position] = self._last_scores.get(self.position, "a score")
         self._show()
 
     def action_done(self) -> None:

@@ -38,7 +38,7 @@ import multiprocessing
 import shutil
 import time
 from concurrent.futures import ProcessPoolExecutor
-from dataclasses import dataclass, field
+from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Annotated, Any
 
@@ -362,6 +362,8 @@ def run_demo(
         protocol = load_protocol("jung2015")
         stimset = StimulusSet.load(paths["stimuli"])
         params = _observer_params(observer, paths.get("knowledge", out), protocol)
+        probe = make_observer(observer, stimset, "probe", rng=0, **params)
+        effective_params = json.loads(json.dumps(asdict(probe.params), default=str))
         log = TrialLog(":memory:")
         try:
             seeds = np.random.SeedSequence(seed).generate_state(n_subjects)
@@ -369,7 +371,14 @@ def run_demo(
             done_before = 0
             for subject, s in zip(subjects, seeds, strict=True):
                 session = Session.open(
-                    log, protocol, stimset, subject, seed=int(s), responder=f"sim:{observer}"
+                    log,
+                    protocol,
+                    stimset,
+                    subject,
+                    seed=int(s),
+                    responder=f"sim:{observer}",
+                    observer=observer,
+                    observer_params=effective_params,
                 )
                 try:
                     total = session.progress()[1]

@@ -586,6 +586,13 @@ class Presenter:
         self.refresh_hz: float | None = None
         rows, cols = geometry.screen_shape_px
         if window is None or ctx.screen is None:  # offscreen, or a test window without a screen
+            max_px = int(ctx.info.get("GL_MAX_RENDERBUFFER_SIZE", 0) or 0)
+            if max_px and max(rows, cols) > max_px:
+                raise PresenterError(
+                    f"screen {cols}x{rows} px is larger than this GL driver's largest framebuffer "
+                    f"({max_px}x{max_px} px); use a smaller screen size (display.screen_width_px, "
+                    "display.screen_height_px or --screen-px)"
+                )
             self._fbo = ctx.framebuffer(color_attachments=[ctx.renderbuffer((cols, rows), 4)])
         else:
             self._fbo = ctx.screen

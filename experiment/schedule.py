@@ -16,7 +16,7 @@ import numpy as np
 from experiment.protocol import BlockSpec, ProtocolError, ProtocolSpec
 from experiment.stimset import StimulusSet
 
-__all__ = ["Trial", "Schedule", "build_schedule"]
+__all__ = ["Trial", "Schedule", "build_schedule", "planned_trials"]
 
 
 @dataclass(frozen=True)
@@ -186,6 +186,26 @@ def _entry_blocks(
     if entry.block_order == "random":
         blocks = [blocks[i] for i in rng.permutation(len(blocks))]
     return blocks
+
+
+def planned_trials(protocol: ProtocolSpec, stimset: StimulusSet) -> int:
+    """Return how many trials :func:`build_schedule` would plan, without building them.
+
+    Checks every block's objects, levels and conditions against the stimulus set first, so a
+    caller can refuse a protocol (or one too large for memory) before writing anything.
+
+    Raises
+    ------
+    ProtocolError
+        A block entry names an object, role or level the stimulus set lacks.
+    """
+    n = 0
+    for e, entry in enumerate(protocol.blocks):
+        where = f"blocks[{e}]"
+        objs = _objects_for(entry, stimset, where)
+        _check_available(entry, objs, stimset, where)
+        n += entry.repetitions * len(objs) * len(entry.levels) * len(entry.conditions)
+    return n
 
 
 def build_schedule(

@@ -161,6 +161,16 @@ class StimulusSet:
             records.append(rec)
         if not records:
             raise StimulusSetError(f"{manifest}: no stimuli listed")
+        inside = root.resolve()
+        for i, rec in enumerate(records, start=2):
+            # paths may not reach outside the set: no absolute paths, '..' or symlinks out
+            if Path(rec.path).is_absolute() or not (inside / rec.path).resolve().is_relative_to(
+                inside
+            ):
+                raise StimulusSetError(
+                    f"{manifest}: line {i}: field path {rec.path!r} points outside the stimulus "
+                    f"set {root}; expected a file inside the set folder"
+                )
         objects = {}
         for row in _read_csv(root / "objects.csv", OBJECT_COLUMNS):
             o = ObjectInfo(

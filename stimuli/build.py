@@ -25,6 +25,7 @@ the end, so the output folder is untouched by any error.
 
 from __future__ import annotations
 
+import errno
 import hashlib
 import json
 import logging
@@ -48,7 +49,14 @@ from stimuli.compress import compress, compress_grey, resolution_ladder
 from stimuli.contact import contact_sheet, save_contact_sheet
 from stimuli.declutter import AUTO_THRESHOLD_METHODS, auto_threshold, declutter
 from stimuli.errors import InputError
-from stimuli.io import check_gray, image_shape_px, load_gray, save_png, sha256_file
+from stimuli.io import (
+    check_gray,
+    default_mode,
+    image_shape_px,
+    load_gray,
+    save_png,
+    sha256_file,
+)
 from stimuli.manifest import (
     ObjectInfo,
     StimulusRecord,
@@ -77,6 +85,7 @@ __all__ = [
     "edge_ladder",
     "grey_ladder",
     "build_stimulus_set",
+    "min_photo_shape_px",
 ]
 
 logger = logging.getLogger(__name__)
@@ -783,6 +792,18 @@ def _scale_crop(
     return (x0, y0, max(1, x1 - x0), max(1, y1 - y0))
 
 
+def min_photo_shape_px(params: BuildParams) -> tuple[int, int]:
+    """Return the smallest photo ``(rows, cols)`` the builder accepts for ``params``.
+
+    A photo must give at least one pixel per cell of the coarsest level (working size divided
+    by the largest window, rounded up) and at least 3x3 for the Sobel filter; anything smaller
+    would be upsampled into a stimulus set with no information in it (issue 10: a 1x1 photo).
+    """
+    w = max(params.windows_px)
+    rows, cols = params.working_shape_px
+    return max(3, -(-rows // w)), max(3, -(-cols // w))
+
+
 def _prepare(src: PairSource, info: ObjectInfo, params: BuildParams) -> _Work:
     crop = info.crop if info.crop is not None else src.crop
     wide_raw, narrow_raw, wide_full, narrow_full, plane = _load_raw(src, info, params, crop)
@@ -799,6 +820,13 @@ def _prepare(src: PairSource, info: ObjectInfo, params: BuildParams) -> _Work:
                 "(use --allow-resize to resize each on its own)"
             )
         notes.append(msg + "; resized each on its own (--allow-resize)")
+    min_px = min_photo_shape_px(params)
+    if wide_full[0] < min_px[0] or wide_full[1] < min_px[1]:
+        raise InputError(
+            f"{name}: photo is {wide_full[1]}x{wide_full[0]} px; expected at least "
+            f"{min_px[1]}x{min_px[0]} px (one pixel per cell of the coarsest level at working "
+            f"size {params.working_shape_px[1]}x{params.working_shape_px[0]})"
+        )
     where = f"object {src.object!r} ({name}): field crop"
     if crop is not None:
         _check_crop_inside(crop, wide_full, where=where)
@@ -1155,10 +1183,15 @@ def build_stimulus_set(
             "manifest_sha256": sha256_file(tmp / "manifest.csv"),
         }
         (tmp / "stimulus_set.json").write_text(json.dumps(meta, indent=2) + "\n", "utf-8")
-        os.chmod(tmp, 0o755)  # mkdtemp makes it private; a stimulus set is ordinary data
+        os.chmod(tmp, default_mode(directory=True))  # mkdtemp makes it private
         _swap_in(tmp, out_dir)
-    except BaseException:
+    except BaseException as exc:
         shutil.rmtree(tmp, ignore_errors=True)
+        if isinstance(exc, OSError) and exc.errno in (errno.ENOSPC, errno.EDQUOT):
+            raise InputError(
+                f"{out_dir}: the disk is full ({exc.strerror or exc}) while writing the stimulus "
+                f"set; the partial set was removed and {out_dir} was left as it was"
+            ) from None
         raise
     t_end = time.perf_counter()
     for n in notes:

@@ -9,6 +9,12 @@ import typer
 
 __all__ = ["register", "stimuli_app"]
 
+#: Peak memory of ``synth`` per photo pixel, bytes (ours: measured 147 B/px at 2000x1500).
+_SYNTH_BYTES_PER_PX = 160
+#: Working memory of one ``build`` worker per working-size pixel, bytes (ours: a dozen float32
+#: and float64 images of the working size; the estimate only has to catch absurd sizes).
+_BUILD_BYTES_PER_PX = 64
+
 stimuli_app = typer.Typer(
     name="stimuli",
     help="Build stimulus sets (Jung et al. 2015, Sec. 3.1) from photo pairs or light fields.",
@@ -53,7 +59,7 @@ def build_command(
     ] = "auto",
     mode: Annotated[str, typer.Option("--mode", help="edges (binary) or grey (Fig. 2).")] = "edges",
     grey_levels: Annotated[
-        int, typer.Option("--grey-levels", help="Grey levels in grey mode.")
+        int, typer.Option("--grey-levels", min=2, max=256, help="Grey levels in grey mode.")
     ] = 8,
     allow_resize: Annotated[
         bool, typer.Option("--allow-resize", help="Accept pairs whose photos differ in pixel size.")
@@ -82,9 +88,13 @@ def build_command(
         parse_threshold,
         parse_working_size,
     )
+    from stimuli.resources import check_memory
 
+    shape = parse_working_size(working_size)
+    # each worker holds a few float32/float64 images of the working size at once
+    check_memory(shape[0] * shape[1] * _BUILD_BYTES_PER_PX * 8, f"--working-size {working_size}")
     params = BuildParams(
-        working_shape_px=parse_working_size(working_size),
+        working_shape_px=shape,
         threshold=parse_threshold(threshold),
         threshold_method=threshold_method,
         edge_ratio=parse_edge_ratio(edge_ratio),
@@ -138,10 +148,12 @@ def build_command(
 @stimuli_app.command("synth")
 def synth_command(
     out: Annotated[Path, typer.Option("--out", "-o", help="PAIRS folder to write.")],
-    objects: Annotated[int, typer.Option("--objects", help="Number of main objects.")] = 20,
-    training: Annotated[int, typer.Option("--training", help="Number of training objects.")] = 3,
+    objects: Annotated[int, typer.Option("--objects", min=1, help="Number of main objects.")] = 20,
+    training: Annotated[
+        int, typer.Option("--training", min=0, help="Number of training objects.")
+    ] = 3,
     seed: Annotated[
-        int, typer.Option("--seed", help="Random seed (the set is deterministic by seed).")
+        int, typer.Option("--seed", min=0, help="Random seed (the set is deterministic by seed).")
     ] = 0,
     size: Annotated[
         str, typer.Option("--size", help="Photo size WIDTHxHEIGHT, pixels (e.g. 1536x1024).")
@@ -150,14 +162,23 @@ def synth_command(
 ) -> None:
     """Write synthetic wide/narrow-DOF photo pairs of named objects in front of clutter."""
     from stimuli.build import parse_working_size
+    from stimuli.errors import InputError
+    from stimuli.resources import check_memory
     from stimuli.synth import write_pairs
 
+    try:
+        shape = parse_working_size(size)
+    except InputError:
+        raise InputError(
+            f"--size must be WIDTHxHEIGHT in pixels (e.g. 492x327), got {size!r}"
+        ) from None
+    check_memory(shape[0] * shape[1] * _SYNTH_BYTES_PER_PX, f"--size {size}")
     path = write_pairs(
         out,
         n_objects=objects,
         n_training=training,
         seed=seed,
-        shape_px=parse_working_size(size),
+        shape_px=shape,
         force=force,
     )
     typer.echo(f"wrote {objects} + {training} synthetic photo pairs to {path}")

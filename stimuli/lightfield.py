@@ -61,6 +61,8 @@ import math
 import os
 import re
 import tomllib
+import zipfile
+import zlib
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Literal
@@ -644,7 +646,8 @@ def _load_array_file(path: Path) -> tuple[np.ndarray, dict]:
                 a = z[key]
                 if "geometry" in keys:
                     meta["geometry"] = json.loads(str(z["geometry"]))
-    except (OSError, ValueError, json.JSONDecodeError) as exc:
+    except (OSError, ValueError, EOFError, zipfile.BadZipFile, zlib.error) as exc:
+        # a truncated .npz is a BadZipFile; a damaged member a zlib.error or EOFError
         raise InputError(f"{path}: not a readable light-field array ({exc})") from None
     if np.issubdtype(a.dtype, np.integer) or a.dtype == bool:
         from stimuli.io import to_float01

@@ -29,7 +29,9 @@ from typing import Annotated
 import numpy as np
 import typer
 
+from stimuli.build import parse_threshold
 from stimuli.errors import InputError
+from stimuli.resources import check_memory, finite_option
 
 __all__ = [
     "register",
@@ -50,7 +52,13 @@ _Threshold = Annotated[
     str, typer.Option("--threshold", help="Sobel threshold: 'auto' (Otsu) or a number.")
 ]
 _EdgeRatio = Annotated[
-    float, typer.Option("--edge-ratio", help="Compression edge ratio (paper: 1/13).")
+    float,
+    typer.Option(
+        "--edge-ratio",
+        callback=finite_option(0.0, 1.0, hi_open=True),
+        help="Compression edge ratio in [0, 1) (paper: 1/13).",
+        show_default="1/13 ≈ 0.077",
+    ),
 ]
 _LoaderPattern = Annotated[
     str | None,
@@ -62,10 +70,11 @@ _LoaderGridCols = Annotated[
     int | None, typer.Option("--grid-cols", help="Columns of the camera grid for {index} patterns.")
 ]
 _LoaderPitch = Annotated[
-    int | None, typer.Option("--pitch", help="Elemental image: lenslet pitch, pixels.")
+    int | None, typer.Option("--pitch", min=1, help="Elemental image: lenslet pitch, pixels.")
 ]
 _LoaderBorder = Annotated[
-    int | None, typer.Option("--border", help="Elemental image: invalid border per lenslet, px.")
+    int | None,
+    typer.Option("--border", min=0, help="Elemental image: invalid border per lenslet, px."),
 ]
 _ViewCrop = Annotated[
     str | None,
@@ -78,6 +87,17 @@ _LoaderOffset = Annotated[
     str | None,
     typer.Option("--offset", help="Elemental image: ROW,COL pixels before the first lenslet."),
 ]
+
+
+#: Peak memory of ``synth`` per view pixel, bytes (ours: measured about 1,000 B per view pixel
+#: for the lens array's 10x10 views at 385x308).
+_SYNTH_BYTES_PER_VIEW_PX = 1100
+#: Memory per scanned plane, bytes: its disparity, score and a row of ``planes.csv`` (ours).
+_BYTES_PER_PLANE = 256
+
+
+def _check_planes(planes: int) -> None:
+    check_memory(planes * _BYTES_PER_PLANE, f"--planes {planes}")
 
 
 def parse_grid(text: str) -> tuple[int, int]:
@@ -184,7 +204,6 @@ def declutter_and_compress(
     threshold : float
         The threshold used.
     """
-    from stimuli.build import parse_threshold
     from stimuli.compress import compress
     from stimuli.declutter import auto_threshold, declutter
 
@@ -255,9 +274,17 @@ def scan_command(
         Path, typer.Argument(help="Folder of views, .npy/.npz, or elemental image.")
     ],
     out: Annotated[Path, typer.Option("--out", "-o", help="Folder to write.")],
-    planes: Annotated[int, typer.Option("--planes", help="Number of planes (paper: 200).")] = 200,
-    near: Annotated[float | None, typer.Option("--near", help="Nearest depth, m.")] = None,
-    far: Annotated[float | None, typer.Option("--far", help="Farthest depth, m.")] = None,
+    planes: Annotated[
+        int, typer.Option("--planes", min=3, help="Number of planes (paper: 200).")
+    ] = 200,
+    near: Annotated[
+        float | None,
+        typer.Option("--near", callback=finite_option(0.0, lo_open=True), help="Nearest depth, m."),
+    ] = None,
+    far: Annotated[
+        float | None,
+        typer.Option("--far", callback=finite_option(0.0, lo_open=True), help="Farthest depth, m."),
+    ] = None,
     disparities: Annotated[
         str | None, typer.Option("--disparities", help="FROM:TO, pixels per view step.")
     ] = None,
@@ -265,7 +292,9 @@ def scan_command(
     binning: Annotated[
         int | None,
         typer.Option(
-            "--binning", help="View binning for the scan (default: 2, less for small views)."
+            "--binning",
+            min=1,
+            help="View binning for the scan (default: 2, less for small views).",
         ),
     ] = None,
     fast: Annotated[
@@ -287,9 +316,14 @@ def scan_command(
     from stimuli.planes import auto_binning, iter_plane_scores, scan_result
     from stimuli.refocus import refocus
 
+    # every option is checked before the light field is read or anything is written
     shape = parse_grid(grid)
-    if planes < 3:
-        raise InputError(f"--planes must be >= 3, got {planes}")
+    parse_threshold(threshold)
+    _check_planes(planes)
+    if disparities is not None:
+        _parse_range(disparities)
+    if out.exists() and not out.is_dir():
+        raise InputError(f"--out {out} exists and is a file; expected a folder to write")
     lf = _load(lightfield, pattern, grid_cols, pitch, border, offset, view_crop)
     ds = _disparities(lf, planes, near, far, disparities)
     if binning is None:
@@ -334,14 +368,30 @@ def refocus_command(
         Path, typer.Argument(help="Folder of views, .npy/.npz, or elemental image.")
     ],
     out: Annotated[Path, typer.Option("--out", "-o", help="PNG to write (folder with --stack).")],
-    depth: Annotated[float | None, typer.Option("--depth", help="Plane depth, m.")] = None,
+    depth: Annotated[
+        float | None,
+        typer.Option("--depth", callback=finite_option(0.0, lo_open=True), help="Plane depth, m."),
+    ] = None,
     disparity: Annotated[
-        float | None, typer.Option("--disparity", help="Plane disparity, px per view step.")
+        float | None,
+        typer.Option(
+            "--disparity", callback=finite_option(), help="Plane disparity, px per view step."
+        ),
     ] = None,
     stack: Annotated[bool, typer.Option("--stack", help="Write a focal stack into --out.")] = False,
-    planes: Annotated[int, typer.Option("--planes", help="Planes in the stack.")] = 20,
-    near: Annotated[float | None, typer.Option("--near", help="Stack: nearest depth, m.")] = None,
-    far: Annotated[float | None, typer.Option("--far", help="Stack: farthest depth, m.")] = None,
+    planes: Annotated[int, typer.Option("--planes", min=3, help="Planes in the stack.")] = 20,
+    near: Annotated[
+        float | None,
+        typer.Option(
+            "--near", callback=finite_option(0.0, lo_open=True), help="Stack: nearest depth, m."
+        ),
+    ] = None,
+    far: Annotated[
+        float | None,
+        typer.Option(
+            "--far", callback=finite_option(0.0, lo_open=True), help="Stack: farthest depth, m."
+        ),
+    ] = None,
     disparities: Annotated[
         str | None, typer.Option("--disparities", help="Stack: FROM:TO, px per view step.")
     ] = None,
@@ -362,6 +412,20 @@ def refocus_command(
     from stimuli.io import save_png
     from stimuli.refocus import iter_focal_stack, refocus
 
+    # every option is checked before the light field is read or anything is written
+    grid_px = parse_grid(grid) if grid is not None else None
+    parse_threshold(threshold)
+    if stack:
+        _check_planes(planes)
+        if disparities is not None:
+            _parse_range(disparities)
+    if zoom is not None:
+        parse_zoom(zoom, (1 << 30, 1 << 30))
+    if out.exists() and out.is_dir() != stack:
+        raise InputError(
+            f"--out {out} exists and is a {'folder' if out.is_dir() else 'file'}; expected "
+            + ("a folder for --stack" if stack else "a PNG file path")
+        )
     lf = _load(lightfield, pattern, grid_cols, pitch, border, offset, view_crop)
     if stack:
         if depth is not None or disparity is not None:
@@ -382,7 +446,7 @@ def refocus_command(
     save_png(img, out)
     if grid is not None:
         edges, cells, t = declutter_and_compress(
-            img, parse_grid(grid), threshold=threshold, edge_ratio=edge_ratio
+            img, grid_px, threshold=threshold, edge_ratio=edge_ratio
         )
         save_png(edges, out.with_name(out.stem + "_edges.png"))
         save_png(cells, out.with_name(out.stem + "_grid.png"))
@@ -406,7 +470,7 @@ def synth_command(
     size: Annotated[str, typer.Option("--size", help="View size COLSxROWS (paper: 385x308).")] = (
         "385x308"
     ),
-    seed: Annotated[int, typer.Option("--seed", help="Seed of the textures.")] = 0,
+    seed: Annotated[int, typer.Option("--seed", min=0, help="Seed of the textures.")] = 0,
 ) -> None:
     """Write the paper's simulated three-plane scene (Fig. 10)."""
     from stimuli.io import atomic_path, save_png
@@ -418,6 +482,17 @@ def synth_command(
     from stimuli.lightfield import views_from_elemental
 
     shape = parse_grid(size)
+    if kind not in ("lens", "camera"):
+        raise InputError(f"--kind must be 'lens' or 'camera', got {kind!r}")
+    suffix = out.suffix.lower()
+    if suffix == ".png" and kind != "lens":
+        raise InputError("a .png output is an elemental image: use --kind lens")
+    if out.exists() and out.is_dir() != (suffix not in (".npz", ".png")):
+        raise InputError(
+            f"--out {out} exists and is a {'folder' if out.is_dir() else 'file'}; expected "
+            + ("a folder of views" if suffix not in (".npz", ".png") else f"a {suffix} file")
+        )
+    check_memory(shape[0] * shape[1] * _SYNTH_BYTES_PER_VIEW_PX, f"--size {size}")
     layers = three_plane_scene(shape, rng=seed)
     if kind == "lens":
         ei, geometry = render_elemental_image(layers, shape_px=shape)
@@ -425,19 +500,14 @@ def synth_command(
     elif kind == "camera":
         lf = render_camera_array(layers, shape_px=shape, baseline_m=0.03)
         views, geometry = lf.views, lf.geometry
-    else:
-        raise InputError(f"--kind must be 'lens' or 'camera', got {kind!r}")
     gtoml = "[geometry]\n" + "".join(
         f"{k} = {json.dumps(v)}\n" for k, v in geometry.to_dict().items()
     )
-    suffix = out.suffix.lower()
     if suffix == ".npz":
         out.parent.mkdir(parents=True, exist_ok=True)
         with atomic_path(out) as tmp, open(tmp, "wb") as f:
             np.savez_compressed(f, views=views, geometry=json.dumps(geometry.to_dict()))
     elif suffix == ".png":
-        if kind != "lens":
-            raise InputError("a .png output is an elemental image: use --kind lens")
         save_png(ei, out)
         p = ei.shape[0] // shape[0]
         with atomic_path(out.with_suffix(".toml")) as tmp:

@@ -15,7 +15,6 @@ import importlib.metadata as md
 import re
 import sys
 import tomllib
-from pathlib import Path
 
 import pytest
 
@@ -55,9 +54,7 @@ def _guarded(node: ast.AST, parents: dict[ast.AST, ast.AST]) -> bool:
                 names = {
                     n.id if isinstance(n, ast.Name) else getattr(n, "attr", "")
                     for n in (
-                        handler.type.elts
-                        if isinstance(handler.type, ast.Tuple)
-                        else [handler.type]
+                        handler.type.elts if isinstance(handler.type, ast.Tuple) else [handler.type]
                     )
                     if n is not None
                 }

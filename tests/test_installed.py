@@ -45,7 +45,8 @@ def installed(tmp_path_factory) -> tuple[Path, dict[str, str], Path]:
     base = tmp_path_factory.mktemp("wheel")
     wheels = base / "dist"
     subprocess.run(
-        [sys.executable, "-m", "pip", "wheel", "--no-deps", "-q", "-w", str(wheels), str(REPO_ROOT)],
+        [sys.executable, "-m", "pip", "wheel", "--no-deps", "-q", "-w", str(wheels)]
+        + [str(REPO_ROOT)],
         check=True,
         capture_output=True,
         text=True,

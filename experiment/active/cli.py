@@ -24,8 +24,8 @@ active_app = typer.Typer(
     name="active",
     no_args_is_help=True,
     add_completion=False,
-    help="Active search (issue 14): a subject drives the confocal viewer to find and name "
-    "objects; every key and displayed state is logged.",
+    help="Active search (Jung et al. 2015, Sec. 5): a subject drives the confocal viewer to "
+    "find and name objects; every key and displayed state is logged.",
 )
 
 

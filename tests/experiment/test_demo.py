@@ -136,10 +136,14 @@ def test_demo_logs_and_reports_its_simulated_observers(tmp_path):
             "SELECT session_id, note FROM events WHERE kind = 'observer' ORDER BY session_id"
         ).fetchall()
         responders = {r[0] for r in con.execute("SELECT responder FROM sessions")}
+        labels = set(con.execute("SELECT DISTINCT simulated, observer FROM tidy_trials"))
+        params = [json.loads(r[0]) for r in con.execute("SELECT observer_params FROM sessions")]
         n = con.execute("SELECT COUNT(*) FROM tidy_trials WHERE part = 'main'").fetchone()[0]
     finally:
         con.close()
     assert n == 2 * 320 and responders == {"sim:exemplar"}
+    assert labels == {(1, "exemplar")}  # the sessions table labels them simulated (issue 15)
+    assert all(p["knowledge"] == str(demo.paths["knowledge"]) for p in params)
     assert [sid for sid, _ in events] == [1, 2]
     manifest = (demo.paths["stimuli"] / "manifest.csv").read_text()
     for _, note in events:
