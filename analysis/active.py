@@ -42,6 +42,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from analysis.data import connect_readonly
 from analysis.errors import DataError
 
 __all__ = [
@@ -88,10 +89,7 @@ _DEPTH_ACTIONS = ("depth_near", "depth_far", "plane_next", "plane_prev")
 def _connect(path: Path) -> sqlite3.Connection:
     if not path.is_file():
         raise DataError(f"{path}: file not found")
-    try:
-        return sqlite3.connect(f"{path.resolve().as_uri()}?mode=ro", uri=True)
-    except sqlite3.Error as exc:
-        raise DataError(f"{path}: cannot open SQLite file ({exc})") from None
+    return connect_readonly(path)
 
 
 def has_active_events(path: str | Path) -> bool:

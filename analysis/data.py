@@ -53,6 +53,7 @@ __all__ = [
     "read_trials",
     "check_trials",
     "object_order",
+    "connect_readonly",
 ]
 
 #: Columns every trial table must have (the data contract with the experiment engine).
@@ -133,15 +134,23 @@ def _line(exc: BaseException) -> str:
     return " ".join(str(exc).split())
 
 
-def _read_sqlite(path: Path) -> pd.DataFrame:
+def connect_readonly(path: Path) -> sqlite3.Connection:
+    """Open an SQLite trial log read-only, leaving nothing beside it.
+
+    Without a ``-wal`` file no writer has the log open, and it is opened ``immutable``
+    (``mode=ro`` alone would create ``-wal``/``-shm`` files beside a WAL-mode log).
+    """
     uri = f"{path.resolve().as_uri()}?mode=ro"
     if not Path(f"{path}-wal").exists():
-        # no writer has it open; mode=ro alone would leave -wal/-shm files beside a WAL log
         uri += "&immutable=1"
     try:
-        con = sqlite3.connect(uri, uri=True)
+        return sqlite3.connect(uri, uri=True)
     except sqlite3.Error as exc:
         raise DataError(f"{path}: cannot open SQLite file ({_line(exc)})") from exc
+
+
+def _read_sqlite(path: Path) -> pd.DataFrame:
+    con = connect_readonly(path)
     try:
         names = {
             r[0]

@@ -52,7 +52,8 @@ SUBCOMMANDS: dict[str, tuple[str, str]] = {
     ),
     "active": (
         "experiment.active.cli",
-        "Active search (Jung et al. 2015, Sec. 5): the subject drives the viewer to find objects.",
+        "Active search (Jung et al. 2015, Sec. 5): a subject drives the confocal viewer to "
+        "find and name objects; every key and displayed state is logged.",
     ),
     "demo": (
         "experiment.demo",

@@ -398,9 +398,6 @@ def export_command(
     """Write a Psych-DS dataset: data/ (one CSV per session), participants.tsv, description."""
     from experiment.data.psychds import export_dataset
 
-    if out.exists() and not out.is_dir():
-        raise ConfocalError(f"--out {out} is a file; expected a dataset folder")
-
     try:
         info = export_dataset(data, out, study=study)
     except ValueError as exc:

@@ -4,7 +4,7 @@ The pipeline, per object
 ------------------------
 1. Read the wide-DOF ("conventional") and narrow-DOF ("confocal") photos with
    :func:`stimuli.io.load_gray` (luminance, float32 in [0, 1], EXIF orientation applied). A
-   light-field object gives the pair through ``stimuli.lightfield.confocal_pair`` instead: its
+   light-field object gives the pair through ``stimuli.planes.confocal_pair`` instead: its
    centre view is the cluttered image and the confocal image the de-cluttered one.
 2. Zoom (optional, paper Sec. 4.1, Fig. 14): the ``crop`` box ``x,y,w,h`` of ``objects.csv`` is
    cut out at full resolution before anything else.
@@ -47,7 +47,14 @@ from skimage.transform import resize
 from stimuli import jung2015
 from stimuli.compress import compress, compress_grey, resolution_ladder
 from stimuli.contact import contact_sheet, save_contact_sheet
-from stimuli.declutter import AUTO_THRESHOLD_METHODS, auto_threshold, declutter
+from stimuli.declutter import (
+    AUTO_THRESHOLD_METHODS,
+    DECLUTTER_MODES,
+    auto_threshold,
+    bokeh_guard,
+    declutter,
+    declutter_depth,
+)
 from stimuli.errors import InputError
 from stimuli.io import (
     check_gray,
@@ -187,6 +194,13 @@ class BuildParams:
         Accept pairs whose two photos differ in pixel size (each is resized on its own).
     windows_px : tuple of int
         Compression windows (paper: 1, 2, 3, 5, 7, 13, 18, 40).
+    declutter : {'sobel', 'depth'}
+        De-cluttering of light-field objects: the paper's Sobel + threshold, or Sobel edges kept
+        where the light field's views agree at the plane (:func:`stimuli.declutter.in_focus_mask`;
+        ours, beyond the paper). Photo pairs always use Sobel.
+    bokeh_guard : bool
+        Photo pairs: drop narrow-DOF edges with no wide-DOF edge nearby
+        (:func:`stimuli.declutter.bokeh_guard`; ours, beyond the paper).
     fast_decode : bool
         Decode JPEG photos at reduced size (1/2, 1/4 or 1/8 in the DCT domain, Pillow's
         ``draft``), just large enough for the working size, before the anti-aliased resize.
@@ -203,6 +217,8 @@ class BuildParams:
     allow_resize: bool = False
     windows_px: tuple[int, ...] = jung2015.WINDOWS_PX
     fast_decode: bool = False
+    declutter: str = "sobel"
+    bokeh_guard: bool = False
 
     def __post_init__(self) -> None:
         for name in (
@@ -213,6 +229,7 @@ class BuildParams:
             "mode",
             "grey_levels",
             "windows_px",
+            "declutter",
         ):
             getattr(self, f"_check_{name}")()
 
@@ -235,6 +252,10 @@ class BuildParams:
     def _check_edge_ratio(self) -> None:
         if self.edge_ratio is not None and not (0.0 <= self.edge_ratio < 1.0):
             raise InputError(f"edge_ratio must be None or in [0, 1), got {self.edge_ratio!r}")
+
+    def _check_declutter(self) -> None:
+        if self.declutter not in DECLUTTER_MODES:
+            raise InputError(f"declutter must be one of {DECLUTTER_MODES}, got {self.declutter!r}")
 
     def _check_mode(self) -> None:
         if self.mode not in _MODES:
@@ -283,7 +304,7 @@ class PairSource:
     wide, narrow : Path or None
         Wide-DOF and narrow-DOF photos (both set, or both ``None`` for a light field).
     lightfield : Path or None
-        Light-field folder or ``.npz`` file, read by ``stimuli.lightfield.confocal_pair``.
+        Light-field folder or ``.npz`` file, read by ``stimuli.planes.confocal_pair``.
     crop : (x, y, w, h) or None
         Crop box from the PAIRS CSV (``objects.csv`` wins when both give one).
     """
@@ -695,6 +716,7 @@ class _Work:
     narrow_edges: np.ndarray | None = None
     decoded_shape_px: tuple[int, int] | None = None
     plane: str = ""
+    focus: np.ndarray | None = None
 
 
 def _sha256_source(path: Path) -> str:
@@ -746,15 +768,16 @@ def _draft_shape(
 def _load_raw(
     src: PairSource, info: ObjectInfo, params: BuildParams, crop: tuple | None
 ) -> tuple[np.ndarray, np.ndarray, tuple[int, int], tuple[int, int], str]:
-    """Return ``(wide, narrow, wide_full_px, narrow_full_px, plane)`` (full = size on file).
+    """Return ``(wide, narrow, wide_full_px, narrow_full_px, plane, focus)`` (full = on file).
 
-    ``plane`` describes the confocal plane of a light-field object (provenance), else ``""``.
+    ``plane`` describes the confocal plane of a light-field object (provenance), else ``""``;
+    ``focus`` is its in-focus mask in the depth de-cluttering mode, else ``None``.
     """
     if src.lightfield is None:
         assert src.wide is not None and src.narrow is not None
         if not params.fast_decode:
             wide, narrow = load_gray(src.wide), load_gray(src.narrow)
-            return wide, narrow, wide.shape, narrow.shape, ""
+            return wide, narrow, wide.shape, narrow.shape, "", None
         full = [image_shape_px(src.wide), image_shape_px(src.narrow)]
         out = []
         for path, f in zip((src.wide, src.narrow), full, strict=True):
@@ -763,19 +786,24 @@ def _load_raw(
                 region = (crop[3] * f[0] / full[0][0], crop[2] * f[1] / full[0][1])
             draft = _draft_shape(f, (max(region[0], 1), max(region[1], 1)), params.working_shape_px)
             out.append(load_gray(path, draft_shape_px=draft))
-        return out[0], out[1], full[0], full[1], ""
-    from stimuli.lightfield import confocal_plane
+        return out[0], out[1], full[0], full[1], "", None
+    from stimuli.planes import confocal_plane
 
     if info.plane_depth_m is None and info.plane_disparity_px is None:
         logger.info("%s: no plane in objects.csv; light-field module picks it", src.object)
+    extra = {"focus_mask": True} if params.declutter == "depth" else {}
     plane = confocal_plane(
-        src.lightfield, depth_m=info.plane_depth_m, disparity_px=info.plane_disparity_px
+        src.lightfield,
+        depth_m=info.plane_depth_m,
+        disparity_px=info.plane_disparity_px,
+        **extra,
     )
     where = f"{src.lightfield}: confocal_plane"
     centre = check_gray(plane.centre_view, f"{where} centre view")
     confocal = check_gray(plane.confocal_image, f"{where} image")
     logger.info("%s: confocal image at %s", src.object, plane.describe())
-    return centre, confocal, centre.shape, confocal.shape, plane.describe()
+    focus = getattr(plane, "focus_mask", None)
+    return centre, confocal, centre.shape, confocal.shape, plane.describe(), focus
 
 
 def _scale_crop(
@@ -806,7 +834,7 @@ def min_photo_shape_px(params: BuildParams) -> tuple[int, int]:
 
 def _prepare(src: PairSource, info: ObjectInfo, params: BuildParams) -> _Work:
     crop = info.crop if info.crop is not None else src.crop
-    wide_raw, narrow_raw, wide_full, narrow_full, plane = _load_raw(src, info, params, crop)
+    wide_raw, narrow_raw, wide_full, narrow_full, plane, focus = _load_raw(src, info, params, crop)
     notes: list[str] = []
     name = src.lightfield if src.lightfield is not None else src.wide
     if tuple(wide_full) != tuple(narrow_full):
@@ -845,6 +873,18 @@ def _prepare(src: PairSource, info: ObjectInfo, params: BuildParams) -> _Work:
                 f"size; upsampled"
             )
         out.append(to_working_size(img, params.working_shape_px))
+    if focus is not None:  # the in-focus mask follows the confocal image (zoom, aspect, resize)
+        f = zoom_crop(
+            focus.astype(np.float32),
+            _scale_crop(crop, wide_full, narrow_raw.shape),
+            where=where,
+        )
+        b = aspect_crop_box(f.shape, params.working_shape_px)
+        if b is not None:
+            x, y, w, h = b
+            f = f[y : y + h, x : x + w]
+        focus = to_working_size(f, params.working_shape_px) >= 0.5
+        plane = f"{plane},declutter=depth"
     return _Work(
         info=info,
         source=src,
@@ -856,6 +896,7 @@ def _prepare(src: PairSource, info: ObjectInfo, params: BuildParams) -> _Work:
         notes=notes,
         decoded_shape_px=tuple(int(v) for v in wide_raw.shape),
         plane=plane,
+        focus=focus,
     )
 
 
@@ -869,7 +910,12 @@ def _edges(work: _Work, params: BuildParams) -> _Work:
         t_src = f"auto:{params.threshold_method}"
     work.threshold, work.threshold_source = float(t), t_src
     work.wide_edges = declutter(work.wide, threshold=t)
-    work.narrow_edges = declutter(work.narrow, threshold=t)
+    if work.focus is not None:
+        work.narrow_edges = declutter_depth(work.narrow, work.focus, threshold=t)
+    else:
+        work.narrow_edges = declutter(work.narrow, threshold=t)
+        if params.bokeh_guard and work.source.lightfield is None:
+            work.narrow_edges = bokeh_guard(work.narrow_edges, work.wide_edges)
     return work
 
 

@@ -80,8 +80,8 @@ def world(tmp_path_factory) -> World:
         for r in log.tidy_trials():
             if r["trial_index"] % 3 != 1 if r["level"] == 2 else r["trial_index"] % 3 == 0:
                 log.add_score(r["session"], r["trial_index"], "named", True, r["rater"])
-    csv_path = root / "trials.csv"
-    assert _run(["session", "export", db, "--out", csv_path]) == 0
+    assert _run(["session", "export", db, "--out", root / "dataset"]) == 0
+    (csv_path,) = (root / "dataset" / "data").glob("*_data.csv")
     pairs = root / "pairs"
     assert (
         _run(
@@ -591,8 +591,8 @@ ROWS: list[Row] = [
       lambda w, t: ["session", "export", newer_schema(t, w), "--out", t / "o.csv"], "newer"),
     R("session export", "not SQLite",
       lambda w, t: ["session", "export", text_file(t / "x.db"), "--out", t / "o.csv"], "x.db"),
-    R("session export", "out is a folder",
-      lambda w, t: ["session", "export", w.db, "--out", (t / "o").mkdir() or t / "o"], "--out",
+    R("session export", "out is a file",
+      lambda w, t: ["session", "export", w.db, "--out", text_file(t / "o.csv")], "o.csv",
       "folder"),
     R("session export", "missing log",
       lambda w, t: ["session", "export", t / "none.sqlite", "--out", t / "o.csv"], "none.sqlite",
@@ -807,7 +807,7 @@ def test_reading_a_log_leaves_no_wal_or_shm_files_issue_10(world, tmp_path, comm
     shutil.copy(world.db, db)
     argv = {
         "status": ["session", "status", str(db)],
-        "export": ["session", "export", str(db), "--out", str(tmp_path / "out" / "t.csv")],
+        "export": ["session", "export", str(db), "--out", str(tmp_path / "out" / "dataset")],
         "analyze": [
             "analyze",
             str(db),

@@ -32,7 +32,7 @@ active_app = typer.Typer(
 @active_app.command("run")
 def run_command(
     protocol: Annotated[
-        Path, typer.Argument(help='Protocol with [task] type = "active_search" (or its name).')
+        Path, typer.Argument(help='Protocol with \\[task] type = "active_search" (or its name).')
     ],
     data: Annotated[Path, typer.Option("--data", help="The study's SQLite trial log.")],
     subject: Annotated[str, typer.Option("--subject", help="Subject code, e.g. S01.")],

@@ -84,6 +84,10 @@ COLUMN_DESCRIPTIONS: dict[str, str] = {
     "stimulus_sha256": "SHA-256 of the image file shown.",
     "simulated": "1 if a simulated observer answered (no person), else 0.",
     "observer": "The simulated observer's name, or 'human'.",
+    "viewings": "Times the stimulus was shown (each onset is logged when the frame is shown); 0 "
+    "for trials logged before onsets were recorded.",
+    "repeat_viewing": "1 if the subject saw this stimulus more than once (a crash between onset "
+    "and answer, then a resume that showed it again), else 0.",
 }
 
 #: Columns of every data file, in order.
@@ -105,7 +109,8 @@ SELECT s.subject AS subject, t.session_id AS session, t.trial_index AS trial_ind
        t.response AS response, v.score AS score, v.rater AS rater, v.recognized AS recognized,
        t.rt_s AS operator_rt_s, t.recorded_at AS date, t.refresh_hz AS frame_rate_hz,
        t.onset_s AS onset_s, t.dropped_frames AS dropped_frames, p.path AS stimulus_file,
-       t.stimulus_sha256 AS stimulus_sha256, v.simulated AS simulated, v.observer AS observer
+       t.stimulus_sha256 AS stimulus_sha256, v.simulated AS simulated, v.observer AS observer,
+       v.viewings AS viewings, v.repeat_viewing AS repeat_viewing
 FROM trials t
 JOIN sessions s ON s.session_id = t.session_id
 JOIN schedule p ON p.session_id = t.session_id AND p.trial_index = t.trial_index

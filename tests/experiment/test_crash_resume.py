@@ -222,10 +222,11 @@ def test_export_marks_the_repeat_viewing_issue_10(study, tmp_path):
     notes = db_rows(db, "SELECT note FROM events WHERE kind = 'note'")
     assert any("trial 3 was shown 1 time(s)" in n[0] for n in notes), notes
     assert db_rows(db, "SELECT count(*) FROM events WHERE kind = 'repeat_viewing'")[0][0] == 1
-    out = tmp_path / "trials.csv"
+    out = tmp_path / "dataset"
     code, _, err = forked(["session", "export", str(db), "--out", str(out)], tmp_path)
     assert code == 0, err
-    with open(out, newline="") as f:
+    (data_file,) = (out / "data").glob("*_data.csv")
+    with open(data_file, newline="") as f:
         rows = list(csv.DictReader(f))
     assert [(r["trial_index"], r["viewings"], r["repeat_viewing"]) for r in rows[2:5]] == [
         ("2", "1", "0"),

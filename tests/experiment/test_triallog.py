@@ -318,7 +318,7 @@ def test_migration_2_adds_viewings_to_an_existing_log_issue_10(
     import experiment.triallog as tl
 
     db = tmp_path / "old.sqlite"
-    monkeypatch.setattr(tl, "MIGRATIONS", MIGRATIONS[:1])
+    monkeypatch.setattr(tl, "MIGRATIONS", MIGRATIONS[:-1])  # before the viewings migration
     with TrialLog(db) as log:
         s = Session.open(log, protocol, stimset, "S01", seed=3, clock=FakeClock())
         t0 = s.next_trial()
@@ -334,7 +334,7 @@ def test_migration_2_adds_viewings_to_an_existing_log_issue_10(
                 (s.session_id,),
             )
         s.close()
-        assert log.schema_version() == 1
+        assert log.schema_version() == MIGRATIONS[-2][0]
     monkeypatch.setattr(tl, "MIGRATIONS", MIGRATIONS)
     with TrialLog(db) as log:
         assert log.schema_version() == MIGRATIONS[-1][0]

@@ -264,16 +264,16 @@ def test_grey_mode_quantizes_the_photos(tmp_path: Path) -> None:
 
 def test_lightfield_object_goes_through_confocal_pair(tmp_path: Path, monkeypatch) -> None:
     """A lightfield column: centre view = cluttered, confocal image = de-cluttered."""
-    import stimuli.lightfield
+    import stimuli.planes
 
     wide, narrow, _ = make_pair(1, (200, 300))
     calls = []
 
     def fake(path, *, depth_m=None, disparity_px=None):
         calls.append((Path(path).name, depth_m, disparity_px))
-        return stimuli.lightfield.ConfocalPlane(wide, narrow, 1.5, None, "disparity_px")
+        return stimuli.planes.ConfocalPlane(wide, narrow, 1.5, None, "disparity_px")
 
-    monkeypatch.setattr(stimuli.lightfield, "confocal_plane", fake)
+    monkeypatch.setattr(stimuli.planes, "confocal_plane", fake)
     (tmp_path / "lf.npz").write_bytes(b"not read by the fake")
     (tmp_path / "pairs.csv").write_text("object,lightfield\nbust,lf.npz\n")
     (tmp_path / "objects.csv").write_text("object,plane_disparity_px\nbust,1.5\n")
@@ -472,13 +472,13 @@ def test_synthetic_set_end_to_end_issue_2(tmp_path: Path) -> None:
 
 def test_lightfield_subfolder_in_a_pairs_folder(tmp_path: Path, monkeypatch) -> None:
     """Folder form: an object folder holding lightfield.npz (or lightfield/) is a light field."""
-    import stimuli.lightfield
+    import stimuli.planes
 
     wide, narrow, _ = make_pair(2, (200, 300))
     monkeypatch.setattr(
-        stimuli.lightfield,
+        stimuli.planes,
         "confocal_plane",
-        lambda p, *, depth_m, disparity_px: stimuli.lightfield.ConfocalPlane(
+        lambda p, *, depth_m, disparity_px: stimuli.planes.ConfocalPlane(
             wide, narrow, 0.0, None, "nearest detected plane"
         ),
     )
