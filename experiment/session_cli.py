@@ -68,7 +68,11 @@ def run_command(
     ] = Path("study.sqlite"),
     observer: Annotated[
         str | None,
-        typer.Option("--observer", help="Simulated observer for --headless: logistic or model."),
+        typer.Option(
+            "--observer",
+            help="Simulated observer for --headless: logistic, model or exemplar "
+            "(exemplar needs --observer-param knowledge=FOLDER).",
+        ),
     ] = None,
     headless: Annotated[
         bool,
@@ -152,7 +156,7 @@ def run_command(
 ) -> None:
     """Run (or resume) a subject's session: console and presenter, or headless simulation."""
     from experiment.displays import NullDisplay
-    from experiment.observers import OBSERVERS, make_observer
+    from experiment.observers import OBSERVERS, describe_observer, make_observer
     from experiment.protocol import load_protocol
     from experiment.schedule import planned_trials
     from experiment.session import Session
@@ -233,6 +237,7 @@ def run_command(
                 responder = make_observer(
                     observer, stimset, subject, rng=session.child_rng(1), **params
                 )
+                session.log_event("observer", json.dumps(describe_observer(responder)))
                 session.run(
                     NullDisplay(hold_s=hold_s), responder, progress=_Progress(progress_every)
                 )

@@ -1094,6 +1094,24 @@ class TrialLog:
         """Return the current lock rows."""
         return [dict(r) for r in self.execute("SELECT * FROM locks ORDER BY session_id")]
 
+    def save_copy(self, path: str | Path) -> None:
+        """Write the whole log to a new SQLite file ``path`` (sqlite3's online backup).
+
+        For logs kept in memory (``:memory:``, e.g. simulated subjects in ``confocal demo``):
+        the copy is a complete trial log, written to a temporary file and renamed.
+        """
+        p = Path(path)
+        tmp = p.with_name(f".{p.name}.{uuid.uuid4().hex}.tmp")
+        try:
+            dest = sqlite3.connect(tmp)
+            try:
+                self._con.backup(dest)
+            finally:
+                dest.close()
+            os.replace(tmp, p)
+        finally:
+            tmp.unlink(missing_ok=True)
+
     def close(self) -> None:
         """Release held locks and close the connection."""
         if getattr(self, "_con", None) is None:
