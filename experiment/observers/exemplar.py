@@ -662,6 +662,9 @@ class ExemplarObserver:
         """Name the best-matching category when it stands out by the criterion, else pass."""
         p = self.params
         rt = float(min(600.0, p.median_rt_s * math.exp(self.rng.normal(0.0, 0.5))))
+        image = np.asarray(image)
+        if image.ndim == 3:  # a colour training photo: its luminance (Rec. 709), as grey photos
+            image = image[..., :3].astype(np.float64) @ np.array([0.2126, 0.7152, 0.0722])
         best, margin = self._decide(self.similarities(image))
         if self.rng.random() < p.lapse or margin <= self.criterion:
             if self.rng.random() < p.p_shape:
