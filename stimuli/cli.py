@@ -65,6 +65,22 @@ def build_command(
     grey_levels: Annotated[
         int, typer.Option("--grey-levels", min=2, max=256, help="Grey levels in grey mode.")
     ] = 8,
+    declutter: Annotated[
+        str,
+        typer.Option(
+            "--declutter",
+            help="De-cluttering of light-field objects: sobel (the paper's Sobel + threshold) or "
+            "depth (keep only edges where the views agree at the plane). Photo pairs: sobel.",
+        ),
+    ] = "sobel",
+    bokeh_guard: Annotated[
+        bool,
+        typer.Option(
+            "--bokeh-guard",
+            help="Photo pairs: drop narrow-DOF edges absent from the wide photo at the same place "
+            "(sharp bokeh rims; beyond the paper).",
+        ),
+    ] = False,
     allow_resize: Annotated[
         bool, typer.Option("--allow-resize", help="Accept pairs whose photos differ in pixel size.")
     ] = False,
@@ -104,6 +120,8 @@ def build_command(
         edge_ratio=parse_edge_ratio(edge_ratio),
         mode=mode,
         grey_levels=grey_levels,
+        declutter=declutter,
+        bokeh_guard=bokeh_guard,
         allow_resize=allow_resize,
         fast_decode=fast_decode,
     )

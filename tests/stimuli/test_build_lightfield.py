@@ -171,3 +171,38 @@ def test_bokeh_guard_drops_rims_absent_from_the_wide_photo_issue_12():
     assert kept[10:30, 20].all() and not (kept & ring).any()
     with pytest.raises(InputError, match="must be bool images of one shape"):
         bokeh_guard(narrow, wide[:10])
+
+
+def test_build_command_offers_the_depth_mode_and_bokeh_guard_issue_12(tmp_path, capsys):
+    """``confocal stimuli build --declutter depth --bokeh-guard``: both reach the build and are
+    recorded in stimulus_set.json; a bad mode is one line, exit 2, nothing written."""
+    from experiment import cli
+    from stimuli.lfsynth import render_camera_array, three_plane_scene
+
+    field = render_camera_array(
+        three_plane_scene((82, 123)), grid=(1, 5), shape_px=(82, 123), baseline_m=0.03
+    )
+    np.savez(
+        tmp_path / "scene.npz", views=field.views, geometry=json.dumps(field.geometry.to_dict())
+    )
+    (tmp_path / "pairs.csv").write_text("object,lightfield\ntree,scene.npz\n")
+    (tmp_path / "objects.csv").write_text("object,plane_depth_m\ntree,4.0\n")
+    argv = ["stimuli", "build", str(tmp_path / "pairs.csv"), "--out", str(tmp_path / "set")]
+    with pytest.raises(SystemExit) as exc:
+        cli.main([*argv, "--declutter", "canny"])
+    assert exc.value.code == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "declutter must be one of" in err[0]
+    assert not (tmp_path / "set").exists()
+    with pytest.raises(SystemExit) as exc:
+        cli.main([*argv, "--declutter", "depth", "--bokeh-guard"])
+    assert exc.value.code in (0, None), capsys.readouterr().err
+    meta = json.loads((tmp_path / "set" / "stimulus_set.json").read_text())
+    assert meta["parameters"]["declutter"] == "depth"
+    assert meta["parameters"]["bokeh_guard"] is True
+    (row,) = [
+        r
+        for r in read_manifest(tmp_path / "set" / "manifest.csv")
+        if r.condition == "decluttered" and r.level == 8
+    ]
+    assert row.source.endswith(",declutter=depth")
