@@ -88,6 +88,11 @@ COLUMN_DESCRIPTIONS: dict[str, str] = {
     "for trials logged before onsets were recorded.",
     "repeat_viewing": "1 if the subject saw this stimulus more than once (a crash between onset "
     "and answer, then a resume that showed it again), else 0.",
+    "voice_rt_s": "Seconds from stimulus onset to the subject's voice onset, detected in the "
+    "recorded answer (experiment.audio.voice; blank without a recording or without speech).",
+    "audio_file": "The recorded spoken answer, relative to the trial log's folder (blank when "
+    "not recorded).",
+    "audio_sha256": "SHA-256 of the recorded answer's file.",
 }
 
 #: Columns of every data file, in order.
@@ -110,11 +115,13 @@ SELECT s.subject AS subject, t.session_id AS session, t.trial_index AS trial_ind
        t.rt_s AS operator_rt_s, t.recorded_at AS date, t.refresh_hz AS frame_rate_hz,
        t.onset_s AS onset_s, t.dropped_frames AS dropped_frames, p.path AS stimulus_file,
        t.stimulus_sha256 AS stimulus_sha256, v.simulated AS simulated, v.observer AS observer,
-       v.viewings AS viewings, v.repeat_viewing AS repeat_viewing
+       v.viewings AS viewings, v.repeat_viewing AS repeat_viewing,
+       a.voice_rt_s AS voice_rt_s, a.path AS audio_file, a.sha256 AS audio_sha256
 FROM trials t
 JOIN sessions s ON s.session_id = t.session_id
 JOIN schedule p ON p.session_id = t.session_id AND p.trial_index = t.trial_index
 JOIN tidy_trials v ON v.session = t.session_id AND v.trial_index = t.trial_index
+LEFT JOIN audio a ON a.session_id = t.session_id AND a.trial_index = t.trial_index
 ORDER BY t.session_id, t.trial_index
 """
 
@@ -307,12 +314,14 @@ def export_dataset(data: str | Path, out_dir: str | Path, *, study: str | None =
     if out.exists() and not out.is_dir():
         raise TrialLogError(f"--out {out}: exists and is not a folder (a dataset is a folder)")
     study = keyword_value(study if study is not None else data.stem)
+    from experiment.triallog import MIGRATIONS
+
     with TrialLog(data, readonly=True) as log:
-        if log.schema_version() < 2:
-            raise TrialLogError(
-                f"{data}: trial log schema {log.schema_version()} is too old to export; open it "
-                "once with this version (e.g. 'confocal session status' after a 'session run')"
-            )
+        old = log.schema_version() < max(m[0] for m in MIGRATIONS)
+    if old:  # an older log is upgraded in place first: migrations only add tables and columns
+        with TrialLog(data):
+            pass
+    with TrialLog(data, readonly=True) as log:
         rows = [dict(r) for r in log.execute(_SQL)]
         sessions = log.sessions()
     by_session: dict[int, list[dict[str, Any]]] = {}

@@ -252,7 +252,10 @@ def test_full_disk_during_a_session_keeps_every_acknowledged_trial_issue_10(stud
         assert db_rows(db, "PRAGMA integrity_check")[0][0] == "ok"
         got = [r[0] for r in db_rows(db, "SELECT trial_index FROM trials ORDER BY trial_id")]
         assert got == list(range(len(got)))
-        assert len(got) == (acked[-1] if acked else prev), "exactly the acknowledged trials"
+        # every acknowledged trial is there; at most the one in flight beyond it (committed, but
+        # the disk filled before its progress line was printed)
+        last = acked[-1] if acked else prev
+        assert last <= len(got) <= last + 1, ("the acknowledged trials", n, out, err)
         prev = len(got)
     code, out, err = forked(argv, tmp_path)
     assert code == 0, err
