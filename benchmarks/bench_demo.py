@@ -27,7 +27,7 @@ from PIL import Image
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
-from experiment.demo import run_demo, summary_lines  # noqa: E402
+from experiment.demos.study import run_demo, summary_lines  # noqa: E402
 
 __all__ = ["main"]
 

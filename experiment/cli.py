@@ -39,11 +39,11 @@ SUBCOMMANDS: dict[str, tuple[str, str]] = {
         "Run recognition sessions and inspect or export the study's trial log.",
     ),
     "present": (
-        "experiment.present_cli",
+        "experiment.presentation.cli",
         "Show one stimulus as the subject would see it, or render it offscreen (--screenshot).",
     ),
     "score": (
-        "experiment.present_cli",
+        "experiment.presentation.cli",
         "Score logged responses as a second rater, blind to the first rater's scores.",
     ),
     "analyze": (
@@ -60,7 +60,7 @@ SUBCOMMANDS: dict[str, tuple[str, str]] = {
         "Scan depth, jump to object planes, zoom and see the implant's view, live.",
     ),
     "demo": (
-        "experiment.demo",
+        "experiment.demos.study",
         "Run the whole study on synthetic data: scenes, stimuli, sessions, analysis, report.",
     ),
 }

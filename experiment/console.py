@@ -4,7 +4,7 @@ The operator sees the subject, part, block, trial k of n, the object (the right 
 operator only), level and condition, a preview of the stimulus, the time since onset and when a
 pass is allowed; types the subject's words; and scores them with a key. The subject's screen is a
 :class:`~experiment.interfaces.Display`: by default the presenter process
-(:class:`experiment.presenter_proc.RemoteDisplay`), in tests a headless twin.
+(:class:`experiment.presentation.process.RemoteDisplay`), in tests a headless twin.
 
 Keys
 ----
@@ -293,7 +293,7 @@ class OperatorConsole(App):
 
     def _safe(self, fn: Any, *args: Any) -> Any:
         """Call a display method; on a dead presenter switch to the 'down' state and return None."""
-        from experiment.presenter_proc import PresenterDied
+        from experiment.presentation.process import PresenterDied
 
         try:
             return fn(*args)
@@ -532,7 +532,7 @@ class OperatorConsole(App):
         if start is None:
             self._status("This display cannot be restarted; quit (Ctrl+Q) and run again.")
             return
-        from experiment.presenter_proc import PresenterDied
+        from experiment.presentation.process import PresenterDied
 
         try:
             start()
@@ -588,7 +588,7 @@ class ScoringApp(App):
     log : experiment.triallog.TrialLog
     rater : str
     pending : list of dict
-        Trials to score, from :func:`experiment.present_cli.pending_for_rater`.
+        Trials to score, from :func:`experiment.presentation.cli.pending_for_rater`.
     """
 
     BINDINGS = [
@@ -728,7 +728,7 @@ def make_display(
     ``'offscreen'`` (an in-process EGL presenter) or ``'none'`` (headless twin).
     """
     if presenter == "process":
-        from experiment.presenter_proc import RemoteDisplay
+        from experiment.presentation.process import RemoteDisplay
 
         phos = kwargs.pop("phosphenes", None)
         if phos is not None and not isinstance(phos, dict):
@@ -745,11 +745,11 @@ def make_display(
             **kwargs,
         )
     if presenter == "offscreen":
-        from experiment.presenter import Presenter
+        from experiment.presentation.presenter import Presenter
 
         return Presenter.offscreen(geometry, clock=clock, **kwargs)
     if presenter == "none":
-        from experiment.displays import NullDisplay
+        from experiment.presentation.displays import NullDisplay
 
         return NullDisplay(clock)
     raise ValueError(f"presenter must be 'process', 'offscreen' or 'none', got {presenter!r}")
@@ -889,7 +889,7 @@ def run_console(
     ConfocalError
         The subject's screen cannot be opened (one line; nothing is shown).
     """
-    from experiment.presenter import ScreenGeometry
+    from experiment.presentation.presenter import ScreenGeometry
 
     log_path = session_log_path(session)
     if presenter == "process" and log_path is not None:

@@ -155,8 +155,8 @@ def run_command(
     ] = False,
 ) -> None:
     """Run (or resume) a subject's session: console and presenter, or headless simulation."""
-    from experiment.displays import NullDisplay
     from experiment.observers import OBSERVERS, describe_observer, make_observer
+    from experiment.presentation.displays import NullDisplay
     from experiment.protocol import load_protocol
     from experiment.schedule import planned_trials
     from experiment.session import Session

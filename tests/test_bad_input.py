@@ -767,7 +767,7 @@ def _one_error_line(capsys) -> str:
 @pytest.mark.gl
 def test_screen_larger_than_the_gl_framebuffer_is_one_line_issue_10(world, tmp_path, capsys):
     """A screen the GL driver cannot allocate (once an incomplete-framebuffer traceback)."""
-    from experiment.presenter import Presenter, PresenterError, ScreenGeometry
+    from experiment.presentation.presenter import Presenter, PresenterError, ScreenGeometry
 
     try:
         p = Presenter.offscreen(

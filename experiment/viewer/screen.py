@@ -11,9 +11,9 @@ bottom right: implant      the compressed image drawn as phosphenes at the impla
 =========================  ====================================================
 
 Every image is drawn with nearest-neighbour cells chosen in integers (``cell = ((2 p + 1) n) //
-(2 extent)``, as :func:`experiment.presenter.cell_index`), so a GPU screenshot can be compared
-with :func:`expected_screen` pixel for pixel. Text (the status line) is drawn by Pillow into an
-8-bit image that both the GPU and this reference use as is.
+(2 extent)``, as :func:`experiment.presentation.presenter.cell_index`), so a GPU screenshot can be
+compared with :func:`expected_screen` pixel for pixel. Text (the status line) is drawn by Pillow
+into an 8-bit image that both the GPU and this reference use as is.
 """
 
 from __future__ import annotations

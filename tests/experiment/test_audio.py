@@ -26,7 +26,7 @@ from experiment.audio.voice import (
 )
 from experiment.clock import FakeClock
 from experiment.console import OperatorConsole, _open_recorder
-from experiment.displays import NullDisplay
+from experiment.presentation.displays import NullDisplay
 from experiment.protocol import load_protocol
 from experiment.session import Session
 from experiment.stimset import StimulusSet
@@ -180,7 +180,7 @@ def test_console_records_each_answer_and_its_voice_onset(session) -> None:
 
     # the second rater replays the recorded answer (F7)
     from experiment.console import ScoringApp
-    from experiment.present_cli import pending_for_rater
+    from experiment.presentation.cli import pending_for_rater
 
     played: list[Path] = []
     rater_app = ScoringApp(log, "B", pending_for_rater(log, "B"))
@@ -223,7 +223,7 @@ def test_without_a_microphone_the_session_says_so_once(session, monkeypatch) -> 
     assert log.execute("SELECT count(*) FROM trials")[0][0] == 1
 
     from experiment.console import ScoringApp
-    from experiment.present_cli import pending_for_rater
+    from experiment.presentation.cli import pending_for_rater
 
     rater_app = ScoringApp(log, "B", pending_for_rater(log, "B"))
     rater_app.player = lambda path: pytest.fail("nothing to play")

@@ -21,8 +21,8 @@ from textual.widgets import Footer
 
 from experiment.clock import FakeClock
 from experiment.console import OperatorConsole, logs_to_file, session_log_path
-from experiment.displays import NullDisplay
-from experiment.presenter_proc import PROTOCOL_VERSION, RemoteDisplay
+from experiment.presentation.displays import NullDisplay
+from experiment.presentation.process import PROTOCOL_VERSION, RemoteDisplay
 from experiment.protocol import load_protocol
 from experiment.session import Session
 from experiment.stimset import MANIFEST_COLUMNS, StimulusSet
@@ -172,7 +172,7 @@ def test_library_log_lines_go_to_the_session_log_not_the_terminal(tmp_path, caps
         path = tmp_path / "study.log"
         with logs_to_file(path, prefix="session 1"):
             lib.info("Context Version:")
-            logging.getLogger("experiment.presenter").warning("frame dropped")
+            logging.getLogger("experiment.presentation.presenter").warning("frame dropped")
         lib.warning("after the console")
         text = path.read_text()
         assert "session 1 moderngl_window INFO: Context Version:" in text

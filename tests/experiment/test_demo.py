@@ -9,7 +9,7 @@ import sqlite3
 import pytest
 
 from experiment import cli
-from experiment.demo import (
+from experiment.demos.study import (
     PAPER_RESULTS,
     DemoResult,
     run_demo,

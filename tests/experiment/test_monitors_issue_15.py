@@ -19,7 +19,7 @@ from experiment.data.monitors import (
     load_monitor,
     shipped_monitors,
 )
-from experiment.present_cli import geometry_from_options
+from experiment.presentation.cli import geometry_from_options
 from experiment.protocol import DisplaySpec, load_protocol
 from experiment.session import Session
 from experiment.stimset import StimulusSet

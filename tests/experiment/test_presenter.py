@@ -15,10 +15,12 @@ import pytest
 
 pytestmark = pytest.mark.gl
 
-presenter = pytest.importorskip("experiment.presenter", reason="moderngl not importable")
+presenter = pytest.importorskip(
+    "experiment.presentation.presenter", reason="moderngl not importable"
+)
 
 from experiment.clock import FakeClock  # noqa: E402
-from experiment.presenter import (  # noqa: E402
+from experiment.presentation.presenter import (  # noqa: E402
     PAPER_BORDER_RGB,
     PhospheneSpec,
     Presenter,

@@ -12,7 +12,7 @@ import pytest
 from experiment import cli
 from experiment.clock import FakeClock
 from experiment.interfaces import Answer, FlipRecord
-from experiment.present_cli import pending_for_rater
+from experiment.presentation.cli import pending_for_rater
 from experiment.protocol import load_protocol
 from experiment.scoring import cohen_kappa, kappa, kappa_interval
 from experiment.session import Session

@@ -13,8 +13,8 @@ import sqlite3
 import pytest
 
 from experiment import cli, triallog
-from experiment.displays import NullDisplay
 from experiment.observers import make_observer
+from experiment.presentation.displays import NullDisplay
 from experiment.protocol import load_protocol
 from experiment.session import Session
 from experiment.stimset import StimulusSet

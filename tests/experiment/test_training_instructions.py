@@ -18,7 +18,7 @@ from PIL import Image
 
 from experiment.clock import FakeClock
 from experiment.console import OperatorConsole
-from experiment.displays import NullDisplay
+from experiment.presentation.displays import NullDisplay
 from experiment.protocol import (
     PROTOCOLS_DIR,
     InstructionsSpec,

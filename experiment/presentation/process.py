@@ -161,7 +161,7 @@ def serve(
 
     Parameters
     ----------
-    presenter : experiment.presenter.Presenter
+    presenter : experiment.presentation.presenter.Presenter
     inp, out : text streams
         JSON lines in and out (see the module docstring).
     continuous : bool
@@ -231,8 +231,8 @@ def serve(
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Run the presenter process (``python -m experiment.presenter_proc --geometry JSON ...``)."""
-    ap = argparse.ArgumentParser(prog="python -m experiment.presenter_proc")
+    """Run the presenter process (``python -m experiment.presentation.process --geometry ...``)."""
+    ap = argparse.ArgumentParser(prog="python -m experiment.presentation.process")
     ap.add_argument("--geometry", required=True, help="ScreenGeometry.to_dict() as JSON")
     ap.add_argument("--mode", choices=("window", "offscreen"), default="window")
     ap.add_argument("--screen", type=int, default=None)
@@ -251,7 +251,7 @@ def main(argv: list[str] | None = None) -> int:
         return 2
 
     try:
-        from experiment.presenter import PhospheneSpec, Presenter, ScreenGeometry
+        from experiment.presentation.presenter import PhospheneSpec, Presenter, ScreenGeometry
 
         geometry = ScreenGeometry.from_dict(json.loads(args.geometry))
         phos = PhospheneSpec(**json.loads(args.phosphenes)) if args.phosphenes else None
@@ -294,7 +294,7 @@ class RemoteDisplay:
 
     Parameters
     ----------
-    geometry : experiment.presenter.ScreenGeometry or dict
+    geometry : experiment.presentation.presenter.ScreenGeometry or dict
         The subject's screen (``to_dict()`` form is sent to the child).
     mode : {'window', 'offscreen'}
     screen : int or None
@@ -304,7 +304,7 @@ class RemoteDisplay:
         Start even if the frame-timing self-test fails (H12; the console logs the choice).
     integer_scale : bool
     phosphenes : dict or None
-        :class:`~experiment.presenter.PhospheneSpec` fields.
+        :class:`~experiment.presentation.presenter.PhospheneSpec` fields.
     on_event : callable or None
         Called with unsolicited events (``closed``) from the reader thread.
     command : list of str or None
@@ -346,7 +346,7 @@ class RemoteDisplay:
             args.append("--integer-scale")
         if phosphenes:
             args += ["--phosphenes", json.dumps(phosphenes)]
-        self.command = (command or [sys.executable, "-m", "experiment.presenter_proc"]) + args
+        self.command = (command or [sys.executable, "-m", "experiment.presentation.process"]) + args
         self.env = env
         self.on_event = on_event
         self.reply_timeout_s = reply_timeout_s

@@ -280,8 +280,8 @@ def run_demo(
     from analysis.data import read_trials
     from analysis.pipeline import AnalysisOptions, analyze
     from analysis.report import write_report
-    from experiment.displays import NullDisplay
     from experiment.observers import OBSERVERS, describe_observer, make_observer
+    from experiment.presentation.displays import NullDisplay
     from experiment.protocol import load_protocol
     from experiment.session import Session
     from experiment.stimset import StimulusSet
@@ -648,7 +648,7 @@ def register(app: typer.Typer) -> None:
                 typer.echo(line)
             return
         if lightfield:
-            from experiment.demo_lightfield import run_lightfield_demo
+            from experiment.demos.lightfield import run_lightfield_demo
 
             out_lf = out if out != Path("confocal-demo") else Path("confocal-demo-lightfield")
             for line in run_lightfield_demo(out_lf, seed=seed, force=force):

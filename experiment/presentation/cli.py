@@ -56,7 +56,7 @@ def geometry_from_options(
     A monitor profile (``monitor``: a name in ``protocols/monitors`` or a file) replaces the
     protocol's width, distance, resolution and gamma; the single-value options override both.
     """
-    from experiment.presenter import ScreenGeometry
+    from experiment.presentation.presenter import ScreenGeometry
 
     if monitor is not None:
         from experiment.data.monitors import apply_monitor, load_monitor
@@ -217,7 +217,7 @@ def register(app: typer.Typer) -> None:
         # the framebuffer, its read-back and the PNG: a few RGBA copies of the screen
         check_memory(rows * cols * 4 * 4, f"screen {cols}x{rows} px")
         image = load_stimulus(stimulus)
-        from experiment.presenter import PhospheneSpec, Presenter, stimulus_rect_px
+        from experiment.presentation.presenter import PhospheneSpec, Presenter, stimulus_rect_px
 
         if implant is not None:
             # The stimulus resampled to the implant's grid (binary: the paper's compression;
