@@ -22,20 +22,22 @@ pytestmark = pytest.mark.slow
 
 
 def _command_paths() -> list[list[str]]:
-    """Every command path of the ``confocal`` app (groups and leaves), read from the checkout."""
-    import typer.main
+    """Every command path of the ``confocal`` app (groups and leaves), read from the checkout.
 
-    from experiment.cli import app
+    The root lists its sub-commands lazily (:data:`experiment.cli.SUBCOMMANDS`); each is loaded
+    here to walk its own sub-commands.
+    """
+    from experiment.cli import SUBCOMMANDS, load_subcommand
 
-    root = typer.main.get_command(app)
     paths: list[list[str]] = []
 
     def walk(cmd, prefix: list[str]) -> None:
+        paths.append(prefix)
         for name, sub in sorted(getattr(cmd, "commands", {}).items()):
-            paths.append([*prefix, name])
             walk(sub, [*prefix, name])
 
-    walk(root, [])
+    for name in SUBCOMMANDS:
+        walk(load_subcommand(name), [name])
     return paths
 
 
