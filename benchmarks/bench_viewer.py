@@ -11,6 +11,8 @@ image but not yet the threshold); *redraw*: no change.
   GPU: the floor);
 - *cpu*: the numpy / ``stimuli`` reference pipeline and numpy drawing, in the same process (the
   baseline);
+- *window default*: what ``confocal view`` uses (``compute='auto'``: the numpy pipeline on a
+  software rasteriser, its frame copied into the GL framebuffer; the shaders on a GPU);
 
 Light fields: the Lytro Illum 7x7x383x552 views in ``$CONFOCAL_DATA/lightfield/
 lytro_illum_2067_epinet`` (skipped when absent) and the simulated three-plane scene as a
@@ -94,16 +96,20 @@ def main(argv: list[str] | None = None) -> int:
     )
     for name, lf in cases:
         src = LightFieldSource(lf)
-        gv = Viewer(src, ["argus2"], screen_shape_px=(h, w), ctx=ctx, n_planes=30)
+        gv = Viewer(src, ["argus2"], screen_shape_px=(h, w), ctx=ctx, n_planes=30, compute="gpu")
+        av = Viewer(src, ["argus2"], screen_shape_px=(h, w), ctx=ctx, n_planes=30)
         cv = Viewer(src, ["argus2"], screen_shape_px=(h, w), ctx=None, n_planes=30)
         g = fps(gv, args.frames, mode="scan", fbo=fbo, ctx=ctx)
         rv = fps(gv, args.frames, mode="revisit", fbo=fbo, ctx=ctx)
         rd = fps(gv, args.frames, mode="redraw", fbo=fbo, ctx=ctx)
         c = fps(cv, max(3, args.frames // 4), mode="scan")
+        a = fps(av, args.frames, mode="scan", fbo=fbo, ctx=ctx)
         print(
             f"{name:24s} gpu scan {g:6.1f} fps  revisit {rv:6.1f} fps  redraw {rd:6.1f} fps  "
-            f"| cpu scan {c:5.1f} fps  | gpu/cpu scan {g / c:4.1f}x"
+            f"| cpu scan {c:5.1f} fps  | gpu/cpu scan {g / c:4.1f}x  "
+            f"| window default ({av.compute}) scan {a:5.1f} fps"
         )
+        av.close()
         gv.close()
         cv.close()
     fbo.release()

@@ -49,11 +49,13 @@ from stimuli.lightfield import LightField
 
 __all__ = [
     "AVERAGING_FRAMES",
+    "COMPUTE_CHOICES",
     "STEPS_PER_RANGE",
     "PREFETCH_STEPS",
     "LightFieldSource",
     "open_source",
     "Viewer",
+    "is_software_renderer",
     "read_script",
     "run_window",
 ]
@@ -182,6 +184,18 @@ def read_script(path: Path) -> list[dict]:
     return out
 
 
+#: Where the viewer's image pipeline runs (see :class:`Viewer`).
+COMPUTE_CHOICES: tuple[str, ...] = ("auto", "gpu", "cpu")
+
+_SOFTWARE_RENDERERS = ("llvmpipe", "softpipe", "swrast", "software rasterizer")
+
+
+def is_software_renderer(ctx: Any) -> bool:
+    """Return whether ``ctx`` renders on the CPU (Mesa llvmpipe, softpipe or swrast)."""
+    name = str(ctx.info.get("GL_RENDERER", "")).lower()
+    return any(k in name for k in _SOFTWARE_RENDERERS)
+
+
 class Viewer:
     """The live viewer: data, state, event log and renderer.
 
@@ -204,6 +218,12 @@ class Viewer:
         Follow the brightest spot of the centre view as the marker (confocal extension).
     clock : callable, optional
         Monotonic time in seconds (default ``time.perf_counter``).
+    compute : {'auto', 'gpu', 'cpu'}
+        Where refocus, Sobel, threshold and compression run when ``ctx`` is given. ``gpu``: the
+        shaders; ``cpu``: the numpy pipeline, its frame drawn into ``ctx``'s framebuffer;
+        ``auto``: ``cpu`` on a software rasteriser (llvmpipe, softpipe, swrast), where the numpy
+        pipeline is the faster (``benchmarks/bench_viewer.py``), else ``gpu``. Both give the
+        same images (``tests/experiment/test_viewer_gpu.py``).
     """
 
     def __init__(
@@ -218,6 +238,7 @@ class Viewer:
         n_planes: int = 100,
         track_bright: bool = False,
         clock: Any = None,
+        compute: str = "auto",
     ) -> None:
         from stimuli.declutter import auto_threshold
         from stimuli.planes import auto_binning, default_disparities, find_object_planes
@@ -269,11 +290,18 @@ class Viewer:
         self.gpu = None
         self._composite = None
         self._pane0_key: tuple | None = None
+        if compute not in COMPUTE_CHOICES:
+            raise ConfocalError(f"compute must be one of {COMPUTE_CHOICES}, got {compute!r}")
+        self.ctx = ctx
+        self._blit = None
         if ctx is not None:
-            from experiment.viewer.gpu import GpuPipeline
+            if compute == "auto":
+                compute = "cpu" if is_software_renderer(ctx) else "gpu"
+            if compute == "gpu":
+                from experiment.viewer.gpu import GpuPipeline
 
-            self.ctx = ctx
-            self.gpu = GpuPipeline(ctx, lf.views)
+                self.gpu = GpuPipeline(ctx, lf.views)
+        self.compute = "cpu" if self.gpu is None else "gpu"
         self._gpu_frame = 0
         if track_bright:
             self.state = replace(self.state, marker=brightest_point(lf.centre_view()))
@@ -429,6 +457,8 @@ class Viewer:
                 alert=p.alert,
                 status=status,
             )
+            if fbo is not None and self.ctx is not None:
+                self._draw_frame(frame, fbo)
             self.frame_ms = (time.perf_counter() - t0) * 1e3
             return frame
         g = self.gpu
@@ -550,8 +580,24 @@ class Viewer:
             return None
         return int(((2 * px + 1) * cols) // (2 * w)), int(((2 * py + 1) * rows) // (2 * h))
 
+    def _draw_frame(self, frame: np.ndarray, fbo: Any) -> None:
+        """Copy a CPU frame (rows, cols, 3 uint8, top row first) into ``fbo``."""
+        rows, cols = frame.shape[:2]
+        if self._blit is None or self._blit[0].size != (cols, rows):
+            if self._blit is not None:
+                for obj in self._blit[::-1]:
+                    obj.release()
+            tex = self.ctx.texture((cols, rows), 3)
+            self._blit = (tex, self.ctx.framebuffer(color_attachments=[tex]))
+        tex, src = self._blit
+        tex.write(np.ascontiguousarray(frame[::-1]).tobytes())  # GL rows run bottom-up
+        self.ctx.copy_framebuffer(fbo, src)
+
     def close(self) -> None:
         """Release the GPU objects and close the event log."""
+        if self._blit is not None:
+            for obj in self._blit[::-1]:
+                obj.release()
         if self.gpu is not None:
             self.gpu.release()
         if self._composite is not None:

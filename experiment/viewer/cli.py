@@ -56,6 +56,14 @@ def view_command(
         Path | None, typer.Option(help="Render one state offscreen to this PNG and exit.")
     ] = None,
     cpu: Annotated[bool, typer.Option("--cpu", help="Render with numpy (no OpenGL).")] = False,
+    compute: Annotated[
+        str,
+        typer.Option(
+            "--compute",
+            help="Where refocus, Sobel and compression run: auto (numpy on a software "
+            "rasteriser such as llvmpipe, where it is faster; else shaders), gpu or cpu.",
+        ),
+    ] = "auto",
     size: Annotated[str, typer.Option(help="Frame size WIDTHxHEIGHT.")] = "1080x720",
     disparity: Annotated[
         float | None, typer.Option(help="Start depth, px per view step (default: nearest plane).")
@@ -113,6 +121,12 @@ def view_command(
     ] = None,
 ) -> None:
     """Scan depth, jump to object planes, zoom and see the implant's view, live."""
+    from experiment.viewer.app import COMPUTE_CHOICES
+
+    if compute not in COMPUTE_CHOICES:
+        raise ConfocalError(
+            f"--compute must be one of {', '.join(COMPUTE_CHOICES)}, got {compute!r}"
+        )
     from experiment.viewer.app import Viewer, open_source, read_script
     from experiment.viewer.events import ViewerEventLog
     from experiment.viewer.implants import implant_names, load_implant
@@ -166,6 +180,7 @@ def view_command(
             names,
             screen_shape_px=shape,
             ctx=ctx,
+            compute=compute,
             event_log=ev_log,
             px_per_deg=px_per_deg,
             n_planes=planes,

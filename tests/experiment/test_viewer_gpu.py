@@ -236,7 +236,12 @@ def test_prefetch_fills_the_cache_without_changing_the_shown_image(ctx, scene) -
     from experiment.viewer.app import LightFieldSource, Viewer
 
     v = Viewer(
-        LightFieldSource(scene), ["argus2"], screen_shape_px=(240, 320), ctx=ctx, n_planes=30
+        LightFieldSource(scene),
+        ["argus2"],
+        screen_shape_px=(240, 320),
+        ctx=ctx,
+        n_planes=30,
+        compute="gpu",
     )
     try:
         fbo = ctx.simple_framebuffer((320, 240))
@@ -261,3 +266,27 @@ def test_prefetch_fills_the_cache_without_changing_the_shown_image(ctx, scene) -
         fbo.release()
     finally:
         v.close()
+
+
+def test_numpy_pipeline_drawn_into_the_gl_framebuffer(ctx, scene) -> None:
+    """``compute='cpu'`` with a context (the default on llvmpipe): the numpy frame is copied into
+    the framebuffer unchanged, and ``auto`` picks it exactly on a software rasteriser."""
+    from experiment.viewer.app import LightFieldSource, Viewer, is_software_renderer
+
+    src = LightFieldSource(scene)
+    v = Viewer(src, ["argus2"], screen_shape_px=(240, 320), ctx=ctx, n_planes=30, compute="cpu")
+    auto = Viewer(src, ["argus2"], screen_shape_px=(240, 320), ctx=ctx, n_planes=30)
+    try:
+        assert v.gpu is None and v.compute == "cpu"
+        assert auto.compute == ("cpu" if is_software_renderer(ctx) else "gpu")
+        fbo = ctx.simple_framebuffer((320, 240))
+        v.handle("key", {"key": "page_down"})
+        frame = v.render(fbo)
+        ctx.finish()
+        shown = np.frombuffer(fbo.read(components=3), np.uint8).reshape(240, 320, 3)[::-1]
+        np.testing.assert_array_equal(shown, frame)
+        assert frame.std() > 0  # a real picture, not a blank frame
+        fbo.release()
+    finally:
+        v.close()
+        auto.close()

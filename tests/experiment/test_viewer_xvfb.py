@@ -89,6 +89,8 @@ def test_viewer_window_events_screenshots_and_log(x_display, tmp_path) -> None: 
             f"{SIZE[1]}x{SIZE[0]}",
             "--planes",
             "60",
+            "--compute",
+            "gpu",  # the shaders in a real window (auto picks numpy on llvmpipe: tested offscreen)
         ],
         env={**os.environ, "DISPLAY": x_display},
         capture_output=True,
