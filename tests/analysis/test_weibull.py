@@ -17,6 +17,7 @@ from analysis.weibull import (
     WeibullFit,
     aggregate,
     default_prior,
+    fit_counts,
     fit_mle,
     fit_weibull,
     psychometric,
@@ -102,7 +103,7 @@ def test_analytic_values():
 
 
 def test_bad_arguments():
-    with pytest.raises(ValueError, match="sigmoid must be 'weibull' or 'logistic', got 'probit'"):
+    with pytest.raises(ValueError, match="sigmoid must be one of weibull, .*normal, got 'probit'"):
         psychometric(1.0, 1.0, 1.0, 0.0, sigmoid="probit")
     with pytest.raises(ValueError, match=r"guess must be in \[0, 1\), got 1.0"):
         psychometric(1.0, 1.0, 1.0, 0.0, guess=1.0)
@@ -112,12 +113,20 @@ def test_bad_arguments():
         aggregate([1, 2], [1])
     with pytest.raises(ValueError, match="correct must be 0 or 1"):
         aggregate([1, 2], [1, 3])
-    with pytest.raises(ValueError, match="x must be > 0 for the Weibull, got -1.0"):
+    with pytest.raises(ValueError, match=r"x must be > 0 for the weibull \(log axis\), got -1.0"):
         fit_weibull([-1.0, 2.0], [0, 1])
     with pytest.raises(ValueError, match=r"loc_range must be finite with low < high, got \(2, 1\)"):
         PsychometricPrior(loc_range=(2, 1), log_beta_range=(0, 1))
     with pytest.raises(ValueError, match=r"n_walkers must be >= 6 \(2 x 3 parameters\), got 4"):
         next(sample_posterior(PX, PX * 0 + 5, PX * 0 + 10, n_walkers=4))
+    with pytest.raises(ValueError, match=r"n_walkers must be >= 8 \(2 x 4 parameters\), got 6"):
+        next(sample_posterior(PX, PX * 0 + 5, PX * 0 + 10, n_walkers=6, overdispersion=True))
+    with pytest.raises(ValueError, match="counts must satisfy 0 <= k <= n and n > 0"):
+        fit_counts([1.0, 2.0], [3, 1], [2, 2])
+    with pytest.raises(ValueError, match="levels, k and n must be non-empty and of equal length"):
+        fit_counts([1.0, 2.0], [1], [2, 2])
+    with pytest.raises(ValueError, match="levels, k and n must be finite"):
+        fit_counts([1.0, np.nan], [1, 1], [2, 2])
 
 
 @pytest.mark.parametrize("case", ["cluttered", "decluttered"])
@@ -224,7 +233,7 @@ def test_default_prior_bounds():
     p = default_prior(PX)
     assert p.loc_range[0] < math.log10(96) and p.loc_range[1] > math.log10(160884)
     assert default_prior(PX, guess=0.5).lapse_max == 0.25
-    with pytest.raises(ValueError, match="levels must be > 0 for the Weibull"):
+    with pytest.raises(ValueError, match=r"levels must be > 0 for the weibull \(log axis\)"):
         default_prior([0.0, 1.0])
 
 
