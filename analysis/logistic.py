@@ -30,6 +30,8 @@ __all__ = [
     "MixedFit",
     "design_frame",
     "fit_logistic",
+    "firth_logit",
+    "SEPARATION_LOG_OR",
     "fit_mixed",
     "predict_from_odds_ratio",
 ]
@@ -109,6 +111,14 @@ class LogisticFit:
         probability is >= (<) ``cutoff``.
     cutoff : float
         Classification cutoff.
+    warnings : tuple of str
+        What the fit noticed (separation, dropped terms, ...).
+    method : {'ml', 'firth', 'none'}
+        ``ml``: maximum likelihood (the paper's); ``firth``: Firth's penalised likelihood
+        (Heinze & Schemper 2002), used when ML does not exist (separated data) or fails;
+        ``none``: nothing could be estimated (see ``warnings``), the table is empty.
+    separated : tuple of str
+        Terms whose ML estimate is infinite (or the ML fit failed on), reported from Firth's fit.
     """
 
     odds_ratios: OddsRatioTable
@@ -122,6 +132,12 @@ class LogisticFit:
     not_recognized_correct_pct: float
     cutoff: float = 0.5
     warnings: tuple[str, ...] = field(default_factory=tuple)
+    method: str = "ml"
+    separated: tuple[str, ...] = field(default_factory=tuple)
+
+    def has(self, term: str) -> bool:
+        """Return True when ``term`` was estimated."""
+        return term in self.odds_ratios.terms()
 
     def classification(self) -> dict[str, float]:
         """Return the results.json ``classification`` entry."""
@@ -147,6 +163,8 @@ class LogisticFit:
             "n_trials": self.n_trials,
             "log_likelihood": self.log_likelihood,
             "warnings": list(self.warnings),
+            "method": self.method,
+            "separated": list(self.separated),
         }
 
     @classmethod
@@ -165,6 +183,8 @@ class LogisticFit:
             not_recognized_correct_pct=float(c["not_recognized_correct_pct"]),
             cutoff=float(c["cutoff"]),
             warnings=tuple(d.get("warnings", ())),
+            method=str(d.get("method", "ml")),
+            separated=tuple(d.get("separated", ())),
         )
 
 
@@ -211,10 +231,116 @@ def _check_model_data(d: pd.DataFrame) -> None:
             raise DataError(f"no trials in condition '{name}': both conditions are needed")
 
 
+#: |log odds ratio| above which an ML estimate is taken as infinite (separation): ours,
+#: OR > 3e6 is far beyond any effect these designs can measure.
+SEPARATION_LOG_OR: float = 15.0
+
+
+def firth_logit(
+    y: np.ndarray, X: np.ndarray, *, max_iter: int = 200, tol: float = 1e-9
+) -> tuple[np.ndarray, np.ndarray, float]:
+    """Fit a logistic regression by Firth's penalised likelihood.
+
+    Maximises ``l(b) + 0.5 log det(X' W X)`` by Newton steps on the modified score
+    ``X' (y - p + h (0.5 - p))`` with step halving; finite even under complete separation.
+
+    Parameters
+    ----------
+    y : ndarray of shape (n,)
+        0/1 outcomes.
+    X : ndarray of shape (n, p)
+        Design matrix (with the intercept column), full column rank.
+    max_iter : int
+        Newton iterations.
+    tol : float
+        Convergence tolerance on the largest coefficient change.
+
+    Returns
+    -------
+    params : ndarray of shape (p,)
+    bse : ndarray of shape (p,)
+        Standard errors from the inverse of ``X' W X`` at the estimate.
+    log_likelihood : float
+        Unpenalised log-likelihood at the estimate.
+
+    Raises
+    ------
+    numpy.linalg.LinAlgError
+        Rank-deficient design.
+
+    References
+    ----------
+    Firth 1993, Biometrika 80:27; Heinze & Schemper 2002, Stat. Med. 21:2409.
+    """
+    from scipy import special
+
+    y = np.asarray(y, float)
+    X = np.asarray(X, float)
+
+    def pen_ll(b: np.ndarray) -> float:
+        eta = X @ b
+        p = special.expit(eta)
+        w = p * (1 - p)
+        sign, logdet = np.linalg.slogdet(X.T @ (w[:, None] * X))
+        ll = float(np.sum(y * eta - np.logaddexp(0, eta)))
+        return ll + 0.5 * logdet if sign > 0 else -np.inf
+
+    b = np.zeros(X.shape[1])
+    cur = pen_ll(b)
+    for _ in range(max_iter):
+        p = special.expit(X @ b)
+        w = p * (1 - p)
+        info = X.T @ (w[:, None] * X)
+        inv = np.linalg.inv(info)
+        xw = X * np.sqrt(w)[:, None]
+        h = np.einsum("ij,jk,ik->i", xw, inv, xw)
+        step = inv @ (X.T @ (y - p + h * (0.5 - p)))
+        t = 1.0
+        while t > 1e-6:
+            new = pen_ll(b + t * step)
+            if new >= cur - 1e-12:
+                break
+            t /= 2
+        b = b + t * step
+        cur = pen_ll(b)
+        if np.max(np.abs(t * step)) < tol:
+            break
+    p = special.expit(X @ b)
+    w = p * (1 - p)
+    cov = np.linalg.inv(X.T @ (w[:, None] * X))
+    eta = X @ b
+    return b, np.sqrt(np.diag(cov)), float(np.sum(y * eta - np.logaddexp(0, eta)))
+
+
+def _empty_fit(d: pd.DataFrame, ref: str, why: str, cutoff: float) -> LogisticFit:
+    logger.warning("logistic model: %s", why)
+    return LogisticFit(
+        odds_ratios=OddsRatioTable(()),
+        params={},
+        bse={},
+        reference_object=ref,
+        subject_factor=False,
+        n_trials=int(len(d)),
+        log_likelihood=math.nan,
+        recognized_correct_pct=math.nan,
+        not_recognized_correct_pct=math.nan,
+        cutoff=float(cutoff),
+        warnings=(why,),
+        method="none",
+    )
+
+
 def fit_logistic(
     trials: pd.DataFrame, *, subject_factor: bool = False, cutoff: float = 0.5
 ) -> LogisticFit:
-    """Fit the paper's binary logistic regression with statsmodels.
+    """Fit the paper's binary logistic regression; Firth's penalised fit when ML does not exist.
+
+    Terms the data cannot inform are left out with a note: ``background`` with one condition,
+    ``log10_pixels`` with one level, object dummies with one object or too few trials (fewer than
+    10 per parameter, ours). When every trial has the same outcome nothing is estimated
+    (``method == 'none'``). Separated data (e.g. every de-cluttered trial recognised) have no
+    finite ML estimate; they are refitted with Firth's penalised likelihood and the separated terms
+    are listed in ``separated``.
 
     Parameters
     ----------
@@ -229,82 +355,137 @@ def fit_logistic(
     -------
     LogisticFit
 
-    Raises
-    ------
-    DataError
-        All trials recognised or none, or a condition without trials.
-
     References
     ----------
     Jung et al. 2015, Sec. 3.2.2: OR background 5.6 (3.9-8.1), OR log10 pixels 74.5
-    (48.9-113.5), classification 90.3 % / 91.0 %.
+    (48.9-113.5), classification 90.3 % / 91.0 %. Firth 1993; Heinze & Schemper 2002.
     """
     import statsmodels.formula.api as smf
+    from scipy import stats
     from statsmodels.tools.sm_exceptions import ConvergenceWarning, PerfectSeparationWarning
 
     if not (0.0 < cutoff < 1.0):
         raise ValueError(f"cutoff must be in (0, 1), got {cutoff!r}")
     d = design_frame(trials)
-    _check_model_data(d)
     objects = object_order(d["object"])
     ref = objects[0]
+    if d["recognized"].nunique() < 2:
+        what = "recognised" if d["recognized"].iloc[0] == 1 else "not recognised"
+        return _empty_fit(
+            d, ref, f"all {len(d)} trials are {what}: no odds ratio can be estimated", cutoff
+        )
+    notes: list[str] = []
+    terms = []
+    if d["background"].nunique() == 2:
+        terms.append("background")
+    else:
+        notes.append("one background condition only: no background odds ratio")
+    use_objects = len(objects) > 1
+    if use_objects and len(d) < 10 * (len(objects) + 3):
+        use_objects = False
+        notes.append(
+            f"{len(d)} trials are too few for {len(objects) - 1} object dummies (fewer than 10 "
+            "per parameter): objects left out of the model"
+        )
+    if use_objects:
+        terms.append("C(object)")
+    if d["log10_pixels"].nunique() > 1:
+        terms.append("log10_pixels")
+    else:
+        notes.append("one resolution level only: no odds ratio per log10 pixels")
+    if subject_factor and d["subject"].nunique() > 1:
+        terms.append("C(subject)")
+    if not terms:
+        return _empty_fit(d, ref, "; ".join(notes) + ": no term left to estimate", cutoff)
     # Categorical in natural order so that dummies come out as objects 2, 3, ..., 10 (not 10, 2).
     d["object"] = pd.Categorical(d["object"], categories=objects)
     d["subject"] = pd.Categorical(d["subject"], categories=object_order(d["subject"]))
-    formula = "recognized ~ background + C(object) + log10_pixels"
-    if len(objects) == 1:
-        formula = "recognized ~ background + log10_pixels"
-    if subject_factor and d["subject"].nunique() > 1:
-        formula += " + C(subject)"
-    notes: list[str] = []
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always")
-        model = smf.logit(formula, data=d)
-        res = model.fit(method="newton", tol=1e-12, maxiter=200, disp=False)
-    for w in caught:
-        if issubclass(w.category, (ConvergenceWarning, PerfectSeparationWarning, RuntimeWarning)):
-            notes.append(" ".join(str(w.message).split()))
-    params = res.params
-    ci = res.conf_int(alpha=0.05)
+    formula = "recognized ~ " + " + ".join(terms)
+    model = smf.logit(formula, data=d)
+    names = list(model.exog_names)
+    X = model.exog
+    if np.linalg.matrix_rank(X) < X.shape[1]:
+        return _empty_fit(
+            d, ref, "; ".join([*notes, "the design matrix is rank-deficient"]), cutoff
+        )
+    method, separated = "ml", []
+    params = bse = None
+    llf = math.nan
+    try:
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            res = model.fit(method="newton", tol=1e-12, maxiter=200, disp=False)
+        params, bse, llf = np.asarray(res.params), np.asarray(res.bse), float(res.llf)
+        sep_warned = False
+        for w in caught:
+            if issubclass(w.category, PerfectSeparationWarning):
+                sep_warned = True
+            elif issubclass(w.category, (ConvergenceWarning, RuntimeWarning)):
+                notes.append(" ".join(str(w.message).split()))
+        separated = [
+            _term_name(nm)
+            for nm, b, se in zip(names, params, bse, strict=True)
+            if nm != "Intercept" and (abs(b) > SEPARATION_LOG_OR or not np.isfinite(se))
+        ]
+        if sep_warned or separated or not np.all(np.isfinite(bse)):
+            method = "firth"
+    except Exception as exc:  # noqa: BLE001 - statsmodels raises several types on separation
+        method = "firth"
+        notes.append(f"ML fit failed ({type(exc).__name__}): Firth's penalised fit used instead")
+    if method == "firth":
+        y = d["recognized"].to_numpy(float)
+        try:
+            params, bse, llf = firth_logit(y, X)
+        except np.linalg.LinAlgError:
+            return _empty_fit(
+                d, ref, "; ".join([*notes, "neither ML nor Firth's fit exists"]), cutoff
+            )
+        if not separated:
+            separated = [_term_name(nm) for nm in names if nm != "Intercept"]
+            notes.append("ML estimates do not exist (separation); Firth's estimates for all terms")
+        else:
+            notes.append(
+                "separated in these data (ML odds ratio infinite): "
+                + ", ".join(separated)
+                + "; all odds ratios are from Firth's penalised likelihood"
+            )
     rows = []
-    for name in params.index:
+    for name, b, se in zip(names, params, bse, strict=True):
         if name == "Intercept":
             continue
+        z = b / se if se > 0 else math.inf
         with np.errstate(over="ignore"):
-            row = (
-                _term_name(name),
-                float(np.exp(params[name])),
-                float(np.exp(ci.loc[name, 0])),
-                float(np.exp(ci.loc[name, 1])),
-                float(res.pvalues[name]),
+            rows.append(
+                (
+                    _term_name(name),
+                    float(np.exp(b)),
+                    float(np.exp(b - 1.959963984540054 * se)),
+                    float(np.exp(b + 1.959963984540054 * se)),
+                    float(2 * stats.norm.sf(abs(z))),
+                )
             )
-        # |log OR| > 15 (OR > 3e6) or an unbounded interval: (quasi-)complete separation, e.g. a
-        # condition or object recognised on every trial; the estimate is not identified.
-        if abs(params[name]) > 15 or not np.all(np.isfinite(row[1:4])):
-            notes.append(
-                f"term '{row[0]}' is (quasi-)separated (log odds ratio {params[name]:.1f}): "
-                "its odds ratio is not identified by these data"
-            )
-        rows.append(row)
-    notes = sorted(set(notes))
+    notes = list(dict.fromkeys(notes))
     for n in notes:
         logger.warning("logistic model: %s", n)
-    p = np.asarray(res.predict(d))
+    eta = X @ params
+    p = 1.0 / (1.0 + np.exp(-np.clip(eta, -700, 700)))
     y = d["recognized"].to_numpy()
     rec_ok = float(100.0 * np.mean(p[y == 1] >= cutoff))
     not_ok = float(100.0 * np.mean(p[y == 0] < cutoff))
     return LogisticFit(
         odds_ratios=OddsRatioTable(tuple(rows)),
-        params={_term_name(k): float(v) for k, v in params.items()},
-        bse={_term_name(k): float(v) for k, v in res.bse.items()},
+        params={_term_name(k): float(v) for k, v in zip(names, params, strict=True)},
+        bse={_term_name(k): float(v) for k, v in zip(names, bse, strict=True)},
         reference_object=ref,
         subject_factor="C(subject)" in formula,
         n_trials=int(len(d)),
-        log_likelihood=float(res.llf),
+        log_likelihood=float(llf),
         recognized_correct_pct=rec_ok,
         not_recognized_correct_pct=not_ok,
         cutoff=float(cutoff),
         warnings=tuple(notes),
+        method=method,
+        separated=tuple(separated),
     )
 
 

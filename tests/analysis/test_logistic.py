@@ -9,12 +9,12 @@ import numpy as np
 import pytest
 from scipy import optimize, special, stats
 
-from analysis.errors import DataError
 from analysis.jung2015 import EQ1_EXAMPLES, eq1
 from analysis.logistic import (
     LogisticFit,
     MixedFit,
     OddsRatioTable,
+    firth_logit,
     fit_logistic,
     fit_mixed,
     predict_from_odds_ratio,
@@ -127,17 +127,57 @@ def test_roundtrip(fit):
     assert list(t.to_frame().columns) == ["term", "odds_ratio", "ci95_low", "ci95_high", "p_value"]
 
 
-def test_all_recognised_is_an_error(trials):
+def test_all_recognised_gives_an_empty_table_not_an_error_issue_11(trials):
     t = trials.copy()
     t["recognized"] = 1
-    with pytest.raises(DataError, match="all 1920 trials are recognised"):
-        fit_logistic(t)
+    f = fit_logistic(t)
+    assert f.method == "none" and f.odds_ratios.rows == ()
+    assert "all 1920 trials are recognised" in f.warnings[0]
 
 
-def test_missing_condition_is_an_error(trials):
-    t = trials[trials["condition"] == "cluttered"]
-    with pytest.raises(DataError, match="no trials in condition 'decluttered'"):
-        fit_logistic(t)
+def test_one_condition_drops_the_background_term_issue_11(trials):
+    f = fit_logistic(trials[trials["condition"] == "cluttered"])
+    assert not f.has("background") and f.has("log10_pixels")
+    assert any("one background condition" in w for w in f.warnings)
+
+
+def _penalised_nll(b, X, y):
+    eta = X @ b
+    p = special.expit(eta)
+    info = X.T @ ((p * (1 - p))[:, None] * X)
+    return -(float(np.sum(y * eta - np.logaddexp(0, eta))) + 0.5 * np.linalg.slogdet(info)[1])
+
+
+def test_firth_matches_direct_maximisation_of_the_penalised_likelihood():
+    """Second method: scipy BFGS on l(b) + 0.5 log det(X'WX), written out here (gtol 1e-10)."""
+    rng = np.random.default_rng(5)
+    x = rng.normal(size=40)
+    X = np.column_stack([np.ones(40), x, (rng.random(40) < 0.5).astype(float)])
+    y = (x > 0).astype(float)  # complete separation on x: no ML estimate
+    ours, se, _ = firth_logit(y, X)
+    r = optimize.minimize(_penalised_nll, np.zeros(3), args=(X, y), method="BFGS",
+                          options={"gtol": 1e-10})
+    assert np.all(np.isfinite(ours)) and np.all(se > 0)
+    np.testing.assert_allclose(ours, r.x, rtol=1e-4, atol=1e-5)
+
+
+def test_separated_condition_is_refitted_with_firth_issue_11(trials):
+    t = trials.copy()
+    t.loc[t["condition"] == "cluttered", "recognized"] = 0
+    t.loc[t["condition"] == "decluttered", "recognized"] = 1
+    f = fit_logistic(t)
+    assert f.method == "firth" and "background" in f.separated
+    o = f.odds_ratios["background"]
+    assert math.isfinite(o["or"]) and o["or"] > 100
+    assert any("separated" in w for w in f.warnings)
+
+
+def test_sixteen_trials_do_not_crash_issue_11(trials):
+    small = trials.sample(16, random_state=3)
+    assert small["object"].nunique() > 1
+    f = fit_logistic(small)
+    assert f.method in ("ml", "firth", "none")
+    assert any("too few" in w for w in f.warnings)
 
 
 def test_eq1_paper_examples():
