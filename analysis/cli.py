@@ -84,6 +84,13 @@ def run(
     lapse_prior: Annotated[
         str, typer.Option("--lapse-prior", help="Beta(a,b) prior of the lapse rate, as 'a,b'.")
     ] = "1,10",
+    overdispersion: Annotated[
+        bool,
+        typer.Option(
+            "--overdispersion/--no-overdispersion",
+            help="Beta-binomial pooled fits (free scale, as psignifit 4).",
+        ),
+    ] = True,
 ) -> None:
     """Analyse TRIALS and write REPORT_DIR (results.json, report.md, figures)."""
     from rich.console import Console
@@ -106,6 +113,7 @@ def run(
             seed=seed,
             subject_factor=subject_factor,
             mixed=mixed,
+            overdispersion=overdispersion,
         )
     except ValueError as exc:
         raise typer.BadParameter(str(exc)) from exc
@@ -135,38 +143,36 @@ def run(
     _print_summary(result, folder)
 
 
-def _fmt(v: float | None) -> str:
-    return "n/a" if v is None else f"{v:,.0f}"
-
-
 def _print_summary(result, folder: Path) -> None:
+    from analysis.report import threshold_text
+
     r = result.results_json()
     typer.echo(f"{r['n_trials']} trials, {r['n_recognized']} recognised")
     if r["n_training_excluded"]:
         typer.echo(f"({r['n_training_excluded']} training trials excluded)")
     for c, t in r["thresholds"].items():
         conv = "" if t["converged"] else "  NOT CONVERGED"
-        typer.echo(
-            f"50% threshold {c:>11}: {_fmt(t['p50_pixels'])} px "
-            f"(95% CrI {_fmt(t['ci95'][0])}-{_fmt(t['ci95'][1])}; MLE "
-            f"{_fmt(t['mle_p50_pixels'])}){conv}"
-        )
-        if "threshold" in t:
-            typer.echo(
-                f"{100 * r['pc']:g}% threshold {c:>11}: {_fmt(t['threshold'])} px (95% CrI "
-                f"{_fmt(t['threshold_ci95'][0])}-{_fmt(t['threshold_ci95'][1])})"
-            )
+        typer.echo(f"50% threshold {c:>11}: {threshold_text(t['threshold_50'])}{conv}")
+        if "threshold_pc" in t:
+            typer.echo(f"{100 * r['pc']:g}% threshold {c:>11}: {threshold_text(t['threshold_pc'])}")
+    lo = r["logistic"]
+    if lo["method"] == "none":
+        typer.echo("logistic model: not estimable (" + "; ".join(lo["warnings"]) + ")")
     for term in ("background", "log10_pixels"):
-        o = r["logistic"]["odds_ratios"][term]
+        o = lo["odds_ratios"].get(term)
+        if o is None:
+            continue
+        sep = " (separated; Firth)" if term in lo["separated"] else ""
         typer.echo(
-            f"odds ratio {term:>12}: {o['or']:.2f} (95% CI {o['ci95'][0]:.2f}-{o['ci95'][1]:.2f}, "
-            f"p = {o['p']:.2g})"
+            f"odds ratio {term:>12}: {o['or']:.3g} (95% CI {o['ci95'][0]:.3g}-{o['ci95'][1]:.3g}, "
+            f"p = {o['p']:.2g}){sep}"
         )
-    cl = r["logistic"]["classification"]
-    typer.echo(
-        f"classified correctly: {cl['recognized_correct_pct']:.1f}% recognised, "
-        f"{cl['not_recognized_correct_pct']:.1f}% not recognised"
-    )
+    cl = lo["classification"]
+    if lo["method"] != "none":
+        typer.echo(
+            f"classified correctly: {cl['recognized_correct_pct']:.1f}% recognised, "
+            f"{cl['not_recognized_correct_pct']:.1f}% not recognised"
+        )
     for w in r["warnings"]:
         typer.echo(f"warning: {w}", err=True)
     typer.echo(f"report: {folder / 'report.md'}  (results: {folder / 'results.json'})")

@@ -53,6 +53,9 @@ class AnalysisOptions:
         Prior of every psychometric fit; the data-dependent default when None.
     lapse_prior : (float, float)
         Beta(a, b) prior of the lapse rate for the default prior (ignored with ``prior``).
+    overdispersion : bool
+        Beta-binomial posteriors (free scale, psignifit 4 style) for the pooled fits, which pool
+        subjects and objects whose thresholds differ; per-subject fits stay binomial.
     """
 
     pc: float = 0.5
@@ -63,6 +66,7 @@ class AnalysisOptions:
     mixed: bool = False
     prior: PsychometricPrior | None = None
     lapse_prior: tuple[float, float] = (1.0, 10.0)
+    overdispersion: bool = True
 
     def __post_init__(self) -> None:
         if len(self.lapse_prior) != 2 or min(self.lapse_prior) <= 0:
@@ -112,8 +116,10 @@ class AnalysisResult:
     first_recognized: dict[str, dict[str, dict[str, float | None]]]
     warnings: tuple[str, ...] = field(default_factory=tuple)
 
-    def predictions(self) -> dict[str, Any]:
-        """Return Eq. 1 applied with the fitted background odds ratio."""
+    def predictions(self) -> dict[str, Any] | None:
+        """Return Eq. 1 applied with the fitted background odds ratio (None when not estimated)."""
+        if not self.logistic.has("background"):
+            return None
         odds = self.logistic.odds_ratios["background"]["or"]
         ref = [0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9]
         return {
@@ -134,6 +140,7 @@ class AnalysisResult:
             "pc": pc,
             "guess": self.options.guess,
             "seed": self.options.seed,
+            "overdispersion": self.options.overdispersion,
             "prior": {c: f.prior.to_dict() for c, f in self.thresholds.items()},
             "sources": list(self.sources),
             "n_training_excluded": self.n_training_excluded,
@@ -148,6 +155,9 @@ class AnalysisResult:
                 "reference_object": self.logistic.reference_object,
                 "subject_factor": self.logistic.subject_factor,
                 "n_significant_objects": self.logistic.n_significant_objects(),
+                "method": self.logistic.method,
+                "separated": list(self.logistic.separated),
+                "warnings": list(self.logistic.warnings),
             },
             "predictions": self.predictions(),
             "first_recognized_pixels": self.first_recognized,
@@ -170,6 +180,7 @@ class AnalysisResult:
                 "mixed": o.mixed,
                 "prior": o.prior.to_dict() if o.prior else None,
                 "lapse_prior": list(o.lapse_prior),
+                "overdispersion": o.overdispersion,
             },
             "sources": list(self.sources),
             "n_training_excluded": self.n_training_excluded,
@@ -272,19 +283,6 @@ def first_recognized(trials: pd.DataFrame) -> dict[str, dict[str, dict[str, floa
     return out
 
 
-def _check(trials: pd.DataFrame, sources: tuple[str, ...]) -> None:
-    files = ", ".join(sources)
-    for c in CONDITIONS:
-        if not (trials["condition"] == c).any():
-            raise DataError(f"no trials in condition '{c}' in {files}: both conditions are needed")
-    n, k = len(trials), int(trials["recognized"].sum())
-    if k in (0, n):
-        what = "recognised" if k == n else "not recognised"
-        raise DataError(
-            f"all {n} trials in {files} are {what}: no threshold or odds ratio can be estimated"
-        )
-
-
 def analyze(table: TrialTable, options: AnalysisOptions | None = None) -> Iterator[AnalysisStep]:
     """Run the full analysis, yielding after each fit.
 
@@ -300,10 +298,9 @@ def analyze(table: TrialTable, options: AnalysisOptions | None = None) -> Iterat
     AnalysisStep
         The last one has ``result`` set.
 
-    Raises
-    ------
-    DataError
-        A condition without trials; all trials recognised or none.
+    Degenerate data (one condition, all recognised, separated, a handful of trials) give a
+    complete result that says what could not be estimated (``warnings``, threshold statuses,
+    the logistic model's ``method``); nothing is raised for them.
 
     References
     ----------
@@ -312,13 +309,17 @@ def analyze(table: TrialTable, options: AnalysisOptions | None = None) -> Iterat
     """
     opts = options or AnalysisOptions()
     trials = table.trials
-    _check(trials, table.sources)
+    if len(trials) == 0:
+        raise DataError(f"no trials in {', '.join(table.sources)}")
+    present = [c for c in CONDITIONS if (trials["condition"] == c).any()]
+    notes: list[str] = [
+        f"no trials in condition '{c}': it is not fitted" for c in CONDITIONS if c not in present
+    ]
     subjects = object_order(trials["subject"]) if opts.by_subject else []
-    jobs: list[tuple[str | None, str]] = [(None, c) for c in CONDITIONS]
-    jobs += [(s, c) for s in subjects for c in CONDITIONS]
+    jobs: list[tuple[str | None, str]] = [(None, c) for c in present]
+    jobs += [(s, c) for s in subjects for c in present]
     total = len(jobs) + 1 + int(opts.mixed)
     seeds = np.random.SeedSequence(opts.seed).spawn(len(jobs))
-    notes: list[str] = []
     pooled: dict[str, WeibullFit] = {}
     per_subject: dict[str, dict[str, WeibullFit]] = {}
     done = 0
@@ -347,11 +348,11 @@ def analyze(table: TrialTable, options: AnalysisOptions | None = None) -> Iterat
                 guess=opts.guess,
                 prior=prior,
                 label=label,
+                overdispersion=opts.overdispersion and subject is None,
                 rng=np.random.default_rng(ss),
             )
         notes += [" ".join(str(w.message).split()) for w in caught]
-        if not fit.converged:
-            notes.append(f"{label}: MCMC not converged (tau_max {fit.tau_max:.0f} steps)")
+        notes += fit.diagnostics(opts.pc)
         if subject is None:
             pooled[cond] = fit
         else:
@@ -363,7 +364,10 @@ def analyze(table: TrialTable, options: AnalysisOptions | None = None) -> Iterat
     yield AnalysisStep(done, total, "logistic regression")
     mixed = None
     if opts.mixed:
-        mixed = fit_mixed(trials)
+        try:
+            mixed = fit_mixed(trials)
+        except (DataError, ValueError, np.linalg.LinAlgError) as exc:
+            notes.append(f"mixed model not fitted: {' '.join(str(exc).split())}")
         done += 1
         yield AnalysisStep(done, total, "mixed model")
     result = AnalysisResult(

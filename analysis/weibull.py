@@ -1020,8 +1020,10 @@ class WeibullFit:
                 continue
             for side, bound in (("lower", lo), ("upper", hi)):
                 at = abs(theta_ml[j] - bound) <= 1e-3 * w
-                near = self.samples[:, j] < lo + 0.02 * w if side == "lower" else (
-                    self.samples[:, j] > hi - 0.02 * w
+                near = (
+                    self.samples[:, j] < lo + 0.02 * w
+                    if side == "lower"
+                    else (self.samples[:, j] > hi - 0.02 * w)
                 )
                 frac = float(np.mean(near))
                 if at or frac > 0.10:
@@ -1055,8 +1057,10 @@ class WeibullFit:
                     f"differ by {100 * abs(ratio - 1):.0f} %; the data barely constrain it"
                 )
         if 0 < len(self.levels) < 3:
-            out.append(f"{name}: only {len(self.levels)} level(s) tested; the slope is not "
-                       "identified by the data")
+            out.append(
+                f"{name}: only {len(self.levels)} level(s) tested; the slope is not "
+                "identified by the data"
+            )
         return out
 
     def goodness_of_fit(

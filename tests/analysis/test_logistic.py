@@ -155,8 +155,9 @@ def test_firth_matches_direct_maximisation_of_the_penalised_likelihood():
     X = np.column_stack([np.ones(40), x, (rng.random(40) < 0.5).astype(float)])
     y = (x > 0).astype(float)  # complete separation on x: no ML estimate
     ours, se, _ = firth_logit(y, X)
-    r = optimize.minimize(_penalised_nll, np.zeros(3), args=(X, y), method="BFGS",
-                          options={"gtol": 1e-10})
+    r = optimize.minimize(
+        _penalised_nll, np.zeros(3), args=(X, y), method="BFGS", options={"gtol": 1e-10}
+    )
     assert np.all(np.isfinite(ours)) and np.all(se > 0)
     np.testing.assert_allclose(ours, r.x, rtol=1e-4, atol=1e-5)
 
