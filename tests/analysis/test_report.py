@@ -8,8 +8,6 @@ import sys
 
 import pytest
 
-from analysis.data import TrialTable
-from analysis.errors import DataError
 from analysis.pipeline import AnalysisOptions, AnalysisResult, analyze, first_recognized
 from analysis.report import FIGURE_NAMES, render_markdown, write_report
 
