@@ -25,7 +25,15 @@ from analysis.logistic import (
     fit_mixed,
     predict_from_odds_ratio,
 )
-from analysis.weibull import PsychometricPrior, WeibullFit, default_prior, fit_weibull
+from analysis.sampler import FitJob, sample_batch
+from analysis.weibull import (
+    PsychometricPrior,
+    WeibullFit,
+    _data_warnings,
+    aggregate,
+    default_prior,
+    fit_mle,
+)
 
 __all__ = ["AnalysisOptions", "AnalysisStep", "AnalysisResult", "analyze", "first_recognized"]
 
@@ -319,45 +327,52 @@ def analyze(table: TrialTable, options: AnalysisOptions | None = None) -> Iterat
     jobs: list[tuple[str | None, str]] = [(None, c) for c in present]
     jobs += [(s, c) for s in subjects for c in present]
     total = len(jobs) + 1 + int(opts.mixed)
-    seeds = np.random.SeedSequence(opts.seed).spawn(len(jobs))
+    seeds = np.random.SeedSequence(opts.seed).spawn(1)
     pooled: dict[str, WeibullFit] = {}
     per_subject: dict[str, dict[str, WeibullFit]] = {}
     done = 0
-    for (subject, cond), ss in zip(jobs, seeds, strict=False):
+    fit_jobs: list[FitJob] = []
+    keys: list[tuple[str | None, str]] = []
+    for subject, cond in jobs:
         m = trials["condition"] == cond
         if subject is not None:
             m &= trials["subject"] == subject
         sel = trials[m]
         label = cond if subject is None else f"subject {subject}, {cond}"
-        done += 1
         if len(sel) == 0:
             notes.append(f"{label}: no trials, not fitted")
-            yield AnalysisStep(done, total, label)
             continue
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
+            levels, k, n = aggregate(sel["pixels"].to_numpy(), sel["recognized"].to_numpy())
+            _data_warnings(label, k, n)
             prior = opts.prior or default_prior(
-                np.unique(sel["pixels"].to_numpy()),
+                levels,
                 guess=opts.guess,
                 lapse_a=opts.lapse_prior[0],
                 lapse_b=opts.lapse_prior[1],
             )
-            fit = fit_weibull(
-                sel["pixels"].to_numpy(),
-                sel["recognized"].to_numpy(),
-                guess=opts.guess,
-                prior=prior,
-                label=label,
-                overdispersion=opts.overdispersion and subject is None,
-                rng=np.random.default_rng(ss),
-            )
+            mle = fit_mle(levels, k, n, guess=opts.guess, prior=prior)
         notes += [" ".join(str(w.message).split()) for w in caught]
+        od = opts.overdispersion and subject is None
+        fit_jobs.append(FitJob(label, levels, k, n, opts.guess, prior, mle, od))
+        keys.append((subject, cond))
+    # One batch for all posteriors: one vectorised step moves every fit's walkers.
+    fits: list[WeibullFit] = []
+    if fit_jobs:
+        for prog in sample_batch(fit_jobs, sigmoid="weibull", rng=np.random.default_rng(seeds[0])):
+            if prog.fits is None:
+                yield AnalysisStep(prog.n_done, total, f"sampling ({prog.n_steps} steps)")
+            else:
+                fits = prog.fits
+    for (subject, cond), fit in zip(keys, fits, strict=True):
         notes += fit.diagnostics(opts.pc)
         if subject is None:
             pooled[cond] = fit
         else:
             per_subject.setdefault(subject, {})[cond] = fit
-        yield AnalysisStep(done, total, label)
+    done = len(jobs)
+    yield AnalysisStep(done, total, "psychometric fits")
     logistic = fit_logistic(trials, subject_factor=opts.subject_factor)
     notes += [f"logistic model: {w}" for w in logistic.warnings]
     done += 1

@@ -91,7 +91,9 @@ def _or_text(o: dict[str, Any], term: str, separated: tuple[str, ...]) -> str:
     return base
 
 
-def render_markdown(result: AnalysisResult, *, figures: bool = True) -> str:
+def render_markdown(
+    result: AnalysisResult, *, figures: bool = True, results: dict[str, Any] | None = None
+) -> str:
     """Return the report text: results in sentences, as in Jung et al. 2015, Sec. 3.2.2.
 
     Every threshold is printed with its status: a number (posterior median, 95 % CrI and the ML
@@ -103,13 +105,15 @@ def render_markdown(result: AnalysisResult, *, figures: bool = True) -> str:
     result : AnalysisResult
     figures : bool
         Whether figure links are included.
+    results : dict, optional
+        ``result.results_json()`` when already computed.
 
     Returns
     -------
     str
         Markdown.
     """
-    r = result.results_json()
+    r = results if results is not None else result.results_json()
     pc = result.options.pc
     lines = ["# Recognition analysis", ""]
     lines.append(
@@ -332,10 +336,13 @@ def write_report(result: AnalysisResult, out_dir: str | Path, *, figures: bool =
     out.parent.mkdir(parents=True, exist_ok=True)
     tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.tmp-", dir=out.parent))
     try:
+        r = result.results_json()
         with open(tmp / "results.json", "w", encoding="utf-8") as fh:
-            json.dump(result.results_json(), fh, indent=2, allow_nan=False)
+            json.dump(r, fh, indent=2, allow_nan=False)
             fh.write("\n")
-        (tmp / "report.md").write_text(render_markdown(result, figures=figures), encoding="utf-8")
+        (tmp / "report.md").write_text(
+            render_markdown(result, figures=figures, results=r), encoding="utf-8"
+        )
         if figures:
             from analysis.figures import save_all
 

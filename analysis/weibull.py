@@ -109,9 +109,9 @@ _V_MAX: float = 1e9
 #: Chain length required for convergence, in autocorrelation times. Source: emcee documentation
 #: ("Autocorrelation analysis & convergence": chains longer than ~50 tau), ours to adopt.
 TAU_MULTIPLE: float = 50.0
-#: Walkers per fit: ours, the fewest that mix well for 3 parameters with the stretch move
-#: (emcee needs at least 2 x ndim); fewer walkers means fewer log-prob calls per step.
-N_WALKERS: int = 12
+#: Walkers per fit: ours. :func:`sample_posterior` (emcee) needs at least 2 x ndim; the batch
+#: sampler used by :func:`fit_counts` needs an even number >= 8.
+N_WALKERS: int = 16
 #: Steps per chunk between convergence checks: ours.
 CHUNK_STEPS: int = 250
 
@@ -1395,22 +1395,19 @@ def fit_counts(
     rng = np.random.default_rng(rng)
     prior = prior or default_prior(levels, guess=guess, sigmoid=sigmoid)
     mle = fit_mle(levels, k, n, guess=guess, sigmoid=sigmoid, prior=prior)
-    last = None
-    for progress in sample_posterior(
-        levels,
-        k,
-        n,
-        guess=guess,
-        sigmoid=sigmoid,
-        prior=prior,
-        start=mle,
-        overdispersion=overdispersion,
-        n_walkers=n_walkers,
-        max_steps=max_steps,
-        rng=rng,
-    ):
-        last = progress
-    return _finish(label, sigmoid, guess, levels, k, n, mle, prior, last, overdispersion)
+    from analysis.sampler import FitJob, fit_batch
+
+    job = FitJob(label, levels, k, n, float(guess), prior, mle, bool(overdispersion))
+    walkers = max(n_walkers + n_walkers % 2, 8)
+    (fit,) = fit_batch([job], sigmoid=sigmoid, n_walkers=walkers, max_steps=max_steps, rng=rng)
+    if not fit.converged:
+        logger.warning(
+            "%s: chain not converged after %d steps (tau_max %.0f)",
+            label or "fit",
+            fit.n_steps,
+            fit.tau_max,
+        )
+    return fit
 
 
 def _finish(
