@@ -43,6 +43,10 @@ analyze_app = typer.Typer(
         "[--seed N] [--mixed]\n\n"
         "  (same as 'confocal analyze run TRIALS...'): Weibull posteriors and thresholds, "
         "logistic odds ratios, figures, results.json and report.md.\n\n"
+        "  confocal analyze fit TABLE --x COL (--y COL | --k COL --n COL | --p COL --n COL) "
+        "[--group COLS] [--sigmoid weibull|loglogistic|lognormal|logistic|normal|gumbel] "
+        "[--axis log|linear] [--guess 0.5] [--pc 0.5,0.75] --out DIR: psychometric functions "
+        "for any table.\n\n"
         "  confocal analyze power --odds-ratio 5.6 | --threshold-ratio 2.5 [--subjects 1,2,4,6]: "
         "subjects needed for a given power, by simulation."
     ),
@@ -178,6 +182,101 @@ def _print_summary(result, folder: Path) -> None:
     typer.echo(f"report: {folder / 'report.md'}  (results: {folder / 'results.json'})")
 
 
+@analyze_app.command("fit")
+def fit(
+    table: Annotated[
+        Path, typer.Argument(help="CSV table, per trial or aggregated.", show_default=False)
+    ],
+    x: Annotated[str, typer.Option("--x", help="Stimulus-level column (name or 1-based number).")],
+    out: Annotated[Path, typer.Option("--out", "-o", help="Report folder (replaced atomically).")],
+    y: Annotated[
+        str | None, typer.Option("--y", help="Per-trial outcome column (1 correct, 0 not).")
+    ] = None,
+    k: Annotated[str | None, typer.Option("--k", help="Number-correct column.")] = None,
+    n: Annotated[str | None, typer.Option("--n", help="Number-of-trials column.")] = None,
+    p: Annotated[
+        str | None, typer.Option("--p", help="Proportion-correct column (0-1 or percent).")
+    ] = None,
+    group: Annotated[
+        str, typer.Option("--group", help="Comma-separated columns to fit separately.")
+    ] = "",
+    sigmoid: Annotated[
+        str,
+        typer.Option(
+            "--sigmoid",
+            help="auto, weibull, loglogistic, lognormal, logistic, normal or gumbel.",
+        ),
+    ] = "auto",
+    axis: Annotated[
+        str, typer.Option("--axis", help="auto (the sigmoid's own), log or linear.")
+    ] = "auto",
+    guess: Annotated[float, typer.Option("--guess", help="Guess rate (0.5 for 2AFC).")] = 0.0,
+    pc: Annotated[
+        str, typer.Option("--pc", help="Comma-separated proportions correct of the thresholds.")
+    ] = "0.5",
+    overdispersion: Annotated[
+        bool,
+        typer.Option("--overdispersion/--no-overdispersion", help="Beta-binomial posteriors."),
+    ] = True,
+    plots: Annotated[bool, typer.Option("--plots/--no-plots", help="One plot per group.")] = True,
+    seed: Annotated[int | None, typer.Option("--seed", help="Seed of the sampler.")] = None,
+) -> None:
+    """Fit psychometric functions to any table: thresholds, intervals, goodness of fit, plots."""
+    from rich.console import Console
+    from rich.progress import Progress
+
+    from analysis.errors import OptionError
+    from analysis.psychometric import FitSpec, iter_fit_table, read_table, write_fit_report
+
+    try:
+        pcs = tuple(float(v) for v in pc.split(",") if v.strip())
+    except ValueError as exc:
+        raise OptionError(f"--pc must be numbers like 0.5,0.75, got {pc!r}") from exc
+    try:
+        spec = FitSpec(
+            x=x,
+            y=y,
+            k=k,
+            n=n,
+            p=p,
+            group=tuple(g.strip() for g in group.split(",") if g.strip()),
+            sigmoid=sigmoid,
+            axis=axis,
+            guess=guess,
+            pcs=pcs,
+            overdispersion=overdispersion,
+            seed=seed,
+        )
+    except ValueError as exc:
+        raise OptionError(str(exc)) from exc
+    df = read_table(table)
+    result = None
+    with (
+        Progress(console=Console(stderr=True), transient=True) as bar,
+        warnings.catch_warnings(),
+    ):
+        warnings.simplefilter("ignore")
+        task = bar.add_task("fitting", total=None)
+        for done, total, r in iter_fit_table(df, spec, str(table)):
+            bar.update(task, completed=done, total=total)
+            result = r or result
+    folder = write_fit_report(result, out, plots=plots)
+    r = result.results_json()
+    typer.echo(f"{len(r['groups'])} group(s), sigmoid {r['sigmoid']} ({r['axis']} axis)")
+    for g in r["groups"]:
+        for t in g["thresholds"]:
+            typer.echo(f"{g['label']}: {100 * t['pc']:g}% threshold {_threshold_line(t)}")
+    for w in r["warnings"]:
+        typer.echo(f"warning: {w}", err=True)
+    typer.echo(f"report: {folder / 'report.md'}  (results: {folder / 'results.json'})")
+
+
+def _threshold_line(t: dict) -> str:
+    from analysis.psychometric import _threshold_md
+
+    return _threshold_md(t)
+
+
 class Effect(StrEnum):
     """Effect kinds for the power analysis."""
 
@@ -246,5 +345,5 @@ def power(
 
 
 def register(app: typer.Typer) -> None:
-    """Add the ``analyze`` group (``run`` by default, and ``power``) to the root app."""
+    """Add the ``analyze`` group (``run`` by default, ``fit`` and ``power``) to the root app."""
     app.add_typer(analyze_app, name="analyze")

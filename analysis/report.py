@@ -6,10 +6,12 @@ half-written report; an existing report at the same path is replaced.
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 import shutil
 import tempfile
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -23,7 +25,13 @@ from analysis.jung2015 import (
 )
 from analysis.pipeline import AnalysisResult
 
-__all__ = ["render_markdown", "write_report", "threshold_text", "FIGURE_NAMES"]
+__all__ = [
+    "render_markdown",
+    "write_report",
+    "threshold_text",
+    "atomic_folder",
+    "FIGURE_NAMES",
+]
 
 #: Figure files written (each as 300 dpi .png, .svg and .pdf), after the paper's figure numbers.
 FIGURE_NAMES: tuple[str, ...] = (
@@ -330,12 +338,7 @@ def write_report(result: AnalysisResult, out_dir: str | Path, *, figures: bool =
     Path
         The report folder.
     """
-    out = Path(out_dir).resolve()
-    if out.exists() and not out.is_dir():
-        raise FileExistsError(f"out_dir must be a folder, got an existing file {out}")
-    out.parent.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.tmp-", dir=out.parent))
-    try:
+    with atomic_folder(out_dir) as tmp:
         r = result.results_json()
         with open(tmp / "results.json", "w", encoding="utf-8") as fh:
             json.dump(r, fh, indent=2, allow_nan=False)
@@ -347,6 +350,37 @@ def write_report(result: AnalysisResult, out_dir: str | Path, *, figures: bool =
             from analysis.figures import save_all
 
             save_all(result, tmp)
+    return Path(out_dir).resolve()
+
+
+@contextlib.contextmanager
+def atomic_folder(out_dir: str | Path) -> Iterator[Path]:
+    """Yield a temporary sibling folder that replaces ``out_dir`` when the block succeeds.
+
+    On any exception the temporary folder is removed and ``out_dir`` is left as it was.
+
+    Parameters
+    ----------
+    out_dir : str or Path
+        Folder to create or replace.
+
+    Yields
+    ------
+    Path
+        The temporary folder to fill.
+
+    Raises
+    ------
+    FileExistsError
+        ``out_dir`` is an existing file.
+    """
+    out = Path(out_dir).resolve()
+    if out.exists() and not out.is_dir():
+        raise FileExistsError(f"out_dir must be a folder, got an existing file {out}")
+    out.parent.mkdir(parents=True, exist_ok=True)
+    tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.tmp-", dir=out.parent))
+    try:
+        yield tmp
         os.chmod(tmp, 0o755)
         old = None
         if out.exists():
@@ -358,4 +392,3 @@ def write_report(result: AnalysisResult, out_dir: str | Path, *, figures: bool =
     except BaseException:
         shutil.rmtree(tmp, ignore_errors=True)
         raise
-    return out

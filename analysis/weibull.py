@@ -1049,7 +1049,7 @@ class WeibullFit:
                 f"{name}: the ML threshold ({t.mle:.4g}) lies outside the 95 % credible interval "
                 f"({t.ci95[0]:.4g}-{t.ci95[1]:.4g}); the data barely constrain it"
             )
-        elif t.status == "measured" and t.mle > 0 and t.median > 0:
+        elif t.status == "measured" and is_log_axis(self.sigmoid) and t.mle > 0:
             ratio = t.median / t.mle
             if ratio > 1.25 or ratio < 0.8:
                 out.append(
