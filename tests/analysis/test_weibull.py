@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import json
 import math
-import warnings
 
 import numpy as np
 import pytest
@@ -280,7 +279,8 @@ def test_parameter_recovery_coverage():
             truth.append(float(threshold_at(0.5, o.alpha_px, o.beta, o.lapse)))
     fits = fit_batch(jobs, rng=5)
     hits = sum(
-        f.threshold(0.5).ci95[0] <= t <= f.threshold(0.5).ci95[1] for f, t in zip(fits, truth)
+        f.threshold(0.5).ci95[0] <= t <= f.threshold(0.5).ci95[1]
+        for f, t in zip(fits, truth, strict=True)
     )
     print(f"coverage {hits}/{n}; pass mark {c_min}")
     assert all(f.converged for f in fits)
