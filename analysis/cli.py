@@ -47,8 +47,9 @@ analyze_app = typer.Typer(
         "[--group COLS] [--sigmoid weibull|loglogistic|lognormal|logistic|normal|gumbel] "
         "[--axis log|linear] [--guess 0.5] [--pc 0.5,0.75] --out DIR: psychometric functions "
         "for any table.\n\n"
-        "  confocal analyze power --odds-ratio 5.6 | --threshold-ratio 2.5 [--subjects 1,2,4,6]: "
-        "subjects needed for a given power, by simulation."
+        "  confocal analyze power --odds-ratio 2,5.6 | --threshold-ratio 2.5 [--subjects 1,2,4,6] "
+        "[--objects 10,20] [--levels 4,8] [--processes N | --cluster ADDRESS]: power by "
+        "simulation, in parallel."
     ),
 )
 
@@ -284,64 +285,119 @@ class Effect(StrEnum):
     threshold_ratio = "threshold_ratio"
 
 
+def _numbers(text: str, option: str, kind: type = float) -> list:
+    from analysis.errors import OptionError
+
+    try:
+        vals = [kind(v) for v in text.split(",") if v.strip()]
+    except ValueError as exc:
+        what = "integers like 1,2,4" if kind is int else "numbers like 2,3.5"
+        raise OptionError(f"{option} must be {what}, got {text!r}") from exc
+    if not vals:
+        raise OptionError(f"{option} needs at least one value, got {text!r}")
+    return vals
+
+
 @analyze_app.command("power")
 def power(
     odds_ratio: Annotated[
-        float | None,
-        typer.Option("--odds-ratio", help="Background odds ratio to detect (paper: 5.6)."),
+        str | None,
+        typer.Option("--odds-ratio", help="Background odds ratio(s) to detect (paper: 5.6)."),
     ] = None,
     threshold_ratio: Annotated[
-        float | None,
+        str | None,
         typer.Option(
-            "--threshold-ratio", help="Cluttered / de-cluttered 50% threshold ratio to detect."
+            "--threshold-ratio", help="Cluttered / de-cluttered 50% threshold ratio(s) to detect."
         ),
     ] = None,
     subjects: Annotated[
         str, typer.Option("--subjects", help="Comma-separated numbers of subjects to simulate.")
     ] = "1,2,3,4,6,8",
-    target: Annotated[float, typer.Option("--power", help="Power wanted.")] = 0.8,
-    sims: Annotated[int, typer.Option("--sims", help="Simulations per number of subjects.")] = 200,
+    objects: Annotated[
+        str, typer.Option("--objects", help="Comma-separated numbers of objects (paper: 20).")
+    ] = "20",
+    levels: Annotated[
+        str, typer.Option("--levels", help="Comma-separated numbers of resolution levels (8).")
+    ] = "8",
+    target: Annotated[float, typer.Option("--power", help="Power wanted, in (0, 1).")] = 0.8,
+    sims: Annotated[int, typer.Option("--sims", help="Simulated studies per grid point.")] = 200,
     alpha: Annotated[float, typer.Option("--alpha", help="Test level.")] = 0.05,
     seed: Annotated[int | None, typer.Option("--seed", help="Seed of the simulations.")] = None,
+    processes: Annotated[
+        int | None, typer.Option("--processes", help="Local worker processes (default: CPUs).")
+    ] = None,
+    cluster: Annotated[
+        str | None,
+        typer.Option("--cluster", help="Dask scheduler address (needs the 'dask' extra)."),
+    ] = None,
 ) -> None:
-    """Estimate how many subjects detect a given odds ratio or threshold ratio (simulation)."""
+    """Estimate power over effect sizes, subjects, objects and levels (simulated studies)."""
+    import math
+
     from rich.console import Console
     from rich.progress import Progress
 
-    from analysis.power import PowerResult, iter_power
+    from analysis.errors import OptionError
+    from analysis.power import GridPoint, power_grid
 
     if (odds_ratio is None) == (threshold_ratio is None):
-        raise typer.BadParameter("give exactly one of --odds-ratio and --threshold-ratio")
-    try:
-        ns = sorted({int(s) for s in subjects.split(",") if s.strip()})
-    except ValueError as exc:
-        raise typer.BadParameter(
-            f"--subjects must be integers like 1,2,4, got {subjects!r}"
-        ) from exc
+        raise OptionError("give exactly one of --odds-ratio and --threshold-ratio")
     effect = "odds_ratio" if odds_ratio is not None else "threshold_ratio"
-    size = odds_ratio if odds_ratio is not None else threshold_ratio
-    points = []
-    try:
-        gen = iter_power(effect, size, ns, n_sims=sims, alpha=alpha, rng=seed)
-        with Progress(console=Console(stderr=True), transient=True) as bar:
-            task = bar.add_task(f"simulating {effect} = {size:g}", total=len(ns) * sims)
-            for p in gen:
-                if p is None:
-                    bar.advance(task)
-                else:
-                    points.append(p)
-    except ValueError as exc:
-        raise typer.BadParameter(str(exc)) from exc
-    n_req = next((p.n_subjects for p in points if p.power >= target), None)
-    res = PowerResult(effect, float(size), alpha, target, tuple(points), n_req)
-    typer.echo(f"{effect} = {size:g}, alpha = {alpha:g}, {sims} simulations per row")
-    typer.echo("subjects  power  (95% CI)")
-    for p in res.points:
-        typer.echo(f"{p.n_subjects:>8}  {p.power:.2f}   ({p.ci95[0]:.2f}-{p.ci95[1]:.2f})")
-    if n_req is None:
-        typer.echo(f"no simulated number of subjects reached power {target:g}")
-    else:
-        typer.echo(f"subjects needed for power {target:g}: {n_req}")
+    option = "--odds-ratio" if odds_ratio is not None else "--threshold-ratio"
+    sizes = _numbers(odds_ratio if odds_ratio is not None else threshold_ratio, option)
+    if not all(math.isfinite(v) and v > 0 for v in sizes):
+        raise OptionError(f"{option} must be finite and > 0, got {sizes!r}")
+    if not (0.0 < target < 1.0):
+        raise OptionError(f"--power must be in (0, 1), got {target!r}")
+    if not (0.0 < alpha < 1.0):
+        raise OptionError(f"--alpha must be in (0, 1), got {alpha!r}")
+    if sims < 1:
+        raise OptionError(f"--sims must be >= 1, got {sims!r}")
+    ns = sorted(set(_numbers(subjects, "--subjects", int)))
+    nos = sorted(set(_numbers(objects, "--objects", int)))
+    nls = sorted(set(_numbers(levels, "--levels", int)))
+    for opt, vals, low in (("--subjects", ns, 1), ("--objects", nos, 1), ("--levels", nls, 2)):
+        if min(vals) < low:
+            raise OptionError(f"{opt} must be integers >= {low}, got {vals!r}")
+    total = len(sizes) * len(ns) * len(nos) * len(nls) * sims
+    points: list[GridPoint] = []
+    gen = power_grid(
+        effect,
+        sizes,
+        ns,
+        n_objects=nos,
+        n_levels=nls,
+        n_sims=sims,
+        alpha=alpha,
+        seed=seed,
+        processes=processes,
+        cluster=cluster,
+    )
+    with Progress(console=Console(stderr=True), transient=True) as bar:
+        task = bar.add_task(f"simulating {effect}", total=total)
+        for item in gen:
+            if isinstance(item, GridPoint):
+                points.append(item)
+            else:
+                bar.update(task, completed=item)
+    typer.echo(f"{effect}, alpha = {alpha:g}, {sims} SIMULATED studies per row, seed {seed}")
+    typer.echo(f"{'size':>6} {'levels':>6} {'objects':>7} {'subjects':>8}  power  (95% CI)")
+    for p in points:
+        typer.echo(
+            f"{p.size:>6g} {p.n_levels:>6} {p.n_objects:>7} {p.n_subjects:>8}  {p.power:.2f}   "
+            f"({p.ci95[0]:.2f}-{p.ci95[1]:.2f})"
+        )
+    for z in sizes:
+        for nl in nls:
+            for no in nos:
+                row = [p for p in points if (p.size, p.n_levels, p.n_objects) == (z, nl, no)]
+                need = next((p.n_subjects for p in row if p.power >= target), None)
+                what = (
+                    f"subjects needed for power {target:g}: {need}"
+                    if need is not None
+                    else f"no simulated number of subjects reached power {target:g}"
+                )
+                typer.echo(f"size {z:g}, {nl} levels, {no} objects: {what}")
 
 
 def register(app: typer.Typer) -> None:
