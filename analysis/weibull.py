@@ -1251,9 +1251,11 @@ def _data_warnings(label: str, k: np.ndarray, n: np.ndarray) -> None:
     total, correct = n.sum(), k.sum()
     if correct == 0 or correct == total:
         what = "none" if correct == 0 else "all"
+        side = "above the highest" if correct == 0 else "below the lowest"
         warnings.warn(
             f"{label or 'fit'}: {what} of {int(total)} trials correct; the threshold is not "
-            "identified by the data and its interval reflects the prior",
+            f"located by the data (censored: {side} level tested) and its interval reflects "
+            "the prior",
             FitWarning,
             stacklevel=3,
         )
