@@ -213,7 +213,14 @@ def plot_subject_thresholds(
     if subjects:
         from matplotlib.lines import Line2D
 
-        handles, labels = ax.get_legend_handles_labels()
+        from matplotlib.patches import Patch
+
+        got = dict(zip(*reversed(ax.get_legend_handles_labels()), strict=True))
+        labels = [s for s in subjects if s in got]
+        handles = [got[s] for s in labels]
+        if pooled:
+            handles.append(Patch(color="0.85"))
+            labels.append("pooled (posterior median)")
         handles += [
             Line2D([], [], marker="^", ls="", mfc="none", color="0.3"),
             Line2D([], [], marker="v", ls="", mfc="none", color="0.3"),

@@ -148,7 +148,7 @@ def render_markdown(
     lines.append(
         f"Weibull psychometric functions (guess rate {guess:g}, lapse rate free, so not forced to "
         "100 %) were fitted to the pooled responses of each background condition; intervals are "
-        "95 % credible intervals of the posterior (emcee)"
+        "95 % credible intervals of the posterior (ensemble MCMC, differential-evolution moves)"
         + (
             ", with beta-binomial overdispersion (free scale eta, as psignifit 4) because pooled "
             "subjects and objects differ"
