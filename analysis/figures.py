@@ -212,7 +212,6 @@ def plot_subject_thresholds(
     ax.set_ylabel(f"pixels for {100 * pc:g} % recognition")
     if subjects:
         from matplotlib.lines import Line2D
-
         from matplotlib.patches import Patch
 
         got = dict(zip(*reversed(ax.get_legend_handles_labels()), strict=True))
