@@ -677,7 +677,7 @@ def fit_mixed(trials: pd.DataFrame) -> MixedFit:
     Raises
     ------
     DataError
-        All trials recognised or none, or a condition without trials.
+        All trials recognised or none, a condition without trials, or separated fixed effects.
     """
     from scipy import stats
 
@@ -694,6 +694,17 @@ def fit_mixed(trials: pd.DataFrame) -> MixedFit:
     if not groups:
         raise DataError("one subject and one object only: there is no random effect to fit")
     beta, se, sd, _ = laplace_glmm(d["recognized"].to_numpy(), X, groups)
+    bad = [
+        t
+        for i, t in ((1, "background"), (2, "log10_pixels"))
+        if not (abs(beta[i]) <= SEPARATION_LOG_OR and math.isfinite(se[i]) and se[i] > 0)
+    ]
+    if bad:
+        raise DataError(
+            f"{', '.join(bad)} separated in these data (|log odds ratio| > "
+            f"{SEPARATION_LOG_OR:g} or no finite standard error): the mixed model's odds ratios "
+            "are not estimable; see the Firth fit of the fixed-effects model"
+        )
     rows = []
     for i, term in ((1, "background"), (2, "log10_pixels")):
         z = beta[i] / se[i]

@@ -381,7 +381,7 @@ def analyze(table: TrialTable, options: AnalysisOptions | None = None) -> Iterat
     if opts.mixed:
         try:
             mixed = fit_mixed(trials)
-        except (DataError, ValueError, np.linalg.LinAlgError) as exc:
+        except (DataError, ValueError, ArithmeticError, np.linalg.LinAlgError) as exc:
             notes.append(f"mixed model not fitted: {' '.join(str(exc).split())}")
         done += 1
         yield AnalysisStep(done, total, "mixed model")

@@ -50,8 +50,9 @@ def base():
 def test_separated_conditions_issue_11(tmp_path, base):
     d = base.copy()
     d["recognized"] = (d["condition"] == "decluttered").astype(int)
-    r, text = _ok(*_run(tmp_path, d, "--by", "none", figures=True))
+    r, text = _ok(*_run(tmp_path, d, "--by", "none", "--mixed", figures=True))
     assert r["logistic"]["method"] == "firth"
+    assert any("mixed model not fitted: background separated" in w for w in r["warnings"])
     assert "background" in r["logistic"]["separated"]
     assert "separated in these data" in text
     assert r["thresholds"]["cluttered"]["status"] == "censored_above"
