@@ -157,7 +157,9 @@ def _print_summary(result, folder: Path) -> None:
         typer.echo(f"({r['n_training_excluded']} training trials excluded)")
     for c, t in r["thresholds"].items():
         conv = "" if t["converged"] else "  NOT CONVERGED"
-        typer.echo(f"50% threshold {c:>11}: {threshold_text(t['threshold_50'])}{conv}")
+        pop = t.get("population_ci95", {}).get("0.5")
+        pop = f"; population 95% interval {pop[0]:,.0f}-{pop[1]:,.0f} px" if pop else ""
+        typer.echo(f"50% threshold {c:>11}: {threshold_text(t['threshold_50'])}{pop}{conv}")
         if "threshold_pc" in t:
             typer.echo(f"{100 * r['pc']:g}% threshold {c:>11}: {threshold_text(t['threshold_pc'])}")
     lo = r["logistic"]

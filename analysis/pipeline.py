@@ -110,6 +110,10 @@ class AnalysisResult:
         ``{subject: {object: {condition: pixels or None}}}``: lowest level recognised.
     warnings : tuple of str
         Warnings raised by the fits (also logged).
+    population_ci : dict of str to dict
+        Per pooled condition, ``{"pc": [low, high] or None}``: 95 % population intervals of the
+        ML threshold, two-way cluster-robust over subjects and objects
+        (:func:`analysis.cluster.cluster_threshold_ci`), at 50 % and at ``pc``.
     """
 
     options: AnalysisOptions
@@ -123,6 +127,7 @@ class AnalysisResult:
     mixed: MixedFit | None
     first_recognized: dict[str, dict[str, dict[str, float | None]]]
     warnings: tuple[str, ...] = field(default_factory=tuple)
+    population_ci: dict[str, dict[str, Any]] = field(default_factory=dict)
 
     def predictions(self) -> dict[str, Any] | None:
         """Return Eq. 1 applied with the fitted background odds ratio (None when not estimated)."""
@@ -152,7 +157,10 @@ class AnalysisResult:
             "prior": {c: f.prior.to_dict() for c, f in self.thresholds.items()},
             "sources": list(self.sources),
             "n_training_excluded": self.n_training_excluded,
-            "thresholds": {c: f.summary(pc) for c, f in self.thresholds.items()},
+            "thresholds": {
+                c: {**f.summary(pc), "population_ci95": self.population_ci.get(c, {})}
+                for c, f in self.thresholds.items()
+            },
             "subject_thresholds": {
                 s: {c: f.summary(pc) for c, f in fits.items()}
                 for s, fits in self.subject_thresholds.items()
@@ -203,6 +211,7 @@ class AnalysisResult:
             "mixed": self.mixed.to_dict() if self.mixed else None,
             "first_recognized": self.first_recognized,
             "warnings": list(self.warnings),
+            "population_ci": self.population_ci,
         }
 
     @classmethod
@@ -226,6 +235,7 @@ class AnalysisResult:
             mixed=MixedFit.from_dict(d["mixed"]) if d.get("mixed") else None,
             first_recognized=d["first_recognized"],
             warnings=tuple(d.get("warnings", ())),
+            population_ci=d.get("population_ci", {}),
         )
 
 
@@ -288,6 +298,32 @@ def first_recognized(trials: pd.DataFrame) -> dict[str, dict[str, dict[str, floa
             for c in CONDITIONS:
                 rec = to[(to["condition"] == c) & (to["recognized"] == 1)]["pixels"]
                 out[s][o][c] = float(rec.min()) if len(rec) else None
+    return out
+
+
+def _population(
+    trials: pd.DataFrame, pooled: dict[str, WeibullFit], opts: AnalysisOptions
+) -> dict[str, dict[str, Any]]:
+    """Two-way cluster-robust population intervals of each measured pooled ML threshold."""
+    from analysis.cluster import cluster_threshold_ci
+
+    out: dict[str, dict[str, Any]] = {}
+    for cond, fit in pooled.items():
+        sel = trials[trials["condition"] == cond]
+        out[cond] = {}
+        for pc in dict.fromkeys((0.5, opts.pc)):
+            if not fit.threshold(pc).measured:
+                continue
+            ci = cluster_threshold_ci(
+                sel["pixels"],
+                sel["recognized"],
+                [sel["subject"], sel["object"]],
+                fit.mle,
+                pc=pc,
+                guess=opts.guess,
+            )
+            if ci is not None:
+                out[cond][f"{pc:g}"] = [ci[0], ci[1]]
     return out
 
 
@@ -396,6 +432,7 @@ def analyze(table: TrialTable, options: AnalysisOptions | None = None) -> Iterat
         logistic=logistic,
         mixed=mixed,
         first_recognized=first_recognized(trials),
+        population_ci=_population(trials, pooled, opts),
         warnings=tuple(dict.fromkeys(notes)),
     )
     yield AnalysisStep(done, total, "done", result)

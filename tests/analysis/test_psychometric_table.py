@@ -122,3 +122,30 @@ def test_batch_matches_independent_sampling_of_a_posterior():
     assert np.log10(a.ci95[1] / a.ci95[0]) == pytest.approx(
         np.log10(b.ci95[1] / b.ci95[0]), rel=0.15
     )
+
+
+def test_cluster_interval_matches_statsmodels_cluster_robust_logit():
+    """Second method: statsmodels Logit with cov_type='cluster' (one-way, by subject) and the
+    delta method for the 50 % point -b0/b1. With the lapse held at 0 our model is that logistic
+    regression (alpha = -b0/b1, beta = b1). statsmodels scales by G/(G-1) (N-1)/(N-K); ours by
+    G/(G-1), so its SE is divided by sqrt((N-1)/(N-K)). Finite differences: rtol 1e-3."""
+    import statsmodels.api as sm
+
+    from analysis.cluster import cluster_threshold_ci
+    from analysis.weibull import MLEstimate
+
+    rng = np.random.default_rng(8)
+    subj = np.repeat(np.arange(8), 60)
+    x = np.tile(np.linspace(-2, 2, 12), 40)
+    shift = rng.normal(0, 0.5, 8)[subj]
+    y = (rng.random(x.size) < 1 / (1 + np.exp(-1.5 * (x - 0.2 - shift)))).astype(float)
+    X = sm.add_constant(x)
+    res = sm.Logit(y, X).fit(disp=False, cov_type="cluster", cov_kwds={"groups": subj})
+    b0, b1 = res.params
+    g = np.array([-1 / b1, b0 / b1**2])
+    n, k = x.size, 2
+    se_sm = float(np.sqrt(g @ res.cov_params() @ g)) / np.sqrt((n - 1) / (n - k))
+    mle = MLEstimate(alpha=-b0 / b1, beta=b1, lapse=0.0, log_likelihood=float(res.llf))
+    lo, hi, se = cluster_threshold_ci(x, y, [subj], mle, sigmoid="logistic")
+    assert se == pytest.approx(se_sm, rel=1e-3)
+    assert lo < -b0 / b1 < hi
