@@ -287,6 +287,22 @@ class Effect(StrEnum):
     threshold_ratio = "threshold_ratio"
 
 
+#: Memory per simulated trial in ``power``, bytes (ours, rounded up: the trial table and the
+#: logistic model's design matrix); checked before simulating so a huge design is refused.
+_POWER_BYTES_PER_TRIAL = 2048
+
+
+def _available_memory_bytes() -> int:
+    try:
+        with open("/proc/meminfo", encoding="ascii") as f:
+            for line in f:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except (OSError, ValueError, IndexError):
+        pass
+    return 1 << 62
+
+
 def _numbers(text: str, option: str, kind: type = float) -> list:
     from analysis.errors import OptionError
 
@@ -348,7 +364,7 @@ def power(
     option = "--odds-ratio" if odds_ratio is not None else "--threshold-ratio"
     sizes = _numbers(odds_ratio if odds_ratio is not None else threshold_ratio, option)
     if not all(math.isfinite(v) and v > 0 for v in sizes):
-        raise OptionError(f"{option} must be finite and > 0, got {sizes!r}")
+        raise OptionError(f"{option} must be in (0, inf), a finite number; got {sizes!r}")
     if not (0.0 < target < 1.0):
         raise OptionError(f"--power must be in (0, 1), got {target!r}")
     if not (0.0 < alpha < 1.0):
@@ -361,6 +377,14 @@ def power(
     for opt, vals, low in (("--subjects", ns, 1), ("--objects", nos, 1), ("--levels", nls, 2)):
         if min(vals) < low:
             raise OptionError(f"{opt} must be integers >= {low}, got {vals!r}")
+    need = ns[-1] * nos[-1] * nls[-1] * 2 * _POWER_BYTES_PER_TRIAL
+    avail = _available_memory_bytes()
+    if need > avail:
+        raise OptionError(
+            f"--subjects {ns[-1]} (with {nos[-1]} objects, {nls[-1]} levels) needs about "
+            f"{need / 2**30:.1f} GiB of memory per simulation but only {avail / 2**30:.1f} GiB is "
+            "available; simulate fewer subjects"
+        )
     total = len(sizes) * len(ns) * len(nos) * len(nls) * sims
     points: list[GridPoint] = []
     gen = power_grid(

@@ -137,7 +137,8 @@ def test_power_cli_one_line_errors(capsys):
     from experiment.cli import main
 
     for args, needle in (
-        (["--odds-ratio", "inf"], "--odds-ratio must be finite and > 0"),
+        (["--odds-ratio", "inf"], "--odds-ratio must be in (0, inf), a finite number"),
+        (["--odds-ratio", "2", "--subjects", "1000000000"], "GiB of memory"),
         (["--odds-ratio", "2", "--power", "2"], "--power must be in (0, 1), got 2.0"),
         (["--odds-ratio", "2", "--levels", "1"], "--levels must be integers >= 2"),
     ):
