@@ -7,7 +7,9 @@ estimates how many subjects a study needs.
 
 from __future__ import annotations
 
+import errno
 import logging
+import math
 import warnings
 from enum import StrEnum
 from pathlib import Path
@@ -16,9 +18,61 @@ from typing import Annotated
 import typer
 from typer.core import TyperGroup
 
+from analysis.errors import DataError
+
 __all__ = ["register", "analyze_app"]
 
 logger = logging.getLogger(__name__)
+
+#: Memory per simulated trial in ``power``, bytes (ours, rounded up: the trial table and the
+#: logistic model's design matrix); checked before simulating so a huge --subjects is refused.
+_POWER_BYTES_PER_TRIAL = 2048
+#: Trials per simulated subject in the paper's design (20 objects x 8 levels x 2 conditions).
+_TRIALS_PER_SUBJECT = 320
+
+
+def _finite(lo: float | None = None, hi: float | None = None, *, open_lo=False, open_hi=False):
+    """Return a typer callback refusing NaN, infinities and values outside the range."""
+    interval = (
+        ("(" if open_lo or lo is None else "[")
+        + ("-inf" if lo is None else f"{lo:g}")
+        + ", "
+        + ("inf" if hi is None else f"{hi:g}")
+        + (")" if open_hi or hi is None else "]")
+    )
+
+    def callback(param: typer.CallbackParam, value):
+        if value is None:
+            return value
+        v = float(value)
+        bad = not math.isfinite(v)
+        bad = bad or (lo is not None and (v <= lo if open_lo else v < lo))
+        bad = bad or (hi is not None and (v >= hi if open_hi else v > hi))
+        if bad:
+            raise typer.BadParameter(
+                f"{param.name} must be in {interval}, a finite number; got {value!r}"
+            )
+        return value
+
+    return callback
+
+
+def _available_memory_bytes() -> int:
+    try:
+        with open("/proc/meminfo", encoding="ascii") as f:
+            for line in f:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except (OSError, ValueError, IndexError):
+        pass
+    return 1 << 62
+
+
+def _disk_full(exc: OSError, out: Path) -> DataError:
+    return DataError(
+        f"--out {out}: the disk is full ({exc.strerror or exc}) while writing the report; the "
+        "partial report was removed and any earlier report left as it was"
+    )
 
 
 class _DefaultRunGroup(TyperGroup):
@@ -71,12 +125,26 @@ def run(
         ),
     ],
     out: Annotated[Path, typer.Option("--out", "-o", help="Report folder (replaced atomically).")],
-    pc: Annotated[float, typer.Option("--pc", help="Proportion correct of the threshold.")] = 0.5,
+    pc: Annotated[
+        float,
+        typer.Option(
+            "--pc",
+            callback=_finite(0.0, 1.0, open_lo=True, open_hi=True),
+            help="Proportion correct of the threshold, in (0, 1).",
+        ),
+    ] = 0.5,
     by: Annotated[
         By, typer.Option("--by", help="Also fit each subject ('none': pooled only).")
     ] = By.subject,
-    guess: Annotated[float, typer.Option("--guess", help="Guess rate (0.5 for 2AFC).")] = 0.0,
-    seed: Annotated[int | None, typer.Option("--seed", help="Seed of the MCMC runs.")] = None,
+    guess: Annotated[
+        float,
+        typer.Option(
+            "--guess", callback=_finite(0.0, 1.0, open_hi=True), help="Guess rate (0.5 for 2AFC)."
+        ),
+    ] = 0.0,
+    seed: Annotated[
+        int | None, typer.Option("--seed", min=0, help="Seed of the MCMC runs.")
+    ] = None,
     mixed: Annotated[
         bool, typer.Option("--mixed", help="Also fit the mixed logistic model.")
     ] = False,
@@ -96,6 +164,13 @@ def run(
             help="Beta-binomial pooled fits (free scale, as psignifit 4).",
         ),
     ] = True,
+    include_simulated: Annotated[
+        bool,
+        typer.Option(
+            "--include-simulated",
+            help="Pool simulated observers' sessions with human ones (refused otherwise).",
+        ),
+    ] = False,
 ) -> None:
     """Analyse TRIALS and write REPORT_DIR (results.json, report.md, figures)."""
     from rich.console import Console
@@ -122,7 +197,15 @@ def run(
         )
     except ValueError as exc:
         raise typer.BadParameter(str(exc)) from exc
-    table = read_trials(trials)
+    from analysis.active import add_active_results, only_active, summary_lines, write_active_report
+
+    if only_active(trials):  # active-search logs only (issue 14): no static trials to fit
+        res = write_active_report(trials, out)
+        typer.echo("\n".join([*summary_lines(res), f"report: {Path(out) / 'report.md'}"]))
+        return
+    if out.exists() and not out.is_dir():
+        raise DataError(f"--out {out} exists and is a file; expected a report folder")
+    table = read_trials(trials, include_simulated=include_simulated)
     err = Console(stderr=True)
     result = None
     with (
@@ -144,8 +227,16 @@ def run(
     assert result is not None
     if figures:
         err.print("drawing figures and writing the report...")
-    folder = write_report(result, out, figures=figures)
+    try:
+        folder = write_report(result, out, figures=figures)
+    except OSError as exc:
+        if exc.errno in (errno.ENOSPC, errno.EDQUOT):
+            raise _disk_full(exc, out) from None
+        raise
+    active = add_active_results(trials, folder)
     _print_summary(result, folder)
+    if active is not None:
+        typer.echo("\n".join(summary_lines(active)))
 
 
 def _print_summary(result, folder: Path) -> None:
@@ -153,6 +244,8 @@ def _print_summary(result, folder: Path) -> None:
 
     r = result.results_json()
     typer.echo(f"{r['n_trials']} trials, {r['n_recognized']} recognised")
+    if r.get("simulated_sessions"):
+        typer.echo(f"SIMULATED (no person answered): {'; '.join(r['simulated_sessions'])}")
     if r["n_training_excluded"]:
         typer.echo(f"({r['n_training_excluded']} training trials excluded)")
     for c, t in r["thresholds"].items():
@@ -287,22 +380,6 @@ class Effect(StrEnum):
     threshold_ratio = "threshold_ratio"
 
 
-#: Memory per simulated trial in ``power``, bytes (ours, rounded up: the trial table and the
-#: logistic model's design matrix); checked before simulating so a huge design is refused.
-_POWER_BYTES_PER_TRIAL = 2048
-
-
-def _available_memory_bytes() -> int:
-    try:
-        with open("/proc/meminfo", encoding="ascii") as f:
-            for line in f:
-                if line.startswith("MemAvailable:"):
-                    return int(line.split()[1]) * 1024
-    except (OSError, ValueError, IndexError):
-        pass
-    return 1 << 62
-
-
 def _numbers(text: str, option: str, kind: type = float) -> list:
     from analysis.errors import OptionError
 
@@ -340,7 +417,9 @@ def power(
     target: Annotated[float, typer.Option("--power", help="Power wanted, in (0, 1).")] = 0.8,
     sims: Annotated[int, typer.Option("--sims", help="Simulated studies per grid point.")] = 200,
     alpha: Annotated[float, typer.Option("--alpha", help="Test level.")] = 0.05,
-    seed: Annotated[int | None, typer.Option("--seed", help="Seed of the simulations.")] = None,
+    seed: Annotated[
+        int | None, typer.Option("--seed", min=0, help="Seed of the simulations.")
+    ] = None,
     processes: Annotated[
         int | None, typer.Option("--processes", help="Local worker processes (default: CPUs).")
     ] = None,

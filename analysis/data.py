@@ -17,7 +17,14 @@ column          dtype     meaning
 ``score``       optional  the rater's score (``named``, ``use``, ``shape``, ...)
 ``rt_s``        optional  response time, seconds
 ``part``        optional  ``"main"`` or ``"training"``; only ``main`` rows are kept
+``simulated``   optional  1 if a simulated observer answered (no person), else 0
+``observer``    optional  the simulated observer's name, or ``human``
 ==============  ========  ==========================================================
+
+Simulated and human sessions are not pooled unless asked (``include_simulated=True``,
+``confocal analyze --include-simulated``): a dry run's simulated subject written into a real
+study's file would otherwise count as a subject. A file without a ``simulated`` column counts
+as human data.
 
 SQLite files (recognised by their ``SQLite format 3`` header) are read through the engine's
 ``tidy_trials`` view, which has the same columns. Nothing here imports the experiment engine
@@ -46,12 +53,22 @@ __all__ = [
     "read_trials",
     "check_trials",
     "object_order",
+    "connect_readonly",
 ]
 
 #: Columns every trial table must have (the data contract with the experiment engine).
 REQUIRED_COLUMNS: tuple[str, ...] = ("subject", "object", "condition", "pixels", "recognized")
 #: Columns read when present.
-OPTIONAL_COLUMNS: tuple[str, ...] = ("level", "session", "response", "score", "rt_s", "part")
+OPTIONAL_COLUMNS: tuple[str, ...] = (
+    "level",
+    "session",
+    "response",
+    "score",
+    "rt_s",
+    "part",
+    "simulated",
+    "observer",
+)
 #: Background conditions, reference first. Source: Jung et al. 2015, Sec. 3.2.2 (reference:
 #: background cluttered).
 CONDITIONS: tuple[str, str] = ("cluttered", "decluttered")
@@ -72,11 +89,15 @@ class TrialTable:
         The files read, in order.
     n_training_excluded : int
         Rows dropped because their ``part`` was not ``"main"``.
+    simulated_sessions : tuple of str
+        The sessions a simulated observer answered, as ``"<file> session <id> (<subject>,
+        <observer>)"``; empty for human data.
     """
 
     trials: pd.DataFrame
     sources: tuple[str, ...]
     n_training_excluded: int = 0
+    simulated_sessions: tuple[str, ...] = ()
 
 
 def _magic(path: Path) -> bytes:
@@ -113,12 +134,23 @@ def _line(exc: BaseException) -> str:
     return " ".join(str(exc).split())
 
 
-def _read_sqlite(path: Path) -> pd.DataFrame:
+def connect_readonly(path: Path) -> sqlite3.Connection:
+    """Open an SQLite trial log read-only, leaving nothing beside it.
+
+    Without a ``-wal`` file no writer has the log open, and it is opened ``immutable``
+    (``mode=ro`` alone would create ``-wal``/``-shm`` files beside a WAL-mode log).
+    """
     uri = f"{path.resolve().as_uri()}?mode=ro"
+    if not Path(f"{path}-wal").exists():
+        uri += "&immutable=1"
     try:
-        con = sqlite3.connect(uri, uri=True)
+        return sqlite3.connect(uri, uri=True)
     except sqlite3.Error as exc:
         raise DataError(f"{path}: cannot open SQLite file ({_line(exc)})") from exc
+
+
+def _read_sqlite(path: Path) -> pd.DataFrame:
+    con = connect_readonly(path)
     try:
         names = {
             r[0]
@@ -281,13 +313,39 @@ def read_trial_file(path: str | Path) -> tuple[pd.DataFrame, int]:
     return tidy, int(tidy.attrs.get("n_training_excluded", 0))
 
 
-def read_trials(paths: Iterable[str | Path]) -> TrialTable:
+def _sessions(df: pd.DataFrame, source: str, simulated: bool) -> list[str]:
+    """Label the simulated (or human) sessions of one file's rows."""
+    if "simulated" in df.columns:
+        flag = pd.to_numeric(df["simulated"], errors="coerce").fillna(0).astype(int) == 1
+    else:
+        flag = pd.Series(False, index=df.index)
+    rows = df[flag] if simulated else df[~flag]
+    if len(rows) == 0:
+        return []
+    name = Path(source).name
+    out = []
+    cols = [c for c in ("session", "subject") if c in rows.columns]
+    for _, g in rows.groupby(cols, sort=True):
+        first = g.iloc[0]
+        who = str(first["subject"])
+        if simulated and "observer" in g.columns:
+            who += f", {first['observer']}"
+        where = f"{name} session {first['session']}" if "session" in g.columns else name
+        out.append(f"{where} ({who})")
+    return out
+
+
+def read_trials(paths: Iterable[str | Path], *, include_simulated: bool = False) -> TrialTable:
     """Read and pool several trial files.
 
     Parameters
     ----------
     paths : iterable of str or Path
         Trial files (SQLite, CSV, Parquet); at least one.
+    include_simulated : bool
+        Pool simulated sessions with human ones. Without it, a mix is refused; files that hold
+        only simulated sessions (a dry run, the demo) are read, and labelled either way in
+        :attr:`TrialTable.simulated_sessions`.
 
     Returns
     -------
@@ -296,18 +354,26 @@ def read_trials(paths: Iterable[str | Path]) -> TrialTable:
     Raises
     ------
     DataError
-        No files, or any file invalid.
+        No files, any file invalid, or simulated and human sessions mixed without
+        ``include_simulated`` (the message names the simulated sessions).
     """
     paths = [Path(p) for p in paths]
     if not paths:
         raise DataError("no trial files given")
-    frames, dropped = [], 0
+    frames, dropped, simulated, human = [], 0, [], []
     for p in paths:
         df, d = read_trial_file(p)
         frames.append(df)
         dropped += d
+        simulated += _sessions(df, str(p), simulated=True)
+        human += _sessions(df, str(p), simulated=False)
+    if simulated and human and not include_simulated:
+        raise DataError(
+            f"refusing to pool simulated session(s) {'; '.join(simulated)} with human "
+            f"session(s) {'; '.join(human)}: analyse them apart, or pass --include-simulated"
+        )
     trials = pd.concat(frames, ignore_index=True)
-    return TrialTable(trials, tuple(str(p) for p in paths), dropped)
+    return TrialTable(trials, tuple(str(p) for p in paths), dropped, tuple(simulated))
 
 
 def object_order(objects: Iterable[str]) -> list[str]:

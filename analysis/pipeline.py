@@ -114,6 +114,8 @@ class AnalysisResult:
         Per pooled condition, ``{"pc": [low, high] or None}``: 95 % population intervals of the
         ML threshold, two-way cluster-robust over subjects and objects
         (:func:`analysis.cluster.cluster_threshold_ci`), at 50 % and at ``pc``.
+    simulated_sessions : tuple of str
+        Sessions answered by a simulated observer (from :attr:`TrialTable.simulated_sessions`).
     """
 
     options: AnalysisOptions
@@ -128,6 +130,7 @@ class AnalysisResult:
     first_recognized: dict[str, dict[str, dict[str, float | None]]]
     warnings: tuple[str, ...] = field(default_factory=tuple)
     population_ci: dict[str, dict[str, Any]] = field(default_factory=dict)
+    simulated_sessions: tuple[str, ...] = ()
 
     def predictions(self) -> dict[str, Any] | None:
         """Return Eq. 1 applied with the fitted background odds ratio (None when not estimated)."""
@@ -156,6 +159,7 @@ class AnalysisResult:
             "overdispersion": self.options.overdispersion,
             "prior": {c: f.prior.to_dict() for c, f in self.thresholds.items()},
             "sources": list(self.sources),
+            "simulated_sessions": list(self.simulated_sessions),
             "n_training_excluded": self.n_training_excluded,
             "thresholds": {
                 c: {**f.summary(pc), "population_ci95": self.population_ci.get(c, {})}
@@ -212,6 +216,7 @@ class AnalysisResult:
             "first_recognized": self.first_recognized,
             "warnings": list(self.warnings),
             "population_ci": self.population_ci,
+            "simulated_sessions": list(self.simulated_sessions),
         }
 
     @classmethod
@@ -236,6 +241,7 @@ class AnalysisResult:
             first_recognized=d["first_recognized"],
             warnings=tuple(d.get("warnings", ())),
             population_ci=d.get("population_ci", {}),
+            simulated_sessions=tuple(d.get("simulated_sessions", ())),
         )
 
 
@@ -434,5 +440,6 @@ def analyze(table: TrialTable, options: AnalysisOptions | None = None) -> Iterat
         first_recognized=first_recognized(trials),
         population_ci=_population(trials, pooled, opts),
         warnings=tuple(dict.fromkeys(notes)),
+        simulated_sessions=table.simulated_sessions,
     )
     yield AnalysisStep(done, total, "done", result)

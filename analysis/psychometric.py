@@ -169,7 +169,9 @@ def read_table(path: str | Path) -> pd.DataFrame:
     """Read a CSV table; a first row of numbers only means there is no header.
 
     Without a header the columns are named ``"1"``, ``"2"``, ... (1-based numbers); empty
-    trailing columns (a trailing comma) are dropped.
+    trailing columns (a trailing comma) are dropped. A SQLite session database or a Parquet trial
+    table gives its tidy trials (:func:`analysis.data.read_trials`); sessions answered by a
+    simulated observer are listed in ``attrs["simulated_sessions"]``.
 
     Parameters
     ----------
@@ -190,6 +192,16 @@ def read_table(path: str | Path) -> pd.DataFrame:
         raise DataError(f"{path}: file not found")
     if path.is_dir():
         raise DataError(f"{path}: is a folder, expected a CSV table")
+    with open(path, "rb") as fh:
+        head = fh.read(16)
+    if head.startswith(b"SQLite format 3\x00") or head.startswith(b"PAR1"):
+        # A session database or Parquet trial table: its tidy trials (main part only).
+        from analysis.data import read_trials
+
+        table = read_trials([path], include_simulated=True)
+        df = table.trials.astype(str)
+        df.attrs["simulated_sessions"] = tuple(table.simulated_sessions)
+        return df
     try:
         raw = pd.read_csv(
             path, header=None, dtype=str, keep_default_na=False, skipinitialspace=True
@@ -455,7 +467,9 @@ def iter_fit_table(
             f"{sigmoid} (log axis) cannot take; use --sigmoid logistic, normal or gumbel "
             "(linear axis)"
         )
-    jobs, notes, per_group = [], [], []
+    jobs, per_group = [], []
+    sim = tuple(df.attrs.get("simulated_sessions", ()))
+    notes: list[str] = [f"SIMULATED data (no person answered): {'; '.join(sim)}"] if sim else []
     for gv, lv, k, n in groups:
         label = _label(gv)
         with warnings.catch_warnings(record=True) as caught:

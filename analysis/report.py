@@ -127,6 +127,11 @@ def render_markdown(
     lines.append(
         f"Data: {len(result.sources)} file(s) ({', '.join(Path(s).name for s in result.sources)})."
     )
+    if result.simulated_sessions:
+        lines.append(
+            "**Simulated data**: these sessions were answered by a simulated observer, not a "
+            f"person: {'; '.join(result.simulated_sessions)}."
+        )
     if result.n_training_excluded:
         lines.append(
             f"Only main-part trials are analysed: {result.n_training_excluded} training trials "
@@ -333,6 +338,13 @@ def render_markdown(
     return "\n".join(lines) + "\n"
 
 
+def _folder_mode() -> int:
+    """Return the mode ``mkdir`` would give a new folder under the user's umask."""
+    mask = os.umask(0o022)
+    os.umask(mask)
+    return 0o777 & ~mask
+
+
 def write_report(result: AnalysisResult, out_dir: str | Path, *, figures: bool = True) -> Path:
     """Write ``results.json``, ``report.md`` and figures to ``out_dir``, atomically.
 
@@ -392,7 +404,7 @@ def atomic_folder(out_dir: str | Path) -> Iterator[Path]:
     tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.tmp-", dir=out.parent))
     try:
         yield tmp
-        os.chmod(tmp, 0o755)
+        os.chmod(tmp, _folder_mode())  # mkdtemp makes it private (0700)
         old = None
         if out.exists():
             old = Path(tempfile.mkdtemp(prefix=f".{out.name}.old-", dir=out.parent))

@@ -28,7 +28,7 @@ import numpy as np
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
-from experiment.presenter import PhospheneSpec, Presenter, ScreenGeometry  # noqa: E402
+from experiment.presentation.presenter import PhospheneSpec, Presenter, ScreenGeometry  # noqa: E402
 
 __all__ = ["time_frames", "main"]
 

@@ -4,7 +4,7 @@ The operator sees the subject, part, block, trial k of n, the object (the right 
 operator only), level and condition, a preview of the stimulus, the time since onset and when a
 pass is allowed; types the subject's words; and scores them with a key. The subject's screen is a
 :class:`~experiment.interfaces.Display`: by default the presenter process
-(:class:`experiment.presenter_proc.RemoteDisplay`), in tests a headless twin.
+(:class:`experiment.presentation.process.RemoteDisplay`), in tests a headless twin.
 
 Keys
 ----
@@ -33,9 +33,13 @@ changed (the log is append-only).
 
 from __future__ import annotations
 
+import contextlib
 import json
 import logging
+import sys
+from collections.abc import Iterator
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -57,6 +61,8 @@ __all__ = [
     "preview_text",
     "make_display",
     "run_console",
+    "session_log_path",
+    "logs_to_file",
 ]
 
 logger = logging.getLogger(__name__)
@@ -81,6 +87,8 @@ def preview_text(image: np.ndarray, cols: int = PREVIEW_COLS) -> str:
     Nearest-neighbour sampling at ``cols`` characters wide, aspect kept; values >= 0.5 are lit.
     """
     img = np.asarray(image, dtype=np.float32)
+    if img.ndim == 3:  # a colour training photo: its luminance (Rec. 709)
+        img = img[..., :3] @ np.array([0.2125, 0.7154, 0.0721], np.float32)
     rows_px, cols_px = img.shape
     cols = max(1, min(cols, cols_px))
     # Terminal cells are about twice as tall as wide; two image rows per cell keeps the aspect.
@@ -132,31 +140,52 @@ class OperatorConsole(App):
         share its time base with the display's flips (``perf_counter`` does across processes).
     rater : str
         Rater name stored with the operator's scores.
+    recorder : experiment.audio.TrialAudio or None
+        Records each trial's spoken answer (issue 15); None: no recording.
+    audio_note : str
+        Shown once at start (e.g. why there is no recording).
     """
 
+    # Responsive layout (issue 15): the input line, the status and the key footer keep fixed
+    # rows at the bottom; the trial panel and the preview share what is left, and the preview is
+    # re-drawn to fit it (see _fit_preview), so nothing is clipped from 80x24 upward.
     CSS = """
-    #top { height: auto; }
-    #trial { width: 1fr; padding: 0 1; }
+    #top { height: 1fr; overflow: hidden; }
+    #trial { width: 1fr; min-width: 30; padding: 0 1; }
     #preview { width: auto; border: solid $accent; padding: 0 1; }
-    #timer { padding: 0 1; }
-    #suggest { padding: 0 1; color: $success; }
-    #status { padding: 0 1; min-height: 2; }
+    #bottom { height: auto; }
+    #timer { padding: 0 1; height: 1; }
+    #suggest { padding: 0 1; height: 1; color: $success; }
+    #status { padding: 0 1; height: 2; }
     #note { display: none; }
     """
 
+    ENABLE_COMMAND_PALETTE = False
+
+    # Short labels so that the whole footer fits in 80 columns; F9 is named in the status line
+    # when the presenter stops, the only time it is needed.
     BINDINGS = [
         *(Binding(k, f"score('{s}')", s, priority=True) for k, s in SCORE_KEYS.items()),
         Binding("ctrl+z", "undo", "undo", priority=True),
         Binding("f6", "note", "note", priority=True),
         Binding("f8", "pause", "pause", priority=True),
-        Binding("f9", "restart_presenter", "restart presenter", priority=True),
-        Binding("ctrl+q", "save_quit", "save & quit", priority=True),
+        Binding("f9", "restart_presenter", "restart presenter", show=False, priority=True),
+        Binding("ctrl+q", "save_quit", "quit", priority=True),
     ]
 
     def __init__(
-        self, session: Any, display: Display, *, clock: Clock | None = None, rater: str = "operator"
+        self,
+        session: Any,
+        display: Display,
+        *,
+        clock: Clock | None = None,
+        rater: str = "operator",
+        recorder: Any = None,
+        audio_note: str = "",
     ) -> None:
         super().__init__()
+        self.recorder = recorder
+        self.audio_note = audio_note
         self.session = session
         self.subject_display = display
         self.clock = clock or getattr(session, "clock", None) or PerfCounterClock()
@@ -172,6 +201,7 @@ class OperatorConsole(App):
         self._down_from = "ready"
         self._shown_part: str | None = None
         self._breaks_shown: set[int] = set()
+        self._preview_image: np.ndarray | None = None
 
     # -- layout -----------------------------------------------------------------------------------
 
@@ -179,27 +209,55 @@ class OperatorConsole(App):
         with Horizontal(id="top"):
             yield Static(id="trial")
             yield Static(id="preview")
-        with Vertical():
+        with Vertical(id="bottom"):
             yield Static(id="timer")
             yield Static(id="suggest")
             yield Static(id="status")
             yield Input(placeholder="the subject's words", id="response")
             yield Input(placeholder="note for the log (Enter saves, Esc cancels)", id="note")
-        yield Footer()
+        yield Footer(compact=True)
+
+    def on_resize(self) -> None:
+        self.call_after_refresh(self._fit_preview)
+
+    def _fit_preview(self) -> None:
+        """Draw the preview as large as the space beside the trial panel allows."""
+        if self._preview_image is None:
+            return
+        top = self.query_one("#top").size
+        trial_min = 30
+        # preview border (2) and padding (2) around the text
+        max_cols = max(4, min(2 * PREVIEW_COLS, top.width - trial_min - 4))
+        max_lines = max(1, top.height - 2)
+        rows_px, cols_px = self._preview_image.shape[:2]
+        cols = max_cols
+        while cols > 4 and (cols * rows_px / cols_px) / 2 > max_lines:
+            cols -= 1
+        self.query_one("#preview", Static).update(Text(preview_text(self._preview_image, cols)))
 
     def on_mount(self) -> None:
         self.title = f"confocal: session {self.session.session_id}, subject {self.session.subject}"
         self.set_interval(0.25, self._tick)
         self._update_trial_panel()
         a, n = self.session.progress()
-        self._safe(self.subject_display.show_text, "Please wait for the experimenter.")
+        self._safe(self.subject_display.show_text, self._instructions.wait)
         if self.session.next_trial() is None:
             self._finish()
         else:
-            self._status(f"{a} of {n} trials answered. Press Enter to show the next stimulus.")
+            note = f"{self.audio_note}\n" if self.audio_note else ""
+            self._status(
+                f"{note}{a} of {n} trials answered. Press Enter to show the next stimulus."
+            )
         self.query_one("#response", Input).focus()
 
     # -- helpers ----------------------------------------------------------------------------------
+
+    @property
+    def _instructions(self) -> Any:
+        """The protocol's instruction screens (``[instructions]``)."""
+        from experiment.protocol import InstructionsSpec
+
+        return getattr(self.session.protocol, "instructions", None) or InstructionsSpec()
 
     def _status(self, text: str) -> None:
         self.query_one("#status", Static).update(text)
@@ -235,12 +293,25 @@ class OperatorConsole(App):
 
     def _safe(self, fn: Any, *args: Any) -> Any:
         """Call a display method; on a dead presenter switch to the 'down' state and return None."""
-        from experiment.presenter_proc import PresenterDied
+        from experiment.presentation.process import PresenterDied
 
         try:
             return fn(*args)
         except PresenterDied as exc:
             self._presenter_down(str(exc))
+            return None
+
+    def _audio(self, what: str, *args: Any) -> Any:
+        """Drive the recorder; a failing recorder is switched off, the session goes on."""
+        if self.recorder is None:
+            return None
+        try:
+            return getattr(self.recorder, what)(*args)
+        except Exception as exc:  # a sound-card or disk error must not stop the session
+            why = " ".join(str(exc).split()) or type(exc).__name__
+            self.session.log_event("audio_failed", why)
+            self.recorder = None
+            self.notify(f"Recording stopped: {why}", severity="error")
             return None
 
     def _presenter_down(self, why: str) -> None:
@@ -261,22 +332,26 @@ class OperatorConsole(App):
         announce = None
         if trial.part != self._shown_part:
             self._shown_part = trial.part
-            announce = f"{trial.part.capitalize()} part"
+            announce = self._instructions.for_part(trial.part)
         elif trial.break_before and trial.index not in self._breaks_shown:
             self._breaks_shown.add(trial.index)
             self.session.log_event("break", f"before trial {trial.index}")
-            announce = "Break"
+            announce = self._instructions.rest
         if announce is not None:
             self._safe(self.subject_display.show_text, announce)
-            self._status(f"'{announce}' is on the subject's screen. Press Enter to continue.")
+            title = announce.strip().splitlines()[0]
+            self._status(f"'{title}' is on the subject's screen. Press Enter to continue.")
             return
         self.trial = trial
         image = self.session.image_for(trial)
-        self.query_one("#preview", Static).update(Text(preview_text(image)))
+        self._preview_image = np.asarray(image)
+        self._fit_preview()
         onset = self._safe(self.subject_display.show_stimulus, image)
         if onset is None:
             return
         self.onset = onset
+        self.session.mark_shown(trial, onset)  # durable before any answer (issue 10)
+        self._audio("start", trial, onset.onset_s)
         self.first_key_s = None
         response = self.query_one("#response", Input)
         response.value = ""
@@ -337,6 +412,7 @@ class OperatorConsole(App):
         flip = combine_flips(self.onset, offset)
         rt = (self.first_key_s if self.first_key_s is not None else now) - self.onset.onset_s
         self.session.record(trial, Answer(response, score, self.rater, rt_s=rt), flip)
+        audio = self._audio("finish", trial)
         self.result.recorded.append(trial.index)
         self.last = {
             "index": trial.index,
@@ -352,8 +428,15 @@ class OperatorConsole(App):
             self._down_from = "scored"
             return
         self._set_state("scored")
+        voice = ""
+        if audio is not None:
+            voice = (
+                " No voice found in the recording."
+                if audio.voice_rt_s is None
+                else f" Voice onset {audio.voice_rt_s:.2f} s."
+            )
         self._status(
-            f"Recorded trial {trial.index + 1}: {response!r} -> {score}. "
+            f"Recorded trial {trial.index + 1}: {response!r} -> {score}.{voice} "
             "Ctrl+Z changes it; Enter starts the next trial."
         )
         if self.pause_requested:
@@ -416,13 +499,15 @@ class OperatorConsole(App):
             return
         self._paused_from = self.state
         self.session.log_event("pause", "")
-        self._safe(self.subject_display.show_text, "Pause")
+        self._safe(self.subject_display.show_text, self._instructions.pause)
         self._set_state("paused")
         self._status("Paused. F8 resumes.")
 
     def action_note(self) -> None:
         """Open the note line."""
         note = self.query_one("#note", Input)
+        # the note line takes the input line's place, so the layout keeps its height
+        self.query_one("#response", Input).styles.display = "none"
         note.styles.display = "block"
         note.value = ""
         note.focus()
@@ -434,7 +519,9 @@ class OperatorConsole(App):
         note = self.query_one("#note", Input)
         note.value = ""
         note.styles.display = "none"
-        self.query_one("#response", Input).focus()
+        response = self.query_one("#response", Input)
+        response.styles.display = "block"
+        response.focus()
 
     def action_restart_presenter(self) -> None:
         """Restart the presenter process after it died, and carry on where the session was."""
@@ -445,7 +532,7 @@ class OperatorConsole(App):
         if start is None:
             self._status("This display cannot be restarted; quit (Ctrl+Q) and run again.")
             return
-        from experiment.presenter_proc import PresenterDied
+        from experiment.presentation.process import PresenterDied
 
         try:
             start()
@@ -464,12 +551,12 @@ class OperatorConsole(App):
             self.trial = None
             self._start_next_trial()
             return
-        self._safe(self.subject_display.show_text, "Please wait for the experimenter.")
+        self._safe(self.subject_display.show_text, self._instructions.wait)
         self._set_state(back if back in ("ready", "scored") else "ready")
         self._status("Presenter restarted. Enter starts the next trial.")
 
     def _finish(self) -> None:
-        self._safe(self.subject_display.show_text, "The session is complete. Thank you.")
+        self._safe(self.subject_display.show_text, self._instructions.end)
         self._set_state("finished")
         self._status("Session complete. Ctrl+Q closes the console.")
 
@@ -479,6 +566,7 @@ class OperatorConsole(App):
             self.session.log_event(
                 "abort", f"quit during trial {self.trial.index}; it is shown again on resume"
             )
+            self._audio("discard")
             self._safe(self.subject_display.clear)
         a, n = self.session.progress()
         self.result.answered, self.result.total = a, n
@@ -491,20 +579,38 @@ class ScoringApp(App):
 
     Shows each answered trial's object (the right answer), condition, level and the logged words;
     F1..F5 appends a score by ``rater`` to the log (never the first rater's score, never the
-    suggestion). Returns the number of trials scored.
+    suggestion). Ctrl+Z steps back to the previous trial: the score given next is appended and,
+    being this rater's latest, replaces the undone one (scores are never deleted). A progress
+    line shows how many are scored and left. Returns the number of trials scored.
 
     Parameters
     ----------
     log : experiment.triallog.TrialLog
     rater : str
     pending : list of dict
-        Trials to score, from :func:`experiment.present_cli.pending_for_rater`.
+        Trials to score, from :func:`experiment.presentation.cli.pending_for_rater`.
     """
 
     BINDINGS = [
         *(Binding(k, f"score('{s}')", s, priority=True) for k, s in SCORE_KEYS.items()),
+        Binding("ctrl+z", "undo", "undo", priority=True),
+        Binding("f7", "replay", "replay voice", priority=True),
         Binding("ctrl+q", "done", "save & quit", priority=True),
     ]
+
+    #: Plays a recording and returns "" or why not (tests replace it).
+    player: Any = None
+
+    def action_replay(self) -> None:
+        """Play the current trial's recorded answer, if there is one (issue 15)."""
+        from experiment.audio.playback import play, recording_for
+
+        if self.position >= len(self.pending):
+            return
+        t = self.pending[self.position]
+        path = recording_for(self.trial_log, t["session_id"], t["trial_index"])
+        why = "no recording of this answer" if path is None else (self.player or play)(path)
+        self.query_one("#status", Static).update(why or f"playing {path.name}")
 
     def __init__(self, log: Any, rater: str, pending: list[dict[str, Any]]) -> None:
         super().__init__()
@@ -513,6 +619,8 @@ class ScoringApp(App):
         self.pending = list(pending)
         self.position = 0
         self._recognized: dict[int, Any] = {}
+        self._undone: dict[int, str] = {}
+        self._last_scores: dict[int, str] = {}
 
     def compose(self) -> ComposeResult:
         yield Static(id="item")
@@ -523,19 +631,46 @@ class ScoringApp(App):
         self.title = f"confocal score: rater {self.rater}"
         self._show()
 
+    def progress_text(self) -> str:
+        """Return the progress line: scored, left and a 20-cell bar."""
+        n = len(self.pending)
+        done = min(self.position, n)
+        cells = round(20 * done / n) if n else 20
+        return (
+            f"scored {done} of {n}, {n - done} left  "
+            + "\u2588" * cells
+            + "\u2591" * (20 - cells)
+            + f"  {100 * done / n if n else 100:.0f} %"
+        )
+
     def _show(self) -> None:
+        from rich.markup import escape
+
+        progress = self.progress_text()
         if self.position >= len(self.pending):
-            self.query_one("#item", Static).update("All responses are scored.")
-            self.exit(self.position)
+            self.query_one("#item", Static).update(
+                f"All {len(self.pending)} responses are scored.\n\n"
+                "Ctrl+Z undoes the last score; Ctrl+Q quits (every score is saved)."
+            )
+            self.query_one("#status", Static).update(progress)
             return
         t = self.pending[self.position]
+        redo = self.position in self._undone
         self.query_one("#item", Static).update(
             f"{self.position + 1} of {len(self.pending)}   session {t['session_id']} "
-            f"(subject {t['subject']}), trial {t['trial_index'] + 1}\n"
-            f"object: [b]{t['object_name']}[/b] ({t['object']}), {t['condition']}, "
-            f"level {t['level']}\n\nresponse: [b]{t['response']!r}[/b]"
+            f"(subject {escape(str(t['subject']))}), trial {t['trial_index'] + 1}\n"
+            f"object: [b]{escape(str(t['object_name']))}[/b] ({escape(str(t['object']))}), "
+            f"{t['condition']}, level {t['level']}\n\n"
+            f"response: [b]{escape(repr(t['response']))}[/b]"
+            + (
+                f"\n\nundone: you gave {self._undone[self.position]}; score it again"
+                if redo
+                else ""
+            )
         )
-        self.query_one("#status", Static).update("F1 named  F2 use  F3 shape  F4 wrong  F5 pass")
+        self.query_one("#status", Static).update(
+            f"{progress}\nF1 named  F2 use  F3 shape  F4 wrong  F5 pass  Ctrl+Z undo"
+        )
 
     def _is_recognized(self, session_id: int, score: str) -> bool:
         if session_id not in self._recognized:
@@ -552,15 +687,26 @@ class ScoringApp(App):
         if self.position >= len(self.pending):
             return
         t = self.pending[self.position]
+        undone = self._undone.pop(self.position, None)
         self.trial_log.add_score(
             t["session_id"],
             t["trial_index"],
             score,
             self._is_recognized(t["session_id"], score),
             self.rater,
-            note="blind re-score",
+            note="blind re-score" + (f" (replaces this rater's undone {undone})" if undone else ""),
         )
+        self._last_scores[self.position] = score
         self.position += 1
+        self._show()
+
+    def action_undo(self) -> None:
+        """Step back to the previous trial; its next score replaces the undone one."""
+        if self.position == 0:
+            self.notify("nothing to undo")
+            return
+        self.position -= 1
+        self._undone[self.position] = self._last_scores.get(self.position, "a score")
         self._show()
 
     def action_done(self) -> None:
@@ -582,7 +728,7 @@ def make_display(
     ``'offscreen'`` (an in-process EGL presenter) or ``'none'`` (headless twin).
     """
     if presenter == "process":
-        from experiment.presenter_proc import RemoteDisplay
+        from experiment.presentation.process import RemoteDisplay
 
         phos = kwargs.pop("phosphenes", None)
         if phos is not None and not isinstance(phos, dict):
@@ -599,14 +745,101 @@ def make_display(
             **kwargs,
         )
     if presenter == "offscreen":
-        from experiment.presenter import Presenter
+        from experiment.presentation.presenter import Presenter
 
         return Presenter.offscreen(geometry, clock=clock, **kwargs)
     if presenter == "none":
-        from experiment.displays import NullDisplay
+        from experiment.presentation.displays import NullDisplay
 
         return NullDisplay(clock)
     raise ValueError(f"presenter must be 'process', 'offscreen' or 'none', got {presenter!r}")
+
+
+def _open_recorder(session: Any, record_audio: bool, microphone: Any) -> tuple[Any, str]:
+    """Return ``(recorder or None, note for the operator)``; log what happened once."""
+    if not record_audio and microphone is None:
+        return None, ""
+    from experiment.audio import TrialAudio, open_microphone
+
+    why = ""
+    if microphone is None:
+        microphone, why = open_microphone(session.clock)
+    if microphone is not None:
+        try:
+            recorder = TrialAudio(session, microphone)
+        except (ImportError, ValueError) as exc:
+            microphone.close()
+            why = " ".join(str(exc).split())
+        else:
+            session.log_event(
+                "audio",
+                json.dumps(
+                    {
+                        "device": getattr(microphone, "device_name", "?"),
+                        "samplerate_hz": microphone.samplerate_hz,
+                    }
+                ),
+            )
+            return recorder, ""
+    session.log_event("audio_unavailable", why)
+    logger.warning("recording the answers is off: %s", why)
+    return None, f"[b]Recording off[/b]: {why}. The session runs without audio."
+
+
+def session_log_path(session: Any) -> Path | None:
+    """Return the session log file beside the trial log (``study.sqlite`` -> ``study.log``).
+
+    ``None`` for an in-memory trial log.
+    """
+    db = str(getattr(getattr(session, "log", None), "path", ":memory:"))
+    return None if db == ":memory:" else Path(db).with_suffix(".log")
+
+
+@contextlib.contextmanager
+def logs_to_file(path: str | Path | None, *, prefix: str = "") -> Iterator[None]:
+    """Send every log record (moderngl-window's included) to ``path`` instead of the terminal.
+
+    While the console owns the terminal, a log line written there would tear its screen. Handlers
+    that write to stdout or stderr are detached from every logger, a file handler (append, level
+    INFO) is put on the root logger, and everything is put back on exit. ``path=None`` only
+    silences the terminal.
+
+    Parameters
+    ----------
+    path : str or Path or None
+        The session log file.
+    prefix : str
+        Written after the time stamp on every line (e.g. ``"session 3"``).
+    """
+    root = logging.getLogger()
+    terminal = (sys.stderr, sys.stdout, sys.__stderr__, sys.__stdout__)
+    moved: list[tuple[logging.Logger, logging.Handler]] = []
+    loggers = [root, *(logging.getLogger(n) for n in list(logging.root.manager.loggerDict))]
+    for lg in loggers:
+        for h in list(lg.handlers):
+            if (
+                isinstance(h, logging.StreamHandler)
+                and not isinstance(h, logging.FileHandler)
+                and getattr(h, "stream", None) in terminal
+            ):
+                lg.removeHandler(h)
+                moved.append((lg, h))
+    handler: logging.Handler = (
+        logging.NullHandler() if path is None else logging.FileHandler(path, encoding="utf-8")
+    )
+    tag = f" {prefix}" if prefix else ""
+    handler.setFormatter(logging.Formatter(f"%(asctime)s{tag} %(name)s %(levelname)s: %(message)s"))
+    old_level = root.level
+    root.setLevel(min(old_level, logging.INFO) if old_level else logging.INFO)
+    root.addHandler(handler)
+    try:
+        yield
+    finally:
+        root.removeHandler(handler)
+        handler.close()
+        root.setLevel(old_level)
+        for lg, h in moved:
+            lg.addHandler(h)
 
 
 def run_console(
@@ -618,6 +851,8 @@ def run_console(
     skip_timing_check: bool = False,
     rater: str = "operator",
     display: Display | None = None,
+    record_audio: bool = False,
+    microphone: Any = None,
     **presenter_options: Any,
 ) -> ConsoleResult:
     """Run the operator console for ``session`` until the operator quits; return what happened.
@@ -636,16 +871,29 @@ def run_console(
     rater : str
     display : Display or None
         Use this display instead of opening one.
+    record_audio : bool
+        Record each trial's spoken answer (:mod:`experiment.audio`). Without the ``audio`` extra
+        or a microphone the session runs without, and says so once (console and log event).
+    microphone : experiment.audio.Microphone or None
+        Use this input (a test twin) instead of opening the default one.
     **presenter_options
         ``integer_scale``, ``phosphenes`` (passed to the presenter).
+
+    Notes
+    -----
+    While the console runs, log lines (ours, and moderngl-window's in the presenter process) go
+    to the session log file :func:`session_log_path`, not the terminal.
 
     Raises
     ------
     ConfocalError
         The subject's screen cannot be opened (one line; nothing is shown).
     """
-    from experiment.presenter import ScreenGeometry
+    from experiment.presentation.presenter import ScreenGeometry
 
+    log_path = session_log_path(session)
+    if presenter == "process" and log_path is not None:
+        presenter_options.setdefault("stderr_path", log_path)
     if display is None:
         try:
             geometry = ScreenGeometry.from_display_spec(session.protocol.display)
@@ -664,16 +912,23 @@ def run_console(
             if isinstance(exc, ConfocalError):
                 raise
             raise ConfocalError(f"subject's display: {exc}") from None
+    recorder = None
     try:
         info = getattr(display, "info", None) or {"presenter": presenter}
         session.log_event("display", json.dumps(info, sort_keys=True, default=str))
         if skip_timing_check:
             session.log_event("timing_check", "skipped by the operator (--skip-timing-check)")
-        app = OperatorConsole(session, display, rater=rater)
-        result = app.run()
+        recorder, audio_note = _open_recorder(session, record_audio, microphone)
+        app = OperatorConsole(
+            session, display, rater=rater, recorder=recorder, audio_note=audio_note
+        )
+        with logs_to_file(log_path, prefix=f"session {session.session_id}"):
+            result = app.run()
     finally:
         try:
             display.close()
+            if recorder is not None:
+                recorder.close()
         finally:
             session.close()
     if result is None:

@@ -1,8 +1,9 @@
 """Interfaces between the session engine and its hardware (house style H4).
 
 The session loop only sees these. The real implementations are the moderngl presenter
-(:mod:`experiment.presenter`) and the operator console (:mod:`experiment.console`); the test twins
-are a headless display and scripted or simulated responders (:mod:`experiment.observers`).
+(:mod:`experiment.presentation.presenter`) and the operator console (:mod:`experiment.console`);
+the test twins are a headless display and scripted or simulated responders
+(:mod:`experiment.observers`).
 """
 
 from __future__ import annotations

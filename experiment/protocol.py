@@ -1,11 +1,12 @@
 """Protocols: what a session shows and in which order, loaded from ``protocols/*.toml`` (H10).
 
-A protocol file has four tables::
+A protocol file has four tables, and an optional fifth::
 
-    [protocol]   name, description, pass_allowed_after_s, feedback
-    [display]    screen and image geometry (DisplaySpec)
-    [scoring]    which scores count as recognised, who the primary rater is (ScoringSpec)
-    [[blocks]]   one or more entries (BlockSpec), each expanding into one or more blocks
+    [protocol]      name, description, pass_allowed_after_s, feedback
+    [display]       screen and image geometry (DisplaySpec)
+    [scoring]       which scores count as recognised, who the primary rater is (ScoringSpec)
+    [[blocks]]      one or more entries (BlockSpec), each expanding into one or more blocks
+    [instructions]  the texts of the subject's instruction screens (InstructionsSpec)
 
 Every value is checked when the spec is built; an unknown key, a wrong type or a missing field
 raises :class:`ProtocolError` with one line naming the file and the field.
@@ -38,6 +39,7 @@ __all__ = [
     "ProtocolError",
     "DisplaySpec",
     "ScoringSpec",
+    "InstructionsSpec",
     "BlockSpec",
     "ProtocolSpec",
     "load_protocol",
@@ -79,6 +81,10 @@ class Condition(StrEnum):
     CLUTTERED = "cluttered"
     DECLUTTERED = "decluttered"
     PHOTO = "photo"
+    #: Full-resolution colour photos shown in training (Jung 2015, Sec. 3.1: "conventional and
+    #: confocal images were shown followed by the edge-filtered and compressed images").
+    COLOUR_WIDE = "colour_wide"
+    COLOUR_CONFOCAL = "colour_confocal"
 
 
 def _type_name(value: Any) -> str:
@@ -335,6 +341,67 @@ class ScoringSpec(_Spec):
         return self.recognized[score]
 
 
+#: Longest line of an instruction screen, characters (ours: at the presenter's text size, about
+#: 0.6 deg per line, 70 characters span about 25 deg, the width of the paper's 21-inch screen
+#: at 80 cm), and the most lines (ours: 16 lines fill about half its height).
+INSTRUCTION_MAX_LINE_CHARS = 70
+INSTRUCTION_MAX_LINES = 16
+
+
+@dataclass(frozen=True)
+class InstructionsSpec(_Spec):
+    """Texts of the subject's screens (``[instructions]``); the defaults are short titles.
+
+    Parameters
+    ----------
+    wait : str
+        Shown while the operator prepares (console start, after a presenter restart).
+    training, main : str
+        Shown before the first trial of the training and the main part; the operator explains
+        it and presses Enter to go on.
+    rest : str
+        Shown at a planned break between blocks.
+    pause : str
+        Shown while the operator pauses the session (F8).
+    end : str
+        Shown when the session is complete.
+    """
+
+    wait: str = "Please wait for the experimenter."
+    training: str = "Training part"
+    main: str = "Main part"
+    rest: str = "Break"
+    pause: str = "Pause"
+    end: str = "The session is complete. Thank you."
+
+    def __post_init__(self) -> None:
+        for f in fields(self):
+            self._check_text(f.name)
+
+    def _check_text(self, name: str) -> None:
+        text = getattr(self, name)
+        _need(text, str, f"instructions.{name}")
+        if not text.strip():
+            raise ProtocolError(f"instructions.{name} must not be empty")
+        lines = text.strip("\n").split("\n")
+        if len(lines) > INSTRUCTION_MAX_LINES:
+            raise ProtocolError(
+                f"instructions.{name} must have at most {INSTRUCTION_MAX_LINES} lines (so it "
+                f"fits the subject's screen), got {len(lines)}"
+            )
+        for i, line in enumerate(lines, 1):
+            if len(line) > INSTRUCTION_MAX_LINE_CHARS:
+                raise ProtocolError(
+                    f"instructions.{name} line {i} must have at most "
+                    f"{INSTRUCTION_MAX_LINE_CHARS} characters (so it fits the subject's screen), "
+                    f"got {len(line)}"
+                )
+
+    def for_part(self, part: str) -> str:
+        """Return the text shown before the first trial of ``part`` ('training' or 'main')."""
+        return self.training if part == "training" else self.main
+
+
 @dataclass(frozen=True)
 class BlockSpec(_Spec):
     """One ``[[blocks]]`` entry: a set of trials and how it is cut into blocks and ordered.
@@ -459,10 +526,15 @@ class ProtocolSpec:
         Whether the subject is told if an answer was right. Jung 2015: no feedback.
     display : DisplaySpec
     scoring : ScoringSpec
+    instructions : InstructionsSpec
+        Texts of the subject's instruction screens (``[instructions]``; optional).
     source_path : str or None
         The file it was loaded from (provenance only; not compared, not in ``to_dict``).
     source_sha256 : str or None
         SHA-256 of that file's bytes (H15).
+    task : experiment.active.task.ActiveSearchSpec or None
+        A ``[task]`` table (``type = "active_search"``, issue 14); such a protocol needs no
+        ``[[blocks]]``.
     """
 
     name: str
@@ -472,6 +544,8 @@ class ProtocolSpec:
     feedback: bool = False
     display: DisplaySpec = field(default_factory=DisplaySpec)
     scoring: ScoringSpec = field(default_factory=ScoringSpec)
+    instructions: InstructionsSpec = field(default_factory=InstructionsSpec)
+    task: Any = None
     source_path: str | None = field(default=None, compare=False)
     source_sha256: str | None = field(default=None, compare=False)
 
@@ -499,6 +573,8 @@ class ProtocolSpec:
         _need(self.feedback, bool, "protocol.feedback")
 
     def _check_blocks(self) -> None:
+        if self.task is not None and self.blocks == ():
+            return
         if not isinstance(self.blocks, tuple) or not self.blocks:
             raise ProtocolError("blocks must have at least one [[blocks]] entry")
         for b in self.blocks:
@@ -506,6 +582,15 @@ class ProtocolSpec:
                 raise ProtocolError(f"blocks must hold BlockSpec, got {_type_name(b)}")
         if not any(b.part == "main" for b in self.blocks):
             raise ProtocolError("blocks must have at least one entry with part = 'main'")
+
+    def _check_task(self) -> None:
+        if self.task is not None:
+            from experiment.active.task import ActiveSearchSpec
+
+            if not isinstance(self.task, ActiveSearchSpec):
+                raise ProtocolError(
+                    f"task must be an ActiveSearchSpec, got {_type_name(self.task)}"
+                )
 
     def _check_display(self) -> None:
         if not isinstance(self.display, DisplaySpec):
@@ -515,9 +600,19 @@ class ProtocolSpec:
         if not isinstance(self.scoring, ScoringSpec):
             raise ProtocolError(f"scoring must be a ScoringSpec, got {_type_name(self.scoring)}")
 
+    def _check_instructions(self) -> None:
+        if not isinstance(self.instructions, InstructionsSpec):
+            raise ProtocolError(
+                f"instructions must be an InstructionsSpec, got {_type_name(self.instructions)}"
+            )
+
     def to_dict(self) -> dict[str, Any]:
-        """Return the protocol in the TOML file's structure (plain data)."""
-        return {
+        """Return the protocol in the TOML file's structure (plain data).
+
+        ``instructions`` appears only when it differs from the defaults, so protocols without an
+        ``[instructions]`` table keep their content hash.
+        """
+        out = {
             "protocol": {
                 "name": self.name,
                 "description": self.description,
@@ -528,6 +623,11 @@ class ProtocolSpec:
             "scoring": self.scoring.to_dict(),
             "blocks": [b.to_dict() for b in self.blocks],
         }
+        if self.task is not None:
+            out["task"] = self.task.to_dict()
+        if self.instructions != InstructionsSpec():
+            out["instructions"] = self.instructions.to_dict()
+        return out
 
     @classmethod
     def from_dict(
@@ -540,7 +640,7 @@ class ProtocolSpec:
         """Build a protocol from the TOML file's structure, checking every key and value."""
         if not isinstance(data, dict):
             raise ProtocolError(f"a protocol must be a table, got {_type_name(data)}")
-        allowed = ("protocol", "display", "scoring", "blocks")
+        allowed = ("protocol", "display", "scoring", "blocks", "task", "instructions")
         unknown = sorted(set(data) - set(allowed))
         if unknown:
             raise ProtocolError(
@@ -559,8 +659,15 @@ class ProtocolSpec:
             )
         if "name" not in head:
             raise ProtocolError("[protocol] is missing field name")
-        raw_blocks = data.get("blocks")
-        if not isinstance(raw_blocks, list) or not raw_blocks:
+        task = None
+        if "task" in data:
+            from experiment.active.task import task_from_table
+
+            task = task_from_table(data["task"])
+        raw_blocks = data.get("blocks", [] if task is not None else None)
+        if task is not None and raw_blocks == []:
+            pass
+        elif not isinstance(raw_blocks, list) or not raw_blocks:
             raise ProtocolError("missing [[blocks]]: a protocol needs at least one block entry")
         blocks = tuple(
             BlockSpec.from_dict(b, where=f"blocks[{i}]") for i, b in enumerate(raw_blocks)
@@ -574,6 +681,9 @@ class ProtocolSpec:
         if isinstance(scoring_raw, dict) and isinstance(scoring_raw.get("recognized"), dict):
             scoring_raw["recognized"] = dict(scoring_raw["recognized"])
         scoring = ScoringSpec.from_dict(scoring_raw, where="scoring")
+        instructions = InstructionsSpec.from_dict(
+            data.get("instructions", {}), where="instructions"
+        )
         return cls(
             name=head["name"],
             description=head.get("description", ""),
@@ -581,7 +691,9 @@ class ProtocolSpec:
             feedback=head.get("feedback", False),
             display=display,
             scoring=scoring,
+            instructions=instructions,
             blocks=blocks,
+            task=task,
             source_path=source_path,
             source_sha256=source_sha256,
         )

@@ -16,7 +16,7 @@ import numpy as np
 from experiment.protocol import BlockSpec, ProtocolError, ProtocolSpec
 from experiment.stimset import StimulusSet
 
-__all__ = ["Trial", "Schedule", "build_schedule"]
+__all__ = ["Trial", "Schedule", "build_schedule", "planned_trials"]
 
 
 @dataclass(frozen=True)
@@ -188,6 +188,26 @@ def _entry_blocks(
     return blocks
 
 
+def planned_trials(protocol: ProtocolSpec, stimset: StimulusSet) -> int:
+    """Return how many trials :func:`build_schedule` would plan, without building them.
+
+    Checks every block's objects, levels and conditions against the stimulus set first, so a
+    caller can refuse a protocol (or one too large for memory) before writing anything.
+
+    Raises
+    ------
+    ProtocolError
+        A block entry names an object, role or level the stimulus set lacks.
+    """
+    n = 0
+    for e, entry in enumerate(protocol.blocks):
+        where = f"blocks[{e}]"
+        objs = _objects_for(entry, stimset, where)
+        _check_available(entry, objs, stimset, where)
+        n += entry.repetitions * len(objs) * len(entry.levels) * len(entry.conditions)
+    return n
+
+
 def build_schedule(
     protocol: ProtocolSpec,
     stimset: StimulusSet,
@@ -218,6 +238,11 @@ def build_schedule(
     Jung et al. 2015, Sec. 3.2: levels lowest to highest; at each level the cluttered block
     then the de-cluttered block; random object order inside a block.
     """
+    if protocol.task is not None:  # issue 14: a [task] protocol has no static schedule
+        raise ProtocolError(
+            f"{protocol.source_path or protocol.name}: an active-search protocol runs with "
+            "'confocal active run', not as a static session"
+        )
     rng = np.random.default_rng(rng)
     trials: list[Trial] = []
     block_no = 0

@@ -3,14 +3,16 @@
 The operator types what the subject said; :func:`suggest_score` proposes a score from the
 object's name, synonyms and uses (``objects.csv``), tolerant of case, plurals and small typos;
 the operator confirms or overrides. A second rater can re-score later; :func:`cohen_kappa`
-reports agreement.
+reports agreement, with a 95 % interval from statsmodels (:func:`kappa_interval`).
 """
 
 from __future__ import annotations
 
 import difflib
 import json
+import math
 import re
+import warnings
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 
@@ -23,6 +25,7 @@ __all__ = [
     "kappa",
     "KappaResult",
     "cohen_kappa",
+    "kappa_interval",
 ]
 
 #: Words that describe shape or features rather than identity or use; a response made only of
@@ -164,6 +167,10 @@ class KappaResult:
         Agreement expected by chance from the raters' marginal score frequencies.
     kappa : float
         Cohen's kappa, ``(observed - expected) / (1 - expected)`` (NaN when n = 0 or expected = 1).
+    se : float
+        Its asymptotic standard error (Fleiss, Cohen & Everitt 1969), NaN when undefined.
+    ci95_low, ci95_high : float
+        95 % Wald interval ``kappa -/+ 1.96 se``, clipped to [-1, 1] (NaN when undefined).
     """
 
     rater_a: str
@@ -172,6 +179,9 @@ class KappaResult:
     observed: float
     expected: float
     kappa: float
+    se: float = float("nan")
+    ci95_low: float = float("nan")
+    ci95_high: float = float("nan")
 
     def to_dict(self) -> dict:
         """Return the result as a dict."""
@@ -235,4 +245,46 @@ def cohen_kappa(log, rater_a: str, rater_b: str, *, labels: str = "score") -> Ka
         la = [str(rec[k[0]][s]) for k, s in zip(common, la, strict=True)]
         lb = [str(rec[k[0]][s]) for k, s in zip(common, lb, strict=True)]
     k, po, pe = kappa(la, lb)
-    return KappaResult(rater_a, rater_b, len(common), po, pe, k)
+    se, lo, hi = float("nan"), float("nan"), float("nan")
+    if la and not math.isnan(k):
+        k, se, lo, hi = kappa_interval(la, lb)
+    return KappaResult(rater_a, rater_b, len(common), po, pe, k, se, lo, hi)
+
+
+def kappa_interval(
+    scores_a: Sequence[str], scores_b: Sequence[str]
+) -> tuple[float, float, float, float]:
+    """Return Cohen's kappa with its standard error and 95 % interval, from statsmodels.
+
+    Returns
+    -------
+    (kappa, se, ci95_low, ci95_high) : floats
+        ``statsmodels.stats.inter_rater.cohens_kappa`` on the raters' contingency table: the
+        asymptotic standard error of Fleiss, Cohen & Everitt (1969) and a Wald interval, clipped
+        to [-1, 1] (with few trials the unclipped interval can pass 1).
+
+    References
+    ----------
+    Fleiss, J. L., Cohen, J., Everitt, B. S. (1969). Large sample standard errors of kappa and
+    weighted kappa. Psychol. Bull. 72, 323-327.
+    """
+    import numpy as np
+    from statsmodels.stats.inter_rater import cohens_kappa
+
+    if len(scores_a) != len(scores_b) or not scores_a:
+        raise ValueError(
+            f"scores_a and scores_b must be equally long and non-empty, got {len(scores_a)} and "
+            f"{len(scores_b)}"
+        )
+    labels = sorted(set(scores_a) | set(scores_b))
+    index = {lab: i for i, lab in enumerate(labels)}
+    table = np.zeros((len(labels), len(labels)))
+    for a, b in zip(scores_a, scores_b, strict=True):
+        table[index[a], index[b]] += 1
+    with warnings.catch_warnings():
+        # its z test against kappa = 0 divides by zero when one rater used one score only;
+        # we report kappa and its interval, not that test
+        warnings.simplefilter("ignore", RuntimeWarning)
+        res = cohens_kappa(table)  # its default alpha, 0.025 per side: a 95 % interval
+    k, se = float(res["kappa"]), float(res["std_kappa"])
+    return k, se, max(-1.0, float(res["kappa_low"])), min(1.0, float(res["kappa_upp"]))

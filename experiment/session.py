@@ -117,6 +117,10 @@ class Session:
         seed: int | None = None,
         clock: Clock | None = None,
         responder: str | None = None,
+        observer: str | None = None,
+        observer_params: dict | None = None,
+        participant: dict | None = None,
+        monitor: dict | None = None,
     ) -> Session:
         """Create a session, or resume the subject's unfinished one (same saved schedule).
 
@@ -134,6 +138,16 @@ class Session:
             Session clock for events (``PerfCounterClock`` if omitted).
         responder : str, optional
             Who answers (``"console"``, ``"sim:logistic"``), stored for provenance.
+        observer : str, optional
+            The simulated observer's name (None for a person): the session is labelled
+            simulated in ``tidy_trials`` and every export.
+        observer_params : dict, optional
+            The simulated observer's parameters (stored as JSON).
+        participant : dict, optional
+            Participant metadata (age, sex, ...) for ``participants.tsv``; stored as JSON.
+        monitor : dict, optional
+            The monitor profile whose values replaced the protocol's display (name, sha256,
+            fields); stored as JSON.
 
         Raises
         ------
@@ -153,9 +167,11 @@ class Session:
         ):
             raise ValueError(f"seed must be a non-negative integer or None, got {seed!r}")
         clock = clock if clock is not None else PerfCounterClock()
+        if observer is None and responder and responder.startswith("sim:"):
+            observer = responder[4:]
         existing = log.unfinished_session(subject)
         if existing is not None:
-            return cls._resume(log, protocol, stimset, subject, existing, seed, clock)
+            return cls._resume(log, protocol, stimset, subject, existing, seed, clock, observer)
         root_seed = int(seed) if seed is not None else int(np.random.SeedSequence().entropy)
         schedule = build_schedule(protocol, stimset, _child_rng(root_seed, 0))
         _verify_files(stimset, schedule)
@@ -174,6 +190,12 @@ class Session:
                 seed=str(root_seed),
                 primary_rater=protocol.scoring.primary_rater,
                 responder=responder,
+                observer=observer,
+                observer_params=(
+                    None if observer is None else json.dumps(observer_params or {}, default=str)
+                ),
+                participant_json=json.dumps(participant, sort_keys=True) if participant else None,
+                monitor_json=json.dumps(monitor, sort_keys=True) if monitor else None,
                 **prov,
             )
             log.write_schedule(sid, schedule)
@@ -193,8 +215,17 @@ class Session:
         row: dict,
         seed: int | None,
         clock: Clock,
+        observer: str | None = None,
     ) -> Session:
         sid = int(row["session_id"])
+        if row["protocol_sha256"] != protocol.content_sha256() and row["display_json"] != (
+            json.dumps(protocol.display.to_dict(), sort_keys=True)
+        ):
+            raise ResumeMismatch(
+                f"{log.path}: subject {subject} has unfinished session {sid} with another "
+                f"display geometry ({row['display_json']}); resume it with the same protocol "
+                "and --monitor"
+            )
         if row["protocol_sha256"] != protocol.content_sha256():
             raise ResumeMismatch(
                 f"{log.path}: subject {subject} has unfinished session {sid} with protocol "
@@ -213,6 +244,15 @@ class Session:
                 f"{log.path}: subject {subject} has unfinished session {sid} with seed {stored}, "
                 f"not {seed}; omit --seed to resume it"
             )
+        if (row.get("observer") or None) != observer:
+
+            def who(o: str | None) -> str:
+                return f"simulated observer {o!r}" if o else "a person"
+
+            raise ResumeMismatch(
+                f"{log.path}: subject {subject} has unfinished session {sid} answered by "
+                f"{who(row.get('observer'))}, not {who(observer)}; use another subject code"
+            )
         schedule = log.read_schedule(sid)
         _verify_files(stimset, schedule)
         with log.atomic():
@@ -230,6 +270,17 @@ class Session:
             log.add_event(
                 sid, "resume", f"resuming at trial {done} of {len(schedule)}", clock.now_s()
             )
+            nxt = log.last_committed_trial(sid)
+            nxt = 0 if nxt is None else nxt + 1
+            seen = log.viewings(sid, nxt) if nxt < len(schedule) else 0
+            if seen:
+                log.add_event(
+                    sid,
+                    "note",
+                    f"trial {nxt} was shown {seen} time(s) but not answered before the run "
+                    "ended; it is shown again and marked as a repeat viewing",
+                    clock.now_s(),
+                )
         if stale is not None:
             logger.warning("session %s: previous run crashed; resuming at trial %d", sid, done)
         return cls(log, protocol, stimset, subject, sid, stored, schedule, clock)
@@ -261,7 +312,7 @@ class Session:
         StimulusSetError
             The file changed since the session started (sha256 differs).
         """
-        from stimuli.io import load_gray
+        from experiment.stimset import decode_stimulus
 
         p = self.stimset.root / trial.path
         try:
@@ -270,8 +321,7 @@ class Session:
             raise StimulusSetError(f"{p}: stimulus file is missing") from None
         if hashlib.sha256(data).hexdigest() != trial.sha256:
             raise StimulusSetError(f"{p}: stimulus file changed during the session (sha256)")
-        img = load_gray(p)
-        return img if trial.condition == "photo" else img >= 0.5
+        return decode_stimulus(p, trial.condition)
 
     def suggest_score(self, trial: Trial, response: str) -> str:
         """Return a suggested score for ``response`` from ``objects.csv`` names, synonyms, uses."""
@@ -309,6 +359,23 @@ class Session:
         else:
             self.log.record(self.session_id, trial, flip, answer, recognized)
         self._next += 1
+
+    def mark_shown(self, trial: Trial, flip: FlipRecord) -> int:
+        """Log the stimulus onset durably, as soon as the frame is on the subject's screen.
+
+        Returns
+        -------
+        int
+            How many times the trial has now been shown; 2 or more (a repeat viewing, e.g. after
+            a crash between onset and answer) is also logged as a ``repeat_viewing`` event.
+        """
+        n = self.log.record_onset(self.session_id, trial.index, flip.onset_s)
+        if n > 1:
+            self.log_event(
+                "repeat_viewing",
+                f"trial {trial.index} shown again (viewing {n}); the subject saw it before",
+            )
+        return n
 
     def rescore(self, trial_index: int, score: str, rater: str, note: str = "") -> None:
         """Append a new score for an answered trial (the old ones are kept)."""
@@ -369,12 +436,13 @@ class Session:
             for trial in self.schedule.iter_trials(start_after=self._next - 1):
                 if trial.part != part:
                     part = trial.part
-                    display.show_text(f"{part} part")
+                    display.show_text(self.protocol.instructions.for_part(part))
                 if trial.break_before:
                     self.log_event("break", f"before trial {trial.index}")
-                    display.show_text("Break")
+                    display.show_text(self.protocol.instructions.rest)
                 image = self.image_for(trial)
                 flip = display.show_stimulus(image)
+                self.mark_shown(trial, flip)
                 answer = responder.respond(trial, image)
                 off = display.clear()
                 self.record(trial, answer, combine_flips(flip, off))
@@ -383,7 +451,7 @@ class Session:
         except KeyboardInterrupt:
             self.log_event("abort", f"interrupted at trial {self._next}")
             raise
-        display.show_text("The session is complete. Thank you.")
+        display.show_text(self.protocol.instructions.end)
 
 
 def _child_rng(seed: int, k: int) -> np.random.Generator:

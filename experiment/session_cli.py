@@ -3,25 +3,25 @@
 ::
 
     confocal session run --protocol jung2015 --stimuli STIM_DIR --subject S01 --data study.sqlite
-    confocal session run ... --headless --observer logistic --seed 1
+    confocal session run ... --headless --observer logistic --seed 1 --data pilot.sqlite
+    confocal session run ... --participant age=31,sex=F --monitor lab_lcd
     confocal session status study.sqlite
-    confocal session export study.sqlite --out trials.csv
+    confocal session export study.sqlite --out dataset
 """
 
 from __future__ import annotations
 
-import csv
 import itertools
 import json
 import logging
 import math
-from datetime import UTC, datetime
 from pathlib import Path
 from typing import Annotated
 
 import typer
 
 from experiment.errors import ConfocalError
+from stimuli.resources import check_memory, finite_option
 
 __all__ = [
     "register",
@@ -29,34 +29,21 @@ __all__ = [
     "status_command",
     "export_command",
     "status_report",
-    "export_trials",
 ]
 
 logger = logging.getLogger(__name__)
+
+#: Longest headless hold, seconds (ours: one day; longer is a typo, and inf overflows sleep()).
+_MAX_HOLD_S = 86400.0
+#: Memory per planned trial, bytes: the Trial object, its schedule row and its index entries
+#: (ours, rounded up; the check only has to catch absurd repetition counts before allocating).
+_BYTES_PER_TRIAL = 4096
 
 session_app = typer.Typer(
     name="session",
     help="Run recognition sessions and inspect or export the study's trial log.",
     no_args_is_help=True,
 )
-
-#: Descriptions of the exported columns (``dataset_description.json`` variableMeasured).
-COLUMN_DESCRIPTIONS: dict[str, str] = {
-    "subject": "Subject code.",
-    "session": "Session id in the trial log.",
-    "object": "Object id (objects.csv of the stimulus set).",
-    "condition": "cluttered, decluttered or photo (training only).",
-    "level": "Resolution level, 1 = fewest pixels (12x8) ... 8 = full 492x327.",
-    "window": "Compression window side, pixels.",
-    "pixels": "Pixels of the stimulus (width x height).",
-    "recognized": "1 if the latest score of the primary rater counts as recognised, else 0.",
-    "response": "The subject's words as typed by the operator ('' for a pass).",
-    "score": "named, use, shape, wrong or pass (latest score of the primary rater).",
-    "rater": "Who gave that score.",
-    "rt_s": "Response time from stimulus onset, seconds.",
-    "part": "training or main (analyse main only).",
-    "trial_index": "Position in the subject's saved schedule, 0-based.",
-}
 
 
 class _Progress:
@@ -81,7 +68,11 @@ def run_command(
     ] = Path("study.sqlite"),
     observer: Annotated[
         str | None,
-        typer.Option("--observer", help="Simulated observer for --headless: logistic or model."),
+        typer.Option(
+            "--observer",
+            help="Simulated observer for --headless: logistic, model or exemplar "
+            "(exemplar needs --observer-param knowledge=FOLDER).",
+        ),
     ] = None,
     headless: Annotated[
         bool,
@@ -100,7 +91,11 @@ def run_command(
     ] = None,
     hold_s: Annotated[
         float,
-        typer.Option("--hold-s", min=0.0, help="Headless: seconds each stimulus stays shown."),
+        typer.Option(
+            "--hold-s",
+            callback=finite_option(0.0, _MAX_HOLD_S),
+            help="Headless: seconds each stimulus stays shown.",
+        ),
     ] = 0.0,
     progress_every: Annotated[
         int,
@@ -134,11 +129,36 @@ def run_command(
         bool,
         typer.Option("--integer-scale", help="Magnify stimuli by a whole number of pixels."),
     ] = False,
+    participant: Annotated[
+        str | None,
+        typer.Option(
+            "--participant",
+            help="Participant metadata KEY=VALUE,... for participants.tsv, e.g. "
+            "age=31,sex=F,acuity_logmar=1.2,consent=C17 (stored in the log).",
+        ),
+    ] = None,
+    monitor: Annotated[
+        str | None,
+        typer.Option(
+            "--monitor",
+            help="Monitor profile (a name in protocols/monitors or a .toml file): its width, "
+            "distance, resolution and gamma replace the protocol's.",
+        ),
+    ] = None,
+    record_audio: Annotated[
+        bool,
+        typer.Option(
+            "--record-audio",
+            help="Record each spoken answer beside the log and find its voice onset "
+            "(needs the 'audio' extra and a microphone; without them the session runs silent).",
+        ),
+    ] = False,
 ) -> None:
     """Run (or resume) a subject's session: console and presenter, or headless simulation."""
-    from experiment.displays import NullDisplay
-    from experiment.observers import OBSERVERS, make_observer
+    from experiment.observers import OBSERVERS, describe_observer, make_observer
+    from experiment.presentation.displays import NullDisplay
     from experiment.protocol import load_protocol
+    from experiment.schedule import planned_trials
     from experiment.session import Session
     from experiment.stimset import StimulusSet
     from experiment.triallog import TrialLog
@@ -167,13 +187,37 @@ def run_command(
                 f"the operator console is unavailable ({exc}); use --headless --observer NAME "
                 "for a simulated session"
             ) from None
+    if not subject.strip() or subject != subject.strip() or not subject.isprintable():
+        raise ConfocalError(
+            f"--subject must be a subject code without surrounding spaces, e.g. S01; got "
+            f"{subject!r}"
+        )
+    if data.is_dir():
+        raise ConfocalError(f"--data {data} is a folder; expected the study's .sqlite file")
+    meta = None
+    if participant is not None:
+        from experiment.data.psychds import parse_participant
+
+        meta = parse_participant(participant)
     spec = load_protocol(protocol)
+    monitor_record = None
+    if monitor is not None:
+        import dataclasses
+
+        from experiment.data.monitors import apply_monitor, load_monitor
+
+        profile, monitor_record = load_monitor(monitor)
+        spec = dataclasses.replace(spec, display=apply_monitor(spec.display, profile))
     stimset = StimulusSet.load(stimuli)
+    # the whole plan is checked before the trial log is created or touched
+    check_memory(planned_trials(spec, stimset) * _BYTES_PER_TRIAL, f"protocol {protocol}")
+    effective_params = None
     if headless:
         try:  # check the parameters before anything is written
-            make_observer(observer, stimset, subject, rng=0, **params)
+            probe = make_observer(observer, stimset, subject, rng=0, **params)
         except (TypeError, ValueError) as exc:
             raise ConfocalError(f"--observer-param: {exc}") from None
+        effective_params = _params_dict(getattr(probe, "params", None), params)
     log = TrialLog(data)
     try:
         session = Session.open(
@@ -183,12 +227,17 @@ def run_command(
             subject,
             seed=seed,
             responder=f"sim:{observer}" if headless else "console",
+            observer=observer if headless else None,
+            observer_params=effective_params,
+            participant=meta,
+            monitor=monitor_record,
         )
         try:
             if headless:
                 responder = make_observer(
                     observer, stimset, subject, rng=session.child_rng(1), **params
                 )
+                session.log_event("observer", json.dumps(describe_observer(responder)))
                 session.run(
                     NullDisplay(hold_s=hold_s), responder, progress=_Progress(progress_every)
                 )
@@ -200,6 +249,7 @@ def run_command(
                     presenter=presenter,
                     skip_timing_check=skip_timing_check,
                     integer_scale=integer_scale,
+                    record_audio=record_audio,
                 )
             answered, total = session.progress()
             typer.echo(
@@ -210,6 +260,15 @@ def run_command(
             session.close()
     finally:
         log.close()
+
+
+def _params_dict(spec: object, given: dict[str, object]) -> dict[str, object]:
+    """Return the observer's effective parameters (its params dataclass), else those given."""
+    import dataclasses
+
+    if spec is not None and dataclasses.is_dataclass(spec):
+        return json.loads(json.dumps(dataclasses.asdict(spec), default=str))
+    return dict(given)
 
 
 def _parse_params(items: list[str]) -> dict[str, object]:
@@ -274,6 +333,7 @@ def status_report(path: Path) -> dict:
                     "started_at": s["started_at"],
                     "ended_at": s["ended_at"],
                     "crashes": int(crashes),
+                    "observer": s.get("observer"),
                     "lock": (
                         {k: locks[sid][k] for k in ("pid", "host", "acquired_at")}
                         if sid in locks
@@ -313,6 +373,8 @@ def status_command(
                 f"  next: #{n['trial_index']} {n['part']} block {n['block']} "
                 f"level {n['level']} {n['condition']}"
             )
+        if s["observer"]:
+            line += f"  SIMULATED ({s['observer']})"
         if s["crashes"]:
             line += f"  crashes recovered: {s['crashes']}"
         if s["lock"]:
@@ -320,84 +382,41 @@ def status_command(
         typer.echo(line)
     for k in rep["kappa"]:
         kv = "nan" if k["kappa"] is None or math.isnan(k["kappa"]) else f"{k['kappa']:.3f}"
+        ci = (
+            ""
+            if k.get("ci95_low") is None or math.isnan(k["ci95_low"])
+            else f" (95% CI {k['ci95_low']:.3f} to {k['ci95_high']:.3f})"
+        )
         typer.echo(
-            f"agreement {k['rater_a']} vs {k['rater_b']}: Cohen's kappa {kv} on {k['n']} trials "
-            f"(observed {k['observed']:.3f}, chance {k['expected']:.3f})"
+            f"agreement {k['rater_a']} vs {k['rater_b']}: Cohen's kappa {kv}{ci} on {k['n']} "
+            f"trials (observed {k['observed']:.3f}, chance {k['expected']:.3f})"
         )
 
 
 @session_app.command("export")
 def export_command(
     data: Annotated[Path, typer.Argument(help="The study's SQLite trial log.")],
-    out: Annotated[Path, typer.Option("--out", "-o", help="CSV file to write (tidy_trials).")],
+    out: Annotated[
+        Path, typer.Option("--out", "-o", help="Dataset folder (created, or merged into).")
+    ],
+    study: Annotated[
+        str | None,
+        typer.Option("--study", help="Study name in the file names (default: the log's name)."),
+    ] = None,
 ) -> None:
-    """Write one row per answered trial (tidy_trials) as CSV plus dataset_description.json."""
-    export_trials(data, out)
-    typer.echo(f"wrote {out} and {out.parent / 'dataset_description.json'}")
+    """Write a Psych-DS dataset: data/ (one CSV per session), participants.tsv, description."""
+    from experiment.data.psychds import export_dataset
 
-
-def export_trials(data: Path, out: Path) -> tuple[Path, Path]:
-    """Export ``tidy_trials`` to ``out`` (CSV) and a Psych-DS-style ``dataset_description.json``.
-
-    Returns
-    -------
-    (csv_path, description_path)
-    """
-    from experiment.triallog import TIDY_COLUMNS, TrialLog
-    from stimuli.io import atomic_path
-
-    with TrialLog(data, readonly=True) as log:
-        rows = log.tidy_trials()
-        sessions = log.sessions()
-        version = log.schema_version()
-    out = Path(out)
-    with atomic_path(out) as tmp:
-        with open(tmp, "w", newline="", encoding="utf-8") as f:
-            w = csv.DictWriter(f, fieldnames=list(TIDY_COLUMNS))
-            w.writeheader()
-            for r in rows:
-                w.writerow({k: ("" if r[k] is None else r[k]) for k in TIDY_COLUMNS})
-    desc = {
-        "@context": "https://schema.org/",
-        "@type": "Dataset",
-        "name": "Object recognition with compressed, cluttered and de-cluttered images",
-        "description": (
-            "Trials exported from a confocal trial log (Jung et al. 2015 paradigm): one row per "
-            "answered trial; 'recognized' from the primary rater's latest score."
-        ),
-        "schemaVersion": "Psych-DS 0.1.0",
-        "dateCreated": datetime.now(UTC).isoformat(timespec="seconds"),
-        "variableMeasured": [
-            {"@type": "PropertyValue", "name": c, "description": COLUMN_DESCRIPTIONS[c]}
-            for c in TIDY_COLUMNS
-        ],
-        "source": str(Path(data).resolve()),
-        "trialLogSchemaVersion": version,
-        "sessions": [
-            {
-                k: s[k]
-                for k in (
-                    "session_id",
-                    "subject",
-                    "protocol_name",
-                    "protocol_sha256",
-                    "protocol_file_sha256",
-                    "stimset_manifest_sha256",
-                    "seed",
-                    "software_version",
-                    "git_commit",
-                    "started_at",
-                    "ended_at",
-                    "status",
-                )
-            }
-            for s in sessions
-        ],
-    }
-    desc_path = out.parent / "dataset_description.json"
-    with atomic_path(desc_path) as tmp:
-        tmp.write_text(json.dumps(desc, indent=2), encoding="utf-8")
-    return out, desc_path
+    try:
+        info = export_dataset(data, out, study=study)
+    except ValueError as exc:
+        raise ConfocalError(f"--study: {exc}") from None
+    sim = info["simulated_sessions"]
+    typer.echo(
+        f"wrote {out}: {len(info['files'])} data file(s) in {out / 'data'}, participants.tsv, "
+        "dataset_description.json"
+        + (f"; simulated session(s): {', '.join(map(str, sim))}" if sim else "")
+    )
 
 
 def register(app: typer.Typer) -> None:

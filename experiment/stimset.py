@@ -36,7 +36,35 @@ import numpy as np
 from experiment.errors import ConfocalError
 from stimuli.manifest import MANIFEST_COLUMNS as _BUILDER_MANIFEST_COLUMNS
 
-__all__ = ["StimulusSetError", "StimulusRecord", "ObjectInfo", "StimulusSet"]
+__all__ = [
+    "StimulusSetError",
+    "StimulusRecord",
+    "ObjectInfo",
+    "StimulusSet",
+    "PHOTO_CONDITIONS",
+    "COLOUR_CONDITIONS",
+    "decode_stimulus",
+]
+
+#: Conditions whose stimuli are photos (float32 in [0, 1]), not binary edge images.
+PHOTO_CONDITIONS: tuple[str, ...] = ("photo", "colour_wide", "colour_confocal")
+#: Photo conditions shown in colour, (rows, cols, 3) (Jung et al. 2015, Sec. 3.1 training).
+COLOUR_CONDITIONS: tuple[str, ...] = ("colour_wide", "colour_confocal")
+
+
+def decode_stimulus(path: str | Path, condition: str) -> np.ndarray:
+    """Read a stimulus file as the presenter takes it, by condition.
+
+    Returns ``bool`` (rows, cols) for edge stimuli, ``float32`` (rows, cols) in [0, 1] for the
+    grey photo, ``float32`` (rows, cols, 3) in [0, 1] for colour photos.
+    """
+    from stimuli.io import load_gray, load_rgb
+
+    if condition in COLOUR_CONDITIONS:
+        return load_rgb(path)
+    img = load_gray(path)
+    return img if condition in PHOTO_CONDITIONS else img >= 0.5
+
 
 #: Columns the engine requires in ``manifest.csv``: the builder's first ten (the rest are the
 #: builder's provenance, which the engine carries but does not need, so stimulus sets made by
@@ -161,6 +189,16 @@ class StimulusSet:
             records.append(rec)
         if not records:
             raise StimulusSetError(f"{manifest}: no stimuli listed")
+        inside = root.resolve()
+        for i, rec in enumerate(records, start=2):
+            # paths may not reach outside the set: no absolute paths, '..' or symlinks out
+            if Path(rec.path).is_absolute() or not (inside / rec.path).resolve().is_relative_to(
+                inside
+            ):
+                raise StimulusSetError(
+                    f"{manifest}: line {i}: field path {rec.path!r} points outside the stimulus "
+                    f"set {root}; expected a file inside the set folder"
+                )
         objects = {}
         for row in _read_csv(root / "objects.csv", OBJECT_COLUMNS):
             o = ObjectInfo(
@@ -232,10 +270,5 @@ class StimulusSet:
         return n
 
     def load_image(self, record: StimulusRecord) -> np.ndarray:
-        """Return the image: ``bool`` for edge stimuli, ``float32`` in [0, 1] for photos."""
-        from stimuli.io import load_gray
-
-        img = load_gray(self.root / record.path)
-        if record.condition == "photo":
-            return img
-        return img >= 0.5
+        """Return the image (see :func:`decode_stimulus`)."""
+        return decode_stimulus(self.root / record.path, record.condition)

@@ -154,6 +154,15 @@ def make_stimulus_set(
             rel = f"images/{oid}_photo.png"
             save_png(grey, root / rel)
             rows_out.append((oid, role, "photo", 8, 1, grey.shape[1], grey.shape[0], rel))
+            if role == "training":  # the colour photos of the paper's training (Sec. 3.1)
+                tint = np.array([1.0, 0.8, 0.6], np.float32)
+                for cond, img in (
+                    ("colour_wide", grey),
+                    ("colour_confocal", 0.5 + 0.4 * obj_edges),
+                ):
+                    rel = f"images/{oid}_{cond}.png"
+                    save_png(np.clip(img[..., None] * tint, 0, 1).astype(np.float32), root / rel)
+                    rows_out.append((oid, role, cond, 8, 1, img.shape[1], img.shape[0], rel))
     with open(root / "manifest.csv", "w", newline="", encoding="utf-8") as f:
         wr = csv.writer(f)
         wr.writerow(MANIFEST_COLUMNS)

@@ -4,7 +4,9 @@ Schema (created by numbered migrations, recorded in ``schema_migrations``)
 ----------------------------------------------------------------------------
 ``sessions``   one row per session: subject, protocol (name, content and file sha256, JSON),
                display spec, stimulus-set path and manifest sha256, seed, software version, git
-               commit, machine, start/end (UTC), status ``open``/``completed``, primary rater.
+               commit, machine, start/end (UTC), status ``open``/``completed``, primary rater,
+               the simulated observer with its parameters (NULL for a person), participant
+               metadata and monitor profile (JSON; migration 2).
 ``schedule``   the planned trials, written whole before the first trial;
                primary key (session_id, trial_index).
 ``trials``     one row per answered trial: object, condition, level, pixels, stimulus sha256,
@@ -13,15 +15,30 @@ Schema (created by numbered migrations, recorded in ``schema_migrations``)
 ``scores``     append-only scorings: score, recognized, rater, is_primary, scored_at. The trial's
                own scoring is primary; a re-score by the same rater (or by the protocol's primary
                rater) is primary too; other raters' scores are kept beside it for agreement.
+``viewings``   (schema 4) one row per stimulus onset, committed when the frame is shown and
+               before any answer exists, so a crash between onset and answer leaves the viewing
+               on record; append-only.
 ``events``     pause, resume, abort, note, break, crash (detected at restart), open, close,
-               complete.
+               complete, repeat_viewing (a trial shown again, e.g. after such a crash).
 ``locks``      the process that has a session open: pid, host, process start time, token.
+``active_events`` (migration 3, active search, :mod:`experiment.active`) one row per event of an
+               active-search session, append-only: ``session_id, trial, attempt, seq, t_s, kind,
+               payload`` (JSON object), ``recorded_at``; ``UNIQUE(session_id, seq)``. ``trial``
+               is NULL for session-level rows (the ``plan``). Kinds: ``plan``, ``trial_start``,
+               ``key``, ``state``, ``answer``, ``score``, ``attempt_abandoned``. The schema of each
+               payload is documented in :mod:`experiment.active.eventlog`.
 ``tidy_trials`` (VIEW) one row per answered trial: ``subject, session, object, condition, level,
-               window, pixels, recognized, response, score, rater, rt_s, part, trial_index``, with
-               ``recognized`` from the latest primary score. This is what the analysis reads.
+               window, pixels, recognized, response, score, rater, rt_s, part, trial_index,
+               simulated, observer, viewings, repeat_viewing``, with ``recognized`` from the latest
+               primary score and ``simulated`` 1 for a simulated observer's session (``observer``
+               names it; it is ``human`` otherwise). This is what the analysis reads.
 
-Durability: WAL journal, ``synchronous=FULL``; each answered trial (its ``trials`` row and its
-first ``scores`` row) is one transaction, committed before the next stimulus is shown.
+Durability: WAL journal, ``synchronous=FULL``; each onset is one transaction, and each answered
+trial (its ``trials`` row and its first ``scores`` row) is one transaction, committed before the
+next stimulus is shown. A full disk rolls the open transaction back and ends with one line
+(:class:`TrialLogError`); every acknowledged trial stays. Read-only opens never write beside the
+file: without a ``-wal`` file (no writer) the database is opened ``immutable``. The crash tests
+inject faults at each write step through :data:`FAULT_ENV` (:func:`fault_point`).
 
 Locking: a session is claimed by a ``locks`` row (pid, host, process start time), written in an
 ``IMMEDIATE`` transaction. A second process finding a live holder is refused. A row whose process
@@ -57,6 +74,9 @@ __all__ = [
     "MIGRATIONS",
     "TIDY_COLUMNS",
     "TrialLog",
+    "FAULT_ENV",
+    "FAULT_STEPS",
+    "fault_point",
 ]
 
 #: Columns of the ``tidy_trials`` view, in order (the contract with ``analysis``).
@@ -75,9 +95,107 @@ TIDY_COLUMNS: tuple[str, ...] = (
     "rt_s",
     "part",
     "trial_index",
+    "simulated",
+    "observer",
+    "viewings",
+    "repeat_viewing",
 )
 
 _SCORE_LIST = ", ".join(f"'{s}'" for s in SCORES)
+
+#: ``tidy_trials`` from schema 4 on: ``viewings`` counts the logged onsets of the trial (0 for
+#: trials answered before schema 4 was applied, when onsets were not logged); ``repeat_viewing``
+#: is 1 when the subject saw the stimulus more than once (a crash between onset and answer,
+#: then a resume that showed it again).
+_TIDY_VIEW_V2 = """
+        CREATE VIEW tidy_trials AS
+        SELECT s.subject AS subject,
+               t.session_id AS session,
+               t.object AS object,
+               t.condition AS condition,
+               t.level AS level,
+               p.window AS window,
+               t.pixels AS pixels,
+               sc.recognized AS recognized,
+               t.response AS response,
+               sc.score AS score,
+               sc.rater AS rater,
+               t.rt_s AS rt_s,
+               p.part AS part,
+               t.trial_index AS trial_index,
+               CASE WHEN s.observer IS NULL THEN 0 ELSE 1 END AS simulated,
+               COALESCE(s.observer, 'human') AS observer,
+               (SELECT count(*) FROM viewings v
+                WHERE v.session_id = t.session_id AND v.trial_index = t.trial_index) AS viewings,
+               (SELECT count(*) > 1 FROM viewings v
+                WHERE v.session_id = t.session_id AND v.trial_index = t.trial_index)
+                   AS repeat_viewing
+        FROM trials t
+        JOIN sessions s ON s.session_id = t.session_id
+        JOIN schedule p ON p.session_id = t.session_id AND p.trial_index = t.trial_index
+        JOIN scores sc ON sc.score_id = (
+            SELECT max(q.score_id) FROM scores q
+            WHERE q.session_id = t.session_id AND q.trial_index = t.trial_index
+              AND q.is_primary = 1)
+        ORDER BY t.session_id, t.trial_index;
+"""
+
+#: Environment variable that injects a fault at a write step (tests of crash safety):
+#: ``STEP@N=ACTION``, where STEP is a step name of :data:`FAULT_STEPS` or ``any``, N counts the
+#: hits of that step in this process (1-based), and ACTION is ``exit`` (``os._exit(137)`` at that
+#: hit, as a SIGKILL would end the process) or ``enospc`` (SQLite's "database or disk is full" at
+#: that hit and every later one).
+FAULT_ENV = "CONFOCAL_FAULT"
+
+#: The write steps where a fault can be injected, in the order a trial passes through them.
+FAULT_STEPS: tuple[str, ...] = (
+    "begin",
+    "onset.insert",
+    "record.trial",
+    "record.score",
+    "commit",
+    "committed",
+)
+
+_fault_spec: tuple[str, int, str] | None | bool = False  # False: not parsed yet
+_fault_hits: dict[str, int] = {}
+
+
+def fault_point(step: str) -> None:
+    """Count a write step and inject the fault of :data:`FAULT_ENV` when it is due.
+
+    A no-op when the variable is unset; used by the crash-safety tests to choose kill points
+    at every write step instead of by sleeping.
+    """
+    global _fault_spec
+    if _fault_spec is False:
+        _fault_spec = _parse_fault(os.environ.get(FAULT_ENV, ""))
+    if _fault_spec is None:
+        return
+    want, n, action = _fault_spec
+    _fault_hits[step] = _fault_hits.get(step, 0) + 1
+    _fault_hits["any"] = _fault_hits.get("any", 0) + 1
+    if want not in (step, "any"):
+        return
+    if action == "exit" and _fault_hits[want] == n:
+        os._exit(137)
+    if action == "enospc" and _fault_hits[want] >= n:  # a full disk stays full
+        raise sqlite3.OperationalError("database or disk is full")
+
+
+def _parse_fault(text: str) -> tuple[str, int, str] | None:
+    if not text.strip():
+        return None
+    try:
+        where, action = text.strip().split("=")
+        step, n = where.split("@")
+        spec = (step, int(n), action)
+    except ValueError:
+        raise ValueError(f"{FAULT_ENV} must look like STEP@N=exit|enospc, got {text!r}") from None
+    if spec[0] not in (*FAULT_STEPS, "any") or spec[1] < 1 or spec[2] not in ("exit", "enospc"):
+        raise ValueError(f"{FAULT_ENV} must look like STEP@N=exit|enospc, got {text!r}")
+    return spec
+
 
 #: Numbered schema migrations: (version, name, SQL). Never edit a released one; append.
 MIGRATIONS: tuple[tuple[int, str, str], ...] = (
@@ -213,6 +331,167 @@ MIGRATIONS: tuple[tuple[int, str, str], ...] = (
     ),
 )
 
+
+def _migration_study_metadata(version: int) -> tuple[int, str, str]:
+    """Return the migration that labels simulated sessions and stores study metadata (issue 15).
+
+    ``sessions`` gains ``observer`` (the simulated observer's name; NULL for a human subject) and
+    ``observer_params`` (its parameters, JSON), back-filled from ``responder = 'sim:NAME'``;
+    ``participant_json`` (participant metadata entered at session start: age, sex, ...) and
+    ``monitor_json`` (the monitor profile used: name, sha256, fields). The ``tidy_trials`` view
+    gains ``simulated`` (1/0) and ``observer`` (``human`` for people), so every export and
+    analysis can tell simulated data from real data.
+    """
+    return (
+        version,
+        "observer, observer_params, participant_json, monitor_json; simulated in tidy_trials",
+        """
+        ALTER TABLE sessions ADD COLUMN observer TEXT;
+        ALTER TABLE sessions ADD COLUMN observer_params TEXT;
+        ALTER TABLE sessions ADD COLUMN participant_json TEXT;
+        ALTER TABLE sessions ADD COLUMN monitor_json TEXT;
+        UPDATE sessions SET observer = substr(responder, 5)
+            WHERE responder LIKE 'sim:%' AND observer IS NULL;
+        DROP VIEW tidy_trials;
+        CREATE VIEW tidy_trials AS
+        SELECT s.subject AS subject,
+               t.session_id AS session,
+               t.object AS object,
+               t.condition AS condition,
+               t.level AS level,
+               p.window AS window,
+               t.pixels AS pixels,
+               sc.recognized AS recognized,
+               t.response AS response,
+               sc.score AS score,
+               sc.rater AS rater,
+               t.rt_s AS rt_s,
+               p.part AS part,
+               t.trial_index AS trial_index,
+               CASE WHEN s.observer IS NULL THEN 0 ELSE 1 END AS simulated,
+               COALESCE(s.observer, 'human') AS observer
+        FROM trials t
+        JOIN sessions s ON s.session_id = t.session_id
+        JOIN schedule p ON p.session_id = t.session_id AND p.trial_index = t.trial_index
+        JOIN scores sc ON sc.score_id = (
+            SELECT max(q.score_id) FROM scores q
+            WHERE q.session_id = t.session_id AND q.trial_index = t.trial_index
+              AND q.is_primary = 1)
+        ORDER BY t.session_id, t.trial_index;
+        """,
+    )
+
+
+def _active_events_migration() -> tuple[int, str, str]:
+    """Migration 3: the ``active_events`` table of the active-search task (issue 14).
+
+    Self-contained so that it can be renumbered at a merge; numbered 3 so that it applies in any
+    order relative to migration 2 (``_migrate`` applies every version not yet recorded).
+    """
+    return (
+        3,
+        "active-search events",
+        """
+        CREATE TABLE active_events (
+            event_id INTEGER PRIMARY KEY,
+            session_id INTEGER NOT NULL REFERENCES sessions(session_id),
+            trial INTEGER CHECK (trial IS NULL OR trial >= 0),
+            attempt INTEGER NOT NULL DEFAULT 0 CHECK (attempt >= 0),
+            seq INTEGER NOT NULL CHECK (seq >= 0),
+            t_s REAL NOT NULL,
+            kind TEXT NOT NULL,
+            payload TEXT NOT NULL DEFAULT '{}' CHECK (json_valid(payload)),
+            recorded_at TEXT NOT NULL,
+            UNIQUE (session_id, seq)
+        );
+        CREATE INDEX active_events_trial ON active_events(session_id, trial, attempt);
+        CREATE TRIGGER active_events_no_update BEFORE UPDATE ON active_events
+            BEGIN SELECT RAISE(ABORT, 'active events are append-only'); END;
+        CREATE TRIGGER active_events_no_delete BEFORE DELETE ON active_events
+            BEGIN SELECT RAISE(ABORT, 'active events are append-only'); END;
+        """,
+    )
+
+
+def _migration_viewings(version: int) -> tuple[int, str, str]:
+    """Return the migration that logs every stimulus onset (``viewings``; issue 10).
+
+    ``tidy_trials`` gains ``viewings`` and ``repeat_viewing`` (and keeps ``simulated`` and
+    ``observer`` from the study-metadata migration).
+    """
+    return (
+        version,
+        "viewings: every stimulus onset, committed when the frame is shown",
+        f"""
+        CREATE TABLE viewings (
+            viewing_id INTEGER PRIMARY KEY,
+            session_id INTEGER NOT NULL,
+            trial_index INTEGER NOT NULL,
+            onset_s REAL,
+            shown_at TEXT NOT NULL,
+            pid INTEGER,
+            FOREIGN KEY (session_id, trial_index) REFERENCES schedule(session_id, trial_index)
+        );
+        CREATE INDEX viewings_trial ON viewings(session_id, trial_index);
+        CREATE TRIGGER viewings_no_update BEFORE UPDATE ON viewings
+            BEGIN SELECT RAISE(ABORT, 'viewings are append-only'); END;
+        CREATE TRIGGER viewings_no_delete BEFORE DELETE ON viewings
+            BEGIN SELECT RAISE(ABORT, 'viewings are append-only'); END;
+        DROP VIEW tidy_trials;
+        {_TIDY_VIEW_V2}
+        """,
+    )
+
+
+MIGRATIONS += (
+    _migration_study_metadata(2),
+    _active_events_migration(),
+    _migration_viewings(4),
+)
+
+
+def _migration_audio(version: int) -> tuple[int, str, str]:
+    """Issue 15, point 3 (self-contained; see ``experiment/audio/``): the subject's spoken answer
+    per trial, its file beside the log, and the voice onset found in it. The operator's
+    keystroke time stays in ``trials.rt_s``; the view ``voice_trials`` names both."""
+    return (
+        version,
+        "audio recordings and voice onset",
+        """
+        CREATE TABLE audio (
+            session_id INTEGER NOT NULL,
+            trial_index INTEGER NOT NULL,
+            path TEXT NOT NULL,
+            sha256 TEXT NOT NULL,
+            samplerate_hz INTEGER NOT NULL CHECK (samplerate_hz > 0),
+            duration_s REAL NOT NULL CHECK (duration_s >= 0),
+            start_s REAL NOT NULL,
+            voice_rt_s REAL,
+            method_json TEXT NOT NULL,
+            recorded_at TEXT NOT NULL,
+            UNIQUE (session_id, trial_index),
+            FOREIGN KEY (session_id, trial_index) REFERENCES trials(session_id, trial_index)
+        );
+        CREATE TRIGGER audio_no_update BEFORE UPDATE ON audio
+            BEGIN SELECT RAISE(ABORT, 'audio rows are append-only'); END;
+        CREATE TRIGGER audio_no_delete BEFORE DELETE ON audio
+            BEGIN SELECT RAISE(ABORT, 'audio rows are append-only'); END;
+        CREATE VIEW voice_trials AS
+        SELECT t.session_id AS session,
+               t.trial_index AS trial_index,
+               t.rt_s AS key_rt_s,
+               a.voice_rt_s AS voice_rt_s,
+               a.path AS audio_path,
+               a.sha256 AS audio_sha256
+        FROM trials t
+        LEFT JOIN audio a ON a.session_id = t.session_id AND a.trial_index = t.trial_index
+        ORDER BY t.session_id, t.trial_index;
+        """,
+    )
+
+
+MIGRATIONS += (_migration_audio(5),)
+
 _SCHEDULE_COLS = (
     "trial_index",
     "part",
@@ -325,6 +604,10 @@ class TrialLog:
         try:
             if readonly and not memory:
                 uri = Path(self.path).resolve().as_uri() + "?mode=ro"
+                if not Path(self.path + "-wal").exists():
+                    # No WAL file: no writer has the log open, and a mode=ro connection to a
+                    # WAL database would still create -wal/-shm files beside it and leave them.
+                    uri += "&immutable=1"
                 self._con = sqlite3.connect(uri, uri=True, isolation_level=None, timeout=10.0)
             else:
                 self._con = sqlite3.connect(self.path, isolation_level=None, timeout=10.0)
@@ -343,6 +626,8 @@ class TrialLog:
                 f"{self.path}: an SQLite file but not a confocal trial log "
                 "(no schema_migrations table); nothing was changed"
             )
+        if tables:  # refuse a newer schema before anything is written (WAL mode, migrations)
+            self._check_version()
         if readonly:
             if not tables:
                 self._con.close()
@@ -359,12 +644,15 @@ class TrialLog:
             except sqlite3.OperationalError as exc:
                 self._con.close()
                 raise TrialLogError(f"{self.path}: cannot write the trial log ({exc})") from None
+        self._check_version()
+
+    def _check_version(self) -> None:
         v = self.schema_version()
-        if v > MIGRATIONS[-1][0]:
+        if v > max(m[0] for m in MIGRATIONS):
             self._con.close()
             raise TrialLogError(
                 f"{self.path}: schema version {v} is newer than this software knows "
-                f"({MIGRATIONS[-1][0]}); upgrade confocal"
+                f"({max(m[0] for m in MIGRATIONS)}); upgrade confocal"
             )
 
     # -- transactions -------------------------------------------------------------------------
@@ -375,16 +663,25 @@ class TrialLog:
         if self.readonly:
             raise TrialLogError(f"{self.path}: opened read-only; cannot write")
         if self._depth == 0:
-            self._con.execute("BEGIN IMMEDIATE")
+            try:
+                fault_point("begin")
+                self._con.execute("BEGIN IMMEDIATE")
+            except sqlite3.OperationalError as exc:
+                self._raise_write_error(exc)
             self._depth += 1
             try:
                 yield self._con
-            except BaseException:
+                fault_point("commit")
+                self._con.execute("COMMIT")
+            except BaseException as exc:
                 self._depth -= 1
-                self._con.execute("ROLLBACK")
+                if self._con.in_transaction:
+                    self._con.execute("ROLLBACK")
+                if isinstance(exc, sqlite3.OperationalError):
+                    self._raise_write_error(exc)
                 raise
             self._depth -= 1
-            self._con.execute("COMMIT")
+            fault_point("committed")
         else:
             name = f"sp{self._depth}"
             self._con.execute(f"SAVEPOINT {name}")
@@ -398,6 +695,17 @@ class TrialLog:
                 raise
             self._depth -= 1
             self._con.execute(f"RELEASE {name}")
+
+    def _raise_write_error(self, exc: sqlite3.OperationalError) -> None:
+        """Turn SQLite's disk-full and I/O errors into one line; the last commit is intact."""
+        text = " ".join(str(exc).split())
+        if "full" in text or "disk i/o" in text.lower():
+            raise TrialLogError(
+                f"{self.path}: the disk is full ({text}); the write was rolled back, so the log "
+                "holds every trial up to the last one acknowledged; free space and run the same "
+                "command again to resume"
+            ) from None
+        raise exc
 
     def _migrate(self) -> None:
         self._con.execute(
@@ -451,6 +759,10 @@ class TrialLog:
             "software_version",
             "git_commit",
             "machine",
+            "observer",
+            "observer_params",
+            "participant_json",
+            "monitor_json",
         }
         bad = sorted(set(columns) - allowed)
         if bad:
@@ -551,6 +863,12 @@ class TrialLog:
         now = utc_now()
         try:
             with self.atomic() as con:
+                if not con.execute(
+                    "SELECT 1 FROM viewings WHERE session_id = ? AND trial_index = ?",
+                    (session_id, trial.index),
+                ).fetchone():  # a caller that did not log the onset: log it with the answer
+                    self._insert_viewing(con, session_id, trial.index, flip.onset_s)
+                fault_point("record.trial")
                 con.execute(
                     "INSERT INTO trials (session_id, trial_index, object, condition, level, "
                     "pixels, stimulus_sha256, onset_s, offset_s, dropped_frames, refresh_hz, "
@@ -574,6 +892,7 @@ class TrialLog:
                         now,
                     ),
                 )
+                fault_point("record.score")
                 con.execute(
                     "INSERT INTO scores (session_id, trial_index, score, recognized, rater, "
                     "is_primary, scored_at) VALUES (?, ?, ?, ?, ?, 1, ?)",
@@ -583,6 +902,39 @@ class TrialLog:
             raise TrialLogError(
                 f"{self.path}: cannot record trial {trial.index} of session {session_id} ({exc})"
             ) from None
+
+    def record_onset(self, session_id: int, trial_index: int, onset_s: float | None) -> int:
+        """Log that a trial's stimulus is on the screen, durably, before any answer exists.
+
+        Returns
+        -------
+        int
+            How many times this trial has now been shown (2 or more: a repeat viewing, e.g. the
+            stimulus was shown, the program crashed before the answer was logged, and the
+            resumed session showed it again).
+        """
+        with self.atomic() as con:
+            self._insert_viewing(con, session_id, trial_index, onset_s)
+            return self.viewings(session_id, trial_index)
+
+    def _insert_viewing(
+        self, con: sqlite3.Connection, session_id: int, trial_index: int, onset_s: float | None
+    ) -> None:
+        fault_point("onset.insert")
+        con.execute(
+            "INSERT INTO viewings (session_id, trial_index, onset_s, shown_at, pid) "
+            "VALUES (?, ?, ?, ?, ?)",
+            (session_id, trial_index, onset_s, utc_now(), os.getpid()),
+        )
+
+    def viewings(self, session_id: int, trial_index: int) -> int:
+        """Return how many onsets of a trial are logged (0 if never shown, or before schema 4)."""
+        return int(
+            self.execute(
+                "SELECT count(*) FROM viewings WHERE session_id = ? AND trial_index = ?",
+                (session_id, trial_index),
+            )[0][0]
+        )
 
     def add_score(
         self,
@@ -741,6 +1093,24 @@ class TrialLog:
     def locks(self) -> list[dict[str, Any]]:
         """Return the current lock rows."""
         return [dict(r) for r in self.execute("SELECT * FROM locks ORDER BY session_id")]
+
+    def save_copy(self, path: str | Path) -> None:
+        """Write the whole log to a new SQLite file ``path`` (sqlite3's online backup).
+
+        For logs kept in memory (``:memory:``, e.g. simulated subjects in ``confocal demo``):
+        the copy is a complete trial log, written to a temporary file and renamed.
+        """
+        p = Path(path)
+        tmp = p.with_name(f".{p.name}.{uuid.uuid4().hex}.tmp")
+        try:
+            dest = sqlite3.connect(tmp)
+            try:
+                self._con.backup(dest)
+            finally:
+                dest.close()
+            os.replace(tmp, p)
+        finally:
+            tmp.unlink(missing_ok=True)
 
     def close(self) -> None:
         """Release held locks and close the connection."""

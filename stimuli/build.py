@@ -4,15 +4,17 @@ The pipeline, per object
 ------------------------
 1. Read the wide-DOF ("conventional") and narrow-DOF ("confocal") photos with
    :func:`stimuli.io.load_gray` (luminance, float32 in [0, 1], EXIF orientation applied). A
-   light-field object gives the pair through ``stimuli.lightfield.confocal_pair`` instead: its
+   light-field object gives the pair through ``stimuli.planes.confocal_pair`` instead: its
    centre view is the cluttered image and the confocal image the de-cluttered one.
 2. Zoom (optional, paper Sec. 4.1, Fig. 14): the ``crop`` box ``x,y,w,h`` of ``objects.csv`` is
    cut out at full resolution before anything else.
 3. Centre-crop to the working aspect (492:327 by default) if needed, then an anti-aliased resize
    to the working size with ``skimage.transform.resize(..., anti_aliasing=True)``.
 4. Sobel magnitude and threshold (:mod:`stimuli.declutter`): the per-object value of
-   ``objects.csv``, else the global ``threshold``, else :func:`stimuli.declutter.auto_threshold`
-   on the narrow-DOF image at the working size; the same value is applied to the wide-DOF
+   ``objects.csv``, else the global ``threshold``, else an automatic one at the working size:
+   by default the pair's minimum edge retention (:func:`stimuli.tune.retention_threshold`,
+   the method of ``confocal stimuli tune``), or Otsu / triangle on the narrow-DOF image
+   (:func:`stimuli.declutter.auto_threshold`); the same value is applied to the wide-DOF
    image, as in the paper.
 5. Edge ratio ``r``: given, or the mean edge-pixel fraction over the wide-DOF edge images of the
    set's main objects (the paper found 1/13 = 7.7 %).
@@ -25,6 +27,7 @@ the end, so the output folder is untouched by any error.
 
 from __future__ import annotations
 
+import errno
 import hashlib
 import json
 import logging
@@ -46,9 +49,24 @@ from skimage.transform import resize
 from stimuli import jung2015
 from stimuli.compress import compress, compress_grey, resolution_ladder
 from stimuli.contact import contact_sheet, save_contact_sheet
-from stimuli.declutter import AUTO_THRESHOLD_METHODS, auto_threshold, declutter
+from stimuli.declutter import (
+    AUTO_THRESHOLD_METHODS,
+    DECLUTTER_MODES,
+    auto_threshold,
+    bokeh_guard,
+    declutter,
+    declutter_depth,
+)
 from stimuli.errors import InputError
-from stimuli.io import check_gray, image_shape_px, load_gray, save_png, sha256_file
+from stimuli.io import (
+    check_gray,
+    default_mode,
+    image_shape_px,
+    load_gray,
+    load_rgb,
+    save_png,
+    sha256_file,
+)
 from stimuli.manifest import (
     ObjectInfo,
     StimulusRecord,
@@ -59,6 +77,7 @@ from stimuli.manifest import (
     write_manifest,
     write_objects_csv,
 )
+from stimuli.tune import retention_threshold
 
 __all__ = [
     "BuildParams",
@@ -77,6 +96,8 @@ __all__ = [
     "edge_ladder",
     "grey_ladder",
     "build_stimulus_set",
+    "THRESHOLD_METHODS",
+    "min_photo_shape_px",
 ]
 
 logger = logging.getLogger(__name__)
@@ -84,6 +105,12 @@ logger = logging.getLogger(__name__)
 #: Name and version of the ``stimulus_set.json`` format written here.
 SET_FORMAT = "confocal-stimulus-set"
 SET_FORMAT_VERSION = 1
+
+#: Automatic threshold methods of the build (ours, not the paper's: the paper set the threshold
+#: by hand). ``'retention'`` (the default) uses both photos of a pair; the others only the narrow
+#: photo. On the six real photo pairs in ``dof_pairs/`` Otsu leaves a mean wide-DOF edge fraction
+#: of 0.28, retention 0.068 (paper 0.077); see ``stimuli/tune.py``.
+THRESHOLD_METHODS: tuple[str, ...] = ("retention", *AUTO_THRESHOLD_METHODS)
 
 _MODES = ("edges", "grey")
 _SIZE_RE = re.compile(r"^\s*(\d+)\s*[xX×]\s*(\d+)\s*$")
@@ -166,8 +193,10 @@ class BuildParams:
         Working size of the edge images (paper: 327 x 492).
     threshold : float >= 0 or None
         Global Sobel threshold; ``None`` = automatic per object (objects.csv values win).
-    threshold_method : {'otsu', 'triangle'}
-        Automatic threshold method (:func:`stimuli.declutter.auto_threshold`).
+    threshold_method : {'retention', 'otsu', 'triangle'}
+        Automatic threshold method: ``'retention'`` uses both photos of the pair
+        (:func:`stimuli.tune.retention_threshold`); the others the narrow photo alone
+        (:func:`stimuli.declutter.auto_threshold`).
     edge_ratio : float in [0, 1) or None
         Compression edge ratio; ``None`` = mean wide-DOF edge fraction of the set.
     mode : {'edges', 'grey'}
@@ -178,6 +207,13 @@ class BuildParams:
         Accept pairs whose two photos differ in pixel size (each is resized on its own).
     windows_px : tuple of int
         Compression windows (paper: 1, 2, 3, 5, 7, 13, 18, 40).
+    declutter : {'sobel', 'depth'}
+        De-cluttering of light-field objects: the paper's Sobel + threshold, or Sobel edges kept
+        where the light field's views agree at the plane (:func:`stimuli.declutter.in_focus_mask`;
+        ours, beyond the paper). Photo pairs always use Sobel.
+    bokeh_guard : bool
+        Photo pairs: drop narrow-DOF edges with no wide-DOF edge nearby
+        (:func:`stimuli.declutter.bokeh_guard`; ours, beyond the paper).
     fast_decode : bool
         Decode JPEG photos at reduced size (1/2, 1/4 or 1/8 in the DCT domain, Pillow's
         ``draft``), just large enough for the working size, before the anti-aliased resize.
@@ -187,13 +223,15 @@ class BuildParams:
 
     working_shape_px: tuple[int, int] = jung2015.WORKING_SHAPE_PX
     threshold: float | None = None
-    threshold_method: str = "otsu"
+    threshold_method: str = "retention"
     edge_ratio: float | None = None
     mode: str = "edges"
     grey_levels: int = 8
     allow_resize: bool = False
     windows_px: tuple[int, ...] = jung2015.WINDOWS_PX
     fast_decode: bool = False
+    declutter: str = "sobel"
+    bokeh_guard: bool = False
 
     def __post_init__(self) -> None:
         for name in (
@@ -204,6 +242,7 @@ class BuildParams:
             "mode",
             "grey_levels",
             "windows_px",
+            "declutter",
         ):
             getattr(self, f"_check_{name}")()
 
@@ -217,15 +256,19 @@ class BuildParams:
             raise InputError(f"threshold must be None or a number >= 0, got {self.threshold!r}")
 
     def _check_threshold_method(self) -> None:
-        if self.threshold_method not in AUTO_THRESHOLD_METHODS:
+        if self.threshold_method not in THRESHOLD_METHODS:
             raise InputError(
-                f"threshold_method must be one of {AUTO_THRESHOLD_METHODS}, "
+                f"threshold_method must be one of {THRESHOLD_METHODS}, "
                 f"got {self.threshold_method!r}"
             )
 
     def _check_edge_ratio(self) -> None:
         if self.edge_ratio is not None and not (0.0 <= self.edge_ratio < 1.0):
             raise InputError(f"edge_ratio must be None or in [0, 1), got {self.edge_ratio!r}")
+
+    def _check_declutter(self) -> None:
+        if self.declutter not in DECLUTTER_MODES:
+            raise InputError(f"declutter must be one of {DECLUTTER_MODES}, got {self.declutter!r}")
 
     def _check_mode(self) -> None:
         if self.mode not in _MODES:
@@ -274,7 +317,7 @@ class PairSource:
     wide, narrow : Path or None
         Wide-DOF and narrow-DOF photos (both set, or both ``None`` for a light field).
     lightfield : Path or None
-        Light-field folder or ``.npz`` file, read by ``stimuli.lightfield.confocal_pair``.
+        Light-field folder or ``.npz`` file, read by ``stimuli.planes.confocal_pair``.
     crop : (x, y, w, h) or None
         Crop box from the PAIRS CSV (``objects.csv`` wins when both give one).
     """
@@ -686,6 +729,7 @@ class _Work:
     narrow_edges: np.ndarray | None = None
     decoded_shape_px: tuple[int, int] | None = None
     plane: str = ""
+    focus: np.ndarray | None = None
 
 
 def _sha256_source(path: Path) -> str:
@@ -737,15 +781,16 @@ def _draft_shape(
 def _load_raw(
     src: PairSource, info: ObjectInfo, params: BuildParams, crop: tuple | None
 ) -> tuple[np.ndarray, np.ndarray, tuple[int, int], tuple[int, int], str]:
-    """Return ``(wide, narrow, wide_full_px, narrow_full_px, plane)`` (full = size on file).
+    """Return ``(wide, narrow, wide_full_px, narrow_full_px, plane, focus)`` (full = on file).
 
-    ``plane`` describes the confocal plane of a light-field object (provenance), else ``""``.
+    ``plane`` describes the confocal plane of a light-field object (provenance), else ``""``;
+    ``focus`` is its in-focus mask in the depth de-cluttering mode, else ``None``.
     """
     if src.lightfield is None:
         assert src.wide is not None and src.narrow is not None
         if not params.fast_decode:
             wide, narrow = load_gray(src.wide), load_gray(src.narrow)
-            return wide, narrow, wide.shape, narrow.shape, ""
+            return wide, narrow, wide.shape, narrow.shape, "", None
         full = [image_shape_px(src.wide), image_shape_px(src.narrow)]
         out = []
         for path, f in zip((src.wide, src.narrow), full, strict=True):
@@ -754,19 +799,24 @@ def _load_raw(
                 region = (crop[3] * f[0] / full[0][0], crop[2] * f[1] / full[0][1])
             draft = _draft_shape(f, (max(region[0], 1), max(region[1], 1)), params.working_shape_px)
             out.append(load_gray(path, draft_shape_px=draft))
-        return out[0], out[1], full[0], full[1], ""
-    from stimuli.lightfield import confocal_plane
+        return out[0], out[1], full[0], full[1], "", None
+    from stimuli.planes import confocal_plane
 
     if info.plane_depth_m is None and info.plane_disparity_px is None:
         logger.info("%s: no plane in objects.csv; light-field module picks it", src.object)
+    extra = {"focus_mask": True} if params.declutter == "depth" else {}
     plane = confocal_plane(
-        src.lightfield, depth_m=info.plane_depth_m, disparity_px=info.plane_disparity_px
+        src.lightfield,
+        depth_m=info.plane_depth_m,
+        disparity_px=info.plane_disparity_px,
+        **extra,
     )
     where = f"{src.lightfield}: confocal_plane"
     centre = check_gray(plane.centre_view, f"{where} centre view")
     confocal = check_gray(plane.confocal_image, f"{where} image")
     logger.info("%s: confocal image at %s", src.object, plane.describe())
-    return centre, confocal, centre.shape, confocal.shape, plane.describe()
+    focus = getattr(plane, "focus_mask", None)
+    return centre, confocal, centre.shape, confocal.shape, plane.describe(), focus
 
 
 def _scale_crop(
@@ -783,9 +833,21 @@ def _scale_crop(
     return (x0, y0, max(1, x1 - x0), max(1, y1 - y0))
 
 
+def min_photo_shape_px(params: BuildParams) -> tuple[int, int]:
+    """Return the smallest photo ``(rows, cols)`` the builder accepts for ``params``.
+
+    A photo must give at least one pixel per cell of the coarsest level (working size divided
+    by the largest window, rounded up) and at least 3x3 for the Sobel filter; anything smaller
+    would be upsampled into a stimulus set with no information in it (issue 10: a 1x1 photo).
+    """
+    w = max(params.windows_px)
+    rows, cols = params.working_shape_px
+    return max(3, -(-rows // w)), max(3, -(-cols // w))
+
+
 def _prepare(src: PairSource, info: ObjectInfo, params: BuildParams) -> _Work:
     crop = info.crop if info.crop is not None else src.crop
-    wide_raw, narrow_raw, wide_full, narrow_full, plane = _load_raw(src, info, params, crop)
+    wide_raw, narrow_raw, wide_full, narrow_full, plane, focus = _load_raw(src, info, params, crop)
     notes: list[str] = []
     name = src.lightfield if src.lightfield is not None else src.wide
     if tuple(wide_full) != tuple(narrow_full):
@@ -799,6 +861,13 @@ def _prepare(src: PairSource, info: ObjectInfo, params: BuildParams) -> _Work:
                 "(use --allow-resize to resize each on its own)"
             )
         notes.append(msg + "; resized each on its own (--allow-resize)")
+    min_px = min_photo_shape_px(params)
+    if wide_full[0] < min_px[0] or wide_full[1] < min_px[1]:
+        raise InputError(
+            f"{name}: photo is {wide_full[1]}x{wide_full[0]} px; expected at least "
+            f"{min_px[1]}x{min_px[0]} px (one pixel per cell of the coarsest level at working "
+            f"size {params.working_shape_px[1]}x{params.working_shape_px[0]})"
+        )
     where = f"object {src.object!r} ({name}): field crop"
     if crop is not None:
         _check_crop_inside(crop, wide_full, where=where)
@@ -817,6 +886,18 @@ def _prepare(src: PairSource, info: ObjectInfo, params: BuildParams) -> _Work:
                 f"size; upsampled"
             )
         out.append(to_working_size(img, params.working_shape_px))
+    if focus is not None:  # the in-focus mask follows the confocal image (zoom, aspect, resize)
+        f = zoom_crop(
+            focus.astype(np.float32),
+            _scale_crop(crop, wide_full, narrow_raw.shape),
+            where=where,
+        )
+        b = aspect_crop_box(f.shape, params.working_shape_px)
+        if b is not None:
+            x, y, w, h = b
+            f = f[y : y + h, x : x + w]
+        focus = to_working_size(f, params.working_shape_px) >= 0.5
+        plane = f"{plane},declutter=depth"
     return _Work(
         info=info,
         source=src,
@@ -828,6 +909,7 @@ def _prepare(src: PairSource, info: ObjectInfo, params: BuildParams) -> _Work:
         notes=notes,
         decoded_shape_px=tuple(int(v) for v in wide_raw.shape),
         plane=plane,
+        focus=focus,
     )
 
 
@@ -836,12 +918,20 @@ def _edges(work: _Work, params: BuildParams) -> _Work:
         t, t_src = work.info.sobel_threshold, "objects.csv"
     elif params.threshold is not None:
         t, t_src = params.threshold, "global"
+    elif params.threshold_method == "retention":
+        t = retention_threshold(work.wide, work.narrow)
+        t_src = "auto:retention"
     else:
         t = auto_threshold(work.narrow, method=params.threshold_method)
         t_src = f"auto:{params.threshold_method}"
     work.threshold, work.threshold_source = float(t), t_src
     work.wide_edges = declutter(work.wide, threshold=t)
-    work.narrow_edges = declutter(work.narrow, threshold=t)
+    if work.focus is not None:
+        work.narrow_edges = declutter_depth(work.narrow, work.focus, threshold=t)
+    else:
+        work.narrow_edges = declutter(work.narrow, threshold=t)
+        if params.bokeh_guard and work.source.lightfield is None:
+            work.narrow_edges = bokeh_guard(work.narrow_edges, work.wide_edges)
     return work
 
 
@@ -913,6 +1003,32 @@ def _map(fn: Callable, items: Sequence, workers: int, progress: ProgressFn | Non
     return results
 
 
+def _colour_photos(work: _Work, params: BuildParams) -> tuple[np.ndarray, np.ndarray]:
+    """Full-resolution colour photos (wide, narrow) for training (Jung et al. 2015, Sec. 3.1).
+
+    The same zoom crop, aspect crop and anti-aliased resize as the grey images, per channel; a
+    light-field object's grey centre view and confocal image on three channels.
+    """
+    src = work.source
+    if src.lightfield is not None:
+        return tuple(np.repeat(g[..., None], 3, axis=2) for g in (work.wide, work.narrow))
+    out = []
+    for path in (src.wide, src.narrow):
+        rgb = load_rgb(path)
+        crop = _scale_crop(work.crop, work.original_shape_px, rgb.shape[:2])
+        if crop is not None:
+            x, y, w, h = crop
+            rgb = rgb[y : y + h, x : x + w]
+        box = aspect_crop_box(rgb.shape[:2], params.working_shape_px)
+        if box is not None:
+            x, y, w, h = box
+            rgb = rgb[y : y + h, x : x + w]
+        shape = (*params.working_shape_px, 3)
+        rgb = resize(rgb, shape, order=1, mode="reflect", anti_aliasing=True)
+        out.append(np.clip(rgb, 0.0, 1.0).astype(np.float32))
+    return out[0], out[1]
+
+
 def _write_object(
     work: _Work,
     tmp: Path,
@@ -940,6 +1056,8 @@ def _write_object(
             "decluttered": (_rel(src.narrow, root), hashes["narrow"]),
         }
     sources["photo"] = sources["cluttered"]
+    sources["colour_wide"] = sources["cluttered"]
+    sources["colour_confocal"] = sources["decluttered"]
     grey = params.mode == "grey"
     common = dict(
         object=oid,
@@ -955,7 +1073,7 @@ def _write_object(
 
     def emit(img: np.ndarray, condition: str, level: int, window: int, name: str) -> None:
         path = save_png(img, folder / name)
-        h, w = img.shape
+        h, w = img.shape[:2]
         records.append(
             StimulusRecord(
                 condition=condition,
@@ -974,6 +1092,10 @@ def _write_object(
 
     n_levels = len(params.windows_px)
     emit(work.wide, "photo", n_levels, 1, "photo.png")
+    if work.info.role == "training":
+        colour_wide, colour_confocal = _colour_photos(work, params)
+        emit(colour_wide, "colour_wide", n_levels, 1, "colour_wide.png")
+        emit(colour_confocal, "colour_confocal", n_levels, 1, "colour_confocal.png")
     rows = []
     for condition, img, edges in (
         ("cluttered", work.wide, work.wide_edges),
@@ -1155,10 +1277,15 @@ def build_stimulus_set(
             "manifest_sha256": sha256_file(tmp / "manifest.csv"),
         }
         (tmp / "stimulus_set.json").write_text(json.dumps(meta, indent=2) + "\n", "utf-8")
-        os.chmod(tmp, 0o755)  # mkdtemp makes it private; a stimulus set is ordinary data
+        os.chmod(tmp, default_mode(directory=True))  # mkdtemp makes it private
         _swap_in(tmp, out_dir)
-    except BaseException:
+    except BaseException as exc:
         shutil.rmtree(tmp, ignore_errors=True)
+        if isinstance(exc, OSError) and exc.errno in (errno.ENOSPC, errno.EDQUOT):
+            raise InputError(
+                f"{out_dir}: the disk is full ({exc.strerror or exc}) while writing the stimulus "
+                f"set; the partial set was removed and {out_dir} was left as it was"
+            ) from None
         raise
     t_end = time.perf_counter()
     for n in notes:

@@ -9,6 +9,12 @@ import typer
 
 __all__ = ["register", "stimuli_app"]
 
+#: Peak memory of ``synth`` per photo pixel, bytes (ours: measured 147 B/px at 2000x1500).
+_SYNTH_BYTES_PER_PX = 160
+#: Working memory of one ``build`` worker per working-size pixel, bytes (ours: a dozen float32
+#: and float64 images of the working size; the estimate only has to catch absurd sizes).
+_BUILD_BYTES_PER_PX = 64
+
 stimuli_app = typer.Typer(
     name="stimuli",
     help="Build stimulus sets (Jung et al. 2015, Sec. 3.1) from photo pairs or light fields.",
@@ -35,14 +41,18 @@ def build_command(
         str,
         typer.Option(
             "--threshold",
-            help="Sobel threshold: 'auto' (Otsu on each narrow-DOF image) or a number; "
-            "objects.csv values win.",
+            help="Sobel threshold: 'auto' (per object, --threshold-method) or a number; "
+            "objects.csv values win (see 'confocal stimuli tune').",
         ),
     ] = "auto",
     threshold_method: Annotated[
         str,
-        typer.Option("--threshold-method", help="Automatic threshold method: otsu or triangle."),
-    ] = "otsu",
+        typer.Option(
+            "--threshold-method",
+            help="Automatic threshold method: retention (both photos of a pair; as 'stimuli "
+            "tune'), otsu or triangle (narrow photo only).",
+        ),
+    ] = "retention",
     edge_ratio: Annotated[
         str,
         typer.Option(
@@ -53,8 +63,24 @@ def build_command(
     ] = "auto",
     mode: Annotated[str, typer.Option("--mode", help="edges (binary) or grey (Fig. 2).")] = "edges",
     grey_levels: Annotated[
-        int, typer.Option("--grey-levels", help="Grey levels in grey mode.")
+        int, typer.Option("--grey-levels", min=2, max=256, help="Grey levels in grey mode.")
     ] = 8,
+    declutter: Annotated[
+        str,
+        typer.Option(
+            "--declutter",
+            help="De-cluttering of light-field objects: sobel (the paper's Sobel + threshold) or "
+            "depth (keep only edges where the views agree at the plane). Photo pairs: sobel.",
+        ),
+    ] = "sobel",
+    bokeh_guard: Annotated[
+        bool,
+        typer.Option(
+            "--bokeh-guard",
+            help="Photo pairs: drop narrow-DOF edges absent from the wide photo at the same place "
+            "(sharp bokeh rims; beyond the paper).",
+        ),
+    ] = False,
     allow_resize: Annotated[
         bool, typer.Option("--allow-resize", help="Accept pairs whose photos differ in pixel size.")
     ] = False,
@@ -82,14 +108,20 @@ def build_command(
         parse_threshold,
         parse_working_size,
     )
+    from stimuli.resources import check_memory
 
+    shape = parse_working_size(working_size)
+    # each worker holds a few float32/float64 images of the working size at once
+    check_memory(shape[0] * shape[1] * _BUILD_BYTES_PER_PX * 8, f"--working-size {working_size}")
     params = BuildParams(
-        working_shape_px=parse_working_size(working_size),
+        working_shape_px=shape,
         threshold=parse_threshold(threshold),
         threshold_method=threshold_method,
         edge_ratio=parse_edge_ratio(edge_ratio),
         mode=mode,
         grey_levels=grey_levels,
+        declutter=declutter,
+        bokeh_guard=bokeh_guard,
         allow_resize=allow_resize,
         fast_decode=fast_decode,
     )
@@ -138,10 +170,12 @@ def build_command(
 @stimuli_app.command("synth")
 def synth_command(
     out: Annotated[Path, typer.Option("--out", "-o", help="PAIRS folder to write.")],
-    objects: Annotated[int, typer.Option("--objects", help="Number of main objects.")] = 20,
-    training: Annotated[int, typer.Option("--training", help="Number of training objects.")] = 3,
+    objects: Annotated[int, typer.Option("--objects", min=1, help="Number of main objects.")] = 20,
+    training: Annotated[
+        int, typer.Option("--training", min=0, help="Number of training objects.")
+    ] = 3,
     seed: Annotated[
-        int, typer.Option("--seed", help="Random seed (the set is deterministic by seed).")
+        int, typer.Option("--seed", min=0, help="Random seed (the set is deterministic by seed).")
     ] = 0,
     size: Annotated[
         str, typer.Option("--size", help="Photo size WIDTHxHEIGHT, pixels (e.g. 1536x1024).")
@@ -150,19 +184,99 @@ def synth_command(
 ) -> None:
     """Write synthetic wide/narrow-DOF photo pairs of named objects in front of clutter."""
     from stimuli.build import parse_working_size
+    from stimuli.errors import InputError
+    from stimuli.resources import check_memory
     from stimuli.synth import write_pairs
 
+    try:
+        shape = parse_working_size(size)
+    except InputError:
+        raise InputError(
+            f"--size must be WIDTHxHEIGHT in pixels (e.g. 492x327), got {size!r}"
+        ) from None
+    check_memory(shape[0] * shape[1] * _SYNTH_BYTES_PER_PX, f"--size {size}")
     path = write_pairs(
         out,
         n_objects=objects,
         n_training=training,
         seed=seed,
-        shape_px=parse_working_size(size),
+        shape_px=shape,
         force=force,
     )
     typer.echo(f"wrote {objects} + {training} synthetic photo pairs to {path}")
 
 
+@stimuli_app.command("tune")
+def tune_command(
+    pairs: Annotated[
+        Path,
+        typer.Argument(
+            help="PAIRS folder or CSV, as for 'stimuli build'.",
+            show_default=False,
+        ),
+    ],
+    sheet: Annotated[
+        Path | None,
+        typer.Option(
+            "--sheet",
+            help="Contact sheet of the candidates to write (PNG; default: tune_sheet.png in "
+            "the PAIRS folder).",
+            show_default=False,
+        ),
+    ] = None,
+    working_size: Annotated[
+        str,
+        typer.Option("--working-size", help="Working size WIDTHxHEIGHT, pixels (paper: 492x327)."),
+    ] = "492x327",
+    dry_run: Annotated[
+        bool,
+        typer.Option("--dry-run", help="Show the proposals and the sheet; keep objects.csv."),
+    ] = False,
+) -> None:
+    """Propose each object's Sobel threshold, draw the candidates, write them to objects.csv."""
+    from stimuli.build import parse_working_size, read_pairs
+    from stimuli.errors import InputError
+    from stimuli.tune import save_tuning_sheet, tune_pairs, tuning_sheet, write_thresholds
+
+    shape = parse_working_size(working_size)
+    inp = read_pairs(pairs)
+    if pairs.is_dir():
+        objects_csv = pairs / "objects.csv"
+    else:
+        objects_csv = pairs.parent / "objects.csv"
+        if objects_csv.resolve() == pairs.resolve():
+            raise InputError(
+                f"{pairs}: the PAIRS CSV is named objects.csv; rename it (e.g. pairs.csv) so the "
+                "thresholds can go into objects.csv beside it"
+            )
+    sheet = sheet if sheet is not None else inp.root / "tune_sheet.png"
+    if sheet.suffix.lower() != ".png":
+        raise InputError(f"--sheet must be a .png file, got {str(sheet)!r}")
+    results = tune_pairs(pairs, working_shape_px=shape)
+    save_tuning_sheet(tuning_sheet(results), sheet)
+    n = max(6, *(len(r.object) for r in results))
+    typer.echo(
+        f"{'object':<{n}} {'was':>8} {'proposed':>9} {'wide %':>7} {'narrow %':>9} {'Otsu':>7}"
+    )
+    for r in results:
+        was = "" if r.previous_threshold is None else f"{r.previous_threshold:.4g}"
+        typer.echo(
+            f"{r.object:<{n}} {was:>8} {r.threshold:>9.4f} {100 * r.wide_edge_fraction:>7.1f} "
+            f"{100 * r.narrow_edge_fraction:>9.1f} {r.otsu_threshold:>7.4f}"
+        )
+    main = [r for r in results if r.role == "main"] or results
+    mean_wide = sum(r.wide_edge_fraction for r in main) / len(main)
+    typer.echo(
+        f"mean wide-DOF edge fraction {mean_wide:.3f} (the set's edge ratio; paper 0.077); "
+        f"contact sheet: {sheet}"
+    )
+    if dry_run:
+        typer.echo("dry run: objects.csv not changed")
+        return
+    write_thresholds(objects_csv, {r.object: r.threshold for r in results})
+    typer.echo(f"wrote {len(results)} thresholds to {objects_csv}")
+
+
 def register(app: typer.Typer) -> None:
-    """Add the ``stimuli`` command group (``build``, ``synth``) to the root ``confocal`` app."""
+    """Add the ``stimuli`` command group (``build``, ``synth``, ``tune``) to the root app."""
     app.add_typer(stimuli_app, name="stimuli")

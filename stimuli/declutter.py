@@ -35,7 +35,21 @@ from skimage.filters import sobel, threshold_otsu, threshold_triangle
 from stimuli.errors import InputError
 from stimuli.io import check_gray
 
-__all__ = ["sobel_magnitude", "declutter", "auto_threshold", "AUTO_THRESHOLD_METHODS"]
+__all__ = [
+    "sobel_magnitude",
+    "declutter",
+    "auto_threshold",
+    "AUTO_THRESHOLD_METHODS",
+    "DECLUTTER_MODES",
+    "FOCUS_AGREEMENT_RATIO",
+    "FOCUS_TOLERANCE_PX",
+    "FOCUS_NOISE",
+    "VOTE_WINDOW_PX",
+    "in_focus_mask",
+    "declutter_depth",
+    "bokeh_guard",
+    "BOKEH_GUARD_RADIUS_PX",
+]
 
 #: Automatic threshold methods, by name (ours, not the paper's: the paper set it by hand).
 AUTO_THRESHOLD_METHODS: tuple[str, ...] = ("otsu", "triangle")
@@ -135,3 +149,198 @@ def auto_threshold(image: np.ndarray, *, method: str = "otsu") -> float:
     else:
         t = threshold_triangle(mag, nbins=_N_BINS)
     return max(0.0, float(t))
+
+
+# --------------------------------------------------------------------------------------------
+# Depth de-cluttering from a light field (ours, beyond the paper)
+# --------------------------------------------------------------------------------------------
+
+#: De-cluttering modes: ``'sobel'`` (the paper's Sobel + threshold, the default) and ``'depth'``
+#: (Sobel edges kept only where the light field's views agree at the plane).
+DECLUTTER_MODES: tuple[str, ...] = ("sobel", "depth")
+
+#: A pixel is in focus at a plane when its neighbouring views, aligned at that plane, differ
+#: from the centre view by less than this fraction of what a one-pixel misalignment of the
+#: centre view gives there (ours: "less than half a pixel out of register").
+FOCUS_AGREEMENT_RATIO: float = 0.5
+
+#: Differences below this (grey levels in [0, 1]) are noise (ours: two levels of 8-bit data):
+#: where a one-pixel shift changes nothing (an edge along the views' axis, a flat patch) the
+#: views carry no depth information and the pixel is not removed.
+FOCUS_NOISE: float = 2.0 / 255.0
+
+#: Depth of field of the test, pixels per view step on either side of the plane (ours: one pixel
+#: of the neighbouring views; real objects are not flat, Middlebury's doll spans 2.5 px).
+FOCUS_TOLERANCE_PX: float = 1.0
+
+#: Planes sampled per pixel per view step inside the tolerance (ours: quarter-pixel steps).
+_FOCUS_STEPS_PER_PX = 4
+
+#: An edge pixel is kept when at least half of the edge pixels in this box around it are in
+#: focus (ours: a local majority, so single noisy pixels neither keep nor drop an edge).
+VOTE_WINDOW_PX: int = 9
+
+
+def _sample(padded: np.ndarray, pad: int, shift_px: float, axis: int, n: int) -> np.ndarray:
+    """An edge-padded image sampled at ``x - shift_px`` along ``axis`` (linear interpolation).
+
+    ``padded`` is the image padded by ``pad`` samples (edge values) along ``axis``; ``n`` is the
+    image's length along it.
+    """
+    k = int(np.floor(shift_px))
+    f = np.float32(shift_px - k)
+    if abs(k) + 1 > pad:
+        raise InputError(f"shift {shift_px:g} px exceeds the padding {pad} px")
+    a0 = pad - k
+    idx_a = [slice(None)] * padded.ndim
+    idx_b = [slice(None)] * padded.ndim
+    idx_a[axis] = slice(a0, a0 + n)
+    idx_b[axis] = slice(a0 - 1, a0 - 1 + n)
+    a = padded[tuple(idx_a)]
+    b = padded[tuple(idx_b)]
+    return a + f * (b - a)
+
+
+def in_focus_mask(
+    lightfield,
+    slope_px_per_view: float,
+    *,
+    tolerance_px: float = FOCUS_TOLERANCE_PX,
+) -> np.ndarray:
+    """Return where a light field is in focus at one plane, by agreement across views.
+
+    For each of the (up to four) neighbours of the centre view on its row and column, the
+    neighbour is aligned at disparities within ``tolerance_px`` of the plane and compared with
+    the centre view (absolute difference, 3x3 box). A pixel is in focus when, for at least one
+    neighbour (so that one side may be occluded) and one of those disparities, the difference is
+    below :data:`FOCUS_AGREEMENT_RATIO` times the difference a one-pixel shift of the centre
+    view makes there, plus :data:`FOCUS_NOISE`.
+
+    Parameters
+    ----------
+    lightfield : LightField or ndarray of shape (n_u, n_v, rows, cols[, C]), float32 in [0, 1]
+    slope_px_per_view : float
+        The plane, pixels per view step (convention of :mod:`stimuli.lightfield`).
+    tolerance_px : float >= 0
+        Depth of field of the test, pixels per view step either side.
+
+    Returns
+    -------
+    ndarray of shape (rows, cols), bool
+    """
+    from scipy.ndimage import uniform_filter
+
+    from stimuli.lightfield import _as_lightfield
+
+    lf = _as_lightfield(lightfield).gray()
+    try:
+        d0 = float(slope_px_per_view)
+        tol = float(tolerance_px)
+    except (TypeError, ValueError):
+        raise InputError(
+            f"slope_px_per_view and tolerance_px must be numbers, got {slope_px_per_view!r}, "
+            f"{tolerance_px!r}"
+        ) from None
+    if not (np.isfinite(d0) and np.isfinite(tol) and tol >= 0):
+        raise InputError(f"slope_px_per_view must be finite and tolerance_px >= 0, got {d0}, {tol}")
+    views = lf.views
+    n_u, n_v = lf.grid
+    cu, cv = lf.centre_index
+    centre = views[cu, cv]
+    steps = max(1, int(np.ceil(2 * tol * _FOCUS_STEPS_PER_PX)))
+    ds = np.linspace(d0 - tol, d0 + tol, steps + 1) if tol > 0 else np.array([d0])
+    out = np.zeros(centre.shape, bool)
+    pad = int(np.ceil(np.abs(ds).max())) + 2
+    for axis, n, c in ((0, n_u, cu), (1, n_v, cv)):
+        if n < 2:
+            continue
+        widths = [(0, 0), (0, 0)]
+        widths[axis] = (pad, pad)
+        pc = np.pad(centre, widths, mode="edge")
+        for side in (-1, 1):
+            if not 0 <= c + side < n:
+                continue
+            nb = views[cu + side, cv] if axis == 0 else views[cu, cv + side]
+            pn = np.pad(nb, widths, mode="edge")
+            one_px = _sample(pc, pad, float(side), axis, centre.shape[axis])
+            texture = uniform_filter(np.abs(one_px - centre), 3, mode="nearest")
+            limit = np.float32(FOCUS_AGREEMENT_RATIO) * texture + np.float32(FOCUS_NOISE)
+            for d in ds:
+                diff = uniform_filter(
+                    np.abs(_sample(pn, pad, d * side, axis, centre.shape[axis]) - centre), 3
+                )
+                out |= diff < limit
+    return out
+
+
+def declutter_depth(image: np.ndarray, focus_mask: np.ndarray, *, threshold: float) -> np.ndarray:
+    """Return the depth-mode edge image: Sobel edges that the light field says are in focus.
+
+    An edge pixel of :func:`declutter` is kept when at least half of the edge pixels in the
+    :data:`VOTE_WINDOW_PX` box around it are in focus (``focus_mask``, from
+    :func:`in_focus_mask`).
+
+    Parameters
+    ----------
+    image : ndarray of shape (rows, cols), float32 in [0, 1]
+        The confocal image at the plane.
+    focus_mask : ndarray of shape (rows, cols), bool
+    threshold : float >= 0
+        Sobel threshold, as :func:`declutter`.
+
+    Returns
+    -------
+    ndarray of shape (rows, cols), bool
+    """
+    from scipy.ndimage import uniform_filter
+
+    edges = declutter(image, threshold=threshold)
+    m = np.asarray(focus_mask)
+    if m.dtype != bool or m.shape != edges.shape:
+        raise InputError(
+            f"focus_mask must be a bool image of shape {edges.shape}, got {m.dtype} {m.shape}"
+        )
+    e = edges.astype(np.float32)
+    agree = uniform_filter(e * m, VOTE_WINDOW_PX, mode="constant")
+    total = uniform_filter(e, VOTE_WINDOW_PX, mode="constant")
+    return edges & (agree >= 0.5 * total)
+
+
+#: Bokeh-rim guard: a narrow-DOF edge is kept only with a wide-DOF edge within this many pixels
+#: (ours: the two photos of a pair may be misaligned by a pixel or two, EBB! pairs more).
+BOKEH_GUARD_RADIUS_PX: int = 3
+
+
+def bokeh_guard(
+    narrow_edges: np.ndarray, wide_edges: np.ndarray, *, radius_px: int = BOKEH_GUARD_RADIUS_PX
+) -> np.ndarray:
+    """Drop narrow-DOF edges that the wide-DOF photo does not have at the same place.
+
+    A sharp-rimmed bokeh disc (an out-of-focus highlight in the narrow-DOF photo) has strong
+    edges where the wide-DOF photo shows a small point or nothing; a real in-focus edge is sharp
+    in both photos. Ours, beyond the paper; optional.
+
+    Parameters
+    ----------
+    narrow_edges, wide_edges : ndarray of shape (rows, cols), bool
+        Edge images of the narrow- and wide-DOF photos (same threshold).
+    radius_px : int >= 0
+        How far a wide-DOF edge may be from the narrow-DOF edge it confirms, pixels.
+
+    Returns
+    -------
+    ndarray of shape (rows, cols), bool
+        ``narrow_edges`` without the unconfirmed edges.
+    """
+    from scipy.ndimage import maximum_filter
+
+    n, w = np.asarray(narrow_edges), np.asarray(wide_edges)
+    if n.dtype != bool or w.dtype != bool or n.shape != w.shape or n.ndim != 2:
+        raise InputError(
+            f"narrow_edges and wide_edges must be bool images of one shape, got {n.dtype} "
+            f"{n.shape} and {w.dtype} {w.shape}"
+        )
+    if isinstance(radius_px, bool) or not isinstance(radius_px, int) or radius_px < 0:
+        raise InputError(f"radius_px must be an integer >= 0, got {radius_px!r}")
+    near = maximum_filter(w, size=2 * radius_px + 1, mode="constant") if radius_px else w
+    return n & near

@@ -26,6 +26,8 @@ __all__ = [
     "save_png",
     "sha256_file",
     "atomic_path",
+    "current_umask",
+    "default_mode",
     "check_gray",
     "to_float01",
 ]
@@ -43,7 +45,7 @@ def _open(path: str | os.PathLike, draft_shape_px: tuple[int, int] | None = None
     if not path.is_file():
         raise InputError(f"{path}: image file not found")
     try:
-        img = Image.open(path)
+        img = _open_checked(path)
         if draft_shape_px is not None and img.format == "JPEG":
             rows, cols = (int(v) for v in draft_shape_px)
             if img.getexif().get(0x0112) in _EXIF_SWAPS_AXES:
@@ -52,10 +54,44 @@ def _open(path: str | os.PathLike, draft_shape_px: tuple[int, int] | None = None
         img.load()
     except (UnidentifiedImageError, OSError, SyntaxError, ValueError) as exc:
         raise InputError(f"{path}: not a readable image ({exc})") from None
+    except Image.DecompressionBombError as exc:
+        raise InputError(f"{path}: refused as a decompression bomb ({exc})") from None
     try:
         return ImageOps.exif_transpose(img)
     except (OSError, ValueError, SyntaxError):  # broken EXIF block: keep the pixels as stored
         return img
+
+
+#: Bytes per pixel of a decoded image and its float32 copies (ours: RGBA uint8 + float32 RGB +
+#: float32 grey, rounded up), for the memory check before decoding a very large image.
+_DECODE_BYTES_PER_PX = 32
+
+
+def _open_checked(path: Path) -> Image.Image:
+    """Open an image lazily; a header larger than Pillow's bomb limit is decoded only if it fits.
+
+    Pillow warns (``DecompressionBombWarning``) above ``Image.MAX_IMAGE_PIXELS`` and raises above
+    twice that; the warning becomes a memory check and one log line instead of a multi-line
+    Python warning.
+    """
+    import logging
+    import warnings
+
+    from stimuli.resources import check_memory
+
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", Image.DecompressionBombWarning)
+        img = Image.open(path)
+    if any(issubclass(w.category, Image.DecompressionBombWarning) for w in caught):
+        cols, rows = img.size
+        check_memory(rows * cols * _DECODE_BYTES_PER_PX, f"{path}: decoding {cols}x{rows} px")
+        logging.getLogger(__name__).warning(
+            "%s: very large image (%dx%d px, above Pillow's decompression-bomb limit)",
+            path,
+            cols,
+            rows,
+        )
+    return img
 
 
 def to_float01(array: np.ndarray) -> np.ndarray:
@@ -139,11 +175,13 @@ def image_shape_px(path: str | os.PathLike) -> tuple[int, int]:
     if not path.is_file():
         raise InputError(f"{path}: image file not found")
     try:
-        with Image.open(path) as img:
+        with _open_checked(path) as img:
             cols, rows = img.size
             swap = img.getexif().get(0x0112) in _EXIF_SWAPS_AXES
     except (UnidentifiedImageError, OSError, SyntaxError, ValueError) as exc:
         raise InputError(f"{path}: not a readable image ({exc})") from None
+    except Image.DecompressionBombError as exc:
+        raise InputError(f"{path}: refused as a decompression bomb ({exc})") from None
     return (cols, rows) if swap else (rows, cols)
 
 
@@ -201,12 +239,41 @@ def check_gray(image: np.ndarray, name: str = "image") -> np.ndarray:
     return a.astype(np.float32, copy=False)
 
 
+def current_umask() -> int:
+    """Return the process's umask (e.g. ``0o022``) without changing it.
+
+    Read from ``/proc/self/status`` where the kernel offers it (thread-safe); elsewhere the
+    umask is set and restored at once, the only portable way to read it.
+    """
+    try:
+        with open("/proc/self/status", encoding="ascii") as f:
+            for line in f:
+                if line.startswith("Umask:"):
+                    return int(line.split()[1], 8)
+    except (OSError, ValueError, IndexError):
+        pass
+    mask = os.umask(0o022)
+    os.umask(mask)
+    return mask
+
+
+def default_mode(*, directory: bool = False) -> int:
+    """Return the mode a plain ``open()`` (or ``mkdir``) would give a new file (or folder).
+
+    ``tempfile.mkstemp``/``mkdtemp`` create private ``0600``/``0700`` entries whatever the
+    umask; atomic writes chmod their temporary file or folder to this mode before the rename,
+    so shared lab accounts (umask ``0o002``) and servers (``0o022``) get ordinary files.
+    """
+    return (0o777 if directory else 0o666) & ~current_umask()
+
+
 @contextmanager
 def atomic_path(path: str | os.PathLike) -> Iterator[Path]:
     """Yield a temporary path beside ``path``; rename it onto ``path`` only if the block succeeds.
 
     Readers never see a half-written file: on any exception the temporary file is removed and
-    ``path`` is left as it was.
+    ``path`` is left as it was. The file gets the user's umask (:func:`default_mode`), not
+    ``mkstemp``'s private ``0600``.
     """
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
@@ -215,6 +282,8 @@ def atomic_path(path: str | os.PathLike) -> Iterator[Path]:
     tmp_path = Path(tmp)
     try:
         yield tmp_path
+        if tmp_path.exists():
+            os.chmod(tmp_path, default_mode())
         os.replace(tmp_path, path)
     finally:
         if tmp_path.exists():

@@ -30,6 +30,7 @@ __all__ = [
     "lens_array_geometry",
     "three_plane_scene",
     "layer_masks",
+    "ground_truth_maps",
     "SIM_SHAPE_PX",
 ]
 
@@ -409,3 +410,28 @@ def layer_masks(layers: list[Layer], shape_px: tuple[int, int]) -> dict[str, np.
         out[layer.name] = m & ~covered
         covered |= m
     return out
+
+
+def ground_truth_maps(
+    layers: list[Layer], geometry: Geometry, shape_px: tuple[int, int]
+) -> tuple[np.ndarray, np.ndarray]:
+    """Return the centre view's ground-truth disparity and depth maps of a layered scene.
+
+    Each pixel takes the nearest layer visible there (:func:`layer_masks`); a pixel no layer
+    covers gets disparity NaN and depth ``inf``.
+
+    Returns
+    -------
+    disparity_px : ndarray of shape ``shape_px``, float32
+        Pixels per view step (convention of :mod:`stimuli.lightfield`).
+    depth_m : ndarray of shape ``shape_px``, float32
+        Metres.
+    """
+    depth = np.full(shape_px, np.inf, np.float32)
+    disp = np.full(shape_px, np.nan, np.float32)
+    masks = layer_masks(layers, shape_px)
+    for layer in layers:
+        m = masks[layer.name]
+        depth[m] = layer.depth_m
+        disp[m] = geometry.disparity_px(layer.depth_m)
+    return disp, depth

@@ -25,10 +25,17 @@ Inputs
 * a folder of views named by grid position: ``..._{row}_{col}.png`` (e.g. Lytro/EPINET
   ``2067_05_05.png``), a 1-D row ``view0.png .. viewN.png`` (Middlebury; one row, ``n_u = 1``),
   HCI's ``input_CamNNN.png`` (``NNN = 9 * row + col``), or any name pattern given as a format
-  string with fields ``{row}``, ``{col}`` or ``{index}`` (``index`` needs ``grid_cols``);
-* an ``.npy`` file holding the 4-D (or 5-D) array, or an ``.npz`` with key ``views``;
-* a lens-array elemental image (one picture) with its lenslet pitch in pixels and an optional
-  invalid border per lenslet.
+  string with fields ``{row}``, ``{col}`` or ``{index}`` (``index`` needs ``grid_cols``); a
+  width (``{row:02d}``) matches exactly that many digits and ``*`` matches anything;
+* an ``.npy`` file holding the 4-D (or 5-D) array, or an ``.npz`` with key ``views``; the shape
+  is checked against ``(n_u, n_v, rows, cols[, C])`` (``axes`` reads other orders);
+* a lens-array elemental image (one picture) with its lenslet pitch in pixels, an optional
+  invalid border per lenslet and the offset of the first whole lenslet (partial lenslets at
+  the far edges are dropped); :meth:`LightField.view_binned` averages neighbouring views.
+
+16-bit images are scaled by their bit depth (the smallest that holds the largest value, or
+``bit_depth``), and an alpha channel is composited over ``background``. Every error names the
+file.
 
 An optional TOML file beside the input (``<name>.toml`` or ``lightfield.toml`` in the folder;
 for a folder of views, ``lightfield.toml`` inside it) gives the geometry and loader options::
@@ -61,6 +68,8 @@ import math
 import os
 import re
 import tomllib
+import zipfile
+import zlib
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Literal
@@ -68,12 +77,9 @@ from typing import Literal
 import numpy as np
 
 from stimuli.errors import InputError
-from stimuli.io import _LUMA_WEIGHTS, load_rgb
+from stimuli.io import _LUMA_WEIGHTS
 
 __all__ = [
-    "NEAREST_PLANE_MIN_PROMINENCE",
-    "ConfocalPlane",
-    "confocal_plane",
     "Geometry",
     "LightField",
     "load_lightfield",
@@ -81,7 +87,7 @@ __all__ = [
     "elemental_from_views",
     "read_pfm",
     "write_pfm",
-    "confocal_pair",
+    "ARRAY_AXES",
 ]
 
 log = logging.getLogger(__name__)
@@ -321,6 +327,36 @@ class LightField:
         v = v.mean(axis=(3, 5), dtype=np.float32)
         return LightField(np.clip(v, 0.0, 1.0), None, self.source, dict(self.meta))
 
+    def view_binned(self, factor: int) -> LightField:
+        """Return the light field with blocks of ``factor x factor`` neighbouring views averaged.
+
+        Each new view is a wider sub-aperture (less noise, more depth of field per view); one new
+        view step is ``factor`` old ones, so disparities scale by ``factor``. A camera-array
+        baseline (or a lens array's pixel size) is scaled to match. Views beyond the last whole
+        block are dropped. Lens arrays with many small views (41x41 px lenslets) need it.
+        """
+        if isinstance(factor, bool) or not isinstance(factor, int) or factor < 1:
+            raise InputError(f"view binning must be an integer >= 1, got {factor!r}")
+        if factor == 1:
+            return self
+        n_u, n_v = self.grid
+        if (n_u > 1 and n_u < factor) or (n_v > 1 and n_v < factor):
+            raise InputError(f"cannot bin a {n_u}x{n_v} grid of views by {factor}")
+        fu, fv = (factor if n_u > 1 else 1), (factor if n_v > 1 else 1)
+        a, b = n_u // fu, n_v // fv
+        v = self.views[: a * fu, : b * fv]
+        v = v.reshape(a, fu, b, fv, *v.shape[2:]).mean(axis=(1, 3), dtype=np.float32)
+        g = self.geometry
+        if g is not None:
+            from dataclasses import replace
+
+            if g.kind == "camera_array":
+                g = replace(g, baseline_m=g.baseline_m * factor)
+            else:
+                g = replace(g, pixel_mm=g.pixel_mm * factor)
+        meta = dict(self.meta, view_bin=factor)
+        return LightField(np.clip(v, 0.0, 1.0), g, self.source, meta)
+
     def cropped(self, box_xywh: tuple[int, int, int, int]) -> LightField:
         """Return the light field with every view cropped to ``(x, y, w, h)`` pixels.
 
@@ -434,7 +470,7 @@ def views_from_elemental(
     ----------
     image : ndarray of shape (rows, cols) or (rows, cols, C), float32 in [0, 1]
     pitch_px : int >= 1
-        Lenslet pitch in pixels; after ``offset_px`` it must divide both image sides.
+        Lenslet pitch in pixels; partial lenslets after the last whole one are dropped.
     border_px : int >= 0
         Invalid pixels along each side of every lenslet, dropped (``2 * border_px < pitch_px``).
     offset_px : (rows, cols)
@@ -462,13 +498,15 @@ def views_from_elemental(
     if oy < 0 or ox < 0:
         raise InputError(f"offset_px must be >= 0, got {offset_px!r}")
     a = a[oy:, ox:]
-    rows, cols = a.shape[:2]
-    if rows % pitch_px or cols % pitch_px or rows == 0 or cols == 0:
+    nk, nl = a.shape[0] // pitch_px, a.shape[1] // pitch_px
+    if nk < 2 or nl < 2:
         raise InputError(
-            f"lenslet pitch {pitch_px} px does not divide the elemental image "
-            f"({rows}x{cols} px after offset {offset_px}); crop it or give --offset"
+            f"lenslet pitch {pitch_px} px leaves fewer than 2x2 whole lenslets in the "
+            f"{a.shape[0]}x{a.shape[1]} px elemental image (after offset {offset_px})"
         )
-    nk, nl = rows // pitch_px, cols // pitch_px
+    # A partial lenslet at the right or bottom edge (a sensor is rarely a whole number of
+    # lenslets) is dropped.
+    a = a[: nk * pitch_px, : nl * pitch_px]
     v = a.reshape(nk, pitch_px, nl, pitch_px, *a.shape[2:])
     v = np.moveaxis(v, (1, 3), (0, 1))  # (p, p, nk, nl[, C])
     b = int(border_px)
@@ -515,22 +553,38 @@ def _find_toml(path: Path) -> Path | None:
 
 
 def _pattern_to_regex(pattern: str) -> re.Pattern:
-    """Turn ``"img_{row:02d}_{col}.png"`` into a regex with named integer groups."""
+    """Turn ``"img_{row:02d}_{col}_*.png"`` into a regex with named integer groups.
+
+    A format width (``{row:02d}``) matches exactly that many digits, so ``{row:02d}{col:02d}``
+    reads ``0101``; ``*`` matches any run of characters (``out_{row}_{col}_*`` reads
+    ``out_09_08_-12.3_45.6_``).
+    """
     stem = Path(pattern).stem if Path(pattern).suffix.lower() in _IMAGE_SUFFIXES else pattern
     out, pos = "", 0
     fields = set()
-    for m in re.finditer(r"\{(\w+)(?::[^}]*)?\}", stem):
-        out += re.escape(stem[pos : m.start()])
-        name = m.group(1)
+
+    def literal(text: str) -> str:
+        return ".*?".join(re.escape(part) for part in text.split("*"))
+
+    for m in re.finditer(r"\{(\w+)(?::([^}]*))?\}", stem):
+        out += literal(stem[pos : m.start()])
+        name, spec = m.group(1), m.group(2) or ""
         if name not in ("row", "col", "index"):
             raise InputError(
                 f"view name pattern {pattern!r}: unknown field {{{name}}}; "
                 "use {row} and {col}, or {index}"
             )
+        width = re.fullmatch(r"0?(\d*)d?", spec)
+        if width is None:
+            raise InputError(
+                f"view name pattern {pattern!r}: field {{{m.group(0)[1:-1]}}} must be an integer "
+                "format such as {row}, {row:d} or {row:02d}"
+            )
         fields.add(name)
-        out += f"(?P<{name}>\\d+)"
+        digits = f"\\d{{{int(width.group(1))}}}" if width.group(1) else "\\d+"
+        out += f"(?P<{name}>{digits})"
         pos = m.end()
-    out += re.escape(stem[pos:])
+    out += literal(stem[pos:])
     if not (fields == {"row", "col"} or fields == {"index"}):
         raise InputError(
             f"view name pattern {pattern!r} must contain {{row}} and {{col}}, or {{index}}"
@@ -598,9 +652,63 @@ def _check_grid(found: dict[tuple[int, int], Path], where: Path) -> tuple[list[i
     return rows, cols
 
 
+def _read_raw(path: Path) -> np.ndarray:
+    """One view as stored: uint8, uint16 or float32; (rows, cols[, C]) with C in 1..4."""
+    from stimuli.io import _open, _pil_to_array
+
+    return _pil_to_array(_open(path))
+
+
+def _scale_raw(
+    raws: list[np.ndarray], names: list[str], bit_depth: int | None, where: Path
+) -> tuple[float, int | None]:
+    """Return the divisor that maps the raw views to [0, 1], and the bit depth used.
+
+    8-bit data is divided by 255. 16-bit data is divided by ``2**bits - 1``, with ``bits`` the
+    given ``bit_depth`` or the smallest depth that holds the largest value in any view (at least
+    8): 12-bit data in 16-bit PNGs would otherwise come out 16 times too dark.
+    """
+    kinds = {r.dtype for r in raws}
+    if any(k.kind == "f" for k in kinds):
+        return 1.0, None
+    if bit_depth is not None and (
+        isinstance(bit_depth, bool) or not isinstance(bit_depth, int) or not 1 <= bit_depth <= 16
+    ):
+        raise InputError(f"--bit-depth must be an integer in 1..16, got {bit_depth!r}")
+    tops = [int(r.max()) if r.size else 0 for r in raws]
+    top = max(tops)
+    if all(k == np.uint8 for k in kinds) and bit_depth is None:
+        return 255.0, 8
+    bits = bit_depth if bit_depth is not None else max(8, int(top).bit_length())
+    if top > 2**bits - 1:
+        worst = names[int(np.argmax(tops))]
+        raise InputError(
+            f"{where / worst}: value {top} does not fit --bit-depth {bits} (max {2**bits - 1})"
+        )
+    return float(2**bits - 1), bits
+
+
+def _to_views(raw: np.ndarray, scale: float, background: float) -> np.ndarray:
+    """Scale a raw view to [0, 1] RGB, compositing an alpha channel over ``background``."""
+    a = raw.astype(np.float32) / np.float32(scale)
+    if a.ndim == 2:
+        a = a[..., None]
+    if a.shape[2] in (2, 4):
+        alpha = a[..., -1:]
+        a = a[..., :-1] * alpha + np.float32(background) * (1.0 - alpha)
+    if a.shape[2] == 1:
+        a = np.repeat(a, 3, axis=2)
+    return np.clip(a[..., :3], 0.0, 1.0).astype(np.float32)
+
+
 def _load_folder(
-    folder: Path, pattern: str | None, grid_cols: int | None, gray: bool
-) -> np.ndarray:
+    folder: Path,
+    pattern: str | None,
+    grid_cols: int | None,
+    gray: bool,
+    bit_depth: int | None = None,
+    background: float = 0.0,
+) -> tuple[np.ndarray, dict]:
     files = sorted(
         f for f in folder.iterdir() if f.is_file() and f.suffix.lower() in _IMAGE_SUFFIXES
     )
@@ -611,26 +719,63 @@ def _load_folder(
         hint = f"pattern {pattern!r}" if pattern else "{row}_{col}, view{index} or input_Cam{index}"
         raise InputError(f"{folder}: missing views: no file name matches {hint}; give --pattern")
     rows, cols = _check_grid(found, folder)
-    first = None
-    out = None
-    for (r, c), f in found.items():
-        img = load_rgb(f)
-        if first is None:
-            first = (f, img.shape)
-            shape = (len(rows), len(cols), *img.shape)
-            out = np.empty(shape, dtype=np.float32)
-        elif img.shape != first[1]:
+    items = sorted(found.items())
+    raws = [_read_raw(f) for _, f in items]
+    first = raws[0].shape[:2]
+    for (_, f), r in zip(items, raws, strict=True):
+        if r.shape[:2] != first:
             raise InputError(
-                f"{folder}: views of different sizes: {first[0].name} is "
-                f"{first[1][0]}x{first[1][1]} px, {f.name} is {img.shape[0]}x{img.shape[1]} px"
+                f"{folder}: views of different sizes: {items[0][1].name} is "
+                f"{first[0]}x{first[1]} px, {f.name} is {r.shape[0]}x{r.shape[1]} px"
             )
-        out[r - rows[0], c - cols[0]] = img
+    scale, bits = _scale_raw(raws, [f.name for _, f in items], bit_depth, folder)
+    has_alpha = any(r.ndim == 3 and r.shape[2] in (2, 4) for r in raws)
+    out = np.empty((len(rows), len(cols), *first, 3), dtype=np.float32)
+    for ((r, c), _), raw in zip(items, raws, strict=True):
+        out[r - rows[0], c - cols[0]] = _to_views(raw, scale, background)
     if gray:
         out = np.clip(np.tensordot(out, _LUMA_WEIGHTS, axes=([4], [0])), 0, 1).astype(np.float32)
-    return out
+    meta: dict = {}
+    if bits is not None:
+        meta["bit_depth"] = bits
+    if has_alpha:
+        meta["alpha_background"] = background
+    return out, meta
 
 
-def _load_array_file(path: Path) -> tuple[np.ndarray, dict]:
+#: Axis orders accepted for array files (``u``, ``v``: view grid; ``h``, ``w``: pixel rows and
+#: columns; ``c``: colour channels).
+ARRAY_AXES: tuple[str, ...] = ("uvhw", "uvhwc", "hwuv", "hwuvc", "uvchw", "cuvhw")
+
+
+def _order_axes(a: np.ndarray, axes: str | None, path: Path) -> np.ndarray:
+    """Return the array as (n_u, n_v, rows, cols[, C]); refuse an implausible axis order."""
+    if axes is not None:
+        if axes not in ARRAY_AXES:
+            raise InputError(f"--axes must be one of {', '.join(ARRAY_AXES)}, got {axes!r}")
+        if len(axes) != a.ndim:
+            raise InputError(f"{path}: --axes {axes!r} names {len(axes)} axes, array has {a.ndim}")
+        return np.ascontiguousarray(np.transpose(a, [axes.index(k) for k in "uvhwc" if k in axes]))
+    if a.ndim not in (4, 5):
+        raise InputError(
+            f"{path}: a light-field array must be 4-D (n_u, n_v, rows, cols) or 5-D with colour "
+            f"last, got shape {a.shape}"
+        )
+    n_u, n_v, rows, cols = a.shape[:4]
+    # A view grid is small and its views large: a grid bigger than its views, or views of a
+    # few pixels, means the axes are in another order, e.g. (rows, cols, n_u, n_v).
+    if n_u * n_v > rows * cols or min(rows, cols) < 8:
+        raise InputError(
+            f"{path}: shape {a.shape} does not look like (n_u, n_v, rows, cols[, C]) "
+            f"(a {n_u}x{n_v} grid of {rows}x{cols} px views); store the array in that order "
+            "or give --axes (e.g. hwuv)"
+        )
+    return a
+
+
+def _load_array_file(
+    path: Path, bit_depth: int | None = None, axes: str | None = None
+) -> tuple[np.ndarray, dict]:
     meta: dict = {}
     try:
         if path.suffix.lower() == ".npy":
@@ -644,14 +789,24 @@ def _load_array_file(path: Path) -> tuple[np.ndarray, dict]:
                 a = z[key]
                 if "geometry" in keys:
                     meta["geometry"] = json.loads(str(z["geometry"]))
-    except (OSError, ValueError, json.JSONDecodeError) as exc:
+    except (OSError, ValueError, EOFError, zipfile.BadZipFile, zlib.error) as exc:
+        # a truncated .npz is a BadZipFile; a damaged member a zlib.error or EOFError
         raise InputError(f"{path}: not a readable light-field array ({exc})") from None
-    if np.issubdtype(a.dtype, np.integer) or a.dtype == bool:
+    a = _order_axes(a, axes, path)
+    if a.dtype == np.uint16:
+        scale, bits = _scale_raw([a], [path.name], bit_depth, path.parent)
+        a = a.astype(np.float32) / np.float32(scale)
+        meta["bit_depth"] = bits
+    elif np.issubdtype(a.dtype, np.integer) or a.dtype == bool:
         from stimuli.io import to_float01
 
         a = to_float01(a)
     if a.dtype.kind == "f" and not np.all(np.isfinite(a)):
         raise InputError(f"{path}: light field has NaN or infinite values")
+    if a.dtype.kind == "f" and a.size and (a.min() < 0 or a.max() > 1):
+        raise InputError(
+            f"{path}: float light field must be in [0, 1], got [{a.min():.4g}, {a.max():.4g}]"
+        )
     return a, meta
 
 
@@ -665,6 +820,9 @@ def load_lightfield(
     offset_px: tuple[int, int] | None = None,
     geometry: Geometry | None = None,
     gray: bool = False,
+    bit_depth: int | None = None,
+    axes: str | None = None,
+    background: float = 0.0,
 ) -> LightField:
     """Load a light field from a folder of views, an array file or an elemental image.
 
@@ -683,6 +841,14 @@ def load_lightfield(
         Overrides the ``[geometry]`` table of a ``lightfield.toml`` found beside ``path``.
     gray : bool
         Convert views to luminance while loading (saves memory on large colour grids).
+    bit_depth : int in 1..16, optional
+        Bits used by 16-bit data (e.g. 12); default: the smallest depth holding the largest
+        value found.
+    axes : str, optional
+        Axis order of an array file (:data:`ARRAY_AXES`); default ``uvhw[c]``, checked against
+        the shape.
+    background : float in [0, 1]
+        Grey level an alpha channel is composited over (the protocol's background).
 
     Returns
     -------
@@ -691,8 +857,9 @@ def load_lightfield(
     Raises
     ------
     InputError
-        Missing views, views of different sizes, a grid with holes, a pitch that does not
-        divide the elemental image, NaNs, or an unreadable file.
+        Missing views, views of different sizes, a grid with holes, an implausible axis order,
+        values beyond ``bit_depth``, no whole lenslet, NaNs, or an unreadable file; the message
+        names the file.
     """
     path = Path(path)
     if not path.exists():
@@ -704,11 +871,13 @@ def load_lightfield(
     pattern = pattern if pattern is not None else views_cfg.get("pattern")
     grid_cols = grid_cols if grid_cols is not None else views_cfg.get("grid_cols")
     meta: dict = {}
+    if not (isinstance(background, (int, float)) and 0.0 <= background <= 1.0):
+        raise InputError(f"background must be a grey level in [0, 1], got {background!r}")
     if path.is_dir():
-        views = _load_folder(path, pattern, grid_cols, gray)
+        views, meta = _load_folder(path, pattern, grid_cols, gray, bit_depth, background)
         meta["kind"] = "views"
     elif path.suffix.lower() in (".npy", ".npz"):
-        views, meta = _load_array_file(path)
+        views, meta = _load_array_file(path, bit_depth, axes)
         meta["kind"] = "array"
     elif path.suffix.lower() in _IMAGE_SUFFIXES:
         pitch = pitch_px if pitch_px is not None else elem_cfg.get("pitch_px")
@@ -719,10 +888,15 @@ def load_lightfield(
             )
         border = border_px if border_px is not None else elem_cfg.get("border_px", 0)
         offset = offset_px if offset_px is not None else tuple(elem_cfg.get("offset_px", (0, 0)))
-        img = load_rgb(path)
+        raw = _read_raw(path)
+        scale, _ = _scale_raw([raw], [path.name], bit_depth, path.parent)
+        img = _to_views(raw, scale, background)
         if gray:
             img = np.clip(img @ _LUMA_WEIGHTS, 0, 1).astype(np.float32)
-        views = views_from_elemental(img, pitch, border_px=border, offset_px=offset)
+        try:
+            views = views_from_elemental(img, pitch, border_px=border, offset_px=offset)
+        except InputError as exc:
+            raise InputError(f"{path}: {exc}") from None
         meta.update(kind="elemental", pitch_px=pitch, border_px=border, offset_px=list(offset))
     else:
         raise InputError(
@@ -746,123 +920,3 @@ def _as_lightfield(lf: LightField | np.ndarray | str | os.PathLike) -> LightFiel
     if isinstance(lf, np.ndarray):
         return LightField(lf)
     return load_lightfield(lf)
-
-
-#: When the plane is chosen automatically, the nearest detected plane whose prominence is at
-#: least this fraction of the strongest plane's is the object's (ours, not the paper's). Measured
-#: with the default scan: Middlebury Baby1's doll has 0.25 of the wall's prominence (kept); a
-#: spurious peak where the views barely overlap had 0.10 in the builder's test light field
-#: (dropped).
-NEAREST_PLANE_MIN_PROMINENCE: float = 0.2
-
-
-@dataclass(frozen=True)
-class ConfocalPlane:
-    """A light field's centre view and its confocal image at one plane, with that plane.
-
-    Parameters
-    ----------
-    centre_view, confocal_image : ndarray of shape (rows, cols), float32 in [0, 1]
-    disparity_px : float
-        The plane, pixels per view step.
-    depth_m : float or None
-        The plane's depth, metres (None without geometry).
-    chosen_by : {'depth_m', 'disparity_px', 'nearest detected plane'}
-        How the plane was chosen (provenance).
-    """
-
-    centre_view: np.ndarray
-    confocal_image: np.ndarray
-    disparity_px: float
-    depth_m: float | None
-    chosen_by: str
-
-    def describe(self) -> str:
-        """One-line provenance: ``disparity=...px,depth=...m,<chosen_by>``."""
-        depth = "" if self.depth_m is None else f",depth={self.depth_m:.4g}m"
-        return f"disparity={self.disparity_px:.4g}px{depth},{self.chosen_by}"
-
-
-def confocal_plane(
-    path: str | os.PathLike | LightField,
-    *,
-    depth_m: float | None = None,
-    disparity_px: float | None = None,
-) -> ConfocalPlane:
-    """Return a light field's centre view and its confocal image at one plane, with the plane.
-
-    The confocal image is the shift-and-add refocus at ``depth_m`` (needs a geometry) or at
-    ``disparity_px``; with neither, at the *nearest* object plane found by
-    :func:`stimuli.planes.find_object_planes` (default planes, :func:`stimuli.planes.auto_binning`)
-    among those at least :data:`NEAREST_PLANE_MIN_PROMINENCE` as prominent as the strongest: the
-    object of interest stands in front of the clutter (Jung et al. 2015, Sec. 4), so the nearest
-    clear plane is the object's, even when a large background wall scores higher.
-
-    Parameters
-    ----------
-    path : str, path-like or LightField
-        Any input :func:`load_lightfield` reads.
-    depth_m : float, optional
-        Depth of the plane, metres.
-    disparity_px : float, optional
-        Disparity of the plane, pixels per view step.
-
-    Returns
-    -------
-    ConfocalPlane
-
-    Raises
-    ------
-    InputError
-        Both ``depth_m`` and ``disparity_px`` given, a depth without geometry or out of range,
-        no object plane found, or any loading error.
-
-    References
-    ----------
-    Jung et al. (2015), Sec. 4.1-4.2; Ng et al. (2005) for shift-and-add refocusing.
-    """
-    from stimuli.planes import auto_binning, find_object_planes
-    from stimuli.refocus import refocus
-
-    if depth_m is not None and disparity_px is not None:
-        raise InputError("give depth_m or disparity_px, not both")
-    lf = _as_lightfield(path).gray()
-    if depth_m is not None:
-        d, how = lf.disparity_px(depth_m), "depth_m"
-    elif disparity_px is not None:
-        d, how = float(disparity_px), "disparity_px"
-        if not math.isfinite(d):
-            raise InputError(f"disparity_px must be finite, got {disparity_px!r}")
-    else:
-        scan = find_object_planes(lf, binning=auto_binning(lf))
-        if not scan.peaks:
-            raise InputError(f"{lf.source}: no object plane found in the depth scan")
-        floor = NEAREST_PLANE_MIN_PROMINENCE * max(p.prominence for p in scan.peaks)
-        nearest = next(p for p in scan.peaks if p.prominence >= floor)  # peaks: nearest first
-        d, how = nearest.disparity_px, "nearest detected plane"
-    confocal = np.clip(refocus(lf, d), 0.0, 1.0).astype(np.float32)
-    return ConfocalPlane(lf.centre_view(), confocal, float(d), lf.depth_m(d), how)
-
-
-def confocal_pair(
-    path: str | os.PathLike | LightField,
-    *,
-    depth_m: float | None = None,
-    disparity_px: float | None = None,
-) -> tuple[np.ndarray, np.ndarray]:
-    """Return ``(centre_view, confocal_image)`` of a light field, grey float32 in [0, 1].
-
-    The same as :func:`confocal_plane` without the plane: at ``depth_m``, at ``disparity_px``,
-    or at the nearest detected object plane.
-
-    Returns
-    -------
-    centre_view, confocal_image : ndarray of shape (rows, cols), float32 in [0, 1]
-
-    Raises
-    ------
-    InputError
-        As :func:`confocal_plane`.
-    """
-    c = confocal_plane(path, depth_m=depth_m, disparity_px=disparity_px)
-    return c.centre_view, c.confocal_image

@@ -4,15 +4,20 @@ Commands
 --------
 ``scan LF --out DIR``
     Sweep confocal planes, detect the planes that hold objects (Jung et al. 2015, Sec. 4.2) and
-    write ``planes.csv``, the score-versus-depth plot ``scores.png`` (Fig. 15; drawn with Pillow,
-    no matplotlib in ``stimuli``), ``scan.json``, and per detected plane the confocal image, its
-    de-cluttered edge image and the compressed grid (Figs. 11-13, 16).
+    write ``planes.csv`` (with each plane's support, prominence and evidence), the
+    score-versus-depth plot ``scores.png`` (Fig. 15, matplotlib), ``scan.json``, and per
+    detected plane the confocal image, its de-cluttered edge image (``--declutter sobel`` or
+    ``depth``) and the compressed grid (Figs. 11-13, 16). The range is the one the scene
+    occupies unless ``--near/--far`` or ``--disparities`` give it.
 ``refocus LF (--depth Z | --disparity D) --out IMG``
     One confocal image; ``--grid`` adds its edge and grid images, ``--zoom x,y,w,h`` crops
     first (Fig. 14); ``--stack`` writes a whole focal stack into the folder ``--out``.
 ``synth --out LF``
-    The three-plane scene of Fig. 10 (pedestrian 1 m, tree 4 m, building 9 m) as a lens-array
-    elemental image (``.png`` + ``.toml``), a folder of views, or an ``.npz``.
+    The three-plane scene of Fig. 10 (pedestrian 1 m, tree 4 m, building 9 m; simulated) as a
+    lens-array elemental image (``.png`` + ``.toml``), a folder of views, or an ``.npz``, with
+    the centre view's ground-truth disparity and depth maps (PFM beside the image or in the
+    folder: ``*_disparity.pfm``, ``*_depth.pfm``; arrays ``disparity_px``, ``depth_m`` in the
+    ``.npz``).
 
 Grid sizes are written ``COLSxROWS`` as in the paper ("38x25"); the library uses
 ``shape_px=(rows, cols)``.
@@ -29,7 +34,9 @@ from typing import Annotated
 import numpy as np
 import typer
 
+from stimuli.build import parse_threshold
 from stimuli.errors import InputError
+from stimuli.resources import check_memory, finite_option
 
 __all__ = [
     "register",
@@ -50,7 +57,13 @@ _Threshold = Annotated[
     str, typer.Option("--threshold", help="Sobel threshold: 'auto' (Otsu) or a number.")
 ]
 _EdgeRatio = Annotated[
-    float, typer.Option("--edge-ratio", help="Compression edge ratio (paper: 1/13).")
+    float,
+    typer.Option(
+        "--edge-ratio",
+        callback=finite_option(0.0, 1.0, hi_open=True),
+        help="Compression edge ratio in [0, 1) (paper: 1/13).",
+        show_default="1/13 ≈ 0.077",
+    ),
 ]
 _LoaderPattern = Annotated[
     str | None,
@@ -62,10 +75,11 @@ _LoaderGridCols = Annotated[
     int | None, typer.Option("--grid-cols", help="Columns of the camera grid for {index} patterns.")
 ]
 _LoaderPitch = Annotated[
-    int | None, typer.Option("--pitch", help="Elemental image: lenslet pitch, pixels.")
+    int | None, typer.Option("--pitch", min=1, help="Elemental image: lenslet pitch, pixels.")
 ]
 _LoaderBorder = Annotated[
-    int | None, typer.Option("--border", help="Elemental image: invalid border per lenslet, px.")
+    int | None,
+    typer.Option("--border", min=0, help="Elemental image: invalid border per lenslet, px."),
 ]
 _ViewCrop = Annotated[
     str | None,
@@ -74,10 +88,48 @@ _ViewCrop = Annotated[
         help="Crop every view to x,y,w,h first (e.g. to drop a Lytro's vignetted corners).",
     ),
 ]
+_ViewBin = Annotated[
+    int,
+    typer.Option(
+        "--view-bin",
+        help="Average blocks of NxN neighbouring views (wider sub-apertures; lens arrays with "
+        "many small views).",
+    ),
+]
+_BitDepth = Annotated[
+    int | None,
+    typer.Option(
+        "--bit-depth",
+        help="Bits used in 16-bit images (e.g. 12); default: from the data's maximum.",
+    ),
+]
+_Background = Annotated[
+    float,
+    typer.Option(
+        "--background",
+        help="Grey level (0-1) that views with an alpha channel are composited over; use the "
+        "protocol's background (jung2015: 0, black).",
+    ),
+]
+_Axes = Annotated[
+    str | None,
+    typer.Option("--axes", help=".npy/.npz axis order, e.g. 'uvhw' (default) or 'hwuv'."),
+]
 _LoaderOffset = Annotated[
     str | None,
     typer.Option("--offset", help="Elemental image: ROW,COL pixels before the first lenslet."),
 ]
+
+
+#: Peak memory of ``synth`` per view pixel, bytes (ours: measured about 1,000 B per view pixel
+#: for the lens array's 10x10 views at 385x308).
+_SYNTH_BYTES_PER_VIEW_PX = 1100
+#: Memory per scanned plane, bytes: its disparity, score and a row of ``planes.csv`` (ours).
+_BYTES_PER_PLANE = 256
+
+
+def _check_planes(planes: int) -> None:
+    check_memory(planes * _BYTES_PER_PLANE, f"--planes {planes}")
 
 
 def parse_grid(text: str) -> tuple[int, int]:
@@ -115,7 +167,19 @@ def _parse_range(text: str) -> tuple[float, float]:
     return a, b
 
 
-def _load(path, pattern, grid_cols, pitch, border, offset, view_crop=None):
+def _load(
+    path,
+    pattern,
+    grid_cols,
+    pitch,
+    border,
+    offset,
+    view_crop=None,
+    view_bin=1,
+    bit_depth=None,
+    axes=None,
+    background=0.0,
+):
     from stimuli.lightfield import load_lightfield
 
     off = None
@@ -127,8 +191,19 @@ def _load(path, pattern, grid_cols, pitch, border, offset, view_crop=None):
         except ValueError:
             raise InputError(f"--offset must be ROW,COL, got {offset!r}") from None
     lf = load_lightfield(
-        path, pattern=pattern, grid_cols=grid_cols, pitch_px=pitch, border_px=border, offset_px=off
+        path,
+        pattern=pattern,
+        grid_cols=grid_cols,
+        pitch_px=pitch,
+        border_px=border,
+        offset_px=off,
+        bit_depth=bit_depth,
+        axes=axes,
+        background=background,
+        gray=True,
     ).gray()
+    if view_bin != 1:
+        lf = lf.view_binned(view_bin)
     if view_crop is not None:
         rs, cs = parse_zoom(view_crop, lf.shape_px)
         lf = lf.cropped((cs.start, rs.start, cs.stop - cs.start, rs.stop - rs.start))
@@ -164,6 +239,7 @@ def declutter_and_compress(
     *,
     threshold: str | float = "auto",
     edge_ratio: float,
+    focus_mask: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray, float]:
     """De-clutter a confocal image and compress it to the prosthesis grid.
 
@@ -176,6 +252,10 @@ def declutter_and_compress(
         Sobel threshold; ``'auto'`` is :func:`stimuli.declutter.auto_threshold` (Otsu).
     edge_ratio : float in [0, 1)
         Compression edge ratio (paper: 1/13).
+    focus_mask : ndarray of shape (rows, cols), bool, optional
+        Depth mode: keep only the edges the light field says are in focus
+        (:func:`stimuli.declutter.in_focus_mask`, :func:`stimuli.declutter.declutter_depth`);
+        without it, the paper's Sobel mode.
 
     Returns
     -------
@@ -184,69 +264,111 @@ def declutter_and_compress(
     threshold : float
         The threshold used.
     """
-    from stimuli.build import parse_threshold
     from stimuli.compress import compress
-    from stimuli.declutter import auto_threshold, declutter
+    from stimuli.declutter import auto_threshold, declutter, declutter_depth
 
     t = parse_threshold(threshold)
     if t is None:
         t = auto_threshold(image)
-    edges = declutter(image, threshold=t)
+    if focus_mask is None:
+        edges = declutter(image, threshold=t)
+    else:
+        edges = declutter_depth(image, focus_mask, threshold=t)
     return edges, compress(edges, grid_px, edge_ratio=edge_ratio), t
 
 
-def plot_scores(scan, path: Path, *, size_px: tuple[int, int] = (360, 640)) -> Path:
-    """Draw the overlap score versus depth (or disparity) as a PNG with Pillow (Fig. 15).
+def _check_mode(declutter_mode: str) -> str:
+    from stimuli.declutter import DECLUTTER_MODES
 
-    Detected planes are marked with red dots and labelled. Returns the written path.
+    if declutter_mode not in DECLUTTER_MODES:
+        raise InputError(
+            f"--declutter must be one of {', '.join(DECLUTTER_MODES)}, got {declutter_mode!r}"
+        )
+    return declutter_mode
+
+
+def check_zoom_aspect(box_hw: tuple[int, int], grid_px: tuple[int, int]) -> None:
+    """Refuse a zoom box whose aspect differs from the grid's by more than 10 %.
+
+    Squeezing a portrait box into a landscape grid distorts the object; the message names the
+    grid with the box's aspect and the same number of rows.
     """
-    from PIL import Image, ImageDraw
+    h, w = box_hw
+    rows, cols = grid_px
+    box, grid = w / h, cols / rows
+    if abs(math.log(box / grid)) > math.log(1.1):
+        fit = max(1, round(rows * box))
+        raise InputError(
+            f"--zoom box {w}x{h} px (aspect {box:.2f}) does not fit the {cols}x{rows} grid "
+            f"(aspect {grid:.2f}): use --grid {fit}x{rows}, or a box of aspect {grid:.2f}"
+        )
+
+
+def plot_scores(scan, path: Path, *, size_in: tuple[float, float] = (7.0, 3.6)) -> Path:
+    """Draw the score versus depth (or disparity) as a PNG with matplotlib (Fig. 15).
+
+    Detected planes are marked and labelled; the agreement scan's null is drawn dashed. Uses
+    ``matplotlib.figure.Figure`` directly, so no backend is chosen and nothing is shown.
+    Returns the written path.
+    """
+    from matplotlib.figure import Figure
+    from matplotlib.ticker import MaxNLocator
 
     from stimuli.io import atomic_path
 
-    rows, cols = size_px
-    img = Image.new("RGB", (cols, rows), "white")
-    d = ImageDraw.Draw(img)
-    left, right, top, bottom = 60, cols - 20, 30, rows - 45
-    use_depth = scan.depths_m is not None and np.all(np.isfinite(scan.depths_m))
+    use_depth = scan.depths_m is not None and bool(np.all(np.isfinite(scan.depths_m)))
     xs = np.asarray(scan.depths_m if use_depth else scan.disparities_px, dtype=float)
-    ys = np.asarray(scan.scores, dtype=float)
-    x0, x1 = float(xs.min()), float(xs.max())
-    y1 = max(float(ys.max()), 1e-6) * 1.1
-
-    def px(x: float, y: float) -> tuple[float, float]:
-        return (
-            left + (x - x0) / (x1 - x0 or 1.0) * (right - left),
-            bottom - y / y1 * (bottom - top),
-        )
-
-    d.rectangle([left, top, right, bottom], outline="black")
-    for k in range(6):
-        xv = x0 + (x1 - x0) * k / 5
-        x, _ = px(xv, 0)
-        d.line([x, bottom, x, bottom + 4], fill="black")
-        d.text((x - 12, bottom + 6), f"{xv:.3g}", fill="black")
-        yv = y1 * k / 5
-        _, y = px(x0, yv)
-        d.line([left - 4, y, left, y], fill="black")
-        d.text((8, y - 6), f"{yv:.2f}", fill="black")
-    d.text(
-        ((left + right) // 2 - 60, rows - 18),
-        "depth (m)" if use_depth else "disparity (px per view)",
-        fill="black",
-    )
-    d.text((left, 8), "fraction of edge pixels coinciding with the centre view", fill="black")
     order = np.argsort(xs)
-    d.line([px(xs[i], ys[i]) for i in order], fill=(0, 70, 160), width=2)
+    fig = Figure(figsize=size_in, dpi=100, layout="constrained")
+    ax = fig.subplots()
+    label = (
+        "fraction of pixels whose views agree best here"
+        if scan.method == "agreement"
+        else "fraction of edge pixels coinciding with the centre view"
+    )
+    ax.plot(xs[order], np.asarray(scan.scores)[order], color="#00468c", lw=1.5, label=label)
+    if scan.null_scores is not None:
+        ax.plot(
+            xs[order],
+            np.asarray(scan.null_scores)[order],
+            color="0.5",
+            lw=1.0,
+            ls="--",
+            label="null (non-coincident reference)",
+        )
     for p in scan.peaks:
         xv = p.depth_m if use_depth else p.disparity_px
-        x, y = px(xv, p.score)
-        d.ellipse([x - 4, y - 4, x + 4, y + 4], fill=(200, 0, 0))
-        d.text((x + 5, y - 14), f"{xv:.3g}", fill=(200, 0, 0))
+        ax.plot([xv], [p.score], "o", color="#c80000", ms=5)
+        ax.annotate(
+            f"{xv:.3g}", (xv, p.score), textcoords="offset points", xytext=(4, 4), color="#c80000"
+        )
+    ax.set_xlabel("depth (m)" if use_depth else "disparity (px per view step)")
+    ax.set_ylabel("score")
+    ax.xaxis.set_major_locator(MaxNLocator(nbins=8))
+    ax.yaxis.set_major_locator(MaxNLocator(nbins=5))
+    top = max(float(np.max(scan.scores)), 1e-9)
+    ax.set_ylim(0, 1.3 * top)  # room for the legend above the peaks
+    ax.grid(True, color="0.9")
+    ax.legend(loc="upper right", fontsize="small", frameon=False)
     path = Path(path)
     with atomic_path(path) as tmp:
-        img.save(tmp, format="PNG")
+        fig.savefig(tmp, format="png")
     return path
+
+
+_Declutter = Annotated[
+    str,
+    typer.Option(
+        "--declutter",
+        help="De-cluttering: 'sobel' (paper: Sobel + threshold) or 'depth' (Sobel edges kept "
+        "where the views agree at the plane).",
+    ),
+]
+
+
+def _warn_lines(caught) -> None:
+    for w in caught:
+        typer.echo(f"warning: {w.message}", err=True)
 
 
 @lightfield_app.command("scan")
@@ -255,22 +377,42 @@ def scan_command(
         Path, typer.Argument(help="Folder of views, .npy/.npz, or elemental image.")
     ],
     out: Annotated[Path, typer.Option("--out", "-o", help="Folder to write.")],
-    planes: Annotated[int, typer.Option("--planes", help="Number of planes (paper: 200).")] = 200,
-    near: Annotated[float | None, typer.Option("--near", help="Nearest depth, m.")] = None,
-    far: Annotated[float | None, typer.Option("--far", help="Farthest depth, m.")] = None,
+    planes: Annotated[
+        int, typer.Option("--planes", min=3, help="Number of planes (paper: 200).")
+    ] = 200,
+    near: Annotated[
+        float | None,
+        typer.Option("--near", callback=finite_option(0.0, lo_open=True), help="Nearest depth, m."),
+    ] = None,
+    far: Annotated[
+        float | None,
+        typer.Option("--far", callback=finite_option(0.0, lo_open=True), help="Farthest depth, m."),
+    ] = None,
     disparities: Annotated[
-        str | None, typer.Option("--disparities", help="FROM:TO, pixels per view step.")
+        str | None,
+        typer.Option(
+            "--disparities",
+            help="FROM:TO, pixels per view step (default: the range the scene occupies).",
+        ),
     ] = None,
     grid: Annotated[str, typer.Option("--grid", help="Prosthesis grid COLSxROWS.")] = "38x25",
+    method: Annotated[
+        str,
+        typer.Option(
+            "--method",
+            help="'agreement' (views agree, with a null; default) or 'haar' (paper's score).",
+        ),
+    ] = "agreement",
     binning: Annotated[
         int | None,
         typer.Option(
-            "--binning", help="View binning for the scan (default: 2, less for small views)."
+            "--binning", min=1, help="View binning for the scan (default: from the views)."
         ),
     ] = None,
     fast: Annotated[
-        bool, typer.Option("--fast", help="Whole-pixel shifts during the scan (faster).")
+        bool, typer.Option("--fast", help="Haar scan: whole-pixel shifts (faster).")
     ] = False,
+    declutter_mode: _Declutter = "sobel",
     threshold: _Threshold = "auto",
     edge_ratio: _EdgeRatio = 1.0 / 13.0,
     view_crop: _ViewCrop = None,
@@ -279,28 +421,66 @@ def scan_command(
     pitch: _LoaderPitch = None,
     border: _LoaderBorder = None,
     offset: _LoaderOffset = None,
+    view_bin: _ViewBin = 1,
+    bit_depth: _BitDepth = None,
+    axes: _Axes = None,
+    background: _Background = 0.0,
 ) -> None:
-    """Scan confocal planes and write the object planes with their edge and grid images."""
+    """Scan planes, detect the object planes and write them with their edge and grid images."""
+    import warnings
+
     from rich.progress import Progress
 
+    from stimuli.declutter import in_focus_mask
     from stimuli.io import atomic_path, save_png
-    from stimuli.planes import auto_binning, iter_plane_scores, scan_result
+    from stimuli.planes import (
+        SCAN_METHODS,
+        auto_binning,
+        find_object_planes,
+        iter_plane_scores,
+        scan_result,
+    )
     from stimuli.refocus import refocus
 
+    # every option is checked before the light field is read or anything is written
     shape = parse_grid(grid)
-    if planes < 3:
-        raise InputError(f"--planes must be >= 3, got {planes}")
-    lf = _load(lightfield, pattern, grid_cols, pitch, border, offset, view_crop)
-    ds = _disparities(lf, planes, near, far, disparities)
-    if binning is None:
-        binning = auto_binning(lf)
-    scores = np.zeros(len(ds))
-    with Progress(transient=True) as bar:
-        task = bar.add_task("scanning planes", total=len(ds))
-        for i, _, s in iter_plane_scores(lf, ds, binning=binning, nearest_shifts=fast):
-            scores[i] = s
-            bar.advance(task)
-    scan = scan_result(lf, ds, scores, binning=binning)
+    _check_mode(declutter_mode)
+    if method not in SCAN_METHODS:
+        raise InputError(f"--method must be one of {', '.join(SCAN_METHODS)}, got {method!r}")
+    parse_threshold(threshold)
+    _check_planes(planes)
+    if disparities is not None:
+        _parse_range(disparities)
+    if out.exists() and not out.is_dir():
+        raise InputError(f"--out {out} exists and is a file; expected a folder to write")
+    lf = _load(
+        lightfield,
+        pattern,
+        grid_cols,
+        pitch,
+        border,
+        offset,
+        view_crop,
+        view_bin,
+        bit_depth,
+        axes,
+        background,
+    )
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        ds = _disparities(lf, planes, near, far, disparities)
+        if method == "agreement":
+            scan = find_object_planes(lf, ds, binning=binning)
+        else:
+            b = auto_binning(lf) if binning is None else binning
+            scores = np.zeros(len(ds))
+            with Progress(transient=True) as bar:
+                task = bar.add_task("scanning planes", total=len(ds))
+                for i, _, sc in iter_plane_scores(lf, ds, binning=b, nearest_shifts=fast):
+                    scores[i] = sc
+                    bar.advance(task)
+            scan = scan_result(lf, ds, scores, binning=b)
+    _warn_lines(caught)
     out.mkdir(parents=True, exist_ok=True)
     rows = scan.rows()
     with atomic_path(out / "planes.csv") as tmp, open(tmp, "w", newline="") as f:
@@ -308,24 +488,35 @@ def scan_command(
         w.writeheader()
         w.writerows(rows)
     with atomic_path(out / "scan.json") as tmp:
-        tmp.write_text(json.dumps({"source": lf.source, **scan.to_dict()}, indent=1))
+        tmp.write_text(
+            json.dumps(
+                {"source": lf.source, "declutter": declutter_mode, **scan.to_dict()}, indent=1
+            )
+        )
     plot_scores(scan, out / "scores.png")
     save_png(lf.centre_view(), out / "centre.png")
     for k, p in enumerate(scan.peaks):
         img = refocus(lf, p.disparity_px)
+        focus = in_focus_mask(lf, p.disparity_px) if declutter_mode == "depth" else None
         edges, cells, t = declutter_and_compress(
-            img, shape, threshold=threshold, edge_ratio=edge_ratio
+            img, shape, threshold=threshold, edge_ratio=edge_ratio, focus_mask=focus
         )
         stem = f"plane{k + 1:02d}"
         save_png(img, out / f"{stem}_confocal.png")
         save_png(edges, out / f"{stem}_edges.png")
         save_png(cells, out / f"{stem}_grid.png")
         where = f"{p.depth_m:.3g} m, " if p.depth_m is not None else ""
-        typer.echo(
-            f"{stem}: {where}disparity {p.disparity_px:.3f} px/view, score {p.score:.3f}, "
-            f"threshold {t:.4g}"
+        extra = (
+            f", support {p.support:.3f}, evidence {p.evidence:.3g}"
+            if math.isfinite(p.support)
+            else ""
         )
-    typer.echo(f"{len(scan.peaks)} object plane(s) in {len(ds)} planes; wrote {out}")
+        typer.echo(
+            f"{stem}: {where}disparity {p.disparity_px:.3f} px/view, score {p.score:.3f}"
+            f"{extra}, threshold {t:.4g} ({declutter_mode})"
+        )
+    span = f"{float(np.min(ds)):.4g}..{float(np.max(ds)):.4g} px/view"
+    typer.echo(f"{len(scan.peaks)} object plane(s) in {len(ds)} planes ({span}); wrote {out}")
 
 
 @lightfield_app.command("refocus")
@@ -334,14 +525,30 @@ def refocus_command(
         Path, typer.Argument(help="Folder of views, .npy/.npz, or elemental image.")
     ],
     out: Annotated[Path, typer.Option("--out", "-o", help="PNG to write (folder with --stack).")],
-    depth: Annotated[float | None, typer.Option("--depth", help="Plane depth, m.")] = None,
+    depth: Annotated[
+        float | None,
+        typer.Option("--depth", callback=finite_option(0.0, lo_open=True), help="Plane depth, m."),
+    ] = None,
     disparity: Annotated[
-        float | None, typer.Option("--disparity", help="Plane disparity, px per view step.")
+        float | None,
+        typer.Option(
+            "--disparity", callback=finite_option(), help="Plane disparity, px per view step."
+        ),
     ] = None,
     stack: Annotated[bool, typer.Option("--stack", help="Write a focal stack into --out.")] = False,
-    planes: Annotated[int, typer.Option("--planes", help="Planes in the stack.")] = 20,
-    near: Annotated[float | None, typer.Option("--near", help="Stack: nearest depth, m.")] = None,
-    far: Annotated[float | None, typer.Option("--far", help="Stack: farthest depth, m.")] = None,
+    planes: Annotated[int, typer.Option("--planes", min=3, help="Planes in the stack.")] = 20,
+    near: Annotated[
+        float | None,
+        typer.Option(
+            "--near", callback=finite_option(0.0, lo_open=True), help="Stack: nearest depth, m."
+        ),
+    ] = None,
+    far: Annotated[
+        float | None,
+        typer.Option(
+            "--far", callback=finite_option(0.0, lo_open=True), help="Stack: farthest depth, m."
+        ),
+    ] = None,
     disparities: Annotated[
         str | None, typer.Option("--disparities", help="Stack: FROM:TO, px per view step.")
     ] = None,
@@ -349,6 +556,7 @@ def refocus_command(
     grid: Annotated[
         str | None, typer.Option("--grid", help="Also write edges and a COLSxROWS grid.")
     ] = None,
+    declutter_mode: _Declutter = "sobel",
     threshold: _Threshold = "auto",
     edge_ratio: _EdgeRatio = 1.0 / 13.0,
     view_crop: _ViewCrop = None,
@@ -357,12 +565,44 @@ def refocus_command(
     pitch: _LoaderPitch = None,
     border: _LoaderBorder = None,
     offset: _LoaderOffset = None,
+    view_bin: _ViewBin = 1,
+    bit_depth: _BitDepth = None,
+    axes: _Axes = None,
+    background: _Background = 0.0,
 ) -> None:
     """Write the confocal image at one plane (or a focal stack); optionally zoom and compress."""
+    from stimuli.declutter import in_focus_mask
     from stimuli.io import save_png
     from stimuli.refocus import iter_focal_stack, refocus
 
-    lf = _load(lightfield, pattern, grid_cols, pitch, border, offset, view_crop)
+    # every option is checked before the light field is read or anything is written
+    _check_mode(declutter_mode)
+    grid_px = parse_grid(grid) if grid is not None else None
+    parse_threshold(threshold)
+    if stack:
+        _check_planes(planes)
+        if disparities is not None:
+            _parse_range(disparities)
+    if zoom is not None:
+        parse_zoom(zoom, (1 << 30, 1 << 30))
+    if out.exists() and out.is_dir() != stack:
+        raise InputError(
+            f"--out {out} exists and is a {'folder' if out.is_dir() else 'file'}; expected "
+            + ("a folder for --stack" if stack else "a PNG file path")
+        )
+    lf = _load(
+        lightfield,
+        pattern,
+        grid_cols,
+        pitch,
+        border,
+        offset,
+        view_crop,
+        view_bin,
+        bit_depth,
+        axes,
+        background,
+    )
     if stack:
         if depth is not None or disparity is not None:
             raise InputError("--stack scans --near/--far or --disparities, not --depth/--disparity")
@@ -375,14 +615,22 @@ def refocus_command(
     if (depth is None) == (disparity is None):
         raise InputError("give exactly one of --depth (m) or --disparity (px per view step)")
     d = lf.disparity_px(depth) if depth is not None else float(disparity)
-    img = refocus(lf, d)
+    zoom_box = None
     if zoom is not None:
-        rs, cs = parse_zoom(zoom, img.shape)
+        zoom_box = parse_zoom(zoom, lf.shape_px)
+        if grid_px is not None:
+            rs, cs = zoom_box
+            check_zoom_aspect((rs.stop - rs.start, cs.stop - cs.start), grid_px)
+    img = refocus(lf, d)
+    focus = in_focus_mask(lf, d) if declutter_mode == "depth" and grid_px is not None else None
+    if zoom_box is not None:
+        rs, cs = zoom_box
         img = np.ascontiguousarray(img[rs, cs])
+        focus = None if focus is None else np.ascontiguousarray(focus[rs, cs])
     save_png(img, out)
-    if grid is not None:
+    if grid_px is not None:
         edges, cells, t = declutter_and_compress(
-            img, parse_grid(grid), threshold=threshold, edge_ratio=edge_ratio
+            img, grid_px, threshold=threshold, edge_ratio=edge_ratio, focus_mask=focus
         )
         save_png(edges, out.with_name(out.stem + "_edges.png"))
         save_png(cells, out.with_name(out.stem + "_grid.png"))
@@ -406,18 +654,30 @@ def synth_command(
     size: Annotated[str, typer.Option("--size", help="View size COLSxROWS (paper: 385x308).")] = (
         "385x308"
     ),
-    seed: Annotated[int, typer.Option("--seed", help="Seed of the textures.")] = 0,
+    seed: Annotated[int, typer.Option("--seed", min=0, help="Seed of the textures.")] = 0,
 ) -> None:
     """Write the paper's simulated three-plane scene (Fig. 10)."""
     from stimuli.io import atomic_path, save_png
     from stimuli.lfsynth import (
+        ground_truth_maps,
         render_camera_array,
         render_elemental_image,
         three_plane_scene,
     )
-    from stimuli.lightfield import views_from_elemental
+    from stimuli.lightfield import views_from_elemental, write_pfm
 
     shape = parse_grid(size)
+    if kind not in ("lens", "camera"):
+        raise InputError(f"--kind must be 'lens' or 'camera', got {kind!r}")
+    suffix = out.suffix.lower()
+    if suffix == ".png" and kind != "lens":
+        raise InputError("a .png output is an elemental image: use --kind lens")
+    if out.exists() and out.is_dir() != (suffix not in (".npz", ".png")):
+        raise InputError(
+            f"--out {out} exists and is a {'folder' if out.is_dir() else 'file'}; expected "
+            + ("a folder of views" if suffix not in (".npz", ".png") else f"a {suffix} file")
+        )
+    check_memory(shape[0] * shape[1] * _SYNTH_BYTES_PER_VIEW_PX, f"--size {size}")
     layers = three_plane_scene(shape, rng=seed)
     if kind == "lens":
         ei, geometry = render_elemental_image(layers, shape_px=shape)
@@ -425,20 +685,31 @@ def synth_command(
     elif kind == "camera":
         lf = render_camera_array(layers, shape_px=shape, baseline_m=0.03)
         views, geometry = lf.views, lf.geometry
-    else:
-        raise InputError(f"--kind must be 'lens' or 'camera', got {kind!r}")
     gtoml = "[geometry]\n" + "".join(
         f"{k} = {json.dumps(v)}\n" for k, v in geometry.to_dict().items()
     )
-    suffix = out.suffix.lower()
+    disp, depth = ground_truth_maps(layers, geometry, shape)
+
+    def write_truth(disp_path: Path, depth_path: Path) -> None:
+        for arr, p in ((disp, disp_path), (depth, depth_path)):
+            with atomic_path(p) as tmp:
+                write_pfm(arr, tmp)
+
     if suffix == ".npz":
         out.parent.mkdir(parents=True, exist_ok=True)
         with atomic_path(out) as tmp, open(tmp, "wb") as f:
-            np.savez_compressed(f, views=views, geometry=json.dumps(geometry.to_dict()))
+            np.savez_compressed(
+                f,
+                views=views,
+                geometry=json.dumps(geometry.to_dict()),
+                disparity_px=disp,
+                depth_m=depth,
+            )
     elif suffix == ".png":
-        if kind != "lens":
-            raise InputError("a .png output is an elemental image: use --kind lens")
         save_png(ei, out)
+        write_truth(
+            out.with_name(out.stem + "_disparity.pfm"), out.with_name(out.stem + "_depth.pfm")
+        )
         p = ei.shape[0] // shape[0]
         with atomic_path(out.with_suffix(".toml")) as tmp:
             tmp.write_text(gtoml + f"\n[elemental]\npitch_px = {p}\nborder_px = 0\n")
@@ -449,6 +720,7 @@ def synth_command(
                 save_png(views[u, v], out / f"view_{u:02d}_{v:02d}.png")
         with atomic_path(out / "lightfield.toml") as tmp:
             tmp.write_text(gtoml)
+        write_truth(out / "disparity.pfm", out / "depth.pfm")
     typer.echo(f"wrote {out} ({views.shape[0]}x{views.shape[1]} views of {shape[1]}x{shape[0]})")
 
 

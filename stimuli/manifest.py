@@ -107,8 +107,15 @@ MANIFEST_COLUMNS: tuple[str, ...] = (
     "threshold_source",
 )
 
-#: Stimulus conditions: wide-DOF edges, narrow-DOF edges, and the training photo (Sec. 3.1).
-CONDITIONS: tuple[str, ...] = ("cluttered", "decluttered", "photo")
+#: Stimulus conditions: wide-DOF edges, narrow-DOF edges, the grey wide-DOF photo, and the
+#: full-resolution colour photos of training objects, wide-DOF and confocal (Sec. 3.1).
+CONDITIONS: tuple[str, ...] = (
+    "cluttered",
+    "decluttered",
+    "photo",
+    "colour_wide",
+    "colour_confocal",
+)
 #: Object roles: the 20 test objects and the 3 training objects (Sec. 3.1).
 ROLES: tuple[str, ...] = ("main", "training")
 

@@ -32,6 +32,7 @@ integral-imaging reconstruction as confocal imaging).
 
 from __future__ import annotations
 
+import contextlib
 import math
 import os
 from collections.abc import Iterator, Sequence
@@ -41,6 +42,31 @@ import numpy as np
 
 from stimuli.errors import InputError
 from stimuli.lightfield import LightField, _as_lightfield
+
+try:  # BLAS y += a x: one pass instead of numpy's two (scipy is a core dependency)
+    from scipy.linalg.blas import saxpy as _saxpy
+except ImportError:  # pragma: no cover - scipy without BLAS wrappers
+    _saxpy = None
+
+_BLAS = {}
+
+
+def _one_blas_thread():
+    """Context: BLAS runs single-threaded inside (our own threads split the work).
+
+    OpenBLAS would otherwise split each ``saxpy`` over its own threads, which then spin after
+    the call and slow whatever runs next (measured: a 3 ms Sobel pass took 17 ms after one).
+    """
+    if "ctl" not in _BLAS:
+        try:
+            from threadpoolctl import ThreadpoolController
+
+            _BLAS["ctl"] = ThreadpoolController()
+        except ImportError:  # pragma: no cover - declared dependency
+            _BLAS["ctl"] = None
+    ctl = _BLAS["ctl"]
+    return contextlib.nullcontext() if ctl is None else ctl.limit(limits=1, user_api="blas")
+
 
 __all__ = ["refocus", "focal_stack", "iter_focal_stack", "centre_view", "default_workers"]
 
@@ -127,6 +153,69 @@ def _check_disparity(lf: LightField, disparity_px: float) -> float:
     return d
 
 
+def _refocus_views_flat(
+    views: np.ndarray,
+    row_shifts: Sequence[float],
+    col_shifts: Sequence[float],
+    workers: int,
+    result: np.ndarray,
+) -> None:
+    """Shift-and-add of grey, C-contiguous float32 views into ``result`` (unnormalised).
+
+    First, for each view column ``v``, the views are added with their *row* shifts: a shift by
+    whole rows is a plain offset in the flattened image, so each tap is one BLAS ``saxpy``
+    (``y += a x``, one pass, about four times faster than numpy's multiply-then-add). Then the
+    ``n_v`` partial images are added with their column shifts (numpy slices).
+    """
+    n_u, n_v, rows, cols = views.shape
+    size = rows * cols
+    flat = views.reshape(n_u, n_v, size)
+    partial = np.zeros((n_v, rows, cols), dtype=np.float32)
+    pflat = partial.reshape(n_v, size)
+    taps = [[(m, w) for m, w in _shift_weights(row_shifts[u]) if abs(m) < rows] for u in range(n_u)]
+
+    def pass_rows(v0: int, v1: int) -> None:
+        for v in range(v0, v1):
+            y = pflat[v]
+            for u in range(n_u):
+                x = flat[u, v]
+                for m, w in taps[u]:
+                    k = abs(m) * cols
+                    z = _saxpy(
+                        x, y, n=size - k, a=w, offx=0 if m >= 0 else k, offy=k if m >= 0 else 0
+                    )
+                    if z is not y:  # the wrapper copied: should not happen for contiguous float32
+                        raise RuntimeError("saxpy did not work in place")
+
+    scratch = np.empty((rows, cols), dtype=np.float32)
+
+    def pass_cols(c0: int, c1: int) -> None:
+        tmp = scratch[:, c0:c1] if c1 - c0 < cols else scratch
+        for v in range(n_v):
+            _accumulate(result[:, c0:c1], partial[v][:, c0:c1], col_shifts[v], 1, tmp)
+
+    n_threads = max(1, min(workers, n_v))
+    if n_u * n_v * size < _THREAD_MIN_PIXELS:
+        n_threads = 1
+    result[...] = 0.0
+    if n_threads == 1:
+        pass_rows(0, n_v)
+        pass_cols(0, cols)
+        return
+    vb = np.linspace(0, n_v, n_threads + 1).astype(int)
+    with ThreadPoolExecutor(n_threads) as ex:
+        list(ex.map(pass_rows, vb[:-1], vb[1:]))
+    # column shifts mix neighbouring columns: split by rows instead
+    rb = np.linspace(0, rows, n_threads + 1).astype(int)
+
+    def pass_cols_rows(r0: int, r1: int) -> None:
+        for v in range(n_v):
+            _accumulate(result[r0:r1], partial[v][r0:r1], col_shifts[v], 1, scratch[r0:r1])
+
+    with ThreadPoolExecutor(n_threads) as ex:
+        list(ex.map(pass_cols_rows, rb[:-1], rb[1:]))
+
+
 def _refocus_views(
     views: np.ndarray,
     d: float,
@@ -146,6 +235,11 @@ def _refocus_views(
         row_shifts = [float(math.floor(s + 0.5)) for s in row_shifts]
         col_shifts = [float(math.floor(s + 0.5)) for s in col_shifts]
 
+    result = out if out is not None else np.empty((rows, cols, *extra), dtype=np.float32)
+    if _saxpy is not None and not extra and views.dtype == np.float32 and views.flags.c_contiguous:
+        with _one_blas_thread():
+            _refocus_views_flat(views, row_shifts, col_shifts, workers, result)
+        return _normalise(result, rows, cols, row_shifts, col_shifts, extra)
     partial = np.zeros((n_u, rows, cols, *extra), dtype=np.float32)
     scratch = np.empty_like(partial)
     n_threads = max(1, min(workers, n_u))
@@ -170,7 +264,6 @@ def _refocus_views(
                 result[:, c0:c1], partial[u][:, c0:c1], row_shifts[u], 0, scratch[0][:, c0:c1]
             )
 
-    result = out if out is not None else np.empty((rows, cols, *extra), dtype=np.float32)
     result[...] = 0.0
     if n_threads == 1:
         pass_cols(0, n_u)
@@ -181,14 +274,28 @@ def _refocus_views(
         with ThreadPoolExecutor(n_threads) as ex:
             list(ex.map(pass_cols, ub[:-1], ub[1:]))
             list(ex.map(pass_rows, cb[:-1], cb[1:]))
+    return _normalise(result, rows, cols, row_shifts, col_shifts, extra)
 
-    w = np.outer(_weights_1d(rows, row_shifts), _weights_1d(cols, col_shifts))
-    inv = np.zeros_like(w)
-    np.divide(1.0, w, out=inv, where=w > 1e-9)
-    inv = inv.astype(np.float32)
+
+def _normalise(result, rows, cols, row_shifts, col_shifts, extra):
+    """Divide by the number of contributing views and clip to [0, 1], in place.
+
+    The weight is separable, ``W(y, x) = w_rows(y) w_cols(x)``, so its inverse is applied as a
+    row factor and a column factor (0 where no view contributes).
+    """
+    inv = []
+    for n, shifts in ((rows, row_shifts), (cols, col_shifts)):
+        w = _weights_1d(n, shifts)
+        i = np.zeros_like(w)
+        np.divide(1.0, w, out=i, where=w > 1e-9)
+        inv.append(i.astype(np.float32))
+    r, c = inv
     if extra:
-        inv = inv[..., None]
-    result *= inv
+        result *= r[:, None, None]
+        result *= c[None, :, None]
+    else:
+        result *= r[:, None]
+        result *= c[None, :]
     np.clip(result, 0.0, 1.0, out=result)
     return result
 

@@ -35,7 +35,7 @@ from scipy.ndimage import gaussian_filter
 
 from stimuli import jung2015
 from stimuli.errors import InputError
-from stimuli.io import save_png
+from stimuli.io import default_mode, save_png
 from stimuli.manifest import OBJECTS_COLUMNS
 from stimuli.scene import Layer, ThinLensCamera, centre_crop_offset, render_pair
 
@@ -1852,6 +1852,7 @@ def write_pairs(
             "scenes": scenes,
         }
         (tmp / "synth.json").write_text(json.dumps(meta, indent=2) + "\n", encoding="utf-8")
+        os.chmod(tmp, default_mode(directory=True))  # mkdtemp makes it private
         if out.exists():
             old = Path(tempfile.mkdtemp(prefix=f".{out.name}.", suffix=".old", dir=out.parent))
             os.replace(out, old / "x")

@@ -218,7 +218,7 @@ def test_readme_command(cmd: str, workdir: Path) -> None:
         return
     r = _run(cmd, workdir)
     assert r.returncode == 0, f"{cmd}\n{r.stdout[-2000:]}\n{r.stderr[-3000:]}"
-    if argv[:2] == ["confocal", "demo"] and "--lightfield" not in argv:
+    if argv[:2] == ["confocal", "demo"] and not {"--lightfield", "--active"} & set(argv):
         _check_demo(workdir / "confocal-demo", r.stdout)
     if "--out" in argv or "--screenshot" in argv:
         flag = "--out" if "--out" in argv else "--screenshot"

@@ -19,8 +19,8 @@ from PIL import Image
 
 from experiment.clock import FakeClock, PerfCounterClock
 from experiment.console import OperatorConsole, preview_text
-from experiment.displays import NullDisplay
 from experiment.interfaces import FlipRecord, combine_flips
+from experiment.presentation.displays import NullDisplay
 from experiment.protocol import load_protocol
 from experiment.session import Session
 from experiment.stimset import MANIFEST_COLUMNS, StimulusSet
@@ -285,8 +285,8 @@ def test_combine_flips_and_preview() -> None:
 @pytest.mark.gl
 def test_presenter_process_dies_and_restarts(mini) -> None:
     """The console says when the presenter dies, and the session continues after F9."""
-    presenter_proc = pytest.importorskip("experiment.presenter_proc")
-    from experiment.presenter import ScreenGeometry
+    presenter_proc = pytest.importorskip("experiment.presentation.process")
+    from experiment.presentation.presenter import ScreenGeometry
 
     session, clock, log, _ = mini
     geometry = ScreenGeometry.from_display_spec(session.protocol.display)
@@ -340,7 +340,7 @@ def _answer_all(session, clock, responses: list[str]) -> None:
 def test_second_rater_scores_blind(mini) -> None:
     """``confocal score``'s app shows object and words, never the first rater's scores."""
     from experiment.console import ScoringApp
-    from experiment.present_cli import pending_for_rater
+    from experiment.presentation.cli import pending_for_rater
 
     session, clock, log, _ = mini
     _answer_all(session, clock, ["a cup", "clip thing", "no idea"])

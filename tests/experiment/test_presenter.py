@@ -15,10 +15,12 @@ import pytest
 
 pytestmark = pytest.mark.gl
 
-presenter = pytest.importorskip("experiment.presenter", reason="moderngl not importable")
+presenter = pytest.importorskip(
+    "experiment.presentation.presenter", reason="moderngl not importable"
+)
 
 from experiment.clock import FakeClock  # noqa: E402
-from experiment.presenter import (  # noqa: E402
+from experiment.presentation.presenter import (  # noqa: E402
     PAPER_BORDER_RGB,
     PhospheneSpec,
     Presenter,
@@ -255,7 +257,9 @@ def test_bad_stimulus_raises(open_presenter) -> None:
     with pytest.raises(ValueError, match=r"must be in \[0, 1\]"):
         p.show_stimulus(np.full((4, 4), 2.0, np.float32))
     with pytest.raises(ValueError, match="must be 2-D"):
-        p.show_stimulus(np.zeros((4, 4, 3), np.float32))
+        p.show_stimulus(np.zeros((4, 4, 2), np.float32))
+    with pytest.raises(ValueError, match="must be 2-D"):  # colour photos are float32 only
+        p.show_stimulus(np.zeros((4, 4, 3), bool))
 
 
 def test_geometry_checks() -> None:
@@ -385,3 +389,21 @@ def test_present_missing_stimulus_one_line_exit_2(tmp_path) -> None:
     assert r.returncode == 2
     lines = r.stderr.strip().splitlines()
     assert len(lines) == 1 and "nope.png" in lines[0] and not out.exists()
+
+
+@pytest.mark.parametrize("gamma", [1.0, 2.2])
+def test_colour_photo_within_one_level_of_reference_issue_15(open_presenter, gamma) -> None:
+    """Training's colour photos: each channel as given (gamma-corrected), to 1 of 255."""
+    g = ScreenGeometry.jung2015(gamma=gamma)
+    img = np.random.default_rng(3).random((25, 38, 3)).astype(np.float32)
+    p = open_presenter(g)
+    p.show_stimulus(img)
+    frame = p.read_pixels()
+    ref = expected_frame(g, img)
+    assert np.abs(frame.astype(int) - ref.astype(int)).max() <= 1
+    top, left, rows, cols = stimulus_rect_px(g, img.shape[:2])
+    # not a grey rendering: the channels differ inside the image
+    assert (frame[top : top + rows, left : left + cols].std(axis=2) > 10).mean() > 0.5
+    # and a binary stimulus afterwards is drawn in the stimulus colours again
+    p.show_stimulus(checkerboard((8, 12)))
+    np.testing.assert_array_equal(p.read_pixels(), expected_frame(g, checkerboard((8, 12))))

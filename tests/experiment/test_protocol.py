@@ -78,7 +78,10 @@ def test_jung2015_settings_follow_the_paper():
     assert main[0].conditions == (Condition.CLUTTERED, Condition.DECLUTTERED)
     assert main[0].level_order == "ascending" and main[0].trial_order == "random"
     training = [b for b in spec.blocks if b.part == "training"]
-    assert training[0].conditions == ("photo",), "training starts with the photos"
+    # Sec. 3.1: "at full resolution ... conventional and confocal images were shown followed by
+    # the edge-filtered and compressed images"
+    assert training[0].conditions == ("colour_wide", "colour_confocal")
+    assert training[0].levels == (8,) and training[1].levels == tuple(range(1, 9))
 
 
 def test_load_by_bare_name_and_missing_file(tmp_path):

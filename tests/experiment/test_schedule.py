@@ -92,11 +92,12 @@ def test_jung2015_training_part(jung, paper_set):
     train_ids = set(paper_set.object_ids("training"))
     assert len(train_ids) == 3
     assert {t.object for t in training} == train_ids
-    # training comes first, photos first
+    # training comes first, the full-resolution colour photos first: wide, then confocal
+    # (Sec. 3.1, issue 15)
     assert [t.part for t in s.trials[: len(training)]] == ["training"] * len(training)
-    assert [t.condition for t in training[:3]] == ["photo"] * 3
-    assert {t.level for t in training[:3]} == {8}
-    rest = training[3:]
+    assert [t.condition for t in training[:6]] == ["colour_wide"] * 3 + ["colour_confocal"] * 3
+    assert {t.level for t in training[:6]} == {8}
+    rest = training[6:]
     assert len(rest) == 3 * 8 * 2
     assert Counter((t.condition, t.level) for t in rest) == Counter(
         {(c, lv): 3 for c in ("cluttered", "decluttered") for lv in range(1, 9)}

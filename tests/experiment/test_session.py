@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 
 from experiment.clock import FakeClock
-from experiment.displays import NullDisplay
 from experiment.interfaces import Answer, FlipRecord
+from experiment.presentation.displays import NullDisplay
 from experiment.protocol import load_protocol
 from experiment.session import Session
 from experiment.stimset import StimulusSet, StimulusSetError

@@ -9,9 +9,10 @@ import sys
 import pytest
 
 from experiment import cli
+from experiment.data.psychds import EXPORT_COLUMNS
 from experiment.observers import LogisticParams
 from experiment.testing import make_stimulus_set
-from experiment.triallog import TIDY_COLUMNS, TrialLog
+from experiment.triallog import TrialLog
 
 PROTOCOL = """
 [protocol]
@@ -84,19 +85,28 @@ def test_headless_run_status_and_export(study, tmp_path, capsys):
     assert [s["left"] for s in rep["sessions"]] == [0, 0]
     assert {"rater_a", "rater_b", "kappa", "n"} <= set(rep["kappa"][0])
 
-    target = tmp_path / "export" / "trials.csv"
+    target = tmp_path / "export"
     code, out, _ = confocal(["session", "export", db, "--out", target], capsys)
-    assert code == 0
-    with open(target, newline="") as f:
-        rows = list(csv.DictReader(f))
-    assert tuple(rows[0]) == TIDY_COLUMNS
+    assert code == 0 and "simulated session(s): 1, 2" in out
+    files = sorted((target / "data").iterdir())
+    assert [f.name for f in files] == [
+        "study-study_subject-S01_session-1_data.csv",
+        "study-study_subject-S02_session-2_data.csv",
+    ]
+    rows = []
+    for f in files:
+        with open(f, newline="") as fh:
+            rows += list(csv.DictReader(fh))
+    assert tuple(rows[0]) == EXPORT_COLUMNS
     assert len(rows) == 2 * N_TRIALS
     assert {r["subject"] for r in rows} == {"S01", "S02"}
     assert rows[0]["rater"] == "sim:logistic", "the primary score, not rater B's"
-    desc = json.loads((target.parent / "dataset_description.json").read_text())
+    assert {r["simulated"] for r in rows} == {"1"}
+    desc = json.loads((target / "dataset_description.json").read_text())
     assert desc["@type"] == "Dataset" and desc["schemaVersion"].startswith("Psych-DS")
-    assert [v["name"] for v in desc["variableMeasured"]] == list(TIDY_COLUMNS)
-    assert [s["seed"] for s in desc["sessions"]][0] == "4"
+    assert [v["name"] for v in desc["variableMeasured"]] == list(EXPORT_COLUMNS)
+    sessions = json.loads((target / "documentation" / "sessions.json").read_text())["sessions"]
+    assert [s["seed"] for s in sessions][0] == "4"
 
 
 def test_status_shows_what_is_left(study, capsys):
@@ -125,7 +135,7 @@ def test_status_shows_what_is_left(study, capsys):
         ("no_stimuli", r"nowhere: stimulus set folder not found"),
         ("bad_manifest", r"manifest\.csv: missing column 'sha256'"),
         ("observer_without_headless", r"--observer needs --headless"),
-        ("unknown_observer", r"--observer must be one of logistic, model, got 'oracle'"),
+        ("unknown_observer", r"--observer must be one of exemplar, logistic, model, got 'oracle'"),
         ("resume_other_seed", r"unfinished session 2 with seed 11, not 12"),
         ("bad_observer_param", r"--observer-param: unknown parameter 'lapsy' for observer"),
         ("observer_param_syntax", r"--observer-param must be KEY=VALUE, got 'lapse'"),
@@ -194,7 +204,7 @@ def test_status_and_export_refuse_bad_files(tmp_path, capsys):
     code, _, err = confocal(["session", "status", bad], capsys)
     assert code == 2 and "not a readable SQLite trial log" in err
     code, _, err = confocal(["session", "export", tmp_path / "none.sqlite", "--out",
-                             tmp_path / "t.csv"], capsys)  # fmt: skip
+                             tmp_path / "ds"], capsys)  # fmt: skip
     assert code == 2 and "trial log not found" in err
 
 
@@ -269,5 +279,6 @@ def test_integration_with_a_built_stimulus_set(tmp_path, capsys):
         rows = log.tidy_trials()
     main = [r for r in rows if r["part"] == "main"]
     assert len(main) == 2 * 4 * 8 * 2
-    assert len(rows) - len(main) == 2 * (3 + 3 * 8 * 2)  # training: photos, then 8 x 2 each
+    # training: colour photos (wide, then confocal), then 8 x 2 each (issue 15)
+    assert len(rows) - len(main) == 2 * (2 * 3 + 3 * 8 * 2)
     assert {r["pixels"] for r in main} == {96, 486, 950, 3290, 6370, 17876, 40344, 160884}

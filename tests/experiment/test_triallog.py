@@ -309,3 +309,82 @@ def test_misc_errors(tmp_path):
             log.session(42)
         with pytest.raises(TrialLogError, match="query failed"):
             log.execute("SELECT nope FROM nothing")
+
+
+def test_migration_2_adds_viewings_to_an_existing_log_issue_10(
+    tmp_path, protocol, stimset, monkeypatch
+):
+    """A schema-1 log is upgraded in place: old trials have 0 logged viewings, new ones >= 1."""
+    import experiment.triallog as tl
+
+    db = tmp_path / "old.sqlite"
+    monkeypatch.setattr(tl, "MIGRATIONS", MIGRATIONS[:-1])  # before the viewings migration
+    with TrialLog(db) as log:
+        s = Session.open(log, protocol, stimset, "S01", seed=3, clock=FakeClock())
+        t0 = s.next_trial()
+        with log.atomic() as con:  # a trial as schema 1 recorded it (no onset table yet)
+            con.execute(
+                "INSERT INTO trials (session_id, trial_index, object, condition, level, pixels, "
+                "stimulus_sha256, response, recorded_at) VALUES (?, 0, ?, ?, ?, ?, ?, 'x', 'now')",
+                (s.session_id, t0.object, t0.condition, t0.level, t0.pixels, t0.sha256),
+            )
+            con.execute(
+                "INSERT INTO scores (session_id, trial_index, score, recognized, rater, "
+                "is_primary, scored_at) VALUES (?, 0, 'named', 1, 'operator', 1, 'now')",
+                (s.session_id,),
+            )
+        s.close()
+        assert log.schema_version() == MIGRATIONS[-2][0]
+    monkeypatch.setattr(tl, "MIGRATIONS", MIGRATIONS)
+    with TrialLog(db) as log:
+        assert log.schema_version() == MIGRATIONS[-1][0]
+        s = Session.open(log, protocol, stimset, "S01", clock=FakeClock())
+        t1 = s.next_trial()
+        assert t1.index == 1
+        assert s.mark_shown(t1, FlipRecord(1.0)) == 1
+        assert s.mark_shown(t1, FlipRecord(2.0)) == 2  # shown again before it was answered
+        s.record(t1, Answer("mug", "named", "operator"), FlipRecord(2.0, 3.0))
+        rows = log.tidy_trials()
+        assert [(r["trial_index"], r["viewings"], r["repeat_viewing"]) for r in rows] == [
+            (0, 0, 0),
+            (1, 2, 1),
+        ]
+        assert tuple(rows[0]) == TIDY_COLUMNS
+        kinds = [e["kind"] for e in log.events(s.session_id)]
+        assert kinds.count("repeat_viewing") == 1
+        s.close()
+    with pytest.raises(sqlite3.IntegrityError, match="viewings are append-only"):
+        con = sqlite3.connect(db)
+        try:
+            con.execute("DELETE FROM viewings")
+        finally:
+            con.close()
+
+
+def test_fault_spec_is_checked_issue_10(monkeypatch):
+    import experiment.triallog as tl
+
+    for bad in ("commit", "commit@0=exit", "nowhere@1=exit", "commit@1=explode"):
+        with pytest.raises(ValueError, match="CONFOCAL_FAULT must look like STEP@N=exit|enospc"):
+            tl._parse_fault(bad)
+    assert tl._parse_fault("") is None
+    assert tl._parse_fault("record.trial@3=exit") == ("record.trial", 3, "exit")
+
+
+def test_disk_full_rolls_back_and_says_so_issue_10(tmp_path, protocol, stimset, monkeypatch):
+    import experiment.triallog as tl
+
+    db = tmp_path / "full.sqlite"
+    with TrialLog(db) as log:
+        s = Session.open(log, protocol, stimset, "S01", seed=3, clock=FakeClock())
+        t0 = s.next_trial()
+        monkeypatch.setattr(tl, "_fault_spec", ("record.score", 1, "enospc"))
+        monkeypatch.setattr(tl, "_fault_hits", {})
+        with pytest.raises(TrialLogError, match="disk is full .*rolled back.*run the same"):
+            s.record(t0, Answer("mug", "named", "operator"), FlipRecord(0.0, 1.0))
+        monkeypatch.setattr(tl, "_fault_spec", None)
+        assert log.answered_count(s.session_id) == 0, "the half-written trial was rolled back"
+        assert log.viewings(s.session_id, 0) == 0
+        s.record(t0, Answer("mug", "named", "operator"), FlipRecord(0.0, 1.0))
+        assert log.answered_count(s.session_id) == 1
+        s.close()

@@ -18,10 +18,10 @@ import pytest
 
 pytestmark = pytest.mark.gl
 
-pytest.importorskip("experiment.presenter", reason="moderngl not importable")
+pytest.importorskip("experiment.presentation.presenter", reason="moderngl not importable")
 
-from experiment.presenter import ScreenGeometry, expected_frame  # noqa: E402
-from experiment.presenter_proc import PresenterDied, RemoteDisplay  # noqa: E402
+from experiment.presentation.presenter import ScreenGeometry, expected_frame  # noqa: E402
+from experiment.presentation.process import PresenterDied, RemoteDisplay  # noqa: E402
 
 #: A small subject screen so that llvmpipe draws quickly: 320x256 px, 32 px/cm, 16 px cells.
 GEOMETRY = ScreenGeometry(

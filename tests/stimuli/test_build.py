@@ -68,7 +68,9 @@ def test_sizes_equal_the_papers_and_files_match_manifest(built) -> None:
     """Sec. 3.1: 8 levels per condition, sizes 492x327 ... 12x8, PNGs at native size."""
     _, result, out = built
     records = read_manifest(out / "manifest.csv")
-    assert len(records) == result.n_stimuli == 3 * (1 + 2 * 8)
+    # per object a grey photo and 2 x 8 edge stimuli; the training object also its two colour
+    # photos (wide and confocal, Sec. 3.1 training)
+    assert len(records) == result.n_stimuli == 3 * (1 + 2 * 8) + 2
     paper = dict(zip(jung2015.WINDOWS_PX, jung2015.RESOLUTIONS_PX, strict=True))
     for cond in ("cluttered", "decluttered"):
         rows = sorted(
@@ -155,6 +157,9 @@ def test_auto_edge_ratio_is_mean_wide_edge_fraction_of_main_objects(built) -> No
     assert all(r.edge_ratio == result.edge_ratio for r in recs)
 
 
+EDGES = ("cluttered", "decluttered")
+
+
 def test_decluttered_has_less_edge_mass_outside_the_object_at_every_level(built) -> None:
     """The blurred background drops out: fewer 'on' cells outside the object mask."""
     _, _, out = built
@@ -166,20 +171,22 @@ def test_decluttered_has_less_edge_mass_outside_the_object_at_every_level(built)
         for level in range(1, 9):
             outside = {}
             for r in recs:
-                if r.object == f"obj{i:02d}" and r.level == level and r.condition != "photo":
+                if r.object == f"obj{i:02d}" and r.level == level and r.condition in EDGES:
                     grid = block_mean(m, (r.height, r.width)) > 0.5
                     outside[r.condition] = int(((_stim(out, r) > 0) & ~grid).sum())
             assert outside["decluttered"] < outside["cluttered"], (i, level, outside)
 
 
 def test_thresholds_per_object_global_and_auto(tmp_path: Path) -> None:
-    """objects.csv value wins, then the global value; auto is Otsu on the narrow image."""
+    """objects.csv value wins, then the global value; auto (method otsu) is Otsu on narrow."""
     csv_text = "object,sobel_threshold\nobj00,0.2\n"
     pairs = write_pairs_folder(tmp_path / "p", 2, (200, 300), csv_text)
     r = build_stimulus_set(pairs, tmp_path / "g", params=BuildParams(threshold=0.05), workers=1)
     got = {o.object: (o.sobel_threshold, o.threshold_source) for o in r.objects}
     assert got == {"obj00": (0.2, "objects.csv"), "obj01": (0.05, "global")}
-    r = build_stimulus_set(pairs, tmp_path / "a", workers=1)
+    r = build_stimulus_set(
+        pairs, tmp_path / "a", workers=1, params=BuildParams(threshold_method="otsu")
+    )
     narrow = load_gray(pairs / "obj01" / "narrow.png")
     x, y, w, h = aspect_crop_box(narrow.shape, (327, 492))
     expected = auto_threshold(to_working_size(narrow[y : y + h, x : x + w], (327, 492)))
@@ -264,16 +271,16 @@ def test_grey_mode_quantizes_the_photos(tmp_path: Path) -> None:
 
 def test_lightfield_object_goes_through_confocal_pair(tmp_path: Path, monkeypatch) -> None:
     """A lightfield column: centre view = cluttered, confocal image = de-cluttered."""
-    import stimuli.lightfield
+    import stimuli.planes
 
     wide, narrow, _ = make_pair(1, (200, 300))
     calls = []
 
     def fake(path, *, depth_m=None, disparity_px=None):
         calls.append((Path(path).name, depth_m, disparity_px))
-        return stimuli.lightfield.ConfocalPlane(wide, narrow, 1.5, None, "disparity_px")
+        return stimuli.planes.ConfocalPlane(wide, narrow, 1.5, None, "disparity_px")
 
-    monkeypatch.setattr(stimuli.lightfield, "confocal_plane", fake)
+    monkeypatch.setattr(stimuli.planes, "confocal_plane", fake)
     (tmp_path / "lf.npz").write_bytes(b"not read by the fake")
     (tmp_path / "pairs.csv").write_text("object,lightfield\nbust,lf.npz\n")
     (tmp_path / "objects.csv").write_text("object,plane_disparity_px\nbust,1.5\n")
@@ -472,13 +479,13 @@ def test_synthetic_set_end_to_end_issue_2(tmp_path: Path) -> None:
 
 def test_lightfield_subfolder_in_a_pairs_folder(tmp_path: Path, monkeypatch) -> None:
     """Folder form: an object folder holding lightfield.npz (or lightfield/) is a light field."""
-    import stimuli.lightfield
+    import stimuli.planes
 
     wide, narrow, _ = make_pair(2, (200, 300))
     monkeypatch.setattr(
-        stimuli.lightfield,
+        stimuli.planes,
         "confocal_plane",
-        lambda p, *, depth_m, disparity_px: stimuli.lightfield.ConfocalPlane(
+        lambda p, *, depth_m, disparity_px: stimuli.planes.ConfocalPlane(
             wide, narrow, 0.0, None, "nearest detected plane"
         ),
     )

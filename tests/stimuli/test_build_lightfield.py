@@ -8,16 +8,19 @@ object ``lfauto`` leaves it to the depth scan (``confocal_pair`` with neither ar
 from __future__ import annotations
 
 import csv
+import json
 from pathlib import Path
 
 import numpy as np
 import pytest
+from PIL import Image
 from scipy import ndimage
 
 from stimuli.build import build_stimulus_set
+from stimuli.errors import InputError
 from stimuli.io import sha256_file
-from stimuli.lightfield import confocal_pair
 from stimuli.manifest import read_manifest
+from stimuli.planes import confocal_pair
 
 
 def _write_lightfield(path: Path, d_near: float = 3.0, shape=(200, 300), grid=(5, 5)) -> Path:
@@ -91,12 +94,12 @@ def test_auto_plane_is_the_nearest_detected_plane_issue_3(built):
     object's plane ... or the nearest detected plane"): the disc at disparity 3 in front of the
     striped wall at 0, even though the wall's stripes outscore the disc. The manifest records
     the plane it used (H15)."""
-    from stimuli.lightfield import confocal_plane, load_lightfield
-    from stimuli.planes import auto_binning, find_object_planes
+    from stimuli.lightfield import load_lightfield
+    from stimuli.planes import confocal_plane, find_object_planes
 
     root, lf, _ = built
     field = load_lightfield(lf)
-    scan = find_object_planes(field, binning=auto_binning(field))
+    scan = find_object_planes(field)
     found = sorted(p.disparity_px for p in scan.peaks)
     assert any(abs(d) < 0.2 for d in found) and any(abs(d - 3.0) < 0.3 for d in found), found
     strongest = max(scan.peaks, key=lambda p: p.score)
@@ -116,3 +119,90 @@ def test_auto_plane_is_the_nearest_detected_plane_issue_3(built):
         r for r in recs if r.object == "lfplane" and r.condition == "decluttered" and r.level == 8
     ]
     assert given_row.source.endswith("#confocal@disparity=3px,disparity_px")
+
+
+def test_depth_declutter_mode_is_used_and_recorded_issue_12(tmp_path):
+    """``BuildParams(declutter='depth')``: a light-field object's de-cluttered images keep only
+    edges where the views agree at the plane. Simulated three-plane scene through one row of 7
+    cameras, focused on the tree: the pedestrian and building leave horizontal ghost edges that
+    Sobel keeps and the depth mode drops. The mode is in stimulus_set.json and each row's
+    source."""
+    from stimuli.build import BuildParams
+    from stimuli.lfsynth import render_camera_array, three_plane_scene
+
+    field = render_camera_array(
+        three_plane_scene((164, 246)), grid=(1, 7), shape_px=(164, 246), baseline_m=0.03
+    )
+    lf = tmp_path / "scene.npz"
+    np.savez(lf, views=field.views, geometry=json.dumps(field.geometry.to_dict()))
+    (tmp_path / "pairs.csv").write_text("object,lightfield\ntree,scene.npz\n")
+    (tmp_path / "objects.csv").write_text("object,plane_depth_m\ntree,4.0\n")
+    sets = {}
+    for mode in ("sobel", "depth"):
+        build_stimulus_set(
+            tmp_path / "pairs.csv",
+            tmp_path / mode,
+            params=BuildParams(declutter=mode),
+            workers=1,
+        )
+        meta = json.loads((tmp_path / mode / "stimulus_set.json").read_text())
+        assert meta["parameters"]["declutter"] == mode
+        recs = read_manifest(tmp_path / mode / "manifest.csv")
+        (row,) = [r for r in recs if r.condition == "decluttered" and r.level == 8]
+        assert row.source.endswith(",declutter=depth") == (mode == "depth")
+        sets[mode] = np.asarray(Image.open(tmp_path / mode / row.path)) > 0
+    assert lf.exists()
+    assert sets["depth"].sum() < 0.8 * sets["sobel"].sum()
+    with pytest.raises(InputError, match="declutter must be one of"):
+        BuildParams(declutter="canny")
+
+
+def test_bokeh_guard_drops_rims_absent_from_the_wide_photo_issue_12():
+    """A sharp ring only in the narrow photo goes; an edge in both photos stays."""
+    from stimuli.declutter import bokeh_guard
+
+    narrow = np.zeros((40, 60), bool)
+    wide = np.zeros((40, 60), bool)
+    narrow[10:30, 20] = wide[10:30, 21] = True  # a real edge, one pixel apart
+    yy, xx = np.mgrid[0:40, 0:60]
+    ring = np.abs(np.hypot(yy - 20, xx - 45) - 8) < 0.7
+    narrow |= ring
+    kept = bokeh_guard(narrow, wide)
+    assert kept[10:30, 20].all() and not (kept & ring).any()
+    with pytest.raises(InputError, match="must be bool images of one shape"):
+        bokeh_guard(narrow, wide[:10])
+
+
+def test_build_command_offers_the_depth_mode_and_bokeh_guard_issue_12(tmp_path, capsys):
+    """``confocal stimuli build --declutter depth --bokeh-guard``: both reach the build and are
+    recorded in stimulus_set.json; a bad mode is one line, exit 2, nothing written."""
+    from experiment import cli
+    from stimuli.lfsynth import render_camera_array, three_plane_scene
+
+    field = render_camera_array(
+        three_plane_scene((82, 123)), grid=(1, 5), shape_px=(82, 123), baseline_m=0.03
+    )
+    np.savez(
+        tmp_path / "scene.npz", views=field.views, geometry=json.dumps(field.geometry.to_dict())
+    )
+    (tmp_path / "pairs.csv").write_text("object,lightfield\ntree,scene.npz\n")
+    (tmp_path / "objects.csv").write_text("object,plane_depth_m\ntree,4.0\n")
+    argv = ["stimuli", "build", str(tmp_path / "pairs.csv"), "--out", str(tmp_path / "set")]
+    with pytest.raises(SystemExit) as exc:
+        cli.main([*argv, "--declutter", "canny"])
+    assert exc.value.code == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "declutter must be one of" in err[0]
+    assert not (tmp_path / "set").exists()
+    with pytest.raises(SystemExit) as exc:
+        cli.main([*argv, "--declutter", "depth", "--bokeh-guard"])
+    assert exc.value.code in (0, None), capsys.readouterr().err
+    meta = json.loads((tmp_path / "set" / "stimulus_set.json").read_text())
+    assert meta["parameters"]["declutter"] == "depth"
+    assert meta["parameters"]["bokeh_guard"] is True
+    (row,) = [
+        r
+        for r in read_manifest(tmp_path / "set" / "manifest.csv")
+        if r.condition == "decluttered" and r.level == 8
+    ]
+    assert row.source.endswith(",declutter=depth")

@@ -13,13 +13,13 @@ from stimuli.errors import InputError
 from stimuli.lightfield import (
     Geometry,
     LightField,
-    confocal_pair,
     elemental_from_views,
     load_lightfield,
     read_pfm,
     views_from_elemental,
     write_pfm,
 )
+from stimuli.planes import confocal_pair
 
 
 def _views(n_u=3, n_v=3, rows=12, cols=16, seed=0):
@@ -277,12 +277,16 @@ def test_grid_with_holes_raises(tmp_path):
         load_lightfield(tmp_path / "lf")
 
 
-def test_pitch_that_does_not_divide_raises(tmp_path):
-    ei = np.zeros((30, 41), np.float32)
-    with pytest.raises(InputError, match="pitch 10 px does not divide the elemental image"):
-        views_from_elemental(ei, 10)
-    Image.fromarray(np.zeros((30, 41), np.uint8)).save(tmp_path / "ei.png")
-    with pytest.raises(InputError, match="does not divide"):
+def test_partial_lenslets_are_dropped_and_too_few_raise(tmp_path):
+    """Issue 12: a sensor is rarely a whole number of lenslets; the partial ones are dropped."""
+    ei = np.arange(30 * 41, dtype=np.float32).reshape(30, 41) / (30 * 41)
+    v = views_from_elemental(ei, 10)
+    assert v.shape == (10, 10, 3, 4)
+    np.testing.assert_array_equal(v[:, :, 2, 3], ei[20:30, 30:40])
+    with pytest.raises(InputError, match="fewer than 2x2 whole lenslets"):
+        views_from_elemental(ei[:15], 10)
+    Image.fromarray(np.zeros((15, 41), np.uint8)).save(tmp_path / "ei.png")
+    with pytest.raises(InputError, match=r"ei.png: lenslet pitch 10 px leaves fewer than 2x2"):
         load_lightfield(tmp_path / "ei.png", pitch_px=10)
     with pytest.raises(InputError, match="needs its lenslet pitch"):
         load_lightfield(tmp_path / "ei.png")
@@ -383,3 +387,21 @@ def test_confocal_pair_with_depth(tmp_path):
     _, by_depth = confocal_pair(tmp_path / "g.npz", depth_m=1.0)
     _, by_disp = confocal_pair(tmp_path / "g.npz", disparity_px=1.0)
     np.testing.assert_array_equal(by_depth, by_disp)
+
+
+def test_the_data_type_imports_no_operation_issue_12():
+    """Issue 12, point 6: ``stimuli/lightfield.py`` (the data type) imports neither the scan nor
+    refocusing, anywhere in the file (no import circle, no methods that import them back)."""
+    import ast
+    from pathlib import Path
+
+    import stimuli.lightfield
+
+    tree = ast.parse(Path(stimuli.lightfield.__file__).read_text())
+    names = set()
+    for node in ast.walk(tree):
+        if isinstance(node, ast.ImportFrom) and node.module:
+            names.add(node.module)
+        elif isinstance(node, ast.Import):
+            names.update(a.name for a in node.names)
+    assert not names & {"stimuli.planes", "stimuli.refocus", "stimuli.declutter"}, names

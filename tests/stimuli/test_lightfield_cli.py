@@ -90,11 +90,21 @@ def test_scan_writes_planes_csv_plot_and_plane_images(sim_png, tmp_path, capsys)
     with open(out / "planes.csv") as f:
         rows = list(csv.DictReader(f))
     assert len(rows) == 40
-    assert set(rows[0]) == {"index", "depth_m", "disparity_px", "score", "peak"}
+    assert set(rows[0]) == {
+        "index",
+        "depth_m",
+        "disparity_px",
+        "score",
+        "null_score",
+        "peak",
+        "support",
+        "prominence",
+        "evidence",
+    }
     assert float(rows[0]["depth_m"]) == pytest.approx(0.5)
     n_peaks = sum(int(r["peak"]) for r in rows)
     assert n_peaks >= 1 and f"{n_peaks} object plane(s) in 40 planes" in text
-    assert Image.open(out / "scores.png").size == (640, 360)
+    assert Image.open(out / "scores.png").size == (700, 360)
     assert json.loads((out / "scan.json").read_text())["binning"] == 1
     grid = np.asarray(Image.open(out / "plane01_grid.png"))
     assert grid.shape == (15, 19)
@@ -162,8 +172,8 @@ def test_bad_input_exits_2_with_one_line(sim_png, tmp_path, capsys, args, messag
     assert err.count("\n") == 1 and message in err, err
 
 
-def test_pitch_that_does_not_divide_exits_2(tmp_path, capsys):
-    Image.fromarray(np.zeros((30, 41), np.uint8)).save(tmp_path / "ei.png")
+def test_too_few_lenslets_exits_2(tmp_path, capsys):
+    Image.fromarray(np.zeros((15, 41), np.uint8)).save(tmp_path / "ei.png")
     with pytest.raises(SystemExit) as exc:
         main(
             [
@@ -179,7 +189,7 @@ def test_pitch_that_does_not_divide_exits_2(tmp_path, capsys):
             ]
         )
     assert exc.value.code == 2
-    assert "does not divide" in capsys.readouterr().err
+    assert "ei.png: lenslet pitch 10 px leaves fewer than 2x2" in capsys.readouterr().err
 
 
 def test_parsers():

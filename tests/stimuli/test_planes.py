@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import json
+
 import numpy as np
 import pytest
 import pywt
@@ -15,6 +17,7 @@ from stimuli.planes import (
     auto_binning,
     default_disparities,
     edge_overlap,
+    estimate_disparity_range,
     find_object_planes,
     haar_details,
     haar_edges,
@@ -113,10 +116,12 @@ def _two_plane_lf(d_near=3.0, d_far=-1.0, grid=(5, 5), shape=(240, 320), seed=0)
     return LightField(np.clip(views, 0, 1))
 
 
-def test_two_planes_give_two_peaks_at_their_disparities():
+@pytest.mark.parametrize("method", ["agreement", "haar"])
+def test_two_planes_give_two_peaks_at_their_disparities(method):
     lf = _two_plane_lf()
     ds = np.linspace(-3, 5, 81)  # step 0.1
-    scan = find_object_planes(lf, ds, binning=1)
+    scan = find_object_planes(lf, ds, binning=1, method=method)
+    assert scan.method == method
     found = sorted(p.disparity_px for p in scan.peaks)
     assert len(found) == 2, found
     assert found[0] == pytest.approx(-1.0, abs=0.1 + 1e-9)  # one plane step
@@ -127,41 +132,95 @@ def test_two_planes_give_two_peaks_at_their_disparities():
 def test_scan_is_the_same_with_threads_and_as_a_generator():
     lf = _two_plane_lf(grid=(3, 3), shape=(160, 200))
     ds = np.linspace(-2, 4, 13)
-    one = find_object_planes(lf, ds, workers=1, binning=1)
-    two = find_object_planes(lf, ds, workers=2, binning=1)
+    one = find_object_planes(lf, ds, workers=1, binning=1, method="haar")
+    two = find_object_planes(lf, ds, workers=2, binning=1, method="haar")
     np.testing.assert_array_equal(one.scores, two.scores)
     gen = [s for _, _, s in iter_plane_scores(lf, ds, workers=1, binning=1)]
     np.testing.assert_array_equal(gen, one.scores)
+    one = find_object_planes(lf, ds, workers=1, binning=1)
+    two = find_object_planes(lf, ds, workers=2, binning=1)
+    np.testing.assert_array_equal(one.scores, two.scores)
+    np.testing.assert_array_equal(one.null_scores, two.null_scores)
 
 
 def test_plane_scan_round_trip_and_rows():
     g = Geometry(kind="camera_array", focal_length_px=100.0, baseline_m=0.03, near_m=0.5, far_m=20)
     lf = LightField(_two_plane_lf(grid=(3, 3), shape=(160, 200)).views, g)
-    scan = find_object_planes(lf, np.linspace(0.5, 5, 10), binning=1)
-    again = PlaneScan.from_dict(scan.to_dict())
-    np.testing.assert_array_equal(again.scores, scan.scores)
-    np.testing.assert_allclose(again.depths_m, scan.depths_m)
-    assert again.peaks == scan.peaks
-    rows = scan.rows()
-    assert len(rows) == 10 and set(rows[0]) == {"index", "depth_m", "disparity_px", "score", "peak"}
-    assert rows[0]["depth_m"] == pytest.approx(3.0 / 0.5)
+    for method in ("agreement", "haar"):
+        scan = find_object_planes(lf, np.linspace(0.5, 5, 40), binning=1, method=method)
+        again = PlaneScan.from_dict(json.loads(json.dumps(scan.to_dict())))
+        np.testing.assert_array_equal(again.scores, scan.scores)
+        np.testing.assert_allclose(again.depths_m, scan.depths_m)
+        assert again.method == method
+        assert [p.disparity_px for p in again.peaks] == [p.disparity_px for p in scan.peaks]
+        rows = scan.rows()
+        assert len(rows) == 40 and set(rows[0]) == {
+            "index",
+            "depth_m",
+            "disparity_px",
+            "score",
+            "null_score",
+            "peak",
+            "support",
+            "prominence",
+            "evidence",
+        }
+        assert rows[0]["depth_m"] == pytest.approx(3.0 / 0.5)
+        assert sum(r["peak"] for r in rows) == len(scan.peaks) >= 1
+        for r in rows:
+            assert (r["support"] != "") == (r["peak"] == 1 and method == "agreement")
 
 
-def test_default_disparities():
-    lf = LightField(np.zeros((5, 5, 80, 120), np.float32))
+def test_default_disparities_come_from_the_data_issue_12():
+    """The default range is the span the scene occupies (issue 12, point 1), not a constant:
+    two planes at -1 and 3 px per view step give a range that holds both with a margin of at
+    most two coarse steps, and a geometry's near/far clips it."""
+    lf = _two_plane_lf(grid=(5, 5), shape=(200, 260))
+    lo, hi = estimate_disparity_range(lf)
+    assert -2.6 <= lo < -1.0 and 3.0 < hi <= 4.6, (lo, hi)
     ds = default_disparities(lf, 11)
-    assert ds[0] == pytest.approx(-80 / 16) and ds[-1] == pytest.approx(80 / 16)
-    g = Geometry(kind="camera_array", focal_length_px=100.0, baseline_m=0.01, near_m=1, far_m=2)
-    ds = default_disparities(LightField(lf.views, g), 3)
-    np.testing.assert_allclose(ds, [1.0, 1.0 / 1.5, 0.5])
+    assert ds[0] == pytest.approx(lo) and ds[-1] == pytest.approx(hi) and ds.size == 11
+    g = Geometry(kind="camera_array", focal_length_px=100.0, baseline_m=0.01, near_m=0.5, far_m=2)
+    lo2, hi2 = estimate_disparity_range(LightField(lf.views, g))
+    assert (lo2, hi2) == pytest.approx((0.5, 2.0))  # 1 px at 1 m: depths 0.5-2 m
     with pytest.raises(InputError, match="n_planes"):
         default_disparities(lf, 2)
+    with pytest.raises(InputError, match="agree at no plane"):
+        estimate_disparity_range(LightField(np.full((3, 3, 80, 80), 0.5, np.float32)))
+
+
+def test_peak_at_the_edge_of_the_range_warns_issue_12():
+    lf = _two_plane_lf()
+    with pytest.warns(UserWarning, match="beyond the scanned range"):
+        scan = find_object_planes(lf, np.linspace(-3, 2.0, 51), binning=1)
+    assert [round(p.disparity_px) for p in scan.peaks] == [-1]
+
+
+def test_a_single_texture_at_one_depth_is_one_plane_with_evidence_issue_12():
+    """One textured wall: exactly one plane, with its support and a null far below it."""
+    rng = np.random.default_rng(3)
+    tex = ndimage.gaussian_filter(rng.random((200, 300)), 1.0).astype(np.float32)
+    tex = (tex - tex.min()) / np.ptp(tex)
+    views = np.stack(
+        [
+            np.stack([ndimage.shift(tex, (0, -1.5 * (v - 3)), order=1, mode="reflect")])
+            for v in range(7)
+        ],
+        axis=1,
+    )[0][None]
+    lf = LightField(np.clip(views, 0, 1).astype(np.float32))
+    scan = find_object_planes(lf, np.linspace(-4, 5, 91))
+    assert len(scan.peaks) == 1
+    (p,) = scan.peaks
+    assert p.disparity_px == pytest.approx(1.5, abs=0.1)
+    assert p.support > 0.5 and p.evidence >= 2.0
+    assert scan.null_scores.max() < 0.1 * scan.scores.max()
 
 
 def test_small_views_warn_and_auto_binning_avoids_it():
     lf = LightField(np.random.default_rng(0).random((3, 3, 60, 80)).astype(np.float32))
     with pytest.warns(UserWarning, match="edge pixels per Haar sub-band"):
-        find_object_planes(lf, np.linspace(-1, 1, 5), binning=2)
+        find_object_planes(lf, np.linspace(-1, 1, 5), binning=2, method="haar")
     assert auto_binning(lf) == 1
     assert auto_binning(LightField(np.zeros((3, 3, 400, 400), np.float32))) == 2
 
@@ -171,7 +230,11 @@ def test_scan_arguments_checked():
     with pytest.raises(InputError, match="at least 3 planes"):
         find_object_planes(lf, [0.0, 1.0])
     with pytest.raises(InputError, match="presmooth_px"):
-        find_object_planes(lf, [0.0, 0.5, 1.0], presmooth_px=-1, binning=1)
+        find_object_planes(lf, [0.0, 0.5, 1.0], presmooth_px=-1, binning=1, method="haar")
+    with pytest.raises(InputError, match="method must be one of"):
+        find_object_planes(lf, [0.0, 0.5, 1.0], method="sobel")
+    with pytest.raises(InputError, match="binning must be"):
+        find_object_planes(lf, [0.0, 0.5, 1.0], binning=0)
 
 
 def test_equal_tops_of_one_hill_are_one_plane() -> None:
@@ -187,3 +250,11 @@ def test_equal_tops_of_one_hill_are_one_plane() -> None:
     two = np.exp(-0.5 * ((x - 0.3) / 0.05) ** 2) + np.exp(-0.5 * ((x - 0.7) / 0.05) ** 2)
     idx, _ = score_peaks(two)
     assert np.allclose(x[idx], [0.3, 0.7], atol=0.01)
+
+
+def test_range_outside_the_geometry_is_refused_issue_12():
+    """A scene the geometry's near/far cannot hold: one line saying the range is empty."""
+    lf = _two_plane_lf(d_near=-1.0, d_far=-1.0, grid=(5, 5), shape=(160, 200))
+    g = Geometry(kind="camera_array", focal_length_px=100.0, baseline_m=0.01, near_m=0.5, far_m=2)
+    with pytest.raises(InputError, match="estimated disparity range is empty"):
+        estimate_disparity_range(LightField(lf.views, g))

@@ -90,10 +90,15 @@ class PresenterDied(ConfocalError):
 
 
 def encode_image(image: np.ndarray) -> dict[str, Any]:
-    """Return the message fields (shape, dtype, data) of a bool or float32 (rows, cols) image."""
+    """Return the message fields (shape, dtype, data) of a bool or float32 (rows, cols) image,
+    or of a float32 colour photo (rows, cols, 3)."""
     image = np.asarray(image)
-    if image.ndim != 2:
-        raise ValueError(f"image must be 2-D (rows, cols), got shape {image.shape}")
+    colour = image.ndim == 3 and image.shape[2] == 3 and image.dtype == np.float32
+    if image.ndim != 2 and not colour:
+        raise ValueError(
+            f"image must be 2-D (rows, cols) or a float32 colour photo (rows, cols, 3), "
+            f"got shape {image.shape}"
+        )
     if image.dtype not in (np.bool_, np.float32):
         raise TypeError(f"image must be bool or float32, got dtype {image.dtype}")
     return {
@@ -156,7 +161,7 @@ def serve(
 
     Parameters
     ----------
-    presenter : experiment.presenter.Presenter
+    presenter : experiment.presentation.presenter.Presenter
     inp, out : text streams
         JSON lines in and out (see the module docstring).
     continuous : bool
@@ -226,8 +231,8 @@ def serve(
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Run the presenter process (``python -m experiment.presenter_proc --geometry JSON ...``)."""
-    ap = argparse.ArgumentParser(prog="python -m experiment.presenter_proc")
+    """Run the presenter process (``python -m experiment.presentation.process --geometry ...``)."""
+    ap = argparse.ArgumentParser(prog="python -m experiment.presentation.process")
     ap.add_argument("--geometry", required=True, help="ScreenGeometry.to_dict() as JSON")
     ap.add_argument("--mode", choices=("window", "offscreen"), default="window")
     ap.add_argument("--screen", type=int, default=None)
@@ -246,7 +251,7 @@ def main(argv: list[str] | None = None) -> int:
         return 2
 
     try:
-        from experiment.presenter import PhospheneSpec, Presenter, ScreenGeometry
+        from experiment.presentation.presenter import PhospheneSpec, Presenter, ScreenGeometry
 
         geometry = ScreenGeometry.from_dict(json.loads(args.geometry))
         phos = PhospheneSpec(**json.loads(args.phosphenes)) if args.phosphenes else None
@@ -289,7 +294,7 @@ class RemoteDisplay:
 
     Parameters
     ----------
-    geometry : experiment.presenter.ScreenGeometry or dict
+    geometry : experiment.presentation.presenter.ScreenGeometry or dict
         The subject's screen (``to_dict()`` form is sent to the child).
     mode : {'window', 'offscreen'}
     screen : int or None
@@ -299,13 +304,16 @@ class RemoteDisplay:
         Start even if the frame-timing self-test fails (H12; the console logs the choice).
     integer_scale : bool
     phosphenes : dict or None
-        :class:`~experiment.presenter.PhospheneSpec` fields.
+        :class:`~experiment.presentation.presenter.PhospheneSpec` fields.
     on_event : callable or None
         Called with unsolicited events (``closed``) from the reader thread.
     command : list of str or None
         The child's command line (tests); default runs this module with the current Python.
     env : dict or None
         The child's environment (e.g. another ``DISPLAY``); default inherits ours.
+    stderr_path : str or Path or None
+        File the child's stderr (its log, moderngl-window's included) is appended to; default
+        inherits ours (the terminal).
     """
 
     def __init__(
@@ -323,7 +331,9 @@ class RemoteDisplay:
         env: dict[str, str] | None = None,
         start_timeout_s: float = START_TIMEOUT_S,
         reply_timeout_s: float = REPLY_TIMEOUT_S,
+        stderr_path: str | os.PathLike | None = None,
     ) -> None:
+        self.stderr_path = stderr_path
         gdict = geometry if isinstance(geometry, dict) else geometry.to_dict()
         args = ["--geometry", json.dumps(gdict), "--mode", mode]
         if screen is not None:
@@ -336,7 +346,7 @@ class RemoteDisplay:
             args.append("--integer-scale")
         if phosphenes:
             args += ["--phosphenes", json.dumps(phosphenes)]
-        self.command = (command or [sys.executable, "-m", "experiment.presenter_proc"]) + args
+        self.command = (command or [sys.executable, "-m", "experiment.presentation.process"]) + args
         self.env = env
         self.on_event = on_event
         self.reply_timeout_s = reply_timeout_s
@@ -369,16 +379,21 @@ class RemoteDisplay:
         """
         self._stop_process()
         self._replies = queue.Queue()
-        self._proc = subprocess.Popen(
-            self.command,
-            stdin=subprocess.PIPE,
-            stdout=subprocess.PIPE,
-            stderr=None,
-            env=self.env,
-            text=True,
-            encoding="utf-8",
-            bufsize=1,
-        )
+        err = None if self.stderr_path is None else open(self.stderr_path, "a", encoding="utf-8")
+        try:
+            self._proc = subprocess.Popen(
+                self.command,
+                stdin=subprocess.PIPE,
+                stdout=subprocess.PIPE,
+                stderr=err,
+                env=self.env,
+                text=True,
+                encoding="utf-8",
+                bufsize=1,
+            )
+        finally:
+            if err is not None:
+                err.close()  # the child holds its own copy
         threading.Thread(
             target=self._read, args=(self._proc, self._replies), daemon=True, name="presenter-out"
         ).start()

@@ -1,6 +1,15 @@
 """Simulated observers: responders that answer headless sessions (dry runs, pilots, CI).
 
-Two observers are registered by name (:data:`OBSERVERS`, :func:`make_observer`):
+Three observers are registered by name (:data:`OBSERVERS`, :func:`make_observer`). Every one
+is a simulation: its sessions are logged with ``responder = 'sim:<name>'`` and, through
+:func:`describe_observer`, with its parameters and the data its knowledge came from.
+
+``exemplar`` (:mod:`experiment.observers.exemplar`; the demo's default)
+    Looks at the image and recognises it from *other* exemplars of each category (another
+    rendering of the same kinds, or held-out photos), never from the test stimuli: a HOG
+    exemplar matcher behind a front end at the presenter's geometry, with internal noise and a
+    criterion set in the protocol's training phase. See that module for the model and its
+    references.
 
 ``logistic``
     Draws "recognised or not" from the logistic model the paper fitted (Jung et al. 2015,
@@ -13,16 +22,17 @@ Two observers are registered by name (:data:`OBSERVERS`, :func:`make_observer`):
     (for u = v = 0); the de-cluttered 50 % point follows from the odds ratio:
     ``10 ** (log10(x50_cluttered_px) - ln(OR_bg) / ln(OR_px))`` (3,470 px with the defaults, the
     paper's Weibull fit gave 3,532 px). Photos (training) are always recognised unless a lapse.
+    It gives the paper's numbers back by construction.
 
 ``model``
-    Looks at the image. The shown stimulus plus Gaussian pixel noise is compared, by Pearson
-    correlation, with every candidate object's de-cluttered image at the same level (photos with
-    photos); the correlations get Gaussian decision noise; the best match is answered if its
-    correlation exceeds a criterion, else the observer passes. Clutter lowers the correlation
-    with the right template and low resolution makes templates alike, so both hurt because of the
-    pictures themselves. Nothing about the result is fixed in advance.
+    Looks at the image, but its templates are the test set's *own* de-cluttered images (at a
+    fixed level, or at the stimulus' level): it knows every test object's picture, so the
+    de-cluttered advantage is partly built in. Kept for comparison with ``exemplar``. The shown
+    stimulus plus Gaussian pixel noise is compared, by Pearson correlation, with every candidate
+    object's template; the best match is answered if it stands out by a criterion, else the
+    observer passes.
 
-Both draw every random number from the ``rng`` they are given (the session's child generator);
+All draw every random number from the ``rng`` they are given (the session's child generator);
 the subject and object effects of ``logistic`` come from ``population_seed`` so the same object
 is equally hard for every simulated subject.
 """
@@ -32,21 +42,25 @@ from __future__ import annotations
 import hashlib
 import math
 from collections.abc import Callable
-from dataclasses import dataclass, fields
+from dataclasses import asdict, dataclass, fields, is_dataclass
 from typing import Any
 
 import numpy as np
 
 from experiment.interfaces import Answer
-from experiment.stimset import StimulusSet
+from experiment.observers.exemplar import ExemplarObserver, ExemplarParams
+from experiment.stimset import PHOTO_CONDITIONS, StimulusSet
 
 __all__ = [
+    "ExemplarParams",
+    "ExemplarObserver",
     "LogisticParams",
     "LogisticObserver",
     "TemplateParams",
     "TemplateObserver",
     "OBSERVERS",
     "make_observer",
+    "describe_observer",
     "to_retina",
 ]
 
@@ -218,7 +232,7 @@ class LogisticObserver:
     def p_recognized(self, trial: Any) -> float:
         """Return P(recognised) for a trial (condition, pixels, object), lapse included."""
         p = self.params
-        if trial.condition == "photo":
+        if trial.condition in PHOTO_CONDITIONS:
             return 1.0 - p.lapse
         eta = (
             p.intercept
@@ -242,6 +256,19 @@ class LogisticObserver:
         return _answer_text(
             self.rng, self.stimset, trial, ok, guess, p.p_use, p.p_shape, self.rater, rt
         )
+
+    def describe(self) -> dict[str, Any]:
+        """Return the observer's name, parameters and where its knowledge came from (JSON)."""
+        return {
+            "observer": self.name,
+            "simulated": True,
+            "model": "the paper's fitted logistic model with subject and object effects",
+            "params": asdict(self.params),
+            "knowledge": {
+                "source": "Jung et al. 2015, Sec. 3.3 (odds ratios and cluttered threshold); "
+                "it does not look at the images"
+            },
+        }
 
 
 @dataclass(frozen=True)
@@ -380,10 +407,15 @@ class TemplateObserver:
 
     def _retina(self, image: np.ndarray) -> np.ndarray:
         p = self.params
+        image = np.asarray(image)
+        if image.ndim == 3:  # a colour training photo: its luminance (Rec. 709, as load_gray)
+            image = (image[..., :3] @ np.array([0.2125, 0.7154, 0.0721], np.float32)).astype(
+                np.float32
+            )
         return to_retina(image, p.retina_shape_px, p.blur_sd_px).ravel()
 
     def _templates(self, role: str, condition: str, level: int) -> tuple[list[str], np.ndarray]:
-        tcond = "photo" if condition == "photo" else "decluttered"
+        tcond = "photo" if condition in PHOTO_CONDITIONS else "decluttered"
         if tcond == "decluttered" and self.params.template_level is not None:
             level = self.params.template_level
         key = (role, tcond, level)
@@ -415,6 +447,22 @@ class TemplateObserver:
         # costs far more than these 10^4-element products
         n = float(np.sqrt(np.sum(x * x)))
         return ids, np.sum(t * x, axis=1) / (n if n > 0 else 1.0)
+
+    def describe(self) -> dict[str, Any]:
+        """Return the observer's name, parameters and where its knowledge came from (JSON)."""
+        lv = self.params.template_level
+        return {
+            "observer": self.name,
+            "simulated": True,
+            "model": "noisy template matching (pixel correlation)",
+            "params": asdict(self.params),
+            "knowledge": {
+                "source": f"the test stimulus set itself ({self.stimset.root}): its de-cluttered "
+                + ("images at each stimulus' own level" if lv is None else f"level-{lv} images")
+                + "; it knows the test objects' own pictures",
+                "manifest_sha256": self.stimset.manifest_sha256,
+            },
+        }
 
     def respond(self, trial: Any, image: np.ndarray) -> Answer:
         """Answer the best-matching object, or pass when no candidate stands out."""
@@ -464,6 +512,23 @@ def _register(name: str, cls: type, params_cls: type) -> None:
 
 _register("logistic", LogisticObserver, LogisticParams)
 _register("model", TemplateObserver, TemplateParams)
+_register("exemplar", ExemplarObserver, ExemplarParams)
+
+
+def describe_observer(responder: Any) -> dict[str, Any]:
+    """Return a simulated observer's description for the trial log (JSON-able).
+
+    Uses the observer's own ``describe()`` (name, parameters, the data its knowledge came
+    from) where it has one, else its name and dataclass parameters.
+    """
+    if hasattr(responder, "describe"):
+        return responder.describe()
+    params = getattr(responder, "params", None)
+    return {
+        "observer": getattr(responder, "name", type(responder).__name__),
+        "simulated": True,
+        "params": asdict(params) if is_dataclass(params) else None,
+    }
 
 
 def make_observer(
@@ -478,12 +543,12 @@ def make_observer(
 
     Parameters
     ----------
-    name : {'logistic', 'model'}
+    name : {'exemplar', 'logistic', 'model'}
     stimset : StimulusSet
     subject : str
     rng : numpy.random.Generator, int or None
     **params
-        Fields of :class:`LogisticParams` or :class:`TemplateParams`.
+        Fields of :class:`ExemplarParams`, :class:`LogisticParams` or :class:`TemplateParams`.
 
     Raises
     ------

@@ -401,13 +401,14 @@ def cell_index(pixel: np.ndarray, n_cells: int, extent_px: int) -> np.ndarray:
 def expected_frame(
     geometry: ScreenGeometry, image: np.ndarray, *, integer_scale: bool = False
 ) -> np.ndarray:
-    """Return the (rows, cols, 3) uint8 frame the presenter should draw for a binary or grey image.
+    """Return the (rows, cols, 3) uint8 frame the presenter should draw for a stimulus.
 
     A reference written with numpy only (no GL), for tests and for ``--screenshot`` checks. Grey
-    values are gamma-corrected and rounded like an 8-bit framebuffer (round to nearest).
+    values are gamma-corrected and rounded like an 8-bit framebuffer (round to nearest); a colour
+    photo (rows, cols, 3) is drawn as it is, each channel gamma-corrected.
     """
     img = _as_stimulus(image)
-    top, left, rows, cols = stimulus_rect_px(geometry, img.shape, integer_scale=integer_scale)
+    top, left, rows, cols = stimulus_rect_px(geometry, img.shape[:2], integer_scale=integer_scale)
     frame = np.empty((*geometry.screen_shape_px, 3), dtype=np.uint8)
     b = geometry.border_width_px
     if b is None:
@@ -419,19 +420,27 @@ def expected_frame(
         )
     r = cell_index(np.arange(rows), img.shape[0], rows)
     c = cell_index(np.arange(cols), img.shape[1], cols)
-    v = img[np.ix_(r, c)] ** (1.0 / geometry.gamma)
-    fg = np.asarray(geometry.stimulus_on_rgb, np.float64) / 255
-    bg = np.asarray(geometry.stimulus_off_rgb, np.float64) / 255
-    rgb = bg + (fg - bg) * v[..., None]
+    v = img[np.ix_(r, c)].astype(np.float64) ** (1.0 / geometry.gamma)
+    if img.ndim == 3:
+        rgb = v
+    else:
+        fg = np.asarray(geometry.stimulus_on_rgb, np.float64) / 255
+        bg = np.asarray(geometry.stimulus_off_rgb, np.float64) / 255
+        rgb = bg + (fg - bg) * v[..., None]
     frame[top : top + rows, left : left + cols] = np.round(rgb * 255).astype(np.uint8)
     return frame
 
 
 def _as_stimulus(image: np.ndarray) -> np.ndarray:
-    """Check a stimulus (H6) and return it as float32 (rows, cols) in [0, 1]."""
+    """Check a stimulus (H6) and return it as float32 (rows, cols) or (rows, cols, 3) in [0, 1]."""
     image = np.asarray(image)
-    if image.ndim != 2:
-        raise ValueError(f"image must be 2-D (rows, cols), got shape {image.shape}")
+    if image.ndim == 3 and image.shape[2] == 3 and image.dtype == np.float32:
+        pass  # a colour training photo
+    elif image.ndim != 2:
+        raise ValueError(
+            f"image must be 2-D (rows, cols) or a float32 colour photo (rows, cols, 3), "
+            f"got shape {image.shape}"
+        )
     if image.dtype == np.bool_:
         return image.astype(np.float32)
     if image.dtype != np.float32:
@@ -470,7 +479,8 @@ uniform vec3 u_fix_rgb;
 uniform int u_phos;          // 0 off, 1 gaussian, 2 disc
 uniform float u_phos_size;   // diameter (disc) or FWHM (gaussian) as a fraction of the pitch
 uniform ivec4 u_text_rect;   // (left, top, cols, rows)
-uniform sampler2D u_stim;    // R32F, row 0 = top row of the stimulus
+uniform sampler2D u_stim;    // R32F (RGB32F for colour), row 0 = top row of the stimulus
+uniform int u_colour;        // 1: u_stim is a colour photo, drawn as it is
 uniform sampler2D u_text;    // R8 coverage, row 0 = top
 out vec4 f_color;
 
@@ -526,6 +536,12 @@ void main() {
         if (u_fixation > 0 && ((d.x <= u_fixation && d.y <= h) || (d.y <= u_fixation && d.x <= h)))
             c = u_fix_rgb;
         f_color = vec4(c, 1.0);
+        return;
+    }
+    if (u_colour == 1) {
+        ivec2 cell = ((2 * p + 1) * u_grid) / (2 * u_rect.zw);
+        vec3 c = clamp(texelFetch(u_stim, cell, 0).rgb, 0.0, 1.0);
+        f_color = vec4(pow(c, vec3(u_inv_gamma)), 1.0);
         return;
     }
     float v;
@@ -586,6 +602,13 @@ class Presenter:
         self.refresh_hz: float | None = None
         rows, cols = geometry.screen_shape_px
         if window is None or ctx.screen is None:  # offscreen, or a test window without a screen
+            max_px = int(ctx.info.get("GL_MAX_RENDERBUFFER_SIZE", 0) or 0)
+            if max_px and max(rows, cols) > max_px:
+                raise PresenterError(
+                    f"screen {cols}x{rows} px is larger than this GL driver's largest framebuffer "
+                    f"({max_px}x{max_px} px); use a smaller screen size (display.screen_width_px, "
+                    "display.screen_height_px or --screen-px)"
+                )
             self._fbo = ctx.framebuffer(color_attachments=[ctx.renderbuffer((cols, rows), 4)])
         else:
             self._fbo = ctx.screen
@@ -758,26 +781,37 @@ class Presenter:
     def _upload_stimulus(self, img: np.ndarray) -> None:
         if self._stim_tex is not None:
             self._stim_tex.release()
-        rows, cols = img.shape
-        if self.phosphenes is not None:
-            img = img * self.phosphenes.alive_mask(img.shape)
+        rows, cols = img.shape[:2]
+        colour = img.ndim == 3
+        # Colour photos are training material shown as photos, never as phosphenes.
+        phos = None if colour else self.phosphenes
+        if phos is not None:
+            img = img * phos.alive_mask(img.shape)
         tex = self.ctx.texture(
-            (cols, rows), 1, np.ascontiguousarray(img, np.float32).tobytes(), dtype="f4"
+            (cols, rows),
+            3 if colour else 1,
+            np.ascontiguousarray(img, np.float32).tobytes(),
+            dtype="f4",
         )
+        self._set("u_colour", 1 if colour else 0)
         tex.filter = (moderngl.NEAREST, moderngl.NEAREST)
         self._stim_tex = tex
         top, left, r, c = stimulus_rect_px(
-            self.geometry, img.shape, integer_scale=self.integer_scale, phosphenes=self.phosphenes
+            self.geometry, (rows, cols), integer_scale=self.integer_scale, phosphenes=phos
         )
         self._set("u_rect", (left, top, c, r))
         self._rect = (left, top, c, r)
         self._set("u_grid", (cols, rows))
-        if self.phosphenes is not None:
-            self._set("u_phos", 1 if self.phosphenes.kind == "gaussian" else 2)
-            self._set("u_phos_size", float(self.phosphenes.size))
+        self._set("u_phos", 0 if phos is None else (1 if phos.kind == "gaussian" else 2))
+        if phos is not None:
+            self._set("u_phos_size", float(phos.size))
 
     def show_stimulus(self, image: np.ndarray) -> FlipRecord:
-        """Draw ``image`` (bool or float32 [0, 1], (rows, cols)) and flip; return the onset flip."""
+        """Draw ``image`` and flip; return the onset flip.
+
+        ``image`` is bool or float32 in [0, 1], (rows, cols), or a float32 colour photo
+        (rows, cols, 3).
+        """
         img = _as_stimulus(image)
         self._upload_stimulus(img)
         self._mode = 0

@@ -18,6 +18,7 @@ import numpy as np
 import typer
 
 from experiment.errors import ConfocalError
+from stimuli.resources import check_memory, finite_option
 
 __all__ = ["register", "load_stimulus", "geometry_from_options", "pending_for_rater"]
 
@@ -48,11 +49,24 @@ def geometry_from_options(
     border_rgb: str | None = None,
     border_width_px: int | None = None,
     gamma: float | None = None,
+    monitor: str | None = None,
 ):
-    """Return the ScreenGeometry of a protocol file (or the paper's), with explicit overrides."""
-    from experiment.presenter import ScreenGeometry
+    """Return the ScreenGeometry of a protocol file (or the paper's), with explicit overrides.
 
-    if protocol is not None:
+    A monitor profile (``monitor``: a name in ``protocols/monitors`` or a file) replaces the
+    protocol's width, distance, resolution and gamma; the single-value options override both.
+    """
+    from experiment.presentation.presenter import ScreenGeometry
+
+    if monitor is not None:
+        from experiment.data.monitors import apply_monitor, load_monitor
+        from experiment.protocol import DisplaySpec, load_protocol
+
+        display = load_protocol(protocol).display if protocol is not None else DisplaySpec()
+        kw = ScreenGeometry.from_display_spec(
+            apply_monitor(display, load_monitor(monitor)[0])
+        ).to_dict()
+    elif protocol is not None:
         from experiment.protocol import load_protocol
 
         kw = ScreenGeometry.from_display_spec(load_protocol(protocol).display).to_dict()
@@ -85,14 +99,19 @@ def geometry_from_options(
         raise ConfocalError(f"display geometry: {exc}") from None
 
 
-def pending_for_rater(log, rater: str, *, session_id: int | None = None) -> list[dict]:
+def pending_for_rater(
+    log, rater: str, *, session_id: int | None = None, include_training: bool = False
+) -> list[dict]:
     """Return the answered trials ``rater`` has not scored yet (oldest first), without any scores.
 
-    Each dict has ``session_id, subject, trial_index, object, object_name, condition, level,
-    response``: what a blind second rater needs, and nothing about the first rater's scores.
+    Each dict has ``session_id, subject, trial_index, part, object, object_name, condition,
+    level, response``: what a blind second rater needs, and nothing about the first rater's
+    scores. Only main-part trials unless ``include_training`` (training answers are not
+    analysed, so agreement on them is rarely needed).
     """
     sql = (
-        "SELECT t.session_id, s.subject, t.trial_index, t.object, p.object_name, t.condition, "
+        "SELECT t.session_id, s.subject, t.trial_index, p.part, t.object, p.object_name, "
+        "t.condition, "
         "t.level, t.response FROM trials t "
         "JOIN sessions s ON s.session_id = t.session_id "
         "JOIN schedule p ON p.session_id = t.session_id AND p.trial_index = t.trial_index "
@@ -103,8 +122,13 @@ def pending_for_rater(log, rater: str, *, session_id: int | None = None) -> list
     if session_id is not None:
         sql += " AND t.session_id = ?"
         params.append(session_id)
+    if not include_training:
+        sql += " AND p.part = 'main'"
     sql += " ORDER BY t.session_id, t.trial_index"
     return [dict(r) for r in log.execute(sql, tuple(params))]
+
+
+_positive = finite_option(0.0, lo_open=True)
 
 
 def register(app: typer.Typer) -> None:
@@ -116,35 +140,68 @@ def register(app: typer.Typer) -> None:
         protocol: Annotated[
             Path | None,
             typer.Option(
-                help="Protocol TOML whose [display] sets the geometry (default: paper's)."
+                help="Protocol TOML whose \\[display] sets the geometry (default: paper's)."
             ),
         ] = None,
         screenshot: Annotated[
             Path | None, typer.Option(help="Render one offscreen frame to this PNG and exit.")
         ] = None,
+        monitor: Annotated[
+            str | None,
+            typer.Option(help="Monitor profile (name in protocols/monitors, or a .toml file)."),
+        ] = None,
         screen_px: Annotated[str | None, typer.Option(help="Override: 1280x1024.")] = None,
-        screen_width_cm: Annotated[float | None, typer.Option(help="Override, cm.")] = None,
-        distance_cm: Annotated[float | None, typer.Option(help="Override, cm.")] = None,
+        screen_width_cm: Annotated[
+            float | None, typer.Option(callback=_positive, help="Override, cm.")
+        ] = None,
+        distance_cm: Annotated[
+            float | None, typer.Option(callback=_positive, help="Override, cm.")
+        ] = None,
         image_cm: Annotated[str | None, typer.Option(help="Override: 14.6x9.7 (cm).")] = None,
         border_rgb: Annotated[str | None, typer.Option(help="Override: 0,0,255.")] = None,
         border_width_px: Annotated[
             int | None, typer.Option(help="Frame width; -1 fills the whole surround.")
         ] = None,
-        gamma: Annotated[float | None, typer.Option(help="Display gamma (default 1).")] = None,
+        gamma: Annotated[
+            float | None, typer.Option(callback=_positive, help="Display gamma (default 1).")
+        ] = None,
         integer_scale: Annotated[
             bool, typer.Option(help="Equal-size cells (size off by < half a cell).")
         ] = False,
         phosphenes: Annotated[str | None, typer.Option(help="gaussian or disc.")] = None,
-        phosphene_size: Annotated[float, typer.Option(help="Fraction of the spacing.")] = 0.8,
-        dropout: Annotated[float, typer.Option(help="Fraction of dead phosphenes.")] = 0.0,
-        phosphene_spacing_deg: Annotated[float | None, typer.Option(help="Degrees.")] = None,
-        seed: Annotated[int, typer.Option(help="Seed of the dropout pattern.")] = 0,
+        phosphene_size: Annotated[
+            float, typer.Option(callback=_positive, help="Fraction of the spacing.")
+        ] = 0.8,
+        dropout: Annotated[
+            float,
+            typer.Option(
+                callback=finite_option(0.0, 1.0, hi_open=True),
+                help="Fraction of dead phosphenes, in [0, 1).",
+            ),
+        ] = 0.0,
+        phosphene_spacing_deg: Annotated[
+            float | None, typer.Option(callback=_positive, help="Degrees.")
+        ] = None,
+        seed: Annotated[int, typer.Option(min=0, help="Seed of the dropout pattern.")] = 0,
+        implant: Annotated[
+            str | None,
+            typer.Option(
+                help="Show as this implant's phosphenes: argus2, alpha_ims, ... or .toml."
+            ),
+        ] = None,
         screen: Annotated[int | None, typer.Option(help="Screen index of the window.")] = None,
         fullscreen: Annotated[bool, typer.Option("--fullscreen/--window")] = False,
-        seconds: Annotated[float | None, typer.Option(help="Close after this long.")] = None,
+        seconds: Annotated[
+            float | None,
+            typer.Option(callback=finite_option(0.0), help="Close after this long."),
+        ] = None,
         skip_timing_check: Annotated[bool, typer.Option("--skip-timing-check")] = False,
     ) -> None:
         """Show one stimulus as the subject would see it, or render it offscreen (--screenshot)."""
+        if not phosphenes and (dropout != 0.0 or phosphene_spacing_deg is not None):
+            raise ConfocalError("--dropout and --phosphene-spacing-deg need --phosphenes")
+        if screenshot is not None and screenshot.is_dir():
+            raise ConfocalError(f"--screenshot {screenshot} is a folder; expected a PNG file path")
         geometry = geometry_from_options(
             protocol,
             screen_px=screen_px,
@@ -154,9 +211,40 @@ def register(app: typer.Typer) -> None:
             border_rgb=border_rgb,
             border_width_px=border_width_px,
             gamma=gamma,
+            monitor=monitor,
         )
+        rows, cols = geometry.screen_shape_px
+        # the framebuffer, its read-back and the PNG: a few RGBA copies of the screen
+        check_memory(rows * cols * 4 * 4, f"screen {cols}x{rows} px")
         image = load_stimulus(stimulus)
-        from experiment.presenter import PhospheneSpec, Presenter, stimulus_rect_px
+        from experiment.presentation.presenter import PhospheneSpec, Presenter, stimulus_rect_px
+
+        if implant is not None:
+            # The stimulus resampled to the implant's grid (binary: the paper's compression;
+            # grey: window means at the implant's brightness levels) and drawn as its
+            # phosphenes at its field of view (issue 14).
+            from experiment.viewer.implants import load_implant
+            from stimuli.compress import compress_grey
+
+            lay = load_implant(implant)
+            if lay.rows > image.shape[0] or lay.cols > image.shape[1]:
+                raise ConfocalError(
+                    f"--implant {implant}: its {lay.cols}x{lay.rows} grid is finer than the "
+                    f"{image.shape[1]}x{image.shape[0]} stimulus"
+                )
+            if image.dtype == bool:  # edges: on where the window's edge fraction > 1/13
+                from stimuli.compress import compress
+                from stimuli.jung2015 import EDGE_RATIO
+
+                image = compress(image, lay.shape, edge_ratio=EDGE_RATIO)
+            else:
+                image = compress_grey(image, lay.shape, levels=lay.levels)
+            phosphenes, phosphene_size, dropout = (
+                lay.phosphene_shape,
+                lay.phosphene_size,
+                lay.dropout,
+            )
+            phosphene_spacing_deg, seed = lay.fov_width_deg / lay.cols, lay.seed
 
         try:
             phos = (
@@ -206,22 +294,55 @@ def register(app: typer.Typer) -> None:
         log_path: Annotated[Path, typer.Argument(help="The study's trial log (SQLite).")],
         rater: Annotated[str, typer.Option(help="Your rater name (not the operator's).")],
         session_id: Annotated[int | None, typer.Option("--session", help="Only this one.")] = None,
+        include_training: Annotated[
+            bool,
+            typer.Option(
+                "--include-training", help="Score training trials too (main only by default)."
+            ),
+        ] = False,
     ) -> None:
         """Score logged responses as a second rater, blind to the first rater's scores."""
         from experiment.triallog import TrialLog
 
         if not log_path.is_file():
             raise ConfocalError(f"{log_path}: trial log not found")
+        if not rater.strip() or rater != rater.strip():
+            raise ConfocalError(f"--rater must be a name without surrounding spaces, got {rater!r}")
+        with TrialLog(log_path, readonly=True) as ro:  # check before the log is opened to write
+            ids = [s["session_id"] for s in ro.sessions()]
+        if session_id is not None and session_id not in ids:
+            raise ConfocalError(
+                f"{log_path}: --session {session_id} does not exist; expected one of "
+                f"{', '.join(map(str, ids)) or '(no sessions yet)'}"
+            )
         with TrialLog(log_path) as log:
-            pending = pending_for_rater(log, rater, session_id=session_id)
+            pending = pending_for_rater(
+                log, rater, session_id=session_id, include_training=include_training
+            )
             if not pending:
                 answered = log.execute("SELECT COUNT(*) AS n FROM trials")[0]["n"]
+                left_training = (
+                    0
+                    if include_training
+                    else len(
+                        pending_for_rater(log, rater, session_id=session_id, include_training=True)
+                    )
+                )
                 typer.echo(
-                    f"nothing to score: every answered trial has a score by {rater!r}"
-                    if answered
-                    else "nothing to score: the log has no answered trials yet"
+                    "nothing to score: the log has no answered trials yet"
+                    if not answered
+                    else f"nothing to score: every answered main trial has a score by {rater!r}"
+                    + (
+                        f" ({left_training} training trial(s) left: --include-training)"
+                        if left_training
+                        else ""
+                    )
                 )
                 return
+            typer.echo(
+                f"{len(pending)} {'' if include_training else 'main '}trial(s) to score",
+                err=True,
+            )
             from experiment.console import ScoringApp
 
             done = ScoringApp(log, rater, pending).run() or 0

@@ -50,8 +50,11 @@ class NullDisplay:
     def show_stimulus(self, image: np.ndarray) -> FlipRecord:
         """Record the image's shape and return a flip stamped with the clock (seconds)."""
         a = np.asarray(image)
-        if a.ndim != 2:
-            raise ValueError(f"image must be 2-D (rows, cols), got shape {a.shape}")
+        if a.ndim != 2 and not (a.ndim == 3 and a.shape[2] == 3):
+            raise ValueError(
+                f"image must be 2-D (rows, cols) or a colour photo (rows, cols, 3), got shape "
+                f"{a.shape}"
+            )
         self.shown.append(a.shape)
         onset = self.clock.now_s()
         if self.hold_s > 0:

@@ -1,0 +1,519 @@
+"""An active-search session: plan, durable event log, resume (issue 14, point 5).
+
+:meth:`ActiveSession.open` creates a session in a trial log (a ``sessions`` row, a ``plan``
+event with the trials, the scene's sha256 and its detected planes) or resumes the subject's
+unfinished one. The trial is driven by :meth:`start_trial`, :meth:`press` and :meth:`answer`,
+which a live viewer calls for each key and which :meth:`iter_run` calls for a (simulated)
+searcher. Every input and every displayed state is an ``active_events`` row committed before
+the next one is produced; the answer and its score are one transaction.
+
+Resume: the trials with an ``answer`` row are done; a trial whose attempt was cut by a crash is
+marked ``attempt_abandoned`` and restarted as attempt + 1 (its old rows stay: the log is
+append-only; analysis uses the answered attempt).
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+from collections.abc import Callable, Iterator
+from typing import Any
+
+import numpy as np
+
+from experiment.active import adapter
+from experiment.active.engine import Renderer, SearchContext, View, ViewerState, apply_action
+from experiment.active.eventlog import ActiveEventLog
+from experiment.active.searcher import Action, Observation, Searcher
+from experiment.active.task import ActiveSearchSpec, ActiveTrial, plan_trials
+from experiment.clock import Clock, PerfCounterClock
+from experiment.protocol import SCORES, ProtocolError, ProtocolSpec
+from experiment.stimset import ObjectInfo
+from experiment.triallog import ResumeMismatch, TrialLog
+
+__all__ = ["ActiveSession", "SCENE_OBJECTS", "Scorer", "auto_scorer"]
+
+logger = logging.getLogger(__name__)
+
+#: Names, synonyms and uses of the synthetic three-plane scene's objects (for scoring answers).
+SCENE_OBJECTS: dict[str, ObjectInfo] = {
+    "pedestrian": ObjectInfo(
+        "pedestrian",
+        "pedestrian",
+        ("person", "man", "woman", "human", "walker", "people"),
+        ("walking",),
+        "main",
+    ),
+    "tree": ObjectInfo("tree", "tree", ("bush", "plant", "oak"), ("shade",), "main"),
+    "building": ObjectInfo(
+        "building",
+        "building",
+        ("house", "wall", "block", "brick building", "home"),
+        ("living in", "shelter"),
+        "main",
+    ),
+}
+
+#: A scorer: ``(trial, response) -> (score, rater)``; the operator console is one, and
+#: :func:`auto_scorer` (the static study's suggested score) is the headless one.
+Scorer = Callable[[ActiveTrial, str], tuple[str, str]]
+
+
+def _object_info(name: str) -> ObjectInfo:
+    return SCENE_OBJECTS.get(name, ObjectInfo(name, name, (), (), "main"))
+
+
+def auto_scorer(
+    trial: ActiveTrial, response: str, targets: tuple[str, ...] = ()
+) -> tuple[str, str]:
+    """Score an answer as the console suggests it (:func:`experiment.scoring.suggest_score`)."""
+    from experiment.scoring import suggest_score
+
+    others = [_object_info(t) for t in targets if t != trial.target]
+    return suggest_score(response, _object_info(trial.target), others), "auto"
+
+
+def _grid_hex(grid: np.ndarray) -> str:
+    return np.packbits(np.asarray(grid, dtype=bool).ravel()).tobytes().hex()
+
+
+class ActiveSession:
+    """One subject's active-search session in a trial log. Create with :meth:`open`.
+
+    Attributes
+    ----------
+    session_id : int
+    subject : str
+    protocol : ProtocolSpec
+    task : ActiveSearchSpec
+    scene : adapter.Scene
+    trials : list of ActiveTrial
+        The saved plan.
+    planes_px : tuple of float
+        Detected object planes (nearest first), from the plan.
+    events : ActiveEventLog
+    clock : Clock
+    """
+
+    def __init__(self, log, protocol, subject, session_id, seed, scene, plan, clock) -> None:
+        self.log = log
+        self.protocol = protocol
+        self.task: ActiveSearchSpec = protocol.task
+        self.subject = subject
+        self.session_id = session_id
+        self.seed = seed
+        self.scene = scene
+        self.trials = [ActiveTrial.from_dict(t) for t in plan["trials"]]
+        self.planes_px = tuple(float(p) for p in plan["planes_px"])
+        near, far = plan["scan_px"]
+        self.events = ActiveEventLog(log, session_id)
+        self.clock = clock
+        self._ctx = SearchContext(
+            self.planes_px,
+            float(near),
+            float(far),
+            float(plan["depth_step_px"]),
+            scene.shape_px,
+            self.task.zoom_allowed,
+        )
+        self._renderers: dict[str, Renderer] = {}
+        self._current: tuple[ActiveTrial, int, float] | None = None
+        self.state: ViewerState | None = None
+        self.view: View | None = None
+        self._closed = False
+
+    # -- creation and resume ------------------------------------------------------------------
+
+    @classmethod
+    def open(
+        cls,
+        log: TrialLog,
+        protocol: ProtocolSpec,
+        subject: str,
+        *,
+        seed: int | None = None,
+        clock: Clock | None = None,
+        responder: str | None = None,
+    ) -> ActiveSession:
+        """Create an active-search session, or resume the subject's unfinished one.
+
+        Raises
+        ------
+        ProtocolError
+            The protocol has no active-search ``[task]``, or a target the scene lacks.
+        ResumeMismatch
+            The unfinished session used another protocol, scene or seed.
+        SessionLocked
+            Another live process has the session open.
+        """
+        task = protocol.task
+        if not isinstance(task, ActiveSearchSpec):
+            raise ProtocolError(
+                f"{protocol.source_path or protocol.name}: not an active-search protocol "
+                '(needs [task] type = "active_search")'
+            )
+        if not isinstance(subject, str) or not subject.strip():
+            raise ValueError(f"subject must be a non-empty string, got {subject!r}")
+        if seed is not None and (isinstance(seed, bool) or not isinstance(seed, int) or seed < 0):
+            raise ValueError(f"seed must be a non-negative integer or None, got {seed!r}")
+        clock = clock if clock is not None else PerfCounterClock()
+        scene = adapter.load_scene(
+            task.scene,
+            shape_px=task.scene_shape_px,
+            grid=task.scene_grid,
+        )
+        if scene.objects:
+            missing = [t for t in task.targets if t not in scene.objects]
+            if missing:
+                raise ProtocolError(
+                    f"task.targets: {missing[0]!r} is not an object of {task.scene} "
+                    f"(objects: {', '.join(scene.objects)})"
+                )
+        existing = log.unfinished_session(subject)
+        if existing is not None:
+            return cls._resume(log, protocol, subject, existing, seed, scene, clock)
+        root = int(seed) if seed is not None else int(np.random.SeedSequence().entropy % 2**63)
+        ds, planes = adapter.detect_planes(scene, n_planes=task.n_planes)
+        step = task.depth_step_px or scene.depth_step_px()
+        trials = plan_trials(task, np.random.default_rng(np.random.SeedSequence(root).spawn(1)[0]))
+        plan = {
+            "trials": [t.to_dict() for t in trials],
+            "task": task.to_dict(),
+            "scene_sha256": scene.sha256,
+            "planes_px": list(planes),
+            "depth_step_px": float(step),
+            "scan_px": [float(ds.max()), float(ds.min())],
+            "objects_px": dict(scene.objects),
+        }
+        from experiment.session import software_provenance
+
+        with log.atomic():
+            sid = log.create_session(
+                subject=subject,
+                protocol_name=protocol.name,
+                protocol_sha256=protocol.content_sha256(),
+                protocol_file_sha256=protocol.source_sha256,
+                protocol_path=protocol.source_path,
+                protocol_json=json.dumps(protocol.to_dict(), sort_keys=True),
+                display_json=json.dumps(protocol.display.to_dict(), sort_keys=True),
+                stimset_path=task.scene,
+                stimset_manifest_sha256=scene.sha256,
+                seed=str(root),
+                primary_rater=protocol.scoring.primary_rater,
+                responder=responder,
+                **software_provenance(),
+            )
+            ActiveEventLog(log, sid).append("plan", plan, clock.now_s())
+            log.acquire_lock(sid)
+            log.add_event(sid, "open", f"active search: {len(trials)} trials", clock.now_s())
+        return cls(log, protocol, subject, sid, root, scene, plan, clock)
+
+    @classmethod
+    def _resume(cls, log, protocol, subject, row, seed, scene, clock) -> ActiveSession:
+        sid = int(row["session_id"])
+        if row["protocol_sha256"] != protocol.content_sha256():
+            raise ResumeMismatch(
+                f"{log.path}: subject {subject} has unfinished session {sid} with protocol "
+                f"{row['protocol_name']!r}; resume it with that protocol, unchanged"
+            )
+        if row["stimset_manifest_sha256"] != scene.sha256:
+            raise ResumeMismatch(
+                f"{log.path}: session {sid} searched scene {row['stimset_path']} with sha256 "
+                f"{row['stimset_manifest_sha256'][:12]}...; {scene.name} now differs"
+            )
+        stored = int(row["seed"])
+        if seed is not None and int(seed) != stored:
+            raise ResumeMismatch(
+                f"{log.path}: subject {subject} has unfinished session {sid} with seed {stored}, "
+                f"not {seed}; omit --seed to resume it"
+            )
+        events = ActiveEventLog(log, sid)
+        plan = events.plan()
+        if plan is None:
+            raise ResumeMismatch(f"{log.path}: session {sid} is not an active-search session")
+        last = events.last_t_s()
+        if last is not None and hasattr(clock, "advance") and clock.now_s() < last:
+            clock.advance(last - clock.now_s())  # a simulated clock continues where it stopped
+        with log.atomic():
+            stale = log.acquire_lock(sid)
+            done = events.committed_trials()
+            if stale is not None:
+                log.add_event(
+                    sid,
+                    "crash",
+                    f"previous run (pid {stale['pid']}) ended without closing; {len(done)} "
+                    "active-search trials were committed",
+                    clock.now_s(),
+                )
+            log.add_event(sid, "resume", f"resuming after {len(done)} trials", clock.now_s())
+            for t in plan["trials"]:
+                k = int(t["index"])
+                n = events.attempts(k)
+                if k not in done and n > 0:
+                    events.append(
+                        "attempt_abandoned",
+                        {"reason": "session resumed"},
+                        clock.now_s(),
+                        trial=k,
+                        attempt=n - 1,
+                    )
+        return cls(log, protocol, subject, sid, stored, scene, plan, clock)
+
+    # -- position -----------------------------------------------------------------------------
+
+    def next_trial(self) -> ActiveTrial | None:
+        """Return the first trial without an answer (None when finished)."""
+        done = self.events.committed_trials()
+        for t in self.trials:
+            if t.index not in done:
+                return t
+        return None
+
+    def progress(self) -> tuple[int, int]:
+        """Return ``(answered, total)`` trials."""
+        return len(self.events.committed_trials()), len(self.trials)
+
+    @property
+    def context(self) -> SearchContext:
+        """The depth range, planes and step the keys work on."""
+        return self._ctx
+
+    def _renderer(self, condition: str) -> Renderer:
+        if condition not in self._renderers:
+            self._renderers[condition] = Renderer(self.scene, self.task.grid_px, condition)
+        return self._renderers[condition]
+
+    def _state_payload(self) -> dict[str, Any]:
+        s, v = self.state, self.view
+        assert s is not None and v is not None
+        return {
+            "depth_px": s.depth_px,
+            "depth_m": self.scene.depth_m(s.depth_px),
+            "plane": s.plane,
+            "zoom": None if s.zoom is None else list(s.zoom),
+            "grid_px": list(self.task.grid_px),
+            "on_cells": int(np.count_nonzero(v.grid)),
+            "implant": _grid_hex(v.grid),
+        }
+
+    # -- driving a trial ----------------------------------------------------------------------
+
+    def start_trial(self, searcher_name: str = "live") -> tuple[ActiveTrial, list[dict]]:
+        """Show the next trial's cue and first view; return it and the events written."""
+        trial = self.next_trial()
+        if trial is None:
+            raise ValueError(f"session {self.session_id} is finished; no trial to start")
+        attempt = self.events.attempts(trial.index)
+        onset = self.clock.now_s()
+        self._current = (trial, attempt, onset)
+        self.state = ViewerState(self._ctx.near_px, self._ctx.plane_at(self._ctx.near_px))
+        self.view = self._renderer(trial.condition).render(self.state)
+        out = [
+            self._append(
+                "trial_start",
+                {
+                    "target": trial.target,
+                    "condition": trial.condition,
+                    "cue": f"find the {trial.target}",
+                    "searcher": searcher_name,
+                },
+                onset,
+            ),
+            self._append("state", self._state_payload(), onset),
+        ]
+        return trial, out
+
+    def _append(self, kind: str, payload: dict, t_s: float) -> dict:
+        trial, attempt, _ = self._current  # type: ignore[misc]
+        seq = self.events.append(kind, payload, t_s, trial=trial.index, attempt=attempt)
+        return {
+            "trial": trial.index,
+            "attempt": attempt,
+            "seq": seq,
+            "t_s": t_s,
+            "kind": kind,
+            "payload": json.loads(json.dumps(payload, sort_keys=True)),
+        }
+
+    def elapsed_s(self) -> float:
+        """Seconds since the current trial's onset."""
+        if self._current is None:
+            raise ValueError("no trial is running")
+        return self.clock.now_s() - self._current[2]
+
+    def press(self, key: str, action: str, *, box=None) -> list[dict]:
+        """Apply one input (not answer/pass): log the key, then the state it shows."""
+        if self._current is None or self.state is None:
+            raise ValueError("no trial is running; call start_trial() first")
+        if action in ("answer", "pass"):
+            raise ValueError("use answer() for answer and pass")
+        new = apply_action(self.state, action, self._ctx, box=box)
+        t = self.clock.now_s()
+        payload: dict[str, Any] = {"key": key, "action": action}
+        if box is not None:
+            payload["box"] = [int(v) for v in box]
+        out = [self._append("key", payload, t)]
+        if new != self.state:
+            self.state = new
+            self.view = self._renderer(self._current[0].condition).render(new)
+            out.append(self._append("state", self._state_payload(), t))
+        return out
+
+    def answer(
+        self,
+        response: str,
+        *,
+        key: str = "Enter",
+        score: str | None = None,
+        rater: str | None = None,
+        scorer: Scorer | None = None,
+    ) -> list[dict]:
+        """Record the answer and its score in one transaction; the trial is then committed."""
+        if self._current is None or self.state is None:
+            raise ValueError("no trial is running; call start_trial() first")
+        trial, attempt, onset = self._current
+        if score is None:
+            if scorer is not None:
+                score, rater = scorer(trial, response)
+            else:
+                score, rater = auto_scorer(trial, response, self.task.targets)
+        if score not in SCORES:
+            raise ValueError(f"score must be one of {', '.join(SCORES)}, got {score!r}")
+        rater = rater or self.protocol.scoring.primary_rater
+        t = self.clock.now_s()
+        action = "pass" if not response.strip() else "answer"
+        rows = [
+            ("key", {"key": key, "action": action}, t),
+            (
+                "answer",
+                {"response": response, "rt_s": t - onset, "state": self._state_payload()},
+                t,
+            ),
+            (
+                "score",
+                {
+                    "score": score,
+                    "recognized": self.protocol.scoring.is_recognized(score),
+                    "rater": rater,
+                    "primary": True,
+                },
+                t,
+            ),
+        ]
+        finished = self.progress()[0] + 1 == len(self.trials)
+        with self.log.atomic():
+            seqs = self.events.append_many(rows, trial=trial.index, attempt=attempt)
+            if finished:
+                self.log.finish_session(self.session_id)
+                self.log.add_event(self.session_id, "complete", "", t)
+        self._current = None
+        return [
+            {
+                "trial": trial.index,
+                "attempt": attempt,
+                "seq": s,
+                "t_s": tt,
+                "kind": k,
+                "payload": json.loads(json.dumps(p, sort_keys=True)),
+            }
+            for s, (k, p, tt) in zip(seqs, rows, strict=True)
+        ]
+
+    def rescore(self, trial_index: int, score: str, rater: str) -> dict:
+        """Append a new score for an answered trial (old scores are kept; H16).
+
+        The new score is primary when ``rater`` is the trial's first rater or the protocol's
+        primary rater.
+        """
+        if score not in SCORES:
+            raise ValueError(f"score must be one of {', '.join(SCORES)}, got {score!r}")
+        if not isinstance(rater, str) or not rater.strip():
+            raise ValueError(f"rater must be a non-empty string, got {rater!r}")
+        rows = [r for r in self.events.rows() if r["trial"] == trial_index and r["kind"] == "score"]
+        if not rows:
+            raise ValueError(f"trial {trial_index} has no answer to re-score")
+        first = rows[0]["payload"]["rater"]
+        primary = rater in (first, self.protocol.scoring.primary_rater)
+        payload = {
+            "score": score,
+            "recognized": self.protocol.scoring.is_recognized(score),
+            "rater": rater,
+            "primary": primary,
+        }
+        t = self.clock.now_s()
+        seq = self.events.append(
+            "score", payload, t, trial=trial_index, attempt=rows[-1]["attempt"]
+        )
+        return {
+            "trial": trial_index,
+            "attempt": rows[-1]["attempt"],
+            "seq": seq,
+            "t_s": t,
+            "kind": "score",
+            "payload": payload,
+        }
+
+    # -- the headless loop --------------------------------------------------------------------
+
+    def _wait(self, dt_s: float) -> None:
+        if dt_s > 0 and hasattr(self.clock, "advance"):
+            self.clock.advance(dt_s)
+
+    def iter_run(
+        self, searcher: Searcher, *, scorer: Scorer | None = None, max_actions: int = 10_000
+    ) -> Iterator[dict]:
+        """Run the remaining trials with ``searcher``; yield every event as it is committed.
+
+        A trial ends with the searcher's answer or pass, or with a pass at the task's time
+        limit.
+        """
+        while (trial := self.next_trial()) is not None:
+            searcher.start(trial.target, trial.index)
+            _, rows = self.start_trial(searcher.name)
+            yield from rows
+            for _ in range(max_actions):
+                obs = Observation(
+                    trial.target,
+                    trial.condition,
+                    self.state,
+                    self.view,
+                    self._ctx,
+                    self.elapsed_s(),
+                    self.task.zoom_allowed,
+                )
+                act: Action = searcher.next_action(obs)
+                if self.elapsed_s() + act.delay_s >= self.task.time_limit_s:
+                    self._wait(self.task.time_limit_s - self.elapsed_s())
+                    yield from self.answer("", key="timeout", scorer=scorer)
+                    break
+                self._wait(act.delay_s)
+                if act.action in ("answer", "pass"):
+                    resp = act.response if act.action == "answer" else ""
+                    yield from self.answer(resp, key=act.key, scorer=scorer)
+                    break
+                yield from self.press(act.key, act.action, box=act.box)
+            else:
+                raise RuntimeError(f"searcher {searcher.name} did not finish trial {trial.index}")
+
+    def run(self, searcher: Searcher, *, scorer: Scorer | None = None) -> list[dict]:
+        """Run the remaining trials; return the events written (a thin loop over iter_run)."""
+        return list(self.iter_run(searcher, scorer=scorer))
+
+    def close(self) -> None:
+        """Log a ``close`` event and release the session lock (the log stays open)."""
+        if self._closed:
+            return
+        a, n = self.progress()
+        try:
+            self.log.add_event(
+                self.session_id, "close", f"{a} of {n} trials answered", self.clock.now_s()
+            )
+        finally:
+            self.log.release_lock(self.session_id)
+            self._closed = True
+
+    def __enter__(self) -> ActiveSession:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()

@@ -1,0 +1,727 @@
+"""The viewer application: a state, a renderer (GPU or CPU), an event log, a window or none.
+
+:class:`Viewer` owns the light field (or video), the :class:`~experiment.viewer.state.ViewerState`
+and the event log. :meth:`Viewer.handle` takes one input event, logs it, applies it with the pure
+:func:`~experiment.viewer.state.apply_event`, updates what depends on the data (video frame,
+tracked marker, focus in confocal-extension mode) and logs the resulting state.
+:meth:`Viewer.render` draws the current state into a frame: on the GPU
+(:class:`~experiment.viewer.gpu.GpuPipeline`) or, without GL, with the CPU reference
+(:func:`~experiment.viewer.screen.expected_screen`). The window (:func:`run_window`) only turns
+moderngl-window callbacks into :meth:`Viewer.handle` calls.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import sys
+import time
+from collections import deque
+from dataclasses import replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from experiment.errors import ConfocalError
+from experiment.viewer.events import ViewerEventLog
+from experiment.viewer.implants import ImplantLayout, load_implant
+from experiment.viewer.reference import (
+    EDGE_RATIO,
+    OBSTACLE_ALERT_FRACTION,
+    DepthMap,
+    brightest_point,
+    cpu_panes,
+    depth_map,
+    effective_levels,
+    obstacle_mask,
+    track_point,
+)
+from experiment.viewer.screen import (
+    STATUS_ROWS_PX,
+    ScreenLayout,
+    expected_screen,
+    screen_layout,
+    status_image,
+)
+from experiment.viewer.state import ViewerModel, ViewerState, apply_event
+from stimuli.lightfield import LightField
+
+__all__ = [
+    "AVERAGING_FRAMES",
+    "STEPS_PER_RANGE",
+    "PREFETCH_STEPS",
+    "LightFieldSource",
+    "open_source",
+    "Viewer",
+    "read_script",
+    "run_window",
+]
+
+log = logging.getLogger(__name__)
+
+#: Frames averaged by the implant view's temporal averaging (ours; the paper names the idea,
+#: Sec. 5, without a number).
+AVERAGING_FRAMES: int = 4
+
+#: One arrow/wheel step is this fraction of the scanned disparity range (ours: 100 steps).
+STEPS_PER_RANGE: int = 100
+
+#: Arrow steps either side of the current depth refocused ahead while the window is idle (ours).
+PREFETCH_STEPS: int = 8
+
+#: Candidate disparities of the per-pixel depth map, spread over the viewer's depth range
+#: (ours: about two per detected-plane width on the shipped light fields).
+DEPTH_CANDIDATES: int = 48
+
+
+class LightFieldSource:
+    """A still light field or a video of light-field frames (loaded one at a time).
+
+    Parameters
+    ----------
+    frames : list of Path, or a LightField
+        Frame inputs in order, or one loaded still.
+    loader : dict
+        Keyword arguments for :func:`stimuli.lightfield.load_lightfield`.
+    view_crop : (x, y, w, h), optional
+        Crop every view first (:meth:`stimuli.lightfield.LightField.cropped`).
+    """
+
+    def __init__(
+        self,
+        frames: list[Path] | LightField,
+        loader: dict | None = None,
+        *,
+        view_crop: tuple[int, int, int, int] | None = None,
+    ) -> None:
+        self._loader = loader or {}
+        self._crop = view_crop
+        if isinstance(frames, LightField) and view_crop is not None:
+            frames = frames.cropped(view_crop)
+        if isinstance(frames, LightField):
+            self._paths: list[Path] = []
+            self._cache = {0: frames.gray()}
+        else:
+            self._paths = list(frames)
+            self._cache = {}
+        self.n_frames = max(1, len(self._paths))
+
+    def frame(self, k: int) -> LightField:
+        """Return frame ``k`` as a grey light field (the previous frame stays cached)."""
+        if k not in self._cache:
+            from stimuli.lightfield import load_lightfield
+
+            lf = load_lightfield(self._paths[k], **self._loader).gray()
+            if self._crop is not None:
+                lf = lf.cropped(self._crop)
+            first = self._cache.get(0)
+            if first is not None and lf.views.shape != first.views.shape:
+                raise ConfocalError(
+                    f"{self._paths[k]}: frame shape {lf.views.shape} differs from the first "
+                    f"frame's {first.views.shape}"
+                )
+            keep = {0, k - 1}
+            self._cache = {i: v for i, v in self._cache.items() if i in keep}
+            self._cache[k] = lf
+        return self._cache[k]
+
+
+def open_source(
+    path: Path, *, view_crop: tuple[int, int, int, int] | None = None, **loader: Any
+) -> LightFieldSource:
+    """Open a light field (any input ``confocal lightfield`` reads) or a folder of frames.
+
+    A folder is a *video* when it holds no view images of its own but two or more light-field
+    inputs (sub-folders of views, ``.npy``/``.npz`` files), taken in name order.
+    """
+    from stimuli.lightfield import load_lightfield
+
+    path = Path(path)
+    if not path.exists():
+        raise ConfocalError(f"{path}: light field not found")
+    if path.is_dir():
+        images = [
+            p for p in path.iterdir() if p.suffix.lower() in (".png", ".jpg", ".jpeg", ".tif")
+        ]
+        frames = sorted(
+            p for p in path.iterdir() if p.is_dir() or p.suffix.lower() in (".npy", ".npz")
+        )
+        if not images and len(frames) >= 2:
+            src = LightFieldSource(frames, loader, view_crop=view_crop)
+            src.frame(0)
+            return src
+    return LightFieldSource(load_lightfield(path, **loader), view_crop=view_crop)
+
+
+def read_script(path: Path) -> list[dict]:
+    """Read a scripted-event file: JSON lines ``{"kind": ..., "payload": {...}}``.
+
+    Raises
+    ------
+    ConfocalError
+        Unreadable file, or a line that is not such an object (named by line number).
+    """
+    out = []
+    try:
+        text = Path(path).read_text(encoding="utf-8")
+    except OSError as exc:
+        raise ConfocalError(f"{path}: cannot read the event script ({exc.strerror})") from None
+    for n, line in enumerate(text.splitlines(), 1):
+        if not line.strip():
+            continue
+        try:
+            ev = json.loads(line)
+        except json.JSONDecodeError:
+            raise ConfocalError(f"{path}:{n}: not JSON: {line[:40]!r}") from None
+        if not isinstance(ev, dict) or not isinstance(ev.get("kind"), str):
+            raise ConfocalError(f"{path}:{n}: expected {{'kind': ..., 'payload': {{...}}}}")
+        if not isinstance(ev.get("payload", {}), dict):
+            raise ConfocalError(f"{path}:{n}: payload must be an object")
+        out.append({"kind": ev["kind"], "payload": ev.get("payload", {})})
+    return out
+
+
+class Viewer:
+    """The live viewer: data, state, event log and renderer.
+
+    Parameters
+    ----------
+    source : LightFieldSource
+    implants : sequence of str
+        Implant names or ``.toml`` paths the ``i`` key cycles through (first = initial).
+    screen_shape_px : (rows, cols)
+        Frame size.
+    ctx : moderngl.Context or None
+        Render on the GPU with this context; None renders with the CPU reference.
+    event_log : ViewerEventLog, optional
+        Where every input event and displayed state goes (default: in memory).
+    px_per_deg : float, optional
+        Draw the implant's field of view at this scale (see :func:`screen_layout`).
+    n_planes : int
+        Planes of the startup depth scan.
+    track_bright : bool
+        Follow the brightest spot of the centre view as the marker (confocal extension).
+    clock : callable, optional
+        Monotonic time in seconds (default ``time.perf_counter``).
+    """
+
+    def __init__(
+        self,
+        source: LightFieldSource,
+        implants: list[str],
+        *,
+        screen_shape_px: tuple[int, int] = (720, 1080),
+        ctx: Any = None,
+        event_log: ViewerEventLog | None = None,
+        px_per_deg: float | None = None,
+        n_planes: int = 100,
+        track_bright: bool = False,
+        clock: Any = None,
+    ) -> None:
+        from stimuli.declutter import auto_threshold
+        from stimuli.planes import auto_binning, default_disparities, find_object_planes
+        from stimuli.refocus import refocus
+
+        self.source = source
+        self.clock = clock or time.perf_counter
+        self.log = event_log if event_log is not None else ViewerEventLog(":memory:")
+        self.layouts: dict[str, ImplantLayout] = {}
+        names = []
+        for spec in implants:
+            lay = load_implant(spec)
+            self.layouts[lay.name] = lay
+            names.append(lay.name)
+        self.screen_shape_px = screen_shape_px
+        self.px_per_deg = px_per_deg
+        self.track_bright = track_bright
+        lf = source.frame(0)
+        self.lf = lf
+        dmax = lf.max_disparity_px()
+        ds = np.clip(default_disparities(lf, n_planes), -dmax, dmax)
+        with _quiet_warnings():
+            scan = find_object_planes(lf, ds, binning=auto_binning(lf))
+        self.scan = scan
+        lo, hi = max(float(ds.min()), -dmax), min(float(ds.max()), dmax)
+        self.model = ViewerModel(
+            shape_px=lf.shape_px,
+            disparity_range_px=(lo, hi),
+            step_px=(hi - lo) / STEPS_PER_RANGE,
+            planes_px=tuple(p.disparity_px for p in scan.peaks if lo <= p.disparity_px <= hi),
+            implants=tuple(names),
+            auto_threshold=0.0,
+            n_frames=source.n_frames,
+            depth_at=self._depth_at,
+        )
+        first = self.model.initial_state(names[0])
+        t0 = auto_threshold(refocus(lf, first.disparity_px))
+        self.model = replace(self.model, auto_threshold=t0)
+        self.state = first
+        self._depth: dict[int, DepthMap] = {}
+        self._history: deque[np.ndarray] = deque(maxlen=AVERAGING_FRAMES)
+        self._hist_key: tuple | None = None
+        self._hist_frame = -1
+        self._memo_key: tuple | None = None
+        self._memo_t = 0.0
+        self._auto_t: dict[tuple, float] = {}
+        self._alert = False
+        self.frame_ms = 0.0
+        self.gpu = None
+        self._composite = None
+        self._pane0_key: tuple | None = None
+        if ctx is not None:
+            from experiment.viewer.gpu import GpuPipeline
+
+            self.ctx = ctx
+            self.gpu = GpuPipeline(ctx, lf.views)
+        self._gpu_frame = 0
+        if track_bright:
+            self.state = replace(self.state, marker=brightest_point(lf.centre_view()))
+        self.log.append(
+            self.clock(),
+            "open",
+            {
+                "source": lf.source,
+                "shape": list(lf.views.shape),
+                "planes_px": list(self.model.planes_px),
+            },
+        )
+        self.log.append(self.clock(), "state", self.state.to_dict())
+
+    # -- data-dependent helpers ----------------------------------------------------------------
+
+    def depth(self) -> DepthMap:
+        """Per-pixel depth of the current frame (computed once per frame, on the CPU)."""
+        k = self.state.frame
+        if k not in self._depth:
+            lf = self.source.frame(k)
+            lo, hi = self.model.disparity_range_px
+            cands = np.linspace(lo, hi, DEPTH_CANDIDATES)
+            # binning 2 (a quarter of the work) unless the views are small (ours)
+            self._depth = {k: depth_map(lf, cands, binning=2 if min(lf.shape_px) >= 64 else 1)}
+        return self._depth[k]
+
+    def _depth_at(self, x: int, y: int) -> float:
+        return self.depth().at(x, y)
+
+    @property
+    def layout(self) -> ImplantLayout:
+        """The current implant layout."""
+        return self.layouts[self.state.implant]
+
+    # -- events --------------------------------------------------------------------------------
+
+    def handle(self, kind: str, payload: dict[str, Any], t: float | None = None) -> ViewerState:
+        """Log one input event, apply it, and log the state shown next; return that state."""
+        t = self.clock() if t is None else t
+        self.log.append(t, kind, payload)
+        before = self.state
+        s = apply_event(self.model, before, kind, payload)
+        if s.frame != before.frame:
+            s = self._follow(before, s)
+        self.state = s
+        self.log.append(t, "state", s.to_dict())
+        return s
+
+    def _follow(self, before: ViewerState, s: ViewerState) -> ViewerState:
+        prev = self.source.frame(before.frame).centre_view()
+        lf = self.source.frame(s.frame)
+        cur = lf.centre_view()
+        if self.track_bright:
+            s = replace(s, marker=brightest_point(cur))
+        elif s.marker is not None:
+            s = replace(s, marker=track_point(prev, cur, s.marker))
+        self.lf = lf
+        if s.mode == "extension" and s.marker is not None:
+            d = self.model.clamp(self.depth().at(*s.marker) + s.extension_px)
+            s = replace(s, disparity_px=d, plane=self.model.plane_of(d))
+        return s
+
+    # -- rendering -----------------------------------------------------------------------------
+
+    def _source_image(self) -> np.ndarray | None:
+        s = self.state
+        if s.mode == "obstacle" and s.obstacle_px is not None:
+            mask = obstacle_mask(self.depth(), *s.obstacle_px)
+            alert = bool(mask.mean() > OBSTACLE_ALERT_FRACTION)
+            if alert and not self._alert:
+                sys.stderr.write("\a")  # audible alert: the terminal bell (no sound library)
+                sys.stderr.flush()
+                self.log.append(self.clock(), "alert", {"fraction": float(mask.mean())})
+            self._alert = alert
+            return np.where(mask, self.lf.centre_view(), np.float32(0)).astype(np.float32)
+        self._alert = False
+        return None
+
+    def status_text(self) -> str:
+        """The status line for the current state."""
+        s, lay = self.state, self.layout
+        z = self.lf.depth_m(s.disparity_px)
+        depth = f"depth {s.disparity_px:+.3f} px/view" + (
+            f" ({z:.2f} m)" if z is not None and np.isfinite(z) and z > 0 else ""
+        )
+        n = len(self.model.planes_px)
+        plane = f"plane {s.plane + 1}/{n}" if s.plane is not None else f"plane -/{n}"
+        t = "auto" if s.threshold is None else f"{s.threshold:.3g}"
+        parts = [
+            depth,
+            plane,
+            f"{lay.label} {lay.cols}x{lay.rows}",
+            f"levels {effective_levels(s, lay)}",
+            f"threshold {t}",
+        ]
+        if s.zoom is not None:
+            parts.append(f"zoom {s.zoom[2]}x{s.zoom[3]}")
+        if s.mode == "obstacle" and s.obstacle_px is not None:
+            parts.append(f"OBSTACLE {s.obstacle_px[1]:+.2f}..{s.obstacle_px[0]:+.2f}")
+            if self._alert:
+                parts.append("ALERT")
+        if s.mode == "extension":
+            parts.append(f"extension {s.extension_px:+.2f}")
+        if self.source.n_frames > 1:
+            parts.append(f"frame {s.frame + 1}/{self.source.n_frames}")
+        parts.append(f"{self.frame_ms:.1f} ms")
+        return " | ".join(parts)
+
+    def screen(self, zoom_shape: tuple[int, int]) -> ScreenLayout:
+        """The screen layout for the current implant and zoom."""
+        return screen_layout(
+            self.screen_shape_px,
+            self.lf.shape_px,
+            zoom_shape,
+            self.layout,
+            px_per_deg=self.px_per_deg,
+        )
+
+    def _averaged(self, cells: np.ndarray) -> np.ndarray:
+        # An average over the last AVERAGING_FRAMES *video frames*: redrawing the same frame
+        # (a depth step, a key) replaces its entry instead of adding one.
+        s = self.state
+        key = (s.implant, s.levels, s.zoom)
+        if not s.averaging or key != self._hist_key:
+            self._history.clear()
+            self._hist_key = key
+        if self._history and self._hist_frame == s.frame:
+            self._history[-1] = cells
+        else:
+            self._history.append(cells)
+        self._hist_frame = s.frame
+        return np.mean(np.stack(self._history), axis=0).astype(np.float32)
+
+    def render(self, fbo: Any = None) -> np.ndarray | None:
+        """Draw the current state: into ``fbo`` on the GPU, or return the CPU frame (uint8)."""
+        t0 = time.perf_counter()
+        s, lay = self.state, self.layout
+        src = self._source_image()
+        status = status_image(self.status_text(), (STATUS_ROWS_PX, self.screen_shape_px[1]))
+        if self.gpu is None:
+            depth = self.depth() if s.mode == "obstacle" else None
+            p = cpu_panes(self.lf, s, lay, depth=depth)
+            cells = self._averaged(p.cells)
+            frame = expected_screen(
+                self.screen(p.source.shape),
+                p.centre,
+                p.source,
+                p.edges,
+                cells,
+                lay,
+                zoom=s.zoom,
+                alert=p.alert,
+                status=status,
+            )
+            self.frame_ms = (time.perf_counter() - t0) * 1e3
+            return frame
+        g = self.gpu
+        if self._gpu_frame != s.frame:
+            g.set_views(self.lf.views)
+            self._gpu_frame = s.frame
+        if src is None:
+            g.refocus(s.disparity_px)
+        else:
+            g.set_source(src)
+        levels = effective_levels(s, lay)
+        depth_key = s.disparity_px if src is None else ("obstacle", s.obstacle_px)
+        key = (s.frame, depth_key, s.zoom, s.threshold, lay.name, levels, s.averaging)
+        if key != self._memo_key:  # else the edges and electrodes on the GPU are current
+            g.sobel(s.zoom)
+            if s.threshold is None:
+                # the automatic threshold of an image already seen is remembered (no readback)
+                tkey = (s.frame, depth_key, s.zoom)
+                if tkey not in self._auto_t:
+                    if len(self._auto_t) > 4096:
+                        self._auto_t.clear()
+                    self._auto_t[tkey] = _otsu(g.read_magnitude())
+                t = self._auto_t[tkey]
+            else:
+                t = float(s.threshold)
+            g.compress(lay.shape, t, levels, EDGE_RATIO)
+            if s.averaging or self._history:
+                g.write_cells(self._averaged(g.read_cells()))
+            self._memo_key, self._memo_t = key, t
+        t = self._memo_t
+        zoom_shape = (s.zoom[3], s.zoom[2]) if s.zoom is not None else self.lf.shape_px
+        # Draw into a persistent frame and copy it out: the centre-view pane, which only
+        # changes with the zoom box or the video frame, is not redrawn on a depth step.
+        rows, cols = self.screen_shape_px
+        if self._composite is None or self._composite.size != (cols, rows):
+            if self._composite is not None:
+                self._composite.release()
+            self._composite = self.ctx.simple_framebuffer((cols, rows))
+            self._pane0_key = None
+        pane0_key = (s.zoom, s.frame, self.screen_shape_px)
+        full = pane0_key != self._pane0_key
+        g.draw(
+            self._composite,
+            self.screen(zoom_shape),
+            lay,
+            threshold=t,
+            zoom=s.zoom,
+            alert=self._alert,
+            status=status,
+            panes=(True, True, True, True) if full else (False, True, True, True),
+        )
+        self._pane0_key = pane0_key
+        self.ctx.copy_framebuffer(fbo, self._composite)
+        self.last_threshold = t
+        self.frame_ms = (time.perf_counter() - t0) * 1e3
+        return None
+
+    def prefetch(self) -> bool:
+        """Refocus one depth the user may go to next into the GPU cache; False if none left.
+
+        Candidates, in order: the detected planes, then up to :data:`PREFETCH_STEPS` arrow
+        steps nearer and farther (computed exactly as the state machine steps, so they hit).
+        Each call does one piece of work: a refocus, or the automatic threshold of a cached
+        image.
+        """
+        if self.gpu is None or self.state.mode == "obstacle":
+            return False
+        m, d = self.model, self.state.disparity_px
+        up = down = d
+        ahead: list[float] = list(m.planes_px)
+        for _ in range(PREFETCH_STEPS):
+            up, down = m.clamp(up + m.step_px), m.clamp(down - m.step_px)
+            ahead += [up, down]
+        if self._gpu_frame != self.state.frame:
+            return False
+        s = self.state
+        for x in ahead:
+            if self.gpu.prefetch(x):
+                return True
+            tkey = (s.frame, x, s.zoom)
+            if s.threshold is None and tkey not in self._auto_t:
+                mag = self.gpu.magnitude_at(x, s.zoom)
+                if mag is not None:
+                    self._auto_t[tkey] = _otsu(mag)
+                    return True
+        return False
+
+    def screenshot(self, path: Path | None = None) -> np.ndarray:
+        """Render the current state offscreen and return (and optionally save) the RGB frame."""
+        rows, cols = self.screen_shape_px
+        if self.gpu is None:
+            frame = self.render()
+        else:
+            fbo = self.ctx.simple_framebuffer((cols, rows))
+            try:
+                self.render(fbo)
+                self.ctx.finish()
+                raw = fbo.read(components=3)
+            finally:
+                fbo.release()
+            frame = np.frombuffer(raw, np.uint8).reshape(rows, cols, 3)[::-1].copy()
+        if path is not None:
+            from PIL import Image
+
+            from stimuli.io import atomic_path
+
+            path = Path(path)
+            path.parent.mkdir(parents=True, exist_ok=True)
+            with atomic_path(path) as tmp:
+                Image.fromarray(frame).save(tmp, format="PNG")
+        return frame
+
+    def view_pixel(self, x_px: float, y_px: float) -> tuple[int, int] | None:
+        """Map a screen pixel to a centre-view pixel, or None outside the centre-view image."""
+        left, top, w, h = self.screen(self.lf.shape_px).images[0]
+        rows, cols = self.lf.shape_px
+        px, py = int(x_px) - left, int(y_px) - top
+        if not (0 <= px < w and 0 <= py < h):
+            return None
+        return int(((2 * px + 1) * cols) // (2 * w)), int(((2 * py + 1) * rows) // (2 * h))
+
+    def close(self) -> None:
+        """Release the GPU objects and close the event log."""
+        if self.gpu is not None:
+            self.gpu.release()
+        if self._composite is not None:
+            self._composite.release()
+        self.log.append(self.clock(), "close", {})
+        self.log.close()
+
+
+class _quiet_warnings:
+    def __enter__(self):
+        import warnings
+
+        self._w = warnings.catch_warnings()
+        self._w.__enter__()
+        warnings.simplefilter("ignore", UserWarning)
+
+    def __exit__(self, *exc):
+        self._w.__exit__(*exc)
+
+
+def _otsu(magnitude: np.ndarray) -> float:
+    # The same rule as stimuli.declutter.auto_threshold, on the GPU's magnitude.
+    from skimage.filters import threshold_otsu
+
+    if magnitude.size == 0 or float(magnitude.max()) == float(magnitude.min()):
+        return 0.0
+    return max(0.0, float(threshold_otsu(magnitude, nbins=256)))
+
+
+_NAMED_KEYS = {
+    "UP": "up",
+    "DOWN": "down",
+    "LEFT": "left",
+    "RIGHT": "right",
+    "PAGE_UP": "page_up",
+    "PAGE_DOWN": "page_down",
+    "ESCAPE": "escape",
+}
+
+
+def run_window(
+    viewer_factory: Any,
+    *,
+    size_px: tuple[int, int] = (720, 1080),
+    seconds: float | None = None,
+    script: list[dict] | None = None,
+    shots_dir: Path | None = None,
+    video_fps: float = 0.0,
+) -> int:
+    """Open a moderngl-window (pyglet) window and run the viewer until closed; return frames.
+
+    A frame is drawn when the state changes (input, script, video); otherwise the loop only
+    dispatches window events.
+
+    Parameters
+    ----------
+    viewer_factory : callable(ctx) -> Viewer
+    size_px : (rows, cols)
+        Window size.
+    seconds : float, optional
+        Close after this long.
+    script : list of events, optional
+        Injected one per frame through :meth:`Viewer.handle` (the same path as real input);
+        with ``shots_dir``, the window's framebuffer is saved after each as ``shot_NNN.png``.
+    video_fps : float
+        Advance video frames at this rate (0: only the n/p keys do).
+    """
+    try:
+        import moderngl_window
+    except Exception as exc:  # noqa: BLE001 - pyglet raises on import without a display
+        raise ConfocalError(f"cannot open a window (no display?): {exc}") from exc
+    try:
+        window_cls = moderngl_window.get_local_window_cls("pyglet")
+        rows, cols = size_px
+        window = window_cls(
+            title="confocal view",
+            size=(cols, rows),
+            resizable=False,
+            vsync=False,
+            gl_version=(3, 3),
+        )
+    except Exception as exc:  # noqa: BLE001
+        raise ConfocalError(f"cannot open a window (no display?): {exc}") from exc
+    moderngl_window.activate_context(window=window)
+    try:
+        viewer = viewer_factory(window.ctx)
+    except BaseException:
+        window.close()
+        raise
+    viewer.screen_shape_px = (window.buffer_height, window.buffer_width)
+    keys = window.keys
+    named = {getattr(keys, k): v for k, v in _NAMED_KEYS.items()}
+    drag: dict[str, Any] = {}
+
+    def on_key(key, action, modifiers):
+        if action == keys.ACTION_PRESS and key in named:
+            viewer.handle("key", {"key": named[key]})
+
+    def on_char(char):
+        if char == "q":
+            window.is_closing = True
+        elif char in "igaoevnp[]-=123456789":
+            viewer.handle("key", {"key": char})
+
+    def on_scroll(dx, dy):
+        if dy:
+            viewer.handle("wheel", {"dy": 1 if dy > 0 else -1})
+
+    def on_press(x, y, button):
+        drag["start"] = viewer.view_pixel(x, y)
+
+    def on_release(x, y, button):
+        start, end = drag.pop("start", None), viewer.view_pixel(x, y)
+        if start is None or end is None:
+            return
+        if abs(end[0] - start[0]) < 3 and abs(end[1] - start[1]) < 3:
+            viewer.handle("click", {"x": end[0], "y": end[1]})
+        else:
+            box = [start[0], start[1], end[0] - start[0], end[1] - start[1]]
+            viewer.handle("drag", {"box": box})
+
+    window.key_event_func = on_key
+    window.unicode_char_entered_func = on_char
+    window.mouse_scroll_event_func = on_scroll
+    window.mouse_press_event_func = on_press
+    window.mouse_release_event_func = on_release
+    pending = list(script or [])
+    t0 = time.perf_counter()
+    last_video = t0
+    n = shot = 0
+    drawn = None
+    try:
+        while not window.is_closing:
+            now = time.perf_counter()
+            if video_fps > 0 and viewer.source.n_frames > 1 and now - last_video >= 1 / video_fps:
+                nxt = (viewer.state.frame + 1) % viewer.source.n_frames
+                viewer.handle("frame", {"frame": nxt})
+                last_video = now
+            injected = False
+            if pending:
+                ev = pending.pop(0)
+                viewer.handle(ev["kind"], ev["payload"])
+                injected = True
+            if viewer.state == drawn and not injected:
+                # nothing changed: no redraw; refocus the depths the user may go to next
+                # (one per loop, so input stays responsive), then idle
+                if not viewer.prefetch():
+                    time.sleep(0.005)
+                window._window.dispatch_events()
+            else:
+                drawn = viewer.state
+                viewer.render(window.fbo)
+                if injected and shots_dir is not None:
+                    shots_dir.mkdir(parents=True, exist_ok=True)
+                    _window_shot(window, shots_dir / f"shot_{shot:03d}.png")
+                    shot += 1
+                window.swap_buffers()
+                n += 1
+            if seconds is not None and time.perf_counter() - t0 >= seconds and not pending:
+                break
+    finally:
+        viewer.close()
+        window.close()
+    return n
+
+
+def _window_shot(window: Any, path: Path) -> None:
+    # the back buffer just drawn, read before the swap (its contents are undefined after)
+    from PIL import Image
+
+    rows, cols = window.buffer_height, window.buffer_width
+    raw = window.fbo.read(components=3)
+    Image.fromarray(np.frombuffer(raw, np.uint8).reshape(rows, cols, 3)[::-1]).save(path)

@@ -1,0 +1,250 @@
+"""``confocal view LIGHTFIELD``: the live active-confocal viewer (issue 14).
+
+Without ``--screenshot`` it opens a window (moderngl-window); with ``--screenshot OUT.png`` it
+renders one state offscreen (EGL, or ``--cpu`` with numpy only) and exits, so the viewer runs in
+scripts and tests with no display. Options set the first state (``--disparity``, ``--plane``,
+``--zoom``, ``--implant``, ``--levels``, ``--threshold``, ``--obstacle``, ``--marker``); a
+``--script`` file of JSON-lines events is then applied through the same handler as keys and
+mouse; ``--log`` appends every event and displayed state to an SQLite file.
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+from experiment.errors import ConfocalError
+
+__all__ = ["register", "view_command"]
+
+
+def _ints(text: str, n: int, option: str) -> tuple[int, ...]:
+    try:
+        vals = tuple(int(v) for v in text.split(","))
+    except ValueError:
+        vals = ()
+    if len(vals) != n:
+        raise ConfocalError(f"{option} must be {n} comma-separated integers, got {text!r}")
+    return vals
+
+
+def _size(text: str) -> tuple[int, int]:
+    try:
+        w, h = (int(v) for v in text.lower().split("x"))
+    except ValueError:
+        raise ConfocalError(f"--size must be WIDTHxHEIGHT like 1080x720, got {text!r}") from None
+    if w < 160 or h < 120:
+        raise ConfocalError(f"--size must be at least 160x120, got {text!r}")
+    return h, w
+
+
+def view_command(
+    lightfield: Annotated[
+        Path,
+        typer.Argument(help="Folder of views, .npy/.npz, elemental image, or folder of frames."),
+    ],
+    implant: Annotated[
+        list[str] | None,
+        typer.Option(
+            "--implant", help="Implant name or .toml (repeat: the i key cycles). Default: all."
+        ),
+    ] = None,
+    screenshot: Annotated[
+        Path | None, typer.Option(help="Render one state offscreen to this PNG and exit.")
+    ] = None,
+    cpu: Annotated[bool, typer.Option("--cpu", help="Render with numpy (no OpenGL).")] = False,
+    size: Annotated[str, typer.Option(help="Frame size WIDTHxHEIGHT.")] = "1080x720",
+    disparity: Annotated[
+        float | None, typer.Option(help="Start depth, px per view step (default: nearest plane).")
+    ] = None,
+    plane: Annotated[
+        int | None, typer.Option(help="Start at detected plane N (1 = nearest).")
+    ] = None,
+    zoom: Annotated[str | None, typer.Option(help="Zoom box x,y,w,h (view pixels).")] = None,
+    levels: Annotated[int, typer.Option(help="2: binary edges; 4 or 8: grey levels.")] = 2,
+    threshold: Annotated[str, typer.Option(help="Sobel threshold: auto or a number.")] = "auto",
+    obstacle: Annotated[
+        str | None, typer.Option(help="Obstacle mode: FAR:NEAR disparity range, px per view.")
+    ] = None,
+    marker: Annotated[
+        str | None, typer.Option(help="Confocal extension: marked point x,y (view pixels).")
+    ] = None,
+    extension: Annotated[
+        float, typer.Option(help="Extension: focus this many px/view nearer than the marker.")
+    ] = 0.0,
+    track_bright: Annotated[
+        bool, typer.Option(help="Extension: follow the brightest spot as the marker.")
+    ] = False,
+    average: Annotated[bool, typer.Option(help="Temporal averaging of the implant view.")] = False,
+    px_per_deg: Annotated[
+        float | None, typer.Option(help="Draw the implant's field of view at this px/deg.")
+    ] = None,
+    planes: Annotated[int, typer.Option(help="Planes of the startup depth scan.")] = 100,
+    script: Annotated[
+        Path | None, typer.Option(help="JSON-lines events to apply (one per frame in a window).")
+    ] = None,
+    log: Annotated[
+        Path | None, typer.Option(help="Append events and states to this SQLite.")
+    ] = None,
+    shots: Annotated[
+        Path | None, typer.Option(help="Window: save a PNG after each scripted event here.")
+    ] = None,
+    seconds: Annotated[float | None, typer.Option(help="Window: close after this long.")] = None,
+    video_fps: Annotated[float, typer.Option(help="Video: frames per second (0: keys).")] = 0.0,
+    p2p: Annotated[
+        str | None,
+        typer.Option(
+            help="With --screenshot: also write NAME_p2p.png, the implant view through "
+            "pulse2percept's scoreboard or axonmap model (the p2p extra)."
+        ),
+    ] = None,
+    pattern: Annotated[str | None, typer.Option(help="View file-name pattern.")] = None,
+    grid_cols: Annotated[int | None, typer.Option(help="Grid columns for {index}.")] = None,
+    pitch: Annotated[int | None, typer.Option(help="Elemental image: lenslet pitch, px.")] = None,
+    border: Annotated[int | None, typer.Option(help="Elemental image: border, px.")] = None,
+    offset: Annotated[
+        str | None, typer.Option(help="Elemental image: ROW,COL pixels before the first lens.")
+    ] = None,
+    view_crop: Annotated[
+        str | None, typer.Option(help="Crop every view to x,y,w,h first (vignetted corners).")
+    ] = None,
+) -> None:
+    """Scan depth, jump to object planes, zoom and see the implant's view, live."""
+    from experiment.viewer.app import Viewer, open_source, read_script
+    from experiment.viewer.events import ViewerEventLog
+    from experiment.viewer.implants import implant_names, load_implant
+    from experiment.viewer.state import GREY_LEVELS
+    from stimuli.build import parse_threshold
+
+    shape = _size(size)
+    names = list(implant) if implant else sorted(implant_names(), key=lambda n: n != "argus2")
+    for n in names:
+        load_implant(n)  # one-line error before anything is opened
+    if levels not in GREY_LEVELS:
+        raise ConfocalError(f"--levels must be one of {GREY_LEVELS}, got {levels}")
+    t = parse_threshold(threshold)
+    events = read_script(script) if script is not None else []
+    if log is not None and not log.parent.is_dir():
+        raise ConfocalError(f"--log {log}: folder {log.parent} does not exist")
+    if screenshot is not None and screenshot.suffix.lower() != ".png":
+        raise ConfocalError(f"--screenshot must name a .png file, got {screenshot}")
+    if p2p is not None:
+        from experiment.viewer.p2p import P2P_MODELS
+
+        if screenshot is None:
+            raise ConfocalError("--p2p needs --screenshot (it renders a still)")
+        if p2p not in P2P_MODELS:
+            raise ConfocalError(f"--p2p must be one of {P2P_MODELS}, got {p2p!r}")
+    zoom_box = _ints(zoom, 4, "--zoom") if zoom is not None else None
+    marker_xy = _ints(marker, 2, "--marker") if marker is not None else None
+    obstacle_px = None
+    if obstacle is not None:
+        try:
+            far, near = (float(x) for x in obstacle.split(":"))
+        except ValueError:
+            raise ConfocalError(f"--obstacle must be FAR:NEAR, got {obstacle!r}") from None
+        obstacle_px = (max(far, near), min(far, near))
+    crop = _ints(view_crop, 4, "--view-crop") if view_crop is not None else None
+    off = _ints(offset, 2, "--offset") if offset is not None else None
+    source = open_source(
+        lightfield,
+        view_crop=crop,
+        pattern=pattern,
+        grid_cols=grid_cols,
+        pitch_px=pitch,
+        border_px=border,
+        offset_px=off,
+    )
+
+    def make(ctx):
+        ev_log = ViewerEventLog(log) if log is not None else None
+        v = Viewer(
+            source,
+            names,
+            screen_shape_px=shape,
+            ctx=ctx,
+            event_log=ev_log,
+            px_per_deg=px_per_deg,
+            n_planes=planes,
+            track_bright=track_bright,
+        )
+        m, s = v.model, v.state
+        if plane is not None:
+            if not 1 <= plane <= len(m.planes_px):
+                raise ConfocalError(
+                    f"--plane must be in 1..{len(m.planes_px)} (planes found), got {plane}"
+                )
+            s = replace(s, disparity_px=m.planes_px[plane - 1], plane=plane - 1)
+        if disparity is not None:
+            lo, hi = m.disparity_range_px
+            if not lo <= disparity <= hi:
+                raise ConfocalError(f"--disparity must be in [{lo:.4g}, {hi:.4g}], got {disparity}")
+            s = replace(s, disparity_px=disparity, plane=m.plane_of(disparity))
+        if zoom_box is not None:
+            x, y, w, h = zoom_box
+            rows, cols = m.shape_px
+            if w < 8 or h < 8 or x < 0 or y < 0 or x + w > cols or y + h > rows:
+                raise ConfocalError(f"--zoom {zoom!r} must be at least 8x8 inside {cols}x{rows}")
+            s = replace(s, zoom=(x, y, w, h))
+        s = replace(s, levels=levels, threshold=t, averaging=average, extension_px=extension)
+        if obstacle_px is not None:
+            s = replace(s, mode="obstacle", obstacle_px=obstacle_px)
+        if marker_xy is not None:
+            mx, my = marker_xy
+            s = replace(s, mode="extension", marker=(mx, my))
+            d = m.clamp(v.depth().at(mx, my) + extension)
+            s = replace(s, disparity_px=d, plane=m.plane_of(d))
+        v.state = s
+        v.log.append(v.clock(), "state", s.to_dict())
+        return v
+
+    if screenshot is None:
+        from experiment.viewer.app import run_window
+
+        n = run_window(
+            make,
+            size_px=shape,
+            seconds=seconds,
+            script=events,
+            shots_dir=shots,
+            video_fps=video_fps,
+        )
+        typer.echo(f"{n} frames shown", err=True)
+        return
+    ctx = None
+    if not cpu:
+        from experiment.viewer.gpu import GpuError, create_headless_context
+
+        try:
+            ctx = create_headless_context()
+        except GpuError as exc:  # the product never requires a GPU, nor even GL
+            typer.echo(f"confocal view: {exc}; drawing with the CPU pipeline", err=True)
+    v = make(ctx)
+    try:
+        for ev in events:
+            v.handle(ev["kind"], ev["payload"])
+        v.screenshot(screenshot)
+        line = f"{v.status_text()} -> {screenshot}"
+        if p2p is not None:
+            from experiment.viewer.p2p import p2p_percept
+            from experiment.viewer.reference import cpu_panes
+            from stimuli.io import save_png
+
+            depth = v.depth() if v.state.mode == "obstacle" else None
+            cells = cpu_panes(v.lf, v.state, v.layout, depth=depth).cells
+            percept = p2p_percept(cells * v.layout.alive_mask(), v.layout, model=p2p)
+            out = save_png(percept, screenshot.with_name(screenshot.stem + "_p2p.png"))
+            line += f"; pulse2percept {p2p} -> {out}"
+    finally:
+        v.close()
+        if ctx is not None:
+            ctx.release()
+    typer.echo(line)
+
+
+def register(app: typer.Typer) -> None:
+    """Add ``view`` to the root ``confocal`` app."""
+    app.command("view")(view_command)

@@ -1,0 +1,351 @@
+"""Implant layouts as data: electrode grid, field of view, phosphene look (issue 14).
+
+A layout is a TOML file in ``protocols/implants/`` (shipped like the protocols; installed under
+``<prefix>/share/confocal/protocols/implants``) or any ``.toml`` file a user writes. Fields:
+
+=================  ==========================================================================
+field              meaning
+=================  ==========================================================================
+label              display name (str)
+kind               ``epiretinal``, ``subretinal``, ``suprachoroidal``, ``cortical``,
+                   ``tactile`` or ``other``
+rows, cols         electrode grid (int >= 1)
+pitch_um           centre-to-centre spacing on the tissue, micrometres (optional, > 0)
+fov_width_deg      field of view of the grid, degrees of visual angle (> 0, <= 180)
+fov_height_deg
+phosphene_shape    ``gaussian`` or ``disc``
+phosphene_size     phosphene diameter (disc) or FWHM (gaussian) as a fraction of the spacing
+dropout            fraction of electrodes that never light, in [0, 1)
+levels             brightness levels of a phosphene (int >= 2; 2 = on/off)
+seed               seed of the dropout pattern (int)
+source             citation (str, optional)
+=================  ==========================================================================
+
+Every field is checked when the file is read; a bad one ends with one line naming the file and
+the field (:class:`ImplantError`, exit status 2), as protocols do.
+
+:func:`render_phosphenes` is the numpy reference for the phosphene drawing that the GPU viewer
+(:mod:`experiment.viewer.gpu`) and the presenter do in shaders.
+"""
+
+from __future__ import annotations
+
+import math
+import tomllib
+from dataclasses import asdict, dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from experiment.errors import ConfocalError
+from experiment.protocol import PROTOCOLS_DIR
+
+__all__ = [
+    "IMPLANTS_DIR",
+    "IMPLANT_KINDS",
+    "RETINA_UM_PER_DEG",
+    "ImplantError",
+    "ImplantLayout",
+    "load_implant",
+    "implant_names",
+    "render_phosphenes",
+]
+
+#: Folder of the shipped implant layouts.
+IMPLANTS_DIR: Path = PROTOCOLS_DIR / "implants"
+
+#: Allowed values of ``kind``.
+IMPLANT_KINDS: tuple[str, ...] = (
+    "epiretinal",
+    "subretinal",
+    "suprachoroidal",
+    "cortical",
+    "tactile",
+    "other",
+)
+
+#: Micrometres of human retina per degree of visual angle near the fovea.
+#: Source: Drasdo & Fowler (1974), Br. J. Ophthalmol. 58:709 (0.288 mm/deg); used to check the
+#: shipped retinal layouts' fields of view against their pitch.
+RETINA_UM_PER_DEG: float = 288.0
+
+_FIELDS = (
+    "label",
+    "kind",
+    "rows",
+    "cols",
+    "pitch_um",
+    "fov_width_deg",
+    "fov_height_deg",
+    "phosphene_shape",
+    "phosphene_size",
+    "dropout",
+    "levels",
+    "seed",
+    "source",
+)
+
+
+class ImplantError(ConfocalError):
+    """An implant layout is missing or invalid (one line naming the file and field)."""
+
+
+@dataclass(frozen=True)
+class ImplantLayout:
+    """An implant's electrode grid, field of view and phosphene look.
+
+    Parameters
+    ----------
+    name : str
+        Short name (the file stem: ``argus2``).
+    label : str
+    kind : str
+        One of :data:`IMPLANT_KINDS`.
+    rows, cols : int >= 1
+        Electrode grid.
+    fov_width_deg, fov_height_deg : float in (0, 180]
+        Field of view of the grid, degrees.
+    pitch_um : float > 0 or None
+        Spacing on the tissue, micrometres.
+    phosphene_shape : {'gaussian', 'disc'}
+    phosphene_size : float > 0
+        Diameter (disc) or FWHM (gaussian), fraction of the spacing.
+    dropout : float in [0, 1)
+        Fraction of dead electrodes.
+    levels : int >= 2
+        Brightness levels.
+    seed : int
+        Seed of the dropout pattern.
+    source : str
+        Citation.
+    """
+
+    name: str
+    label: str
+    kind: str
+    rows: int
+    cols: int
+    fov_width_deg: float
+    fov_height_deg: float
+    pitch_um: float | None = None
+    phosphene_shape: str = "gaussian"
+    phosphene_size: float = 0.8
+    dropout: float = 0.0
+    levels: int = 2
+    seed: int = 0
+    source: str = ""
+
+    def __post_init__(self) -> None:
+        for name in _FIELDS:
+            getattr(self, f"_check_{name}", lambda: None)()
+
+    def _fail(self, field: str, expected: str) -> None:
+        raise ImplantError(
+            f"implant {self.name!r}: field {field!r} must be {expected}, "
+            f"got {getattr(self, field)!r}"
+        )
+
+    def _int(self, field: str, lo: int) -> None:
+        v = getattr(self, field)
+        if isinstance(v, bool) or not isinstance(v, int) or v < lo:
+            self._fail(field, f"an integer >= {lo}")
+
+    def _check_label(self) -> None:
+        if not isinstance(self.label, str) or not self.label.strip():
+            self._fail("label", "a non-empty string")
+
+    def _check_kind(self) -> None:
+        if self.kind not in IMPLANT_KINDS:
+            self._fail("kind", f"one of {', '.join(IMPLANT_KINDS)}")
+
+    def _check_rows(self) -> None:
+        self._int("rows", 1)
+
+    def _check_cols(self) -> None:
+        self._int("cols", 1)
+
+    def _positive(self, field: str, hi: float = math.inf) -> None:
+        v = getattr(self, field)
+        if isinstance(v, bool) or not isinstance(v, int | float) or not 0 < v <= hi:
+            self._fail(field, f"a number in (0, {hi:g}]")
+
+    def _check_pitch_um(self) -> None:
+        if self.pitch_um is not None:
+            self._positive("pitch_um")
+
+    def _check_fov_width_deg(self) -> None:
+        self._positive("fov_width_deg", 180.0)
+
+    def _check_fov_height_deg(self) -> None:
+        self._positive("fov_height_deg", 180.0)
+
+    def _check_phosphene_shape(self) -> None:
+        if self.phosphene_shape not in ("gaussian", "disc"):
+            self._fail("phosphene_shape", "'gaussian' or 'disc'")
+
+    def _check_phosphene_size(self) -> None:
+        self._positive("phosphene_size", 4.0)
+
+    def _check_dropout(self) -> None:
+        v = self.dropout
+        if isinstance(v, bool) or not isinstance(v, int | float) or not 0 <= v < 1:
+            self._fail("dropout", "a number in [0, 1)")
+
+    def _check_levels(self) -> None:
+        self._int("levels", 2)
+
+    def _check_seed(self) -> None:
+        self._int("seed", 0)
+
+    def _check_source(self) -> None:
+        if not isinstance(self.source, str):
+            self._fail("source", "a string")
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        """Electrode grid ``(rows, cols)``."""
+        return (self.rows, self.cols)
+
+    @property
+    def n_electrodes(self) -> int:
+        """Number of grid sites, ``rows * cols``."""
+        return self.rows * self.cols
+
+    @property
+    def spacing_deg(self) -> tuple[float, float]:
+        """Phosphene spacing ``(vertical, horizontal)``, degrees."""
+        return (self.fov_height_deg / self.rows, self.fov_width_deg / self.cols)
+
+    def alive_mask(self) -> np.ndarray:
+        """Return the bool ``(rows, cols)`` mask of electrodes that light (dropout from seed)."""
+        rng = np.random.default_rng(self.seed)
+        return rng.random(self.shape) >= self.dropout
+
+    def to_dict(self) -> dict[str, Any]:
+        """Return the layout as a plain dict (the TOML fields plus ``name``)."""
+        return asdict(self)
+
+    @classmethod
+    def from_dict(cls, data: dict[str, Any], *, name: str | None = None) -> ImplantLayout:
+        """Build a layout from TOML fields; unknown or missing fields are one-line errors."""
+        name = str(data.get("name", name or "custom"))
+        unknown = sorted(set(data) - set(_FIELDS) - {"name"})
+        if unknown:
+            raise ImplantError(
+                f"implant {name!r}: unknown field {unknown[0]!r} (expected: {', '.join(_FIELDS)})"
+            )
+        for need in ("label", "kind", "rows", "cols", "fov_width_deg", "fov_height_deg"):
+            if need not in data:
+                raise ImplantError(f"implant {name!r}: field {need!r} is missing")
+        kw = {k: v for k, v in data.items() if k != "name"}
+        return cls(name=name, **kw)
+
+    def with_(self, **changes: Any) -> ImplantLayout:
+        """Return a copy with some fields changed (checked again)."""
+        return ImplantLayout.from_dict({**self.to_dict(), **changes})
+
+
+def implant_names() -> list[str]:
+    """Return the names of the shipped layouts, sorted."""
+    if not IMPLANTS_DIR.is_dir():
+        return []
+    return sorted(p.stem for p in IMPLANTS_DIR.glob("*.toml"))
+
+
+def load_implant(name_or_path: str | Path) -> ImplantLayout:
+    """Load a shipped layout by name (``argus2``) or a user's layout from a ``.toml`` file.
+
+    Raises
+    ------
+    ImplantError
+        Unknown name, unreadable file, TOML syntax error, or an invalid field.
+    """
+    if isinstance(name_or_path, ImplantLayout):
+        return name_or_path
+    text = str(name_or_path)
+    path = Path(text)
+    if path.suffix.lower() != ".toml":
+        path = IMPLANTS_DIR / f"{text}.toml"
+        if not path.is_file():
+            raise ImplantError(
+                f"unknown implant {text!r} (shipped: {', '.join(implant_names())}; "
+                "or give a .toml file)"
+            )
+    if not path.is_file():
+        raise ImplantError(f"{path}: implant layout not found")
+    try:
+        data = tomllib.loads(path.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError) as exc:
+        raise ImplantError(f"{path}: cannot read ({exc})") from None
+    except tomllib.TOMLDecodeError as exc:
+        raise ImplantError(f"{path}: not valid TOML ({exc})") from None
+    try:
+        return ImplantLayout.from_dict(data, name=path.stem)
+    except ImplantError as exc:
+        raise ImplantError(f"{path}: {exc}") from None
+    except TypeError as exc:  # a field of the wrong TOML type reaching the dataclass
+        raise ImplantError(f"{path}: {exc}") from None
+
+
+def render_phosphenes(
+    cells: np.ndarray,
+    shape_px: tuple[int, int],
+    *,
+    shape: str = "gaussian",
+    size: float = 0.8,
+    alive: np.ndarray | None = None,
+) -> np.ndarray:
+    """Draw a grid of electrode values as phosphenes filling a ``shape_px`` image (reference).
+
+    Each electrode ``(i, j)`` sits at the centre of its cell, ``((i + 0.5) ph, (j + 0.5) pw)``
+    with pitch ``ph = rows_px / rows``, ``pw = cols_px / cols``. A pixel centre sums the profiles
+    of the 3x3 electrodes around its own cell, clipped to 1: a Gaussian of FWHM ``size *
+    min(ph, pw)``, or a disc of that diameter. This is what the shaders compute.
+
+    Parameters
+    ----------
+    cells : ndarray of shape (rows, cols), bool or float in [0, 1]
+    shape_px : (rows, cols)
+        Size of the drawing, pixels.
+    shape : {'gaussian', 'disc'}
+    size : float > 0
+        Diameter or FWHM, fraction of the spacing.
+    alive : ndarray of shape (rows, cols), bool, optional
+        Electrodes that light; dead ones stay dark.
+
+    Returns
+    -------
+    ndarray of shape ``shape_px``, float32 in [0, 1]
+    """
+    v = np.asarray(cells, dtype=np.float32)
+    if v.ndim != 2:
+        raise ValueError(f"cells must be 2-D (rows, cols), got shape {v.shape}")
+    if alive is not None:
+        v = v * np.asarray(alive, dtype=np.float32)
+    n_r, n_c = v.shape
+    rows, cols = (int(s) for s in shape_px)
+    ph, pw = np.float32(rows / n_r), np.float32(cols / n_c)
+    y = np.arange(rows, dtype=np.float32)[:, None] + np.float32(0.5)
+    x = np.arange(cols, dtype=np.float32)[None, :] + np.float32(0.5)
+    r0 = np.floor(y / ph).astype(np.int64)
+    c0 = np.floor(x / pw).astype(np.int64)
+    d_size = np.float32(size) * min(ph, pw)
+    sigma = d_size / np.float32(2.3548)
+    total = np.zeros((rows, cols), dtype=np.float32)
+    for dr in (-1, 0, 1):
+        for dc in (-1, 0, 1):
+            r = r0 + dr
+            c = c0 + dc
+            ok = (r >= 0) & (r < n_r) & (c >= 0) & (c < n_c)
+            val = v[np.clip(r, 0, n_r - 1), np.clip(c, 0, n_c - 1)] * ok
+            dy = y - (r.astype(np.float32) + np.float32(0.5)) * ph
+            dx = x - (c.astype(np.float32) + np.float32(0.5)) * pw
+            r2 = dy * dy + dx * dx
+            if shape == "gaussian":
+                total += val * np.exp(-r2 / (np.float32(2.0) * sigma * sigma))
+            elif shape == "disc":
+                total += val * (r2 <= np.float32(0.25) * d_size * d_size)
+            else:
+                raise ValueError(f"shape must be 'gaussian' or 'disc', got {shape!r}")
+    return np.minimum(total, np.float32(1.0)).astype(np.float32)

@@ -1,0 +1,287 @@
+"""The viewer's CPU pipeline: what each pane shows for a state, with numpy and ``stimuli``.
+
+This is the reference the GPU pipeline (:mod:`experiment.viewer.gpu`) is tested against, the
+baseline of ``benchmarks/bench_viewer.py``, and the pipeline that headless tools (the active
+search study, the demo) use without a GL context. For a :class:`ViewerState`:
+
+1. the *source* image: the confocal image at the state's disparity
+   (:func:`stimuli.refocus.refocus`), or in obstacle mode the centre view kept only where the
+   per-pixel depth lies in the obstacle range (:func:`obstacle_mask`);
+2. crop to the zoom box (before de-clutter and compress, Jung et al. 2015, Fig. 14);
+3. de-clutter: Sobel magnitude (:func:`stimuli.declutter.sobel_magnitude`) above the threshold
+   (the state's, or :func:`stimuli.declutter.auto_threshold`);
+4. compress to the implant's electrode grid: with 2 levels the binary compression of the edges
+   (:func:`stimuli.compress.compress`, edge ratio 1/13), with more the grey compression of the
+   source (:func:`stimuli.compress.compress_grey`) at ``min(state levels, implant levels)``.
+
+Per-pixel depth ("agreement across views", for obstacle avoidance and confocal extension) is
+the disparity at which the views agree best: the smallest variance across the shifted views,
+``E[I^2] - E[I]^2`` over the views, both terms from shift-and-add refocusing of ``I`` and
+``I^2``. Pixels whose variance barely changes with disparity (flat, texture-less regions) have
+no reliable depth and are left out (:data:`DEPTH_CONFIDENCE_FRACTION`), as are pixels whose best
+disparity is the first or last candidate (the true one may lie beyond the range).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from experiment.viewer.implants import ImplantLayout
+from experiment.viewer.state import ViewerState
+from stimuli import jung2015
+from stimuli.lightfield import LightField
+
+__all__ = [
+    "EDGE_RATIO",
+    "DEPTH_CONFIDENCE_FRACTION",
+    "OBSTACLE_ALERT_FRACTION",
+    "Panes",
+    "DepthMap",
+    "depth_map",
+    "obstacle_mask",
+    "cpu_panes",
+    "effective_levels",
+    "compress_for_implant",
+    "track_point",
+    "brightest_point",
+]
+
+#: Compression edge ratio. Source: Jung et al. (2015), Sec. 2.2 (1/13).
+EDGE_RATIO: float = jung2015.EDGE_RATIO
+
+#: A pixel has a depth when its variance-versus-disparity curve varies by at least this fraction
+#: of the image's median variation (ours: flat regions vary by ~0, textured ones by ~median).
+DEPTH_CONFIDENCE_FRACTION: float = 0.5
+
+#: The obstacle alert fires when more than this fraction of the view lies in the obstacle range
+#: (ours: 0.5 %, about a 20x20 px object in a 383x552 view).
+OBSTACLE_ALERT_FRACTION: float = 0.005
+
+
+@dataclass(frozen=True)
+class Panes:
+    """The images of the four panes for one state (CPU reference).
+
+    Attributes
+    ----------
+    centre : ndarray (rows, cols), float32 in [0, 1]
+        Centre view (full, not zoomed).
+    source : ndarray (h, w), float32 in [0, 1]
+        Confocal image (or obstacle-masked centre view), cropped to the zoom box.
+    magnitude : ndarray (h, w), float32
+        Sobel magnitude of ``source``.
+    threshold : float
+    edges : ndarray (h, w), bool
+    cells : ndarray (implant rows, cols), float32 in [0, 1]
+        Electrode values before dropout.
+    levels : int
+        Levels used for ``cells``.
+    alert : bool
+        Obstacle alert (obstacle mode only).
+    """
+
+    centre: np.ndarray
+    source: np.ndarray
+    magnitude: np.ndarray
+    threshold: float
+    edges: np.ndarray
+    cells: np.ndarray
+    levels: int
+    alert: bool = False
+
+
+@dataclass(frozen=True)
+class DepthMap:
+    """Per-pixel disparity by agreement across views.
+
+    Attributes
+    ----------
+    disparity_px : ndarray (rows, cols), float32
+        Best-agreeing disparity at full resolution (pixels per view step).
+    valid : ndarray (rows, cols), bool
+        Pixels with a reliable depth.
+    candidates_px : ndarray (n,), float64
+        Disparities tried.
+    binning : int
+        View binning used.
+    """
+
+    disparity_px: np.ndarray
+    valid: np.ndarray
+    candidates_px: np.ndarray
+    binning: int
+
+    def at(self, x: int, y: int, *, radius_px: int = 6) -> float:
+        """Median valid disparity in a ``(2 r + 1)``-pixel square around ``(x, y)``.
+
+        Falls back to the whole image's median valid disparity when the square has none.
+        """
+        rows, cols = self.disparity_px.shape
+        y0, y1 = max(0, y - radius_px), min(rows, y + radius_px + 1)
+        x0, x1 = max(0, x - radius_px), min(cols, x + radius_px + 1)
+        d = self.disparity_px[y0:y1, x0:x1][self.valid[y0:y1, x0:x1]]
+        if d.size == 0:
+            d = self.disparity_px[self.valid]
+        return float(np.median(d)) if d.size else 0.0
+
+
+def depth_map(lightfield: LightField, candidates_px: np.ndarray, *, binning: int = 2) -> DepthMap:
+    """Estimate per-pixel disparity as the one where the views agree best (least variance).
+
+    Parameters
+    ----------
+    lightfield : LightField, grey
+    candidates_px : ndarray (n,)
+        Disparities to try, full-resolution pixels per view step.
+    binning : int >= 1
+        Box binning of the views first (speed; disparities divide by it).
+
+    Returns
+    -------
+    DepthMap
+    """
+    from stimuli.refocus import refocus
+
+    lf = lightfield.gray().binned(binning) if binning > 1 else lightfield.gray()
+    sq = LightField(lf.views * lf.views)
+    ds = np.asarray(candidates_px, dtype=np.float64)
+    dmax = lf.max_disparity_px()  # binning shrinks the views, and so the usable range
+    binned = np.clip(ds / binning, -dmax, dmax)
+    var = np.stack([np.maximum(refocus(sq, d) - refocus(lf, d) ** 2, 0.0) for d in binned])
+    best = np.argmin(var, axis=0)
+    spread = np.median(var, axis=0) - np.min(var, axis=0)
+    ref = float(np.median(spread))
+    valid = spread > DEPTH_CONFIDENCE_FRACTION * ref if ref > 0 else np.zeros_like(spread, bool)
+    # a best match at either end of the candidates is not bracketed: the depth may lie beyond
+    valid &= (best > 0) & (best < ds.size - 1)
+    rows, cols = lightfield.shape_px
+    disp = ds[best].astype(np.float32)
+    full = np.repeat(np.repeat(disp, binning, axis=0), binning, axis=1)
+    vfull = np.repeat(np.repeat(valid, binning, axis=0), binning, axis=1)
+    out_d = np.zeros((rows, cols), np.float32)
+    out_v = np.zeros((rows, cols), bool)
+    r, c = min(rows, full.shape[0]), min(cols, full.shape[1])
+    out_d[:r, :c], out_v[:r, :c] = full[:r, :c], vfull[:r, :c]
+    return DepthMap(out_d, out_v, ds, binning)
+
+
+def obstacle_mask(depth: DepthMap, near_px: float, far_px: float) -> np.ndarray:
+    """Return the bool mask of pixels whose depth lies in ``[far_px, near_px]`` (disparities)."""
+    lo, hi = min(near_px, far_px), max(near_px, far_px)
+    return depth.valid & (depth.disparity_px >= lo) & (depth.disparity_px <= hi)
+
+
+def effective_levels(state: ViewerState, layout: ImplantLayout) -> int:
+    """Levels used for the implant view: 2 stays binary; otherwise at most the implant's."""
+    return 2 if state.levels <= 2 else max(2, min(state.levels, layout.levels))
+
+
+def compress_for_implant(
+    source: np.ndarray, edges: np.ndarray, layout: ImplantLayout, levels: int
+) -> np.ndarray:
+    """Compress to the implant's grid: binary edges (2 levels) or the grey source (more)."""
+    from stimuli.compress import compress, compress_grey
+
+    if levels <= 2:
+        return compress(edges, layout.shape, edge_ratio=EDGE_RATIO).astype(np.float32)
+    return compress_grey(source, layout.shape, levels=levels)
+
+
+def cpu_panes(
+    lightfield: LightField,
+    state: ViewerState,
+    layout: ImplantLayout,
+    *,
+    depth: DepthMap | None = None,
+) -> Panes:
+    """Compute the four panes' images for a state with the CPU pipeline (the reference).
+
+    Parameters
+    ----------
+    lightfield : LightField, grey
+    state : ViewerState
+    layout : ImplantLayout
+    depth : DepthMap, optional
+        Needed in obstacle mode.
+
+    Returns
+    -------
+    Panes
+    """
+    from stimuli.declutter import auto_threshold, sobel_magnitude
+    from stimuli.refocus import refocus
+
+    centre = lightfield.centre_view()
+    alert = False
+    if state.mode == "obstacle" and state.obstacle_px is not None:
+        if depth is None:
+            raise ValueError("obstacle mode needs a depth map")
+        mask = obstacle_mask(depth, *state.obstacle_px)
+        source = np.where(mask, centre, np.float32(0)).astype(np.float32)
+        alert = bool(mask.mean() > OBSTACLE_ALERT_FRACTION)
+    else:
+        source = refocus(lightfield, state.disparity_px)
+    if state.zoom is not None:
+        x, y, w, h = state.zoom
+        source = np.ascontiguousarray(source[y : y + h, x : x + w])
+    mag = sobel_magnitude(source)
+    t = float(state.threshold) if state.threshold is not None else auto_threshold(source)
+    edges = mag > t
+    levels = effective_levels(state, layout)
+    cells = compress_for_implant(source, edges, layout, levels)
+    return Panes(centre, source, mag, t, edges, cells, levels, alert)
+
+
+def brightest_point(image: np.ndarray, *, sigma_px: float = 2.0) -> tuple[int, int]:
+    """Return ``(x, y)`` of the brightest spot of a grey image after Gaussian smoothing."""
+    from scipy.ndimage import gaussian_filter
+
+    s = gaussian_filter(np.asarray(image, np.float32), sigma_px)
+    y, x = np.unravel_index(int(np.argmax(s)), s.shape)
+    return int(x), int(y)
+
+
+def track_point(
+    previous: np.ndarray,
+    current: np.ndarray,
+    point: tuple[int, int],
+    *,
+    patch_px: int = 15,
+    search_px: int = 24,
+) -> tuple[int, int]:
+    """Follow a point from one frame to the next by normalised cross-correlation of a patch.
+
+    Parameters
+    ----------
+    previous, current : ndarray (rows, cols), float32
+        Consecutive centre views.
+    point : (x, y)
+        The point in ``previous``.
+    patch_px : int
+        Side of the template (odd).
+    search_px : int
+        How far the point may move between frames, pixels.
+
+    Returns
+    -------
+    (x, y) in ``current``
+    """
+    from skimage.feature import match_template
+
+    rows, cols = previous.shape
+    x, y = point
+    h = patch_px // 2
+    y0, y1, x0, x1 = max(0, y - h), min(rows, y + h + 1), max(0, x - h), min(cols, x + h + 1)
+    tmpl = previous[y0:y1, x0:x1]
+    sy0, sy1 = max(0, y0 - search_px), min(rows, y1 + search_px)
+    sx0, sx1 = max(0, x0 - search_px), min(cols, x1 + search_px)
+    region = current[sy0:sy1, sx0:sx1]
+    if tmpl.size == 0 or region.shape[0] < tmpl.shape[0] or region.shape[1] < tmpl.shape[1]:
+        return point
+    if float(tmpl.std()) == 0.0:
+        return point
+    score = match_template(region, tmpl)
+    dy, dx = np.unravel_index(int(np.argmax(score)), score.shape)
+    return int(sx0 + dx + (x - x0)), int(sy0 + dy + (y - y0))

@@ -1,0 +1,103 @@
+"""Check that a job fits in memory before allocating it, and option values before any work.
+
+A size typed on the command line (a 24,000 px photo, a 10^9-plane scan) is estimated first and
+refused with the memory it would need, instead of dying with a ``MemoryError`` traceback or being
+killed by the kernel with no message (issue 10).
+"""
+
+from __future__ import annotations
+
+import math
+import os
+
+from stimuli.errors import InputError
+
+__all__ = ["available_memory_bytes", "check_memory", "format_bytes", "finite_option"]
+
+
+def available_memory_bytes() -> int:
+    """Return the memory the system can give a new allocation now, bytes (``MemAvailable``).
+
+    Falls back to free physical pages (``os.sysconf``) where ``/proc/meminfo`` is missing.
+    """
+    try:
+        with open("/proc/meminfo", encoding="ascii") as f:
+            for line in f:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except (OSError, ValueError, IndexError):
+        pass
+    try:
+        return int(os.sysconf("SC_AVPHYS_PAGES")) * int(os.sysconf("SC_PAGE_SIZE"))
+    except (OSError, ValueError, AttributeError):  # pragma: no cover - non-POSIX
+        return 1 << 62
+
+
+def format_bytes(n: float) -> str:
+    """Return ``n`` bytes in a short human unit (``'3.2 GiB'``)."""
+    for unit in ("B", "KiB", "MiB", "GiB", "TiB", "PiB"):
+        if abs(n) < 1024 or unit == "PiB":
+            return f"{n:.0f} {unit}" if unit == "B" else f"{n:.1f} {unit}"
+        n /= 1024
+    return f"{n:.1f} PiB"  # pragma: no cover
+
+
+def check_memory(needed_bytes: float, what: str) -> None:
+    """Refuse a job whose estimated working memory exceeds the memory available now.
+
+    Parameters
+    ----------
+    needed_bytes : float
+        Estimated peak memory of the job, bytes (an estimate from array sizes; it only has to
+        be right to within a small factor to turn a crash into a message).
+    what : str
+        What asked for it, with the option that set the size (``"--size 24000x24000"``).
+
+    Raises
+    ------
+    InputError
+        Naming ``what``, the memory needed and the memory available.
+    """
+    avail = available_memory_bytes()
+    if not math.isfinite(needed_bytes) or needed_bytes > avail:
+        raise InputError(
+            f"{what} needs about {format_bytes(needed_bytes)} of memory but only "
+            f"{format_bytes(avail)} is available; choose a smaller value"
+        )
+
+
+def finite_option(
+    lo: float | None = None,
+    hi: float | None = None,
+    *,
+    lo_open: bool = False,
+    hi_open: bool = False,
+):
+    """Return a typer callback that refuses NaN, infinities and values outside a range.
+
+    The message names the option and the range (typer prints it in its usage box), e.g.
+    ``Invalid value for '--hold-s': must be a finite number >= 0, got inf``.
+    """
+    import typer
+
+    parts = []
+    if lo is not None:
+        parts.append(f"{'>' if lo_open else '>='} {lo:g}")
+    if hi is not None:
+        parts.append(f"{'<' if hi_open else '<='} {hi:g}")
+    want = "a finite number" + (" " + " and ".join(parts) if parts else "")
+
+    def callback(value):
+        if value is None:
+            return value
+        v = float(value)
+        bad = not math.isfinite(v)
+        if lo is not None:
+            bad = bad or (v <= lo if lo_open else v < lo)
+        if hi is not None:
+            bad = bad or (v >= hi if hi_open else v > hi)
+        if bad:
+            raise typer.BadParameter(f"must be {want}, got {value!r}")
+        return value
+
+    return callback

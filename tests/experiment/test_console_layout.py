@@ -1,0 +1,213 @@
+"""The operator console fits the terminal from 80x24 upward; log lines stay off it (issue 15, 5).
+
+Textual's pilot runs the app headless at several terminal sizes; the test compares each widget's
+region with the screen size and reads the rendered screen back as text.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import csv
+import hashlib
+import json
+import logging
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from PIL import Image
+from textual.widgets import Footer
+
+from experiment.clock import FakeClock
+from experiment.console import OperatorConsole, logs_to_file, session_log_path
+from experiment.presentation.displays import NullDisplay
+from experiment.presentation.process import PROTOCOL_VERSION, RemoteDisplay
+from experiment.protocol import load_protocol
+from experiment.session import Session
+from experiment.stimset import MANIFEST_COLUMNS, StimulusSet
+from experiment.triallog import TrialLog
+from tests.experiment.test_console import PROTOCOL
+
+#: Stimulus shape (rows, cols): the paper's level 3 (164x109 is 1/3 of 492x327), the aspect of
+#: every level, large enough that a careless preview would push the input line off screen.
+SHAPE_PX = (109, 164)
+
+
+def _stimset(root: Path) -> Path:
+    root.mkdir(parents=True)
+    objs = [("o1", "cup", "mug", "drinking", "main"), ("o2", "stapler", "", "stapling", "main")]
+    with open(root / "objects.csv", "w", newline="") as f:
+        w = csv.writer(f)
+        w.writerow(["object", "name", "synonyms", "uses", "role"])
+        w.writerows(objs)
+    rng = np.random.default_rng(0)
+    rows = []
+    for o, *_ in objs:
+        for cond in ("cluttered", "decluttered"):
+            p = root / f"{o}_{cond}_1.png"
+            Image.fromarray((rng.random(SHAPE_PX) < 0.3).astype(np.uint8) * 255).save(p)
+            sha = hashlib.sha256(p.read_bytes()).hexdigest()
+            rows.append(
+                [
+                    o,
+                    "main",
+                    cond,
+                    1,
+                    3,
+                    SHAPE_PX[1],
+                    SHAPE_PX[0],
+                    SHAPE_PX[0] * SHAPE_PX[1],
+                    p.name,
+                    sha,
+                ]
+            )
+    with open(root / "manifest.csv", "w", newline="") as f:
+        w = csv.writer(f)
+        w.writerow(MANIFEST_COLUMNS)
+        w.writerows(rows)
+    return root
+
+
+@pytest.fixture
+def session(tmp_path):
+    stimset = StimulusSet.load(_stimset(tmp_path / "set"))
+    (tmp_path / "mini.toml").write_text(PROTOCOL)
+    clock = FakeClock(1000.0)
+    log = TrialLog(tmp_path / "study.sqlite")
+    s = Session.open(
+        log, load_protocol(tmp_path / "mini.toml"), stimset, "S01", seed=7, clock=clock
+    )
+    yield s, clock
+    s.close()
+    log.close()
+
+
+def _inside(region, size) -> bool:
+    return (
+        region.width > 0
+        and region.height > 0
+        and region.x >= 0
+        and region.y >= 0
+        and region.x + region.width <= size.width
+        and region.y + region.height <= size.height
+    )
+
+
+def screen_text(app) -> list[str]:
+    """The rendered screen, one string per terminal row."""
+    return [strip.text for strip in app.screen._compositor.render_strips()]
+
+
+@pytest.mark.parametrize("size", [(80, 24), (100, 30), (160, 50)])
+def test_response_box_footer_and_preview_fit_issue_15(session, size) -> None:
+    s, clock = session
+    app = OperatorConsole(s, NullDisplay(clock))
+    seen: dict[str, object] = {}
+
+    async def script() -> None:
+        async with app.run_test(size=size) as pilot:
+            await pilot.press("enter")  # "Main part"
+            await pilot.press("enter")  # trial 1
+            await pilot.pause()
+            assert app.state == "trial"
+            scr = app.screen.size
+            assert (scr.width, scr.height) == size
+            regions = {
+                w: app.query_one(w).region for w in ("#trial", "#preview", "#status", "#response")
+            }
+            regions["footer"] = app.query_one(Footer).region
+            for name, r in regions.items():
+                assert _inside(r, scr), (name, r, scr)
+            # the input box is 3 rows (border, text, border), the footer the last row
+            assert regions["#response"].height == 3
+            assert regions["footer"].y == scr.height - 1
+            # nothing overlaps the input box or the footer
+            for name in ("#trial", "#preview", "#status"):
+                assert not regions[name].overlaps(regions["#response"]), name
+                assert not regions[name].overlaps(regions["footer"]), name
+            assert not regions["#response"].overlaps(regions["footer"])
+            text = screen_text(app)
+            footer = text[-1]
+            for b in app.active_bindings.values():
+                if b.binding.show:
+                    assert b.binding.description in footer, (b.binding.description, footer)
+            assert "the subject's words" in "\n".join(text)
+            assert any(f"object {app.trial.object_name}" in line for line in text)
+            seen["preview_rows"] = regions["#preview"].height
+            # the note line replaces the input line and fits too
+            await pilot.press("f6")
+            await pilot.pause()
+            note = app.query_one("#note").region
+            assert _inside(note, scr) and note.height == 3
+            await pilot.press("escape", "enter")
+
+    asyncio.run(asyncio.wait_for(script(), timeout=60))
+    if size == (160, 50):
+        assert seen["preview_rows"] > 12  # a larger screen gets a larger preview
+
+
+def test_preview_grows_with_the_terminal(session) -> None:
+    s, clock = session
+    widths = []
+
+    async def one(size) -> None:
+        app = OperatorConsole(s, NullDisplay(clock))
+        async with app.run_test(size=size) as pilot:
+            await pilot.press("enter", "enter")
+            await pilot.pause()
+            widths.append(app.query_one("#preview").region.width)
+            await pilot.press("ctrl+q")
+
+    for size in ((80, 24), (160, 50)):
+        asyncio.run(asyncio.wait_for(one(size), timeout=60))
+    assert widths[1] > widths[0]
+
+
+def test_library_log_lines_go_to_the_session_log_not_the_terminal(tmp_path, capsys) -> None:
+    lib = logging.getLogger("moderngl_window")
+    terminal = logging.StreamHandler(sys.stderr)
+    lib.addHandler(terminal)
+    try:
+        path = tmp_path / "study.log"
+        with logs_to_file(path, prefix="session 1"):
+            lib.info("Context Version:")
+            logging.getLogger("experiment.presentation.presenter").warning("frame dropped")
+        lib.warning("after the console")
+        text = path.read_text()
+        assert "session 1 moderngl_window INFO: Context Version:" in text
+        assert "frame dropped" in text and "after the console" not in text
+        err = capsys.readouterr().err
+        assert "Context Version" not in err and "after the console" in err
+        assert terminal in lib.handlers
+    finally:
+        lib.removeHandler(terminal)
+
+
+def test_session_log_path_beside_the_trial_log(session) -> None:
+    s, _ = session
+    assert session_log_path(s) == Path(s.log.path).with_suffix(".log")
+
+
+def test_presenter_process_stderr_goes_to_the_log_file(tmp_path, capfd) -> None:
+    """A stand-in child that logs on stderr like moderngl-window, then speaks the protocol."""
+    child = (
+        "import sys, json\n"
+        "print('moderngl_window INFO Context Version: 4.5', file=sys.stderr, flush=True)\n"
+        f"print(json.dumps({{'event': 'ready', 'protocol': {PROTOCOL_VERSION}}}), flush=True)\n"
+        "sys.stdin.read()\n"
+    )
+    log_path = tmp_path / "study.log"
+    display = RemoteDisplay(
+        {"unused": True},
+        command=[sys.executable, "-c", child],
+        stderr_path=log_path,
+        start_timeout_s=30,
+    )
+    try:
+        assert display.info["event"] == "ready"
+    finally:
+        display.close()
+    assert "Context Version: 4.5" in log_path.read_text()
+    assert "Context Version" not in capfd.readouterr().err
+    json.dumps(display.info)

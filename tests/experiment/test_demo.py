@@ -1,0 +1,161 @@
+"""``confocal demo``: simulated observers labelled as such, the paper's numbers beside them, the
+in-memory trial log saved whole, and a run end to end (issue 13)."""
+
+from __future__ import annotations
+
+import json
+import sqlite3
+
+import pytest
+
+from experiment import cli
+from experiment.demos.study import (
+    PAPER_RESULTS,
+    DemoResult,
+    run_demo,
+    simulated_section,
+    summary_lines,
+)
+from experiment.errors import ConfocalError
+from experiment.observers import PAPER_OR_BACKGROUND, PAPER_OR_PER_LOG10_PX, PAPER_X50_CLUTTERED_PX
+from experiment.triallog import TrialLog
+
+
+def test_paper_results_are_the_papers():
+    # Jung et al. 2015, Sec. 3.3 (Results): Weibull 50 % thresholds 8,695 px cluttered and
+    # 3,532 px de-cluttered; OR background 5.6; OR per log10 pixels 74.5.
+    assert PAPER_RESULTS["x50_cluttered_px"] == 8695 == PAPER_X50_CLUTTERED_PX
+    assert PAPER_RESULTS["x50_decluttered_px"] == 3532
+    assert round(PAPER_RESULTS["threshold_ratio"], 2) == 2.46
+    assert PAPER_RESULTS["or_background"] == 5.6 == PAPER_OR_BACKGROUND
+    assert PAPER_RESULTS["or_per_log10_px"] == 74.5 == PAPER_OR_PER_LOG10_PX
+
+
+def _fake_demo(tmp_path) -> DemoResult:
+    """A DemoResult shaped like a real run's (values made up; only the wording is tested)."""
+    results = {
+        "n_trials": 1920,
+        "n_recognized": 1000,
+        "thresholds": {
+            "cluttered": {
+                "p50_pixels": 1234.0,
+                "ci95": [1000.0, 1500.0],
+                "mle_p50_pixels": 1230.0,
+                "converged": True,
+            },
+            "decluttered": {
+                "p50_pixels": 321.0,
+                "ci95": [300.0, 350.0],
+                "mle_p50_pixels": 320.0,
+                "converged": True,
+            },
+        },
+        "logistic": {
+            "odds_ratios": {
+                "background": {"or": 9.87, "ci95": [8.0, 12.0]},
+                "log10_pixels": {"or": 43.21, "ci95": [30.0, 60.0]},
+            }
+        },
+    }
+    obs = {
+        "observer": "exemplar",
+        "model": "HOG exemplar matcher",
+        "params": {"blur_deg": 0.1, "cell_deg": 0.6, "noise_sd": 0.02},
+        "criterion": 0.02,
+        "knowledge": {
+            "root": "/k",
+            "categories": ["cup", "mug"],
+            "exemplars": [{}, {}],
+            "synth": {"seed": 5},
+        },
+    }
+    paths = {"report": tmp_path / "report", "data": tmp_path / "study.sqlite"}
+    return DemoResult(tmp_path, paths, results, {}, [obs, {**obs, "criterion": 0.03}])
+
+
+def test_console_and_report_say_simulated_and_print_the_paper_beside(tmp_path):
+    demo = _fake_demo(tmp_path)
+    lines = summary_lines(demo)
+    assert lines[0].startswith("SIMULATED DATA")
+    assert lines[1].startswith("simulated observer: exemplar") and "seed 5" in lines[1]
+    assert "criterion set in each subject's training phase: 0.0200-0.0300" in lines[1]
+    text = "\n".join(lines)
+    assert "1,234 px" in text and "paper: 8,695 px" in text
+    assert "321 px" in text and "paper: 3,532 px" in text
+    assert "3.84-fold   paper: 2.46" in text  # 1234 / 321
+    assert "9.87" in text and "paper: 5.6" in text and "43.21" in text and "paper: 74.5" in text
+    section = simulated_section(demo)
+    assert "## Simulated observers" in section
+    assert "not from people" in section and "simulated observer: exemplar" in section
+    assert "| 50% threshold, cluttered | 1,234 px | 8,695 px |" in section
+    assert "| 50% threshold, de-cluttered | 321 px | 3,532 px |" in section
+    assert "| threshold ratio (cluttered / de-cluttered) | 3.84 | 2.46 |" in section
+    assert "| odds ratio per log10 px | 43.2 | 74.5 |" in section
+
+
+def test_logistic_observer_is_named_as_the_papers_model(tmp_path):
+    demo = _fake_demo(tmp_path)
+    demo.observers = [{"observer": "logistic", "params": {}}]
+    assert "paper's own fitted logistic model" in summary_lines(demo)[1]
+
+
+def test_save_copy_writes_the_whole_log(tmp_path):
+    log = TrialLog(":memory:")
+    log.add_event(None, "note", "first")
+    log.add_event(None, "observer", json.dumps({"observer": "x"}))
+    log.save_copy(tmp_path / "copy.sqlite")
+    copy = TrialLog(tmp_path / "copy.sqlite", readonly=True)
+    try:
+        strip = [{k: e[k] for k in ("kind", "note")} for e in log.events()]
+        assert [{k: e[k] for k in ("kind", "note")} for e in copy.events()] == strip
+        assert copy.schema_version() == log.schema_version()
+    finally:
+        copy.close()
+        log.close()
+    assert [p.name for p in tmp_path.iterdir()] == ["copy.sqlite"]  # no temporary left
+
+
+def test_knowledge_seed_must_differ_from_the_seed(tmp_path, capsys):
+    with pytest.raises(ConfocalError, match=r"--knowledge-seed must be .* other than --seed \(3\)"):
+        run_demo(tmp_path / "d", seed=3, knowledge_seed=3, show_progress=False)
+    assert not (tmp_path / "d").exists()
+    with pytest.raises(SystemExit) as exc:
+        cli.main(["demo", "--out", str(tmp_path / "d"), "--seed", "1", "--knowledge-seed", "1"])
+    err = capsys.readouterr().err
+    assert exc.value.code == 2 and "--knowledge-seed" in err and len(err.strip().splitlines()) == 1
+
+
+@pytest.mark.slow
+def test_demo_logs_and_reports_its_simulated_observers(tmp_path):
+    """Two simulated subjects end to end: each session's observer is in the trial log, none of
+    its exemplars is a stimulus, and report.md and demo.json say the data are simulated."""
+    demo = run_demo(tmp_path / "d", n_subjects=2, seed=0, show_progress=False)
+    con = sqlite3.connect(f"file:{demo.paths['data']}?mode=ro", uri=True)
+    try:
+        events = con.execute(
+            "SELECT session_id, note FROM events WHERE kind = 'observer' ORDER BY session_id"
+        ).fetchall()
+        responders = {r[0] for r in con.execute("SELECT responder FROM sessions")}
+        labels = set(con.execute("SELECT DISTINCT simulated, observer FROM tidy_trials"))
+        params = [json.loads(r[0]) for r in con.execute("SELECT observer_params FROM sessions")]
+        n = con.execute("SELECT COUNT(*) FROM tidy_trials WHERE part = 'main'").fetchone()[0]
+    finally:
+        con.close()
+    assert n == 2 * 320 and responders == {"sim:exemplar"}
+    assert labels == {(1, "exemplar")}  # the sessions table labels them simulated (issue 15)
+    assert all(p["knowledge"] == str(demo.paths["knowledge"]) for p in params)
+    assert [sid for sid, _ in events] == [1, 2]
+    manifest = (demo.paths["stimuli"] / "manifest.csv").read_text()
+    for _, note in events:
+        d = json.loads(note)
+        assert d["observer"] == "exemplar" and d["simulated"] is True
+        assert d["params"]["knowledge"] == str(demo.paths["knowledge"])
+        assert d["knowledge"]["synth"]["seed"] == 1
+        assert len(d["knowledge"]["categories"]) == 23
+        for e in d["knowledge"]["exemplars"]:
+            assert e["file_sha256"] not in manifest
+    report = (demo.paths["report"] / "report.md").read_text()
+    assert "## Simulated observers" in report and "8,695 px" in report
+    summary = json.loads((demo.out_dir / "demo.json").read_text())
+    assert summary["simulated"] is True and summary["knowledge_seed"] == 1
+    assert summary["observers"][0]["observer"] == "exemplar"

@@ -1,0 +1,122 @@
+"""The installed package works, not only the checkout (issue 10).
+
+The wheel is built from the checkout, installed (not editable) into a fresh virtual environment,
+and every command is run from an empty folder outside the checkout, so nothing can come from the
+source tree: ``confocal --version``, ``confocal --help``, every sub-command's ``--help``, and a
+reduced ``confocal demo`` that finds the protocols as installed data files.
+"""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+import venv
+from pathlib import Path
+
+import pytest
+
+from tests.conftest import REPO_ROOT
+
+pytestmark = pytest.mark.slow
+
+
+def _command_paths() -> list[list[str]]:
+    """Every command path of the ``confocal`` app (groups and leaves), read from the checkout."""
+    import typer.main
+
+    from experiment.cli import app
+
+    root = typer.main.get_command(app)
+    paths: list[list[str]] = []
+
+    def walk(cmd, prefix: list[str]) -> None:
+        for name, sub in sorted(getattr(cmd, "commands", {}).items()):
+            paths.append([*prefix, name])
+            walk(sub, [*prefix, name])
+
+    walk(root, [])
+    return paths
+
+
+@pytest.fixture(scope="module")
+def installed(tmp_path_factory) -> tuple[Path, dict[str, str], Path]:
+    """A fresh venv with the wheel installed; returns (bin dir, env, empty working folder)."""
+    base = tmp_path_factory.mktemp("wheel")
+    wheels = base / "dist"
+    subprocess.run(
+        [sys.executable, "-m", "pip", "wheel", "--no-deps", "-q", "-w", str(wheels)]
+        + [str(REPO_ROOT)],
+        check=True,
+        capture_output=True,
+        text=True,
+    )
+    (wheel,) = wheels.glob("active_confocal-*.whl")
+    env_dir = base / "venv"
+    venv.EnvBuilder(with_pip=True, system_site_packages=False).create(env_dir)
+    bindir = env_dir / "bin"
+    r = subprocess.run(
+        [str(bindir / "python"), "-m", "pip", "install", "-q", str(wheel)],
+        capture_output=True,
+        text=True,
+    )
+    assert r.returncode == 0, r.stderr[-2000:]
+    env = {k: v for k, v in os.environ.items() if not k.startswith(("PYTHON", "VIRTUAL_ENV"))}
+    env["PATH"] = f"{bindir}{os.pathsep}{env.get('PATH', '')}"
+    env["MPLBACKEND"] = "Agg"
+    env["PYTHONNOUSERSITE"] = "1"
+    work = base / "empty"
+    work.mkdir()
+    return bindir, env, work
+
+
+def _run(installed, *args: str, timeout: float = 300) -> subprocess.CompletedProcess:
+    bindir, env, work = installed
+    return subprocess.run(
+        [str(bindir / "confocal"), *args],
+        cwd=work,
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=timeout,
+    )
+
+
+def test_installed_package_is_not_the_checkout(installed) -> None:
+    """The venv imports the packages from its own site-packages, not from the source tree."""
+    bindir, env, work = installed
+    code = "import stimuli, experiment, analysis; print(stimuli.__file__, experiment.__file__)"
+    out = subprocess.run(
+        [str(bindir / "python"), "-c", code], cwd=work, env=env, capture_output=True, text=True
+    )
+    assert out.returncode == 0, out.stderr
+    assert str(REPO_ROOT) not in out.stdout and "site-packages" in out.stdout
+
+
+def test_version_and_help(installed) -> None:
+    """``--version`` and ``--help`` of the installed command."""
+    r = _run(installed, "--version")
+    assert r.returncode == 0 and r.stdout.startswith("confocal "), r.stderr
+    r = _run(installed, "--help")
+    assert r.returncode == 0 and "Usage" in r.stdout, r.stderr
+
+
+def test_every_subcommand_help(installed) -> None:
+    """Each sub-command documents itself in the installed package."""
+    paths = _command_paths()
+    assert len(paths) >= 10, paths
+    failed = []
+    for path in paths:
+        r = _run(installed, *path, "--help")
+        if r.returncode != 0 or "Usage" not in r.stdout:
+            failed.append(f"{' '.join(path)}: {r.returncode} {r.stderr.strip()[-300:]}")
+    assert not failed, "\n".join(failed)
+
+
+def test_reduced_demo_from_installed_data(installed) -> None:
+    """A one-subject demo runs from an empty folder: protocols come from the installed data."""
+    _, _, work = installed
+    r = _run(installed, "demo", "--subjects", "1", "--out", "demo", timeout=600)
+    assert r.returncode == 0, r.stderr[-3000:]
+    assert (work / "demo" / "report" / "report.md").is_file()
+    assert (work / "demo" / "report" / "results.json").is_file()
