@@ -17,8 +17,9 @@ from analysis.data import TrialTable, read_trials
 from analysis.errors import DataError
 from analysis.logistic import LogisticFit, OddsRatioTable, fit_logistic
 from analysis.pipeline import AnalysisOptions, AnalysisResult, analyze
+from analysis.psychometric import FitSpec, fit_table
 from analysis.report import write_report
-from analysis.weibull import WeibullFit, fit_weibull, threshold_at
+from analysis.weibull import WeibullFit, fit_counts, fit_weibull, threshold_at
 
 __all__ = [
     "DataError",
@@ -26,7 +27,10 @@ __all__ = [
     "read_trials",
     "WeibullFit",
     "fit_weibull",
+    "fit_counts",
     "threshold_at",
+    "FitSpec",
+    "fit_table",
     "LogisticFit",
     "OddsRatioTable",
     "fit_logistic",

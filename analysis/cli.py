@@ -97,8 +97,13 @@ analyze_app = typer.Typer(
         "[--seed N] [--mixed]\n\n"
         "  (same as 'confocal analyze run TRIALS...'): Weibull posteriors and thresholds, "
         "logistic odds ratios, figures, results.json and report.md.\n\n"
-        "  confocal analyze power --odds-ratio 5.6 | --threshold-ratio 2.5 [--subjects 1,2,4,6]: "
-        "subjects needed for a given power, by simulation."
+        "  confocal analyze fit TABLE --x COL (--y COL | --k COL --n COL | --p COL --n COL) "
+        "[--group COLS] [--sigmoid weibull|loglogistic|lognormal|logistic|normal|gumbel] "
+        "[--axis log|linear] [--guess 0.5] [--pc 0.5,0.75] --out DIR: psychometric functions "
+        "for any table.\n\n"
+        "  confocal analyze power --odds-ratio 2,5.6 | --threshold-ratio 2.5 [--subjects 1,2,4,6] "
+        "[--objects 10,20] [--levels 4,8] [--processes N | --cluster ADDRESS]: power by "
+        "simulation, in parallel."
     ),
 )
 
@@ -152,6 +157,13 @@ def run(
     lapse_prior: Annotated[
         str, typer.Option("--lapse-prior", help="Beta(a,b) prior of the lapse rate, as 'a,b'.")
     ] = "1,10",
+    overdispersion: Annotated[
+        bool,
+        typer.Option(
+            "--overdispersion/--no-overdispersion",
+            help="Beta-binomial pooled fits (free scale, as psignifit 4).",
+        ),
+    ] = True,
     include_simulated: Annotated[
         bool,
         typer.Option(
@@ -181,6 +193,7 @@ def run(
             seed=seed,
             subject_factor=subject_factor,
             mixed=mixed,
+            overdispersion=overdispersion,
         )
     except ValueError as exc:
         raise typer.BadParameter(str(exc)) from exc
@@ -226,11 +239,9 @@ def run(
         typer.echo("\n".join(summary_lines(active)))
 
 
-def _fmt(v: float | None) -> str:
-    return "n/a" if v is None else f"{v:,.0f}"
-
-
 def _print_summary(result, folder: Path) -> None:
+    from analysis.report import threshold_text
+
     r = result.results_json()
     typer.echo(f"{r['n_trials']} trials, {r['n_recognized']} recognised")
     if r.get("simulated_sessions"):
@@ -239,30 +250,127 @@ def _print_summary(result, folder: Path) -> None:
         typer.echo(f"({r['n_training_excluded']} training trials excluded)")
     for c, t in r["thresholds"].items():
         conv = "" if t["converged"] else "  NOT CONVERGED"
-        typer.echo(
-            f"50% threshold {c:>11}: {_fmt(t['p50_pixels'])} px "
-            f"(95% CrI {_fmt(t['ci95'][0])}-{_fmt(t['ci95'][1])}; MLE "
-            f"{_fmt(t['mle_p50_pixels'])}){conv}"
-        )
-        if "threshold" in t:
-            typer.echo(
-                f"{100 * r['pc']:g}% threshold {c:>11}: {_fmt(t['threshold'])} px (95% CrI "
-                f"{_fmt(t['threshold_ci95'][0])}-{_fmt(t['threshold_ci95'][1])})"
-            )
+        pop = t.get("population_ci95", {}).get("0.5")
+        pop = f"; population 95% interval {pop[0]:,.0f}-{pop[1]:,.0f} px" if pop else ""
+        typer.echo(f"50% threshold {c:>11}: {threshold_text(t['threshold_50'])}{pop}{conv}")
+        if "threshold_pc" in t:
+            typer.echo(f"{100 * r['pc']:g}% threshold {c:>11}: {threshold_text(t['threshold_pc'])}")
+    lo = r["logistic"]
+    if lo["method"] == "none":
+        typer.echo("logistic model: not estimable (" + "; ".join(lo["warnings"]) + ")")
     for term in ("background", "log10_pixels"):
-        o = r["logistic"]["odds_ratios"][term]
+        o = lo["odds_ratios"].get(term)
+        if o is None:
+            continue
+        sep = " (separated; Firth)" if term in lo["separated"] else ""
         typer.echo(
-            f"odds ratio {term:>12}: {o['or']:.2f} (95% CI {o['ci95'][0]:.2f}-{o['ci95'][1]:.2f}, "
-            f"p = {o['p']:.2g})"
+            f"odds ratio {term:>12}: {o['or']:.3g} (95% CI {o['ci95'][0]:.3g}-{o['ci95'][1]:.3g}, "
+            f"p = {o['p']:.2g}){sep}"
         )
-    cl = r["logistic"]["classification"]
-    typer.echo(
-        f"classified correctly: {cl['recognized_correct_pct']:.1f}% recognised, "
-        f"{cl['not_recognized_correct_pct']:.1f}% not recognised"
-    )
+    cl = lo["classification"]
+    if lo["method"] != "none":
+        typer.echo(
+            f"classified correctly: {cl['recognized_correct_pct']:.1f}% recognised, "
+            f"{cl['not_recognized_correct_pct']:.1f}% not recognised"
+        )
     for w in r["warnings"]:
         typer.echo(f"warning: {w}", err=True)
     typer.echo(f"report: {folder / 'report.md'}  (results: {folder / 'results.json'})")
+
+
+@analyze_app.command("fit")
+def fit(
+    table: Annotated[
+        Path, typer.Argument(help="CSV table, per trial or aggregated.", show_default=False)
+    ],
+    x: Annotated[str, typer.Option("--x", help="Stimulus-level column (name or 1-based number).")],
+    out: Annotated[Path, typer.Option("--out", "-o", help="Report folder (replaced atomically).")],
+    y: Annotated[
+        str | None, typer.Option("--y", help="Per-trial outcome column (1 correct, 0 not).")
+    ] = None,
+    k: Annotated[str | None, typer.Option("--k", help="Number-correct column.")] = None,
+    n: Annotated[str | None, typer.Option("--n", help="Number-of-trials column.")] = None,
+    p: Annotated[
+        str | None, typer.Option("--p", help="Proportion-correct column (0-1 or percent).")
+    ] = None,
+    group: Annotated[
+        str, typer.Option("--group", help="Comma-separated columns to fit separately.")
+    ] = "",
+    sigmoid: Annotated[
+        str,
+        typer.Option(
+            "--sigmoid",
+            help="auto, weibull, loglogistic, lognormal, logistic, normal or gumbel.",
+        ),
+    ] = "auto",
+    axis: Annotated[
+        str, typer.Option("--axis", help="auto (the sigmoid's own), log or linear.")
+    ] = "auto",
+    guess: Annotated[float, typer.Option("--guess", help="Guess rate (0.5 for 2AFC).")] = 0.0,
+    pc: Annotated[
+        str, typer.Option("--pc", help="Comma-separated proportions correct of the thresholds.")
+    ] = "0.5",
+    overdispersion: Annotated[
+        bool,
+        typer.Option("--overdispersion/--no-overdispersion", help="Beta-binomial posteriors."),
+    ] = True,
+    plots: Annotated[bool, typer.Option("--plots/--no-plots", help="One plot per group.")] = True,
+    seed: Annotated[int | None, typer.Option("--seed", help="Seed of the sampler.")] = None,
+) -> None:
+    """Fit psychometric functions to any table: thresholds, intervals, goodness of fit, plots."""
+    from rich.console import Console
+    from rich.progress import Progress
+
+    from analysis.errors import OptionError
+    from analysis.psychometric import FitSpec, iter_fit_table, read_table, write_fit_report
+
+    try:
+        pcs = tuple(float(v) for v in pc.split(",") if v.strip())
+    except ValueError as exc:
+        raise OptionError(f"--pc must be numbers like 0.5,0.75, got {pc!r}") from exc
+    try:
+        spec = FitSpec(
+            x=x,
+            y=y,
+            k=k,
+            n=n,
+            p=p,
+            group=tuple(g.strip() for g in group.split(",") if g.strip()),
+            sigmoid=sigmoid,
+            axis=axis,
+            guess=guess,
+            pcs=pcs,
+            overdispersion=overdispersion,
+            seed=seed,
+        )
+    except ValueError as exc:
+        raise OptionError(str(exc)) from exc
+    df = read_table(table)
+    result = None
+    with (
+        Progress(console=Console(stderr=True), transient=True) as bar,
+        warnings.catch_warnings(),
+    ):
+        warnings.simplefilter("ignore")
+        task = bar.add_task("fitting", total=None)
+        for done, total, r in iter_fit_table(df, spec, str(table)):
+            bar.update(task, completed=done, total=total)
+            result = r or result
+    folder = write_fit_report(result, out, plots=plots)
+    r = result.results_json()
+    typer.echo(f"{len(r['groups'])} group(s), sigmoid {r['sigmoid']} ({r['axis']} axis)")
+    for g in r["groups"]:
+        for t in g["thresholds"]:
+            typer.echo(f"{g['label']}: {100 * t['pc']:g}% threshold {_threshold_line(t)}")
+    for w in r["warnings"]:
+        typer.echo(f"warning: {w}", err=True)
+    typer.echo(f"report: {folder / 'report.md'}  (results: {folder / 'results.json'})")
+
+
+def _threshold_line(t: dict) -> str:
+    from analysis.psychometric import _threshold_md
+
+    return _threshold_md(t)
 
 
 class Effect(StrEnum):
@@ -272,99 +380,131 @@ class Effect(StrEnum):
     threshold_ratio = "threshold_ratio"
 
 
+def _numbers(text: str, option: str, kind: type = float) -> list:
+    from analysis.errors import OptionError
+
+    try:
+        vals = [kind(v) for v in text.split(",") if v.strip()]
+    except ValueError as exc:
+        what = "integers like 1,2,4" if kind is int else "numbers like 2,3.5"
+        raise OptionError(f"{option} must be {what}, got {text!r}") from exc
+    if not vals:
+        raise OptionError(f"{option} needs at least one value, got {text!r}")
+    return vals
+
+
 @analyze_app.command("power")
 def power(
     odds_ratio: Annotated[
-        float | None,
-        typer.Option(
-            "--odds-ratio",
-            callback=_finite(0.0, open_lo=True),
-            help="Background odds ratio to detect, > 0 (paper: 5.6).",
-        ),
+        str | None,
+        typer.Option("--odds-ratio", help="Background odds ratio(s) to detect (paper: 5.6)."),
     ] = None,
     threshold_ratio: Annotated[
-        float | None,
+        str | None,
         typer.Option(
-            "--threshold-ratio",
-            callback=_finite(0.0, open_lo=True),
-            help="Cluttered / de-cluttered 50% threshold ratio to detect, > 0.",
+            "--threshold-ratio", help="Cluttered / de-cluttered 50% threshold ratio(s) to detect."
         ),
     ] = None,
     subjects: Annotated[
         str, typer.Option("--subjects", help="Comma-separated numbers of subjects to simulate.")
     ] = "1,2,3,4,6,8",
-    target: Annotated[
-        float,
-        typer.Option(
-            "--power",
-            callback=_finite(0.0, 1.0, open_lo=True, open_hi=True),
-            help="Power wanted, in (0, 1).",
-        ),
-    ] = 0.8,
-    sims: Annotated[
-        int, typer.Option("--sims", min=1, help="Simulations per number of subjects.")
-    ] = 200,
-    alpha: Annotated[
-        float,
-        typer.Option(
-            "--alpha",
-            callback=_finite(0.0, 1.0, open_lo=True, open_hi=True),
-            help="Test level, in (0, 1).",
-        ),
-    ] = 0.05,
+    objects: Annotated[
+        str, typer.Option("--objects", help="Comma-separated numbers of objects (paper: 20).")
+    ] = "20",
+    levels: Annotated[
+        str, typer.Option("--levels", help="Comma-separated numbers of resolution levels (8).")
+    ] = "8",
+    target: Annotated[float, typer.Option("--power", help="Power wanted, in (0, 1).")] = 0.8,
+    sims: Annotated[int, typer.Option("--sims", help="Simulated studies per grid point.")] = 200,
+    alpha: Annotated[float, typer.Option("--alpha", help="Test level.")] = 0.05,
     seed: Annotated[
         int | None, typer.Option("--seed", min=0, help="Seed of the simulations.")
     ] = None,
+    processes: Annotated[
+        int | None, typer.Option("--processes", help="Local worker processes (default: CPUs).")
+    ] = None,
+    cluster: Annotated[
+        str | None,
+        typer.Option("--cluster", help="Dask scheduler address (needs the 'dask' extra)."),
+    ] = None,
 ) -> None:
-    """Estimate how many subjects detect a given odds ratio or threshold ratio (simulation)."""
+    """Estimate power over effect sizes, subjects, objects and levels (simulated studies)."""
+    import math
+
     from rich.console import Console
     from rich.progress import Progress
 
-    from analysis.power import PowerResult, iter_power
+    from analysis.errors import OptionError
+    from analysis.power import GridPoint, power_grid
 
     if (odds_ratio is None) == (threshold_ratio is None):
-        raise typer.BadParameter("give exactly one of --odds-ratio and --threshold-ratio")
-    try:
-        ns = sorted({int(s) for s in subjects.split(",") if s.strip()})
-    except ValueError as exc:
-        raise typer.BadParameter(
-            f"--subjects must be integers like 1,2,4, got {subjects!r}"
-        ) from exc
-    if not ns or ns[0] < 1:
-        raise typer.BadParameter(f"--subjects must be integers >= 1 like 1,2,4, got {subjects!r}")
-    need = ns[-1] * _TRIALS_PER_SUBJECT * _POWER_BYTES_PER_TRIAL
+        raise OptionError("give exactly one of --odds-ratio and --threshold-ratio")
+    effect = "odds_ratio" if odds_ratio is not None else "threshold_ratio"
+    option = "--odds-ratio" if odds_ratio is not None else "--threshold-ratio"
+    sizes = _numbers(odds_ratio if odds_ratio is not None else threshold_ratio, option)
+    if not all(math.isfinite(v) and v > 0 for v in sizes):
+        raise OptionError(f"{option} must be in (0, inf), a finite number; got {sizes!r}")
+    if not (0.0 < target < 1.0):
+        raise OptionError(f"--power must be in (0, 1), got {target!r}")
+    if not (0.0 < alpha < 1.0):
+        raise OptionError(f"--alpha must be in (0, 1), got {alpha!r}")
+    if sims < 1:
+        raise OptionError(f"--sims must be >= 1, got {sims!r}")
+    ns = sorted(set(_numbers(subjects, "--subjects", int)))
+    nos = sorted(set(_numbers(objects, "--objects", int)))
+    nls = sorted(set(_numbers(levels, "--levels", int)))
+    for opt, vals, low in (("--subjects", ns, 1), ("--objects", nos, 1), ("--levels", nls, 2)):
+        if min(vals) < low:
+            raise OptionError(f"{opt} must be integers >= {low}, got {vals!r}")
+    need = ns[-1] * nos[-1] * nls[-1] * 2 * _POWER_BYTES_PER_TRIAL
     avail = _available_memory_bytes()
     if need > avail:
-        raise typer.BadParameter(
-            f"--subjects {ns[-1]} needs about {need / 2**30:.1f} GiB of memory per simulation but "
-            f"only {avail / 2**30:.1f} GiB is available; simulate fewer subjects"
+        raise OptionError(
+            f"--subjects {ns[-1]} (with {nos[-1]} objects, {nls[-1]} levels) needs about "
+            f"{need / 2**30:.1f} GiB of memory per simulation but only {avail / 2**30:.1f} GiB is "
+            "available; simulate fewer subjects"
         )
-    effect = "odds_ratio" if odds_ratio is not None else "threshold_ratio"
-    size = odds_ratio if odds_ratio is not None else threshold_ratio
-    points = []
-    try:
-        gen = iter_power(effect, size, ns, n_sims=sims, alpha=alpha, rng=seed)
-        with Progress(console=Console(stderr=True), transient=True) as bar:
-            task = bar.add_task(f"simulating {effect} = {size:g}", total=len(ns) * sims)
-            for p in gen:
-                if p is None:
-                    bar.advance(task)
-                else:
-                    points.append(p)
-    except ValueError as exc:
-        raise typer.BadParameter(str(exc)) from exc
-    n_req = next((p.n_subjects for p in points if p.power >= target), None)
-    res = PowerResult(effect, float(size), alpha, target, tuple(points), n_req)
-    typer.echo(f"{effect} = {size:g}, alpha = {alpha:g}, {sims} simulations per row")
-    typer.echo("subjects  power  (95% CI)")
-    for p in res.points:
-        typer.echo(f"{p.n_subjects:>8}  {p.power:.2f}   ({p.ci95[0]:.2f}-{p.ci95[1]:.2f})")
-    if n_req is None:
-        typer.echo(f"no simulated number of subjects reached power {target:g}")
-    else:
-        typer.echo(f"subjects needed for power {target:g}: {n_req}")
+    total = len(sizes) * len(ns) * len(nos) * len(nls) * sims
+    points: list[GridPoint] = []
+    gen = power_grid(
+        effect,
+        sizes,
+        ns,
+        n_objects=nos,
+        n_levels=nls,
+        n_sims=sims,
+        alpha=alpha,
+        seed=seed,
+        processes=processes,
+        cluster=cluster,
+    )
+    with Progress(console=Console(stderr=True), transient=True) as bar:
+        task = bar.add_task(f"simulating {effect}", total=total)
+        for item in gen:
+            if isinstance(item, GridPoint):
+                points.append(item)
+            else:
+                bar.update(task, completed=item)
+    typer.echo(f"{effect}, alpha = {alpha:g}, {sims} SIMULATED studies per row, seed {seed}")
+    typer.echo(f"{'size':>6} {'levels':>6} {'objects':>7} {'subjects':>8}  power  (95% CI)")
+    for p in points:
+        typer.echo(
+            f"{p.size:>6g} {p.n_levels:>6} {p.n_objects:>7} {p.n_subjects:>8}  {p.power:.2f}   "
+            f"({p.ci95[0]:.2f}-{p.ci95[1]:.2f})"
+        )
+    for z in sizes:
+        for nl in nls:
+            for no in nos:
+                row = [p for p in points if (p.size, p.n_levels, p.n_objects) == (z, nl, no)]
+                need = next((p.n_subjects for p in row if p.power >= target), None)
+                what = (
+                    f"subjects needed for power {target:g}: {need}"
+                    if need is not None
+                    else f"no simulated number of subjects reached power {target:g}"
+                )
+                typer.echo(f"size {z:g}, {nl} levels, {no} objects: {what}")
 
 
 def register(app: typer.Typer) -> None:
-    """Add the ``analyze`` group (``run`` by default, and ``power``) to the root app."""
+    """Add the ``analyze`` group (``run`` by default, ``fit`` and ``power``) to the root app."""
     app.add_typer(analyze_app, name="analyze")

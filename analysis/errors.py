@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-__all__ = ["DataError"]
+__all__ = ["DataError", "OptionError"]
 
 
 class DataError(ValueError):
@@ -11,5 +11,11 @@ class DataError(ValueError):
     The message is one line naming the file or column and what was expected; the command line
     prints it without a traceback and exits with status 2.
     """
+
+    exit_code = 2
+
+
+class OptionError(ValueError):
+    """A command-line option with a bad value; printed as one line, exit status 2."""
 
     exit_code = 2

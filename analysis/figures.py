@@ -24,6 +24,9 @@ __all__ = [
     "plot_subject_curves",
     "plot_object_difficulty",
     "save_all",
+    "save_figures",
+    "STUDY_FIGURES",
+    "binomial_ci95",
 ]
 
 #: Colours per condition (ours): grey for cluttered, blue for de-cluttered.
@@ -37,6 +40,33 @@ def _new_ax(ax: Axes | None, size: tuple[float, float] = (5.0, 3.8)) -> Axes:
         return ax
     fig = Figure(figsize=size, layout="constrained")
     return fig.add_subplot()
+
+
+def binomial_ci95(k: Any, n: Any) -> tuple[np.ndarray, np.ndarray]:
+    """Return Clopper-Pearson 95 % intervals of proportions ``k / n``.
+
+    Parameters
+    ----------
+    k, n : array_like
+        Successes and trials (n > 0).
+
+    Returns
+    -------
+    low, high : ndarray
+
+    Examples
+    --------
+    >>> [round(float(v), 4) for v in np.ravel(binomial_ci95([0], [10]))]
+    [0.0, 0.3085]
+    """
+    from scipy import stats
+
+    k = np.asarray(k, float)
+    n = np.asarray(n, float)
+    with np.errstate(invalid="ignore"):
+        lo = np.where(k > 0, stats.beta.ppf(0.025, k, n - k + 1), 0.0)
+        hi = np.where(k < n, stats.beta.ppf(0.975, k + 1, n - k), 1.0)
+    return lo, hi
 
 
 def plot_recognition(
@@ -63,22 +93,43 @@ def plot_recognition(
     ----------
     Jung et al. 2015, Fig. 8.
     """
+    from analysis.weibull import is_log_axis
+
     ax = _new_ax(ax)
-    for cond, fit in fits.items():
-        color = COLORS.get(cond, None)
+    log = True
+    for i, (cond, fit) in enumerate(fits.items()):
+        color = COLORS.get(cond, f"C{i % 10}")
+        log = is_log_axis(fit.sigmoid)
         x = np.asarray(fit.levels)
-        rate = np.asarray(fit.k) / np.asarray(fit.n)
-        grid = np.logspace(np.log10(x.min()) - 0.2, np.log10(x.max()) + 0.2, 200)
+        k, n = np.asarray(fit.k), np.asarray(fit.n)
+        rate = k / n
+        if log:
+            grid = np.logspace(np.log10(x.min()) - 0.2, np.log10(x.max()) + 0.2, 200)
+        else:
+            pad = 0.1 * (x.max() - x.min() or 1.0)
+            grid = np.linspace(x.min() - pad, x.max() + pad, 200)
         med, lo, hi = fit.curve_band(grid)
         ax.fill_between(grid, lo, hi, color=color, alpha=0.2, lw=0)
-        ax.plot(grid, med, color=color, label=f"{cond} (fit)")
-        ax.plot(x, rate, "o", color=color, ms=4, label=f"{cond} (data)")
+        ax.plot(grid, med, color=color, label=f"{cond}: fit, 95 % band")
+        clo, chi = binomial_ci95(k, n)
+        ax.errorbar(
+            x,
+            rate,
+            yerr=[rate - clo, chi - rate],
+            fmt="o",
+            color=color,
+            ms=4,
+            elinewidth=0.8,
+            capsize=0,
+            label=f"{cond}: data, 95 % binomial CI",
+        )
         t = fit.threshold(pc)
-        if np.isfinite(t.median):
+        if t.measured:
             ax.axvline(t.median, color=color, ls="--", lw=0.8)
             ax.axvspan(*t.ci95, color=color, alpha=0.08, lw=0)
     ax.axhline(pc, color="0.6", lw=0.5)
-    ax.set_xscale("log")
+    if log:
+        ax.set_xscale("log")
     ax.set_ylim(-0.02, 1.02)
     ax.set_xlabel("resolution (pixels)")
     ax.set_ylabel("recognition rate")
@@ -127,7 +178,13 @@ def plot_subject_thresholds(
                 continue
             t = fit.threshold(pc)
             off = (i - (len(subjects) - 1) / 2) * 0.06
-            if np.isfinite(t.median):
+            if t.status in ("censored_below", "censored_above"):
+                # A bound, not a measurement: an open triangle at the tested limit.
+                y, m = (t.lowest, "v") if t.status == "censored_below" else (t.highest, "^")
+                ax.plot(
+                    j + off, y, m, mfc="none", ms=5, color=f"C{i % 10}", label=s if j == 0 else None
+                )
+            elif t.measured:
                 lo, hi = t.ci95
                 hi = hi if np.isfinite(hi) else t.median * 10
                 ax.errorbar(
@@ -154,7 +211,29 @@ def plot_subject_thresholds(
     ax.set_xticks(range(len(CONDITIONS)), CONDITIONS)
     ax.set_ylabel(f"pixels for {100 * pc:g} % recognition")
     if subjects:
-        ax.legend(fontsize="x-small", frameon=False, ncols=2)
+        from matplotlib.lines import Line2D
+        from matplotlib.patches import Patch
+
+        got = dict(zip(*reversed(ax.get_legend_handles_labels()), strict=True))
+        labels = [s for s in subjects if s in got]
+        handles = [got[s] for s in labels]
+        if pooled:
+            handles.append(Patch(color="0.85"))
+            labels.append("pooled (posterior median)")
+        handles += [
+            Line2D([], [], marker="^", ls="", mfc="none", color="0.3"),
+            Line2D([], [], marker="v", ls="", mfc="none", color="0.3"),
+        ]
+        labels += ["> highest level tested", "< lowest level tested"]
+        ax.legend(
+            handles,
+            labels,
+            fontsize="x-small",
+            frameon=False,
+            ncols=2,
+            title="subject (median, 95 % CrI)",
+            title_fontsize="x-small",
+        )
     return ax
 
 
@@ -189,6 +268,11 @@ def plot_subject_curves(
         ax.set_title(f"subject {s}", fontsize="small")
     for ax in axes.ravel()[len(subject_fits) :]:
         ax.set_visible(False)
+    handles, labels = axes.ravel()[0].get_legend_handles_labels()
+    if handles:
+        fig.legend(
+            handles, labels, loc="outside lower center", ncols=2, fontsize="x-small", frameon=False
+        )
     return fig
 
 
@@ -232,17 +316,93 @@ def plot_object_difficulty(logistic: LogisticFit, *, ax: Axes | None = None) -> 
             ax.annotate(mark, (xi, hi[xi]), ha="center", va="bottom", fontsize="small")
     ax.axhline(0, color="0.6", lw=0.5)
     ax.set_xticks(x, names, fontsize="small", rotation=55, ha="right", rotation_mode="anchor")
-    ax.set_xlabel("object")
-    ax.set_ylabel("relative difficulty (log10 OR)")
+    ax.set_xlabel(f"object (reference: object {logistic.reference_object})")
+    ax.set_ylabel("difficulty: log10 odds ratio of not recognising")
+    ax.set_title(
+        "above 0: harder than the reference object; below 0: easier "
+        "(95 % Wald CI; * p < 0.05, ** p < 0.01)",
+        fontsize="x-small",
+    )
     return ax
 
 
-def save_all(result: Any, folder: str | Path) -> list[Path]:
-    """Draw Figs. 8, 9, S2 and S3 for an analysis result; save each as PNG and SVG.
+def _draw(result: Any, name: str) -> Figure:
+    pc = result.options.pc
+    if name == "fig8_recognition_vs_pixels":
+        return plot_recognition(result.thresholds, pc=pc).figure
+    if name == "fig9_subject_thresholds":
+        return plot_subject_thresholds(result.subject_thresholds, result.thresholds, pc=pc).figure
+    if name == "figS2_subject_curves":
+        return plot_subject_curves(result.subject_thresholds, pc=pc)
+    ax = plot_object_difficulty(result.logistic)
+    if not any(r[0].startswith("object:") for r in result.logistic.odds_ratios.rows):
+        ax.text(
+            0.5,
+            0.5,
+            "object effects not estimated (see report)",
+            ha="center",
+            transform=ax.transAxes,
+            fontsize="small",
+        )
+    return ax.figure
+
+
+def _draw_and_save(result: Any, names: list[str], folder: Path) -> list[Path]:
+    return save_figures({n: _draw(result, n) for n in names}, folder)
+
+
+#: Figures of :func:`save_all`, after the paper's figure numbers.
+STUDY_FIGURES: tuple[str, ...] = (
+    "figS2_subject_curves",
+    "fig8_recognition_vs_pixels",
+    "fig9_subject_thresholds",
+    "figS3_object_difficulty",
+)
+
+
+def save_all(result: Any, folder: str | Path, *, processes: int = 2) -> list[Path]:
+    """Draw Figs. 8, 9, S2 and S3 for an analysis result; save each as PNG, SVG and PDF.
 
     Parameters
     ----------
     result : analysis.pipeline.AnalysisResult
+    folder : str or Path
+        Existing folder.
+    processes : int
+        Draw in this many processes (1: in this one). The figure with per-subject panels takes
+        as long as the other three together, so two processes halve the time on two cores.
+
+    Returns
+    -------
+    list of Path
+        Files written.
+    """
+    folder = Path(folder)
+    names = list(STUDY_FIGURES)
+    if processes > 1:
+        import multiprocessing as mp
+        from concurrent.futures import ProcessPoolExecutor
+
+        groups = [names[:1], names[1:]]
+        try:
+            ctx = mp.get_context("fork")
+            with ProcessPoolExecutor(max_workers=2, mp_context=ctx) as ex:
+                futs = [ex.submit(_draw_and_save, result, g, folder) for g in groups]
+                return [p for f in futs for p in f.result()]
+        except (OSError, ValueError, RuntimeError):  # no fork here: draw in this process
+            pass
+    return _draw_and_save(result, names, folder)
+
+
+def save_figures(figs: dict[str, Figure], folder: str | Path) -> list[Path]:
+    """Save each figure as a 300 dpi PNG, an SVG and a PDF (journal formats).
+
+    The layout is computed once per figure, not once per file.
+
+    Parameters
+    ----------
+    figs : dict of str to Figure
+        File stem -> figure.
     folder : str or Path
         Existing folder.
 
@@ -252,18 +412,12 @@ def save_all(result: Any, folder: str | Path) -> list[Path]:
         Files written.
     """
     folder = Path(folder)
-    pc = result.options.pc
-    figs: dict[str, Figure] = {}
-    figs["fig8_recognition_vs_pixels"] = plot_recognition(result.thresholds, pc=pc).figure
-    figs["fig9_subject_thresholds"] = plot_subject_thresholds(
-        result.subject_thresholds, result.thresholds, pc=pc
-    ).figure
-    figs["figS2_subject_curves"] = plot_subject_curves(result.subject_thresholds, pc=pc)
-    figs["figS3_object_difficulty"] = plot_object_difficulty(result.logistic).figure
     written = []
     for name, fig in figs.items():
-        for ext in ("png", "svg"):
+        fig.draw_without_rendering()
+        fig.set_layout_engine("none")
+        for ext in ("png", "svg", "pdf"):
             p = folder / f"{name}.{ext}"
-            fig.savefig(p, dpi=120)
+            fig.savefig(p, dpi=300)
             written.append(p)
     return written

@@ -25,7 +25,15 @@ from analysis.logistic import (
     fit_mixed,
     predict_from_odds_ratio,
 )
-from analysis.weibull import PsychometricPrior, WeibullFit, default_prior, fit_weibull
+from analysis.sampler import FitJob, sample_batch
+from analysis.weibull import (
+    PsychometricPrior,
+    WeibullFit,
+    _data_warnings,
+    aggregate,
+    default_prior,
+    fit_mle,
+)
 
 __all__ = ["AnalysisOptions", "AnalysisStep", "AnalysisResult", "analyze", "first_recognized"]
 
@@ -53,6 +61,9 @@ class AnalysisOptions:
         Prior of every psychometric fit; the data-dependent default when None.
     lapse_prior : (float, float)
         Beta(a, b) prior of the lapse rate for the default prior (ignored with ``prior``).
+    overdispersion : bool
+        Beta-binomial posteriors (free scale, psignifit 4 style) for the pooled fits, which pool
+        subjects and objects whose thresholds differ; per-subject fits stay binomial.
     """
 
     pc: float = 0.5
@@ -63,6 +74,7 @@ class AnalysisOptions:
     mixed: bool = False
     prior: PsychometricPrior | None = None
     lapse_prior: tuple[float, float] = (1.0, 10.0)
+    overdispersion: bool = True
 
     def __post_init__(self) -> None:
         if len(self.lapse_prior) != 2 or min(self.lapse_prior) <= 0:
@@ -98,6 +110,10 @@ class AnalysisResult:
         ``{subject: {object: {condition: pixels or None}}}``: lowest level recognised.
     warnings : tuple of str
         Warnings raised by the fits (also logged).
+    population_ci : dict of str to dict
+        Per pooled condition, ``{"pc": [low, high] or None}``: 95 % population intervals of the
+        ML threshold, two-way cluster-robust over subjects and objects
+        (:func:`analysis.cluster.cluster_threshold_ci`), at 50 % and at ``pc``.
     simulated_sessions : tuple of str
         Sessions answered by a simulated observer (from :attr:`TrialTable.simulated_sessions`).
     """
@@ -113,10 +129,13 @@ class AnalysisResult:
     mixed: MixedFit | None
     first_recognized: dict[str, dict[str, dict[str, float | None]]]
     warnings: tuple[str, ...] = field(default_factory=tuple)
+    population_ci: dict[str, dict[str, Any]] = field(default_factory=dict)
     simulated_sessions: tuple[str, ...] = ()
 
-    def predictions(self) -> dict[str, Any]:
-        """Return Eq. 1 applied with the fitted background odds ratio."""
+    def predictions(self) -> dict[str, Any] | None:
+        """Return Eq. 1 applied with the fitted background odds ratio (None when not estimated)."""
+        if not self.logistic.has("background"):
+            return None
         odds = self.logistic.odds_ratios["background"]["or"]
         ref = [0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9]
         return {
@@ -137,11 +156,15 @@ class AnalysisResult:
             "pc": pc,
             "guess": self.options.guess,
             "seed": self.options.seed,
+            "overdispersion": self.options.overdispersion,
             "prior": {c: f.prior.to_dict() for c, f in self.thresholds.items()},
             "sources": list(self.sources),
             "simulated_sessions": list(self.simulated_sessions),
             "n_training_excluded": self.n_training_excluded,
-            "thresholds": {c: f.summary(pc) for c, f in self.thresholds.items()},
+            "thresholds": {
+                c: {**f.summary(pc), "population_ci95": self.population_ci.get(c, {})}
+                for c, f in self.thresholds.items()
+            },
             "subject_thresholds": {
                 s: {c: f.summary(pc) for c, f in fits.items()}
                 for s, fits in self.subject_thresholds.items()
@@ -152,6 +175,9 @@ class AnalysisResult:
                 "reference_object": self.logistic.reference_object,
                 "subject_factor": self.logistic.subject_factor,
                 "n_significant_objects": self.logistic.n_significant_objects(),
+                "method": self.logistic.method,
+                "separated": list(self.logistic.separated),
+                "warnings": list(self.logistic.warnings),
             },
             "predictions": self.predictions(),
             "first_recognized_pixels": self.first_recognized,
@@ -174,6 +200,7 @@ class AnalysisResult:
                 "mixed": o.mixed,
                 "prior": o.prior.to_dict() if o.prior else None,
                 "lapse_prior": list(o.lapse_prior),
+                "overdispersion": o.overdispersion,
             },
             "sources": list(self.sources),
             "n_training_excluded": self.n_training_excluded,
@@ -188,6 +215,7 @@ class AnalysisResult:
             "mixed": self.mixed.to_dict() if self.mixed else None,
             "first_recognized": self.first_recognized,
             "warnings": list(self.warnings),
+            "population_ci": self.population_ci,
             "simulated_sessions": list(self.simulated_sessions),
         }
 
@@ -212,6 +240,7 @@ class AnalysisResult:
             mixed=MixedFit.from_dict(d["mixed"]) if d.get("mixed") else None,
             first_recognized=d["first_recognized"],
             warnings=tuple(d.get("warnings", ())),
+            population_ci=d.get("population_ci", {}),
             simulated_sessions=tuple(d.get("simulated_sessions", ())),
         )
 
@@ -278,17 +307,30 @@ def first_recognized(trials: pd.DataFrame) -> dict[str, dict[str, dict[str, floa
     return out
 
 
-def _check(trials: pd.DataFrame, sources: tuple[str, ...]) -> None:
-    files = ", ".join(sources)
-    for c in CONDITIONS:
-        if not (trials["condition"] == c).any():
-            raise DataError(f"no trials in condition '{c}' in {files}: both conditions are needed")
-    n, k = len(trials), int(trials["recognized"].sum())
-    if k in (0, n):
-        what = "recognised" if k == n else "not recognised"
-        raise DataError(
-            f"all {n} trials in {files} are {what}: no threshold or odds ratio can be estimated"
-        )
+def _population(
+    trials: pd.DataFrame, pooled: dict[str, WeibullFit], opts: AnalysisOptions
+) -> dict[str, dict[str, Any]]:
+    """Two-way cluster-robust population intervals of each measured pooled ML threshold."""
+    from analysis.cluster import cluster_threshold_ci
+
+    out: dict[str, dict[str, Any]] = {}
+    for cond, fit in pooled.items():
+        sel = trials[trials["condition"] == cond]
+        out[cond] = {}
+        for pc in dict.fromkeys((0.5, opts.pc)):
+            if not fit.threshold(pc).measured:
+                continue
+            ci = cluster_threshold_ci(
+                sel["pixels"],
+                sel["recognized"],
+                [sel["subject"], sel["object"]],
+                fit.mle,
+                pc=pc,
+                guess=opts.guess,
+            )
+            if ci is not None:
+                out[cond][f"{pc:g}"] = [ci[0], ci[1]]
+    return out
 
 
 def analyze(table: TrialTable, options: AnalysisOptions | None = None) -> Iterator[AnalysisStep]:
@@ -306,10 +348,9 @@ def analyze(table: TrialTable, options: AnalysisOptions | None = None) -> Iterat
     AnalysisStep
         The last one has ``result`` set.
 
-    Raises
-    ------
-    DataError
-        A condition without trials; all trials recognised or none.
+    Degenerate data (one condition, all recognised, separated, a handful of trials) give a
+    complete result that says what could not be estimated (``warnings``, threshold statuses,
+    the logistic model's ``method``); nothing is raised for them.
 
     References
     ----------
@@ -318,58 +359,72 @@ def analyze(table: TrialTable, options: AnalysisOptions | None = None) -> Iterat
     """
     opts = options or AnalysisOptions()
     trials = table.trials
-    _check(trials, table.sources)
+    if len(trials) == 0:
+        raise DataError(f"no trials in {', '.join(table.sources)}")
+    present = [c for c in CONDITIONS if (trials["condition"] == c).any()]
+    notes: list[str] = [
+        f"no trials in condition '{c}': it is not fitted" for c in CONDITIONS if c not in present
+    ]
     subjects = object_order(trials["subject"]) if opts.by_subject else []
-    jobs: list[tuple[str | None, str]] = [(None, c) for c in CONDITIONS]
-    jobs += [(s, c) for s in subjects for c in CONDITIONS]
+    jobs: list[tuple[str | None, str]] = [(None, c) for c in present]
+    jobs += [(s, c) for s in subjects for c in present]
     total = len(jobs) + 1 + int(opts.mixed)
-    seeds = np.random.SeedSequence(opts.seed).spawn(len(jobs))
-    notes: list[str] = []
+    seeds = np.random.SeedSequence(opts.seed).spawn(1)
     pooled: dict[str, WeibullFit] = {}
     per_subject: dict[str, dict[str, WeibullFit]] = {}
     done = 0
-    for (subject, cond), ss in zip(jobs, seeds, strict=False):
+    fit_jobs: list[FitJob] = []
+    keys: list[tuple[str | None, str]] = []
+    for subject, cond in jobs:
         m = trials["condition"] == cond
         if subject is not None:
             m &= trials["subject"] == subject
         sel = trials[m]
         label = cond if subject is None else f"subject {subject}, {cond}"
-        done += 1
         if len(sel) == 0:
             notes.append(f"{label}: no trials, not fitted")
-            yield AnalysisStep(done, total, label)
             continue
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
+            levels, k, n = aggregate(sel["pixels"].to_numpy(), sel["recognized"].to_numpy())
+            _data_warnings(label, k, n)
             prior = opts.prior or default_prior(
-                np.unique(sel["pixels"].to_numpy()),
+                levels,
                 guess=opts.guess,
                 lapse_a=opts.lapse_prior[0],
                 lapse_b=opts.lapse_prior[1],
             )
-            fit = fit_weibull(
-                sel["pixels"].to_numpy(),
-                sel["recognized"].to_numpy(),
-                guess=opts.guess,
-                prior=prior,
-                label=label,
-                rng=np.random.default_rng(ss),
-            )
+            mle = fit_mle(levels, k, n, guess=opts.guess, prior=prior)
         notes += [" ".join(str(w.message).split()) for w in caught]
-        if not fit.converged:
-            notes.append(f"{label}: MCMC not converged (tau_max {fit.tau_max:.0f} steps)")
+        od = opts.overdispersion and subject is None
+        fit_jobs.append(FitJob(label, levels, k, n, opts.guess, prior, mle, od))
+        keys.append((subject, cond))
+    # One batch for all posteriors: one vectorised step moves every fit's walkers.
+    fits: list[WeibullFit] = []
+    if fit_jobs:
+        for prog in sample_batch(fit_jobs, sigmoid="weibull", rng=np.random.default_rng(seeds[0])):
+            if prog.fits is None:
+                yield AnalysisStep(prog.n_done, total, f"sampling ({prog.n_steps} steps)")
+            else:
+                fits = prog.fits
+    for (subject, cond), fit in zip(keys, fits, strict=True):
+        notes += fit.diagnostics(opts.pc)
         if subject is None:
             pooled[cond] = fit
         else:
             per_subject.setdefault(subject, {})[cond] = fit
-        yield AnalysisStep(done, total, label)
+    done = len(jobs)
+    yield AnalysisStep(done, total, "psychometric fits")
     logistic = fit_logistic(trials, subject_factor=opts.subject_factor)
     notes += [f"logistic model: {w}" for w in logistic.warnings]
     done += 1
     yield AnalysisStep(done, total, "logistic regression")
     mixed = None
     if opts.mixed:
-        mixed = fit_mixed(trials)
+        try:
+            mixed = fit_mixed(trials)
+        except (DataError, ValueError, ArithmeticError, np.linalg.LinAlgError) as exc:
+            notes.append(f"mixed model not fitted: {' '.join(str(exc).split())}")
         done += 1
         yield AnalysisStep(done, total, "mixed model")
     result = AnalysisResult(
@@ -383,6 +438,7 @@ def analyze(table: TrialTable, options: AnalysisOptions | None = None) -> Iterat
         logistic=logistic,
         mixed=mixed,
         first_recognized=first_recognized(trials),
+        population_ci=_population(trials, pooled, opts),
         warnings=tuple(dict.fromkeys(notes)),
         simulated_sessions=table.simulated_sessions,
     )

@@ -32,7 +32,15 @@ from analysis.simulate import (
 )
 from analysis.weibull import _log_likelihood
 
-__all__ = ["PowerPoint", "PowerResult", "iter_power", "power_analysis"]
+__all__ = [
+    "PowerPoint",
+    "PowerResult",
+    "GridPoint",
+    "iter_power",
+    "power_analysis",
+    "power_grid",
+    "level_pixels",
+]
 
 Effect = Literal["odds_ratio", "threshold_ratio"]
 
@@ -131,11 +139,22 @@ def _clopper_pearson(k: int, n: int) -> tuple[float, float]:
     return lo, hi
 
 
-def _detect_odds_ratio(size: float, n_subjects: int, alpha: float, rng) -> bool:
+def _detect_odds_ratio(
+    size: float,
+    n_subjects: int,
+    alpha: float,
+    rng,
+    n_objects: int = 20,
+    pixels: tuple[float, ...] = PIXEL_COUNTS,
+) -> bool:
     import statsmodels.api as sm
 
     d = simulate_logistic_trials(
-        LogisticObserver(background_or=size), n_subjects=n_subjects, rng=rng
+        LogisticObserver(background_or=size),
+        n_subjects=n_subjects,
+        n_objects=n_objects,
+        pixels=pixels,
+        rng=rng,
     )
     y = d["recognized"].to_numpy()
     if y.min() == y.max():
@@ -169,7 +188,14 @@ def _nll_joint(theta, xs, ks, ns, shared_loc: bool) -> float:
     return -total
 
 
-def _detect_threshold_ratio(size: float, n_subjects: int, alpha: float, rng) -> bool:
+def _detect_threshold_ratio(
+    size: float,
+    n_subjects: int,
+    alpha: float,
+    rng,
+    n_objects: int = 20,
+    pixels: tuple[float, ...] = PIXEL_COUNTS,
+) -> bool:
     t_d = THRESHOLD_P50_PX["decluttered"]
     # alpha_px from the 50 % threshold: x50 = a * (-ln(1 - 0.5 / (1 - l))) ** (1 / b)
     scale = (-math.log(1 - 0.5 / (1 - SIM_LAPSE))) ** (1 / SIM_BETA)
@@ -178,7 +204,12 @@ def _detect_threshold_ratio(size: float, n_subjects: int, alpha: float, rng) -> 
         "decluttered": WeibullObserver(t_d / scale, SIM_BETA, SIM_LAPSE),
     }
     d = simulate_weibull_trials(
-        obs, n_subjects=n_subjects, subject_log10_sd=SIM_SUBJECT_LOG10_SD, rng=rng
+        obs,
+        n_subjects=n_subjects,
+        n_objects=n_objects,
+        pixels=pixels,
+        subject_log10_sd=SIM_SUBJECT_LOG10_SD,
+        rng=rng,
     )
     xs, ks, ns = [], [], []
     for c in ("cluttered", "decluttered"):
@@ -296,3 +327,224 @@ def power_analysis(
     ]
     n_req = next((p.n_subjects for p in points if p.power >= target_power), None)
     return PowerResult(effect, float(size), float(alpha), float(target_power), tuple(points), n_req)
+
+
+def level_pixels(n_levels: int) -> tuple[float, ...]:
+    """Return the pixel counts of a design with ``n_levels`` resolution levels.
+
+    The paper's eight levels (:data:`analysis.jung2015.PIXEL_COUNTS`) when ``n_levels`` is 8;
+    otherwise ``n_levels`` log-spaced counts over the same range.
+
+    Parameters
+    ----------
+    n_levels : int
+        Number of levels, >= 2.
+
+    Returns
+    -------
+    tuple of float
+    """
+    if n_levels < 2:
+        raise ValueError(f"n_levels must be >= 2, got {n_levels!r}")
+    px = sorted(float(p) for p in PIXEL_COUNTS)
+    if n_levels == len(px):
+        return tuple(px)
+    return tuple(float(round(v)) for v in np.geomspace(px[0], px[-1], n_levels))
+
+
+@dataclass(frozen=True)
+class GridPoint:
+    """Power at one design and effect size.
+
+    Parameters
+    ----------
+    size : float
+        Effect size simulated.
+    n_subjects, n_objects, n_levels : int
+        Design.
+    power : float
+    ci95 : (float, float)
+        Clopper-Pearson 95 % interval.
+    n_sims : int
+    """
+
+    size: float
+    n_subjects: int
+    n_objects: int
+    n_levels: int
+    power: float
+    ci95: tuple[float, float]
+    n_sims: int
+
+    def to_dict(self) -> dict[str, Any]:
+        """Return a JSON-ready dict."""
+        return {
+            "size": self.size,
+            "n_subjects": self.n_subjects,
+            "n_objects": self.n_objects,
+            "n_levels": self.n_levels,
+            "power": self.power,
+            "ci95": list(self.ci95),
+            "n_sims": self.n_sims,
+        }
+
+
+def _run_chunk(
+    effect: str,
+    size: float,
+    n_subjects: int,
+    n_objects: int,
+    n_levels: int,
+    alpha: float,
+    seeds: list[np.random.SeedSequence],
+) -> list[bool]:
+    """Simulate and test one chunk of studies; each study has its own seed (picklable task)."""
+    import warnings
+
+    # statsmodels adds "always" filters for its warnings when first imported: import it before
+    # the filters below, or they would be overridden in a fresh worker process.
+    import statsmodels.api  # noqa: F401
+
+    detect = _detect_odds_ratio if effect == "odds_ratio" else _detect_threshold_ratio
+    pixels = level_pixels(n_levels)
+    out = []
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        for ss in seeds:
+            out.append(
+                bool(detect(size, n_subjects, alpha, np.random.default_rng(ss), n_objects, pixels))
+            )
+    return out
+
+
+#: Studies per task sent to a worker (ours): large enough to hide the task overhead.
+CHUNK_SIMS: int = 10
+
+
+def power_grid(
+    effect: Effect,
+    sizes: Sequence[float],
+    n_subjects: Sequence[int],
+    *,
+    n_objects: Sequence[int] = (20,),
+    n_levels: Sequence[int] = (8,),
+    n_sims: int = 200,
+    alpha: float = 0.05,
+    seed: int | None = None,
+    processes: int | None = None,
+    cluster: str | None = None,
+) -> Iterator[GridPoint | int]:
+    """Estimate power over a grid of effect sizes and designs, in parallel.
+
+    Every simulated study has its own seed, spawned from ``seed`` by its position in the grid
+    (``SeedSequence(seed).spawn`` per grid point, then per study), so the results are identical
+    for the same seed whether the studies run here, in local processes or on a Dask cluster,
+    and in whatever order they finish.
+
+    Parameters
+    ----------
+    effect : {'odds_ratio', 'threshold_ratio'}
+    sizes : sequence of float
+        Effect sizes (each finite and > 0).
+    n_subjects, n_objects, n_levels : sequence of int
+        Designs to try (subjects >= 1, objects >= 1, levels >= 2).
+    n_sims : int
+        Studies per grid point.
+    alpha : float
+        Test level in (0, 1).
+    seed : int or None
+        Root seed (None: fresh entropy, printed nowhere; give one to reproduce).
+    processes : int or None
+        Local worker processes (None: one per CPU; 1: run here).
+    cluster : str or None
+        Address of a running Dask distributed scheduler (``tcp://host:8786``); needs the
+        ``dask`` extra. Overrides ``processes``.
+
+    Yields
+    ------
+    int or GridPoint
+        The number of studies finished so far (progress), and each grid point when all its
+        studies are in, in grid order.
+
+    Raises
+    ------
+    ValueError
+        Bad arguments.
+    ImportError
+        ``cluster`` given without Dask installed.
+    """
+    if effect not in ("odds_ratio", "threshold_ratio"):
+        raise ValueError(f"effect must be 'odds_ratio' or 'threshold_ratio', got {effect!r}")
+    if not sizes or not all(math.isfinite(v) and v > 0 for v in sizes):
+        raise ValueError(f"effect sizes must be finite and > 0, got {list(sizes)!r}")
+    if n_sims < 1:
+        raise ValueError(f"n_sims must be >= 1, got {n_sims!r}")
+    if not (0 < alpha < 1):
+        raise ValueError(f"alpha must be in (0, 1), got {alpha!r}")
+    for name, vals, low in (
+        ("subjects", n_subjects, 1),
+        ("objects", n_objects, 1),
+        ("levels", n_levels, 2),
+    ):
+        if not vals or min(vals) < low:
+            raise ValueError(f"numbers of {name} must be integers >= {low}, got {list(vals)!r}")
+    grid = [
+        (float(z), int(s), int(o), int(lv))
+        for z in sizes
+        for lv in n_levels
+        for o in n_objects
+        for s in n_subjects
+    ]
+    roots = np.random.SeedSequence(seed).spawn(len(grid))
+    tasks = []
+    for gi, (z, s, o, lv) in enumerate(grid):
+        seeds = roots[gi].spawn(n_sims)
+        for c in range(0, n_sims, CHUNK_SIMS):
+            tasks.append((gi, (effect, z, s, o, lv, alpha, seeds[c : c + CHUNK_SIMS])))
+    hits = [0] * len(grid)
+    left = [n_sims] * len(grid)
+    done_points: dict[int, GridPoint] = {}
+    next_point = 0
+    finished = 0
+    for gi, res in _execute(tasks, processes, cluster):
+        hits[gi] += sum(res)
+        left[gi] -= len(res)
+        finished += len(res)
+        yield finished
+        if left[gi] == 0:
+            z, s, o, lv = grid[gi]
+            done_points[gi] = GridPoint(
+                z, s, o, lv, hits[gi] / n_sims, _clopper_pearson(hits[gi], n_sims), n_sims
+            )
+        while next_point in done_points:
+            yield done_points.pop(next_point)
+            next_point += 1
+
+
+def _execute(tasks, processes: int | None, cluster: str | None) -> Iterator[tuple[int, list]]:
+    if cluster:
+        try:
+            from dask.distributed import Client, as_completed
+        except ImportError as exc:
+            raise ImportError(
+                "--cluster needs Dask: install the 'dask' extra (pip install .[dask])"
+            ) from exc
+        with Client(cluster) as client:
+            futs = {client.submit(_run_chunk, *args, pure=False): gi for gi, args in tasks}
+            for fut in as_completed(list(futs)):
+                yield futs[fut], fut.result()
+        return
+    import os
+
+    n = processes or len(os.sched_getaffinity(0))
+    if n <= 1 or len(tasks) == 1:
+        for gi, args in tasks:
+            yield gi, _run_chunk(*args)
+        return
+    import multiprocessing as mp
+    from concurrent.futures import ProcessPoolExecutor, as_completed
+
+    with ProcessPoolExecutor(max_workers=n, mp_context=mp.get_context("spawn")) as ex:
+        futs = {ex.submit(_run_chunk, *args): gi for gi, args in tasks}
+        for fut in as_completed(futs):
+            yield futs[fut], fut.result()

@@ -6,10 +6,12 @@ half-written report; an existing report at the same path is replaced.
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 import shutil
 import tempfile
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -23,9 +25,15 @@ from analysis.jung2015 import (
 )
 from analysis.pipeline import AnalysisResult
 
-__all__ = ["render_markdown", "write_report", "FIGURE_NAMES"]
+__all__ = [
+    "render_markdown",
+    "write_report",
+    "threshold_text",
+    "atomic_folder",
+    "FIGURE_NAMES",
+]
 
-#: Figure files written (each as .png and .svg), after the paper's figure numbers.
+#: Figure files written (each as 300 dpi .png, .svg and .pdf), after the paper's figure numbers.
 FIGURE_NAMES: tuple[str, ...] = (
     "fig8_recognition_vs_pixels",
     "fig9_subject_thresholds",
@@ -53,21 +61,67 @@ def _side(v: float | None) -> str:
     return f"about {side}x{round(v / side)}"
 
 
-def render_markdown(result: AnalysisResult, *, figures: bool = True) -> str:
+def threshold_text(t: dict[str, Any], *, side: bool = False) -> str:
+    """Return a threshold entry (``Threshold.to_dict()``) as report text, honest about censoring.
+
+    Parameters
+    ----------
+    t : dict
+        ``status``, ``median``, ``ci95``, ``mle``, ``lowest_tested``, ``highest_tested``,
+        ``reason``.
+    side : bool
+        Add the image side (``about 114x76``) after a measured value in pixels.
+
+    Returns
+    -------
+    str
+        ``"8,695 px (...; 95 % CrI ...; ML ...)"`` when measured; ``"< 96 px (...)"``,
+        ``"> 160,884 px (...)"`` or ``"not identified (...)"`` otherwise.
+    """
+    st = t["status"]
+    if st == "measured":
+        extra = f"{_side(t['median'])}; " if side else ""
+        return f"{_px(t['median'])} px ({extra}95 % CrI {_ci(t['ci95'])}; ML {_px(t['mle'])})"
+    if st == "censored_below":
+        return f"< {_px(t['lowest_tested'])} px (below the lowest level tested: {t['reason']})"
+    if st == "censored_above":
+        return f"> {_px(t['highest_tested'])} px (above the highest level tested: {t['reason']})"
+    return f"not identified ({t['reason']})"
+
+
+def _or_text(o: dict[str, Any], term: str, separated: tuple[str, ...]) -> str:
+    base = f"{o['or']:.3g} (95 % CI {o['ci95'][0]:.3g}-{o['ci95'][1]:.3g}, p = {o['p']:.2g})"
+    if term in separated:
+        return (
+            f"{base}; separated in these data (the ML odds ratio is infinite), Firth's penalised "
+            "estimate"
+        )
+    return base
+
+
+def render_markdown(
+    result: AnalysisResult, *, figures: bool = True, results: dict[str, Any] | None = None
+) -> str:
     """Return the report text: results in sentences, as in Jung et al. 2015, Sec. 3.2.2.
+
+    Every threshold is printed with its status: a number (posterior median, 95 % CrI and the ML
+    value) only when it lies inside the tested range, "< lowest" / "> highest" when censored,
+    and "not identified" when the data do not locate it.
 
     Parameters
     ----------
     result : AnalysisResult
     figures : bool
         Whether figure links are included.
+    results : dict, optional
+        ``result.results_json()`` when already computed.
 
     Returns
     -------
     str
         Markdown.
     """
-    r = result.results_json()
+    r = results if results is not None else result.results_json()
     pc = result.options.pc
     lines = ["# Recognition analysis", ""]
     lines.append(
@@ -94,82 +148,145 @@ def render_markdown(result: AnalysisResult, *, figures: bool = True) -> str:
         "",
     ]
     th = r["thresholds"]
-    if all(c in th for c in CONDITIONS):
-        c, d = th["cluttered"], th["decluttered"]
-        guess = result.options.guess
-        lines.append(
-            "Weibull psychometric functions (guess rate "
-            f"{guess:g}, lapse rate free, so not forced to 100 %) were fitted to the pooled "
-            "responses of each background condition; intervals are 95 % credible intervals of "
-            "the posterior (emcee), and the maximum-likelihood value is given as well. "
-            f"The 50 % recognition threshold for the background-cluttered images required a "
-            f"resolution of {_px(c['p50_pixels'])} pixels ({_side(c['p50_pixels'])}; 95 % CrI "
-            f"{_ci(c['ci95'])}; MLE {_px(c['mle_p50_pixels'])}), while for the de-cluttered images "
-            f"the same 50 % performance was reached at {_px(d['p50_pixels'])} pixels "
-            f"({_side(d['p50_pixels'])}; 95 % CrI {_ci(d['ci95'])}; MLE "
-            f"{_px(d['mle_p50_pixels'])}). The paper reports "
-            f"{THRESHOLD_P50_PX['cluttered']:,.0f} and {THRESHOLD_P50_PX['decluttered']:,.0f} "
-            "pixels."
+    guess = result.options.guess
+    od = result.options.overdispersion
+    lines.append(
+        f"Weibull psychometric functions (guess rate {guess:g}, lapse rate free, so not forced to "
+        "100 %) were fitted to the pooled responses of each background condition; intervals are "
+        "95 % credible intervals of the posterior (ensemble MCMC, differential-evolution moves)"
+        + (
+            ", with beta-binomial overdispersion (free scale eta, as psignifit 4) because pooled "
+            "subjects and objects differ"
+            if od
+            else ", binomial likelihood"
         )
-        if pc != 0.5:
-            lines.append("")
-            lines.append(
-                f"At {100 * pc:g} % recognition the thresholds are {_px(c.get('threshold'))} "
-                f"(95 % CrI {_ci(c['threshold_ci95'])}) pixels cluttered and "
-                f"{_px(d.get('threshold'))} (95 % CrI {_ci(d['threshold_ci95'])}) pixels "
-                "de-cluttered."
+        + ", and the maximum-likelihood (ML) value, which the paper reports, is given beside the "
+        "posterior median."
+    )
+    lines.append(
+        "Credible intervals describe the pooled curve of the subjects and objects tested. For the "
+        "population they were drawn from, a population interval of the ML threshold is given "
+        "too (two-way cluster-robust over subjects and objects, t quantile with min(subjects, "
+        "objects) - 1 df); in simulations with subject and object effects it covers the "
+        "population threshold in about 95 % of studies, the credible interval in about 70 % "
+        "(benchmarks/validate_weibull_coverage.py)."
+    )
+    lines.append("")
+    for c in CONDITIONS:
+        if c not in th:
+            lines.append(f"- {c}: no trials, not fitted.")
+            continue
+        f = th[c]
+        line = f"- {c}: 50 % threshold {threshold_text(f['threshold_50'], side=True)}"
+        pop = f.get("population_ci95", {}).get("0.5")
+        if pop:
+            line += f"; population 95 % interval {_ci(pop)} px"
+        if f["overdispersion"]:
+            line += f"; overdispersion eta {f['eta']:.3f} ({f['eta_ci95'][0]:.3f}-" + (
+                f"{f['eta_ci95'][1]:.3f})"
             )
-        conv = [name for name, f in th.items() if not f["converged"]]
-        lines.append("")
-        lines.append(
-            "All pooled chains converged (chain length >= 50 integrated autocorrelation times)."
-            if not conv
-            else f"Chains NOT converged: {', '.join(conv)}; treat their intervals with care."
+        g = f["goodness_of_fit"]
+        line += (
+            f"; deviance {g['deviance']:.1f} on {g['deviance_df']} df, posterior-predictive "
+            f"p = {g['ppp']:.2f}."
         )
+        lines.append(line)
+        if pc != 0.5:
+            lines.append(f"  At {100 * pc:g} % recognition: {threshold_text(f['threshold_pc'])}.")
+    lines.append("")
+    lines.append(
+        f"The paper reports {THRESHOLD_P50_PX['cluttered']:,.0f} (cluttered) and "
+        f"{THRESHOLD_P50_PX['decluttered']:,.0f} (de-cluttered) pixels."
+    )
+    conv = [name for name, f in th.items() if not f["converged"]]
+    lines.append("")
+    lines.append(
+        "All pooled chains converged (chain length >= 50 integrated autocorrelation times)."
+        if not conv
+        else f"Chains NOT converged: {', '.join(conv)}; treat their intervals with care."
+    )
     lo = r["logistic"]
-    bg = lo["odds_ratios"]["background"]
-    lp = lo["odds_ratios"]["log10_pixels"]
-    pr = r["predictions"]
-    cl = lo["classification"]
-    n_obj = sum(1 for t in lo["odds_ratios"] if t.startswith("object:"))
-    lines += [
-        "",
-        "In the binary logistic regression on all trials (predictors: background, reference "
-        f"cluttered; {n_obj} object dummies, reference object {lo['reference_object']}; "
-        "log10 pixels"
-        + ("; subject dummies" if lo["subject_factor"] else "")
-        + f"), the odds ratio for background was {bg['or']:.1f} (95 % CI "
-        f"{bg['ci95'][0]:.1f}-{bg['ci95'][1]:.1f}, p = {bg['p']:.2g}): holding the other "
-        f"variables constant, a de-cluttered image is {bg['or']:.1f} times more likely (in odds) "
-        "to be recognised than a background-cluttered one. By Eq. 1, if the cluttered "
-        f"recognition rate is 50 %, the de-cluttered rate is expected to be "
-        f"{100 * pr['decluttered_if_cluttered_50pct']:.1f} %; if the de-cluttered rate is 50 %, "
-        f"the cluttered rate is only {100 * pr['cluttered_if_decluttered_50pct']:.1f} %. "
-        f"(Paper: OR {OR_BACKGROUND} with 95 % CI {OR_BACKGROUND_CI95[0]}-"
-        f"{OR_BACKGROUND_CI95[1]}.)",
-        "",
-        f"The odds ratio per log10 pixels was {lp['or']:.1f} (95 % CI {lp['ci95'][0]:.1f}-"
-        f"{lp['ci95'][1]:.1f}, p = {lp['p']:.2g}): the odds of recognition are multiplied by "
-        f"{lp['or']:.1f} for a tenfold increase in resolution (paper: {OR_LOG10_PIXELS}, "
-        f"{OR_LOG10_PIXELS_CI95[0]}-{OR_LOG10_PIXELS_CI95[1]}). "
-        f"{lo['n_significant_objects']} of {n_obj} object dummies were significant "
-        "(p < 0.05). "
-        f"The model classified {cl['recognized_correct_pct']:.1f} % of recognised and "
-        f"{cl['not_recognized_correct_pct']:.1f} % of not-recognised trials correctly "
-        f"(cutoff {cl['cutoff']:g}).",
-    ]
-    if "mixed" in lo:
-        mb = lo["mixed"]["odds_ratios"]["background"]
-        ml = lo["mixed"]["odds_ratios"]["log10_pixels"]
+    sep = tuple(lo.get("separated", ()))
+    ors = lo["odds_ratios"]
+    n_obj = sum(1 for t in ors if t.startswith("object:"))
+    lines.append("")
+    if lo["method"] == "none":
+        lines.append(
+            "The binary logistic regression could not be estimated: "
+            + "; ".join(lo["warnings"])
+            + "."
+        )
+    else:
+        preds = ["background, reference cluttered"] if "background" in ors else []
+        if n_obj:
+            preds.append(f"{n_obj} object dummies, reference object {lo['reference_object']}")
+        if "log10_pixels" in ors:
+            preds.append("log10 pixels")
+        if lo["subject_factor"]:
+            preds.append("subject dummies")
+        how = (
+            "maximum likelihood"
+            if lo["method"] == "ml"
+            else "Firth's penalised likelihood (the ML estimates do not exist in these data)"
+        )
+        text = f"In the binary logistic regression on all trials ({'; '.join(preds)}; {how})"
+        if "background" in ors:
+            bg = ors["background"]
+            pr = r["predictions"]
+            text += (
+                f", the odds ratio for background was {_or_text(bg, 'background', sep)}: holding "
+                f"the other variables constant, a de-cluttered image is {bg['or']:.3g} times more "
+                "likely (in odds) to be recognised than a background-cluttered one. By Eq. 1, if "
+                "the cluttered recognition rate is 50 %, the de-cluttered rate is expected to be "
+                f"{100 * pr['decluttered_if_cluttered_50pct']:.1f} %; if the de-cluttered rate is "
+                f"50 %, the cluttered rate is only "
+                f"{100 * pr['cluttered_if_decluttered_50pct']:.1f} %. (Paper: OR {OR_BACKGROUND} "
+                f"with 95 % CI {OR_BACKGROUND_CI95[0]}-{OR_BACKGROUND_CI95[1]}.)"
+            )
+        else:
+            text += ", no background odds ratio could be estimated (one condition only)."
+        lines.append(text)
+        if "log10_pixels" in ors:
+            lp = ors["log10_pixels"]
+            lines += [
+                "",
+                f"The odds ratio per log10 pixels was {_or_text(lp, 'log10_pixels', sep)}: the "
+                f"odds of recognition are multiplied by {lp['or']:.3g} for a tenfold increase in "
+                f"resolution (paper: {OR_LOG10_PIXELS}, {OR_LOG10_PIXELS_CI95[0]}-"
+                f"{OR_LOG10_PIXELS_CI95[1]}).",
+            ]
+        cl = lo["classification"]
+        tail = (
+            f"{lo['n_significant_objects']} of {n_obj} object dummies were significant (p < 0.05). "
+            if n_obj
+            else ""
+        )
         lines += [
             "",
-            "A mixed model with random subject and object intercepts (statsmodels "
-            "BinomialBayesMixedGLM, variational Bayes) gives a background odds ratio of "
-            f"{mb['or']:.1f} ({mb['ci95'][0]:.1f}-{mb['ci95'][1]:.1f}) and {ml['or']:.1f} "
-            f"({ml['ci95'][0]:.1f}-{ml['ci95'][1]:.1f}) per log10 pixels; random-intercept SDs "
-            f"{lo['mixed']['subject_sd']:.2f} (subjects) and {lo['mixed']['object_sd']:.2f} "
-            "(objects), log-odds units. Variational-Bayes intervals understate the uncertainty; "
-            "read the point estimates.",
+            tail + f"The model classified {cl['recognized_correct_pct']:.1f} % of recognised and "
+            f"{cl['not_recognized_correct_pct']:.1f} % of not-recognised trials correctly "
+            f"(cutoff {cl['cutoff']:g}).",
+        ]
+    if "mixed" in lo:
+        m = lo["mixed"]
+        parts = []
+        for term in ("background", "log10_pixels"):
+            o = m["odds_ratios"].get(term)
+            if o is None:
+                continue
+            if m.get("intervals"):
+                parts.append(
+                    f"{term} {o['or']:.3g} (95 % CI {o['ci95'][0]:.3g}-{o['ci95'][1]:.3g}, "
+                    f"p = {o['p']:.2g})"
+                )
+            else:
+                parts.append(f"{term} {o['or']:.3g}")
+        lines += [
+            "",
+            f"A mixed model with random subject and object intercepts ({m['method']}) gives odds "
+            f"ratios {', '.join(parts)}; random-intercept SDs {m['subject_sd']:.2f} (subjects) "
+            f"and {m['object_sd']:.2f} (objects), log-odds units."
+            + ("" if m.get("intervals") else " " + m.get("note", "")),
         ]
     st = r["subject_thresholds"]
     if st:
@@ -177,14 +294,16 @@ def render_markdown(result: AnalysisResult, *, figures: bool = True) -> str:
             "",
             "## 50 % thresholds per subject (Fig. 9)",
             "",
-            "| subject | cluttered px (95 % CrI) | de-cluttered px (95 % CrI) | converged |",
+            "Posterior median (95 % CrI; ML). Censored thresholds are given as bounds.",
+            "",
+            "| subject | cluttered | de-cluttered | converged |",
             "|---|---|---|---|",
         ]
         for s, fits in st.items():
             cells = []
             for c in CONDITIONS:
                 f = fits.get(c)
-                cells.append(f"{_px(f['p50_pixels'])} ({_ci(f['ci95'])})" if f else "n/a")
+                cells.append(threshold_text(f["threshold_50"]) if f else "n/a")
             conv = all(f["converged"] for f in fits.values())
             lines.append(f"| {s} | {cells[0]} | {cells[1]} | {'yes' if conv else 'no'} |")
     fr = result.first_recognized
@@ -212,7 +331,10 @@ def render_markdown(result: AnalysisResult, *, figures: bool = True) -> str:
         lines += ["", "## Warnings", ""] + [f"- {w}" for w in result.warnings]
     if figures:
         lines += ["", "## Figures", ""]
-        lines += [f"- [{name}]({name}.png) ([SVG]({name}.svg))" for name in FIGURE_NAMES]
+        lines += [
+            f"- [{name}]({name}.png) ([SVG]({name}.svg), [PDF]({name}.pdf))"
+            for name in FIGURE_NAMES
+        ]
     return "\n".join(lines) + "\n"
 
 
@@ -239,20 +361,49 @@ def write_report(result: AnalysisResult, out_dir: str | Path, *, figures: bool =
     Path
         The report folder.
     """
+    with atomic_folder(out_dir) as tmp:
+        r = result.results_json()
+        with open(tmp / "results.json", "w", encoding="utf-8") as fh:
+            json.dump(r, fh, indent=2, allow_nan=False)
+            fh.write("\n")
+        (tmp / "report.md").write_text(
+            render_markdown(result, figures=figures, results=r), encoding="utf-8"
+        )
+        if figures:
+            from analysis.figures import save_all
+
+            save_all(result, tmp)
+    return Path(out_dir).resolve()
+
+
+@contextlib.contextmanager
+def atomic_folder(out_dir: str | Path) -> Iterator[Path]:
+    """Yield a temporary sibling folder that replaces ``out_dir`` when the block succeeds.
+
+    On any exception the temporary folder is removed and ``out_dir`` is left as it was.
+
+    Parameters
+    ----------
+    out_dir : str or Path
+        Folder to create or replace.
+
+    Yields
+    ------
+    Path
+        The temporary folder to fill.
+
+    Raises
+    ------
+    FileExistsError
+        ``out_dir`` is an existing file.
+    """
     out = Path(out_dir).resolve()
     if out.exists() and not out.is_dir():
         raise FileExistsError(f"out_dir must be a folder, got an existing file {out}")
     out.parent.mkdir(parents=True, exist_ok=True)
     tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.tmp-", dir=out.parent))
     try:
-        with open(tmp / "results.json", "w", encoding="utf-8") as fh:
-            json.dump(result.results_json(), fh, indent=2, allow_nan=False)
-            fh.write("\n")
-        (tmp / "report.md").write_text(render_markdown(result, figures=figures), encoding="utf-8")
-        if figures:
-            from analysis.figures import save_all
-
-            save_all(result, tmp)
+        yield tmp
         os.chmod(tmp, _folder_mode())  # mkdtemp makes it private (0700)
         old = None
         if out.exists():
@@ -264,4 +415,3 @@ def write_report(result: AnalysisResult, out_dir: str | Path, *, figures: bool =
     except BaseException:
         shutil.rmtree(tmp, ignore_errors=True)
         raise
-    return out

@@ -139,9 +139,15 @@ def simulate_weibull_trials(
     n_objects: int = N_OBJECTS,
     pixels: tuple[float, ...] = PIXEL_COUNTS,
     subject_log10_sd: float = 0.0,
+    object_log10_sd: float = 0.0,
+    subject_lapse_spread: float = 0.0,
     rng: np.random.Generator | int | None = None,
 ) -> pd.DataFrame:
     """Simulate a trial table from one Weibull observer per condition.
+
+    Heterogeneous observers, as a real study has: ``log10(alpha)`` shifted per subject and per
+    object (normal, the same shift in both conditions), and each subject's lapse rate drawn
+    uniformly within ``lapse +- subject_lapse_spread`` (clipped at 0).
 
     Parameters
     ----------
@@ -153,6 +159,10 @@ def simulate_weibull_trials(
         Pixel counts of the levels.
     subject_log10_sd : float
         SD of a per-subject shift of ``log10(alpha)`` (0: all subjects identical).
+    object_log10_sd : float
+        SD of a per-object shift of ``log10(alpha)`` (0: all objects equally hard).
+    subject_lapse_spread : float
+        Half-width of the uniform spread of each subject's lapse rate around the observer's.
     rng : numpy.random.Generator or int or None
 
     Returns
@@ -168,11 +178,33 @@ def simulate_weibull_trials(
     shift = dict(
         zip(subjects, 10 ** (subject_log10_sd * rng.standard_normal(len(subjects))), strict=False)
     )
+    # Drawn only when asked for, so that the default stream (and old seeds) stay as they were.
+    objects = d["object"].unique()
+    oshift = (
+        dict(zip(objects, 10 ** (object_log10_sd * rng.standard_normal(len(objects))), strict=True))
+        if object_log10_sd > 0
+        else dict.fromkeys(objects, 1.0)
+    )
+    lapse_u = (
+        dict(zip(subjects, rng.uniform(-1, 1, len(subjects)), strict=True))
+        if subject_lapse_spread > 0
+        else dict.fromkeys(subjects, 0.0)
+    )
     p = np.empty(len(d))
     for cond, obs in observers.items():
         m = (d["condition"] == cond).to_numpy()
-        a = obs.alpha_px * d.loc[m, "subject"].map(shift).to_numpy()
-        p[m] = psychometric(d.loc[m, "pixels"].to_numpy(), a, obs.beta, obs.lapse, guess=obs.guess)
+        a = (
+            obs.alpha_px
+            * d.loc[m, "subject"].map(shift).to_numpy()
+            * d.loc[m, "object"].map(oshift).to_numpy()
+        )
+        lapse = np.clip(
+            obs.lapse + subject_lapse_spread * d.loc[m, "subject"].map(lapse_u).to_numpy(),
+            0.0,
+            1 - obs.guess - 1e-9,
+        )
+        p[m] = psychometric(d.loc[m, "pixels"].to_numpy(), a, obs.beta, 0.0, guess=obs.guess)
+        p[m] = obs.guess + (1 - obs.guess - lapse) * (p[m] - obs.guess) / (1 - obs.guess)
     d["recognized"] = (rng.random(len(d)) < p).astype(int)
     return d
 

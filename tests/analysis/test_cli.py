@@ -41,7 +41,7 @@ def test_report_folder_contents(report):
         "figS2_subject_curves",
         "figS3_object_difficulty",
     ):
-        for ext in ("png", "svg"):
+        for ext in ("png", "svg", "pdf"):
             assert (report / f"{stem}.{ext}").stat().st_size > 1000
     leftovers = [p.name for p in report.parent.iterdir() if p.name.startswith(".report")]
     assert leftovers == []
@@ -74,7 +74,7 @@ def test_results_json_keys(report, small_trials):
 
 def test_report_sentences(report):
     text = (report / "report.md").read_text()
-    assert "The 50 % recognition threshold for the background-cluttered images" in text
+    assert "- cluttered: 50 % threshold " in text and "95 % CrI" in text and "ML " in text
     assert "By Eq. 1, if the cluttered recognition rate is 50 %" in text
     assert "## First recognised level per subject" in text
 
@@ -104,9 +104,6 @@ HEADER = "subject,object,condition,pixels,recognized\n"
         (HEADER + "s1,1,cluttered,abc,0\n", "'pixels' must be numeric"),
         (HEADER + "s1,1,cluttered,-5,0\n", "'pixels' must be > 0"),
         (HEADER + "s1,1,cluttered,96,\n", "'recognized' has a missing value"),
-        (HEADER + "s1,1,cluttered,96,0\ns1,1,cluttered,950,1\n", "no trials in condition"),
-        (HEADER + "s1,1,cluttered,96,1\ns1,1,decluttered,950,1\n", "all 2 trials"),
-        (HEADER + "s1,1,cluttered,96,0\ns1,1,decluttered,950,0\n", "not recognised"),
     ],
 )
 def test_bad_data_exits_2_with_one_line(tmp_path, capsys, text, needle):
