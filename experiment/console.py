@@ -215,7 +215,9 @@ class OperatorConsole(App):
             yield Static(id="status")
             yield Input(placeholder="the subject's words", id="response")
             yield Input(placeholder="note for the log (Enter saves, Esc cancels)", id="note")
-        yield Footer(compact=True)
+        footer = Footer()
+        footer.compact = True  # a reactive since textual 0.63 (the keyword came later)
+        yield footer
 
     def on_resize(self) -> None:
         self.call_after_refresh(self._fit_preview)
