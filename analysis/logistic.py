@@ -441,7 +441,10 @@ def fit_logistic(
             )
         if not separated:
             separated = [_term_name(nm) for nm in names if nm != "Intercept"]
-            notes.append("ML estimates do not exist (separation); Firth's estimates for all terms")
+            notes.append(
+                "ML estimates do not exist (the data are separated, or nearly); Firth's "
+                "estimates for all terms"
+            )
         else:
             notes.append(
                 "separated in these data (ML odds ratio infinite): "
