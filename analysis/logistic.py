@@ -416,11 +416,12 @@ def fit_logistic(
             res = model.fit(method="newton", tol=1e-12, maxiter=200, disp=False)
         params, bse, llf = np.asarray(res.params), np.asarray(res.bse), float(res.llf)
         sep_warned = False
+        ml_notes = []  # kept only if the ML fit stands (a Firth refit makes them moot)
         for w in caught:
             if issubclass(w.category, PerfectSeparationWarning):
                 sep_warned = True
             elif issubclass(w.category, (ConvergenceWarning, RuntimeWarning)):
-                notes.append(" ".join(str(w.message).split()))
+                ml_notes.append(" ".join(str(w.message).split()))
         separated = [
             _term_name(nm)
             for nm, b, se in zip(names, params, bse, strict=True)
@@ -428,6 +429,8 @@ def fit_logistic(
         ]
         if sep_warned or separated or not np.all(np.isfinite(bse)):
             method = "firth"
+        else:
+            notes.extend(ml_notes)
     except Exception as exc:  # noqa: BLE001 - statsmodels raises several types on separation
         method = "firth"
         notes.append(f"ML fit failed ({type(exc).__name__}): Firth's penalised fit used instead")
