@@ -103,11 +103,26 @@ TIDY_COLUMNS: tuple[str, ...] = (
 
 _SCORE_LIST = ", ".join(f"'{s}'" for s in SCORES)
 
-#: ``tidy_trials`` from schema 4 on: ``viewings`` counts the logged onsets of the trial (0 for
-#: trials answered before schema 4 was applied, when onsets were not logged); ``repeat_viewing``
-#: is 1 when the subject saw the stimulus more than once (a crash between onset and answer,
-#: then a resume that showed it again).
-_TIDY_VIEW_V2 = """
+#: ``tidy_trials`` columns added by later migrations: ``simulated`` (1 for a simulated observer's
+#: session) and ``observer`` (its name, ``human`` for people), from schema 2.
+_TIDY_SIMULATED = """CASE WHEN s.observer IS NULL THEN 0 ELSE 1 END AS simulated,
+               COALESCE(s.observer, 'human') AS observer"""
+
+#: From schema 4: ``viewings`` counts the logged onsets of the trial (0 for trials answered
+#: before schema 4 was applied, when onsets were not logged); ``repeat_viewing`` is 1 when the
+#: subject saw the stimulus more than once (a crash between onset and answer, then a resume
+#: that showed it again).
+_TIDY_VIEWINGS = """(SELECT count(*) FROM viewings v
+                WHERE v.session_id = t.session_id AND v.trial_index = t.trial_index) AS viewings,
+               (SELECT count(*) > 1 FROM viewings v
+                WHERE v.session_id = t.session_id AND v.trial_index = t.trial_index)
+                   AS repeat_viewing"""
+
+
+def _tidy_view_sql(*extra_columns: str) -> str:
+    """``CREATE VIEW tidy_trials``: schema 1's columns, then ``extra_columns`` (SELECT terms)."""
+    extra = "".join(f",\n               {c}" for c in extra_columns)
+    return f"""
         CREATE VIEW tidy_trials AS
         SELECT s.subject AS subject,
                t.session_id AS session,
@@ -122,14 +137,7 @@ _TIDY_VIEW_V2 = """
                sc.rater AS rater,
                t.rt_s AS rt_s,
                p.part AS part,
-               t.trial_index AS trial_index,
-               CASE WHEN s.observer IS NULL THEN 0 ELSE 1 END AS simulated,
-               COALESCE(s.observer, 'human') AS observer,
-               (SELECT count(*) FROM viewings v
-                WHERE v.session_id = t.session_id AND v.trial_index = t.trial_index) AS viewings,
-               (SELECT count(*) > 1 FROM viewings v
-                WHERE v.session_id = t.session_id AND v.trial_index = t.trial_index)
-                   AS repeat_viewing
+               t.trial_index AS trial_index{extra}
         FROM trials t
         JOIN sessions s ON s.session_id = t.session_id
         JOIN schedule p ON p.session_id = t.session_id AND p.trial_index = t.trial_index
@@ -139,6 +147,7 @@ _TIDY_VIEW_V2 = """
               AND q.is_primary = 1)
         ORDER BY t.session_id, t.trial_index;
 """
+
 
 #: Environment variable that injects a fault at a write step (tests of crash safety):
 #: ``STEP@N=ACTION``, where STEP is a step name of :data:`FAULT_STEPS` or ``any``, N counts the
@@ -353,32 +362,8 @@ def _migration_study_metadata(version: int) -> tuple[int, str, str]:
         UPDATE sessions SET observer = substr(responder, 5)
             WHERE responder LIKE 'sim:%' AND observer IS NULL;
         DROP VIEW tidy_trials;
-        CREATE VIEW tidy_trials AS
-        SELECT s.subject AS subject,
-               t.session_id AS session,
-               t.object AS object,
-               t.condition AS condition,
-               t.level AS level,
-               p.window AS window,
-               t.pixels AS pixels,
-               sc.recognized AS recognized,
-               t.response AS response,
-               sc.score AS score,
-               sc.rater AS rater,
-               t.rt_s AS rt_s,
-               p.part AS part,
-               t.trial_index AS trial_index,
-               CASE WHEN s.observer IS NULL THEN 0 ELSE 1 END AS simulated,
-               COALESCE(s.observer, 'human') AS observer
-        FROM trials t
-        JOIN sessions s ON s.session_id = t.session_id
-        JOIN schedule p ON p.session_id = t.session_id AND p.trial_index = t.trial_index
-        JOIN scores sc ON sc.score_id = (
-            SELECT max(q.score_id) FROM scores q
-            WHERE q.session_id = t.session_id AND q.trial_index = t.trial_index
-              AND q.is_primary = 1)
-        ORDER BY t.session_id, t.trial_index;
-        """,
+        """
+        + _tidy_view_sql(_TIDY_SIMULATED),
     )
 
 
@@ -438,7 +423,7 @@ def _migration_viewings(version: int) -> tuple[int, str, str]:
         CREATE TRIGGER viewings_no_delete BEFORE DELETE ON viewings
             BEGIN SELECT RAISE(ABORT, 'viewings are append-only'); END;
         DROP VIEW tidy_trials;
-        {_TIDY_VIEW_V2}
+        {_tidy_view_sql(_TIDY_SIMULATED, _TIDY_VIEWINGS)}
         """,
     )
 
