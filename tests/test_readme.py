@@ -207,6 +207,20 @@ def test_readme_command(cmd: str, workdir: Path) -> None:
         )
         assert rows == [("scissors", "named", "operator"), ("a hat", "wrong", "operator")]
         return
+    if argv[:3] == ["confocal", "active", "run"] and "person" in argv:
+        # The operator starts the first search and scores the subject's words (no subject keys:
+        # the offscreen presenter has no keyboard), then quits.
+        _drive_tty(cmd, workdir, "Enter starts", [("", "enter"), ("a tree", "f4"), ("", "ctrl+q")])
+        db = workdir / argv[argv.index("--data") + 1]
+        rows = _db_rows(
+            db,
+            "SELECT kind, json_extract(payload, '$.response'), json_extract(payload, '$.score'), "
+            "json_extract(payload, '$.rater') FROM active_events WHERE kind IN ('answer', 'score') "
+            "ORDER BY seq",
+        )
+        rater = argv[argv.index("--rater") + 1]
+        assert rows == [("answer", "a tree", None, None), ("score", None, "wrong", rater)]
+        return
     if argv[:2] == ["confocal", "score"]:
         db = workdir / argv[2]
         before = _db_rows(db, "SELECT COUNT(*) FROM scores")[0][0]

@@ -1,9 +1,13 @@
 """``confocal active run``: run (or resume) an active-search session headless.
 
-The searcher is simulated (``sim:planes`` or ``sim:ordered``, :mod:`experiment.active.searcher`)
-and its times run on a simulated clock; they are labelled simulated in the log (``searcher``
-of each ``trial_start``) and in ``confocal analyze``'s report. A person searches through the
-live viewer (``confocal view``), which drives the same :class:`ActiveSession` methods.
+With ``--searcher person`` a subject searches: the subject's screen opens (a presenter process
+with keyboard and mouse input, on ``--screen``), and the operator's console runs in this
+terminal (:mod:`experiment.active.console`): the operator starts each trial, sees the implant's
+view and where the subject is in depth, types the subject's words and scores them.
+
+With ``sim:planes`` or ``sim:ordered`` (:mod:`experiment.active.searcher`) the searcher is
+simulated and its times run on a simulated clock; they are labelled simulated in the log
+(``searcher`` of each ``trial_start``) and in ``confocal analyze``'s report.
 """
 
 from __future__ import annotations
@@ -17,8 +21,12 @@ from experiment.errors import ConfocalError
 
 __all__ = ["register", "active_app", "SEARCHERS"]
 
-#: Searchers ``confocal active run`` can use headless.
-SEARCHERS: tuple[str, ...] = ("sim:planes", "sim:ordered")
+#: Subject's screens of ``--searcher person`` (as ``confocal session run --presenter``).
+PRESENTERS: tuple[str, ...] = ("process", "offscreen", "none")
+
+#: Searchers ``confocal active run`` can use: a person (a subject at the presenter window) or
+#: a simulated one (headless).
+SEARCHERS: tuple[str, ...] = ("sim:planes", "sim:ordered", "person")
 
 active_app = typer.Typer(
     name="active",
@@ -37,27 +45,131 @@ def run_command(
     data: Annotated[Path, typer.Option("--data", help="The study's SQLite trial log.")],
     subject: Annotated[str, typer.Option("--subject", help="Subject code, e.g. S01.")],
     searcher: Annotated[
-        str, typer.Option("--searcher", help="sim:planes or sim:ordered (simulated).")
+        str,
+        typer.Option(
+            "--searcher",
+            help="person (a subject at the subject's screen; the operator scores here), or "
+            "sim:planes / sim:ordered (simulated, headless).",
+        ),
     ] = "sim:planes",
     seed: Annotated[int | None, typer.Option("--seed", min=0, help="Root seed.")] = None,
+    screen: Annotated[
+        int | None, typer.Option("--screen", min=0, help="person: screen of the subject's window.")
+    ] = None,
+    fullscreen: Annotated[
+        bool,
+        typer.Option("--fullscreen/--window", help="person: subject's window full screen or not."),
+    ] = True,
+    presenter: Annotated[
+        str,
+        typer.Option(
+            "--presenter",
+            envvar="CONFOCAL_PRESENTER",
+            help="person: process (the subject's window, in its own process), offscreen (no "
+            "window and no subject keys: a dry run of the operator's side), or none.",
+        ),
+    ] = "process",
+    skip_timing_check: Annotated[
+        bool,
+        typer.Option(
+            "--skip-timing-check", help="person: start even if the frame-timing self-test fails."
+        ),
+    ] = False,
+    rater: Annotated[
+        str, typer.Option("--rater", help="person: rater name stored with the scores.")
+    ] = "operator",
 ) -> None:
-    """Run or resume SUBJECT's active-search session with a simulated searcher."""
-    from experiment.active.searcher import EdgeRecogniser, SimulatedSearcher
-    from experiment.active.session import ActiveSession
-    from experiment.clock import FakeClock
+    """Run or resume SUBJECT's active-search session: a person searches, or a simulated one."""
     from experiment.protocol import load_protocol
-    from experiment.triallog import TrialLog
 
     if searcher not in SEARCHERS:
+        raise ConfocalError(f"--searcher must be one of {', '.join(SEARCHERS)}, got {searcher!r}")
+    if not rater.strip():
+        raise ConfocalError("--rater must not be blank")
+    if presenter not in PRESENTERS:
         raise ConfocalError(
-            f"--searcher must be one of {', '.join(SEARCHERS)}, got {searcher!r} "
-            "(a person searches through 'confocal view')"
+            f"--presenter must be one of {', '.join(PRESENTERS)}, got {presenter!r}"
         )
     spec = load_protocol(protocol)
     if spec.task is None:
         raise ConfocalError(
             f'{protocol}: not an active-search protocol (needs [task] type = "active_search")'
         )
+    if searcher == "person":
+        _run_person(
+            spec, data, subject, seed, screen, fullscreen, presenter, skip_timing_check, rater
+        )
+        return
+    _run_simulated(protocol, spec, data, subject, searcher, seed)
+
+
+def _run_person(
+    spec, data, subject, seed, screen, fullscreen, presenter, skip_timing_check, rater
+) -> None:
+    import json
+    import sys
+
+    from experiment.active.console import run_active_console
+    from experiment.active.live import LiveSearch
+    from experiment.active.session import ActiveSession
+    from experiment.console import logs_to_file, session_log_path
+    from experiment.presentation.presenter import ScreenGeometry
+    from experiment.presentation.process import PresenterDied, RemoteDisplay
+    from experiment.triallog import TrialLog
+
+    if not (sys.stdin.isatty() and sys.stdout.isatty()):
+        raise ConfocalError(
+            "--searcher person runs the operator's console in this terminal; stdin and stdout "
+            "must be a terminal"
+        )
+    if not data.parent.is_dir():
+        raise ConfocalError(f"--data {data}: folder {data.parent} does not exist")
+    geometry = ScreenGeometry.from_display_spec(spec.display)
+    with TrialLog(data) as log:
+        session = ActiveSession.open(log, spec, subject, seed=seed, responder="person")
+        try:
+            try:
+                if presenter == "none":
+                    from experiment.presentation.displays import NullDisplay
+
+                    display = NullDisplay(session.clock)
+                else:
+                    display = RemoteDisplay(
+                        geometry,
+                        mode="window" if presenter == "process" else "offscreen",
+                        screen=screen,
+                        fullscreen=fullscreen,
+                        skip_timing_check=skip_timing_check,
+                        inputs=True,
+                        stderr_path=session_log_path(session),
+                    )
+            except PresenterDied as exc:
+                log.add_event(
+                    session.session_id, "presenter_failed", str(exc), session.clock.now_s()
+                )
+                raise ConfocalError(str(exc)) from None
+            try:
+                info = getattr(display, "info", None) or {"presenter": presenter}
+                info = json.dumps(info, sort_keys=True, default=str)
+                log.add_event(session.session_id, "display", info, session.clock.now_s())
+                live = LiveSearch(session, display, rater=rater)
+                with logs_to_file(
+                    session_log_path(session), prefix=f"session {session.session_id}"
+                ):
+                    done, total = run_active_console(live)
+            finally:
+                display.close()
+        finally:
+            session.close()
+    typer.echo(f"session of {subject}: {done} of {total} trials answered; log: {data}")
+
+
+def _run_simulated(protocol, spec, data, subject, searcher, seed) -> None:
+    from experiment.active.searcher import EdgeRecogniser, SimulatedSearcher
+    from experiment.active.session import ActiveSession
+    from experiment.clock import FakeClock
+    from experiment.triallog import TrialLog
+
     if not spec.task.scene.startswith("synthetic:"):
         raise ConfocalError(
             f"{protocol}: task.scene {spec.task.scene!r} is a recorded light field; the simulated "

@@ -341,14 +341,18 @@ class ActiveSession:
             raise ValueError("no trial is running")
         return self.clock.now_s() - self._current[2]
 
-    def press(self, key: str, action: str, *, box=None) -> list[dict]:
-        """Apply one input (not answer/pass): log the key, then the state it shows."""
+    def press(self, key: str, action: str, *, box=None, t_s: float | None = None) -> list[dict]:
+        """Apply one input (not answer/pass): log the key, then the state it shows.
+
+        ``t_s`` is when the input happened on the session clock (a presenter process stamps
+        the subject's keys itself); default now.
+        """
         if self._current is None or self.state is None:
             raise ValueError("no trial is running; call start_trial() first")
         if action in ("answer", "pass"):
             raise ValueError("use answer() for answer and pass")
         new = apply_action(self.state, action, self._ctx, box=box)
-        t = self.clock.now_s()
+        t = self.clock.now_s() if t_s is None else float(t_s)
         payload: dict[str, Any] = {"key": key, "action": action}
         if box is not None:
             payload["box"] = [int(v) for v in box]
@@ -367,8 +371,14 @@ class ActiveSession:
         score: str | None = None,
         rater: str | None = None,
         scorer: Scorer | None = None,
+        t_s: float | None = None,
     ) -> list[dict]:
-        """Record the answer and its score in one transaction; the trial is then committed."""
+        """Record the answer and its score in one transaction; the trial is then committed.
+
+        ``t_s`` is when the subject answered (their answer key, stamped by the presenter
+        process; the operator scores later): the ``key`` and ``answer`` rows and ``rt_s`` use
+        it, the ``score`` row is stamped when it is given. Default now.
+        """
         if self._current is None or self.state is None:
             raise ValueError("no trial is running; call start_trial() first")
         trial, attempt, onset = self._current
@@ -380,7 +390,8 @@ class ActiveSession:
         if score not in SCORES:
             raise ValueError(f"score must be one of {', '.join(SCORES)}, got {score!r}")
         rater = rater or self.protocol.scoring.primary_rater
-        t = self.clock.now_s()
+        now = self.clock.now_s()
+        t = now if t_s is None else min(float(t_s), now)
         action = "pass" if not response.strip() else "answer"
         rows = [
             ("key", {"key": key, "action": action}, t),
@@ -397,7 +408,7 @@ class ActiveSession:
                     "rater": rater,
                     "primary": True,
                 },
-                t,
+                now,
             ),
         ]
         finished = self.progress()[0] + 1 == len(self.trials)
@@ -405,7 +416,7 @@ class ActiveSession:
             seqs = self.events.append_many(rows, trial=trial.index, attempt=attempt)
             if finished:
                 self.log.finish_session(self.session_id)
-                self.log.add_event(self.session_id, "complete", "", t)
+                self.log.add_event(self.session_id, "complete", "", now)
         self._current = None
         return [
             {

@@ -1,7 +1,9 @@
 """Headless display: the test twin of the moderngl presenter (house style H4).
 
 :class:`NullDisplay` shows nothing; it timestamps each "flip" with the injected clock and keeps
-what it was asked to show, so a whole session runs in CI with no screen.
+what it was asked to show, so a whole session runs in CI with no screen. Like a presenter with
+input on, it queues subject inputs (:meth:`NullDisplay.post_input`, :meth:`NullDisplay.poll_inputs`)
+for the active-search console.
 """
 
 from __future__ import annotations
@@ -44,8 +46,10 @@ class NullDisplay:
         self.hold_s = float(hold_s)
         self._sleep = sleep
         self.shown: list[tuple[int, ...]] = []
+        self.last_image: np.ndarray | None = None
         self.texts: list[str] = []
         self.closed = False
+        self._inputs: list[dict] = []
 
     def show_stimulus(self, image: np.ndarray) -> FlipRecord:
         """Record the image's shape and return a flip stamped with the clock (seconds)."""
@@ -56,6 +60,7 @@ class NullDisplay:
                 f"{a.shape}"
             )
         self.shown.append(a.shape)
+        self.last_image = a.copy()
         onset = self.clock.now_s()
         if self.hold_s > 0:
             self._sleep(self.hold_s)
@@ -72,3 +77,12 @@ class NullDisplay:
     def close(self) -> None:
         """Mark the display closed."""
         self.closed = True
+
+    def post_input(self, event: dict) -> None:
+        """Queue a subject input (``key``, optional ``box``), stamped with the clock."""
+        self._inputs.append({"t_s": self.clock.now_s(), **event})
+
+    def poll_inputs(self) -> list[dict]:
+        """Return and forget the queued inputs, oldest first."""
+        out, self._inputs = self._inputs, []
+        return out

@@ -41,6 +41,7 @@ from __future__ import annotations
 
 import logging
 import math
+from collections import deque
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any, Literal
@@ -58,6 +59,7 @@ __all__ = [
     "PAPER_IMAGE_SIZE_CM",
     "PAPER_SCREEN_WIDTH_CM",
     "PAPER_BORDER_RGB",
+    "INPUT_KEYS",
     "ScreenGeometry",
     "PhospheneSpec",
     "PresenterError",
@@ -91,6 +93,19 @@ FIXATION_HALF_DEG: float = 0.25
 FIXATION_THICKNESS_PX: int = 3
 #: A frame interval above this many refresh periods counts as a dropped frame (PsychoPy's rule).
 DROPPED_FRAME_FACTOR: float = 1.5
+
+#: Keys of the subject's window reported as input when input is on
+#: (:meth:`Presenter.enable_input`): moderngl-window key name -> the name sent to the console
+#: (the names of :data:`experiment.active.engine.KEYMAP`). The wheel is reported as
+#: ``WheelUp``/``WheelDown`` and a mouse drag as ``drag`` with its box.
+INPUT_KEYS: dict[str, str] = {
+    "UP": "Up",
+    "DOWN": "Down",
+    "PAGE_UP": "PageUp",
+    "PAGE_DOWN": "PageDown",
+    "ESCAPE": "Escape",
+    "ENTER": "Enter",
+}
 
 
 class PresenterError(ConfocalError):
@@ -626,6 +641,8 @@ class Presenter:
         self._text_box = (0, 0, 0, 0)
         self._timing: _StimulusTiming | None = None
         self._closed = False
+        #: Subject input collected since the last :meth:`poll_inputs` (see :meth:`enable_input`).
+        self.inputs: deque[dict[str, Any]] = deque()
         g = geometry
         self._set("u_screen", (cols, rows))
         self._set("u_border", tuple(c / 255 for c in g.border_rgb))
@@ -711,6 +728,67 @@ class Presenter:
         except Exception:
             window.close()
             raise
+
+    # -- subject input ------------------------------------------------------------------------
+
+    def enable_input(self) -> None:
+        """Report the subject's keys, wheel and mouse drags in :attr:`inputs` (active search).
+
+        Each input is a dict with ``t_s`` (clock time) and ``key`` (a value of
+        :data:`INPUT_KEYS`, ``WheelUp``/``WheelDown``, or ``drag`` with ``box``: ``[x0, y0, x1,
+        y1]`` as fractions of the stimulus rectangle, top-left origin, clipped to [0, 1]).
+        Escape stops closing the window (moderngl-window's default): it is the un-zoom key.
+        Offscreen, input arrives only through :meth:`post_input`.
+        """
+        w = self.window
+        if w is None:
+            return
+        keys = w.keys
+        named = {getattr(keys, k): v for k, v in INPUT_KEYS.items() if hasattr(keys, k)}
+        w.exit_key = None
+        start: dict[str, tuple[float, float]] = {}
+
+        def on_key(key: Any, action: Any, modifiers: Any) -> None:
+            if action == keys.ACTION_PRESS and key in named:
+                self.post_input({"key": named[key]})
+
+        def on_scroll(dx: float, dy: float) -> None:
+            if dy:
+                self.post_input({"key": "WheelUp" if dy > 0 else "WheelDown"})
+
+        def on_press(x: float, y: float, button: Any) -> None:
+            start["xy"] = self.stimulus_fraction(x, y)
+
+        def on_release(x: float, y: float, button: Any) -> None:
+            a = start.pop("xy", None)
+            if a is None:
+                return
+            b = self.stimulus_fraction(x, y)
+            box = [min(a[0], b[0]), min(a[1], b[1]), max(a[0], b[0]), max(a[1], b[1])]
+            self.post_input({"key": "drag", "box": box})
+
+        w.key_event_func = on_key
+        w.mouse_scroll_event_func = on_scroll
+        w.mouse_press_event_func = on_press
+        w.mouse_release_event_func = on_release
+
+    def stimulus_fraction(self, x: float, y: float) -> tuple[float, float]:
+        """Map a window point (top-left origin, window units) to fractions of the stimulus."""
+        ratio = float(getattr(self.window, "pixel_ratio", 1.0) or 1.0) if self.window else 1.0
+        left, top, cols, rows = self._rect
+        fx = (x * ratio - left) / max(cols, 1)
+        fy = (y * ratio - top) / max(rows, 1)
+        return float(min(max(fx, 0.0), 1.0)), float(min(max(fy, 0.0), 1.0))
+
+    def post_input(self, event: dict[str, Any]) -> None:
+        """Queue one subject input (stamped with the clock unless it has ``t_s``)."""
+        self.inputs.append({"t_s": self.clock.now_s(), **event})
+
+    def poll_inputs(self) -> list[dict[str, Any]]:
+        """Return and forget the inputs queued so far, oldest first."""
+        out = list(self.inputs)
+        self.inputs.clear()
+        return out
 
     def _set(self, name: str, value: Any) -> None:
         if name in self._prog:

@@ -35,6 +35,14 @@ console -> child    ``{"id": int, "cmd": "close"}`` -> reply, then the child exi
 child -> console    replies: ``{"id": int, "ok": true, ...}`` or ``{"id": int, "ok": false,
                     "error": str}``
 child -> console    ``{"event": "closed", "reason": str}`` when the subject's window is closed
+child -> console    ``{"event": "input", "t_s": float, "key": str, "box": [x0, y0, x1, y1]}``
+                    (only with ``--inputs``, the active-search task): a key, wheel step or mouse
+                    drag of the subject (``Presenter.enable_input``; ``box`` for a drag
+                    only, fractions of the stimulus rectangle)
+console -> child    ``{"id": int, "cmd": "inject", "events": [...]}`` (tests, scripted runs):
+                    each event is either ``{"pyglet": name, "args": [...]}``, dispatched to the
+                    window as that pyglet event (the path a real key takes), or an input dict
+                    as above, queued as if typed
 ==================  ==========================================================================
 
 In a window the child redraws and flips once per refresh between requests (vsync-locked), which
@@ -151,6 +159,15 @@ def _handle(presenter: Any, msg: dict[str, Any]) -> dict[str, Any]:
         return {"path": str(presenter.screenshot(msg["path"]))}
     if cmd == "ping":
         return {}
+    if cmd == "inject":
+        for ev in msg.get("events", []):
+            if "pyglet" in ev:
+                if presenter.window is None:
+                    raise ValueError("pyglet events need a window (--mode window)")
+                presenter.window._window.dispatch_event(ev["pyglet"], *ev.get("args", []))
+            else:
+                presenter.post_input({k: v for k, v in ev.items() if k != "t_s"})
+        return {}
     raise ValueError(f"unknown cmd {cmd!r}")
 
 
@@ -216,12 +233,16 @@ def serve(
             except Exception as exc:  # noqa: BLE001 - every failure goes back as one line
                 reply = {"id": msg.get("id"), "ok": False, "error": " ".join(str(exc).split())}
             send(reply)
+            for ev in presenter.poll_inputs():
+                send({"event": "input", **ev})
             continue
         if continuous:
             if presenter.window is not None and presenter.window.is_closing:
                 send({"event": "closed", "reason": "the subject's window was closed"})
                 return 1
             presenter.pump()
+            for ev in presenter.poll_inputs():
+                send({"event": "input", **ev})
             if cap_hz:
                 now = time.perf_counter()
                 wait = 1.0 / cap_hz - (now - last)
@@ -240,6 +261,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--skip-timing-check", action="store_true")
     ap.add_argument("--integer-scale", action="store_true")
     ap.add_argument("--phosphenes", default=None, help="PhospheneSpec fields as JSON")
+    ap.add_argument("--inputs", action="store_true", help="report the subject's keys and drags")
     args = ap.parse_args(argv)
     logging.basicConfig(level=logging.INFO, format="presenter: %(levelname)s: %(message)s")
     out = sys.stdout
@@ -272,6 +294,8 @@ def main(argv: list[str] | None = None) -> int:
             presenter.show_blank()
     except Exception as exc:  # noqa: BLE001 - reported to the console as one line
         return fail(str(exc))
+    if args.inputs:
+        presenter.enable_input()
     cap = NO_VSYNC_CAP_HZ if args.skip_timing_check else None
     presenter.measured_refresh_hz = presenter.refresh_hz
     if cap is not None and presenter.refresh_hz is not None and presenter.refresh_hz > cap:
@@ -305,6 +329,8 @@ class RemoteDisplay:
     integer_scale : bool
     phosphenes : dict or None
         :class:`~experiment.presentation.presenter.PhospheneSpec` fields.
+    inputs : bool
+        Report the subject's keys, wheel and drags (:meth:`poll_inputs`; active search).
     on_event : callable or None
         Called with unsolicited events (``closed``) from the reader thread.
     command : list of str or None
@@ -326,6 +352,7 @@ class RemoteDisplay:
         skip_timing_check: bool = False,
         integer_scale: bool = False,
         phosphenes: dict[str, Any] | None = None,
+        inputs: bool = False,
         on_event: Callable[[dict[str, Any]], None] | None = None,
         command: list[str] | None = None,
         env: dict[str, str] | None = None,
@@ -346,6 +373,8 @@ class RemoteDisplay:
             args.append("--integer-scale")
         if phosphenes:
             args += ["--phosphenes", json.dumps(phosphenes)]
+        if inputs:
+            args.append("--inputs")
         self.command = (command or [sys.executable, "-m", "experiment.presentation.process"]) + args
         self.env = env
         self.on_event = on_event
@@ -356,6 +385,7 @@ class RemoteDisplay:
         self._next_id = 0
         self._proc: subprocess.Popen[str] | None = None
         self._replies: queue.Queue[dict[str, Any] | None] = queue.Queue()
+        self._inputs: queue.Queue[dict[str, Any]] = queue.Queue()
         self._lock = threading.Lock()
         self.start()
 
@@ -422,6 +452,9 @@ class RemoteDisplay:
                 msg = json.loads(line)
             except json.JSONDecodeError:
                 logger.warning("presenter wrote a non-protocol line: %r", line)
+                continue
+            if msg.get("event") == "input":
+                self._inputs.put(msg)
                 continue
             if msg.get("event") == "closed":
                 if self.on_event is not None:
@@ -496,6 +529,19 @@ class RemoteDisplay:
     def screenshot(self, path: str) -> str:
         """Save the subject's current frame as a PNG; return the path."""
         return self.request("screenshot", path=str(path))["path"]
+
+    def poll_inputs(self) -> list[dict[str, Any]]:
+        """Return the subject's inputs received since the last call, oldest first (``--inputs``)."""
+        out = []
+        while True:
+            try:
+                out.append(self._inputs.get_nowait())
+            except queue.Empty:
+                return out
+
+    def inject(self, events: list[dict[str, Any]]) -> None:
+        """Send input events to the presenter as if the subject typed them (tests, scripts)."""
+        self.request("inject", events=list(events))
 
     def kill(self) -> None:
         """Kill the presenter process (tests: simulate a crash)."""

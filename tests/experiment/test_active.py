@@ -522,7 +522,10 @@ def test_cli_user_errors_are_one_line(tmp_path) -> None:
         lines.replace('scene = "synthetic:three_plane"', f'scene = "{tmp_path / "lf"}"')
     )
     for args, msg in [
-        (["active_search", "--searcher", "person"], "--searcher must be one of sim:planes"),
+        (["active_search", "--searcher", "robot"], "--searcher must be one of sim:planes"),
+        # a person needs the operator's console in a terminal; here stdin is a pipe
+        (["active_search", "--searcher", "person"], "stdin and stdout must be a terminal"),
+        (["active_search", "--searcher", "person", "--rater", " "], "--rater must not be blank"),
         (["jung2015"], "jung2015: not an active-search protocol"),
         ([str(tmp_path / "rec.toml")], "the simulated searcher needs a synthetic scene"),
     ]:
@@ -530,6 +533,7 @@ def test_cli_user_errors_are_one_line(tmp_path) -> None:
             [exe, "active", "run", *args, "--data", str(tmp_path / "x.sqlite"), "--subject", "S"],
             capture_output=True,
             text=True,
+            stdin=subprocess.DEVNULL,
         )
         assert r.returncode == 2 and "Traceback" not in r.stderr
         assert r.stderr.strip().count("\n") == 0 and msg in r.stderr

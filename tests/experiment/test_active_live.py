@@ -1,0 +1,248 @@
+"""A person searching (issue 14, point 5): the subject's inputs drive the active-search session,
+the operator scores in the console; every input and displayed state is logged.
+
+The subject's screen here is the headless twin (``NullDisplay`` with input); the presenter
+process's side of the input path (real pyglet key and mouse events in a window) is tested in
+``test_window_xvfb.py``.
+"""
+
+from __future__ import annotations
+
+import asyncio
+
+import numpy as np
+import pytest
+
+from experiment.active.live import INPUT_ACTIONS, LiveSearch, zoom_box_px
+from experiment.active.session import ActiveSession
+from experiment.clock import FakeClock
+from experiment.presentation.displays import NullDisplay
+from experiment.triallog import TrialLog
+from stimuli import jung2015
+from stimuli.compress import compress
+from stimuli.declutter import auto_threshold, declutter
+from stimuli.refocus import refocus
+from tests.experiment.test_active import small_protocol
+
+
+def reference_grid(lf, depth_px, zoom, grid_px, centre=None):
+    """The implant's view computed directly with the stimuli pipeline (refocus, crop, Sobel
+    with Otsu, compression at the paper's edge ratio)."""
+    img = centre if centre is not None else refocus(lf, float(depth_px), workers=1)
+    if zoom is not None:
+        x, y, w, h = zoom
+        img = img[y : y + h, x : x + w]
+    edges = declutter(img, threshold=auto_threshold(img))
+    return compress(edges, tuple(grid_px), edge_ratio=jung2015.EDGE_RATIO)
+
+
+def unpack(hexbits: str, grid_px) -> np.ndarray:
+    n = grid_px[0] * grid_px[1]
+    bits = np.unpackbits(np.frombuffer(bytes.fromhex(hexbits), np.uint8))[:n]
+    return bits.reshape(grid_px).astype(bool)
+
+
+@pytest.fixture()
+def live():
+    clock = FakeClock(100.0)
+    log = TrialLog(":memory:")
+    spec = small_protocol(conditions=["decluttered"], trial_order="listed", time_limit_s=30.0)
+    session = ActiveSession.open(log, spec, "S01", seed=3, clock=clock, responder="person")
+    display = NullDisplay(clock)
+    yield LiveSearch(session, display, rater="op1"), clock, display
+    session.close()
+    log.close()
+
+
+def test_zoom_box_maps_drags_on_the_shown_view_to_view_pixels() -> None:
+    assert zoom_box_px([0.25, 0.5, 0.75, 1.0], (100, 200), None) == (50, 50, 100, 50)
+    # a drag made backwards is the same box
+    assert zoom_box_px([0.75, 1.0, 0.25, 0.5], (100, 200), None) == (50, 50, 100, 50)
+    # inside a zoom the drag is relative to the zoomed region
+    assert zoom_box_px([0.0, 0.0, 0.5, 0.5], (100, 200), (50, 50, 100, 50)) == (50, 50, 50, 25)
+    # a click (no extent) and junk are not zoom boxes
+    assert zoom_box_px([0.5, 0.5, 0.5, 0.5], (100, 200), None) is None
+    assert zoom_box_px("junk", (100, 200), None) is None
+    # fractions beyond the image are clipped to it
+    assert zoom_box_px([-1, -1, 2, 2], (100, 200), None) == (0, 0, 200, 100)
+
+
+def test_subject_inputs_are_logged_with_their_times_and_drive_the_view(live) -> None:
+    search, clock, display = live
+    session = search.session
+    assert search.cue().target == "pedestrian"
+    assert "Find the pedestrian" in display.texts[-1]
+    display.post_input({"key": "PageDown"})  # pressed during the cue: not part of the trial
+    search.begin()
+    onset = clock.now_s()
+    assert search.pump() == []  # the cue's key was dropped at onset
+    sent = [
+        ({"key": "PageDown"}, "plane_next"),
+        ({"key": "Down"}, "depth_far"),
+        ({"key": "WheelUp"}, "depth_near"),
+        ({"key": "PageDown"}, "plane_next"),
+        ({"key": "drag", "box": [0.25, 0.25, 0.75, 0.75]}, "zoom"),
+        ({"key": "F12"}, None),  # not a search key: ignored, not logged
+        ({"key": "Escape"}, "unzoom"),
+        ({"key": "drag", "box": [0.1, 0.2, 0.6, 0.9]}, "zoom"),
+    ]
+    times = []
+    for ev, _ in sent:
+        clock.advance(0.7)
+        times.append(clock.now_s())
+        display.post_input(ev)
+    clock.advance(0.05)  # the console polls a little after the keys
+    rows = search.pump()
+    keys = [r for r in rows if r["kind"] == "key"]
+    expected = [(ev, a, t) for (ev, a), t in zip(sent, times, strict=True) if a is not None]
+    assert [k["payload"]["action"] for k in keys] == [a for _, a, _ in expected]
+    assert [k["payload"]["key"] for k in keys] == [ev["key"] for ev, _, _ in expected]
+    # each key row carries the time the subject pressed it, not when it was applied
+    assert [k["t_s"] for k in keys] == pytest.approx([t for _, _, t in expected])
+    assert search.ignored_inputs == 1
+    # the zoom boxes are the drags mapped to view pixels (the second inside no zoom)
+    rows_px, cols_px = session.scene.shape_px
+    boxes = [k["payload"]["box"] for k in keys if k["payload"]["action"] == "zoom"]
+    assert boxes[0] == list(zoom_box_px([0.25, 0.25, 0.75, 0.75], (rows_px, cols_px), None))
+    assert boxes[1] == list(zoom_box_px([0.1, 0.2, 0.6, 0.9], (rows_px, cols_px), None))
+    # every displayed state equals the stimuli pipeline's image for that depth and zoom, and
+    # the last one is what the subject's screen shows
+    states = [r["payload"] for r in rows if r["kind"] == "state"]
+    assert len(states) >= 5
+    grid_px = session.task.grid_px
+    for st in states:
+        ref = reference_grid(session.scene.lightfield, st["depth_px"], st["zoom"], grid_px)
+        np.testing.assert_array_equal(unpack(st["implant"], grid_px), ref)
+    np.testing.assert_array_equal(display.last_image, unpack(states[-1]["implant"], grid_px))
+    assert states[-1]["zoom"] == boxes[1]
+    # Enter: the subject knows; later keys are not applied until the operator scores
+    clock.advance(1.0)
+    t_enter = clock.now_s()
+    display.post_input({"key": "Enter"})
+    display.post_input({"key": "Up"})
+    clock.advance(0.1)
+    assert search.pump() == [] and search.answered
+    clock.advance(4.0)  # the operator types
+    assert search.suggest("a man walking") == "named"
+    out = search.score("a man walking", "named")
+    by = {r["kind"]: r for r in out}
+    assert by["key"]["payload"] == {"key": "Enter", "action": "answer"}
+    assert by["answer"]["t_s"] == pytest.approx(t_enter)
+    assert by["answer"]["payload"]["rt_s"] == pytest.approx(t_enter - onset)
+    assert by["answer"]["payload"]["response"] == "a man walking"
+    assert by["score"]["payload"]["rater"] == "op1" and by["score"]["payload"]["recognized"]
+    assert by["score"]["t_s"] == pytest.approx(clock.now_s())
+    assert not search.running and search.ignored_inputs == 2
+    # the log holds exactly what was returned (nothing else was written for this trial)
+    logged = [r for r in session.events.rows() if r["trial"] == 0]
+    returned = [r for r in rows if r["trial"] == 0] + out
+    assert [(r["seq"], r["kind"]) for r in logged][-len(returned) :] == [
+        (r["seq"], r["kind"]) for r in returned
+    ]
+
+
+def test_operator_scores_without_an_answer_key_and_time_limit_passes(live) -> None:
+    search, clock, display = live
+    search.cue()
+    search.begin()
+    clock.advance(2.5)
+    out = search.score("tree", "wrong")  # the subject spoke without pressing Enter
+    by = {r["kind"]: r for r in out}
+    assert by["key"]["payload"]["key"] == "operator"
+    assert by["answer"]["payload"]["rt_s"] == pytest.approx(2.5)
+    assert by["score"]["payload"]["score"] == "wrong"
+    # the next trial runs out of time: a pass, rt at the limit exactly
+    search.cue()
+    search.begin()
+    clock.advance(29.0)
+    assert search.tick() == []
+    clock.advance(1.5)
+    out = search.tick()
+    by = {r["kind"]: r for r in out}
+    assert by["key"]["payload"] == {"key": "timeout", "action": "pass"}
+    assert by["answer"]["payload"]["rt_s"] == pytest.approx(30.0)
+    assert by["score"]["payload"] == {
+        "score": "pass",
+        "recognized": False,
+        "rater": "auto",
+        "primary": True,
+    }
+    assert search.cue() is None and "finished" in display.texts[-1]
+    assert search.session.log.unfinished_session("S01") is None  # the session is complete
+
+
+def test_input_names_are_the_viewer_keymap_plus_the_wheel() -> None:
+    from experiment.active.engine import ACTIONS, KEYMAP
+    from experiment.presentation.presenter import INPUT_KEYS
+
+    assert set(INPUT_ACTIONS.values()) <= set(ACTIONS)
+    # every key the presenter reports maps to an action, and every mapped key can be reported
+    assert set(INPUT_KEYS.values()) == set(KEYMAP)
+    assert INPUT_ACTIONS["WheelUp"] == KEYMAP["Up"] and INPUT_ACTIONS["WheelDown"] == KEYMAP["Down"]
+
+
+def test_console_runs_a_trial_from_operator_keys(live) -> None:
+    """The Textual console: Enter starts, subject keys are applied by its poll, F1 scores."""
+    from experiment.active.console import ActiveConsole
+
+    search, clock, display = live
+
+    async def drive() -> None:
+        app = ActiveConsole(search)
+        async with app.run_test(size=(100, 30)) as pilot:
+            assert "Find the pedestrian" in display.texts[-1]
+            await pilot.press("enter")
+            assert search.running
+            clock.advance(1.0)
+            display.post_input({"key": "PageDown"})
+            display.post_input({"key": "drag", "box": [0.2, 0.2, 0.8, 0.8]})
+            clock.advance(1.0)
+            display.post_input({"key": "Enter"})
+            await pilot.pause(0.2)
+            assert search.answered
+            panel = str(app.query_one("#trial").render())
+            assert "pedestrian" in panel and "pressed Enter" in panel
+            for ch in "a person":
+                await pilot.press("space" if ch == " " else ch)
+            await pilot.press("f1")
+            assert not search.running
+            assert "Find the tree" in display.texts[-1]
+            await pilot.press("ctrl+q")
+
+    asyncio.run(drive())
+    rows = search.session.events.rows()
+    keys = [r["payload"]["action"] for r in rows if r["kind"] == "key"]
+    assert keys == ["plane_next", "zoom", "answer"]
+    ans = next(r for r in rows if r["kind"] == "answer")
+    assert ans["payload"]["response"] == "a person"
+    assert ans["payload"]["rt_s"] == pytest.approx(2.0)
+    score = next(r for r in rows if r["kind"] == "score")
+    assert score["payload"]["score"] == "named" and score["payload"]["rater"] == "op1"
+    assert search.session.progress() == (1, 2)
+
+
+def test_analysis_reports_a_person_as_not_simulated(tmp_path) -> None:
+    from analysis.active import active_trials, read_active_events, summarize_active
+
+    path = tmp_path / "person.sqlite"
+    clock = FakeClock(0.0)
+    spec = small_protocol(conditions=["decluttered"], trial_order="listed")
+    with TrialLog(path) as log:
+        s = ActiveSession.open(log, spec, "S01", seed=1, clock=clock, responder="person")
+        search = LiveSearch(s, NullDisplay(clock))
+        for words in ("a pedestrian", "a tree"):
+            search.cue()
+            search.begin()
+            clock.advance(0.5)
+            s_disp = search.display
+            s_disp.post_input({"key": "PageDown"})
+            clock.advance(3.0)
+            s_disp.post_input({"key": "Enter"})
+            search.pump()
+            search.score(words, "named")
+        s.close()
+    trials = active_trials(read_active_events([path]))
+    assert list(trials["searcher"]) == ["person", "person"]
+    assert list(trials["rt_s"]) == pytest.approx([3.5, 3.5])
+    result = summarize_active(trials)
+    assert not result.simulated
