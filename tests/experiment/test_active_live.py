@@ -246,3 +246,30 @@ def test_analysis_reports_a_person_as_not_simulated(tmp_path) -> None:
     assert list(trials["rt_s"]) == pytest.approx([3.5, 3.5])
     result = summarize_active(trials)
     assert not result.simulated
+
+
+def test_quitting_mid_search_restarts_that_trial_on_resume(tmp_path) -> None:
+    path = tmp_path / "resume.sqlite"
+    clock = FakeClock(0.0)
+    spec = small_protocol(conditions=["decluttered"], trial_order="listed")
+    with TrialLog(path) as log:
+        s = ActiveSession.open(log, spec, "S01", seed=4, clock=clock, responder="person")
+        live = LiveSearch(s, NullDisplay(clock))
+        live.cue()
+        live.begin()
+        clock.advance(1.0)
+        live.display.post_input({"key": "PageDown"})
+        assert len(live.pump()) == 2
+        s.close()  # Ctrl+Q with the search on screen, unscored
+    with TrialLog(path) as log:
+        s = ActiveSession.open(log, spec, "S01", clock=clock, responder="person")
+        live = LiveSearch(s, NullDisplay(clock))
+        assert live.cue().index == 0  # the same trial again
+        live.begin()
+        clock.advance(2.0)
+        out = live.score("a person", "named")
+        assert {r["attempt"] for r in out} == {1}
+        kinds = [r["kind"] for r in s.events.rows() if r["trial"] == 0]
+        assert kinds.count("attempt_abandoned") == 1 and kinds.count("answer") == 1
+        assert s.progress() == (1, 2)
+        s.close()
