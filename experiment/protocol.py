@@ -23,7 +23,6 @@ from __future__ import annotations
 import hashlib
 import json
 import math
-import sys
 import tomllib
 from dataclasses import MISSING, dataclass, field, fields
 from enum import StrEnum
@@ -31,6 +30,7 @@ from pathlib import Path
 from typing import Any
 
 from experiment.errors import ConfocalError
+from stimuli.datadirs import PROTOCOLS_DIR
 
 __all__ = [
     "PROTOCOLS_DIR",
@@ -45,19 +45,6 @@ __all__ = [
     "load_protocol",
 ]
 
-
-#: Folder of the protocols shipped with the package (``protocols/`` at the repository root).
-def _protocols_dir() -> Path:
-    # A source checkout (or an editable install) has protocols/ beside the packages; a wheel
-    # installs them as data files under <prefix>/share/confocal/protocols (pyproject.toml).
-    source = Path(__file__).resolve().parents[1] / "protocols"
-    if source.is_dir():
-        return source
-    return Path(sys.prefix) / "share" / "confocal" / "protocols"
-
-
-#: Folder of the shipped protocol files (``jung2015.toml``, ...).
-PROTOCOLS_DIR = _protocols_dir()
 
 #: The five scores an answer can get. Source: Jung et al. 2015, Sec. 3.2 (name, use, shape or
 #: features; a pass after 1 min); "wrong" is ours for a named but wrong object.
