@@ -186,7 +186,8 @@ def register(app: typer.Typer) -> None:
         implant: Annotated[
             str | None,
             typer.Option(
-                help="Show as this implant's phosphenes: argus2, alpha_ims, ... or .toml."
+                help="Show as this implant's phosphenes: argus2, alpha_ims, ... or .toml "
+                "(default: the protocol's [display] implant, if any)."
             ),
         ] = None,
         screen: Annotated[int | None, typer.Option(help="Screen index of the window.")] = None,
@@ -220,16 +221,24 @@ def register(app: typer.Typer) -> None:
         from experiment.presentation.presenter import PhospheneSpec, Presenter, stimulus_rect_px
 
         implant_phos = None
+        layout = None
         if implant is not None:
+            from stimuli.implants import load_implant
+
+            layout = load_implant(implant)
+        elif protocol is not None:  # the protocol's [display] implant, as its sessions show it
+            from experiment.protocol import load_protocol
+
+            layout = load_protocol(protocol).display.implant_layout
+        if layout is not None:
             # The stimulus resampled to the implant's grid (binary: the paper's compression;
             # grey: window means at the implant's brightness levels) and drawn as its
             # phosphenes at its field of view (issue 14).
             from experiment.presentation.implant import phosphene_spec
-            from stimuli.implants import load_implant, to_implant_grid
+            from stimuli.implants import to_implant_grid
 
-            lay = load_implant(implant)
-            image = to_implant_grid(image, lay)
-            implant_phos = phosphene_spec(lay)
+            image = to_implant_grid(image, layout)
+            implant_phos = phosphene_spec(layout)
 
         try:
             if implant_phos is not None:
