@@ -879,7 +879,8 @@ def run_console(
     microphone : experiment.audio.Microphone or None
         Use this input (a test twin) instead of opening the default one.
     **presenter_options
-        ``integer_scale``, ``phosphenes`` (passed to the presenter).
+        ``integer_scale``, ``phosphenes`` (passed to the presenter). A protocol with a
+        ``[display] implant`` gets that implant's phosphenes unless ``phosphenes`` is given.
 
     Notes
     -----
@@ -896,6 +897,13 @@ def run_console(
     log_path = session_log_path(session)
     if presenter == "process" and log_path is not None:
         presenter_options.setdefault("stderr_path", log_path)
+    layout = session.protocol.display.implant_layout
+    if layout is not None and presenter_options.get("phosphenes") is None:
+        # Session.image_for resamples each stimulus to the implant's grid; the presenter draws
+        # the grid as its phosphenes at its field of view, as ``confocal present --implant``.
+        from experiment.presentation.implant import phosphene_spec
+
+        presenter_options["phosphenes"] = phosphene_spec(layout)
     if display is None:
         try:
             geometry = ScreenGeometry.from_display_spec(session.protocol.display)

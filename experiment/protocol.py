@@ -23,7 +23,6 @@ from __future__ import annotations
 import hashlib
 import json
 import math
-import sys
 import tomllib
 from dataclasses import MISSING, dataclass, field, fields
 from enum import StrEnum
@@ -31,6 +30,8 @@ from pathlib import Path
 from typing import Any
 
 from experiment.errors import ConfocalError
+from stimuli.datadirs import PROTOCOLS_DIR
+from stimuli.implants import ImplantError, ImplantLayout, load_implant
 
 __all__ = [
     "PROTOCOLS_DIR",
@@ -45,19 +46,6 @@ __all__ = [
     "load_protocol",
 ]
 
-
-#: Folder of the protocols shipped with the package (``protocols/`` at the repository root).
-def _protocols_dir() -> Path:
-    # A source checkout (or an editable install) has protocols/ beside the packages; a wheel
-    # installs them as data files under <prefix>/share/confocal/protocols (pyproject.toml).
-    source = Path(__file__).resolve().parents[1] / "protocols"
-    if source.is_dir():
-        return source
-    return Path(sys.prefix) / "share" / "confocal" / "protocols"
-
-
-#: Folder of the shipped protocol files (``jung2015.toml``, ...).
-PROTOCOLS_DIR = _protocols_dir()
 
 #: The five scores an answer can get. Source: Jung et al. 2015, Sec. 3.2 (name, use, shape or
 #: features; a pass after 1 min); "wrong" is ours for a named but wrong object.
@@ -108,8 +96,11 @@ def _choice(value: Any, choices: tuple[str, ...], name: str) -> None:
         raise ProtocolError(f"{name} must be one of {', '.join(choices)}, got {value!r}")
 
 
-def _from_table(cls: type, table: Any, where: str) -> Any:
-    """Build a spec dataclass from a TOML table, refusing unknown keys and missing fields."""
+def _from_table(cls: type, table: Any, where: str, **extra: Any) -> Any:
+    """Build a spec dataclass from a TOML table, refusing unknown keys and missing fields.
+
+    ``extra`` are keyword arguments that do not come from the file (resolved values).
+    """
     if not isinstance(table, dict):
         raise ProtocolError(f"[{where}] must be a table, got {_type_name(table)}")
     known = {f.name: f for f in fields(cls) if f.init and f.metadata.get("toml", True)}
@@ -124,7 +115,7 @@ def _from_table(cls: type, table: Any, where: str) -> Any:
             value = tuple(tuple(v) if isinstance(v, list) else v for v in value)
         kwargs[name] = value
     try:
-        return cls(**kwargs)
+        return cls(**kwargs, **extra)
     except TypeError as exc:  # a field without default is missing
         missing = [
             f.name
@@ -172,6 +163,13 @@ class _Spec:
         return _from_table(cls, data, where or cls.__name__)
 
 
+def _load_layout(name_or_path: str) -> ImplantLayout:
+    try:
+        return load_implant(name_or_path)
+    except ImplantError as exc:
+        raise ProtocolError(f"display.implant: {exc}") from None
+
+
 @dataclass(frozen=True)
 class DisplaySpec(_Spec):
     """Screen and stimulus geometry.
@@ -195,6 +193,15 @@ class DisplaySpec(_Spec):
     gamma : float > 0
         Display gamma (measure it with a photometer); the presenter sends stimulus luminance
         ``v`` to the screen as ``v ** (1 / gamma)``. 1 = no correction.
+    implant : str or None
+        Show every stimulus as this implant shows it (issue 14; beyond the paper): resampled to
+        its electrode grid (:func:`stimuli.implants.to_implant_grid`) and drawn as its
+        phosphenes at its field of view, as ``confocal present --implant`` does. A shipped
+        layout's name (``argus2``) or a ``.toml`` file, relative to the protocol file. Checked
+        when the protocol loads. Colour training photos are still shown as photos.
+    implant_layout : stimuli.implants.ImplantLayout or None
+        The layout ``implant`` names, loaded when the spec is built (not a TOML key; a caller
+        that resolved the file itself may pass it).
     """
 
     screen_width_px: int = 1280
@@ -210,6 +217,10 @@ class DisplaySpec(_Spec):
     border_width_px: int = 6
     background_rgb: tuple[int, int, int] = (0, 0, 0)
     gamma: float = 1.0
+    implant: str | None = None
+    implant_layout: ImplantLayout | None = field(
+        default=None, compare=False, repr=False, metadata={"toml": False}
+    )
 
     def _check_positive_int(self, name: str) -> None:
         v = getattr(self, name)
@@ -269,6 +280,62 @@ class DisplaySpec(_Spec):
         _need(self.border_width_px, int, "display.border_width_px")
         if self.border_width_px < 0:
             raise ProtocolError(f"display.border_width_px must be >= 0, got {self.border_width_px}")
+
+    def _check_implant(self) -> None:
+        if self.implant is None:
+            if self.implant_layout is not None:
+                raise ProtocolError("display.implant_layout needs display.implant (its name)")
+            return
+        _need(self.implant, str, "display.implant")
+        if self.implant_layout is None:
+            object.__setattr__(self, "implant_layout", _load_layout(self.implant))
+        elif not isinstance(self.implant_layout, ImplantLayout):
+            raise ProtocolError(
+                f"display.implant_layout must be an ImplantLayout, got "
+                f"{_type_name(self.implant_layout)}"
+            )
+
+    def to_dict(self) -> dict[str, Any]:
+        """Return the spec as plain TOML/JSON-compatible data (``implant`` only when set).
+
+        Leaving an unset ``implant`` out keeps the content hash and the logged display JSON of
+        every protocol without one as they were before the field existed.
+        """
+        out = super().to_dict()
+        if self.implant is None:
+            del out["implant"]
+        return out
+
+    @classmethod
+    def from_dict(
+        cls, data: dict[str, Any], *, where: str | None = None, base_dir: str | Path | None = None
+    ) -> DisplaySpec:
+        """Build the spec from a ``[display]`` table; ``implant`` files resolve from ``base_dir``.
+
+        Parameters
+        ----------
+        data : dict
+            The table.
+        where : str, optional
+            Names the table in error messages.
+        base_dir : str or Path, optional
+            Folder of the protocol file: a relative ``implant = "mine.toml"`` is read from there
+            (else from the current folder).
+        """
+        where = where or cls.__name__
+        extra: dict[str, Any] = {}
+        implant = data.get("implant") if isinstance(data, dict) else None
+        if (
+            base_dir is not None
+            and isinstance(implant, str)
+            and implant.lower().endswith(".toml")
+            and not Path(implant).is_absolute()
+        ):
+            try:
+                extra["implant_layout"] = _load_layout(str(Path(base_dir) / implant))
+            except ProtocolError as exc:
+                raise ProtocolError(f"[{where}] {exc}") from None
+        return _from_table(cls, data, where, **extra)
 
     @property
     def px_per_cm(self) -> float:
@@ -672,7 +739,11 @@ class ProtocolSpec:
         blocks = tuple(
             BlockSpec.from_dict(b, where=f"blocks[{i}]") for i, b in enumerate(raw_blocks)
         )
-        display = DisplaySpec.from_dict(data.get("display", {}), where="display")
+        display = DisplaySpec.from_dict(
+            data.get("display", {}),
+            where="display",
+            base_dir=None if source_path is None else Path(source_path).parent,
+        )
         scoring_raw = (
             dict(data.get("scoring", {}))
             if isinstance(data.get("scoring", {}), dict)

@@ -26,13 +26,13 @@ import numpy as np
 
 from experiment.clock import Clock, PerfCounterClock
 from experiment.interfaces import Answer, Display, FlipRecord, Responder, combine_flips
-from experiment.protocol import SCORES, ProtocolSpec
+from experiment.protocol import SCORES, DisplaySpec, ProtocolError, ProtocolSpec
 from experiment.schedule import Schedule, Trial, build_schedule
 from experiment.scoring import suggest_score
 from experiment.stimset import StimulusSet, StimulusSetError
 from experiment.triallog import ResumeMismatch, TrialLog
 
-__all__ = ["Session", "Trial", "software_provenance"]
+__all__ = ["Session", "Trial", "check_implant_fits", "display_json", "software_provenance"]
 
 logger = logging.getLogger(__name__)
 
@@ -61,6 +61,19 @@ def software_provenance() -> dict[str, str | None]:
         f"Python {platform.python_version()})"
     )
     return {"software_version": version, "git_commit": commit, "machine": machine}
+
+
+def display_json(display: DisplaySpec) -> str:
+    """Return the display spec as the session row logs it (``sessions.display_json``).
+
+    The spec's fields (:meth:`DisplaySpec.to_dict`), plus, when ``display.implant`` is set, the
+    whole implant layout under ``implant_layout`` (:meth:`stimuli.implants.ImplantLayout.to_dict`),
+    so that the log says what the subject saw even for a user's own layout file.
+    """
+    d = display.to_dict()
+    if display.implant_layout is not None:
+        d["implant_layout"] = display.implant_layout.to_dict()
+    return json.dumps(d, sort_keys=True)
 
 
 class Session:
@@ -158,7 +171,8 @@ class Session:
         StimulusSetError
             A stimulus file is missing or its sha256 differs from the manifest.
         ProtocolError
-            The protocol asks for objects or levels the stimulus set lacks.
+            The protocol asks for objects or levels the stimulus set lacks, or its
+            ``display.implant`` grid is finer than a planned stimulus.
         """
         if not isinstance(subject, str) or not subject.strip():
             raise ValueError(f"subject must be a non-empty string, got {subject!r}")
@@ -175,6 +189,7 @@ class Session:
         root_seed = int(seed) if seed is not None else int(np.random.SeedSequence().entropy)
         schedule = build_schedule(protocol, stimset, _child_rng(root_seed, 0))
         _verify_files(stimset, schedule)
+        check_implant_fits(protocol.display, stimset, schedule)
         prov = software_provenance()
         with log.atomic():
             sid = log.create_session(
@@ -184,7 +199,7 @@ class Session:
                 protocol_file_sha256=protocol.source_sha256,
                 protocol_path=protocol.source_path,
                 protocol_json=json.dumps(protocol.to_dict(), sort_keys=True),
-                display_json=json.dumps(protocol.display.to_dict(), sort_keys=True),
+                display_json=display_json(protocol.display),
                 stimset_path=str(stimset.root),
                 stimset_manifest_sha256=stimset.manifest_sha256,
                 seed=str(root_seed),
@@ -218,9 +233,8 @@ class Session:
         observer: str | None = None,
     ) -> Session:
         sid = int(row["session_id"])
-        if row["protocol_sha256"] != protocol.content_sha256() and row["display_json"] != (
-            json.dumps(protocol.display.to_dict(), sort_keys=True)
-        ):
+        same_display = row["display_json"] == display_json(protocol.display)
+        if row["protocol_sha256"] != protocol.content_sha256() and not same_display:
             raise ResumeMismatch(
                 f"{log.path}: subject {subject} has unfinished session {sid} with another "
                 f"display geometry ({row['display_json']}); resume it with the same protocol "
@@ -255,6 +269,7 @@ class Session:
             )
         schedule = log.read_schedule(sid)
         _verify_files(stimset, schedule)
+        check_implant_fits(protocol.display, stimset, schedule)
         with log.atomic():
             stale = log.acquire_lock(sid)
             done = log.answered_count(sid)
@@ -305,7 +320,12 @@ class Session:
         return _child_rng(self.seed, k)
 
     def image_for(self, trial: Trial) -> np.ndarray:
-        """Return the trial's stimulus at native resolution (bool, or float32 [0, 1] for photos).
+        """Return the trial's stimulus as the subject is shown it.
+
+        That is the file at native resolution (bool, or float32 [0, 1] for photos), or, when
+        the protocol's ``[display] implant`` is set, the stimulus resampled to the implant's
+        electrode grid (:func:`stimuli.implants.to_implant_grid`; colour photos stay photos).
+        The presenter draws the grid as the implant's phosphenes.
 
         Raises
         ------
@@ -321,7 +341,13 @@ class Session:
             raise StimulusSetError(f"{p}: stimulus file is missing") from None
         if hashlib.sha256(data).hexdigest() != trial.sha256:
             raise StimulusSetError(f"{p}: stimulus file changed during the session (sha256)")
-        return decode_stimulus(p, trial.condition)
+        image = decode_stimulus(p, trial.condition)
+        layout = self.protocol.display.implant_layout
+        if layout is not None and image.ndim == 2:
+            from stimuli.implants import to_implant_grid
+
+            image = to_implant_grid(image, layout)
+        return image
 
     def suggest_score(self, trial: Trial, response: str) -> str:
         """Return a suggested score for ``response`` from ``objects.csv`` names, synonyms, uses."""
@@ -456,6 +482,42 @@ class Session:
 
 def _child_rng(seed: int, k: int) -> np.random.Generator:
     return np.random.default_rng(np.random.SeedSequence(seed).spawn(k + 1)[k])
+
+
+def check_implant_fits(display: DisplaySpec, stimset: StimulusSet, schedule: Schedule) -> None:
+    """Refuse a schedule holding a stimulus coarser than the protocol's implant grid.
+
+    Called when a session opens or resumes, and by ``confocal session run`` before the trial log
+    is created, so a protocol whose ``[display] implant`` cannot show a planned level fails with
+    one line and writes nothing.
+
+    Raises
+    ------
+    ProtocolError
+        Naming ``display.implant``, the grid, the stimulus and its level.
+    """
+    layout = display.implant_layout
+    if layout is None:
+        return
+    from experiment.stimset import COLOUR_CONDITIONS
+    from stimuli.errors import InputError
+    from stimuli.io import image_shape_px
+
+    seen: set[str] = set()
+    for t in schedule.trials:
+        if t.path in seen or t.condition in COLOUR_CONDITIONS:
+            continue
+        seen.add(t.path)
+        try:
+            rows, cols = image_shape_px(stimset.root / t.path)
+        except InputError as exc:
+            raise StimulusSetError(str(exc)) from None
+        if layout.rows > rows or layout.cols > cols:
+            raise ProtocolError(
+                f"display.implant {display.implant!r}: its {layout.cols}x{layout.rows} grid is "
+                f"finer than the {cols}x{rows} stimulus {t.path} ({t.condition}, level "
+                f"{t.level}); plan only levels with at least as many pixels as the implant"
+            )
 
 
 def _verify_files(stimset: StimulusSet, schedule: Schedule) -> None:

@@ -211,6 +211,11 @@ def run_command(
     stimset = StimulusSet.load(stimuli)
     # the whole plan is checked before the trial log is created or touched
     check_memory(planned_trials(spec, stimset) * _BYTES_PER_TRIAL, f"protocol {protocol}")
+    if spec.display.implant_layout is not None:
+        from experiment.schedule import build_schedule
+        from experiment.session import check_implant_fits
+
+        check_implant_fits(spec.display, stimset, build_schedule(spec, stimset, 0))
     effective_params = None
     if headless:
         try:  # check the parameters before anything is written

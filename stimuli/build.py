@@ -20,6 +20,12 @@ The pipeline, per object
    set's main objects (the paper found 1/13 = 7.7 %).
 6. Compression by non-overlapping windows 1, 2, 3, 5, 7, 13, 18, 40 (:mod:`stimuli.compress`);
    in grey mode the photos themselves are compressed to ``grey_levels`` levels (Fig. 2).
+7. Implant views (optional, issue 14): for each implant layout given, each condition's image at
+   the working size (the edge image, i.e. the window-1 stimulus; in grey mode the grey photo)
+   is resampled to the implant's electrode grid (:func:`stimuli.implants.to_implant_grid`, with
+   the set's edge ratio) and drawn as its phosphenes (:func:`stimuli.implants.render_phosphenes`,
+   :data:`IMPLANT_PX_PER_ELECTRODE` px per electrode), under ``implants/<name>/<object>/``.
+   ``stimulus_set.json`` lists every file with its sha256 and the implant's whole layout.
 
 The set is written into a temporary folder beside the output folder and renamed onto it at
 the end, so the output folder is untouched by any error.
@@ -58,6 +64,7 @@ from stimuli.declutter import (
     declutter_depth,
 )
 from stimuli.errors import InputError
+from stimuli.implants import ImplantError, ImplantLayout, render_phosphenes, to_implant_grid
 from stimuli.io import (
     check_gray,
     default_mode,
@@ -97,6 +104,7 @@ __all__ = [
     "grey_ladder",
     "build_stimulus_set",
     "THRESHOLD_METHODS",
+    "IMPLANT_PX_PER_ELECTRODE",
     "min_photo_shape_px",
 ]
 
@@ -111,6 +119,14 @@ SET_FORMAT_VERSION = 1
 #: photo. On the six real photo pairs in ``dof_pairs/`` Otsu leaves a mean wide-DOF edge fraction
 #: of 0.28, retention 0.068 (paper 0.077); see ``stimuli/tune.py``.
 THRESHOLD_METHODS: tuple[str, ...] = ("retention", *AUTO_THRESHOLD_METHODS)
+
+#: Side of each electrode's square cell in the implant views' phosphene PNGs, px (ours, not the
+#: paper's: large enough to show a Gaussian's shape, small enough that Alpha IMS's 39x39 grid
+#: stays a 624x624 px image).
+IMPLANT_PX_PER_ELECTRODE: int = 16
+
+#: Conditions drawn as implant views: the two edge (or grey) stimuli of every object.
+_IMPLANT_CONDITIONS: tuple[str, ...] = ("cluttered", "decluttered")
 
 _MODES = ("edges", "grey")
 _SIZE_RE = re.compile(r"^\s*(\d+)\s*[xX×]\s*(\d+)\s*$")
@@ -699,6 +715,10 @@ class BuildResult:
         Things the user should know (centre crops, upsampling).
     seconds : dict of str to float
         Wall time per stage: ``read``, ``write``, ``total``.
+    implants : tuple of str
+        Names of the implants whose views were written (``implants/<name>/``).
+    n_implant_views : int
+        Implant views written: (grid, phosphenes) pairs, one per object, condition and implant.
     """
 
     out_dir: Path
@@ -709,6 +729,8 @@ class BuildResult:
     objects: tuple[ObjectSummary, ...]
     notes: tuple[str, ...] = ()
     seconds: dict[str, float] = field(default_factory=dict)
+    implants: tuple[str, ...] = ()
+    n_implant_views: int = 0
 
 
 @dataclass
@@ -949,8 +971,14 @@ def _git_commit() -> str | None:
     return r.stdout.strip() or None if r.returncode == 0 else None
 
 
-def _set_id(params: BuildParams, inp: PairsInput, hashes: list[dict[str, str]]) -> str:
-    blob = {
+def _set_id(
+    params: BuildParams,
+    inp: PairsInput,
+    hashes: list[dict[str, str]],
+    implants: Sequence[ImplantLayout] = (),
+    px_per_electrode: int = IMPLANT_PX_PER_ELECTRODE,
+) -> str:
+    blob: dict = {
         "params": params.to_dict(),
         "objects": [o.to_row() for o in inp.objects],
         "sources": [
@@ -958,6 +986,11 @@ def _set_id(params: BuildParams, inp: PairsInput, hashes: list[dict[str, str]]) 
             for s, h in zip(inp.sources, hashes, strict=True)
         ],
     }
+    if implants:  # a set without implant views keeps the id it had before they existed
+        blob["implants"] = {
+            "layouts": [lay.to_dict() for lay in implants],
+            "px_per_electrode": px_per_electrode,
+        }
     return hashlib.sha256(json.dumps(blob, sort_keys=True).encode()).hexdigest()
 
 
@@ -1119,6 +1152,116 @@ def _write_object(
     return records
 
 
+def _check_implants(
+    implants: Sequence[ImplantLayout], px_per_electrode: int, params: BuildParams
+) -> tuple[ImplantLayout, ...]:
+    """Check the implant layouts against each other and the working size, before any writing."""
+    out = tuple(implants)
+    for lay in out:
+        if not isinstance(lay, ImplantLayout):
+            raise InputError(f"implants must hold ImplantLayout objects, got {type(lay).__name__}")
+    for lay in out:
+        if not re.fullmatch(r"[A-Za-z0-9][A-Za-z0-9._-]*", lay.name):
+            raise ImplantError(
+                f"--implant: layout name {lay.name!r} cannot name a folder in the set; use "
+                "letters, digits, '.', '_' or '-' (starting with a letter or digit)"
+            )
+    names = [lay.name for lay in out]
+    twice = sorted({n for n in names if names.count(n) > 1})
+    if twice:
+        raise ImplantError(
+            f"--implant: two layouts are named {twice[0]!r} (a layout's name is its file stem, "
+            "which names its folder in the set); rename one file"
+        )
+    p = px_per_electrode
+    if isinstance(p, bool) or not isinstance(p, int) or not 1 <= p <= 256:
+        raise InputError(f"implant_px_per_electrode must be an integer in [1, 256], got {p!r}")
+    rows, cols = params.working_shape_px
+    for lay in out:
+        if lay.rows > rows or lay.cols > cols:
+            raise ImplantError(
+                f"--implant {lay.name}: its {lay.cols}x{lay.rows} grid is finer than the "
+                f"{cols}x{rows} working size; use a larger --working-size"
+            )
+    return out
+
+
+def _write_implant_views(
+    work: _Work,
+    tmp: Path,
+    implants: Sequence[ImplantLayout],
+    edge_ratio: float | None,
+    px_per_electrode: int,
+) -> list[dict]:
+    """Write one object's implant views (grid and phosphene PNGs); return their JSON entries."""
+    oid = work.info.object
+    images = (
+        {"cluttered": work.wide, "decluttered": work.narrow}
+        if work.wide_edges is None
+        else {"cluttered": work.wide_edges, "decluttered": work.narrow_edges}
+    )
+    kw = {} if edge_ratio is None else {"edge_ratio": edge_ratio}
+    entries = []
+    for lay in implants:
+        folder = tmp / "implants" / lay.name / oid
+        folder.mkdir(parents=True)
+        alive = lay.alive_mask()
+        shape_px = (lay.rows * px_per_electrode, lay.cols * px_per_electrode)
+        for condition in _IMPLANT_CONDITIONS:
+            grid = to_implant_grid(images[condition], lay, **kw)
+            drawn = render_phosphenes(
+                grid, shape_px, shape=lay.phosphene_shape, size=lay.phosphene_size, alive=alive
+            )
+            entry: dict = {"implant": lay.name, "object": oid, "condition": condition}
+            for kind, img in (("grid", grid), ("phosphenes", drawn)):
+                name = f"{condition}_{kind}.png"
+                path = save_png(img, folder / name)
+                entry[kind] = {
+                    "path": f"implants/{lay.name}/{oid}/{name}",
+                    "sha256": sha256_file(path),
+                    "width": int(img.shape[1]),
+                    "height": int(img.shape[0]),
+                }
+            entries.append(entry)
+    return entries
+
+
+def _implants_meta(
+    implants: Sequence[ImplantLayout],
+    views: list[dict],
+    params: BuildParams,
+    edge_ratio: float | None,
+    px_per_electrode: int,
+) -> list[dict]:
+    """The ``implants`` entry of ``stimulus_set.json``: each layout in full, with its files."""
+    if params.mode == "edges":
+        method = (
+            f"each condition's edge image at the working size (the window-1 stimulus), "
+            f"compressed to the grid: an electrode is on where its window's edge fraction exceeds "
+            f"the set's edge ratio {edge_ratio:.6g} (Jung et al. 2015, Sec. 2.2)"
+        )
+    else:
+        method = (
+            "each condition's grey photo at the working size, compressed to the grid: window "
+            "means quantised to the implant's levels (Jung et al. 2015, Fig. 2)"
+        )
+    return [
+        {
+            "name": lay.name,
+            "layout": lay.to_dict(),
+            "grid_shape_px": [lay.rows, lay.cols],
+            "px_per_electrode": px_per_electrode,
+            "phosphenes_shape_px": [lay.rows * px_per_electrode, lay.cols * px_per_electrode],
+            "resampling": method,
+            "edge_ratio": edge_ratio,
+            "drawing": "stimuli.implants.render_phosphenes with the layout's phosphene_shape, "
+            "phosphene_size and dropout (alive_mask from its seed); square cells",
+            "files": [v for v in views if v["implant"] == lay.name],
+        }
+        for lay in implants
+    ]
+
+
 def build_stimulus_set(
     pairs: str | os.PathLike,
     out_dir: str | os.PathLike,
@@ -1127,6 +1270,8 @@ def build_stimulus_set(
     force: bool = False,
     workers: int | None = None,
     progress: ProgressFn | None = None,
+    implants: Sequence[ImplantLayout] = (),
+    implant_px_per_electrode: int = IMPLANT_PX_PER_ELECTRODE,
 ) -> BuildResult:
     """Build a stimulus set from photo pairs (or light fields) into ``out_dir``.
 
@@ -1144,7 +1289,16 @@ def build_stimulus_set(
     workers : int, optional
         Threads for reading and writing (default: the number of CPUs, at most 8).
     progress : callable(stage, done, total), optional
-        Called as objects are read (stage ``'read'``) and written (``'write'``).
+        Called as objects are read (stage ``'read'``) and written (``'write'``), and as their
+        implant views are drawn (``'implants'``).
+    implants : sequence of ImplantLayout
+        Also write each object's two conditions as every one of these implants shows them
+        (:func:`stimuli.implants.load_implant`): the image resampled to the electrode grid
+        (``implants/<name>/<object>/<condition>_grid.png``) and its phosphenes
+        (``<condition>_phosphenes.png``), recorded with sha256 and the full layout under
+        ``implants`` in ``stimulus_set.json``.
+    implant_px_per_electrode : int in [1, 256]
+        Side of each electrode's cell in the phosphene PNGs, px.
 
     Returns
     -------
@@ -1156,6 +1310,9 @@ def build_stimulus_set(
         Bad input (missing or unreadable photo, empty folder, duplicate ids, crop outside the
         image, photos of different sizes without ``allow_resize``) or an ``out_dir`` holding a
         different set without ``force``.
+    ImplantError
+        Two implant layouts share a name, or a grid is finer than the working size (checked
+        before anything is read or written).
 
     References
     ----------
@@ -1165,11 +1322,17 @@ def build_stimulus_set(
     params = BuildParams() if params is None else params
     if not isinstance(params, BuildParams):
         raise InputError(f"params must be a BuildParams, got {type(params).__name__}")
+    implants = _check_implants(implants, implant_px_per_electrode, params)
     workers = min(8, os.cpu_count() or 1) if workers is None else max(1, int(workers))
     out_dir = Path(out_dir)
     inp = read_pairs(pairs)
+    if implants and any(o.object == "implants" for o in inp.objects):
+        raise InputError(
+            f"{inp.root}: an object is named 'implants', the folder of the implant views; "
+            "rename it or build without --implant"
+        )
     hashes = [_source_hashes(s) for s in inp.sources]
-    set_id = _set_id(params, inp, hashes)
+    set_id = _set_id(params, inp, hashes, implants, implant_px_per_electrode)
     _check_out_dir(out_dir, set_id, force)
 
     works = _map(
@@ -1208,6 +1371,18 @@ def build_stimulus_set(
             "write",
         )
         records = [r for recs in per_object for r in recs]
+        views: list[dict] = []
+        if implants:
+            per_object_views = _map(
+                lambda w: _write_implant_views(
+                    w, tmp, implants, edge_ratio, implant_px_per_electrode
+                ),
+                works,
+                workers,
+                progress,
+                "implants",
+            )
+            views = [v for vs in per_object_views for v in vs]
         write_manifest(records, tmp / "manifest.csv")
         write_objects_csv(inp.objects, tmp / "objects.csv")
         _write_overview(works, per_object, tmp, labels)
@@ -1276,6 +1451,10 @@ def build_stimulus_set(
             "n_stimuli": len(records),
             "manifest_sha256": sha256_file(tmp / "manifest.csv"),
         }
+        if implants:
+            meta["implants"] = _implants_meta(
+                implants, views, params, edge_ratio, implant_px_per_electrode
+            )
         (tmp / "stimulus_set.json").write_text(json.dumps(meta, indent=2) + "\n", "utf-8")
         os.chmod(tmp, default_mode(directory=True))  # mkdtemp makes it private
         _swap_in(tmp, out_dir)
@@ -1299,6 +1478,8 @@ def build_stimulus_set(
         objects=summaries,
         notes=notes,
         seconds={"read": t_read - t0, "write": t_end - t_read, "total": t_end - t0},
+        implants=tuple(lay.name for lay in implants),
+        n_implant_views=len(views),
     )
 
 

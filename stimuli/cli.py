@@ -96,8 +96,32 @@ def build_command(
         bool,
         typer.Option("--force", help="Replace --out even if it holds a different stimulus set."),
     ] = False,
+    implant: Annotated[
+        list[str] | None,
+        typer.Option(
+            "--implant",
+            help="Also write each object's cluttered and de-cluttered image as this implant "
+            "shows it: resampled to its electrode grid (implants/NAME/OBJECT/*_grid.png) and "
+            "drawn as its phosphenes (*_phosphenes.png), listed with sha256 and the layout in "
+            "stimulus_set.json. A shipped layout (argus2, alpha_ims, brainport) or your own "
+            ".toml file; repeat for several.",
+            show_default=False,
+        ),
+    ] = None,
+    implant_px: Annotated[
+        int,
+        typer.Option(
+            "--implant-px",
+            min=1,
+            max=256,
+            help="Side of each electrode's cell in the phosphene PNGs, pixels.",
+        ),
+    ] = 16,
 ) -> None:
-    """Build cluttered and de-cluttered stimuli at the paper's eight resolutions."""
+    """Build cluttered and de-cluttered stimuli at the paper's eight resolutions.
+
+    With --implant, also the stimuli as each implant shows them (grid and phosphenes).
+    """
     from rich.console import Console
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn
 
@@ -108,9 +132,11 @@ def build_command(
         parse_threshold,
         parse_working_size,
     )
+    from stimuli.implants import load_implant
     from stimuli.resources import check_memory
 
     shape = parse_working_size(working_size)
+    layouts = [load_implant(name) for name in implant or ()]  # one-line error before any work
     # each worker holds a few float32/float64 images of the working size at once
     check_memory(shape[0] * shape[1] * _BUILD_BYTES_PER_PX * 8, f"--working-size {working_size}")
     params = BuildParams(
@@ -142,12 +168,22 @@ def build_command(
             )
             bar.start()
         if stage not in tasks:
-            label = "reading and de-cluttering" if stage == "read" else "writing stimuli"
+            label = {"read": "reading and de-cluttering", "implants": "drawing implant views"}.get(
+                stage, "writing stimuli"
+            )
             tasks[stage] = bar.add_task(label, total=total)
         bar.update(tasks[stage], completed=done)
 
     try:
-        result = build_stimulus_set(pairs, out, params=params, force=force, progress=progress)
+        result = build_stimulus_set(
+            pairs,
+            out,
+            params=params,
+            force=force,
+            progress=progress,
+            implants=layouts,
+            implant_px_per_electrode=implant_px,
+        )
     finally:
         if bar is not None:
             bar.stop()
@@ -161,8 +197,13 @@ def build_command(
         else f"; edge ratio {result.edge_ratio:.4f}"
         + (" (mean wide-DOF edge fraction)" if params.edge_ratio is None else " (given)")
     )
+    views = (
+        f" and {result.n_implant_views} implant views ({', '.join(result.implants)})"
+        if result.implants
+        else ""
+    )
     typer.echo(
-        f"wrote {result.n_stimuli} stimuli for {n} objects to {result.out_dir}{ratio}; "
+        f"wrote {result.n_stimuli} stimuli{views} for {n} objects to {result.out_dir}{ratio}; "
         f"{result.seconds['total']:.1f} s ({per_object_ms:.0f} ms per object)"
     )
 

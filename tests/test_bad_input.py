@@ -179,6 +179,12 @@ def pairs_csv(t: Path, w: World, wide: str, name: str = "list.csv") -> Path:
     return text_file(d / name, f"object,wide,narrow\nobj01,{wide},narrow.png\n")
 
 
+#: An implant layout with a bad field (rows must be >= 1).
+_BAD_GRID = (
+    'label = "x"\nkind = "other"\nrows = 0\ncols = 3\nfov_width_deg = 5\nfov_height_deg = 5\n'
+)
+
+
 def protocol(t: Path, text: str) -> Path:
     return text_file(t / "p.toml", text)
 
@@ -414,6 +420,16 @@ ROWS: list[Row] = [
       lambda w, t: build(w, t, w.pairs, "--grey-levels", "1000"), "--grey-levels", "256"),
     R("stimuli build", "unknown threshold method",
       lambda w, t: build(w, t, w.pairs, "--threshold-method", "magic"), "threshold_method"),
+    R("stimuli build", "unknown implant",
+      lambda w, t: build(w, t, w.pairs, "--implant", "argus9"), "argus9", "unknown implant"),
+    R("stimuli build", "implant file missing",
+      lambda w, t: build(w, t, w.pairs, "--implant", t / "mine.toml"), "mine.toml", "not found"),
+    R("stimuli build", "implant file with a bad field",
+      lambda w, t: build(w, t, w.pairs, "--implant", text_file(t / "grid.toml", _BAD_GRID)),
+      "grid.toml", "'rows'"),
+    R("stimuli build", "implant finer than the working size",
+      lambda w, t: build(w, t, w.pairs, "--implant", "alpha_ims", "--working-size", "30x20"),
+      "alpha_ims", "finer than"),
     R("stimuli build", "out is an existing file",
       lambda w, t: ["stimuli", "build", w.pairs, "--out", text_file(t / "set.txt")], "set.txt",
       "not a folder"),
@@ -539,6 +555,12 @@ ROWS: list[Row] = [
     R("session run", "huge repetition count",
       lambda w, t: session(w, t, proto=protocol(t, block(repetitions="1000000000000"))),
       "memory"),
+    R("session run", "unknown implant",
+      lambda w, t: session(w, t, proto=protocol(t, block() + '[display]\nimplant = "argus9"\n')),
+      "display.implant", "argus9"),
+    R("session run", "implant finer than a planned level",
+      lambda w, t: session(w, t, proto=protocol(t, block() + '[display]\nimplant = "argus2"\n')),
+      "display.implant", "finer than"),
     R("session run", "empty subject", lambda w, t: session(w, t, subject=""), "--subject"),
     R("session run", "blank subject", lambda w, t: session(w, t, subject="   "), "--subject"),
     R("session run", "negative seed", lambda w, t: session(w, t, "--seed", "-1"), "--seed"),

@@ -186,7 +186,8 @@ def register(app: typer.Typer) -> None:
         implant: Annotated[
             str | None,
             typer.Option(
-                help="Show as this implant's phosphenes: argus2, alpha_ims, ... or .toml."
+                help="Show as this implant's phosphenes: argus2, alpha_ims, ... or .toml "
+                "(default: the protocol's [display] implant, if any)."
             ),
         ] = None,
         screen: Annotated[int | None, typer.Option(help="Screen index of the window.")] = None,
@@ -219,39 +220,35 @@ def register(app: typer.Typer) -> None:
         image = load_stimulus(stimulus)
         from experiment.presentation.presenter import PhospheneSpec, Presenter, stimulus_rect_px
 
+        implant_phos = None
+        layout = None
         if implant is not None:
+            from stimuli.implants import load_implant
+
+            layout = load_implant(implant)
+        elif protocol is not None:  # the protocol's [display] implant, as its sessions show it
+            from experiment.protocol import load_protocol
+
+            layout = load_protocol(protocol).display.implant_layout
+        if layout is not None:
             # The stimulus resampled to the implant's grid (binary: the paper's compression;
             # grey: window means at the implant's brightness levels) and drawn as its
             # phosphenes at its field of view (issue 14).
-            from experiment.viewer.implants import load_implant
-            from stimuli.compress import compress_grey
+            from experiment.presentation.implant import phosphene_spec
+            from stimuli.implants import to_implant_grid
 
-            lay = load_implant(implant)
-            if lay.rows > image.shape[0] or lay.cols > image.shape[1]:
-                raise ConfocalError(
-                    f"--implant {implant}: its {lay.cols}x{lay.rows} grid is finer than the "
-                    f"{image.shape[1]}x{image.shape[0]} stimulus"
-                )
-            if image.dtype == bool:  # edges: on where the window's edge fraction > 1/13
-                from stimuli.compress import compress
-                from stimuli.jung2015 import EDGE_RATIO
-
-                image = compress(image, lay.shape, edge_ratio=EDGE_RATIO)
-            else:
-                image = compress_grey(image, lay.shape, levels=lay.levels)
-            phosphenes, phosphene_size, dropout = (
-                lay.phosphene_shape,
-                lay.phosphene_size,
-                lay.dropout,
-            )
-            phosphene_spacing_deg, seed = lay.fov_width_deg / lay.cols, lay.seed
+            image = to_implant_grid(image, layout)
+            implant_phos = phosphene_spec(layout)
 
         try:
-            phos = (
-                PhospheneSpec(phosphenes, phosphene_size, dropout, phosphene_spacing_deg, seed)
-                if phosphenes
-                else None
-            )
+            if implant_phos is not None:
+                phos = implant_phos
+            elif phosphenes:
+                phos = PhospheneSpec(
+                    phosphenes, phosphene_size, dropout, phosphene_spacing_deg, seed
+                )
+            else:
+                phos = None
             rect = stimulus_rect_px(
                 geometry, image.shape, integer_scale=integer_scale, phosphenes=phos
             )

@@ -1,7 +1,8 @@
-"""The live active-confocal viewer (issue 14): GPU refocus, implant layouts, event log.
+"""The live active-confocal viewer (issue 14): GPU refocus, implant views, event log.
 
 Only modules inside this package import ``moderngl``/``moderngl_window``, and only where they
-draw (house style H13); the state machine, implant layouts and event log are GL-free.
+draw (house style H13); the state machine and event log are GL-free. The implant layouts it
+draws are :mod:`stimuli.implants` (GL-free, shared with stimulus building and sessions).
 """
 
 from __future__ import annotations

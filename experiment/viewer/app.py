@@ -25,7 +25,6 @@ import numpy as np
 
 from experiment.errors import ConfocalError
 from experiment.viewer.events import ViewerEventLog
-from experiment.viewer.implants import ImplantLayout, load_implant
 from experiment.viewer.reference import (
     EDGE_RATIO,
     OBSTACLE_ALERT_FRACTION,
@@ -45,6 +44,7 @@ from experiment.viewer.screen import (
     status_image,
 )
 from experiment.viewer.state import ViewerModel, ViewerState, apply_event
+from stimuli.implants import ImplantLayout, load_implant
 from stimuli.lightfield import LightField
 
 __all__ = [

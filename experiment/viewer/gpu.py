@@ -21,7 +21,7 @@ Same images as the CPU pipeline (:mod:`experiment.viewer.reference`), computed o
   numpy with the CPU's float32 rounding, so the comparison is exact), or the window mean
   quantised to grey levels;
 * the four panes and the status line drawn with integer nearest-neighbour cells and the same
-  phosphene formula as :func:`experiment.viewer.implants.render_phosphenes`.
+  phosphene formula as :func:`stimuli.implants.render_phosphenes`.
 
 Floating-point sums run in a different order (and may be fused) on the GPU, so the confocal
 image and the Sobel magnitude differ from numpy's by a few float32 ulps; the tests state the
@@ -38,7 +38,6 @@ import moderngl
 import numpy as np
 
 from experiment.errors import ConfocalError
-from experiment.viewer.implants import ImplantLayout
 from experiment.viewer.screen import (
     ALERT_BORDER_PX,
     ALERT_RGB,
@@ -46,6 +45,7 @@ from experiment.viewer.screen import (
     BOX_RGB,
     ScreenLayout,
 )
+from stimuli.implants import ImplantLayout
 
 __all__ = [
     "MAX_GRID",

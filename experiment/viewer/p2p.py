@@ -1,7 +1,7 @@
 """Optional adapter: an implant view rendered by pulse2percept's models, for comparison.
 
 ``pip install 'active-confocal[p2p]'`` installs pulse2percept (Beyeler et al. 2017). The viewer's
-own phosphenes (:func:`experiment.viewer.implants.render_phosphenes`) are round Gaussians or discs
+own phosphenes (:func:`stimuli.implants.render_phosphenes`) are round Gaussians or discs
 on the electrode grid; pulse2percept's *scoreboard* model is the same idea in retinal
 coordinates, and its *axon-map* model elongates each phosphene along the retinal nerve-fibre
 bundles (Beyeler et al. 2019), which is what Argus II users report. This module turns the
@@ -21,7 +21,7 @@ from __future__ import annotations
 import numpy as np
 
 from experiment.errors import ConfocalError
-from experiment.viewer.implants import ImplantLayout
+from stimuli.implants import ImplantLayout
 
 __all__ = ["P2P_MODELS", "P2P_RHO_UM", "P2P_LAMBDA_UM", "p2p_percept"]
 

@@ -28,9 +28,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from experiment.viewer.implants import ImplantLayout
 from experiment.viewer.state import ViewerState
 from stimuli import jung2015
+from stimuli.implants import ImplantLayout
 from stimuli.lightfield import LightField
 
 __all__ = [

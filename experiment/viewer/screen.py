@@ -22,7 +22,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from experiment.viewer.implants import ImplantLayout, render_phosphenes
+from stimuli.implants import ImplantLayout, render_phosphenes
 
 __all__ = [
     "STATUS_ROWS_PX",

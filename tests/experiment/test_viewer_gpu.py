@@ -25,7 +25,6 @@ pytestmark = pytest.mark.gl
 gpu_mod = pytest.importorskip("experiment.viewer.gpu", reason="moderngl not importable")
 
 from experiment.viewer.gpu import GpuError, GpuPipeline, create_headless_context  # noqa: E402
-from experiment.viewer.implants import load_implant  # noqa: E402
 from experiment.viewer.reference import EDGE_RATIO, cpu_panes  # noqa: E402
 from experiment.viewer.screen import (  # noqa: E402
     STATUS_ROWS_PX,
@@ -35,6 +34,7 @@ from experiment.viewer.screen import (  # noqa: E402
 )
 from experiment.viewer.state import ViewerState  # noqa: E402
 from stimuli.declutter import sobel_magnitude  # noqa: E402
+from stimuli.implants import load_implant  # noqa: E402
 from stimuli.lfsynth import render_camera_array, three_plane_scene  # noqa: E402
 from stimuli.refocus import refocus  # noqa: E402
 

@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 from experiment.errors import ConfocalError
-from experiment.viewer.implants import load_implant
 from experiment.viewer.p2p import p2p_percept
+from stimuli.implants import load_implant
 
 
 def test_missing_extra_names_the_install_command(monkeypatch) -> None:

@@ -12,7 +12,9 @@ import sys
 import numpy as np
 import pytest
 
-from experiment.viewer.implants import (
+from experiment.viewer.reference import DepthMap, depth_map, obstacle_mask, track_point
+from experiment.viewer.state import GREY_LEVELS, ViewerModel, ViewerState, apply_event
+from stimuli.implants import (
     RETINA_UM_PER_DEG,
     ImplantError,
     ImplantLayout,
@@ -20,8 +22,6 @@ from experiment.viewer.implants import (
     load_implant,
     render_phosphenes,
 )
-from experiment.viewer.reference import DepthMap, depth_map, obstacle_mask, track_point
-from experiment.viewer.state import GREY_LEVELS, ViewerModel, ViewerState, apply_event
 
 MODEL = ViewerModel(
     shape_px=(100, 150),

@@ -24,8 +24,13 @@ source             citation (str, optional)
 Every field is checked when the file is read; a bad one ends with one line naming the file and
 the field (:class:`ImplantError`, exit status 2), as protocols do.
 
-:func:`render_phosphenes` is the numpy reference for the phosphene drawing that the GPU viewer
-(:mod:`experiment.viewer.gpu`) and the presenter do in shaders.
+:func:`to_implant_grid` resamples a stimulus to an implant's electrode grid, the one step that
+``confocal stimuli build --implant``, ``confocal present --implant`` and a protocol's
+``[display] implant`` share. :func:`render_phosphenes` is the numpy reference for the phosphene
+drawing that the GPU viewer (``experiment.viewer.gpu``) and the presenter do in shaders.
+
+The layouts live in ``stimuli`` (not ``experiment``) so that stimulus building can use them
+without importing the experiment engine or OpenGL (house style H1).
 """
 
 from __future__ import annotations
@@ -38,8 +43,11 @@ from typing import Any
 
 import numpy as np
 
-from experiment.errors import ConfocalError
-from experiment.protocol import PROTOCOLS_DIR
+from stimuli import jung2015
+from stimuli.compress import compress, compress_grey
+from stimuli.datadirs import PROTOCOLS_DIR
+from stimuli.errors import InputError
+from stimuli.io import check_gray
 
 __all__ = [
     "IMPLANTS_DIR",
@@ -50,6 +58,7 @@ __all__ = [
     "load_implant",
     "implant_names",
     "render_phosphenes",
+    "to_implant_grid",
 ]
 
 #: Folder of the shipped implant layouts.
@@ -87,8 +96,8 @@ _FIELDS = (
 )
 
 
-class ImplantError(ConfocalError):
-    """An implant layout is missing or invalid (one line naming the file and field)."""
+class ImplantError(InputError):
+    """An implant layout is missing or invalid, or does not fit a stimulus (one line, exit 2)."""
 
 
 @dataclass(frozen=True)
@@ -349,3 +358,58 @@ def render_phosphenes(
             else:
                 raise ValueError(f"shape must be 'gaussian' or 'disc', got {shape!r}")
     return np.minimum(total, np.float32(1.0)).astype(np.float32)
+
+
+def to_implant_grid(
+    image: np.ndarray, layout: ImplantLayout, *, edge_ratio: float = jung2015.EDGE_RATIO
+) -> np.ndarray:
+    """Resample a stimulus to an implant's electrode grid, as the implant would show it.
+
+    A binary (edge) stimulus is compressed by the paper's rule: an electrode is on when its
+    window's edge fraction exceeds ``edge_ratio`` (:func:`stimuli.compress.compress`). A grey
+    stimulus gets its window means quantised to the implant's ``levels``
+    (:func:`stimuli.compress.compress_grey`, Fig. 2).
+
+    Parameters
+    ----------
+    image : ndarray of shape (rows, cols), bool or float32 in [0, 1]
+        The stimulus; at least as many rows and columns as the implant's grid.
+    layout : ImplantLayout
+    edge_ratio : float in [0, 1)
+        Edge fraction above which an electrode is on (binary stimuli only; dimensionless).
+
+    Returns
+    -------
+    ndarray of shape ``layout.shape``
+        bool for a binary stimulus, float32 in [0, 1] at ``layout.levels`` levels for a grey one.
+
+    Raises
+    ------
+    ImplantError
+        The grid is finer than the stimulus (an implant cannot show more than it is given).
+    InputError
+        ``image`` is not 2-D, or a float image is outside [0, 1].
+
+    References
+    ----------
+    Jung et al. (2015), Sec. 2.2 (compression by non-overlapping windows, edge ratio 1/13).
+
+    Examples
+    --------
+    >>> lay = load_implant("argus2")
+    >>> to_implant_grid(np.ones((60, 100), bool), lay).shape
+    (6, 10)
+    """
+    if not isinstance(layout, ImplantLayout):
+        raise TypeError(f"layout must be an ImplantLayout, got {type(layout).__name__}")
+    a = np.asarray(image)
+    if a.ndim != 2:
+        raise InputError(f"image must be 2-D (rows, cols), got shape {a.shape}")
+    if layout.rows > a.shape[0] or layout.cols > a.shape[1]:
+        raise ImplantError(
+            f"implant {layout.name!r}: its {layout.cols}x{layout.rows} grid is finer than the "
+            f"{a.shape[1]}x{a.shape[0]} stimulus"
+        )
+    if a.dtype == bool:
+        return compress(a, layout.shape, edge_ratio=edge_ratio)
+    return compress_grey(check_gray(a), layout.shape, levels=layout.levels)
