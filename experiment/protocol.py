@@ -24,7 +24,7 @@ import hashlib
 import json
 import math
 import tomllib
-from dataclasses import MISSING, dataclass, field, fields
+from dataclasses import MISSING, dataclass, field, fields, replace
 from enum import StrEnum
 from pathlib import Path
 from typing import Any
@@ -744,6 +744,16 @@ class ProtocolSpec:
             where="display",
             base_dir=None if source_path is None else Path(source_path).parent,
         )
+        if task is not None and display.implant_layout is not None:
+            # Active search with an implant: the task's grid is the implant's electrode grid.
+            lay = display.implant_layout
+            if "grid_px" in data["task"] and tuple(task.grid_px) != lay.shape:
+                raise ProtocolError(
+                    f"task.grid_px {list(task.grid_px)} differs from display.implant "
+                    f"{display.implant!r} ({lay.rows}x{lay.cols} electrodes); leave task.grid_px "
+                    "out to use the implant's grid"
+                )
+            task = replace(task, grid_px=lay.shape)
         scoring_raw = (
             dict(data.get("scoring", {}))
             if isinstance(data.get("scoring", {}), dict)

@@ -19,7 +19,7 @@ import typer
 
 from experiment.errors import ConfocalError
 
-__all__ = ["register", "active_app", "SEARCHERS"]
+__all__ = ["register", "active_app", "SEARCHERS", "PRESENTERS", "subject_phosphenes"]
 
 #: Subject's screens of ``--searcher person`` (as ``confocal session run --presenter``).
 PRESENTERS: tuple[str, ...] = ("process", "offscreen", "none")
@@ -103,6 +103,19 @@ def run_command(
     _run_simulated(protocol, spec, data, subject, searcher, seed)
 
 
+def subject_phosphenes(spec) -> dict | None:
+    """The presenter's phosphene fields for a protocol with a ``[display] implant`` (else None):
+    the implant's view is drawn as its phosphenes at its field of view."""
+    layout = spec.display.implant_layout
+    if layout is None:
+        return None
+    from dataclasses import asdict
+
+    from experiment.presentation.implant import phosphene_spec
+
+    return asdict(phosphene_spec(layout))
+
+
 def _run_person(
     spec, data, subject, seed, screen, fullscreen, presenter, skip_timing_check, rater
 ) -> None:
@@ -142,6 +155,7 @@ def _run_person(
                         skip_timing_check=skip_timing_check,
                         inputs=True,
                         stderr_path=session_log_path(session),
+                        phosphenes=subject_phosphenes(spec),
                     )
             except PresenterDied as exc:
                 log.add_event(

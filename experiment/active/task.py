@@ -61,7 +61,8 @@ class ActiveSearchSpec(_Spec):
         Objects to find, one trial per target x condition x repetition.
     conditions : tuple of {'decluttered', 'cluttered'}
     grid_px : (rows, cols)
-        Implant grid. Default: the paper's 28x35.
+        Implant grid. Default: the paper's 28x35; with a ``[display] implant`` the implant's
+        electrode grid (and the subject's screen draws its phosphenes at its field of view).
     zoom_allowed : bool
         Whether the zoom keys work.
     time_limit_s : float > 0

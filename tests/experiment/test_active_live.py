@@ -273,3 +273,81 @@ def test_quitting_mid_search_restarts_that_trial_on_resume(tmp_path) -> None:
         assert kinds.count("attempt_abandoned") == 1 and kinds.count("answer") == 1
         assert s.progress() == (1, 2)
         s.close()
+
+
+# -- active search through an implant's layout ----------------------------------------------------
+
+
+def _implant_protocol(tmp_path, grid_line: str = ""):
+    from experiment.protocol import load_protocol
+
+    text = open(load_protocol("active_search").source_path, encoding="utf-8").read()
+    text = text.replace("grid_px = [28, 35]          # Jung 2015 Fig. 13: 980 cells\n", grid_line)
+    text = text.replace("n_planes = 200", "n_planes = 60\nscene_shape_px = [154, 192]")
+    text += '\n[display]\nimplant = "argus2"\n'
+    path = tmp_path / "argus_search.toml"
+    path.write_text(text, encoding="utf-8")
+    return path
+
+
+def test_display_implant_sets_the_search_grid_and_refuses_a_conflict(tmp_path) -> None:
+    from experiment.protocol import ProtocolError, ProtocolSpec, load_protocol
+
+    spec = load_protocol(_implant_protocol(tmp_path))
+    assert spec.task.grid_px == (6, 10)  # Argus II: 6 x 10 electrodes
+    again = ProtocolSpec.from_dict(spec.to_dict())
+    assert again.task.grid_px == (6, 10) and again.content_sha256() == spec.content_sha256()
+    assert load_protocol(_implant_protocol(tmp_path, "grid_px = [6, 10]\n")).task.grid_px == (6, 10)
+    with pytest.raises(
+        ProtocolError, match=r"task.grid_px \[28, 35\] differs from display.implant"
+    ):
+        load_protocol(_implant_protocol(tmp_path, "grid_px = [28, 35]\n"))
+
+
+def test_a_search_through_argus_ii_logs_its_grid_and_draws_its_phosphenes(tmp_path) -> None:
+    """States carry the 6x10 grid the stimuli pipeline gives; the subject's screen draws it as
+    Argus II's phosphenes across its 19.97 deg field of view."""
+    from experiment.active.cli import subject_phosphenes
+    from experiment.presentation.presenter import PhospheneSpec, ScreenGeometry, stimulus_rect_px
+    from experiment.presentation.process import PresenterDied, RemoteDisplay
+    from experiment.protocol import load_protocol
+
+    spec = load_protocol(_implant_protocol(tmp_path))
+    clock = FakeClock(0.0)
+    with TrialLog(":memory:") as log:
+        s = ActiveSession.open(log, spec, "S01", seed=1, clock=clock, responder="person")
+        live = LiveSearch(s, NullDisplay(clock))
+        live.cue()
+        live.begin()
+        live.display.post_input({"key": "PageDown"})
+        states = [r["payload"] for r in live.pump() if r["kind"] == "state"]
+        st = states[-1]
+        assert st["grid_px"] == [6, 10]
+        centre = s.scene.centre_view() if live.trial.condition == "cluttered" else None
+        ref = reference_grid(s.scene.lightfield, st["depth_px"], None, (6, 10), centre=centre)
+        np.testing.assert_array_equal(unpack(st["implant"], (6, 10)), ref)
+        cells = live.display.last_image
+        s.close()
+    assert cells.shape == (6, 10) and cells.any()
+    phos = subject_phosphenes(spec)
+    assert phos["spacing_deg"] == pytest.approx(19.97 / 10)
+    geometry = ScreenGeometry.from_display_spec(spec.display)
+    try:
+        display = RemoteDisplay(geometry, mode="offscreen", inputs=True, phosphenes=phos)
+    except PresenterDied as exc:
+        pytest.skip(f"no headless OpenGL for the presenter: {exc}")
+    try:
+        display.show_stimulus(cells)
+        display.screenshot(str(tmp_path / "argus.png"))
+    finally:
+        display.close()
+    from PIL import Image
+
+    frame = np.asarray(Image.open(tmp_path / "argus.png").convert("L"), dtype=float) / 255
+    top, left, rows, cols = stimulus_rect_px(geometry, (6, 10), phosphenes=PhospheneSpec(**phos))
+    # the grid spans the implant's field of view (closed form: degrees x px per degree)
+    assert cols == pytest.approx(19.97 * geometry.px_per_deg, abs=10)
+    cy = top + (np.arange(6) + 0.5) * rows / 6
+    cx = left + (np.arange(10) + 0.5) * cols / 10
+    centres = frame[np.ix_(cy.astype(int), cx.astype(int))]
+    assert (centres[cells] > 0.9).all() and (centres[~cells] < 0.05).all()
