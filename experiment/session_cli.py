@@ -31,6 +31,30 @@ __all__ = [
     "status_report",
 ]
 
+# The subject's-screen options, shared by ``session run`` and ``active run --searcher person``.
+ScreenOption = Annotated[
+    int | None, typer.Option("--screen", min=0, help="Screen index of the subject's window.")
+]
+FullscreenOption = Annotated[
+    bool, typer.Option("--fullscreen/--window", help="Subject's window full screen or windowed.")
+]
+PresenterOption = Annotated[
+    str,
+    typer.Option(
+        "--presenter",
+        envvar="CONFOCAL_PRESENTER",
+        help="process (a window, in its own process), offscreen (no window: GL renders into "
+        "memory), or none.",
+    ),
+]
+SkipTimingCheckOption = Annotated[
+    bool,
+    typer.Option(
+        "--skip-timing-check",
+        help="Start even if the frame-timing self-test fails (the choice is logged).",
+    ),
+]
+
 logger = logging.getLogger(__name__)
 
 #: Longest headless hold, seconds (ours: one day; longer is a typo, and inf overflows sleep()).
@@ -101,30 +125,10 @@ def run_command(
         int,
         typer.Option("--progress-every", min=0, help="Print 'trial i/n' every n trials."),
     ] = 0,
-    screen: Annotated[
-        int | None,
-        typer.Option("--screen", min=0, help="Screen index of the subject's window."),
-    ] = None,
-    fullscreen: Annotated[
-        bool,
-        typer.Option("--fullscreen/--window", help="Subject's window full screen or windowed."),
-    ] = True,
-    presenter: Annotated[
-        str,
-        typer.Option(
-            "--presenter",
-            envvar="CONFOCAL_PRESENTER",
-            help="process (a window, in its own process), offscreen (no window: GL renders "
-            "into memory), or none.",
-        ),
-    ] = "process",
-    skip_timing_check: Annotated[
-        bool,
-        typer.Option(
-            "--skip-timing-check",
-            help="Start even if the frame-timing self-test fails (the choice is logged).",
-        ),
-    ] = False,
+    screen: ScreenOption = None,
+    fullscreen: FullscreenOption = True,
+    presenter: PresenterOption = "process",
+    skip_timing_check: SkipTimingCheckOption = False,
     integer_scale: Annotated[
         bool,
         typer.Option("--integer-scale", help="Magnify stimuli by a whole number of pixels."),

@@ -18,6 +18,12 @@ from typing import Annotated
 import typer
 
 from experiment.errors import ConfocalError
+from experiment.session_cli import (
+    FullscreenOption,
+    PresenterOption,
+    ScreenOption,
+    SkipTimingCheckOption,
+)
 
 __all__ = ["register", "active_app", "SEARCHERS", "PRESENTERS", "subject_phosphenes"]
 
@@ -53,28 +59,10 @@ def run_command(
         ),
     ] = "sim:planes",
     seed: Annotated[int | None, typer.Option("--seed", min=0, help="Root seed.")] = None,
-    screen: Annotated[
-        int | None, typer.Option("--screen", min=0, help="person: screen of the subject's window.")
-    ] = None,
-    fullscreen: Annotated[
-        bool,
-        typer.Option("--fullscreen/--window", help="person: subject's window full screen or not."),
-    ] = True,
-    presenter: Annotated[
-        str,
-        typer.Option(
-            "--presenter",
-            envvar="CONFOCAL_PRESENTER",
-            help="person: process (the subject's window, in its own process), offscreen (no "
-            "window and no subject keys: a dry run of the operator's side), or none.",
-        ),
-    ] = "process",
-    skip_timing_check: Annotated[
-        bool,
-        typer.Option(
-            "--skip-timing-check", help="person: start even if the frame-timing self-test fails."
-        ),
-    ] = False,
+    screen: ScreenOption = None,
+    fullscreen: FullscreenOption = True,
+    presenter: PresenterOption = "process",
+    skip_timing_check: SkipTimingCheckOption = False,
     rater: Annotated[
         str, typer.Option("--rater", help="person: rater name stored with the scores.")
     ] = "operator",
@@ -166,6 +154,13 @@ def _run_person(
                 info = getattr(display, "info", None) or {"presenter": presenter}
                 info = json.dumps(info, sort_keys=True, default=str)
                 log.add_event(session.session_id, "display", info, session.clock.now_s())
+                if skip_timing_check:
+                    log.add_event(
+                        session.session_id,
+                        "timing_check",
+                        "skipped by the operator (--skip-timing-check)",
+                        session.clock.now_s(),
+                    )
                 live = LiveSearch(session, display, rater=rater)
                 with logs_to_file(
                     session_log_path(session), prefix=f"session {session.session_id}"

@@ -377,4 +377,4 @@ def test_active_run_person_opens_window_and_console_issue_14(x_display, tmp_path
     responder = con.execute("SELECT responder FROM sessions").fetchone()[0]
     con.close()
     assert responder == "person"
-    assert "display" in kinds and kinds[-1] == "close"
+    assert "display" in kinds and "timing_check" in kinds and kinds[-1] == "close"
