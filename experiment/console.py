@@ -55,6 +55,8 @@ from experiment.interfaces import Answer, Display, FlipRecord, combine_flips
 
 __all__ = [
     "SCORE_KEYS",
+    "CONSOLE_CSS",
+    "console_layout",
     "OperatorConsole",
     "ScoringApp",
     "ConsoleResult",
@@ -127,6 +129,38 @@ class ConsoleResult:
     recorded: list[int] = field(default_factory=list)
 
 
+#: Layout of an operator's console: trial panel and preview on top; timer, suggested score,
+#: status and the response line at the bottom (:func:`console_layout`).
+CONSOLE_CSS = """
+#top { height: 1fr; overflow: hidden; }
+#trial { width: 1fr; min-width: 30; padding: 0 1; }
+#preview { width: auto; border: solid $accent; padding: 0 1; }
+#bottom { height: auto; }
+#timer { padding: 0 1; height: 1; }
+#suggest { padding: 0 1; height: 1; color: $success; }
+#status { padding: 0 1; height: 2; }
+"""
+
+
+def console_layout(*bottom_extra: Any) -> ComposeResult:
+    """Yield an operator console's widgets (styled by :data:`CONSOLE_CSS`) for ``compose``.
+
+    ``bottom_extra`` widgets go below the response line (the static study's note line).
+    """
+    with Horizontal(id="top"):
+        yield Static(id="trial")
+        yield Static(id="preview")
+    with Vertical(id="bottom"):
+        yield Static(id="timer")
+        yield Static(id="suggest")
+        yield Static(id="status")
+        yield Input(placeholder="the subject's words", id="response")
+        yield from bottom_extra
+    footer = Footer()
+    footer.compact = True  # a reactive since textual 0.63 (the keyword came later)
+    yield footer
+
+
 class OperatorConsole(App):
     """The operator's Textual app; drives ``session`` and the subject's ``display``.
 
@@ -149,16 +183,7 @@ class OperatorConsole(App):
     # Responsive layout (issue 15): the input line, the status and the key footer keep fixed
     # rows at the bottom; the trial panel and the preview share what is left, and the preview is
     # re-drawn to fit it (see _fit_preview), so nothing is clipped from 80x24 upward.
-    CSS = """
-    #top { height: 1fr; overflow: hidden; }
-    #trial { width: 1fr; min-width: 30; padding: 0 1; }
-    #preview { width: auto; border: solid $accent; padding: 0 1; }
-    #bottom { height: auto; }
-    #timer { padding: 0 1; height: 1; }
-    #suggest { padding: 0 1; height: 1; color: $success; }
-    #status { padding: 0 1; height: 2; }
-    #note { display: none; }
-    """
+    CSS = CONSOLE_CSS + "#note { display: none; }\n"
 
     ENABLE_COMMAND_PALETTE = False
 
@@ -206,18 +231,9 @@ class OperatorConsole(App):
     # -- layout -----------------------------------------------------------------------------------
 
     def compose(self) -> ComposeResult:
-        with Horizontal(id="top"):
-            yield Static(id="trial")
-            yield Static(id="preview")
-        with Vertical(id="bottom"):
-            yield Static(id="timer")
-            yield Static(id="suggest")
-            yield Static(id="status")
-            yield Input(placeholder="the subject's words", id="response")
-            yield Input(placeholder="note for the log (Enter saves, Esc cancels)", id="note")
-        footer = Footer()
-        footer.compact = True  # a reactive since textual 0.63 (the keyword came later)
-        yield footer
+        yield from console_layout(
+            Input(placeholder="note for the log (Enter saves, Esc cancels)", id="note")
+        )
 
     def on_resize(self) -> None:
         self.call_after_refresh(self._fit_preview)

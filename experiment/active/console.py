@@ -24,13 +24,16 @@ from typing import Any
 
 from textual.app import App, ComposeResult
 from textual.binding import Binding
-from textual.containers import Horizontal, Vertical
-from textual.widgets import Footer, Input, Static
+from textual.widgets import Input, Static
 
 from experiment.active.live import LiveSearch
-from experiment.console import SCORE_KEYS, preview_text
+from experiment.console import CONSOLE_CSS, SCORE_KEYS, console_layout, preview_text
 
 __all__ = ["ActiveConsole", "run_active_console"]
+
+#: Width of the implant-view preview in terminal cells (ours: two per cell of the paper's
+#: 35-column grid).
+PREVIEW_COLS: int = 70
 
 #: How often the console applies the subject's inputs and checks the time limit, seconds (ours:
 #: 30 ms keeps a key's effect within two frames at 60 Hz on top of the render time).
@@ -45,15 +48,7 @@ class ActiveConsole(App):
     live : LiveSearch
     """
 
-    CSS = """
-    #top { height: 1fr; overflow: hidden; }
-    #trial { width: 1fr; min-width: 30; padding: 0 1; }
-    #preview { width: auto; border: solid $accent; padding: 0 1; }
-    #bottom { height: auto; }
-    #timer { padding: 0 1; height: 1; }
-    #suggest { padding: 0 1; height: 1; color: $success; }
-    #status { padding: 0 1; height: 2; }
-    """
+    CSS = CONSOLE_CSS
 
     ENABLE_COMMAND_PALETTE = False
 
@@ -71,17 +66,7 @@ class ActiveConsole(App):
     # -- layout -------------------------------------------------------------------------------
 
     def compose(self) -> ComposeResult:
-        with Horizontal(id="top"):
-            yield Static(id="trial")
-            yield Static(id="preview")
-        with Vertical(id="bottom"):
-            yield Static(id="timer")
-            yield Static(id="suggest")
-            yield Static(id="status")
-            yield Input(placeholder="the subject's words", id="response")
-        footer = Footer()
-        footer.compact = True
-        yield footer
+        yield from console_layout()
 
     def on_mount(self) -> None:
         s = self.live.session
@@ -123,7 +108,7 @@ class ActiveConsole(App):
                 lines.append("[b]the subject pressed Enter[/b]: type the words, then score")
         self.query_one("#trial", Static).update("\n".join(lines))
         if live.running and s.view is not None:
-            self.query_one("#preview", Static).update(preview_text(s.view.grid, 2 * 35))
+            self.query_one("#preview", Static).update(preview_text(s.view.grid, PREVIEW_COLS))
         else:
             self.query_one("#preview", Static).update("")
 

@@ -144,14 +144,13 @@ class LiveSearch:
         """Show the next trial's cue on the subject's screen; return that trial (None: done)."""
         t = self.session.next_trial()
         self.display.show_text(self.cue_text(t))
-        self.display.poll_inputs()  # keys pressed while the cue was up are not part of a trial
         return t
 
     def begin(self) -> list[dict]:
         """Start the next trial: log its onset and first state, show the implant's view."""
         if self._trial is not None:
             raise ValueError("a trial is running; score it first")
-        self.display.poll_inputs()
+        self.display.poll_inputs()  # keys pressed while the cue was up are not part of a trial
         trial, rows = self.session.start_trial("person")
         self._trial = _Trial(trial)
         self.display.show_stimulus(self.session.view.grid)
@@ -226,8 +225,8 @@ class LiveSearch:
         limit = self.session.task.time_limit_s
         if self.session.elapsed_s() < limit:
             return []
-        onset = self.session.clock.now_s() - self.session.elapsed_s()
-        rows = self.session.answer("", key="timeout", score="pass", rater="auto", t_s=onset + limit)
+        t_s = self.session.onset_s + limit
+        rows = self.session.answer("", key="timeout", score="pass", rater="auto", t_s=t_s)
         self._trial = None
         self.display.clear()
         return rows

@@ -335,11 +335,16 @@ class ActiveSession:
             "payload": json.loads(json.dumps(payload, sort_keys=True)),
         }
 
-    def elapsed_s(self) -> float:
-        """Seconds since the current trial's onset."""
+    @property
+    def onset_s(self) -> float:
+        """Clock time of the current trial's onset, seconds."""
         if self._current is None:
             raise ValueError("no trial is running")
-        return self.clock.now_s() - self._current[2]
+        return self._current[2]
+
+    def elapsed_s(self) -> float:
+        """Seconds since the current trial's onset."""
+        return self.clock.now_s() - self.onset_s
 
     def press(self, key: str, action: str, *, box=None, t_s: float | None = None) -> list[dict]:
         """Apply one input (not answer/pass): log the key, then the state it shows.

@@ -66,13 +66,18 @@ def x_display():
             proc.wait(timeout=10)
 
 
-def test_window_shows_stimulus_and_closes_cleanly(x_display, tmp_path) -> None:
-    """The window's framebuffer holds exactly the expected frame; closing exits with status 0."""
+def open_window(x_display: str, **kwargs) -> RemoteDisplay:
+    """Start the presenter process with a window on ``x_display`` (skip if GLX cannot)."""
     env = {**os.environ, "DISPLAY": x_display}
     try:
-        display = RemoteDisplay(GEOMETRY, mode="window", skip_timing_check=True, env=env)
+        return RemoteDisplay(GEOMETRY, mode="window", skip_timing_check=True, env=env, **kwargs)
     except PresenterDied as exc:
         pytest.skip(f"no GLX window under {x_display}: {exc}")
+
+
+def test_window_shows_stimulus_and_closes_cleanly(x_display, tmp_path) -> None:
+    """The window's framebuffer holds exactly the expected frame; closing exits with status 0."""
+    display = open_window(x_display)
     try:
         assert display.info["timing_check"] == "skipped"
         img = np.random.default_rng(3).random((8, 12)) < 0.5
@@ -160,13 +165,7 @@ def test_subject_keys_and_drags_reach_the_console_issue_14(x_display) -> None:
 
     from experiment.presentation.presenter import stimulus_rect_px
 
-    env = {**os.environ, "DISPLAY": x_display}
-    try:
-        display = RemoteDisplay(
-            GEOMETRY, mode="window", skip_timing_check=True, env=env, inputs=True
-        )
-    except PresenterDied as exc:
-        pytest.skip(f"no GLX window under {x_display}: {exc}")
+    display = open_window(x_display, inputs=True)
     try:
         img = np.zeros((28, 35), bool)
         display.show_stimulus(img)
@@ -205,11 +204,7 @@ def test_a_static_study_window_reports_no_input(x_display) -> None:
     """Without ``inputs`` (the static study) the subject's keys are not sent to the console."""
     import time
 
-    env = {**os.environ, "DISPLAY": x_display}
-    try:
-        display = RemoteDisplay(GEOMETRY, mode="window", skip_timing_check=True, env=env)
-    except PresenterDied as exc:
-        pytest.skip(f"no GLX window under {x_display}: {exc}")
+    display = open_window(x_display)
     try:
         display.inject([{"pyglet": "on_key_press", "args": [key.PAGEDOWN, 0]}])
         time.sleep(0.3)
@@ -237,18 +232,15 @@ def test_a_person_searches_in_the_window_and_the_operator_scores_issue_14(
     from experiment.triallog import TrialLog
     from tests.experiment.test_active import small_protocol
 
-    env = {**os.environ, "DISPLAY": x_display}
     spec = small_protocol(conditions=["decluttered"], trial_order="listed")
     log = TrialLog(tmp_path / "person.sqlite")
     session = ActiveSession.open(log, spec, "S01", seed=2, responder="person")
     try:
-        display = RemoteDisplay(
-            GEOMETRY, mode="window", skip_timing_check=True, env=env, inputs=True
-        )
-    except PresenterDied as exc:
+        display = open_window(x_display, inputs=True)
+    except BaseException:  # pytest.skip included
         session.close()
         log.close()
-        pytest.skip(f"no GLX window under {x_display}: {exc}")
+        raise
     live = LiveSearch(session, display, rater="op")
     grid = spec.task.grid_px
     top, left, rows, cols = stimulus_rect_px(GEOMETRY, grid)
