@@ -25,9 +25,9 @@ def phosphene_spec(layout: ImplantLayout):
 
     Returns
     -------
-    experiment.presentation.presenter.PhospheneSpec
+    experiment.presentation.frame.PhospheneSpec
     """
-    from experiment.presentation.presenter import PhospheneSpec
+    from experiment.presentation.frame import PhospheneSpec
 
     if not isinstance(layout, ImplantLayout):
         raise TypeError(f"layout must be an ImplantLayout, got {type(layout).__name__}")
