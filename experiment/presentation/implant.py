@@ -1,4 +1,4 @@
-"""An implant layout as the subject's screen draws it (issue 14).
+"""An implant layout as the subject's screen draws it: its grid as phosphenes.
 
 ``confocal present --implant`` and a protocol's ``[display] implant`` show a stimulus the same
 way: resampled to the implant's electrode grid (:func:`stimuli.implants.to_implant_grid`) and
