@@ -1,7 +1,7 @@
-"""Active search as a study (issue 14, points 5 and 6): the task, its event log, a person
-searching (:mod:`~experiment.active.live`, with the operator's :mod:`~experiment.active.console`),
-simulated searchers, and the ``confocal demo --active`` rendering. GL-free: the views come from
-the CPU pipeline of :mod:`stimuli`; a person's screen is the presenter process."""
+"""Active search as a study: the task, its event log, a person searching
+(:mod:`~experiment.active.live`, with the operator's :mod:`~experiment.console.active`), simulated
+searchers, and the ``confocal demo --active`` rendering. GL-free: the views come from the CPU
+pipeline of :mod:`stimuli`; a person's screen is the presenter process."""
 
 from experiment.active.engine import ViewerState, apply_action
 from experiment.active.session import ActiveSession

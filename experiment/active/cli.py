@@ -2,7 +2,7 @@
 
 With ``--searcher person`` a subject searches: the subject's screen opens (a presenter process
 with keyboard and mouse input, on ``--screen``), and the operator's console runs in this
-terminal (:mod:`experiment.active.console`): the operator starts each trial, sees the implant's
+terminal (:mod:`experiment.console.active`): the operator starts each trial, sees the implant's
 view and where the subject is in depth, types the subject's words and scores them.
 
 With ``sim:planes`` or ``sim:ordered`` (:mod:`experiment.active.searcher`) the searcher is
@@ -110,10 +110,10 @@ def _run_person(
     import json
     import sys
 
-    from experiment.active.console import run_active_console
     from experiment.active.live import LiveSearch
     from experiment.active.session import ActiveSession
     from experiment.console import logs_to_file, session_log_path
+    from experiment.console.active import run_active_console
     from experiment.presentation.presenter import ScreenGeometry
     from experiment.presentation.process import PresenterDied, RemoteDisplay
     from experiment.triallog import TrialLog

@@ -1,7 +1,7 @@
 """A person searching: the subject's inputs drive an :class:`ActiveSession`, the operator scores.
 
 :class:`LiveSearch` is the GL-free, UI-free core of a human active-search session; the operator
-console (:mod:`experiment.active.console`) and tests drive it. Its display is the subject's
+console (:mod:`experiment.console.active`) and tests drive it. Its display is the subject's
 screen with input on: a presenter process started with ``inputs=True``
 (:class:`experiment.presentation.process.RemoteDisplay`), an offscreen
 :class:`~experiment.presentation.presenter.Presenter`, or the headless

@@ -1,4 +1,4 @@
-"""An implant layout as the subject's screen draws it (issue 14).
+"""An implant layout as the subject's screen draws it: its grid as phosphenes.
 
 ``confocal present --implant`` and a protocol's ``[display] implant`` show a stimulus the same
 way: resampled to the implant's electrode grid (:func:`stimuli.implants.to_implant_grid`) and
@@ -25,9 +25,9 @@ def phosphene_spec(layout: ImplantLayout):
 
     Returns
     -------
-    experiment.presentation.presenter.PhospheneSpec
+    experiment.presentation.frame.PhospheneSpec
     """
-    from experiment.presentation.presenter import PhospheneSpec
+    from experiment.presentation.frame import PhospheneSpec
 
     if not isinstance(layout, ImplantLayout):
         raise TypeError(f"layout must be an ImplantLayout, got {type(layout).__name__}")

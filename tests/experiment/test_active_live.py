@@ -1,4 +1,4 @@
-"""A person searching (issue 14, point 5): the subject's inputs drive the active-search session,
+"""A person searching: the subject's inputs drive the active-search session,
 the operator scores in the console; every input and displayed state is logged.
 
 The subject's screen here is the headless twin (``NullDisplay`` with input); the presenter
@@ -183,7 +183,7 @@ def test_input_names_are_the_viewer_keymap_plus_the_wheel() -> None:
 
 def test_console_runs_a_trial_from_operator_keys(live) -> None:
     """The Textual console: Enter starts, subject keys are applied by its poll, F1 scores."""
-    from experiment.active.console import ActiveConsole
+    from experiment.console.active import ActiveConsole
 
     search, clock, display = live
 

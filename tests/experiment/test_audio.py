@@ -1,4 +1,4 @@
-"""The subject's voice: per-trial recordings and voice onset (issue 15, point 3).
+"""The subject's voice: per-trial recordings and voice onset.
 
 Voice onset is tested by parameter recovery on synthetic recordings with a known onset (a
 harmonic "vowel" in noise), the level against a direct computation, and the recorder through a
@@ -25,7 +25,8 @@ from experiment.audio.voice import (
     voice_onset_s,
 )
 from experiment.clock import FakeClock
-from experiment.console import OperatorConsole, _open_recorder
+from experiment.console import OperatorConsole
+from experiment.console.launch import _open_recorder
 from experiment.presentation.displays import NullDisplay
 from experiment.protocol import load_protocol
 from experiment.session import Session

@@ -93,7 +93,7 @@ def run(coro) -> None:
     asyncio.run(asyncio.wait_for(coro, timeout=60))
 
 
-def test_scripted_operator_session_issue_6(mini) -> None:
+def test_scripted_operator_session_logs_every_word_and_score(mini) -> None:
     """Typed words, scores, undo, pause and a note all land in the log exactly."""
     session, clock, log, _ = mini
     display = NullDisplay(clock)

@@ -1,4 +1,4 @@
-"""The operator console fits the terminal from 80x24 upward; log lines stay off it (issue 15, 5).
+"""The operator console fits the terminal from 80x24 upward; log lines stay off it.
 
 Textual's pilot runs the app headless at several terminal sizes; the test compares each widget's
 region with the screen size and reads the rendered screen back as text.
@@ -100,7 +100,7 @@ def screen_text(app) -> list[str]:
 
 
 @pytest.mark.parametrize("size", [(80, 24), (100, 30), (160, 50)])
-def test_response_box_footer_and_preview_fit_issue_15(session, size) -> None:
+def test_response_box_footer_and_preview_fit(session, size) -> None:
     s, clock = session
     app = OperatorConsole(s, NullDisplay(clock))
     seen: dict[str, object] = {}

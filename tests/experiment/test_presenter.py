@@ -392,7 +392,7 @@ def test_present_missing_stimulus_one_line_exit_2(tmp_path) -> None:
 
 
 @pytest.mark.parametrize("gamma", [1.0, 2.2])
-def test_colour_photo_within_one_level_of_reference_issue_15(open_presenter, gamma) -> None:
+def test_colour_photo_within_one_level_of_reference(open_presenter, gamma) -> None:
     """Training's colour photos: each channel as given (gamma-corrected), to 1 of 255."""
     g = ScreenGeometry.jung2015(gamma=gamma)
     img = np.random.default_rng(3).random((25, 38, 3)).astype(np.float32)

@@ -214,7 +214,7 @@ def test_session_run_cli_with_implant_and_with_a_bad_one(stim_dir, tmp_path) -> 
 
 def test_console_draws_the_implants_phosphenes(stim_dir, tmp_path, monkeypatch) -> None:
     """run_console asks the presenter for the layout's phosphenes at its field of view."""
-    import experiment.console as console
+    import experiment.console.launch as console
     from experiment.presentation.presenter import PhospheneSpec
 
     asked = {}

@@ -157,7 +157,7 @@ def _wait_inputs(display, n: int, timeout_s: float = 10.0) -> list[dict]:
     return got
 
 
-def test_subject_keys_and_drags_reach_the_console_issue_14(x_display) -> None:
+def test_subject_keys_and_drags_reach_the_console(x_display) -> None:
     """Active search: real pyglet key, wheel and mouse events in the subject's window come back
     as ``input`` events, named as the task's key map and with the drag as stimulus fractions;
     Escape (un-zoom) no longer closes the window."""
@@ -214,9 +214,7 @@ def test_a_static_study_window_reports_no_input(x_display) -> None:
         display.close()
 
 
-def test_a_person_searches_in_the_window_and_the_operator_scores_issue_14(
-    x_display, tmp_path
-) -> None:
+def test_a_person_searches_in_the_window_and_the_operator_scores(x_display, tmp_path) -> None:
     """The whole person path with a real subject window: pyglet key and mouse events in the
     window drive the session through the operator console; the log holds each input with the
     window's time stamp and each state, and the window shows the logged implant view."""
@@ -225,9 +223,9 @@ def test_a_person_searches_in_the_window_and_the_operator_scores_issue_14(
 
     from PIL import Image
 
-    from experiment.active.console import ActiveConsole
     from experiment.active.live import LiveSearch
     from experiment.active.session import ActiveSession
+    from experiment.console.active import ActiveConsole
     from experiment.presentation.presenter import stimulus_rect_px
     from experiment.triallog import TrialLog
     from tests.experiment.test_active import small_protocol
@@ -303,7 +301,7 @@ def test_a_person_searches_in_the_window_and_the_operator_scores_issue_14(
     assert next(r for r in rows_ if r["kind"] == "score")["payload"]["score"] == "wrong"
 
 
-def test_active_run_person_opens_window_and_console_issue_14(x_display, tmp_path) -> None:
+def test_active_run_person_opens_window_and_console(x_display, tmp_path) -> None:
     """``confocal active run --searcher person`` in a terminal: the subject's window opens with
     input, the console comes up, Ctrl+Q saves and quits with exit 0; the log names the display."""
     import fcntl

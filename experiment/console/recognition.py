@@ -1,4 +1,4 @@
-"""The operator's console: a Textual app that runs a session trial by trial (issue 6).
+"""The operator's console for the recognition study: a Textual app that runs it trial by trial.
 
 The operator sees the subject, part, block, trial k of n, the object (the right answer, for the
 operator only), level and condition, a preview of the stimulus, the time since onset and when a
@@ -33,78 +33,29 @@ changed (the log is append-only).
 
 from __future__ import annotations
 
-import contextlib
 import json
-import logging
-import sys
-from collections.abc import Iterator
 from dataclasses import dataclass, field
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 from rich.text import Text
-from textual.app import App, ComposeResult
+from textual.app import ComposeResult
 from textual.binding import Binding
-from textual.containers import Horizontal, Vertical
-from textual.widgets import Footer, Input, Static
+from textual.widgets import Input
 
 from experiment.clock import Clock, PerfCounterClock
-from experiment.errors import ConfocalError
+from experiment.console.keys import score_bindings
+from experiment.console.layout import (
+    CONSOLE_CSS,
+    PREVIEW_COLS,
+    TrialConsole,
+    console_layout,
+    preview_text,
+    progress_line,
+)
 from experiment.interfaces import Answer, Display, FlipRecord, combine_flips
 
-__all__ = [
-    "SCORE_KEYS",
-    "CONSOLE_CSS",
-    "console_layout",
-    "OperatorConsole",
-    "ScoringApp",
-    "ConsoleResult",
-    "preview_text",
-    "make_display",
-    "run_console",
-    "session_log_path",
-    "logs_to_file",
-]
-
-logger = logging.getLogger(__name__)
-
-#: Function keys of the five scores (Jung et al. 2015, Sec. 3.2: name, use, shape/features, pass;
-#: "wrong" is the engine's score for a wrong name).
-SCORE_KEYS: dict[str, str] = {
-    "f1": "named",
-    "f2": "use",
-    "f3": "shape",
-    "f4": "wrong",
-    "f5": "pass",
-}
-
-#: Preview width in terminal cells (ours: fits an 80-column terminal beside the trial panel).
-PREVIEW_COLS = 48
-
-
-def preview_text(image: np.ndarray, cols: int = PREVIEW_COLS) -> str:
-    """Return a text preview of a stimulus with half-block characters (two image rows per line).
-
-    Nearest-neighbour sampling at ``cols`` characters wide, aspect kept; values >= 0.5 are lit.
-    """
-    img = np.asarray(image, dtype=np.float32)
-    if img.ndim == 3:  # a colour training photo: its luminance (Rec. 709)
-        img = img[..., :3] @ np.array([0.2125, 0.7154, 0.0721], np.float32)
-    rows_px, cols_px = img.shape
-    cols = max(1, min(cols, cols_px))
-    # Terminal cells are about twice as tall as wide; two image rows per cell keeps the aspect.
-    rows = max(2, int(round(cols * rows_px / cols_px)) // 2 * 2)
-    r = ((2 * np.arange(rows) + 1) * rows_px) // (2 * rows)
-    c = ((2 * np.arange(cols) + 1) * cols_px) // (2 * cols)
-    lit = img[np.ix_(r, c)] >= 0.5
-    glyph = {(True, True): "\u2588", (True, False): "\u2580", (False, True): "\u2584"}
-    lines = []
-    for top, bottom in zip(lit[0::2], lit[1::2], strict=True):
-        lines.append(
-            "".join(glyph.get((bool(a), bool(b)), " ") for a, b in zip(top, bottom, strict=True))
-        )
-    return "\n".join(lines)
+__all__ = ["OperatorConsole", "ConsoleResult"]
 
 
 @dataclass
@@ -129,39 +80,7 @@ class ConsoleResult:
     recorded: list[int] = field(default_factory=list)
 
 
-#: Layout of an operator's console: trial panel and preview on top; timer, suggested score,
-#: status and the response line at the bottom (:func:`console_layout`).
-CONSOLE_CSS = """
-#top { height: 1fr; overflow: hidden; }
-#trial { width: 1fr; min-width: 30; padding: 0 1; }
-#preview { width: auto; border: solid $accent; padding: 0 1; }
-#bottom { height: auto; }
-#timer { padding: 0 1; height: 1; }
-#suggest { padding: 0 1; height: 1; color: $success; }
-#status { padding: 0 1; height: 2; }
-"""
-
-
-def console_layout(*bottom_extra: Any) -> ComposeResult:
-    """Yield an operator console's widgets (styled by :data:`CONSOLE_CSS`) for ``compose``.
-
-    ``bottom_extra`` widgets go below the response line (the static study's note line).
-    """
-    with Horizontal(id="top"):
-        yield Static(id="trial")
-        yield Static(id="preview")
-    with Vertical(id="bottom"):
-        yield Static(id="timer")
-        yield Static(id="suggest")
-        yield Static(id="status")
-        yield Input(placeholder="the subject's words", id="response")
-        yield from bottom_extra
-    footer = Footer()
-    footer.compact = True  # a reactive since textual 0.63 (the keyword came later)
-    yield footer
-
-
-class OperatorConsole(App):
+class OperatorConsole(TrialConsole):
     """The operator's Textual app; drives ``session`` and the subject's ``display``.
 
     Parameters
@@ -175,22 +94,19 @@ class OperatorConsole(App):
     rater : str
         Rater name stored with the operator's scores.
     recorder : experiment.audio.TrialAudio or None
-        Records each trial's spoken answer (issue 15); None: no recording.
+        Records each trial's spoken answer; None: no recording.
     audio_note : str
         Shown once at start (e.g. why there is no recording).
     """
 
-    # Responsive layout (issue 15): the input line, the status and the key footer keep fixed
-    # rows at the bottom; the trial panel and the preview share what is left, and the preview is
-    # re-drawn to fit it (see _fit_preview), so nothing is clipped from 80x24 upward.
+    # The shared layout (experiment.console.layout) with the preview re-drawn to fit what the
+    # trial panel leaves (see _fit_preview); the note line is hidden until F6 opens it.
     CSS = CONSOLE_CSS + "#note { display: none; }\n"
-
-    ENABLE_COMMAND_PALETTE = False
 
     # Short labels so that the whole footer fits in 80 columns; F9 is named in the status line
     # when the presenter stops, the only time it is needed.
     BINDINGS = [
-        *(Binding(k, f"score('{s}')", s, priority=True) for k, s in SCORE_KEYS.items()),
+        *score_bindings(),
         Binding("ctrl+z", "undo", "undo", priority=True),
         Binding("f6", "note", "note", priority=True),
         Binding("f8", "pause", "pause", priority=True),
@@ -251,7 +167,7 @@ class OperatorConsole(App):
         cols = max_cols
         while cols > 4 and (cols * rows_px / cols_px) / 2 > max_lines:
             cols -= 1
-        self.query_one("#preview", Static).update(Text(preview_text(self._preview_image, cols)))
+        self._show_preview(Text(preview_text(self._preview_image, cols)))
 
     def on_mount(self) -> None:
         self.title = f"confocal: session {self.session.session_id}, subject {self.session.subject}"
@@ -277,13 +193,10 @@ class OperatorConsole(App):
 
         return getattr(self.session.protocol, "instructions", None) or InstructionsSpec()
 
-    def _status(self, text: str) -> None:
-        self.query_one("#status", Static).update(text)
-
     def _update_trial_panel(self) -> None:
         a, n = self.session.progress()
         t = self.trial if self.trial is not None else self.session.next_trial()
-        lines = [f"subject [b]{self.session.subject}[/b]   answered {a} of {n}"]
+        lines = [progress_line(self.session.subject, a, n)]
         if t is not None:
             lines += [
                 f"part {t.part}   block {t.block}   trial {t.index + 1} of {n}",
@@ -291,7 +204,7 @@ class OperatorConsole(App):
                 f"level {t.level} (window {t.window} px, {t.pixels} px)   condition {t.condition}",
             ]
         lines.append(f"state: {self.state}")
-        self.query_one("#trial", Static).update("\n".join(lines))
+        self._show_panel("\n".join(lines))
 
     def _set_state(self, state: str) -> None:
         self.state = state
@@ -302,9 +215,9 @@ class OperatorConsole(App):
             el = self.clock.now_s() - self.onset.onset_s
             wait = self.trial.pass_allowed_after_s - el
             tail = f"pass allowed in {wait:.0f} s" if wait > 0 else "pass allowed"
-            self.query_one("#timer", Static).update(f"since onset {el:.1f} s   {tail}")
+            self._show_timer(f"since onset {el:.1f} s   {tail}")
         else:
-            self.query_one("#timer", Static).update("")
+            self._show_timer("")
         alive = getattr(self.subject_display, "alive", True)
         if not alive and self.state not in ("down", "finished"):
             self._presenter_down("the presenter process is not running")
@@ -368,14 +281,14 @@ class OperatorConsole(App):
         if onset is None:
             return
         self.onset = onset
-        self.session.mark_shown(trial, onset)  # durable before any answer (issue 10)
+        self.session.mark_shown(trial, onset)  # durable before any answer
         self._audio("start", trial, onset.onset_s)
         self.first_key_s = None
         response = self.query_one("#response", Input)
         response.value = ""
         response.focus()
         self._set_state("trial")
-        self.query_one("#suggest", Static).update("")
+        self._show_suggestion(None)
         self._status("Type the subject's words; F1-F5 scores, Enter takes the suggestion.")
 
     def on_input_changed(self, event: Input.Changed) -> None:
@@ -383,9 +296,7 @@ class OperatorConsole(App):
             return
         if self.state == "trial" and self.first_key_s is None and event.value:
             self.first_key_s = self.clock.now_s()
-        self.query_one("#suggest", Static).update(
-            f"suggested: {self.session.suggest_score(self.trial, event.value.strip())}"
-        )
+        self._show_suggestion(self.session.suggest_score(self.trial, event.value.strip()))
 
     def on_input_submitted(self, event: Input.Submitted) -> None:
         if event.input.id == "note":
@@ -439,8 +350,7 @@ class OperatorConsole(App):
             "part": trial.part,
             "trial": trial,
         }
-        self.query_one("#response", Input).value = ""
-        self.query_one("#suggest", Static).update("")
+        self._clear_answer()
         self.trial = None
         if self.state == "down":  # the presenter died during clear(); the answer is saved
             self._down_from = "scored"
@@ -590,374 +500,3 @@ class OperatorConsole(App):
         self.result.answered, self.result.total = a, n
         self.result.finished = a >= n
         self.exit(self.result)
-
-
-class ScoringApp(App):
-    """A second rater's walk through logged responses, blind to every other rater's scores.
-
-    Shows each answered trial's object (the right answer), condition, level and the logged words;
-    F1..F5 appends a score by ``rater`` to the log (never the first rater's score, never the
-    suggestion). Ctrl+Z steps back to the previous trial: the score given next is appended and,
-    being this rater's latest, replaces the undone one (scores are never deleted). A progress
-    line shows how many are scored and left. Returns the number of trials scored.
-
-    Parameters
-    ----------
-    log : experiment.triallog.TrialLog
-    rater : str
-    pending : list of dict
-        Trials to score, from :func:`experiment.presentation.cli.pending_for_rater`.
-    """
-
-    BINDINGS = [
-        *(Binding(k, f"score('{s}')", s, priority=True) for k, s in SCORE_KEYS.items()),
-        Binding("ctrl+z", "undo", "undo", priority=True),
-        Binding("f7", "replay", "replay voice", priority=True),
-        Binding("ctrl+q", "done", "save & quit", priority=True),
-    ]
-
-    #: Plays a recording and returns "" or why not (tests replace it).
-    player: Any = None
-
-    def action_replay(self) -> None:
-        """Play the current trial's recorded answer, if there is one (issue 15)."""
-        from experiment.audio.playback import play, recording_for
-
-        if self.position >= len(self.pending):
-            return
-        t = self.pending[self.position]
-        path = recording_for(self.trial_log, t["session_id"], t["trial_index"])
-        why = "no recording of this answer" if path is None else (self.player or play)(path)
-        self.query_one("#status", Static).update(why or f"playing {path.name}")
-
-    def __init__(self, log: Any, rater: str, pending: list[dict[str, Any]]) -> None:
-        super().__init__()
-        self.trial_log = log
-        self.rater = rater
-        self.pending = list(pending)
-        self.position = 0
-        self._recognized: dict[int, Any] = {}
-        self._undone: dict[int, str] = {}
-        self._last_scores: dict[int, str] = {}
-
-    def compose(self) -> ComposeResult:
-        yield Static(id="item")
-        yield Static(id="status")
-        yield Footer()
-
-    def on_mount(self) -> None:
-        self.title = f"confocal score: rater {self.rater}"
-        self._show()
-
-    def progress_text(self) -> str:
-        """Return the progress line: scored, left and a 20-cell bar."""
-        n = len(self.pending)
-        done = min(self.position, n)
-        cells = round(20 * done / n) if n else 20
-        return (
-            f"scored {done} of {n}, {n - done} left  "
-            + "\u2588" * cells
-            + "\u2591" * (20 - cells)
-            + f"  {100 * done / n if n else 100:.0f} %"
-        )
-
-    def _show(self) -> None:
-        from rich.markup import escape
-
-        progress = self.progress_text()
-        if self.position >= len(self.pending):
-            self.query_one("#item", Static).update(
-                f"All {len(self.pending)} responses are scored.\n\n"
-                "Ctrl+Z undoes the last score; Ctrl+Q quits (every score is saved)."
-            )
-            self.query_one("#status", Static).update(progress)
-            return
-        t = self.pending[self.position]
-        redo = self.position in self._undone
-        self.query_one("#item", Static).update(
-            f"{self.position + 1} of {len(self.pending)}   session {t['session_id']} "
-            f"(subject {escape(str(t['subject']))}), trial {t['trial_index'] + 1}\n"
-            f"object: [b]{escape(str(t['object_name']))}[/b] ({escape(str(t['object']))}), "
-            f"{t['condition']}, level {t['level']}\n\n"
-            f"response: [b]{escape(repr(t['response']))}[/b]"
-            + (
-                f"\n\nundone: you gave {self._undone[self.position]}; score it again"
-                if redo
-                else ""
-            )
-        )
-        self.query_one("#status", Static).update(
-            f"{progress}\nF1 named  F2 use  F3 shape  F4 wrong  F5 pass  Ctrl+Z undo"
-        )
-
-    def _is_recognized(self, session_id: int, score: str) -> bool:
-        if session_id not in self._recognized:
-            from experiment.protocol import ProtocolSpec
-
-            row = self.trial_log.execute(
-                "SELECT protocol_json FROM sessions WHERE session_id = ?", (session_id,)
-            )[0]
-            self._recognized[session_id] = ProtocolSpec.from_dict(json.loads(row[0])).scoring
-        return self._recognized[session_id].is_recognized(score)
-
-    def action_score(self, score: str) -> None:
-        """Append this rater's score for the current trial and move on."""
-        if self.position >= len(self.pending):
-            return
-        t = self.pending[self.position]
-        undone = self._undone.pop(self.position, None)
-        self.trial_log.add_score(
-            t["session_id"],
-            t["trial_index"],
-            score,
-            self._is_recognized(t["session_id"], score),
-            self.rater,
-            note="blind re-score" + (f" (replaces this rater's undone {undone})" if undone else ""),
-        )
-        self._last_scores[self.position] = score
-        self.position += 1
-        self._show()
-
-    def action_undo(self) -> None:
-        """Step back to the previous trial; its next score replaces the undone one."""
-        if self.position == 0:
-            self.notify("nothing to undo")
-            return
-        self.position -= 1
-        self._undone[self.position] = self._last_scores.get(self.position, "a score")
-        self._show()
-
-    def action_done(self) -> None:
-        """Quit; every score given is already saved."""
-        self.exit(self.position)
-
-
-def make_display(
-    geometry: Any,
-    presenter: str,
-    *,
-    screen: int | None = None,
-    fullscreen: bool = True,
-    skip_timing_check: bool = False,
-    clock: Clock | None = None,
-    **kwargs: Any,
-) -> Any:
-    """Open the subject's display: ``'process'`` (a window in a presenter process),
-    ``'offscreen'`` (an in-process EGL presenter) or ``'none'`` (headless twin).
-    """
-    if presenter == "process":
-        from experiment.presentation.process import RemoteDisplay
-
-        phos = kwargs.pop("phosphenes", None)
-        if phos is not None and not isinstance(phos, dict):
-            from dataclasses import asdict
-
-            phos = asdict(phos)
-        return RemoteDisplay(
-            geometry,
-            mode="window",
-            screen=screen,
-            fullscreen=fullscreen,
-            skip_timing_check=skip_timing_check,
-            phosphenes=phos,
-            **kwargs,
-        )
-    if presenter == "offscreen":
-        from experiment.presentation.presenter import Presenter
-
-        return Presenter.offscreen(geometry, clock=clock, **kwargs)
-    if presenter == "none":
-        from experiment.presentation.displays import NullDisplay
-
-        return NullDisplay(clock)
-    raise ValueError(f"presenter must be 'process', 'offscreen' or 'none', got {presenter!r}")
-
-
-def _open_recorder(session: Any, record_audio: bool, microphone: Any) -> tuple[Any, str]:
-    """Return ``(recorder or None, note for the operator)``; log what happened once."""
-    if not record_audio and microphone is None:
-        return None, ""
-    from experiment.audio import TrialAudio, open_microphone
-
-    why = ""
-    if microphone is None:
-        microphone, why = open_microphone(session.clock)
-    if microphone is not None:
-        try:
-            recorder = TrialAudio(session, microphone)
-        except (ImportError, ValueError) as exc:
-            microphone.close()
-            why = " ".join(str(exc).split())
-        else:
-            session.log_event(
-                "audio",
-                json.dumps(
-                    {
-                        "device": getattr(microphone, "device_name", "?"),
-                        "samplerate_hz": microphone.samplerate_hz,
-                    }
-                ),
-            )
-            return recorder, ""
-    session.log_event("audio_unavailable", why)
-    logger.warning("recording the answers is off: %s", why)
-    return None, f"[b]Recording off[/b]: {why}. The session runs without audio."
-
-
-def session_log_path(session: Any) -> Path | None:
-    """Return the session log file beside the trial log (``study.sqlite`` -> ``study.log``).
-
-    ``None`` for an in-memory trial log.
-    """
-    db = str(getattr(getattr(session, "log", None), "path", ":memory:"))
-    return None if db == ":memory:" else Path(db).with_suffix(".log")
-
-
-@contextlib.contextmanager
-def logs_to_file(path: str | Path | None, *, prefix: str = "") -> Iterator[None]:
-    """Send every log record (moderngl-window's included) to ``path`` instead of the terminal.
-
-    While the console owns the terminal, a log line written there would tear its screen. Handlers
-    that write to stdout or stderr are detached from every logger, a file handler (append, level
-    INFO) is put on the root logger, and everything is put back on exit. ``path=None`` only
-    silences the terminal.
-
-    Parameters
-    ----------
-    path : str or Path or None
-        The session log file.
-    prefix : str
-        Written after the time stamp on every line (e.g. ``"session 3"``).
-    """
-    root = logging.getLogger()
-    terminal = (sys.stderr, sys.stdout, sys.__stderr__, sys.__stdout__)
-    moved: list[tuple[logging.Logger, logging.Handler]] = []
-    loggers = [root, *(logging.getLogger(n) for n in list(logging.root.manager.loggerDict))]
-    for lg in loggers:
-        for h in list(lg.handlers):
-            if (
-                isinstance(h, logging.StreamHandler)
-                and not isinstance(h, logging.FileHandler)
-                and getattr(h, "stream", None) in terminal
-            ):
-                lg.removeHandler(h)
-                moved.append((lg, h))
-    handler: logging.Handler = (
-        logging.NullHandler() if path is None else logging.FileHandler(path, encoding="utf-8")
-    )
-    tag = f" {prefix}" if prefix else ""
-    handler.setFormatter(logging.Formatter(f"%(asctime)s{tag} %(name)s %(levelname)s: %(message)s"))
-    old_level = root.level
-    root.setLevel(min(old_level, logging.INFO) if old_level else logging.INFO)
-    root.addHandler(handler)
-    try:
-        yield
-    finally:
-        root.removeHandler(handler)
-        handler.close()
-        root.setLevel(old_level)
-        for lg, h in moved:
-            lg.addHandler(h)
-
-
-def run_console(
-    session: Any,
-    *,
-    screen: int | None = None,
-    fullscreen: bool = True,
-    presenter: str = "process",
-    skip_timing_check: bool = False,
-    rater: str = "operator",
-    display: Display | None = None,
-    record_audio: bool = False,
-    microphone: Any = None,
-    **presenter_options: Any,
-) -> ConsoleResult:
-    """Run the operator console for ``session`` until the operator quits; return what happened.
-
-    Parameters
-    ----------
-    session : experiment.session.Session
-        An open session (new or resumed); it is closed (lock released) on return.
-    screen : int or None
-        Screen index of the subject's window.
-    fullscreen : bool
-    presenter : {'process', 'offscreen', 'none'}
-        How the subject's screen is drawn (see :func:`make_display`).
-    skip_timing_check : bool
-        Start even if the presenter's frame-timing self-test fails; the choice is logged (H12).
-    rater : str
-    display : Display or None
-        Use this display instead of opening one.
-    record_audio : bool
-        Record each trial's spoken answer (:mod:`experiment.audio`). Without the ``audio`` extra
-        or a microphone the session runs without, and says so once (console and log event).
-    microphone : experiment.audio.Microphone or None
-        Use this input (a test twin) instead of opening the default one.
-    **presenter_options
-        ``integer_scale``, ``phosphenes`` (passed to the presenter). A protocol with a
-        ``[display] implant`` gets that implant's phosphenes unless ``phosphenes`` is given.
-
-    Notes
-    -----
-    While the console runs, log lines (ours, and moderngl-window's in the presenter process) go
-    to the session log file :func:`session_log_path`, not the terminal.
-
-    Raises
-    ------
-    ConfocalError
-        The subject's screen cannot be opened (one line; nothing is shown).
-    """
-    from experiment.presentation.presenter import ScreenGeometry
-
-    log_path = session_log_path(session)
-    if presenter == "process" and log_path is not None:
-        presenter_options.setdefault("stderr_path", log_path)
-    layout = session.protocol.display.implant_layout
-    if layout is not None and presenter_options.get("phosphenes") is None:
-        # Session.image_for resamples each stimulus to the implant's grid; the presenter draws
-        # the grid as its phosphenes at its field of view, as ``confocal present --implant``.
-        from experiment.presentation.implant import phosphene_spec
-
-        presenter_options["phosphenes"] = phosphene_spec(layout)
-    if display is None:
-        try:
-            geometry = ScreenGeometry.from_display_spec(session.protocol.display)
-            display = make_display(
-                geometry,
-                presenter,
-                screen=screen,
-                fullscreen=fullscreen,
-                skip_timing_check=skip_timing_check,
-                clock=session.clock,
-                **presenter_options,
-            )
-        except (ConfocalError, ValueError) as exc:
-            session.log_event("presenter_failed", " ".join(str(exc).split()))
-            session.close()
-            if isinstance(exc, ConfocalError):
-                raise
-            raise ConfocalError(f"subject's display: {exc}") from None
-    recorder = None
-    try:
-        info = getattr(display, "info", None) or {"presenter": presenter}
-        session.log_event("display", json.dumps(info, sort_keys=True, default=str))
-        if skip_timing_check:
-            session.log_event("timing_check", "skipped by the operator (--skip-timing-check)")
-        recorder, audio_note = _open_recorder(session, record_audio, microphone)
-        app = OperatorConsole(
-            session, display, rater=rater, recorder=recorder, audio_note=audio_note
-        )
-        with logs_to_file(log_path, prefix=f"session {session.session_id}"):
-            result = app.run()
-    finally:
-        try:
-            display.close()
-            if recorder is not None:
-                recorder.close()
-        finally:
-            session.close()
-    if result is None:
-        a, n = session.progress()
-        result = ConsoleResult(answered=a, total=n, finished=a >= n)
-    return result

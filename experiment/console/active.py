@@ -1,10 +1,11 @@
-"""The operator's console for an active-search session with a person searching (issue 14).
+"""The operator's console for an active-search session with a person searching.
 
 The subject sits at the subject's screen (a presenter process with input on) and drives the
 search with its keyboard and mouse; the operator, at this terminal, sees what the subject sees
 (the implant's view as text), where they are (depth, plane, zoom), the target (for the
-operator only) and the time, types the subject's words and scores them, as in the static study
-(:mod:`experiment.console`). What happens in a trial is described in
+operator only) and the time, types the subject's words and scores them, as in the recognition
+study (:mod:`experiment.console.recognition`), on the same layout
+(:mod:`experiment.console.layout`). What happens in a trial is described in
 :mod:`experiment.active.live`.
 
 Keys
@@ -22,12 +23,12 @@ from __future__ import annotations
 
 from typing import Any
 
-from textual.app import App, ComposeResult
 from textual.binding import Binding
-from textual.widgets import Input, Static
+from textual.widgets import Input
 
 from experiment.active.live import LiveSearch
-from experiment.console import CONSOLE_CSS, SCORE_KEYS, console_layout, preview_text
+from experiment.console.keys import score_bindings
+from experiment.console.layout import TrialConsole, preview_text, progress_line
 
 __all__ = ["ActiveConsole", "run_active_console"]
 
@@ -40,7 +41,7 @@ PREVIEW_COLS: int = 70
 POLL_S: float = 0.03
 
 
-class ActiveConsole(App):
+class ActiveConsole(TrialConsole):
     """The operator's Textual app for a person's active search.
 
     Parameters
@@ -48,12 +49,8 @@ class ActiveConsole(App):
     live : LiveSearch
     """
 
-    CSS = CONSOLE_CSS
-
-    ENABLE_COMMAND_PALETTE = False
-
     BINDINGS = [
-        *(Binding(k, f"score('{s}')", s, priority=True) for k, s in SCORE_KEYS.items()),
+        *score_bindings(),
         Binding("ctrl+q", "save_quit", "quit", priority=True),
     ]
 
@@ -63,10 +60,7 @@ class ActiveConsole(App):
         self.finished = False
         self._shown_state: Any = None
 
-    # -- layout -------------------------------------------------------------------------------
-
-    def compose(self) -> ComposeResult:
-        yield from console_layout()
+    # -- start --------------------------------------------------------------------------------
 
     def on_mount(self) -> None:
         s = self.live.session
@@ -82,13 +76,10 @@ class ActiveConsole(App):
 
     # -- display ------------------------------------------------------------------------------
 
-    def _status(self, text: str) -> None:
-        self.query_one("#status", Static).update(text)
-
     def _panel(self) -> None:
         live, s = self.live, self.live.session
         a, n = s.progress()
-        lines = [f"subject [b]{s.subject}[/b]   answered {a} of {n}"]
+        lines = [progress_line(s.subject, a, n)]
         t = live.trial
         if t is not None:
             lines += [
@@ -106,11 +97,11 @@ class ActiveConsole(App):
             lines += [where, f"plane {plane}   zoom {zoom}"]
             if live.answered:
                 lines.append("[b]the subject pressed Enter[/b]: type the words, then score")
-        self.query_one("#trial", Static).update("\n".join(lines))
+        self._show_panel("\n".join(lines))
         if live.running and s.view is not None:
-            self.query_one("#preview", Static).update(preview_text(s.view.grid, PREVIEW_COLS))
+            self._show_preview(preview_text(s.view.grid, PREVIEW_COLS))
         else:
-            self.query_one("#preview", Static).update("")
+            self._show_preview("")
 
     def poll(self) -> None:
         """Apply the subject's inputs, check the time limit, refresh the panel."""
@@ -126,9 +117,7 @@ class ActiveConsole(App):
             return
         el = live.elapsed_s()
         limit = live.session.task.time_limit_s
-        self.query_one("#timer", Static).update(
-            "" if el is None else f"since onset {el:.1f} s of {limit:g} s"
-        )
+        self._show_timer("" if el is None else f"since onset {el:.1f} s of {limit:g} s")
         key = (live.running, live.answered, live.session.state)
         if rows or key != self._shown_state:
             self._shown_state = key
@@ -138,9 +127,7 @@ class ActiveConsole(App):
 
     def on_input_changed(self, event: Input.Changed) -> None:
         if self.live.running:
-            self.query_one("#suggest", Static).update(
-                f"suggested: {self.live.suggest(event.value)}"
-            )
+            self._show_suggestion(self.live.suggest(event.value))
 
     def on_input_submitted(self, event: Input.Submitted) -> None:
         if self.finished:
@@ -162,8 +149,7 @@ class ActiveConsole(App):
         self._after_score(f"scored {score}")
 
     def _after_score(self, what: str) -> None:
-        self.query_one("#response", Input).value = ""
-        self.query_one("#suggest", Static).update("")
+        self._clear_answer()
         if self.live.cue() is None:
             self._finish()
         else:
