@@ -25,15 +25,9 @@ from analysis.logistic import (
     fit_mixed,
     predict_from_odds_ratio,
 )
-from analysis.sampler import FitJob, sample_batch
-from analysis.weibull import (
-    PsychometricPrior,
-    WeibullFit,
-    _data_warnings,
-    aggregate,
-    default_prior,
-    fit_mle,
-)
+from analysis.weibull import PsychometricPrior, WeibullFit, aggregate, default_prior, fit_mle
+from analysis.weibull.batch import FitJob, sample_batch
+from analysis.weibull.model import _data_warnings
 
 __all__ = ["AnalysisOptions", "AnalysisStep", "AnalysisResult", "analyze", "first_recognized"]
 

@@ -264,8 +264,8 @@ def test_parameter_recovery_coverage():
     Fitted as the study command fits pooled data (beta-binomial posteriors, batch sampler).
     The full run with heterogeneous observers is ``benchmarks/validate_weibull_coverage.py``.
     """
-    from analysis.sampler import FitJob, fit_batch
     from analysis.simulate import simulate_weibull_trials
+    from analysis.weibull.batch import FitJob, fit_batch
 
     n, c_min = pass_mark()
     jobs, truth = [], []

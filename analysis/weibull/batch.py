@@ -11,8 +11,8 @@ are split into two halves, and each walker of one half proposes
 half *of the same fit*, ``gamma = 2.38 / sqrt(2 d)``; one proposal in ten uses ``gamma = 1`` to
 jump between modes (ter Braak 2006). The proposal is symmetric, so it is accepted with
 probability ``min(1, p(x') / p(x))``. Each fit stops once its chain is ``50 tau`` long
-(:data:`analysis.weibull.TAU_MULTIPLE`, tau from :func:`emcee.autocorr.integrated_time`), as
-:func:`analysis.weibull.sample_posterior` does.
+(:data:`analysis.weibull.posterior.TAU_MULTIPLE`, tau from
+:func:`emcee.autocorr.integrated_time`), as :func:`analysis.weibull.sample_posterior` does.
 """
 
 from __future__ import annotations
@@ -26,23 +26,19 @@ import emcee
 import numpy as np
 from scipy import special
 
-from analysis.weibull import (
+from analysis.weibull.mle import MLEstimate, _theta_of_mle
+from analysis.weibull.model import (
     _EPS,
     _V_MAX,
-    CHUNK_STEPS,
     ETA_MAX,
-    KEEP_SAMPLES,
-    MAX_STEPS,
     SIGMOIDS,
-    TAU_MULTIPLE,
-    MLEstimate,
-    PsychometricPrior,
-    WeibullFit,
     _check_guess,
     _check_sigmoid,
     _shape_cdf,
-    _theta_of_mle,
 )
+from analysis.weibull.posterior import CHUNK_STEPS, KEEP_SAMPLES, MAX_STEPS, TAU_MULTIPLE
+from analysis.weibull.priors import PsychometricPrior
+from analysis.weibull.summary import WeibullFit
 
 __all__ = ["FitJob", "BatchProgress", "sample_batch", "fit_batch", "BATCH_WALKERS"]
 
@@ -260,33 +256,60 @@ def sample_batch(
             done[f] = converged[f] or steps[f] >= max_steps
         if not done.all():
             yield BatchProgress(total, int(done.sum()), nf)
-    fits = []
-    for f, j in enumerate(jobs):
-        chain = np.concatenate(chains[f])
-        t = tau[f] if math.isfinite(tau[f]) else steps[f] / 10
-        burn = min(int(3 * t), steps[f] // 2)
-        flat = chain[burn:].reshape(-1, 4)
-        if len(flat) > KEEP_SAMPLES:
-            flat = flat[np.linspace(0, len(flat) - 1, KEEP_SAMPLES).astype(int)]
-        fits.append(
-            WeibullFit(
-                label=j.label,
-                sigmoid=sigmoid,
-                guess=float(j.guess),
-                levels=tuple(float(v) for v in j.levels),
-                k=tuple(float(v) for v in j.k),
-                n=tuple(float(v) for v in j.n),
-                mle=j.mle,
-                samples=np.ascontiguousarray(flat),
-                converged=bool(converged[f]),
-                tau_max=float(tau[f]),
-                n_steps=int(steps[f]),
-                n_walkers=w,
-                prior=j.prior,
-                overdispersion=bool(j.overdispersion),
-            )
+    fits = [
+        _fit_of_chain(
+            j,
+            sigmoid,
+            np.concatenate(chains[f]),
+            tau_max=tau[f],
+            n_steps=steps[f],
+            converged=converged[f],
+            n_walkers=w,
         )
+        for f, j in enumerate(jobs)
+    ]
     yield BatchProgress(total, nf, nf, fits)
+
+
+def _fit_of_chain(
+    job: FitJob,
+    sigmoid: str,
+    chain: np.ndarray,
+    *,
+    tau_max: float,
+    n_steps: int,
+    converged: bool,
+    n_walkers: int,
+) -> WeibullFit:
+    """Return the fit of ``job`` from its chain of shape (n_steps, n_walkers, 3 or 4).
+
+    The first ``3 tau`` steps (at most half the chain; ``tau`` = steps / 10 when it is not
+    finite) are burn-in; the rest is thinned evenly to at most :data:`KEEP_SAMPLES` samples,
+    and a binomial chain gets an all-zero eta column.
+    """
+    tau = tau_max if math.isfinite(tau_max) else n_steps / 10
+    burn = min(int(3 * tau), n_steps // 2)
+    flat = chain[burn:].reshape(-1, chain.shape[-1])
+    if len(flat) > KEEP_SAMPLES:
+        flat = flat[np.linspace(0, len(flat) - 1, KEEP_SAMPLES).astype(int)]
+    if flat.shape[1] == 3:
+        flat = np.column_stack([flat, np.zeros(len(flat))])
+    return WeibullFit(
+        label=job.label,
+        sigmoid=sigmoid,
+        guess=float(job.guess),
+        levels=tuple(float(v) for v in job.levels),
+        k=tuple(float(v) for v in job.k),
+        n=tuple(float(v) for v in job.n),
+        mle=job.mle,
+        samples=np.ascontiguousarray(flat),
+        converged=bool(converged),
+        tau_max=float(tau_max),
+        n_steps=int(n_steps),
+        n_walkers=n_walkers,
+        prior=job.prior,
+        overdispersion=bool(job.overdispersion),
+    )
 
 
 def fit_batch(
