@@ -24,20 +24,20 @@ from typing import Any
 
 import emcee
 import numpy as np
-from scipy import special
 
 from analysis.weibull.mle import MLEstimate, _theta_of_mle
 from analysis.weibull.model import (
     _EPS,
-    _V_MAX,
     ETA_MAX,
     SIGMOIDS,
+    _beta_binomial_ll,
+    _binomial_ll,
     _check_guess,
     _check_sigmoid,
     _shape_cdf,
 )
 from analysis.weibull.posterior import CHUNK_STEPS, KEEP_SAMPLES, MAX_STEPS, TAU_MULTIPLE
-from analysis.weibull.priors import PsychometricPrior
+from analysis.weibull.priors import PsychometricPrior, _log_beta_density
 from analysis.weibull.summary import WeibullFit
 
 __all__ = ["FitJob", "BatchProgress", "sample_batch", "fit_batch", "BATCH_WALKERS"]
@@ -139,23 +139,18 @@ class _Batch:
             p = g + (1.0 - g - lapse[..., None]) * _shape_cdf(z, self.shape)
             p = np.clip(p, _EPS, 1.0 - _EPS)
             k, n = self.k[idx][:, None, :], self.n[idx][:, None, :]
-            ll = (k * np.log(p) + (n - k) * np.log1p(-p)).sum(-1)
+            ll = _binomial_ll(k, n, p).sum(-1)
             od = self.od[idx]
             if od.any():
-                v = np.minimum(1.0 / np.maximum(eta, 1e-300) ** 2 - 1.0, _V_MAX)[..., None]
-                a, b = p * v, (1.0 - p) * v
-                gl = special.gammaln
-                bb = (gl(k + a) - gl(a) + gl(n - k + b) - gl(b) - gl(n + v) + gl(v)).sum(-1)
+                bb = _beta_binomial_ll(k, n, p, eta[..., None]).sum(-1)
                 ll = np.where(od[:, None], bb, ll)
         out = np.where(inside, lp + ll, -np.inf)
         return np.where(np.isnan(out), -np.inf, out)
 
 
 def _beta_lp(v: np.ndarray, ab: np.ndarray) -> np.ndarray:
-    a, b = ab[:, 0][:, None], ab[:, 1][:, None]
-    return (a - 1.0) * np.log(np.where(v > 0, v, 1.0)) + (b - 1.0) * np.log1p(
-        -np.clip(v, 0.0, 0.999999)
-    )
+    """Log Beta density of v (fits, walkers), one (a, b) row of ``ab`` per fit."""
+    return _log_beta_density(v, ab[:, 0][:, None], ab[:, 1][:, None])
 
 
 def sample_batch(

@@ -282,15 +282,24 @@ def _log_likelihood(
     theta = np.atleast_2d(theta)
     p = _p_matrix(theta, x, guess, sigmoid)
     if theta.shape[-1] < 4:
-        return (k * np.log(p) + (n - k) * np.log1p(-p)).sum(axis=1)
+        return _binomial_ll(k, n, p).sum(axis=1)
     eta = np.clip(theta[:, 3], 0.0, ETA_MAX)
+    return _beta_binomial_ll(k, n, p, eta[:, None]).sum(axis=1)
+
+
+def _binomial_ll(k: np.ndarray, n: np.ndarray, p: np.ndarray) -> np.ndarray:
+    """Binomial log-likelihood of k correct of n at P(correct) p, per level (no coefficient)."""
+    return k * np.log(p) + (n - k) * np.log1p(-p)
+
+
+def _beta_binomial_ll(k: np.ndarray, n: np.ndarray, p: np.ndarray, eta: np.ndarray) -> np.ndarray:
+    """Beta-binomial log-likelihood per level: mean p, overdispersion scale eta (broadcast)."""
     with np.errstate(divide="ignore"):
-        v = np.minimum(1.0 / np.maximum(eta, 1e-300) ** 2 - 1.0, _V_MAX)[:, None]
+        v = np.minimum(1.0 / np.maximum(eta, 1e-300) ** 2 - 1.0, _V_MAX)
     a, b = p * v, (1.0 - p) * v
     g = special.gammaln
     # log B(k + a, n - k + b) - log B(a, b), minus the binomial coefficient (a constant).
-    ll = g(k + a) - g(a) + g(n - k + b) - g(b) - g(n + v) + g(v)
-    return ll.sum(axis=1)
+    return g(k + a) - g(a) + g(n - k + b) - g(b) - g(n + v) + g(v)
 
 
 def _data_warnings(label: str, k: np.ndarray, n: np.ndarray) -> None:

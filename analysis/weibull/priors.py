@@ -148,14 +148,14 @@ class PsychometricPrior:
         )
 
 
-def _log_beta_density(v: np.ndarray, a: float, b: float) -> np.ndarray:
-    """Unnormalised log Beta(a, b) density (0 outside handled by the caller's box)."""
+def _log_beta_density(v: np.ndarray, a: Any, b: Any) -> np.ndarray:
+    """Unnormalised log Beta(a, b) density, a and b broadcast with v (the box is the caller's)."""
     with np.errstate(divide="ignore", invalid="ignore"):
         lp = (a - 1.0) * np.log(np.where(v > 0, v, 1.0)) + (b - 1.0) * np.log1p(
             -np.clip(v, 0.0, 0.999999)
         )
-        if a < 1.0:
-            lp = np.where(v > 0, lp, np.inf)
+        if np.any(np.asarray(a) < 1.0):
+            lp = np.where((v > 0) | (np.asarray(a) >= 1.0), lp, np.inf)
     return lp
 
 
