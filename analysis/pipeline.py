@@ -142,7 +142,7 @@ class AnalysisResult:
         }
 
     def results_json(self) -> dict[str, Any]:
-        """Return the ``results.json`` content (keys as in issue 4)."""
+        """Return the ``results.json`` content (the keys the report and tests rely on)."""
         pc = self.options.pc
         out: dict[str, Any] = {
             "n_trials": self.n_trials,
