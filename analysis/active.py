@@ -477,27 +477,14 @@ def write_active_report(paths: Iterable[str | Path], out_dir: str | Path) -> Act
     DataError
         No file has active-search events.
     """
-    import shutil
+    from analysis.report import atomic_folder  # the study report's modules, only when needed
 
     paths = [Path(p) for p in paths]
     out = Path(out_dir).resolve()
     if out.exists() and not out.is_dir():
         raise DataError(f"--out {out} exists and is not a folder")
-    out.parent.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.tmp-", dir=out.parent))
-    try:
+    with atomic_folder(out) as tmp:
         result = add_active_results(paths, tmp)
         if result is None:
             raise DataError(f"{paths[0] if paths else 'no files'}: no active-search events")
-        os.chmod(tmp, 0o755)
-        if out.exists():
-            old = Path(tempfile.mkdtemp(prefix=f".{out.name}.old-", dir=out.parent))
-            os.replace(out, old / out.name)
-            os.replace(tmp, out)
-            shutil.rmtree(old, ignore_errors=True)
-        else:
-            os.replace(tmp, out)
-    except BaseException:
-        shutil.rmtree(tmp, ignore_errors=True)
-        raise
     return result

@@ -199,7 +199,7 @@ def run(
         raise typer.BadParameter(str(exc)) from exc
     from analysis.active import add_active_results, only_active, summary_lines, write_active_report
 
-    if only_active(trials):  # active-search logs only (issue 14): no static trials to fit
+    if only_active(trials):  # active-search logs only: no static trials to fit
         res = write_active_report(trials, out)
         typer.echo("\n".join([*summary_lines(res), f"report: {Path(out) / 'report.md'}"]))
         return

@@ -19,7 +19,9 @@ from typing import Any
 import numpy as np
 from scipy import stats
 
-from analysis.weibull import MLEstimate, _p_matrix, _theta_of_mle, is_log_axis, threshold_at
+from analysis.weibull import MLEstimate, is_log_axis, threshold_at
+from analysis.weibull.mle import _theta_of_mle
+from analysis.weibull.model import _p_matrix
 
 __all__ = ["cluster_threshold_ci"]
 

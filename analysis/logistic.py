@@ -669,7 +669,7 @@ def fit_mixed(trials: pd.DataFrame) -> MixedFit:
 
     Laplace-approximate maximum likelihood (:func:`laplace_glmm`, as lme4's ``glmer``), Wald
     95 % intervals and p-values from the Hessian. (The variational-Bayes fit used before gave
-    intervals about ten times too narrow; issue 11.) A grouping factor with one level is left out.
+    intervals about ten times too narrow.) A grouping factor with one level is left out.
 
     Parameters
     ----------

@@ -25,15 +25,9 @@ from analysis.logistic import (
     fit_mixed,
     predict_from_odds_ratio,
 )
-from analysis.sampler import FitJob, sample_batch
-from analysis.weibull import (
-    PsychometricPrior,
-    WeibullFit,
-    _data_warnings,
-    aggregate,
-    default_prior,
-    fit_mle,
-)
+from analysis.weibull import PsychometricPrior, WeibullFit, aggregate, default_prior, fit_mle
+from analysis.weibull.batch import FitJob, sample_batch
+from analysis.weibull.model import _data_warnings
 
 __all__ = ["AnalysisOptions", "AnalysisStep", "AnalysisResult", "analyze", "first_recognized"]
 
@@ -148,7 +142,7 @@ class AnalysisResult:
         }
 
     def results_json(self) -> dict[str, Any]:
-        """Return the ``results.json`` content (keys as in issue 4)."""
+        """Return the ``results.json`` content (the keys the report and tests rely on)."""
         pc = self.options.pc
         out: dict[str, Any] = {
             "n_trials": self.n_trials,

@@ -30,7 +30,7 @@ from analysis.simulate import (
     simulate_logistic_trials,
     simulate_weibull_trials,
 )
-from analysis.weibull import _log_likelihood
+from analysis.weibull.model import _log_likelihood
 
 __all__ = [
     "PowerPoint",

@@ -1,10 +1,10 @@
 """Psychometric functions for any table: ``confocal analyze fit``, the general command.
 
-Reads a CSV table that is either per trial (one row per trial, a 0/1 ``--y`` column) or
-aggregated (``--k`` correct of ``--n`` trials per row, or a proportion ``--p`` of ``--n``), splits
-it by ``--group`` columns, and fits each group with the same core as the study command
-(:func:`analysis.weibull.fit_mle` for the ML estimate, :func:`analysis.sampler.sample_batch` for
-all posteriors at once). For each group it reports thresholds at any proportions correct with
+Reads a CSV table that is either per trial (one row per trial, a 0/1 ``--y`` column) or aggregated
+(``--k`` correct of ``--n`` trials per row, or a proportion ``--p`` of ``--n``), splits it by
+``--group`` columns, and fits each group with the same core as the study command
+(:func:`analysis.weibull.fit_mle` for the ML estimate, :func:`analysis.weibull.batch.sample_batch`
+for all posteriors at once). For each group it reports thresholds at any proportions correct with
 their status (measured / censored / unidentified), posterior medians and 95 % credible intervals
 beside ML values, deviance and a posterior-predictive p-value, and draws one plot.
 
@@ -38,16 +38,10 @@ import numpy as np
 import pandas as pd
 
 from analysis.errors import DataError
-from analysis.sampler import FitJob, sample_batch
-from analysis.weibull import (
-    SIGMOIDS,
-    WeibullFit,
-    _data_warnings,
-    _json_float,
-    default_prior,
-    fit_mle,
-    is_log_axis,
-)
+from analysis.weibull import SIGMOIDS, WeibullFit, default_prior, fit_mle, is_log_axis
+from analysis.weibull.batch import FitJob, sample_batch
+from analysis.weibull.model import _data_warnings
+from analysis.weibull.threshold import _json_float
 
 __all__ = [
     "FitSpec",

@@ -1,13 +1,13 @@
 """Speed of the full analysis: 1,920 trials, 2 pooled + 12 per-subject posteriors, logistic
-model, results.json, report.md and figures (issue 11: under 10 s on 2 cores, every chain
+model, results.json, report.md and figures (goal: under 10 s on 2 cores, every chain
 converged). Simulated data (labelled so in the output).
 
 Also times, in the same process, a baseline for the 14 posteriors: emcee as used out of the box
-(default stretch move, a scalar log-probability called once per walker, 32 walkers started in a
-ball at the centre of the prior box), run to the same convergence rule (chain >= 50 tau), one
-posterior after another. Ours samples all 14 at once (analysis.sampler: one vectorised step for
-every fit's walkers, differential-evolution moves, ML start). The ratio baseline / ours is what
-that buys on this machine, whatever its load; the load average is printed too.
+(default stretch move, a scalar log-probability called once per walker, 32 walkers started in a ball
+at the centre of the prior box), run to the same convergence rule (chain >= 50 tau), one posterior
+after another. Ours samples all 14 at once (analysis.weibull.batch: one vectorised step for every
+fit's walkers, differential-evolution moves, ML start). The ratio baseline / ours is what that buys
+on this machine, whatever its load; the load average is printed too.
 
 Usage::
 
@@ -30,7 +30,8 @@ from analysis.data import read_trials
 from analysis.pipeline import AnalysisOptions, analyze
 from analysis.report import write_report
 from analysis.simulate import WeibullObserver, simulate_weibull_trials
-from analysis.weibull import _log_likelihood, default_prior
+from analysis.weibull import default_prior
+from analysis.weibull.model import _log_likelihood
 
 #: Simulated observers (ours), near the paper's Fig. 8 curves, with subjects spread by 0.15 log10.
 TRUTH = {

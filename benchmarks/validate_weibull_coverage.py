@@ -31,9 +31,9 @@ import numpy as np
 from scipy import optimize, stats
 
 from analysis.cluster import cluster_threshold_ci
-from analysis.sampler import FitJob, fit_batch
 from analysis.simulate import WeibullObserver, simulate_weibull_trials
 from analysis.weibull import aggregate, default_prior, fit_mle, threshold_at
+from analysis.weibull.batch import FitJob, fit_batch
 
 #: True observers (ours): chosen near fits to the paper's Fig. 8 (50 % points ~8,700 and ~3,500 px
 #: with lapses of a few percent).

@@ -213,6 +213,19 @@ def test_report_hook_and_active_only_report(db, tmp_path) -> None:
     assert (other / "report.md").read_text().startswith("# Report\n\nstatic part\n\n## Active")
 
 
+def test_active_only_report_folder_follows_the_umask(db, tmp_path) -> None:
+    """The report folder gets the user's umask, as the study report's does, not a fixed 0755."""
+    import os
+    import stat
+
+    old = os.umask(0o002)
+    try:
+        write_active_report([db], tmp_path / "rep")
+    finally:
+        os.umask(old)
+    assert stat.S_IMODE((tmp_path / "rep").stat().st_mode) == 0o775
+
+
 def test_files_without_active_events(tmp_path) -> None:
     plain = tmp_path / "plain.sqlite"
     sqlite3.connect(plain).execute("CREATE TABLE x (a)").connection.commit()

@@ -1,6 +1,6 @@
 """Degenerate data give a complete report (exit 0) or one clear line (exit 2), never a traceback.
 
-Regression tests for issue 11: separated data, one level, one condition, tiny files, all or none
+Regression tests for separated data, one level, one condition, tiny files, all or none
 recognised, two levels only, and a subject who recognised everything.
 """
 
@@ -47,7 +47,7 @@ def base():
     return simulate_weibull_trials(TRUTH, n_subjects=2, subject_log10_sd=0.1, rng=11)
 
 
-def test_separated_conditions_issue_11(tmp_path, base):
+def test_separated_conditions(tmp_path, base):
     d = base.copy()
     d["recognized"] = (d["condition"] == "decluttered").astype(int)
     r, text = _ok(*_run(tmp_path, d, "--by", "none", "--mixed", figures=True))
@@ -62,7 +62,7 @@ def test_separated_conditions_issue_11(tmp_path, base):
     assert (tmp_path / "rep" / "fig8_recognition_vs_pixels.pdf").stat().st_size > 1000
 
 
-def test_low_levels_only_issue_11(tmp_path, base):
+def test_low_levels_only(tmp_path, base):
     d = base[base["pixels"] <= 950]
     r, text = _ok(*_run(tmp_path, d, "--by", "none"))
     # Nothing reaches 50 % below 950 px in these observers: the threshold is above the range.
@@ -73,7 +73,7 @@ def test_low_levels_only_issue_11(tmp_path, base):
     assert "(about" not in text  # no image side for a number that is not a measurement
 
 
-def test_single_level_issue_11(tmp_path, base):
+def test_single_level(tmp_path, base):
     d = base[base["pixels"] == base["pixels"].max()]
     r, text = _ok(*_run(tmp_path, d, "--by", "none"))
     for c in ("cluttered", "decluttered"):
@@ -82,13 +82,13 @@ def test_single_level_issue_11(tmp_path, base):
     assert "one resolution level only" in text
 
 
-def test_sixteen_trials_issue_11(tmp_path, base):
+def test_sixteen_trials(tmp_path, base):
     d = base.sample(16, random_state=2)
     r, _ = _ok(*_run(tmp_path, d))
     assert r["n_trials"] == 16
 
 
-def test_one_condition_issue_11(tmp_path, base):
+def test_one_condition(tmp_path, base):
     d = base[base["condition"] == "cluttered"]
     r, text = _ok(*_run(tmp_path, d, "--by", "none"))
     assert set(r["thresholds"]) == {"cluttered"}
@@ -97,7 +97,7 @@ def test_one_condition_issue_11(tmp_path, base):
 
 
 @pytest.mark.parametrize(("value", "status"), [(1, "censored_below"), (0, "censored_above")])
-def test_all_or_none_recognised_issue_11(tmp_path, base, value, status):
+def test_all_or_none_recognised(tmp_path, base, value, status):
     d = base.copy()
     d["recognized"] = value
     r, text = _ok(*_run(tmp_path, d, "--by", "none"))
@@ -106,13 +106,13 @@ def test_all_or_none_recognised_issue_11(tmp_path, base, value, status):
     assert "could not be estimated" in text
 
 
-def test_two_levels_warns_issue_11(tmp_path, base):
+def test_two_levels_warns(tmp_path, base):
     d = base[base["pixels"].isin(sorted(base["pixels"].unique())[3:5])]
     r, _ = _ok(*_run(tmp_path, d, "--by", "none"))
     assert any("only 2 level(s) tested" in w for w in r["warnings"])
 
 
-def test_subject_who_recognised_everything_is_censored_issue_11(tmp_path, base):
+def test_subject_who_recognised_everything_is_censored(tmp_path, base):
     d = base.copy()
     d.loc[d["subject"] == "s1", "recognized"] = 1
     r, text = _ok(*_run(tmp_path, d))

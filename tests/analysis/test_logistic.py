@@ -120,11 +120,11 @@ def test_mixed_model(trials):
     assert back == m
 
 
-def test_mixed_intervals_agree_with_fixed_effects_model_issue_11(trials, fit):
+def test_mixed_intervals_agree_with_fixed_effects_model(trials, fit):
     """Widths within 15 % of the dummy-coded model's (second method: statsmodels GLM with subject
     and object dummies; background and log10 pixels vary within subjects and objects, so both
-    models estimate the same conditional effects with nearly the same precision). Issue 11: the
-    variational-Bayes intervals were ~10x too narrow."""
+    models estimate the same conditional effects with nearly the same precision). This catches
+    intervals ~10x too narrow, as the variational-Bayes fit used before gave."""
     import statsmodels.formula.api as smf
 
     from analysis.logistic import design_frame
@@ -180,7 +180,7 @@ def test_roundtrip(fit):
     assert list(t.to_frame().columns) == ["term", "odds_ratio", "ci95_low", "ci95_high", "p_value"]
 
 
-def test_all_recognised_gives_an_empty_table_not_an_error_issue_11(trials):
+def test_all_recognised_gives_an_empty_table_not_an_error(trials):
     t = trials.copy()
     t["recognized"] = 1
     f = fit_logistic(t)
@@ -188,7 +188,7 @@ def test_all_recognised_gives_an_empty_table_not_an_error_issue_11(trials):
     assert "all 1920 trials are recognised" in f.warnings[0]
 
 
-def test_one_condition_drops_the_background_term_issue_11(trials):
+def test_one_condition_drops_the_background_term(trials):
     f = fit_logistic(trials[trials["condition"] == "cluttered"])
     assert not f.has("background") and f.has("log10_pixels")
     assert any("one background condition" in w for w in f.warnings)
@@ -215,7 +215,7 @@ def test_firth_matches_direct_maximisation_of_the_penalised_likelihood():
     np.testing.assert_allclose(ours, r.x, rtol=1e-4, atol=1e-5)
 
 
-def test_separated_condition_is_refitted_with_firth_issue_11(trials):
+def test_separated_condition_is_refitted_with_firth(trials):
     t = trials.copy()
     t.loc[t["condition"] == "cluttered", "recognized"] = 0
     t.loc[t["condition"] == "decluttered", "recognized"] = 1
@@ -226,7 +226,7 @@ def test_separated_condition_is_refitted_with_firth_issue_11(trials):
     assert any("separated" in w for w in f.warnings)
 
 
-def test_sixteen_trials_do_not_crash_issue_11(trials):
+def test_sixteen_trials_do_not_crash(trials):
     small = trials.sample(16, random_state=3)
     assert small["object"].nunique() > 1
     f = fit_logistic(small)

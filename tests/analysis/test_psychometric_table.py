@@ -9,8 +9,8 @@ import pytest
 from analysis.errors import DataError
 from analysis.logistic import fit_mixed
 from analysis.psychometric import FitSpec, counts_by_group, read_table, resolve_sigmoid
-from analysis.sampler import FitJob, sample_batch
 from analysis.weibull import default_prior, fit_mle
+from analysis.weibull.batch import FitJob, sample_batch
 
 
 def test_headerless_table_is_numbered(tmp_path):
@@ -106,7 +106,8 @@ def test_batch_matches_independent_sampling_of_a_posterior():
     so compare the batch sampler's median threshold with emcee's (analysis.weibull.
     sample_posterior, stretch-free DE moves of emcee itself) on the same data and prior; their
     difference must be within 3 Monte Carlo standard errors (about 0.05 log10 units here)."""
-    from analysis.weibull import _finish, fit_counts, sample_posterior
+    from analysis.weibull import fit_counts, sample_posterior
+    from analysis.weibull.fit import _finish
 
     lv = np.geomspace(100, 10000, 6)
     k, n = np.array([1.0, 4, 12, 21, 27, 28]), np.array([30.0] * 6)

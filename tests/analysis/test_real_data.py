@@ -3,7 +3,8 @@
 Second method: the hand-written likelihood with bounded Nelder-Mead of ``test_weibull``
 (different parametrisation and optimizer) over the same parameter space (lapse and slope
 bounds of the default prior: without a slope bound the staircase's MLE is a step function,
-beta ~ 120). 2 % is the tolerance set in issue 4; both methods maximise the same likelihood.
+beta ~ 120). 2 % is the agreement the project requires of its fit; both methods maximise the
+same likelihood.
 """
 
 from __future__ import annotations

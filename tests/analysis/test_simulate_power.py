@@ -101,7 +101,7 @@ def _grid(**kw):
 
 
 @pytest.mark.slow
-def test_power_grid_same_seed_same_result_in_processes_issue_11():
+def test_power_grid_same_seed_same_result_in_processes():
     here = _grid(processes=1)
     assert len(here) == 4 and [p.n_levels for p in here[:2]] == [3, 8]
     assert _grid(processes=2) == here  # studies seeded by grid position, not by worker
@@ -110,7 +110,7 @@ def test_power_grid_same_seed_same_result_in_processes_issue_11():
 
 
 @pytest.mark.slow
-def test_power_grid_on_a_local_dask_cluster_issue_11():
+def test_power_grid_on_a_local_dask_cluster():
     distributed = pytest.importorskip(
         "dask.distributed", reason="dask not installed (pip install .[dask])"
     )

@@ -250,7 +250,7 @@ def pass_mark(p_bad: float = 0.85, p_good: float = 0.95) -> tuple[int, int]:
     raise AssertionError("no replicate count found")
 
 
-def test_pass_mark_fails_an_85_percent_method_issue_11():
+def test_pass_mark_fails_an_85_percent_method():
     n, c = pass_mark()
     assert stats.binom.sf(c - 1, n, 0.85) <= 0.10  # an 85 % method fails >= 90 % of the time
     assert stats.binom.sf(c - 1, n, 0.95) >= 0.99  # a calibrated one passes >= 99 % of the time
@@ -264,8 +264,8 @@ def test_parameter_recovery_coverage():
     Fitted as the study command fits pooled data (beta-binomial posteriors, batch sampler).
     The full run with heterogeneous observers is ``benchmarks/validate_weibull_coverage.py``.
     """
-    from analysis.sampler import FitJob, fit_batch
     from analysis.simulate import simulate_weibull_trials
+    from analysis.weibull.batch import FitJob, fit_batch
 
     n, c_min = pass_mark()
     jobs, truth = [], []

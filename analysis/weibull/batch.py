@@ -11,8 +11,8 @@ are split into two halves, and each walker of one half proposes
 half *of the same fit*, ``gamma = 2.38 / sqrt(2 d)``; one proposal in ten uses ``gamma = 1`` to
 jump between modes (ter Braak 2006). The proposal is symmetric, so it is accepted with
 probability ``min(1, p(x') / p(x))``. Each fit stops once its chain is ``50 tau`` long
-(:data:`analysis.weibull.TAU_MULTIPLE`, tau from :func:`emcee.autocorr.integrated_time`), as
-:func:`analysis.weibull.sample_posterior` does.
+(:data:`analysis.weibull.posterior.TAU_MULTIPLE`, tau from
+:func:`emcee.autocorr.integrated_time`), as :func:`analysis.weibull.sample_posterior` does.
 """
 
 from __future__ import annotations
@@ -24,25 +24,21 @@ from typing import Any
 
 import emcee
 import numpy as np
-from scipy import special
 
-from analysis.weibull import (
+from analysis.weibull.mle import MLEstimate, _theta_of_mle
+from analysis.weibull.model import (
     _EPS,
-    _V_MAX,
-    CHUNK_STEPS,
     ETA_MAX,
-    KEEP_SAMPLES,
-    MAX_STEPS,
     SIGMOIDS,
-    TAU_MULTIPLE,
-    MLEstimate,
-    PsychometricPrior,
-    WeibullFit,
+    _beta_binomial_ll,
+    _binomial_ll,
     _check_guess,
     _check_sigmoid,
     _shape_cdf,
-    _theta_of_mle,
 )
+from analysis.weibull.posterior import CHUNK_STEPS, KEEP_SAMPLES, MAX_STEPS, TAU_MULTIPLE
+from analysis.weibull.priors import PsychometricPrior, _log_beta_density
+from analysis.weibull.summary import WeibullFit
 
 __all__ = ["FitJob", "BatchProgress", "sample_batch", "fit_batch", "BATCH_WALKERS"]
 
@@ -143,23 +139,18 @@ class _Batch:
             p = g + (1.0 - g - lapse[..., None]) * _shape_cdf(z, self.shape)
             p = np.clip(p, _EPS, 1.0 - _EPS)
             k, n = self.k[idx][:, None, :], self.n[idx][:, None, :]
-            ll = (k * np.log(p) + (n - k) * np.log1p(-p)).sum(-1)
+            ll = _binomial_ll(k, n, p).sum(-1)
             od = self.od[idx]
             if od.any():
-                v = np.minimum(1.0 / np.maximum(eta, 1e-300) ** 2 - 1.0, _V_MAX)[..., None]
-                a, b = p * v, (1.0 - p) * v
-                gl = special.gammaln
-                bb = (gl(k + a) - gl(a) + gl(n - k + b) - gl(b) - gl(n + v) + gl(v)).sum(-1)
+                bb = _beta_binomial_ll(k, n, p, eta[..., None]).sum(-1)
                 ll = np.where(od[:, None], bb, ll)
         out = np.where(inside, lp + ll, -np.inf)
         return np.where(np.isnan(out), -np.inf, out)
 
 
 def _beta_lp(v: np.ndarray, ab: np.ndarray) -> np.ndarray:
-    a, b = ab[:, 0][:, None], ab[:, 1][:, None]
-    return (a - 1.0) * np.log(np.where(v > 0, v, 1.0)) + (b - 1.0) * np.log1p(
-        -np.clip(v, 0.0, 0.999999)
-    )
+    """Log Beta density of v (fits, walkers), one (a, b) row of ``ab`` per fit."""
+    return _log_beta_density(v, ab[:, 0][:, None], ab[:, 1][:, None])
 
 
 def sample_batch(
@@ -260,33 +251,60 @@ def sample_batch(
             done[f] = converged[f] or steps[f] >= max_steps
         if not done.all():
             yield BatchProgress(total, int(done.sum()), nf)
-    fits = []
-    for f, j in enumerate(jobs):
-        chain = np.concatenate(chains[f])
-        t = tau[f] if math.isfinite(tau[f]) else steps[f] / 10
-        burn = min(int(3 * t), steps[f] // 2)
-        flat = chain[burn:].reshape(-1, 4)
-        if len(flat) > KEEP_SAMPLES:
-            flat = flat[np.linspace(0, len(flat) - 1, KEEP_SAMPLES).astype(int)]
-        fits.append(
-            WeibullFit(
-                label=j.label,
-                sigmoid=sigmoid,
-                guess=float(j.guess),
-                levels=tuple(float(v) for v in j.levels),
-                k=tuple(float(v) for v in j.k),
-                n=tuple(float(v) for v in j.n),
-                mle=j.mle,
-                samples=np.ascontiguousarray(flat),
-                converged=bool(converged[f]),
-                tau_max=float(tau[f]),
-                n_steps=int(steps[f]),
-                n_walkers=w,
-                prior=j.prior,
-                overdispersion=bool(j.overdispersion),
-            )
+    fits = [
+        _fit_of_chain(
+            j,
+            sigmoid,
+            np.concatenate(chains[f]),
+            tau_max=tau[f],
+            n_steps=steps[f],
+            converged=converged[f],
+            n_walkers=w,
         )
+        for f, j in enumerate(jobs)
+    ]
     yield BatchProgress(total, nf, nf, fits)
+
+
+def _fit_of_chain(
+    job: FitJob,
+    sigmoid: str,
+    chain: np.ndarray,
+    *,
+    tau_max: float,
+    n_steps: int,
+    converged: bool,
+    n_walkers: int,
+) -> WeibullFit:
+    """Return the fit of ``job`` from its chain of shape (n_steps, n_walkers, 3 or 4).
+
+    The first ``3 tau`` steps (at most half the chain; ``tau`` = steps / 10 when it is not
+    finite) are burn-in; the rest is thinned evenly to at most :data:`KEEP_SAMPLES` samples,
+    and a binomial chain gets an all-zero eta column.
+    """
+    tau = tau_max if math.isfinite(tau_max) else n_steps / 10
+    burn = min(int(3 * tau), n_steps // 2)
+    flat = chain[burn:].reshape(-1, chain.shape[-1])
+    if len(flat) > KEEP_SAMPLES:
+        flat = flat[np.linspace(0, len(flat) - 1, KEEP_SAMPLES).astype(int)]
+    if flat.shape[1] == 3:
+        flat = np.column_stack([flat, np.zeros(len(flat))])
+    return WeibullFit(
+        label=job.label,
+        sigmoid=sigmoid,
+        guess=float(job.guess),
+        levels=tuple(float(v) for v in job.levels),
+        k=tuple(float(v) for v in job.k),
+        n=tuple(float(v) for v in job.n),
+        mle=job.mle,
+        samples=np.ascontiguousarray(flat),
+        converged=bool(converged),
+        tau_max=float(tau_max),
+        n_steps=int(n_steps),
+        n_walkers=n_walkers,
+        prior=job.prior,
+        overdispersion=bool(job.overdispersion),
+    )
 
 
 def fit_batch(

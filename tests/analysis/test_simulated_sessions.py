@@ -1,5 +1,5 @@
-"""Simulated sessions are named in the report and results.json, and not pooled by default
-(issue 15, point 1)."""
+"""Simulated sessions are named in the report and results.json, and not pooled with human ones
+unless asked for."""
 
 from __future__ import annotations
 

@@ -1,0 +1,190 @@
+"""Fit a psychometric function to trials or counts: ML estimate, then a converged posterior."""
+
+from __future__ import annotations
+
+import logging
+from typing import Any
+
+import numpy as np
+
+from analysis.weibull.batch import FitJob, _fit_of_chain, fit_batch
+from analysis.weibull.mle import fit_mle
+from analysis.weibull.model import (
+    Sigmoid,
+    _check_guess,
+    _check_sigmoid,
+    _data_warnings,
+    aggregate,
+    is_log_axis,
+)
+from analysis.weibull.posterior import MAX_STEPS, N_WALKERS
+from analysis.weibull.priors import PsychometricPrior, default_prior
+from analysis.weibull.summary import WeibullFit
+
+__all__ = ["fit_weibull", "fit_counts"]
+
+logger = logging.getLogger(__name__)
+
+
+def fit_weibull(
+    x: Any,
+    correct: Any,
+    *,
+    guess: float = 0.0,
+    sigmoid: Sigmoid = "weibull",
+    prior: PsychometricPrior | None = None,
+    label: str = "",
+    overdispersion: bool = False,
+    n_walkers: int = N_WALKERS,
+    max_steps: int = MAX_STEPS,
+    rng: np.random.Generator | int | None = None,
+) -> WeibullFit:
+    """Fit a psychometric function to trials: MLE, then an emcee posterior until converged.
+
+    Parameters
+    ----------
+    x : array_like of shape (n_trials,)
+        Stimulus level per trial (pixels for the Jung 2015 data; > 0 for log-axis sigmoids).
+    correct : array_like of shape (n_trials,)
+        1 = correct/recognised, 0 = not, per trial.
+    guess : float
+        Guess rate in [0, 1) (0 for free recognition, 0.5 for 2AFC).
+    sigmoid : str
+        One of :data:`SIGMOIDS`.
+    prior : PsychometricPrior, optional
+        :func:`default_prior` when omitted.
+    label : str
+        Name of the fitted data, used in warnings and reports.
+    overdispersion : bool
+        Beta-binomial posterior (free scale eta) instead of binomial.
+    n_walkers : int
+        emcee walkers.
+    max_steps : int
+        Steps per walker after which the fit gives up (``converged = False``).
+    rng : numpy.random.Generator or int or None
+        Randomness of the sampler.
+
+    Returns
+    -------
+    WeibullFit
+
+    Raises
+    ------
+    ValueError
+        Bad arguments (mismatched lengths, non-positive x for a log axis, bad guess rate).
+
+    Warns
+    -----
+    FitWarning
+        All or no trials correct, or fewer than 5 trials at most levels.
+
+    References
+    ----------
+    Jung et al. 2015, Sec. 3.2.2 (Weibull fits not forced to 100 %); Wichmann & Hill 2001.
+    """
+    levels, k, n = aggregate(x, correct)
+    return fit_counts(
+        levels,
+        k,
+        n,
+        guess=guess,
+        sigmoid=sigmoid,
+        prior=prior,
+        label=label,
+        overdispersion=overdispersion,
+        n_walkers=n_walkers,
+        max_steps=max_steps,
+        rng=rng,
+    )
+
+
+def fit_counts(
+    levels: Any,
+    k: Any,
+    n: Any,
+    *,
+    guess: float = 0.0,
+    sigmoid: Sigmoid = "weibull",
+    prior: PsychometricPrior | None = None,
+    label: str = "",
+    overdispersion: bool = False,
+    n_walkers: int = N_WALKERS,
+    max_steps: int = MAX_STEPS,
+    rng: np.random.Generator | int | None = None,
+) -> WeibullFit:
+    """Fit a psychometric function to aggregated counts (see :func:`fit_weibull`).
+
+    Parameters
+    ----------
+    levels : array_like of shape (n_levels,)
+        Stimulus levels (repeated levels are merged).
+    k, n : array_like of shape (n_levels,)
+        Number correct and number of trials at each level (0 <= k <= n, n > 0).
+    guess, sigmoid, prior, label, overdispersion, n_walkers, max_steps, rng
+        As for :func:`fit_weibull`.
+
+    Returns
+    -------
+    WeibullFit
+
+    Raises
+    ------
+    ValueError
+        Bad counts or arguments.
+    """
+    _check_sigmoid(sigmoid)
+    _check_guess(guess)
+    lv = np.asarray(levels, float).ravel()
+    kk = np.asarray(k, float).ravel()
+    nn = np.asarray(n, float).ravel()
+    if not (lv.shape == kk.shape == nn.shape) or lv.size == 0:
+        raise ValueError(
+            f"levels, k and n must be non-empty and of equal length, got {lv.size}, {kk.size}, "
+            f"{nn.size}"
+        )
+    if not (np.all(np.isfinite(lv)) and np.all(np.isfinite(kk)) and np.all(np.isfinite(nn))):
+        raise ValueError("levels, k and n must be finite, got NaN or inf")
+    if np.any(nn <= 0) or np.any(kk < 0) or np.any(kk > nn):
+        raise ValueError("counts must satisfy 0 <= k <= n and n > 0 at every level")
+    levels, inv = np.unique(lv, return_inverse=True)
+    k = np.bincount(inv, weights=kk).astype(float)
+    n = np.bincount(inv, weights=nn).astype(float)
+    if is_log_axis(sigmoid) and levels[0] <= 0:
+        raise ValueError(f"x must be > 0 for the {sigmoid} (log axis), got {float(levels[0])!r}")
+    _data_warnings(label, k, n)
+    rng = np.random.default_rng(rng)
+    prior = prior or default_prior(levels, guess=guess, sigmoid=sigmoid)
+    mle = fit_mle(levels, k, n, guess=guess, sigmoid=sigmoid, prior=prior)
+    job = FitJob(label, levels, k, n, float(guess), prior, mle, bool(overdispersion))
+    walkers = max(n_walkers + n_walkers % 2, 8)
+    (fit,) = fit_batch([job], sigmoid=sigmoid, n_walkers=walkers, max_steps=max_steps, rng=rng)
+    _log_unconverged(fit)
+    return fit
+
+
+def _log_unconverged(fit: WeibullFit) -> None:
+    if not fit.converged:
+        logger.warning(
+            "%s: chain not converged after %d steps (tau_max %.0f)",
+            fit.label or "fit",
+            fit.n_steps,
+            fit.tau_max,
+        )
+
+
+def _finish(
+    label, sigmoid, guess, levels, k, n, mle, prior, progress, overdispersion=False
+) -> WeibullFit:
+    """Return the fit of the last :class:`SamplerProgress` of :func:`sample_posterior`."""
+    job = FitJob(label, levels, k, n, float(guess), prior, mle, bool(overdispersion))
+    fit = _fit_of_chain(
+        job,
+        sigmoid,
+        progress.sampler.get_chain(),
+        tau_max=progress.tau_max,
+        n_steps=progress.n_steps,
+        converged=progress.converged,
+        n_walkers=progress.sampler.nwalkers,
+    )
+    _log_unconverged(fit)
+    return fit
