@@ -410,6 +410,8 @@ def _pairs_from_folder(root: Path) -> list[PairSource]:
 def _pairs_from_csv(path: Path) -> list[PairSource]:
     import csv
 
+    from stimuli.tables import unescape_cell
+
     base = path.parent
     try:
         with open(path, newline="", encoding="utf-8-sig") as f:
@@ -430,7 +432,7 @@ def _pairs_from_csv(path: Path) -> list[PairSource]:
         raise InputError(f"{path}: not a valid CSV file ({exc})") from None
     out = []
     for line, r in rows:
-        r = {k: (v or "").strip() for k, v in r.items() if k is not None}
+        r = {k: unescape_cell((v or "").strip()) for k, v in r.items() if k is not None}
         if not any(r.values()):
             continue
         where = f"{path}, line {line}"
