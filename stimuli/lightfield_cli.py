@@ -487,7 +487,9 @@ def scan_command(
     with atomic_path(out / "scan.json") as tmp:
         tmp.write_text(
             json.dumps(
-                {"source": lf.source, "declutter": declutter_mode, **scan.to_dict()}, indent=1
+                # the light field's file name only: no host path in a file that gets shared
+                {"source": Path(lf.source).name, "declutter": declutter_mode, **scan.to_dict()},
+                indent=1,
             )
         )
     plot_scores(scan, out / "scores.png")
