@@ -44,7 +44,7 @@ import pandas as pd
 
 from analysis.data import connect_readonly
 from analysis.errors import DataError
-from analysis.tables import escape_frame
+from analysis.tables import frame_csv_text
 
 __all__ = [
     "TRIAL_COLUMNS",
@@ -459,7 +459,7 @@ def add_active_results(
     result, trials = out
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
-    _write_atomic(folder / "active_trials.csv", escape_frame(trials).to_csv(index=False))
+    _write_atomic(folder / "active_trials.csv", frame_csv_text(trials))
     rj = folder / "results.json"
     data = json.loads(rj.read_text(encoding="utf-8")) if rj.is_file() else {}
     data["active_search"] = result.to_dict()

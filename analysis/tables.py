@@ -9,12 +9,21 @@ checks that both copies agree.
 
 from __future__ import annotations
 
+import csv
+import io
 import re
 from typing import Any
 
 import pandas as pd
 
-__all__ = ["FORMULA_TRIGGERS", "escape_cell", "unescape_cell", "escape_frame", "unescape_frame"]
+__all__ = [
+    "FORMULA_TRIGGERS",
+    "escape_cell",
+    "unescape_cell",
+    "escape_frame",
+    "unescape_frame",
+    "frame_csv_text",
+]
 
 #: First characters that make a spreadsheet read a cell as a formula (OWASP, "CSV Injection").
 FORMULA_TRIGGERS: str = "=+-@\t\r"
@@ -68,3 +77,26 @@ def unescape_frame(df: pd.DataFrame) -> pd.DataFrame:
                 out[col] = s.where(~mask, s[mask].str[1:])
     out.columns = [unescape_cell(c) if isinstance(c, str) else c for c in out.columns]
     return out
+
+
+def frame_csv_text(df: pd.DataFrame) -> str:
+    """Return ``df`` as CSV text (header, no index) with formula-safe cells.
+
+    Missing values are empty cells. A cell with a carriage return is quoted (pandas' and the
+    csv module's writers leave it bare when the line terminator is ``\\n``, which ends the row
+    in every reader).
+    """
+    esc = escape_frame(df)
+    rows = esc.astype(object).where(esc.notna(), None).to_numpy().tolist()
+    buf = io.StringIO()
+    w = csv.writer(buf, lineterminator="\n")
+    w.writerow(list(esc.columns))
+    for cells in rows:
+        cells = ["" if c is None else c for c in cells]
+        if any(isinstance(c, str) and "\r" in c for c in cells):
+            one = io.StringIO()
+            csv.writer(one, lineterminator="\r\n").writerow(cells)
+            buf.write(one.getvalue()[:-2] + "\n")
+        else:
+            w.writerow(cells)
+    return buf.getvalue()

@@ -90,13 +90,18 @@ def table_text(
     delimiter : {',', '\\t'}
     """
     buf = io.StringIO()
-    w = csv.DictWriter(
-        buf, fieldnames=list(columns), delimiter=delimiter, lineterminator="\n",
-        extrasaction="ignore",
-    )  # fmt: skip
-    w.writeheader()
+    w = csv.writer(buf, delimiter=delimiter, lineterminator="\n")
+    w.writerow(columns)
     for r in rows:
-        w.writerow({c: escape_cell("" if r.get(c) is None else r[c]) for c in columns})
+        cells = [escape_cell("" if r.get(c) is None else r[c]) for c in columns]
+        if any(isinstance(c, str) and "\r" in c for c in cells):
+            # the csv module quotes a field only for characters of its line terminator, so an
+            # unquoted carriage return would end the row in every reader: quote it via "\r\n"
+            one = io.StringIO()
+            csv.writer(one, delimiter=delimiter, lineterminator="\r\n").writerow(cells)
+            buf.write(one.getvalue()[:-2] + "\n")
+        else:
+            w.writerow(cells)
     return buf.getvalue()
 
 
