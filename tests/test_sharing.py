@@ -69,6 +69,8 @@ def pipeline(tmp_path_factory):
     confocal("session", "export", db, "--out", dataset)
     report = root / "report"
     confocal("analyze", db, "--out", report, "--no-figures", "--by", "none", "--seed", "1")
+    confocal("analyze", "fit", db, "--x", "pixels", "--y", "recognized", "--out", root / "fits",
+             "--no-plots")  # fmt: skip
     return root, objects[first_main].object
 
 
@@ -107,7 +109,7 @@ def test_no_host_path_in_any_shared_file(pipeline):
     if home not in ("/", "") and len(home) > 1:
         needles.add(home)
     checked = 0
-    for folder in ("pairs", "stim", "dataset", "report"):
+    for folder in ("pairs", "stim", "dataset", "report", "fits"):
         for p in _text_files(root / folder):
             text = p.read_text(encoding="utf-8")
             for needle in needles:
@@ -122,3 +124,20 @@ def test_no_host_path_in_any_shared_file(pipeline):
     results = json.loads((root / "report" / "results.json").read_text())
     assert [s["file"] for s in results["sources"]] == ["study.sqlite"]
     assert len(results["sources"][0]["sha256"]) == 64
+    fit = json.loads((root / "fits" / "results.json").read_text())
+    assert fit["source"] == "study.sqlite" and len(fit["source_sha256"]) == 64
+
+
+def test_exemplar_knowledge_keeps_its_synth_provenance_without_a_path(pipeline):
+    """The exemplar observer logs which synthetic renderings it learned from; it used to follow
+    the set's absolute ``pairs`` path to ``synth.json``, which a shared set no longer holds."""
+    from experiment.observers.exemplar import _synth_provenance
+    from experiment.stimset import StimulusSet
+
+    root, _ = pipeline
+    info = StimulusSet.load(root / "stim").info
+    assert _synth_provenance(info) == {
+        "generator": "stimuli.synth.write_pairs",
+        "seed": 0,
+        "version": info["pairs"]["synth"]["version"],
+    }
