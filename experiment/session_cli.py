@@ -291,7 +291,10 @@ def _check_subject_is_new_or_same(data: Path, subject: str) -> None:
     from experiment.data.psychds import SubjectCollision, keyword_value, subject_key
     from experiment.triallog import TrialLog
 
-    key = subject_key(subject)
+    try:
+        key = subject_key(subject)
+    except SubjectCollision as exc:
+        raise SubjectCollision(f"--subject: {exc}") from None
     if not data.is_file() or data.stat().st_size == 0:
         return
     with TrialLog(data, readonly=True) as log:

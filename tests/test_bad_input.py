@@ -697,6 +697,8 @@ ROWS: list[Row] = [
       "--participant email", "--allow-identifying"),
     R("session run", "subject code colliding with one in the log",
       lambda w, t: session(w, t, data=w.db, subject="S-01"), "'S-01'", "'S01'"),
+    R("session run", "subject code without a letter or digit",
+      lambda w, t: session(w, t, subject="__"), "--subject", "no letter or digit"),
     R("session export", "bad --dates",
       lambda w, t: ["session", "export", w.db, "--out", t / "o", "--dates", "week"], "--dates"),
 ]
