@@ -44,6 +44,7 @@ import pandas as pd
 
 from analysis.data import connect_readonly
 from analysis.errors import DataError
+from analysis.tables import frame_csv_text
 
 __all__ = [
     "TRIAL_COLUMNS",
@@ -381,7 +382,7 @@ def analyze_active(paths: Iterable[str | Path]) -> tuple[ActiveSearchResult, pd.
     if not act:
         return None
     trials = active_trials(read_active_events(act))
-    return summarize_active(trials, tuple(str(p) for p in act)), trials
+    return summarize_active(trials, tuple(p.name for p in act)), trials
 
 
 def _f(v: float | None, digits: int = 1) -> str:
@@ -458,7 +459,7 @@ def add_active_results(
     result, trials = out
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
-    _write_atomic(folder / "active_trials.csv", trials.to_csv(index=False))
+    _write_atomic(folder / "active_trials.csv", frame_csv_text(trials))
     rj = folder / "results.json"
     data = json.loads(rj.read_text(encoding="utf-8")) if rj.is_file() else {}
     data["active_search"] = result.to_dict()

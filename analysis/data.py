@@ -19,12 +19,18 @@ column          dtype     meaning
 ``part``        optional  ``"main"`` or ``"training"``; only ``main`` rows are kept
 ``simulated``   optional  1 if a simulated observer answered (no person), else 0
 ``observer``    optional  the simulated observer's name, or ``human``
+``rater``       optional  who gave the score (``sim:<observer>`` for a simulated observer)
 ==============  ========  ==========================================================
 
 Simulated and human sessions are not pooled unless asked (``include_simulated=True``,
 ``confocal analyze --include-simulated``): a dry run's simulated subject written into a real
-study's file would otherwise count as a subject. A file without a ``simulated`` column counts
-as human data.
+study's file would otherwise count as a subject. A row is simulated when its ``simulated`` column
+says 1, *or* its ``rater`` starts with ``sim:``, *or* its ``observer`` names anything but
+``human``: provenance survives a spreadsheet that dropped the ``simulated`` and ``observer``
+columns. A file with none of these columns counts as human data.
+
+CSV cells that were written formula-safe (a leading ``'`` before ``=``, ``+``, ``-``, ``@``;
+see ``analysis/tables.py``) are read back as the original text.
 
 SQLite files (recognised by their ``SQLite format 3`` header) are read through the engine's
 ``tidy_trials`` view, which has the same columns. Nothing here imports the experiment engine
@@ -43,10 +49,12 @@ import numpy as np
 import pandas as pd
 
 from analysis.errors import DataError
+from analysis.tables import unescape_frame
 
 __all__ = [
     "REQUIRED_COLUMNS",
     "OPTIONAL_COLUMNS",
+    "SIMULATED_RATER_PREFIX",
     "CONDITIONS",
     "TrialTable",
     "read_trial_file",
@@ -54,6 +62,7 @@ __all__ = [
     "check_trials",
     "object_order",
     "connect_readonly",
+    "file_record",
 ]
 
 #: Columns every trial table must have (the data contract with the experiment engine).
@@ -68,7 +77,11 @@ OPTIONAL_COLUMNS: tuple[str, ...] = (
     "part",
     "simulated",
     "observer",
+    "rater",
 )
+#: Rater names that mark a simulated observer's score (``sim:<observer>``, the engine's
+#: responder name for a headless session).
+SIMULATED_RATER_PREFIX = "sim:"
 #: Background conditions, reference first. Source: Jung et al. 2015, Sec. 3.2.2 (reference:
 #: background cluttered).
 CONDITIONS: tuple[str, str] = ("cluttered", "decluttered")
@@ -123,11 +136,12 @@ def _read_raw(path: Path) -> pd.DataFrame:
         except Exception as exc:  # noqa: BLE001 - any parser failure is a data error here
             raise DataError(f"{path}: not a readable Parquet file ({_line(exc)})") from exc
     try:
-        return pd.read_csv(path, dtype=str, keep_default_na=False, skipinitialspace=True)
+        raw = pd.read_csv(path, dtype=str, keep_default_na=False, skipinitialspace=True)
     except pd.errors.EmptyDataError as exc:
         raise DataError(f"{path}: file is empty (no trials)") from exc
     except (pd.errors.ParserError, UnicodeDecodeError) as exc:
         raise DataError(f"{path}: not a readable CSV trial table ({_line(exc)})") from exc
+    return unescape_frame(raw)
 
 
 def _line(exc: BaseException) -> str:
@@ -266,10 +280,33 @@ def check_trials(df: pd.DataFrame, source: str) -> pd.DataFrame:
             out[col] = df[col].to_numpy()
     if "rt_s" in out.columns:
         out["rt_s"] = pd.to_numeric(out["rt_s"], errors="coerce")
+    marked = _marked_simulated(out)
+    if "simulated" in out.columns or marked.any():
+        out["simulated"] = marked.astype(int).to_numpy()
+    if "observer" not in out.columns and "rater" in out.columns and marked.any():
+        rater = out["rater"].astype(str).str.strip()
+        out["observer"] = np.where(
+            rater.str.startswith(SIMULATED_RATER_PREFIX),
+            rater.str[len(SIMULATED_RATER_PREFIX) :],
+            "human",
+        )
     out["source"] = source
     out = out.reset_index(drop=True)
     out.attrs["n_training_excluded"] = int(n_all - len(df)) if "part" in df.columns else 0
     return out
+
+
+def _marked_simulated(df: pd.DataFrame) -> pd.Series:
+    """Return True for rows whose simulated, rater or observer column says no person answered."""
+    flag = pd.Series(False, index=df.index)
+    if "simulated" in df.columns:
+        flag |= pd.to_numeric(df["simulated"], errors="coerce").fillna(0).astype(int) == 1
+    if "rater" in df.columns:
+        flag |= df["rater"].astype(str).str.strip().str.startswith(SIMULATED_RATER_PREFIX)
+    if "observer" in df.columns:
+        obs = df["observer"].astype(str).str.strip().str.lower()
+        flag |= ~obs.isin(["human", "", "nan", "none", "n/a"])
+    return flag
 
 
 def _bool_word(v: Any) -> Any:
@@ -315,10 +352,7 @@ def read_trial_file(path: str | Path) -> tuple[pd.DataFrame, int]:
 
 def _sessions(df: pd.DataFrame, source: str, simulated: bool) -> list[str]:
     """Label the simulated (or human) sessions of one file's rows."""
-    if "simulated" in df.columns:
-        flag = pd.to_numeric(df["simulated"], errors="coerce").fillna(0).astype(int) == 1
-    else:
-        flag = pd.Series(False, index=df.index)
+    flag = _marked_simulated(df)
     rows = df[flag] if simulated else df[~flag]
     if len(rows) == 0:
         return []
@@ -374,6 +408,30 @@ def read_trials(paths: Iterable[str | Path], *, include_simulated: bool = False)
         )
     trials = pd.concat(frames, ignore_index=True)
     return TrialTable(trials, tuple(str(p) for p in paths), dropped, tuple(simulated))
+
+
+def file_record(path: str | Path) -> dict[str, str | None]:
+    """Return ``{"file": <name>, "sha256": <hex>}`` for a shared report: no host path in it.
+
+    The folder a file was read from says nothing about the data and names the analyst's machine
+    (and often the analyst); its name and content hash identify it. ``sha256`` is None when the
+    file is no longer there.
+
+    Examples
+    --------
+    >>> file_record("/nowhere/study.sqlite")
+    {'file': 'study.sqlite', 'sha256': None}
+    """
+    import hashlib
+
+    p = Path(path)
+    if not p.is_file():
+        return {"file": p.name, "sha256": None}
+    h = hashlib.sha256()
+    with open(p, "rb") as fh:
+        while chunk := fh.read(1 << 20):
+            h.update(chunk)
+    return {"file": p.name, "sha256": h.hexdigest()}
 
 
 def object_order(objects: Iterable[str]) -> list[str]:

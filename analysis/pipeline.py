@@ -16,7 +16,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from analysis.data import CONDITIONS, TrialTable, object_order
+from analysis.data import CONDITIONS, TrialTable, file_record, object_order
 from analysis.errors import DataError
 from analysis.logistic import (
     LogisticFit,
@@ -142,7 +142,7 @@ class AnalysisResult:
         }
 
     def results_json(self) -> dict[str, Any]:
-        """Return the ``results.json`` content (the keys the report and tests rely on)."""
+        """Return ``results.json``: ``sources`` are file names and sha256, never host paths."""
         pc = self.options.pc
         out: dict[str, Any] = {
             "n_trials": self.n_trials,
@@ -152,7 +152,7 @@ class AnalysisResult:
             "seed": self.options.seed,
             "overdispersion": self.options.overdispersion,
             "prior": {c: f.prior.to_dict() for c, f in self.thresholds.items()},
-            "sources": list(self.sources),
+            "sources": [file_record(s) for s in self.sources],
             "simulated_sessions": list(self.simulated_sessions),
             "n_training_excluded": self.n_training_excluded,
             "thresholds": {

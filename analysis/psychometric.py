@@ -204,6 +204,9 @@ def read_table(path: str | Path) -> pd.DataFrame:
         raise DataError(f"{path}: file is empty") from exc
     except (pd.errors.ParserError, UnicodeDecodeError) as exc:
         raise DataError(f"{path}: not a readable CSV table ({' '.join(str(exc).split())})") from exc
+    from analysis.tables import unescape_frame
+
+    raw = unescape_frame(raw)
     first = [str(v).strip() for v in raw.iloc[0]]
     if all(_is_number(v) or v == "" for v in first):
         df = raw
@@ -417,7 +420,7 @@ class TableFit:
         """Return the ``results.json`` content."""
         s = self.spec
         return {
-            "source": self.source,
+            **_source_record(self.source),
             "columns": {"x": s.x, "y": s.y, "k": s.k, "n": s.n, "p": s.p, "group": list(s.group)},
             "sigmoid": self.sigmoid,
             "axis": SIGMOIDS[self.sigmoid][1],
@@ -428,6 +431,14 @@ class TableFit:
             "groups": [g.to_json(s.pcs) for g in self.groups],
             "warnings": list(self.warnings),
         }
+
+
+def _source_record(source: str) -> dict[str, Any]:
+    """``source`` (the file's name, no host path) and ``source_sha256`` for ``results.json``."""
+    from analysis.data import file_record
+
+    rec = file_record(source)
+    return {"source": rec["file"], "source_sha256": rec["sha256"]}
 
 
 def iter_fit_table(

@@ -1,4 +1,4 @@
-"""``confocal session``: run a session, show a study's status, export its trials (issue 5).
+"""``confocal session``: run a session, show a study's status, export its trials.
 
 ::
 
@@ -6,7 +6,10 @@
     confocal session run ... --headless --observer logistic --seed 1 --data pilot.sqlite
     confocal session run ... --participant age=31,sex=F --monitor lab_lcd
     confocal session status study.sqlite
-    confocal session export study.sqlite --out dataset
+    confocal session export study.sqlite --out dataset [--dates day|shift:N|none]
+
+What the export leaves out (identifying participant fields, wall-clock times) is described in
+:mod:`experiment.data.psychds`.
 """
 
 from __future__ import annotations
@@ -138,9 +141,18 @@ def run_command(
         typer.Option(
             "--participant",
             help="Participant metadata KEY=VALUE,... for participants.tsv, e.g. "
-            "age=31,sex=F,acuity_logmar=1.2,consent=C17 (stored in the log).",
+            "age=31,sex=F,acuity_logmar=1.2,consent=C17 (stored in the log); identifying "
+            "fields (name, email, phone, date of birth, ...) are refused.",
         ),
     ] = None,
+    allow_identifying: Annotated[
+        bool,
+        typer.Option(
+            "--allow-identifying",
+            help="Keep identifying --participant fields in the trial log; they are exported "
+            "only with session export --include-identifying.",
+        ),
+    ] = False,
     monitor: Annotated[
         str | None,
         typer.Option(
@@ -200,9 +212,12 @@ def run_command(
         raise ConfocalError(f"--data {data} is a folder; expected the study's .sqlite file")
     meta = None
     if participant is not None:
-        from experiment.data.psychds import parse_participant
+        from experiment.data.psychds import check_not_identifying, parse_participant
 
         meta = parse_participant(participant)
+        if not allow_identifying:
+            check_not_identifying(meta)
+    _check_subject_is_new_or_same(data, subject)
     spec = load_protocol(protocol)
     monitor_record = None
     if monitor is not None:
@@ -269,6 +284,27 @@ def run_command(
             session.close()
     finally:
         log.close()
+
+
+def _check_subject_is_new_or_same(data: Path, subject: str) -> None:
+    """Refuse a subject code that an export could not tell from one already in the log."""
+    from experiment.data.psychds import SubjectCollision, keyword_value, subject_key
+    from experiment.triallog import TrialLog
+
+    try:
+        key = subject_key(subject)
+    except SubjectCollision as exc:
+        raise SubjectCollision(f"--subject: {exc}") from None
+    if not data.is_file() or data.stat().st_size == 0:
+        return
+    with TrialLog(data, readonly=True) as log:
+        known = {s["subject"] for s in log.sessions()}
+    for other in sorted(known):
+        if other != subject and subject_key(other) == key:
+            raise SubjectCollision(
+                f"--subject {subject!r}: the log already has subject {other!r}, and both would "
+                f"be exported as subject-{keyword_value(subject)}; use {other!r} or another code"
+            )
 
 
 def _params_dict(spec: object, given: dict[str, object]) -> dict[str, object]:
@@ -412,12 +448,30 @@ def export_command(
         str | None,
         typer.Option("--study", help="Study name in the file names (default: the log's name)."),
     ] = None,
+    dates: Annotated[
+        str,
+        typer.Option(
+            "--dates",
+            help="The session day in the data: day, shift:N (moved by N days, the shift is "
+            "not recorded) or none (blank). Times are always seconds from the session start.",
+        ),
+    ] = "day",
+    include_identifying: Annotated[
+        bool,
+        typer.Option(
+            "--include-identifying",
+            help="Also export participant fields that look identifying (kept in the log by "
+            "session run --allow-identifying).",
+        ),
+    ] = False,
 ) -> None:
     """Write a Psych-DS dataset: data/ (one CSV per session), participants.tsv, description."""
     from experiment.data.psychds import export_dataset
 
     try:
-        info = export_dataset(data, out, study=study)
+        info = export_dataset(
+            data, out, study=study, dates=dates, include_identifying=include_identifying
+        )
     except ValueError as exc:
         raise ConfocalError(f"--study: {exc}") from None
     sim = info["simulated_sessions"]
@@ -426,6 +480,17 @@ def export_command(
         "dataset_description.json"
         + (f"; simulated session(s): {', '.join(map(str, sim))}" if sim else "")
     )
+    if info["identifying_left_out"]:
+        typer.echo(
+            "left out identifying participant field(s) "
+            f"{', '.join(info['identifying_left_out'])} (kept in the log; "
+            "--include-identifying exports them)"
+        )
+    if info["undocumented"]:
+        typer.echo(
+            f"undocumented participant column(s) {', '.join(info['undocumented'])}: check they "
+            "identify nobody before sharing (documentation/participants.json)"
+        )
 
 
 def register(app: typer.Typer) -> None:

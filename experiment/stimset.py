@@ -35,6 +35,7 @@ import numpy as np
 
 from experiment.errors import ConfocalError
 from stimuli.manifest import MANIFEST_COLUMNS as _BUILDER_MANIFEST_COLUMNS
+from stimuli.tables import unescape_row
 
 __all__ = [
     "StimulusSetError",
@@ -122,7 +123,7 @@ def _read_csv(path: Path, required: tuple[str, ...]) -> list[dict[str, str]]:
             missing = [c for c in required if c not in cols]
             if missing:
                 raise StimulusSetError(f"{path}: missing column {missing[0]!r}")
-            return list(reader)
+            return [unescape_row(r) for r in reader]
     except (UnicodeDecodeError, csv.Error) as exc:
         raise StimulusSetError(f"{path}: not a readable CSV file ({exc})") from None
 

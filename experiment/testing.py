@@ -119,6 +119,7 @@ def make_stimulus_set(
     """
     from stimuli.compress import compress, grid_shape
     from stimuli.io import save_png
+    from stimuli.tables import write_table
 
     rng = np.random.default_rng(rng)
     if n_main + n_training > len(OBJECT_WORDS):
@@ -169,10 +170,7 @@ def make_stimulus_set(
         for oid, role, cond, lv, w, wd, ht, rel in rows_out:
             sha = hashlib.sha256((root / rel).read_bytes()).hexdigest()
             wr.writerow([oid, role, cond, lv, w, wd, ht, wd * ht, rel, sha])
-    with open(root / "objects.csv", "w", newline="", encoding="utf-8") as f:
-        wr = csv.DictWriter(f, fieldnames=["object", "name", "synonyms", "uses", "role"])
-        wr.writeheader()
-        wr.writerows(objects)
+    write_table(root / "objects.csv", objects, ["object", "name", "synonyms", "uses", "role"])
     (root / "stimulus_set.json").write_text(
         json.dumps(
             {

@@ -410,6 +410,8 @@ def _pairs_from_folder(root: Path) -> list[PairSource]:
 def _pairs_from_csv(path: Path) -> list[PairSource]:
     import csv
 
+    from stimuli.tables import unescape_cell
+
     base = path.parent
     try:
         with open(path, newline="", encoding="utf-8-sig") as f:
@@ -430,7 +432,7 @@ def _pairs_from_csv(path: Path) -> list[PairSource]:
         raise InputError(f"{path}: not a valid CSV file ({exc})") from None
     out = []
     for line, r in rows:
-        r = {k: (v or "").strip() for k, v in r.items() if k is not None}
+        r = {k: unescape_cell((v or "").strip()) for k, v in r.items() if k is not None}
         if not any(r.values()):
             continue
         where = f"{path}, line {line}"
@@ -786,10 +788,29 @@ def _source_hashes(src: PairSource) -> dict[str, str]:
 
 
 def _rel(path: Path, root: Path) -> str:
+    """``path`` relative to the PAIRS root; outside it, the file name (with its sha256 beside it,
+    that identifies it; an absolute path would name the builder's machine in a shared set)."""
     try:
         return Path(os.path.abspath(path)).relative_to(os.path.abspath(root)).as_posix()
     except ValueError:
-        return os.path.abspath(path)
+        return Path(path).name
+
+
+def _pairs_record(pairs: Path) -> dict:
+    """``stimulus_set.json``'s ``pairs``: the input's name, kind, sha256 (a CSV) and, for
+    ``stimuli synth`` output, its generator, seed and version; never a host path."""
+    rec: dict = {"name": pairs.name, "kind": "folder" if pairs.is_dir() else "csv"}
+    if pairs.is_file():
+        rec["sha256"] = sha256_file(pairs)
+    synth = pairs / "synth.json"
+    if synth.is_file():
+        try:
+            d = json.loads(synth.read_text(encoding="utf-8"))
+        except (OSError, ValueError):
+            d = None
+        if isinstance(d, dict):
+            rec["synth"] = {k: d.get(k) for k in ("generator", "seed", "version")}
+    return rec
 
 
 def _draft_shape(
@@ -1429,10 +1450,10 @@ def build_stimulus_set(
                 {"level": lv, "window": w, "width": s[1], "height": s[0], "pixels": s[0] * s[1]}
                 for lv, w, s in ladder
             ],
-            "pairs": str(Path(pairs).resolve()),
+            "pairs": _pairs_record(Path(pairs)),
             "objects_csv": None
             if inp.objects_csv is None
-            else {"path": str(inp.objects_csv.resolve()), "sha256": sha256_file(inp.objects_csv)},
+            else {"file": inp.objects_csv.name, "sha256": sha256_file(inp.objects_csv)},
             "objects": [
                 {
                     **_summary_dict(s),

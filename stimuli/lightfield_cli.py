@@ -25,7 +25,6 @@ Grid sizes are written ``COLSxROWS`` as in the paper ("38x25"); the library uses
 
 from __future__ import annotations
 
-import csv
 import json
 import math
 from pathlib import Path
@@ -441,6 +440,7 @@ def scan_command(
         scan_result,
     )
     from stimuli.refocus import refocus
+    from stimuli.tables import write_table
 
     # every option is checked before the light field is read or anything is written
     shape = parse_grid(grid)
@@ -483,14 +483,13 @@ def scan_command(
     _warn_lines(caught)
     out.mkdir(parents=True, exist_ok=True)
     rows = scan.rows()
-    with atomic_path(out / "planes.csv") as tmp, open(tmp, "w", newline="") as f:
-        w = csv.DictWriter(f, fieldnames=list(rows[0]))
-        w.writeheader()
-        w.writerows(rows)
+    write_table(out / "planes.csv", rows, list(rows[0]))
     with atomic_path(out / "scan.json") as tmp:
         tmp.write_text(
             json.dumps(
-                {"source": lf.source, "declutter": declutter_mode, **scan.to_dict()}, indent=1
+                # the light field's file name only: no host path in a file that gets shared
+                {"source": Path(lf.source).name, "declutter": declutter_mode, **scan.to_dict()},
+                indent=1,
             )
         )
     plot_scores(scan, out / "scores.png")

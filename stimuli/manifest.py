@@ -54,7 +54,7 @@ from dataclasses import asdict, dataclass, fields
 from pathlib import Path
 
 from stimuli.errors import InputError
-from stimuli.io import atomic_path
+from stimuli.tables import unescape_cell, write_table
 
 __all__ = [
     "OBJECTS_COLUMNS",
@@ -321,7 +321,10 @@ def _read_csv_rows(path: Path, required: Iterable[str]) -> list[tuple[int, dict[
                     f"{path}: missing column(s) {', '.join(missing)}; header is {header!r}"
                 )
             return [
-                (reader.line_num, {k: (v or "") for k, v in r.items() if k is not None})
+                (
+                    reader.line_num,
+                    {k: unescape_cell(v or "") for k, v in r.items() if k is not None},
+                )
                 for r in reader
             ]
     except UnicodeDecodeError:
@@ -370,13 +373,7 @@ def read_objects_csv(path: str | os.PathLike) -> list[ObjectInfo]:
 
 def write_objects_csv(objects: Iterable[ObjectInfo], path: str | os.PathLike) -> Path:
     """Write ``objects.csv`` with all :data:`OBJECTS_COLUMNS`, atomically; return the path."""
-    path = Path(path)
-    with atomic_path(path) as tmp, open(tmp, "w", newline="", encoding="utf-8") as f:
-        w = csv.DictWriter(f, fieldnames=list(OBJECTS_COLUMNS), lineterminator="\n")
-        w.writeheader()
-        for o in objects:
-            w.writerow(o.to_row())
-    return path
+    return write_table(path, [o.to_row() for o in objects], OBJECTS_COLUMNS)
 
 
 @dataclass(frozen=True)
@@ -458,10 +455,4 @@ def read_manifest(path: str | os.PathLike) -> list[StimulusRecord]:
 
 def write_manifest(records: Iterable[StimulusRecord], path: str | os.PathLike) -> Path:
     """Write ``manifest.csv`` with :data:`MANIFEST_COLUMNS`, atomically; return the path."""
-    path = Path(path)
-    with atomic_path(path) as tmp, open(tmp, "w", newline="", encoding="utf-8") as f:
-        w = csv.DictWriter(f, fieldnames=list(MANIFEST_COLUMNS), lineterminator="\n")
-        w.writeheader()
-        for r in records:
-            w.writerow(r.to_row())
-    return path
+    return write_table(path, [r.to_row() for r in records], MANIFEST_COLUMNS)

@@ -20,7 +20,6 @@ in metres on their own plane, y up, origin on the optical axis.
 
 from __future__ import annotations
 
-import csv
 import json
 import math
 import os
@@ -38,6 +37,7 @@ from stimuli.errors import InputError
 from stimuli.io import default_mode, save_png
 from stimuli.manifest import OBJECTS_COLUMNS
 from stimuli.scene import Layer, ThinLensCamera, centre_crop_offset, render_pair
+from stimuli.tables import table_text
 
 __all__ = [
     "ObjectKind",
@@ -1828,10 +1828,9 @@ def write_pairs(
                     "layers": [{"name": la.name, "depth_m": round(la.depth_m, 4)} for la in layers],
                 }
             )
-        with open(tmp / "objects.csv", "w", newline="", encoding="utf-8") as f:
-            w = csv.DictWriter(f, fieldnames=list(OBJECTS_CSV_COLUMNS))
-            w.writeheader()
-            w.writerows(records)
+        (tmp / "objects.csv").write_text(
+            table_text(records, OBJECTS_CSV_COLUMNS), encoding="utf-8"
+        )  # formula-safe cells
         from stimuli import __version__
 
         meta = {

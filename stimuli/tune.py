@@ -60,6 +60,7 @@ from stimuli.declutter import auto_threshold, sobel_magnitude
 from stimuli.errors import InputError
 from stimuli.io import atomic_path, check_gray
 from stimuli.manifest import OBJECTS_COLUMNS, read_objects_csv
+from stimuli.tables import unescape_row, write_table
 
 __all__ = [
     "UPPER_QUANTILE",
@@ -486,7 +487,7 @@ def write_thresholds(
             reader = csv.DictReader(f)
             header = [h.strip() for h in (reader.fieldnames or [])]
             reader.fieldnames = header
-            rows = [dict(r) for r in reader]
+            rows = [unescape_row(r) for r in reader]
     else:
         header, rows = list(OBJECTS_COLUMNS), []
     if "sobel_threshold" not in header:
@@ -500,10 +501,6 @@ def write_thresholds(
             rows.append(row)
             index[oid.lower()] = row
         row["sobel_threshold"] = v
-    with atomic_path(path) as tmp, open(tmp, "w", newline="", encoding="utf-8") as f:
-        w = csv.DictWriter(f, fieldnames=header, lineterminator="\n", extrasaction="ignore")
-        w.writeheader()
-        for row in rows:
-            w.writerow({h: row.get(h) or "" for h in header})
+    write_table(path, [{h: row.get(h) or "" for h in header} for row in rows], header)
     logger.info("%s: wrote thresholds for %d objects", path, len(values))
     return path

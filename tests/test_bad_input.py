@@ -691,6 +691,16 @@ ROWS: list[Row] = [
     R("demo", "out not empty",
       lambda w, t: ["demo", "--out", text_file(t / "full" / "keep.txt").parent], "full",
       "--force"),
+    # what leaves the lab is safe to share
+    R("session run", "identifying participant field",
+      lambda w, t: session(w, t, "--participant", "age=30,email=a@b.org", data=w.db),
+      "--participant email", "--allow-identifying"),
+    R("session run", "subject code colliding with one in the log",
+      lambda w, t: session(w, t, data=w.db, subject="S-01"), "'S-01'", "'S01'"),
+    R("session run", "subject code without a letter or digit",
+      lambda w, t: session(w, t, subject="__"), "--subject", "no letter or digit"),
+    R("session export", "bad --dates",
+      lambda w, t: ["session", "export", w.db, "--out", t / "o", "--dates", "week"], "--dates"),
 ]
 # fmt: on
 

@@ -1,4 +1,4 @@
-"""Participant metadata and the Psych-DS export of a trial log (issue 15, point 2).
+"""Participant metadata and the Psych-DS export of a trial log, safe to share.
 
 ``confocal session export study.sqlite --out DATASET`` writes a Psych-DS 1.x dataset::
 
@@ -11,6 +11,8 @@
       documentation/
         sessions.json            provenance per session: protocol and stimulus-set sha256,
                                  seed, software version, monitor profile (no host paths)
+        participants.json        what each participants.tsv column means; columns that are not
+                                 in :data:`PARTICIPANT_FIELDS` are flagged "undocumented"
 
 File names follow Psych-DS's keyword rule (``key-value`` pairs joined by ``_``, keys lower-case
 letters, values letters and digits, ending ``_data.csv``); subject codes and study names are
@@ -19,13 +21,35 @@ A second export into the same folder *merges*: keys a person added to
 ``dataset_description.json`` (authors, licence, a better description) are kept, the generated
 ones refreshed; rows of ``participants.tsv`` and data files of other sessions are kept.
 
+What is and is not identifying:
+
+* ``--participant`` takes the non-identifying fields of :data:`PARTICIPANT_FIELDS` (age, sex,
+  gender, handedness, acuity, implant, eye, condition, group, consent code, ...). A field that
+  looks identifying (:func:`identifying_reason`: a key such as ``name``, ``email``, ``phone``,
+  ``address``, ``zip``, ``dob``, ``birth``, ``ssn``, ``mrn``; a value with an ``@``, a phone
+  number or a full date) is refused unless ``session run --allow-identifying`` is given; even
+  then it stays in the trial log and is exported only with ``session export
+  --include-identifying``. Other keys (not documented, not identifying-looking) are kept and
+  exported, and flagged as undocumented in ``documentation/participants.json`` and in the
+  export's output, so that someone checks them before the dataset is shared.
+* No wall-clock time is exported: each trial's ``time_s`` counts seconds from its session's
+  start, and ``date`` is the session's day (``--dates day``), that day shifted by a number of
+  days the exporter chooses (``--dates shift:N``; the shift itself is written nowhere), or
+  blank (``--dates none``). ``sessions.json`` likewise has each session's ``date`` and
+  ``duration_s`` instead of its start and end times.
+* Subject codes are exported as logged: choose codes that name nobody. Two codes that reduce
+  to the same file-name keyword (``S_01``, ``S-01``, ``S01``, ``s01``) are refused, at export
+  and when ``session run`` would add the second to a log.
+* Every text cell of the CSV/TSV files is formula-safe (``stimuli/tables.py``).
+
 Columns of each data file (``COLUMN_DESCRIPTIONS`` is the data dictionary, copied into
 ``variableMeasured``):
 
 =====================  ==========================================================================
 ``operator_rt_s``      the *operator's* first keystroke after stimulus onset, seconds: not the
                        subject's response time (nobody times the spoken answer here)
-``date``               when the trial was recorded, UTC, ISO 8601
+``date``               the session's day (UTC, ISO 8601), shifted or blank (``--dates``)
+``time_s``             seconds from the session's start to when the trial was recorded
 ``frame_rate_hz``      the subject screen's measured refresh rate during the trial
 ``stimulus_file``      the image shown, relative to the stimulus set, and its ``stimulus_sha256``
 ``simulated``          1 if a simulated observer answered (``observer`` names it), else 0
@@ -35,25 +59,68 @@ Columns of each data file (``COLUMN_DESCRIPTIONS`` is the data dictionary, copie
 from __future__ import annotations
 
 import csv
-import io
 import json
 import re
-from datetime import UTC, datetime
+from datetime import UTC, datetime, timedelta
 from pathlib import Path
 from typing import Any
 
 from experiment.errors import ConfocalError
+from stimuli.tables import table_text, unescape_row
 
 __all__ = [
     "COLUMN_DESCRIPTIONS",
     "EXPORT_COLUMNS",
     "DATAFILE_RE",
+    "PARTICIPANT_FIELDS",
     "ParticipantError",
+    "SubjectCollision",
     "parse_participant",
+    "identifying_reason",
+    "identifying_fields",
+    "check_not_identifying",
+    "parse_dates",
+    "subject_key",
+    "check_subject_collisions",
     "keyword_value",
     "datafile_name",
     "export_dataset",
 ]
+
+#: The documented, non-identifying participant fields (``--participant`` keys) and what they
+#: hold. Ours: what vision-rehabilitation and prosthesis studies report about a participant
+#: without naming them. Other keys are accepted unless they look identifying, and are flagged
+#: as undocumented in the export.
+PARTICIPANT_FIELDS: dict[str, str] = {
+    "age": "Age, years (a number in [0, 130]).",
+    "sex": "Sex as recorded by the study (e.g. F, M, X).",
+    "gender": "Gender as stated by the participant.",
+    "handedness": "L, R or ambidextrous.",
+    "acuity": "Visual acuity as measured (e.g. 20/200).",
+    "acuity_logmar": "Visual acuity, logMAR.",
+    "acuity_eye": "Eye the acuity was measured in.",
+    "implant": "Implant or prosthesis type (none for sighted participants).",
+    "implant_years": "Years since implantation.",
+    "eye": "Eye(s) tested: left, right or both.",
+    "condition": "Participant condition (e.g. sighted, low vision, implanted).",
+    "group": "Study group or arm.",
+    "diagnosis": "Diagnosis category (e.g. RP, AMD), not free text.",
+    "consent": "Consent form code or version (not a signature or a name).",
+    "site": "Study site code.",
+}
+
+#: Key words that make a ``--participant`` key identifying (matched as ``_``-separated words of
+#: the key, or anywhere in it for the longer ones).
+_IDENTIFYING_WORDS = frozenset(
+    "name first last surname firstname lastname fullname initials email mail phone tel "
+    "telephone mobile cell fax address street city zip zipcode postcode postal dob birth "
+    "birthday birthdate ssn mrn nhs passport".split()
+)
+_IDENTIFYING_PARTS = ("name", "mail", "phone", "address", "street", "postcode", "zipcode", "birth")
+#: A phone number: 7 or more digits with only spaces, dots, dashes, brackets and a leading +.
+_PHONE_RE = re.compile(r"\+?[\d\s().-]{7,}")
+#: A full calendar date (2001-02-03, 3/2/2001, 03.02.01): a date of birth, or a visit date.
+_DATE_RE = re.compile(r"\b(\d{4}[-/.]\d{1,2}[-/.]\d{1,2}|\d{1,2}[-/.]\d{1,2}[-/.]\d{2,4})\b")
 
 #: The data dictionary: every exported column and what it holds (units in the name, H8).
 COLUMN_DESCRIPTIONS: dict[str, str] = {
@@ -76,7 +143,9 @@ COLUMN_DESCRIPTIONS: dict[str, str] = {
         "Seconds from stimulus onset to the operator's first keystroke (not the subject's "
         "response time)."
     ),
-    "date": "When the trial was recorded (UTC, ISO 8601).",
+    "date": "The session's day (UTC, ISO 8601 date); shifted by a fixed number of days, or "
+    "blank, as the exporter chose (no wall-clock time is exported).",
+    "time_s": "Seconds from the session's start to when the trial was recorded.",
     "frame_rate_hz": "Measured refresh rate of the subject's screen during the trial, Hz.",
     "onset_s": "Stimulus onset on the session clock, seconds.",
     "dropped_frames": "Frames dropped while the stimulus was shown.",
@@ -107,12 +176,20 @@ _KEY_RE = re.compile(r"^[a-z][a-z0-9_]*$")
 #: key in an existing dataset_description.json is kept as the person wrote it.
 _GENERATED_KEYS = ("@context", "@type", "schemaVersion", "variableMeasured", "dateModified")
 
+#: How the description states the ``--dates`` rule (never the shift itself).
+_DATES_NOTE = {
+    "day": "the session's day",
+    "shift": "the session's day shifted by a fixed number of days (not recorded here)",
+    "none": "left blank",
+}
+
 _SQL = """
 SELECT s.subject AS subject, t.session_id AS session, t.trial_index AS trial_index,
        p.part AS part, p.block AS block, t.object AS object, p.object_name AS object_name,
        t.condition AS condition, t.level AS level, p.window AS window, t.pixels AS pixels,
        t.response AS response, v.score AS score, v.rater AS rater, v.recognized AS recognized,
-       t.rt_s AS operator_rt_s, t.recorded_at AS date, t.refresh_hz AS frame_rate_hz,
+       t.rt_s AS operator_rt_s, s.started_at AS date, t.recorded_at AS time_s,
+       t.refresh_hz AS frame_rate_hz,
        t.onset_s AS onset_s, t.dropped_frames AS dropped_frames, p.path AS stimulus_file,
        t.stimulus_sha256 AS stimulus_sha256, v.simulated AS simulated, v.observer AS observer,
        v.viewings AS viewings, v.repeat_viewing AS repeat_viewing,
@@ -127,7 +204,11 @@ ORDER BY t.session_id, t.trial_index
 
 
 class ParticipantError(ConfocalError):
-    """Participant metadata is malformed (one line naming the key)."""
+    """Participant metadata is malformed or identifying (one line naming the key)."""
+
+
+class SubjectCollision(ConfocalError):
+    """Two subject codes would be exported as one subject (one line naming both)."""
 
 
 def parse_participant(text: str) -> dict[str, str | float]:
@@ -206,12 +287,7 @@ def datafile_name(study: str, subject: str, session: int) -> str:
 
 
 def _csv_text(rows: list[dict[str, Any]], columns: tuple[str, ...]) -> str:
-    buf = io.StringIO()
-    w = csv.DictWriter(buf, fieldnames=list(columns), lineterminator="\n")
-    w.writeheader()
-    for r in rows:
-        w.writerow({k: "" if r[k] is None else r[k] for k in columns})
-    return buf.getvalue()
+    return table_text(rows, columns)
 
 
 def _write(path: Path, text: str) -> None:
@@ -233,13 +309,21 @@ def _read_tsv(path: Path) -> list[dict[str, str]]:
     if not path.is_file():
         return []
     with open(path, newline="", encoding="utf-8") as f:
-        return list(csv.DictReader(f, delimiter="\t"))
+        return [unescape_row(r) for r in csv.DictReader(f, delimiter="\t")]
 
 
-def _participants(sessions: list[dict[str, Any]], old: list[dict[str, str]]) -> str:
+def _participants(
+    sessions: list[dict[str, Any]], old: list[dict[str, str]], include_identifying: bool
+) -> tuple[str, list[str], list[str]]:
+    """Return participants.tsv's text, the identifying keys left out and the columns."""
     rows: dict[str, dict[str, str]] = {r["participant_id"]: dict(r) for r in old}
+    left_out: list[str] = []
     for s in sessions:  # oldest first: a later session's metadata wins
         meta = json.loads(s["participant_json"]) if s.get("participant_json") else {}
+        if not include_identifying:
+            for k in identifying_fields(meta):
+                meta.pop(k)
+                left_out.append(k)
         row = rows.setdefault(s["subject"], {"participant_id": s["subject"]})
         row["simulated"] = "1" if s.get("observer") else "0"
         row["observer"] = s.get("observer") or "human"
@@ -247,13 +331,48 @@ def _participants(sessions: list[dict[str, Any]], old: list[dict[str, str]]) -> 
     columns = ["participant_id", "simulated", "observer"]
     for r in rows.values():
         columns += [k for k in r if k not in columns]
-    lines = ["\t".join(columns)]
-    for pid in sorted(rows):
-        lines.append("\t".join(_tsv_value(rows[pid].get(c)) for c in columns))
-    return "\n".join(lines) + "\n"
+    text = table_text(
+        [{c: _tsv_value(rows[pid].get(c)) for c in columns} for pid in sorted(rows)],
+        columns,
+        delimiter="\t",
+    )
+    return text, sorted(set(left_out)), columns
 
 
-def _session_record(s: dict[str, Any], data_file: str) -> dict[str, Any]:
+def _participants_json(columns: list[str]) -> dict[str, Any]:
+    """``documentation/participants.json``: each participants.tsv column and what it holds."""
+    fixed = {
+        "participant_id": "Subject code as logged.",
+        "simulated": "1 if a simulated observer answered (no person), else 0.",
+        "observer": "The simulated observer's name, or 'human'.",
+    }
+    out: dict[str, Any] = {}
+    for c in columns:
+        if c in fixed or c in PARTICIPANT_FIELDS:
+            out[c] = {"Description": fixed.get(c) or PARTICIPANT_FIELDS[c]}
+        else:
+            out[c] = {
+                "Description": "Undocumented: entered with session run --participant, not one "
+                "of the documented fields; check that it identifies nobody before sharing.",
+                "Undocumented": True,
+            }
+    return out
+
+
+def _no_host_paths(value: Any) -> Any:
+    """``value`` with every absolute path (a string) replaced by its file name."""
+    if isinstance(value, dict):
+        return {k: _no_host_paths(v) for k, v in value.items()}
+    if isinstance(value, list):
+        return [_no_host_paths(v) for v in value]
+    if isinstance(value, str) and (value.startswith("/") or re.match(r"[A-Za-z]:[\\/]", value)):
+        return Path(value).name
+    return value
+
+
+def _session_record(
+    s: dict[str, Any], data_file: str | None, dates: tuple[str, int]
+) -> dict[str, Any]:
     keep = (
         "session_id",
         "subject",
@@ -265,14 +384,15 @@ def _session_record(s: dict[str, Any], data_file: str) -> dict[str, Any]:
         "primary_rater",
         "software_version",
         "git_commit",
-        "started_at",
-        "ended_at",
         "status",
         "observer",
     )
     rec = {k: s.get(k) for k in keep}
     rec["simulated"] = bool(s.get("observer"))
-    rec["observer_params"] = json.loads(s["observer_params"]) if s.get("observer_params") else None
+    rec["date"] = _day(s.get("started_at"), dates) or None
+    rec["duration_s"] = _seconds_between(s.get("started_at"), s.get("ended_at"))
+    params = json.loads(s["observer_params"]) if s.get("observer_params") else None
+    rec["observer_params"] = _no_host_paths(params)  # e.g. the exemplar's knowledge folder
     rec["display"] = json.loads(s["display_json"])
     monitor = json.loads(s["monitor_json"]) if s.get("monitor_json") else None
     if monitor is not None:  # the profile's file name only: no host paths in a shared dataset
@@ -282,7 +402,14 @@ def _session_record(s: dict[str, Any], data_file: str) -> dict[str, Any]:
     return rec
 
 
-def export_dataset(data: str | Path, out_dir: str | Path, *, study: str | None = None) -> dict:
+def export_dataset(
+    data: str | Path,
+    out_dir: str | Path,
+    *,
+    study: str | None = None,
+    dates: str = "day",
+    include_identifying: bool = False,
+) -> dict:
     """Write (or update) a Psych-DS dataset folder from a trial log.
 
     Parameters
@@ -294,16 +421,28 @@ def export_dataset(data: str | Path, out_dir: str | Path, *, study: str | None =
     study : str, optional
         Study name for the ``study-`` keyword (letters and digits are kept); default: the trial
         log's file name without extension.
+    dates : str
+        How the session's day is exported (:func:`parse_dates`): ``day``, ``shift:N`` or
+        ``none``. Times are always seconds from the session's start.
+    include_identifying : bool
+        Export participant fields that look identifying (:func:`identifying_reason`); without
+        it they stay in the trial log only.
 
     Returns
     -------
     dict
-        ``{"files": [data file paths], "sessions": n, "simulated_sessions": [ids]}``.
+        ``{"files": [data file paths], "sessions": n, "simulated_sessions": [ids],
+        "identifying_left_out": [keys], "undocumented": [participants.tsv columns]}``.
 
     Raises
     ------
     TrialLogError
         The trial log is missing or unreadable.
+    ParticipantError
+        ``dates`` is not one of the forms above.
+    SubjectCollision
+        Two subject codes (in the log, or one in the log and one already in the dataset)
+        would be exported as one subject; nothing is written.
     ValueError
         ``study`` has no letter or digit.
     """
@@ -314,6 +453,7 @@ def export_dataset(data: str | Path, out_dir: str | Path, *, study: str | None =
     if out.exists() and not out.is_dir():
         raise TrialLogError(f"--out {out}: exists and is not a folder (a dataset is a folder)")
     study = keyword_value(study if study is not None else data.stem)
+    rule = parse_dates(dates)
     from experiment.triallog import MIGRATIONS
 
     with TrialLog(data, readonly=True) as log:
@@ -324,6 +464,16 @@ def export_dataset(data: str | Path, out_dir: str | Path, *, study: str | None =
     with TrialLog(data, readonly=True) as log:
         rows = [dict(r) for r in log.execute(_SQL)]
         sessions = log.sessions()
+    check_subject_collisions([s["subject"] for s in sessions])
+    old_participants = _read_tsv(out / "participants.tsv")
+    check_subject_collisions(
+        [r["participant_id"] for r in old_participants if r.get("participant_id")]
+        + [s["subject"] for s in sessions],
+        where=f"{out / 'participants.tsv'} and the trial log",
+    )
+    for r in rows:  # no wall-clock time leaves the lab: the day (or not), seconds from start
+        r["time_s"] = _seconds_between(r["date"], r["time_s"])
+        r["date"] = _day(r["date"], rule)
     by_session: dict[int, list[dict[str, Any]]] = {}
     for r in rows:
         by_session.setdefault(int(r["session"]), []).append(r)
@@ -331,7 +481,7 @@ def export_dataset(data: str | Path, out_dir: str | Path, *, study: str | None =
     for s in sessions:
         sid = int(s["session_id"])
         name = datafile_name(study, s["subject"], sid)
-        records.append(_session_record(s, f"data/{name}" if sid in by_session else None))
+        records.append(_session_record(s, f"data/{name}" if sid in by_session else None, rule))
         if sid in by_session:
             files.append((out / "data" / name, _csv_text(by_session[sid], EXPORT_COLUMNS)))
     simulated = [int(s["session_id"]) for s in sessions if s.get("observer")]
@@ -367,7 +517,10 @@ def export_dataset(data: str | Path, out_dir: str | Path, *, study: str | None =
         "description": (
             "Trials exported from a confocal trial log (Jung et al. 2015 paradigm): one file per "
             "session, one row per answered trial; 'recognized' from the primary rater's latest "
-            "score." + sim_note
+            "score. No wall-clock times: 'time_s' counts from each session's start; 'date' is "
+            + _DATES_NOTE[rule[0]]
+            + "."
+            + sim_note
         ),
         "schemaVersion": "Psych-DS 1.0.0",
         "dateCreated": now,
@@ -402,12 +555,15 @@ def export_dataset(data: str | Path, out_dir: str | Path, *, study: str | None =
     merged_records = [
         r for r in old_records if (r.get("subject"), r.get("session_id")) not in mine
     ] + records
-    participants = _participants(sessions, _read_tsv(out / "participants.tsv"))
+    participants, left_out, columns = _participants(sessions, old_participants, include_identifying)
+    part_doc = _participants_json(columns)
+    undocumented = [c for c, d in part_doc.items() if d.get("Undocumented")]
 
     # everything is built; now write (each file atomically)
     for path, text in files:
         _write(path, text)
     _write(out / "participants.tsv", participants)
+    _write(out / "documentation" / "participants.json", json.dumps(part_doc, indent=2) + "\n")
     _write(
         sessions_path,
         json.dumps({"trial_log": data.name, "sessions": merged_records}, indent=2) + "\n",
@@ -417,4 +573,130 @@ def export_dataset(data: str | Path, out_dir: str | Path, *, study: str | None =
         "files": [str(p) for p, _ in files],
         "sessions": len(sessions),
         "simulated_sessions": simulated,
+        "identifying_left_out": left_out,
+        "undocumented": undocumented,
     }
+
+
+def identifying_reason(key: str, value: object) -> str | None:
+    """Return why a participant field looks identifying, or None when it does not.
+
+    Examples
+    --------
+    >>> identifying_reason("first_name", "Ann")
+    "the key 'first_name' names a person or a way to reach them"
+    >>> identifying_reason("acuity", "20/200") is None
+    True
+    """
+    words = set(str(key).lower().split("_"))
+    if words & _IDENTIFYING_WORDS or any(p in str(key).lower() for p in _IDENTIFYING_PARTS):
+        return f"the key {key!r} names a person or a way to reach them"
+    text = str(value)
+    if "@" in text:
+        return f"the value of {key!r} has an @ (an e-mail address or handle)"
+    if _PHONE_RE.fullmatch(text.strip()) and sum(c.isdigit() for c in text) >= 7:
+        return f"the value of {key!r} looks like a phone number"
+    if _DATE_RE.search(text):
+        return f"the value of {key!r} looks like a date (a date of birth identifies)"
+    return None
+
+
+def identifying_fields(meta: dict[str, object]) -> dict[str, str]:
+    """Return ``{key: reason}`` for the fields of ``meta`` that look identifying."""
+    out = {}
+    for k, v in meta.items():
+        reason = identifying_reason(k, v)
+        if reason is not None:
+            out[k] = reason
+    return out
+
+
+def check_not_identifying(meta: dict[str, object]) -> None:
+    """Refuse participant metadata with an identifying-looking field (one line, the first).
+
+    Raises
+    ------
+    ParticipantError
+        Names the field, why, and the way out (``--allow-identifying``).
+    """
+    found = identifying_fields(meta)
+    if found:
+        key, reason = next(iter(found.items()))
+        raise ParticipantError(
+            f"--participant {key}: {reason}; leave it out (participants.tsv is shared), or pass "
+            "--allow-identifying to keep it in the trial log only (exported only with "
+            "session export --include-identifying)"
+        )
+
+
+def parse_dates(text: str) -> tuple[str, int]:
+    """Parse ``--dates``: ``day``, ``shift:N`` (N whole days, may be negative) or ``none``.
+
+    Returns
+    -------
+    tuple of (str, int)
+        ``("day", 0)``, ``("shift", N)`` or ``("none", 0)``.
+
+    Examples
+    --------
+    >>> parse_dates("shift:-30")
+    ('shift', -30)
+    """
+    t = str(text).strip().lower()
+    if t in ("day", "none"):
+        return t, 0
+    kind, sep, n = t.partition(":")
+    if kind == "shift" and sep and re.fullmatch(r"[+-]?\d{1,6}", n.strip()):
+        return "shift", int(n)
+    raise ParticipantError(f"--dates must be day, shift:N (N whole days) or none, got {text!r}")
+
+
+def subject_key(subject: str) -> str:
+    """Return the key under which two subject codes are one subject in an export.
+
+    The code reduced to letters and digits (:func:`keyword_value`, as in the data file names),
+    lower-cased: ``S_01``, ``S-01`` and ``s01`` are one file on a case-insensitive disk.
+
+    Raises
+    ------
+    SubjectCollision
+        The code has no letter or digit.
+    """
+    try:
+        return keyword_value(subject).lower()
+    except ValueError:
+        raise SubjectCollision(
+            f"subject {subject!r} has no letter or digit, so it cannot name a data file"
+        ) from None
+
+
+def check_subject_collisions(subjects: list[str], where: str = "the trial log") -> None:
+    """Refuse distinct subject codes that would be exported as one (one line naming both).
+
+    Raises
+    ------
+    SubjectCollision
+    """
+    seen: dict[str, str] = {}
+    for s in subjects:
+        key = subject_key(s)
+        other = seen.setdefault(key, s)
+        if other != s:
+            raise SubjectCollision(
+                f"subjects {other!r} and {s!r} in {where} would both be exported as "
+                f"subject-{keyword_value(s)} (one participant, one file name); nothing was "
+                "written"
+            )
+
+
+def _day(stamp: str | None, rule: tuple[str, int]) -> str:
+    if not stamp or rule[0] == "none":
+        return ""
+    day = datetime.fromisoformat(stamp).astimezone(UTC).date()
+    return (day + timedelta(days=rule[1])).isoformat()
+
+
+def _seconds_between(start: str | None, end: str | None) -> float | None:
+    if not start or not end:
+        return None
+    return round((datetime.fromisoformat(end) - datetime.fromisoformat(start)).total_seconds(), 3)

@@ -20,7 +20,6 @@ Every image is computed here; nothing is drawn from stored results.
 
 from __future__ import annotations
 
-import csv
 import json
 import shutil
 from pathlib import Path
@@ -101,6 +100,7 @@ def run_lightfield_demo(out_dir: str | Path, *, seed: int = 0, force: bool = Fal
     from stimuli.lightfield_cli import declutter_and_compress, plot_scores
     from stimuli.planes import find_object_planes
     from stimuli.refocus import refocus
+    from stimuli.tables import write_table
 
     out = Path(out_dir)
     if out.exists() and not out.is_dir():
@@ -183,10 +183,7 @@ def run_lightfield_demo(out_dir: str | Path, *, seed: int = 0, force: bool = Fal
         bar.add_task("scanning 200 confocal planes", total=None)
         scan = find_object_planes(lf, ds)  # agreement with a null (issue 12)
     rows_csv = scan.rows()
-    with atomic_path(out / "planes.csv") as tmp, open(tmp, "w", newline="") as f:
-        writer = csv.DictWriter(f, fieldnames=list(rows_csv[0]))
-        writer.writeheader()
-        writer.writerows(rows_csv)
+    write_table(out / "planes.csv", rows_csv, list(rows_csv[0]))
     plot_scores(scan, out / "fig15_scores.png")
 
     # The scene is synthetic, so each detection can be checked against the true layer depths:

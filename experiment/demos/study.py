@@ -434,12 +434,20 @@ def run_demo(
         "simulated": True,
         "observers": [_brief(o) for o in observers],
         "paper": PAPER_RESULTS,
-        "paths": {k: str(v) for k, v in paths.items()},
+        "paths": {k: _relative_to(v, out) for k, v in paths.items()},
         "seconds": seconds,
         "cpu_seconds": cpu_seconds,
     }
     (out / "demo.json").write_text(json.dumps(summary, indent=2) + "\n", encoding="utf-8")
     return demo
+
+
+def _relative_to(path: Path, root: Path) -> str:
+    """``path`` relative to ``root`` (its name when outside): no host path in ``demo.json``."""
+    try:
+        return Path(path).resolve().relative_to(Path(root).resolve()).as_posix()
+    except ValueError:
+        return Path(path).name
 
 
 def _fmt_px(v: Any) -> str:

@@ -456,6 +456,9 @@ def best_criterion(margins: np.ndarray, gains: np.ndarray) -> float:
 def _synth_provenance(info: dict) -> dict | None:
     """``generator``, ``seed``, ``version`` of the synthetic pairs a stimulus set was built from."""
     pairs = info.get("pairs")
+    if isinstance(pairs, dict):  # recorded in the set since it stopped holding host paths
+        synth = pairs.get("synth")
+        return dict(synth) if isinstance(synth, dict) else None
     if not isinstance(pairs, str):
         return None
     p = Path(pairs) / "synth.json"

@@ -6,6 +6,7 @@ import json
 
 import pytest
 
+from analysis.data import file_record
 from experiment.cli import main
 
 PASS_KEYS = {
@@ -183,7 +184,9 @@ def test_sqlite_and_csv_pooled_options_first(tmp_path, small_trials, capsys):
     assert exc.value.code in (0, None)
     r = json.loads((out / "results.json").read_text())
     assert r["n_trials"] == len(small_trials)
-    assert r["sources"] == [str(db), str(csv)]
+    assert r["sources"] == [file_record(db), file_record(csv)]
+    assert [s["file"] for s in r["sources"]] == [db.name, csv.name]
+    assert str(tmp_path) not in (out / "results.json").read_text(), "no host path"
     assert r["subject_thresholds"] == {}
     assert set(r["logistic"]["mixed"]["odds_ratios"]) == {"background", "log10_pixels"}
     assert r["thresholds"]["cluttered"]["pc"] == 0.75

@@ -1,0 +1,233 @@
+"""``session export`` shares no identifying participant field, no wall-clock time, and never merges
+two subject codes into one file name."""
+
+from __future__ import annotations
+
+import csv
+import json
+import re
+from datetime import date, timedelta
+
+import pytest
+
+from experiment import cli
+from experiment.data.psychds import (
+    ParticipantError,
+    SubjectCollision,
+    check_subject_collisions,
+    identifying_reason,
+    parse_dates,
+)
+from experiment.testing import make_stimulus_set
+from experiment.triallog import TrialLog
+
+PROTOCOL = """
+[protocol]
+name = "small"
+
+[[blocks]]
+part = "main"
+objects = "main"
+levels = [1, 8]
+conditions = ["cluttered", "decluttered"]
+"""
+
+
+def confocal(args, capsys):
+    with pytest.raises(SystemExit) as exc:
+        cli.main([str(a) for a in args])
+    out = capsys.readouterr()
+    return exc.value.code, out.out, out.err
+
+
+@pytest.fixture()
+def study(tmp_path):
+    stim = make_stimulus_set(tmp_path / "stim", n_main=2, n_training=1, levels=(1, 8))
+    proto = tmp_path / "small.toml"
+    proto.write_text(PROTOCOL)
+    return stim, proto, tmp_path / "study.sqlite"
+
+
+def run(stim, proto, db, subject, *extra):
+    return ["session", "run", "--protocol", proto, "--stimuli", stim, "--subject", subject,
+            "--data", db, "--headless", "--seed", "2", *extra]  # fmt: skip
+
+
+def read(path, delimiter=","):
+    with open(path, newline="", encoding="utf-8") as f:
+        return list(csv.DictReader(f, delimiter=delimiter))
+
+
+@pytest.mark.parametrize(
+    "text",
+    [
+        "name=Ann Smith",
+        "first_name=Ann",
+        "surname=Smith",
+        "email=ann@example.org",
+        "contact=ann@example.org",
+        "phone=+44 20 7946 0958",
+        "note=020 7946 0958",
+        "dob=1970-01-02",
+        "born=02/01/1970",
+        "birth_year=1970",
+        "address=1 High Street",
+        "zip=02134",
+        "mrn=12345",
+    ],
+)
+def test_identifying_participant_fields_are_refused_at_session_run(study, capsys, text):
+    stim, proto, db = study
+    code, _, err = confocal(run(stim, proto, db, "S01", "--participant", text), capsys)
+    assert code == 2 and len(err.strip().splitlines()) == 1, err
+    assert text.split("=")[0] in err and "--allow-identifying" in err
+    assert not db.exists(), "nothing written"
+
+
+@pytest.mark.parametrize(
+    "text", ["age=31", "sex=F", "acuity=20/200", "acuity_logmar=1.2", "consent=C7", "group=A"]
+)
+def test_documented_fields_are_not_identifying(text):
+    key, value = text.split("=")
+    assert identifying_reason(key, value) is None
+
+
+def test_identifying_fields_stay_in_the_log_unless_asked(study, tmp_path, capsys):
+    stim, proto, db = study
+    meta = "age=31,email=ann@example.org,dob=1970-01-02,favourite=tea"
+    code, _, err = confocal(run(stim, proto, db, "S01", "--participant", meta,
+                                "--allow-identifying"), capsys)  # fmt: skip
+    assert code == 0, err
+    with TrialLog(db, readonly=True) as log:
+        stored = json.loads(log.sessions()[0]["participant_json"])
+    assert stored["email"] == "ann@example.org", "kept in the log"
+    out = tmp_path / "dataset"
+    code, stdout, err = confocal(["session", "export", db, "--out", out], capsys)
+    assert code == 0, err
+    assert "left out identifying participant field(s) dob, email" in stdout
+    assert "undocumented participant column(s) favourite" in stdout
+    text = "".join(p.read_text() for p in out.rglob("*") if p.is_file())
+    assert "ann@example.org" not in text and "1970-01-02" not in text
+    (row,) = read(out / "participants.tsv", "\t")
+    assert row["age"] == "31" and row["favourite"] == "tea" and "email" not in row
+    doc = json.loads((out / "documentation" / "participants.json").read_text())
+    assert doc["favourite"]["Undocumented"] is True and "Undocumented" not in doc["age"]
+    # asked explicitly: exported
+    out2 = tmp_path / "full"
+    code, _, err = confocal(["session", "export", db, "--out", out2, "--include-identifying"],
+                            capsys)  # fmt: skip
+    assert code == 0, err
+    (row,) = read(out2 / "participants.tsv", "\t")
+    assert row["email"] == "ann@example.org"
+
+
+def test_export_has_no_wall_clock_time(study, tmp_path, capsys):
+    stim, proto, db = study
+    assert confocal(run(stim, proto, db, "S01"), capsys)[0] == 0
+    with TrialLog(db, readonly=True) as log:
+        started = log.sessions()[0]["started_at"]
+        stamps = [r[0] for r in log.execute("SELECT recorded_at FROM trials")]
+    day = date.fromisoformat(started[:10])
+    clock = re.compile(r"\d{2}:\d{2}:\d{2}")
+    for rule, want in (("day", day.isoformat()), ("shift:-400", (day - timedelta(400)).isoformat()),
+                       ("none", "")):  # fmt: skip
+        out = tmp_path / rule.replace(":", "")
+        code, _, err = confocal(["session", "export", db, "--out", out, "--dates", rule], capsys)
+        assert code == 0, err
+        (data,) = (out / "data").glob("*_data.csv")
+        rows = read(data)
+        assert {r["date"] for r in rows} == {want}
+        times = [float(r["time_s"]) for r in rows]
+        assert all(0 <= t < 600 for t in times) and times == sorted(times)
+        for p in out.rglob("*"):
+            if p.is_file():
+                text = p.read_text()
+                for stamp in [started, *stamps]:
+                    assert stamp not in text, (p.name, stamp)
+        rec = json.loads((out / "documentation" / "sessions.json").read_text())["sessions"][0]
+        assert "started_at" not in rec and rec["date"] == (want or None)
+        for p in (data, out / "documentation" / "sessions.json"):
+            assert not clock.search(p.read_text()), p.name
+        desc = (out / "dataset_description.json").read_text()
+        assert "400" not in desc, "the shift itself is not recorded"
+
+
+@pytest.mark.parametrize("text", ["week", "shift", "shift:x", "shift:1.5", ""])
+def test_bad_dates_rule(study, tmp_path, capsys, text):
+    with pytest.raises(ParticipantError, match="--dates must be day, shift:N"):
+        parse_dates(text)
+    stim, proto, db = study
+    assert confocal(run(stim, proto, db, "S01"), capsys)[0] == 0
+    code, _, err = confocal(["session", "export", db, "--out", tmp_path / "o", "--dates", text],
+                            capsys)  # fmt: skip
+    assert code == 2 and "--dates" in err and not (tmp_path / "o").exists()
+
+
+def test_colliding_subject_codes_are_refused_at_run(study, capsys):
+    stim, proto, db = study
+    assert confocal(run(stim, proto, db, "S_01"), capsys)[0] == 0
+    before = db.read_bytes()
+    for other in ("S-01", "S01", "s01"):
+        code, _, err = confocal(run(stim, proto, db, other), capsys)
+        assert code == 2 and len(err.strip().splitlines()) == 1, err
+        assert "'S_01'" in err and f"'{other}'" in err and "subject-" in err
+    assert db.read_bytes() == before
+    assert confocal(run(stim, proto, db, "S_01"), capsys)[0] == 0, "the same code is fine"
+
+
+def test_colliding_subject_codes_are_refused_at_export(study, tmp_path, capsys):
+    stim, proto, db = study
+    assert confocal(run(stim, proto, db, "S_01"), capsys)[0] == 0
+    import sqlite3
+
+    con = sqlite3.connect(db)  # a second code, as in a log written before run refused it
+    row = con.execute("SELECT * FROM sessions").fetchone()
+    cols = [d[0] for d in con.execute("SELECT * FROM sessions").description]
+    rec = dict(zip(cols, row, strict=True))
+    rec.pop("session_id")
+    rec["subject"] = "S-01"
+    con.execute(f"INSERT INTO sessions ({', '.join(rec)}) VALUES ({', '.join('?' * len(rec))})",
+                tuple(rec.values()))  # fmt: skip
+    con.commit()
+    con.close()
+    out = tmp_path / "dataset"
+    code, _, err = confocal(["session", "export", db, "--out", out], capsys)
+    assert code == 2 and len(err.strip().splitlines()) == 1, err
+    assert "'S_01'" in err and "'S-01'" in err and "subject-S01" in err
+    assert not out.exists(), "nothing written"
+
+
+def test_collision_with_a_subject_already_in_the_dataset(study, tmp_path, capsys):
+    stim, proto, db = study
+    assert confocal(run(stim, proto, db, "S01"), capsys)[0] == 0
+    out = tmp_path / "dataset"
+    assert confocal(["session", "export", db, "--out", out], capsys)[0] == 0
+    db2 = tmp_path / "site2.sqlite"
+    assert confocal(run(stim, proto, db2, "S-01"), capsys)[0] == 0
+    before = {p: p.read_bytes() for p in out.rglob("*") if p.is_file()}
+    code, _, err = confocal(["session", "export", db2, "--out", out], capsys)
+    assert code == 2 and "'S01'" in err and "'S-01'" in err
+    assert {p: p.read_bytes() for p in out.rglob("*") if p.is_file()} == before
+
+
+def test_collision_check():
+    check_subject_collisions(["S01", "S02", "S01"])
+    with pytest.raises(SubjectCollision, match=r"subjects 'S01' and 's01'"):
+        check_subject_collisions(["S01", "s01"])
+    with pytest.raises(SubjectCollision, match="no letter or digit"):
+        check_subject_collisions(["__"])
+
+
+def test_participants_tsv_is_formula_safe(study, tmp_path, capsys):
+    stim, proto, db = study
+    code, _, err = confocal(run(stim, proto, db, "S01", "--participant",
+                                "group=+cmd|calc,site=-A"), capsys)  # fmt: skip
+    assert code == 0, err
+    out = tmp_path / "dataset"
+    assert confocal(["session", "export", db, "--out", out], capsys)[0] == 0
+    raw = (out / "participants.tsv").read_text()
+    assert "\t'+cmd|calc" in raw and "\t'-A" in raw
+    # a second export merges the rows it reads back: still escaped once, not twice
+    assert confocal(["session", "export", db, "--out", out], capsys)[0] == 0
+    (row,) = read(out / "participants.tsv", "\t")
+    assert row["group"] == "'+cmd|calc" and row["site"] == "'-A"
