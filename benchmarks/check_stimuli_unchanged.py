@@ -24,6 +24,7 @@ code, then ``python benchmarks/check_stimuli_unchanged.py --compare /tmp/stimuli
 from __future__ import annotations
 
 import argparse
+import contextlib
 import hashlib
 import json
 import sys
@@ -76,6 +77,7 @@ def _scan_summary(scan) -> dict:
 
 def run(root: Path) -> dict:
     """Write every output under ``root`` and return the hashes and detected planes."""
+    root = Path(root)
     write_pairs(root / "pairs", n_objects=23, n_training=3, seed=SEED, shape_px=PAIRS_SHAPE_PX)
     _cli(["synth", "--out", str(root / "lens.png"), "--size", LF_SIZE, "--seed", str(SEED)])
     _cli(["synth", "--out", str(root / "camera"), "--kind", "camera", "--size", LF_SIZE,
@@ -131,8 +133,9 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--compare", type=Path, help="JSON written by an earlier run")
     args = ap.parse_args(argv)
-    with tempfile.TemporaryDirectory(prefix="stimuli_unchanged_") as tmp:
-        result = run(Path(tmp))
+    # Paths are relative to the temporary folder: scan.json records the light field's source.
+    with tempfile.TemporaryDirectory(prefix="stimuli_unchanged_") as tmp, contextlib.chdir(tmp):
+        result = run(Path("."))
     print(json.dumps(result, indent=1, sort_keys=True))
     if args.compare is None:
         return 0
