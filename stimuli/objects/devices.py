@@ -1,8 +1,6 @@
 """Timepieces and electronics: an alarm clock, a wristwatch, a phone, headphones, a remote.
 
-Each ``draw_<kind>(canvas, rng)`` paints one object kind of :mod:`stimuli.objects.registry` in
-object units (1 = the object's nominal width, base at y = 0, y up, centred on x = 0); ``rng``
-chooses its variant (shade, tilt, the time on a dial).
+Drawn in object units; see :mod:`stimuli.objects.registry`.
 """
 
 from __future__ import annotations
@@ -125,7 +123,7 @@ def draw_phone(cv: Canvas, rng: np.random.Generator) -> None:
 
 
 def draw_headphones(cv: Canvas, rng: np.random.Generator) -> None:
-    """Draw a headphones."""
+    """Draw a pair of headphones."""
     base = rng.uniform(0.15, 0.35)
     cy = 0.56
     band = ring(0, cy, 0.4, 0.08) & above(cy)

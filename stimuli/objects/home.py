@@ -1,8 +1,6 @@
 """Furniture and household things: a desk lamp, a light bulb, an umbrella, a chair, a book.
 
-Each ``draw_<kind>(canvas, rng)`` paints one object kind of :mod:`stimuli.objects.registry` in
-object units (1 = the object's nominal width, base at y = 0, y up, centred on x = 0); ``rng``
-chooses its variant (shade, tilt, the time on a dial).
+Drawn in object units; see :mod:`stimuli.objects.registry`.
 """
 
 from __future__ import annotations

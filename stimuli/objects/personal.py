@@ -1,8 +1,6 @@
 """Things worn or used on the body: glasses, a toothbrush and a shoe.
 
-Each ``draw_<kind>(canvas, rng)`` paints one object kind of :mod:`stimuli.objects.registry` in
-object units (1 = the object's nominal width, base at y = 0, y up, centred on x = 0); ``rng``
-chooses its variant (shade, tilt, the time on a dial).
+Drawn in object units; see :mod:`stimuli.objects.registry`.
 """
 
 from __future__ import annotations
@@ -32,7 +30,7 @@ __all__ = ["draw_glasses", "draw_toothbrush", "draw_shoe"]
 
 
 def draw_glasses(cv: Canvas, rng: np.random.Generator) -> None:
-    """Draw a glasses."""
+    """Draw a pair of glasses."""
     frame = rng.uniform(0.05, 0.25)
     cy = 0.3
     for sx in (-1.0, 1.0):

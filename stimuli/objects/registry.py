@@ -4,6 +4,10 @@
 uses them; :data:`DRAWERS` maps each kind's name to the function of its family module
 (:mod:`~stimuli.objects.kitchen`, :mod:`~stimuli.objects.tools`, :mod:`~stimuli.objects.home`,
 :mod:`~stimuli.objects.devices`, :mod:`~stimuli.objects.personal`) that draws it.
+
+Each ``draw_<kind>(canvas, rng)`` paints its object in *object units*: 1 = the object's nominal
+width, base at y = 0, y up, centred on x = 0. ``rng`` chooses the variant (shade, tilt, the time
+on a dial); :func:`stimuli.synth.make_scene` scales the drawing to 10 deg and places it.
 """
 
 from __future__ import annotations

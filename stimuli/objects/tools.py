@@ -1,8 +1,6 @@
 """Tools and hardware: scissors, a key, a hammer, a screwdriver, a padlock and a pen.
 
-Each ``draw_<kind>(canvas, rng)`` paints one object kind of :mod:`stimuli.objects.registry` in
-object units (1 = the object's nominal width, base at y = 0, y up, centred on x = 0); ``rng``
-chooses its variant (shade, tilt, the time on a dial).
+Drawn in object units; see :mod:`stimuli.objects.registry`.
 """
 
 from __future__ import annotations
@@ -40,7 +38,7 @@ __all__ = [
 
 
 def draw_scissors(cv: Canvas, rng: np.random.Generator) -> None:
-    """Draw a scissors."""
+    """Draw a pair of scissors."""
     handle = rng.uniform(0.1, 0.3)
     pivot = (0.0, 0.62)
     for sign in (-1.0, 1.0):
