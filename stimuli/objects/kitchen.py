@@ -139,10 +139,9 @@ def draw_wine_glass(cv: Canvas, rng: np.random.Generator) -> None:
 
 
 def _utensil(cv: Canvas, ang: float, head: Callable[[], tuple[Shape, Field]], base: float) -> None:
+    """Paint a piece of cutlery tilted by ``ang``: a metal handle and the head ``head()`` gives."""
     cx, cy = 0.0, 0.65
-
     turn = rotator(ang, cx, cy)
-
     handle = polygon([(-0.06, 0.1), (0.06, 0.1), (0.035, 0.85), (-0.035, 0.85)]) | ellipse(
         0, 0.12, 0.065, 0.07
     )
