@@ -230,9 +230,9 @@ def in_focus_mask(
     """
     from scipy.ndimage import uniform_filter
 
-    from stimuli.lightfield import _as_lightfield
+    from stimuli.lfload import as_lightfield
 
-    lf = _as_lightfield(lightfield).gray()
+    lf = as_lightfield(lightfield).gray()
     try:
         d0 = float(slope_px_per_view)
         tol = float(tolerance_px)

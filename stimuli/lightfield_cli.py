@@ -25,8 +25,12 @@ Grid sizes are written ``COLSxROWS`` as in the paper ("38x25"); the library uses
 
 from __future__ import annotations
 
+import functools
+import inspect
 import json
 import math
+from collections.abc import Callable
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Annotated
 
@@ -52,6 +56,9 @@ lightfield_app = typer.Typer(
     no_args_is_help=True,
 )
 
+_LightFieldPath = Annotated[
+    Path, typer.Argument(help="Folder of views, .npy/.npz, or elemental image.")
+]
 _Threshold = Annotated[
     str, typer.Option("--threshold", help="Sobel threshold: 'auto' (Otsu) or a number.")
 ]
@@ -166,45 +173,90 @@ def _parse_range(text: str) -> tuple[float, float]:
     return a, b
 
 
-def _load(
-    path,
-    pattern,
-    grid_cols,
-    pitch,
-    border,
-    offset,
-    view_crop=None,
-    view_bin=1,
-    bit_depth=None,
-    axes=None,
-    background=0.0,
-):
+@dataclass(frozen=True)
+class _LoaderOptions:
+    """How ``scan`` and ``refocus`` read their light field (options of :data:`_LOADER_OPTIONS`)."""
+
+    view_crop: str | None = None
+    pattern: str | None = None
+    grid_cols: int | None = None
+    pitch: int | None = None
+    border: int | None = None
+    offset: str | None = None
+    view_bin: int = 1
+    bit_depth: int | None = None
+    axes: str | None = None
+    background: float = 0.0
+
+
+#: The loader options as command-line parameters, in ``--help`` order: (name, type with its
+#: typer option); each default is the field's default in :class:`_LoaderOptions`.
+_LOADER_OPTIONS: tuple[tuple[str, object], ...] = (
+    ("view_crop", _ViewCrop),
+    ("pattern", _LoaderPattern),
+    ("grid_cols", _LoaderGridCols),
+    ("pitch", _LoaderPitch),
+    ("border", _LoaderBorder),
+    ("offset", _LoaderOffset),
+    ("view_bin", _ViewBin),
+    ("bit_depth", _BitDepth),
+    ("axes", _Axes),
+    ("background", _Background),
+)
+
+
+def _takes_loader_options(command: Callable[..., None]) -> Callable[..., None]:
+    """Give a command the loader options of :data:`_LOADER_OPTIONS` as its last parameters.
+
+    The command declares one keyword-only ``loader: _LoaderOptions`` instead of listing the ten
+    options again; typer sees them in the wrapper's signature, and the wrapper gathers them.
+    """
+    sig = inspect.signature(command, eval_str=True)
+    defaults = _LoaderOptions()
+    extra = [
+        inspect.Parameter(
+            name, inspect.Parameter.KEYWORD_ONLY, default=getattr(defaults, name), annotation=kind
+        )
+        for name, kind in _LOADER_OPTIONS
+    ]
+    own = [p for p in sig.parameters.values() if p.name != "loader"]
+
+    @functools.wraps(command)
+    def run(**kwargs) -> None:
+        loader = _LoaderOptions(**{name: kwargs.pop(name) for name, _ in _LOADER_OPTIONS})
+        command(**kwargs, loader=loader)
+
+    run.__signature__ = sig.replace(parameters=own + extra)
+    return run
+
+
+def _load(path: Path, options: _LoaderOptions):
     from stimuli.lightfield import load_lightfield
 
     off = None
-    if offset is not None:
+    if options.offset is not None:
         try:
-            off = tuple(int(v) for v in offset.split(","))
+            off = tuple(int(v) for v in options.offset.split(","))
             if len(off) != 2:
                 raise ValueError
         except ValueError:
-            raise InputError(f"--offset must be ROW,COL, got {offset!r}") from None
+            raise InputError(f"--offset must be ROW,COL, got {options.offset!r}") from None
     lf = load_lightfield(
         path,
-        pattern=pattern,
-        grid_cols=grid_cols,
-        pitch_px=pitch,
-        border_px=border,
+        pattern=options.pattern,
+        grid_cols=options.grid_cols,
+        pitch_px=options.pitch,
+        border_px=options.border,
         offset_px=off,
-        bit_depth=bit_depth,
-        axes=axes,
-        background=background,
+        bit_depth=options.bit_depth,
+        axes=options.axes,
+        background=options.background,
         gray=True,
     ).gray()
-    if view_bin != 1:
-        lf = lf.view_binned(view_bin)
-    if view_crop is not None:
-        rs, cs = parse_zoom(view_crop, lf.shape_px)
+    if options.view_bin != 1:
+        lf = lf.view_binned(options.view_bin)
+    if options.view_crop is not None:
+        rs, cs = parse_zoom(options.view_crop, lf.shape_px)
         lf = lf.cropped((cs.start, rs.start, cs.stop - cs.start, rs.stop - rs.start))
     return lf
 
@@ -371,10 +423,9 @@ def _warn_lines(caught) -> None:
 
 
 @lightfield_app.command("scan")
+@_takes_loader_options
 def scan_command(
-    lightfield: Annotated[
-        Path, typer.Argument(help="Folder of views, .npy/.npz, or elemental image.")
-    ],
+    lightfield: _LightFieldPath,
     out: Annotated[Path, typer.Option("--out", "-o", help="Folder to write.")],
     planes: Annotated[
         int, typer.Option("--planes", min=3, help="Number of planes (paper: 200).")
@@ -414,16 +465,8 @@ def scan_command(
     declutter_mode: _Declutter = "sobel",
     threshold: _Threshold = "auto",
     edge_ratio: _EdgeRatio = 1.0 / 13.0,
-    view_crop: _ViewCrop = None,
-    pattern: _LoaderPattern = None,
-    grid_cols: _LoaderGridCols = None,
-    pitch: _LoaderPitch = None,
-    border: _LoaderBorder = None,
-    offset: _LoaderOffset = None,
-    view_bin: _ViewBin = 1,
-    bit_depth: _BitDepth = None,
-    axes: _Axes = None,
-    background: _Background = 0.0,
+    *,
+    loader: _LoaderOptions,
 ) -> None:
     """Scan planes, detect the object planes and write them with their edge and grid images."""
     import warnings
@@ -453,19 +496,7 @@ def scan_command(
         _parse_range(disparities)
     if out.exists() and not out.is_dir():
         raise InputError(f"--out {out} exists and is a file; expected a folder to write")
-    lf = _load(
-        lightfield,
-        pattern,
-        grid_cols,
-        pitch,
-        border,
-        offset,
-        view_crop,
-        view_bin,
-        bit_depth,
-        axes,
-        background,
-    )
+    lf = _load(lightfield, loader)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         ds = _disparities(lf, planes, near, far, disparities)
@@ -519,10 +550,9 @@ def scan_command(
 
 
 @lightfield_app.command("refocus")
+@_takes_loader_options
 def refocus_command(
-    lightfield: Annotated[
-        Path, typer.Argument(help="Folder of views, .npy/.npz, or elemental image.")
-    ],
+    lightfield: _LightFieldPath,
     out: Annotated[Path, typer.Option("--out", "-o", help="PNG to write (folder with --stack).")],
     depth: Annotated[
         float | None,
@@ -558,16 +588,8 @@ def refocus_command(
     declutter_mode: _Declutter = "sobel",
     threshold: _Threshold = "auto",
     edge_ratio: _EdgeRatio = 1.0 / 13.0,
-    view_crop: _ViewCrop = None,
-    pattern: _LoaderPattern = None,
-    grid_cols: _LoaderGridCols = None,
-    pitch: _LoaderPitch = None,
-    border: _LoaderBorder = None,
-    offset: _LoaderOffset = None,
-    view_bin: _ViewBin = 1,
-    bit_depth: _BitDepth = None,
-    axes: _Axes = None,
-    background: _Background = 0.0,
+    *,
+    loader: _LoaderOptions,
 ) -> None:
     """Write the confocal image at one plane (or a focal stack); optionally zoom and compress."""
     from stimuli.declutter import in_focus_mask
@@ -589,19 +611,7 @@ def refocus_command(
             f"--out {out} exists and is a {'folder' if out.is_dir() else 'file'}; expected "
             + ("a folder for --stack" if stack else "a PNG file path")
         )
-    lf = _load(
-        lightfield,
-        pattern,
-        grid_cols,
-        pitch,
-        border,
-        offset,
-        view_crop,
-        view_bin,
-        bit_depth,
-        axes,
-        background,
-    )
+    lf = _load(lightfield, loader)
     if stack:
         if depth is not None or disparity is not None:
             raise InputError("--stack scans --near/--far or --disparities, not --depth/--disparity")

@@ -41,7 +41,8 @@ from concurrent.futures import ThreadPoolExecutor
 import numpy as np
 
 from stimuli.errors import InputError
-from stimuli.lightfield import LightField, _as_lightfield
+from stimuli.lfload import as_lightfield
+from stimuli.lightfield import LightField
 
 try:  # BLAS y += a x: one pass instead of numpy's two (scipy is a core dependency)
     from scipy.linalg.blas import saxpy as _saxpy
@@ -338,7 +339,7 @@ def refocus(
     >>> bool(np.allclose(refocus(views, 1.0)[:, 2:-2], tex[:, 2:-2]))
     True
     """
-    lf = _as_lightfield(lightfield)
+    lf = as_lightfield(lightfield)
     d = _check_disparity(lf, slope_px_per_view)
     return _refocus_views(lf.views, d, workers or default_workers())
 
@@ -350,7 +351,7 @@ def iter_focal_stack(
     workers: int | None = None,
 ) -> Iterator[tuple[float, np.ndarray]]:
     """Yield ``(slope, confocal_image)`` for each disparity in turn (the caller owns the loop)."""
-    lf = _as_lightfield(lightfield)
+    lf = as_lightfield(lightfield)
     slopes = [_check_disparity(lf, s) for s in slopes_px_per_view]
     n = workers or default_workers()
     for d in slopes:
@@ -389,4 +390,4 @@ def centre_view(lightfield: LightField | np.ndarray) -> np.ndarray:
     -------
     ndarray of shape (rows, cols[, C]), float32 in [0, 1] (a copy)
     """
-    return _as_lightfield(lightfield).centre_view()
+    return as_lightfield(lightfield).centre_view()

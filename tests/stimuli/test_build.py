@@ -1,4 +1,4 @@
-"""Stimulus builder (issue 2): sizes, manifest, provenance, determinism, conditions, CLI."""
+"""Stimulus builder: sizes, manifest, provenance, determinism, conditions, CLI."""
 
 from __future__ import annotations
 
@@ -448,7 +448,7 @@ def test_fast_decode_is_close_to_full_decode(tmp_path: Path) -> None:
 
 
 @pytest.mark.slow
-def test_synthetic_set_end_to_end_issue_2(tmp_path: Path) -> None:
+def test_synthetic_set_end_to_end(tmp_path: Path) -> None:
     """The 20-object synthetic set through `confocal stimuli synth` and `build`: for every
     object and level, fewer de-cluttered than cluttered cells are on outside the object (cells
     that touch the object's mask excluded). The mean wide-DOF edge ratio is printed (0.096 with

@@ -1,4 +1,4 @@
-"""Bad input to the stimulus builder (issue 2): one clear line, exit status 2, STIM_DIR untouched.
+"""Bad input to the stimulus builder: one clear line, exit status 2, STIM_DIR untouched.
 
 Every case runs through the command line with ``--force`` into an existing stimulus-set folder,
 so the build *would* replace it if it got that far: the folder must come out byte-identical and

@@ -1,4 +1,4 @@
-"""``confocal stimuli build`` with objects given as light fields (issue 3 <-> issue 2 contract).
+"""``confocal stimuli build`` with objects given as light fields (the builder's contract).
 
 A small synthetic light field (``.npz``): a bright textured disc at disparity 3 px per view step
 in front of a striped wall at disparity 0. Object ``lfplane`` gives its plane in objects.csv,
@@ -89,8 +89,8 @@ def test_decluttered_is_the_confocal_image_and_drops_the_wall(built):
     assert edge_fraction("lfplane", "decluttered") < 0.5 * edge_fraction("lfplane", "cluttered")
 
 
-def test_auto_plane_is_the_nearest_detected_plane_issue_3(built):
-    """Without a plane in objects.csv the *nearest* detected plane is used (issue 3: "the
+def test_auto_plane_is_the_nearest_detected_plane(built):
+    """Without a plane in objects.csv the *nearest* detected plane is used ("the
     object's plane ... or the nearest detected plane"): the disc at disparity 3 in front of the
     striped wall at 0, even though the wall's stripes outscore the disc. The manifest records
     the plane it used (H15)."""
@@ -121,7 +121,7 @@ def test_auto_plane_is_the_nearest_detected_plane_issue_3(built):
     assert given_row.source.endswith("#confocal@disparity=3px,disparity_px")
 
 
-def test_depth_declutter_mode_is_used_and_recorded_issue_12(tmp_path):
+def test_depth_declutter_mode_is_used_and_recorded(tmp_path):
     """``BuildParams(declutter='depth')``: a light-field object's de-cluttered images keep only
     edges where the views agree at the plane. Simulated three-plane scene through one row of 7
     cameras, focused on the tree: the pedestrian and building leave horizontal ghost edges that
@@ -157,7 +157,7 @@ def test_depth_declutter_mode_is_used_and_recorded_issue_12(tmp_path):
         BuildParams(declutter="canny")
 
 
-def test_bokeh_guard_drops_rims_absent_from_the_wide_photo_issue_12():
+def test_bokeh_guard_drops_rims_absent_from_the_wide_photo():
     """A sharp ring only in the narrow photo goes; an edge in both photos stays."""
     from stimuli.declutter import bokeh_guard
 
@@ -173,7 +173,7 @@ def test_bokeh_guard_drops_rims_absent_from_the_wide_photo_issue_12():
         bokeh_guard(narrow, wide[:10])
 
 
-def test_build_command_offers_the_depth_mode_and_bokeh_guard_issue_12(tmp_path, capsys):
+def test_build_command_offers_the_depth_mode_and_bokeh_guard(tmp_path, capsys):
     """``confocal stimuli build --declutter depth --bokeh-guard``: both reach the build and are
     recorded in stimulus_set.json; a bad mode is one line, exit 2, nothing written."""
     from experiment import cli

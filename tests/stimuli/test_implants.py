@@ -1,4 +1,4 @@
-"""Implant layouts in ``stimuli`` and ``stimuli build --implant`` (issue 14).
+"""Implant layouts in ``stimuli`` and ``stimuli build --implant``.
 
 The resampled grids are checked against :func:`stimuli.compress.compress` of the edge images
 read back from the set's own window-1 PNGs, the recorded hashes against ``hashlib`` of the files

@@ -1,6 +1,6 @@
-"""Depth de-cluttering from a light field (issue 12, point 3) against the paper's Sobel mode.
+"""Depth de-cluttering from a light field against the paper's Sobel mode.
 
-Measure (the issue's): at the 38x25 grid, the fraction of white cells outside the object, and
+Measure: at the 38x25 grid, the fraction of white cells outside the object, and
 how many of the object's cells stay white. A cell is *outside* when no object pixel falls in
 it and *on the object* when at least a quarter of its pixels are object pixels. Both modes use
 the same confocal image, the same Otsu threshold and the paper's edge ratio 1/13. Done when the
@@ -53,7 +53,7 @@ def _check(name, sobel, depth):
     assert depth[1] >= 0.8 * sobel[1]
 
 
-def test_three_plane_scene_one_row_of_views_issue_12():
+def test_three_plane_scene_one_row_of_views():
     """Simulated (Fig. 10 scene, 1x7 camera array, 30 mm baseline): focused on the tree, the
     pedestrian and building become horizontal ghost copies that survive Sobel. Measured:
     outside 0.258 -> 0.087, object cells 125 -> 125."""
@@ -64,7 +64,7 @@ def test_three_plane_scene_one_row_of_views_issue_12():
 
 
 @pytest.mark.data
-def test_baby1_doll_issue_12(data_dir):
+def test_baby1_doll(data_dir):
     """Middlebury Baby1 at the doll's plane (median ground truth, 12.5 px per view step). The
     doll: Otsu foreground of ``disp1`` above the pedestal (as test_lf_real.py), moved from view 1
     to the centre view 3 by its own disparity (``x - 2 d``). Measured: outside 0.499 -> 0.127,

@@ -166,7 +166,7 @@ def test_ms_elemental_two_planes(data_dir):
     assert abs(found["M"] - found["S"]) >= 0.1  # two separate planes, five scan steps apart
 
 
-# --- issue 12: planes against the ground truth's modes, default scan ----------------------
+# --- planes against the ground truth's modes, default scan -------------------------------
 
 
 def _truth_modes(disp: np.ndarray, *, bin_px: float = 0.125, sigma_px: float = 0.5):
@@ -201,8 +201,8 @@ def _truth(root, name):
 
 
 @pytest.mark.parametrize("name", ["middlebury_Baby1", "middlebury_Aloe", "hci_antinous_3x3_gt"])
-def test_default_scan_matches_the_ground_truth_modes_issue_12(data_dir, name):
-    """Issue 12, done-when: every ground-truth mode holding >= 5 % of the pixels has a detected
+def test_default_scan_matches_the_ground_truth_modes(data_dir, name):
+    """Every ground-truth mode holding >= 5 % of the pixels has a detected
     plane within 0.5 px per view step, and >= 80 % of the reported planes lie within 1 px of a
     ground-truth mode. Default scan: range from the data, 200 planes, agreement with a null.
     Measured (disparity, px per view step; truth modes with their share of pixels):

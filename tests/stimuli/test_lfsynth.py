@@ -110,10 +110,10 @@ def test_bad_layers_raise():
         )
 
 
-def test_scan_finds_exactly_the_three_planes_issue_12(lens_sim):
+def test_scan_finds_exactly_the_three_planes(lens_sim):
     """Default scan (range from the data, agreement with a null): exactly three planes, at 1, 4
-    and 9 m, each within 0.1 px per view step of the true disparity (issue 12: the old default
-    reported 8 peaks). Measured: 0.96, 4.02, 9.0 m."""
+    and 9 m, each within 0.1 px per view step of the true disparity (a fixed range
+    with the Haar score reported 8 peaks). Measured: 0.96, 4.02, 9.0 m."""
     _, _, g, lf = lens_sim
     scan = find_object_planes(lf)
     found = sorted(scan.peaks, key=lambda p: p.depth_m)
@@ -126,7 +126,7 @@ def test_scan_finds_exactly_the_three_planes_issue_12(lens_sim):
 # The far clip of the geometry (12 m = 1 px) is 0.33 px from the building: many of its pixels
 # agree best at that end plane, and the scan says so.
 @pytest.mark.filterwarnings("ignore:.*agree best at the first scanned plane")
-def test_camera_array_scene_gives_exactly_three_planes_issue_12():
+def test_camera_array_scene_gives_exactly_three_planes():
     """The same scene through a 9x9 camera array (30 mm baseline, as the benchmark)."""
     layers = three_plane_scene((164, 246))
     lf = render_camera_array(layers, grid=(9, 9), shape_px=(164, 246), baseline_m=0.03)
@@ -139,7 +139,7 @@ def test_camera_array_scene_gives_exactly_three_planes_issue_12():
 
 def test_paper_haar_scan_still_finds_the_three_planes(lens_sim):
     """The paper's Haar scan (``method='haar'``): the three most prominent peaks are the three
-    planes (measured before issue 12: 1.02, 4.08, 8.99 m), 200 planes over 0.5-12 m."""
+    planes (measured: 1.02, 4.08, 8.99 m), 200 planes over 0.5-12 m."""
     _, _, g, lf = lens_sim
     ds = np.array([g.disparity_px(z) for z in np.linspace(0.5, 12, 200)])
     step = 11.5 / 199

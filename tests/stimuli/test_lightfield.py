@@ -278,7 +278,7 @@ def test_grid_with_holes_raises(tmp_path):
 
 
 def test_partial_lenslets_are_dropped_and_too_few_raise(tmp_path):
-    """Issue 12: a sensor is rarely a whole number of lenslets; the partial ones are dropped."""
+    """A sensor is rarely a whole number of lenslets; the partial ones are dropped."""
     ei = np.arange(30 * 41, dtype=np.float32).reshape(30, 41) / (30 * 41)
     v = views_from_elemental(ei, 10)
     assert v.shape == (10, 10, 3, 4)
@@ -389,19 +389,24 @@ def test_confocal_pair_with_depth(tmp_path):
     np.testing.assert_array_equal(by_depth, by_disp)
 
 
-def test_the_data_type_imports_no_operation_issue_12():
-    """Issue 12, point 6: ``stimuli/lightfield.py`` (the data type) imports neither the scan nor
-    refocusing, anywhere in the file (no import circle, no methods that import them back)."""
+@pytest.mark.parametrize(
+    "module", ["stimuli.lightfield", "stimuli.lfviews", "stimuli.lfload", "stimuli.elemental"]
+)
+def test_the_data_type_and_its_loaders_import_no_operation(module):
+    """The light-field type, its loaders and the module that re-exports them import neither the
+    scan nor refocusing, anywhere in the file (no import circle, no methods that import them
+    back)."""
     import ast
+    import importlib
     from pathlib import Path
 
-    import stimuli.lightfield
-
-    tree = ast.parse(Path(stimuli.lightfield.__file__).read_text())
+    tree = ast.parse(Path(importlib.import_module(module).__file__).read_text())
     names = set()
     for node in ast.walk(tree):
         if isinstance(node, ast.ImportFrom) and node.module:
             names.add(node.module)
         elif isinstance(node, ast.Import):
             names.update(a.name for a in node.names)
-    assert not names & {"stimuli.planes", "stimuli.refocus", "stimuli.declutter"}, names
+    operations = {"stimuli.planes", "stimuli.planescan", "stimuli.haarscan"}
+    operations |= {"stimuli.agreementscan", "stimuli.refocus", "stimuli.declutter"}
+    assert not names & operations, names

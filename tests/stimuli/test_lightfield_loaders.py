@@ -1,4 +1,4 @@
-"""Loaders that say what they see (issue 12, point 4): one test per case in the issue.
+"""Loaders that say what they see: one test per input case (patterns, axes, alpha, bit depth).
 
 Each case ends in a correct light field or in one line on stderr naming the file and what was
 expected, exit status 2.
@@ -31,7 +31,7 @@ def _grid(n_u=2, n_v=3, rows=24, cols=32, seed=0):
     return np.random.default_rng(seed).integers(0, 256, (n_u, n_v, rows, cols), dtype=np.uint8)
 
 
-def test_pattern_format_widths_issue_12(tmp_path, capsys):
+def test_pattern_format_widths(tmp_path, capsys):
     """``{row:02d}{col:02d}`` reads ``0101.png``: two digits each, not a greedy split."""
     g = _grid()
     for u in range(2):
@@ -59,7 +59,7 @@ def test_pattern_format_widths_issue_12(tmp_path, capsys):
         load_lightfield(tmp_path, pattern="{row:x}{col}")
 
 
-def test_pattern_wildcard_issue_12(tmp_path):
+def test_pattern_wildcard(tmp_path):
     g = _grid()
     for u in range(2):
         for v in range(3):
@@ -70,7 +70,7 @@ def test_pattern_wildcard_issue_12(tmp_path):
     np.testing.assert_allclose(lf.gray().views[1, 2], g[1, 2] / 255.0, atol=1e-6)
 
 
-def test_npy_axis_order_checked_issue_12(tmp_path, capsys):
+def test_npy_axis_order_checked(tmp_path, capsys):
     """A (rows, cols, n_u, n_v) array is refused with the expected order named; --axes reads it."""
     views = _grid(3, 3, 40, 50).astype(np.float32) / 255.0
     np.save(tmp_path / "hwuv.npy", np.transpose(views, (2, 3, 0, 1)))
@@ -87,7 +87,7 @@ def test_npy_axis_order_checked_issue_12(tmp_path, capsys):
         load_lightfield(tmp_path / "hwuv.npy", axes="xyz")
 
 
-def test_alpha_is_composited_over_the_background_issue_12(tmp_path, capsys):
+def test_alpha_is_composited_over_the_background(tmp_path, capsys):
     """Transparent pixels take the background grey, whatever colour they store."""
     for v in range(3):
         rgba = np.zeros((20, 30, 4), np.uint8)
@@ -116,7 +116,7 @@ def test_alpha_is_composited_over_the_background_issue_12(tmp_path, capsys):
     assert np.asarray(Image.open(tmp_path / "r.png"))[0, 0] == round(0.25 * 255)
 
 
-def test_sixteen_bit_data_scaled_by_its_bit_depth_issue_12(tmp_path, capsys):
+def test_sixteen_bit_data_scaled_by_its_bit_depth(tmp_path, capsys):
     """12-bit values in 16-bit PNGs fill [0, 1]; --bit-depth overrides; too small is refused."""
     rng = np.random.default_rng(1)
     raw = rng.integers(0, 4096, (1, 3, 20, 30)).astype(np.uint16)
@@ -146,7 +146,7 @@ def test_sixteen_bit_data_scaled_by_its_bit_depth_issue_12(tmp_path, capsys):
     assert code == 2 and "view0.png: value 4095 does not fit --bit-depth 10" in out.err
 
 
-def test_zoom_box_aspect_refused_with_a_fitting_grid_issue_12(tmp_path, capsys):
+def test_zoom_box_aspect_refused_with_a_fitting_grid(tmp_path, capsys):
     views = _grid(1, 3, 120, 160).astype(np.float32) / 255.0
     np.save(tmp_path / "lf.npy", views)
     code, out = _code(
@@ -188,7 +188,7 @@ def test_zoom_box_aspect_refused_with_a_fitting_grid_issue_12(tmp_path, capsys):
     assert np.asarray(Image.open(tmp_path / "r_grid.png")).shape == (25, 10)
 
 
-def test_synth_writes_ground_truth_disparity_and_depth_issue_12(tmp_path, capsys):
+def test_synth_writes_ground_truth_disparity_and_depth(tmp_path, capsys):
     """Simulated scene: the maps hold the three layers' depths and their disparities."""
     from stimuli.lfsynth import layer_masks, three_plane_scene
 
@@ -226,7 +226,7 @@ def test_synth_writes_ground_truth_disparity_and_depth_issue_12(tmp_path, capsys
     assert read_pfm(tmp_path / "f" / "depth.pfm").shape == (40, 48)
 
 
-def test_errors_name_the_file_issue_12(tmp_path, capsys):
+def test_errors_name_the_file(tmp_path, capsys):
     (tmp_path / "v").mkdir()
     for v in range(3):
         Image.fromarray(_grid(1, 1, 20, 30)[0, 0]).save(tmp_path / "v" / f"view{v}.png")
@@ -243,7 +243,7 @@ def test_errors_name_the_file_issue_12(tmp_path, capsys):
 
 
 @pytest.mark.data
-def test_ms_elemental_image_opens_from_the_command_line_issue_12(data_dir, tmp_path, capsys):
+def test_ms_elemental_image_opens_from_the_command_line(data_dir, tmp_path, capsys):
     """The real lens-array image: 41 px lenslets, 3 px invalid border, grid offset (18, 37)
     (test_lf_real.py), a partial lenslet at the edges dropped, 5x5 views averaged (--view-bin).
     Geometry from SOURCES.md (1 mm pitch, 3.3 mm focal length, 41 px per lenslet) in a TOML
@@ -271,7 +271,7 @@ def test_ms_elemental_image_opens_from_the_command_line_issue_12(data_dir, tmp_p
     assert json.loads((out / "scan.json").read_text())["method"] == "agreement"
 
 
-def test_remaining_loader_and_option_errors_issue_12(tmp_path, capsys):
+def test_remaining_loader_and_option_errors(tmp_path, capsys):
     """One line each, naming what was expected."""
     from stimuli.declutter import bokeh_guard
     from stimuli.lightfield import LightField
@@ -320,7 +320,7 @@ def test_remaining_loader_and_option_errors_issue_12(tmp_path, capsys):
         assert code == 2 and msg in out.err
 
 
-def test_view_binning_scales_disparity_and_geometry_issue_12():
+def test_view_binning_scales_disparity_and_geometry():
     """Averaging 2x2 blocks of views: one new view step is two old ones, so a scene at 1 px
     per view step is at 2 px per new step, and the camera baseline doubles."""
     from stimuli.lightfield import Geometry, LightField

@@ -171,8 +171,8 @@ def test_plane_scan_round_trip_and_rows():
             assert (r["support"] != "") == (r["peak"] == 1 and method == "agreement")
 
 
-def test_default_disparities_come_from_the_data_issue_12():
-    """The default range is the span the scene occupies (issue 12, point 1), not a constant:
+def test_default_disparities_come_from_the_data():
+    """The default range is the span the scene occupies, not a constant:
     two planes at -1 and 3 px per view step give a range that holds both with a margin of at
     most two coarse steps, and a geometry's near/far clips it."""
     lf = _two_plane_lf(grid=(5, 5), shape=(200, 260))
@@ -189,14 +189,14 @@ def test_default_disparities_come_from_the_data_issue_12():
         estimate_disparity_range(LightField(np.full((3, 3, 80, 80), 0.5, np.float32)))
 
 
-def test_peak_at_the_edge_of_the_range_warns_issue_12():
+def test_peak_at_the_edge_of_the_range_warns():
     lf = _two_plane_lf()
     with pytest.warns(UserWarning, match="beyond the scanned range"):
         scan = find_object_planes(lf, np.linspace(-3, 2.0, 51), binning=1)
     assert [round(p.disparity_px) for p in scan.peaks] == [-1]
 
 
-def test_a_single_texture_at_one_depth_is_one_plane_with_evidence_issue_12():
+def test_a_single_texture_at_one_depth_is_one_plane_with_evidence():
     """One textured wall: exactly one plane, with its support and a null far below it."""
     rng = np.random.default_rng(3)
     tex = ndimage.gaussian_filter(rng.random((200, 300)), 1.0).astype(np.float32)
@@ -252,7 +252,7 @@ def test_equal_tops_of_one_hill_are_one_plane() -> None:
     assert np.allclose(x[idx], [0.3, 0.7], atol=0.01)
 
 
-def test_range_outside_the_geometry_is_refused_issue_12():
+def test_range_outside_the_geometry_is_refused():
     """A scene the geometry's near/far cannot hold: one line saying the range is empty."""
     lf = _two_plane_lf(d_near=-1.0, d_far=-1.0, grid=(5, 5), shape=(160, 200))
     g = Geometry(kind="camera_array", focal_length_px=100.0, baseline_m=0.01, near_m=0.5, far_m=2)

@@ -1,4 +1,4 @@
-"""Real depth-of-field photo pairs: de-cluttering keeps the in-focus object (issue 2).
+"""Real depth-of-field photo pairs: de-cluttering keeps the in-focus object.
 
 VABD (Chen et al. 2024) pairs ``input/`` f/16 (wide DOF) with ``1_8/`` f/1.8 (narrow DOF); EBB!
 (Ignatov et al. 2020) pairs ``input/`` f/16 with ``target/`` f/1.8. ``focal/`` holds a mask of the
@@ -35,7 +35,7 @@ PAIRS = [
 
 #: Measured shares of edge pixels inside the in-focus mask, cluttered -> decluttered. Native:
 #: Otsu threshold on the narrow photo (2026-11-21). Levels 8 and 3: the built set, whose
-#: automatic threshold is the pair's minimum edge retention since issue 15 (stimuli/tune.py;
+#: automatic threshold is the pair's minimum edge retention (stimuli/tune.py;
 #: edge ratio 0.068 = mean wide-DOF edge fraction; with Otsu it was 0.28); 2026-11-23:
 #:
 #: ========  =====================  =====================  =====================

@@ -135,7 +135,7 @@ def test_disparity_outside_the_light_field_raises():
 
 
 @pytest.mark.parametrize("d", [0.0, 1.0, 2.37, -1.6, 7.9])
-def test_blas_path_matches_the_slice_path_issue_12(d, monkeypatch):
+def test_blas_path_matches_the_slice_path(d, monkeypatch):
     """The saxpy (BLAS) path and the numpy-slice path are two implementations of one sum."""
     import stimuli.refocus as rf
 

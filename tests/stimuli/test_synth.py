@@ -289,7 +289,7 @@ def test_write_pairs_refuses_a_file_as_out_dir(tmp_path) -> None:
         write_pairs(f, n_objects=1, n_training=0)
 
 
-# --- the claim: de-cluttering removes background edges at every level (issue 2, "Must show") ---
+# --- the claim: de-cluttering removes background edges at every level ------------------------
 
 
 def _outside_edge_counts(edges: np.ndarray, mask: np.ndarray, edge_ratio: float) -> list[int]:
@@ -303,7 +303,7 @@ def _outside_edge_counts(edges: np.ndarray, mask: np.ndarray, edge_ratio: float)
     return counts
 
 
-def test_decluttered_stimuli_have_less_background_edge_mass_at_every_level_issue_2(
+def test_decluttered_stimuli_have_less_background_edge_mass_at_every_level(
     pairs: Path,
 ) -> None:
     rows = [r for r in _read_csv(pairs / "objects.csv") if r["role"] == "main"]

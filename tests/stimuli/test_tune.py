@@ -1,4 +1,4 @@
-"""The threshold tuner ``confocal stimuli tune`` and the build's ``retention`` method (issue 15, 7).
+"""The threshold tuner ``confocal stimuli tune`` and the build's ``retention`` method.
 
 Kinds of test (house style H21):
 
@@ -242,7 +242,7 @@ def test_real_pairs_edge_ratio_in_paper_range_and_share_in_mask_rises(
         np.mean([(sobel_magnitude(r.wide) > r.otsu_threshold).mean() for r in results])
     )
     print(f"mean wide-DOF edge fraction: Otsu {otsu_mean:.4f}")
-    assert otsu_mean > 0.12  # the failure issue 15 reports (0.28)
+    assert otsu_mean > 0.12  # the failure the retention method fixes (0.28)
     for r in results:
         m = load_gray(masks[r.object])
         box = aspect_crop_box(m.shape, (327, 492))
