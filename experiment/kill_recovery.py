@@ -456,6 +456,9 @@ def check_logs(subjects: list) -> dict:
             continue
         con = sqlite3.connect(log.resolve().as_uri() + "?mode=ro", uri=True)
         try:
+            if not con.execute("SELECT 1 FROM sqlite_master WHERE name = 'sessions'").fetchone():
+                out["failures"].append(f"{log.name}: no sessions table")
+                continue
             known = {s.code for s in subs}
             for (subject,) in con.execute("SELECT DISTINCT subject FROM sessions"):
                 if subject not in known:

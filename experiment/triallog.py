@@ -50,7 +50,8 @@ connection or a private copy of the file and its WAL): our id, or id 0 with conf
 ``schema_migrations`` rows and tables, is a trial log; anything else (another program's id, an
 SQLite file without our schema, a file that is not SQLite, a folder) is refused with one line and
 is left byte-identical, with nothing created beside it. A new log is made whole under a
-temporary name (id, WAL header) and linked into place, so a crash never leaves a half-made file.
+temporary name (id, WAL header, every migration) and linked into place, so a crash never
+leaves a half-made file.
 A 0-byte file is taken as a new log only with no ``-wal``/``-shm``/``-journal`` beside it: it
 holds nothing to harm, and it is replaced whole (renamed over), never written in place; with such
 a file beside it, it is another program's database in the middle of a write, and is refused.
@@ -560,6 +561,11 @@ class SessionComplete(TrialLogError):
         self.session = session
 
 
+#: The table that records the applied migrations.
+_MIGRATIONS_TABLE = (
+    "CREATE TABLE IF NOT EXISTS schema_migrations ("
+    "version INTEGER PRIMARY KEY, name TEXT NOT NULL, applied_at TEXT NOT NULL)"
+)
 #: The first bytes of every SQLite 3 database file.
 _SQLITE_MAGIC = b"SQLite format 3\x00"
 #: Files SQLite keeps beside a database while it is written.
@@ -872,10 +878,7 @@ class TrialLog:
         raise exc
 
     def _migrate(self) -> None:
-        self._con.execute(
-            "CREATE TABLE IF NOT EXISTS schema_migrations ("
-            "version INTEGER PRIMARY KEY, name TEXT NOT NULL, applied_at TEXT NOT NULL)"
-        )
+        self._con.execute(_MIGRATIONS_TABLE)
         done = {r[0] for r in self._con.execute("SELECT version FROM schema_migrations")}
         for version, name, sql in MIGRATIONS:
             if version in done:
@@ -1392,9 +1395,10 @@ class TrialLog:
 def _create_log_file(p: Path) -> None:
     """Make a new, empty trial log at ``p``: built under a temporary name, then linked in.
 
-    The file gets :data:`APPLICATION_ID` and the WAL header before it has its name, so a crash
-    leaves either no file or a file that says it is ours (at worst a temporary ``.*.new`` file
-    beside it). A 0-byte file at ``p`` (see :func:`identify_log_file`) is renamed over whole.
+    The file gets :data:`APPLICATION_ID`, the WAL header and every migration before it has its
+    name, so a crash leaves either no file or a whole empty trial log (at worst a temporary
+    ``.*.new`` file beside it). A 0-byte file at ``p`` (see :func:`identify_log_file`) is
+    renamed over whole.
     """
     tmp = p.with_name(f".{p.name}.{uuid.uuid4().hex}.new")
     try:
@@ -1403,8 +1407,19 @@ def _create_log_file(p: Path) -> None:
             try:
                 con.execute(f"PRAGMA application_id = {APPLICATION_ID}")
                 con.execute("PRAGMA journal_mode = WAL")
+                con.execute("BEGIN IMMEDIATE")
+                con.execute(_MIGRATIONS_TABLE)
+                for version, name, sql in MIGRATIONS:
+                    for stmt in _split_sql(sql):
+                        con.execute(stmt)
+                    con.execute(
+                        "INSERT INTO schema_migrations (version, name, applied_at) "
+                        "VALUES (?, ?, ?)",
+                        (version, name, utc_now()),
+                    )
+                con.execute("COMMIT")
             finally:
-                con.close()
+                con.close()  # the last connection: the WAL is checkpointed into the file
         except sqlite3.DatabaseError as exc:
             raise TrialLogError(f"{p}: cannot create the trial log ({exc})") from None
         try:
