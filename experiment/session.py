@@ -30,9 +30,16 @@ from experiment.protocol import SCORES, DisplaySpec, ProtocolError, ProtocolSpec
 from experiment.schedule import Schedule, Trial, build_schedule
 from experiment.scoring import suggest_score
 from experiment.stimset import StimulusSet, StimulusSetError
-from experiment.triallog import ResumeMismatch, TrialLog
+from experiment.triallog import ResumeMismatch, SessionComplete, TrialLog, TrialLogError
 
-__all__ = ["Session", "Trial", "check_implant_fits", "display_json", "software_provenance"]
+__all__ = [
+    "Session",
+    "Trial",
+    "check_implant_fits",
+    "check_new_session_reason",
+    "display_json",
+    "software_provenance",
+]
 
 logger = logging.getLogger(__name__)
 
@@ -134,8 +141,12 @@ class Session:
         observer_params: dict | None = None,
         participant: dict | None = None,
         monitor: dict | None = None,
+        new_session: str | None = None,
     ) -> Session:
         """Create a session, or resume the subject's unfinished one (same saved schedule).
+
+        A subject whose session is complete is not run again unless ``new_session`` gives the
+        reason for a further session (:meth:`TrialLog.session_to_open`).
 
         Parameters
         ----------
@@ -161,9 +172,17 @@ class Session:
         monitor : dict, optional
             The monitor profile whose values replaced the protocol's display (name, sha256,
             fields); stored as JSON.
+        new_session : str, optional
+            The operator's reason for a further session of a subject who has one (logged as a
+            ``new_session`` event). The same reason again resumes or reports that session.
 
         Raises
         ------
+        SessionComplete
+            The subject's session is complete and ``new_session`` is None (or names a
+            completed session).
+        TrialLogError
+            ``new_session`` is given while another unfinished session exists.
         ResumeMismatch
             The unfinished session used another protocol, stimulus set or seed.
         SessionLocked
@@ -183,8 +202,11 @@ class Session:
         clock = clock if clock is not None else PerfCounterClock()
         if observer is None and responder and responder.startswith("sim:"):
             observer = responder[4:]
-        existing = log.unfinished_session(subject)
-        if existing is not None:
+        check_new_session_reason(new_session)
+        decision, existing = log.session_to_open(subject, new_session=new_session)
+        if decision == "complete":
+            raise SessionComplete(log.complete_message(existing), existing)
+        if decision == "resume":
             return cls._resume(log, protocol, stimset, subject, existing, seed, clock, observer)
         root_seed = int(seed) if seed is not None else int(np.random.SeedSequence().entropy)
         schedule = build_schedule(protocol, stimset, _child_rng(root_seed, 0))
@@ -215,6 +237,8 @@ class Session:
             )
             log.write_schedule(sid, schedule)
             log.acquire_lock(sid)
+            if new_session is not None:
+                log.add_event(sid, "new_session", new_session, clock.now_s())
             log.add_event(
                 sid, "open", f"new session: {len(schedule)} trials planned", clock.now_s()
             )
@@ -478,6 +502,23 @@ class Session:
             self.log_event("abort", f"interrupted at trial {self._next}")
             raise
         display.show_text(self.protocol.instructions.end)
+
+
+def check_new_session_reason(reason: str | None) -> None:
+    """Refuse a blank or multi-line ``--new-session`` reason (None: no new session asked for).
+
+    Raises
+    ------
+    TrialLogError
+        Naming ``--new-session`` and what is expected.
+    """
+    if reason is None:
+        return
+    if not isinstance(reason, str) or not reason.strip() or not reason.isprintable():
+        raise TrialLogError(
+            "--new-session needs the reason for another session on one line, e.g. "
+            f'--new-session "re-test after new glasses"; got {reason!r}'
+        )
 
 
 def _child_rng(seed: int, k: int) -> np.random.Generator:

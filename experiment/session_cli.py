@@ -32,6 +32,8 @@ __all__ = [
     "status_command",
     "export_command",
     "status_report",
+    "report_if_complete",
+    "NewSessionOption",
 ]
 
 # The subject's-screen options, shared by ``session run`` and ``active run --searcher person``.
@@ -55,6 +57,17 @@ SkipTimingCheckOption = Annotated[
     typer.Option(
         "--skip-timing-check",
         help="Start even if the frame-timing self-test fails (the choice is logged).",
+    ),
+]
+
+NewSessionOption = Annotated[
+    str | None,
+    typer.Option(
+        "--new-session",
+        metavar="REASON",
+        help="Start a further session for a subject whose session is complete; the reason is "
+        'logged, e.g. --new-session "re-test after new glasses". Without it a complete '
+        "subject's session is reported, not run again.",
     ),
 ]
 
@@ -169,15 +182,20 @@ def run_command(
             "(needs the 'audio' extra and a microphone; without them the session runs silent).",
         ),
     ] = False,
+    new_session: NewSessionOption = None,
 ) -> None:
-    """Run (or resume) a subject's session: console and presenter, or headless simulation."""
+    """Run (or resume) a subject's session: console and presenter, or headless simulation.
+
+    A subject whose session is complete is reported (exit 0, nothing written), not run again;
+    ``--new-session REASON`` starts a further one.
+    """
     from experiment.observers import OBSERVERS, describe_observer, make_observer
     from experiment.presentation.displays import NullDisplay
     from experiment.protocol import load_protocol
     from experiment.schedule import planned_trials
     from experiment.session import Session
     from experiment.stimset import StimulusSet
-    from experiment.triallog import TrialLog
+    from experiment.triallog import SessionComplete, TrialLog
 
     if presenter not in ("process", "offscreen", "none"):
         raise ConfocalError(
@@ -210,6 +228,9 @@ def run_command(
         )
     if data.is_dir():
         raise ConfocalError(f"--data {data} is a folder; expected the study's .sqlite file")
+    from experiment.session import check_new_session_reason
+
+    check_new_session_reason(new_session)
     meta = None
     if participant is not None:
         from experiment.data.psychds import check_not_identifying, parse_participant
@@ -242,20 +263,27 @@ def run_command(
         except (TypeError, ValueError) as exc:
             raise ConfocalError(f"--observer-param: {exc}") from None
         effective_params = _params_dict(getattr(probe, "params", None), params)
+    if report_if_complete(data, subject, new_session):
+        return
     log = TrialLog(data)
     try:
-        session = Session.open(
-            log,
-            spec,
-            stimset,
-            subject,
-            seed=seed,
-            responder=f"sim:{observer}" if headless else "console",
-            observer=observer if headless else None,
-            observer_params=effective_params,
-            participant=meta,
-            monitor=monitor_record,
-        )
+        try:
+            session = Session.open(
+                log,
+                spec,
+                stimset,
+                subject,
+                seed=seed,
+                responder=f"sim:{observer}" if headless else "console",
+                observer=observer if headless else None,
+                observer_params=effective_params,
+                participant=meta,
+                monitor=monitor_record,
+                new_session=new_session,
+            )
+        except SessionComplete as exc:  # completed by another process since the check above
+            typer.echo(str(exc))
+            return
         try:
             if headless:
                 responder = make_observer(
@@ -307,6 +335,31 @@ def _check_subject_is_new_or_same(data: Path, subject: str) -> None:
             )
 
 
+def report_if_complete(data: Path, subject: str, new_session: str | None) -> bool:
+    """Print that SUBJECT's session is complete and return True, or return False; reads only.
+
+    Opens the log read-only (nothing is written, migrated or checkpointed), so running a
+    completed subject's command again -- the recovery after a crash -- changes nothing. False
+    when the subject has an unfinished session, no session, or ``new_session`` asks for one.
+
+    Raises
+    ------
+    TrialLogError
+        The file is not a trial log, or ``new_session`` is given while another session of
+        the subject is unfinished.
+    """
+    from experiment.triallog import TrialLog
+
+    if not data.exists() or (data.is_file() and data.stat().st_size == 0):
+        return False
+    with TrialLog(data, readonly=True) as log:
+        decision, row = log.session_to_open(subject, new_session=new_session)
+        if decision != "complete":
+            return False
+        typer.echo(log.complete_message(row))
+    return True
+
+
 def _params_dict(spec: object, given: dict[str, object]) -> dict[str, object]:
     """Return the observer's effective parameters (its params dataclass), else those given."""
     import dataclasses
@@ -332,7 +385,7 @@ def _parse_params(items: list[str]) -> dict[str, object]:
 
 
 def status_report(path: Path) -> dict:
-    """Return the study's status: sessions, progress, next trial, locks, rater agreement.
+    """Return the study's status: sessions, subjects, progress, next trial, locks, agreement.
 
     Parameters
     ----------
@@ -342,8 +395,11 @@ def status_report(path: Path) -> dict:
     Returns
     -------
     dict
-        ``{"sessions": [...], "raters": [...], "kappa": [...]}``; each session has ``answered``,
-        ``planned``, ``left`` and ``next`` (the first unanswered trial or None).
+        ``{"sessions": [...], "subjects": [...], "raters": [...], "kappa": [...]}``; each
+        session has ``answered``, ``planned``, ``left`` and ``next`` (the first unanswered trial
+        or None; None for active search), and ``new_session`` (the reason for a further
+        session, or None); each subject has ``complete`` (its latest session is), that
+        ``session``, ``sessions`` (how many), ``answered``, ``planned`` and ``ended_at``.
     """
     from experiment.scoring import cohen_kappa
     from experiment.triallog import TrialLog
@@ -353,8 +409,7 @@ def status_report(path: Path) -> dict:
         out = []
         for s in log.sessions():
             sid = s["session_id"]
-            answered = log.answered_count(sid)
-            planned = log.planned_count(sid)
+            answered, planned = log.session_progress(sid)  # recognition or active search
             nxt = log.execute(
                 "SELECT trial_index, part, block, object, condition, level FROM schedule "
                 "WHERE session_id = ? AND trial_index NOT IN "
@@ -379,6 +434,7 @@ def status_report(path: Path) -> dict:
                     "ended_at": s["ended_at"],
                     "crashes": int(crashes),
                     "observer": s.get("observer"),
+                    "new_session": log.new_session_reason(sid),
                     "lock": (
                         {k: locks[sid][k] for k in ("pid", "host", "acquired_at")}
                         if sid in locks
@@ -392,7 +448,18 @@ def status_report(path: Path) -> dict:
             k = cohen_kappa(log, a, b)
             if k.n > 0:
                 kappas.append(k.to_dict())
-    return {"sessions": out, "raters": raters, "kappa": kappas}
+    subjects: dict[str, dict] = {}
+    for s in out:  # oldest first: the last one seen is the subject's latest session
+        subjects[s["subject"]] = {
+            "subject": s["subject"],
+            "complete": s["status"] == "completed",
+            "session": s["session"],
+            "sessions": subjects.get(s["subject"], {}).get("sessions", 0) + 1,
+            "answered": s["answered"],
+            "planned": s["planned"],
+            "ended_at": s["ended_at"],
+        }
+    return {"sessions": out, "subjects": list(subjects.values()), "raters": raters, "kappa": kappas}
 
 
 @session_app.command("status")
@@ -424,7 +491,18 @@ def status_command(
             line += f"  crashes recovered: {s['crashes']}"
         if s["lock"]:
             line += f"  OPEN in pid {s['lock']['pid']} on {s['lock']['host']}"
+        if s["new_session"]:
+            line += f"  new session: {s['new_session']}"
         typer.echo(line)
+    for sub in rep["subjects"]:
+        if sub["complete"]:
+            state = f"complete (session {sub['session']}, ended {(sub['ended_at'] or '')[:10]}"
+        else:
+            state = f"INCOMPLETE (session {sub['session']}; run the same command to resume"
+        typer.echo(
+            f"subject {sub['subject']:<8} {state}, {sub['answered']}/{sub['planned']} trials "
+            f"answered; {sub['sessions']} session(s))"
+        )
     for k in rep["kappa"]:
         kv = "nan" if k["kappa"] is None or math.isnan(k["kappa"]) else f"{k['kappa']:.3f}"
         ci = (

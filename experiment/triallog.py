@@ -19,7 +19,9 @@ Schema (created by numbered migrations, recorded in ``schema_migrations``)
                before any answer exists, so a crash between onset and answer leaves the viewing
                on record; append-only.
 ``events``     pause, resume, abort, note, break, crash (detected at restart), open, close,
-               complete, repeat_viewing (a trial shown again, e.g. after such a crash).
+               complete, repeat_viewing (a trial shown again, e.g. after such a crash),
+               new_session (a further session of a subject who already has one; the note is the
+               operator's reason, given with ``--new-session REASON``).
 ``locks``      the process that has a session open: pid, host, process start time, token.
 ``active_events`` (migration 3, active search, :mod:`experiment.active`) one row per event of an
                active-search session, append-only: ``session_id, trial, attempt, seq, t_s, kind,
@@ -40,6 +42,20 @@ next stimulus is shown. A full disk rolls the open transaction back and ends wit
 file: without a ``-wal`` file (no writer) the database is opened ``immutable``. The crash tests
 inject faults at each write step through :data:`FAULT_ENV` (:func:`fault_point`).
 
+Identity: a trial log says what it is in SQLite's header, ``PRAGMA application_id`` =
+:data:`APPLICATION_ID` (set when the file is created, and by a migration on logs made before
+that). Before anything opens a file to write, :func:`identify_log_file` decides by reading only
+(the header's bytes, then, for a header without the id, the schema through an ``immutable``
+connection or a private copy of the file and its WAL): our id, or id 0 with confocal's own
+``schema_migrations`` rows and tables, is a trial log; anything else (another program's id, an
+SQLite file without our schema, a file that is not SQLite, a folder) is refused with one line and
+is left byte-identical, with nothing created beside it. A new log is made whole under a
+temporary name (id, WAL header, every migration) and linked into place, so a crash never
+leaves a half-made file.
+A 0-byte file is taken as a new log only with no ``-wal``/``-shm``/``-journal`` beside it: it
+holds nothing to harm, and it is replaced whole (renamed over), never written in place; with such
+a file beside it, it is another program's database in the middle of a write, and is refused.
+
 Locking: a session is claimed by a ``locks`` row (pid, host, process start time), written in an
 ``IMMEDIATE`` transaction. A second process finding a live holder is refused. A row whose process
 is gone (no such pid, a zombie, or the pid reused by a younger process) is a stale lock left by a
@@ -53,8 +69,11 @@ from __future__ import annotations
 
 import json
 import os
+import shutil
 import socket
 import sqlite3
+import stat
+import tempfile
 import uuid
 from collections.abc import Iterator
 from contextlib import contextmanager
@@ -77,7 +96,14 @@ __all__ = [
     "FAULT_ENV",
     "FAULT_STEPS",
     "fault_point",
+    "APPLICATION_ID",
+    "SessionComplete",
+    "identify_log_file",
 ]
+
+#: SQLite ``PRAGMA application_id`` of a confocal trial log: the ASCII bytes ``Cnfl`` (ours; any
+#: fixed value not registered by another format would do).
+APPLICATION_ID = 0x436E666C
 
 #: Columns of the ``tidy_trials`` view, in order (the contract with ``analysis``).
 TIDY_COLUMNS: tuple[str, ...] = (
@@ -477,6 +503,22 @@ def _migration_audio(version: int) -> tuple[int, str, str]:
 
 MIGRATIONS += (_migration_audio(5),)
 
+
+def _migration_application_id(version: int) -> tuple[int, str, str]:
+    """Return the migration that marks the file as a confocal trial log (self-contained).
+
+    New logs get the id when the file is created; this gives it to logs made before, on their
+    first write (so :func:`identify_log_file` can tell them from other programs' files).
+    """
+    return (
+        version,
+        "application_id: the file says it is a confocal trial log",
+        f"PRAGMA application_id = {APPLICATION_ID};",
+    )
+
+
+MIGRATIONS += (_migration_application_id(6),)
+
 _SCHEDULE_COLS = (
     "trial_index",
     "part",
@@ -505,6 +547,143 @@ class SessionLocked(TrialLogError):
 
 class ResumeMismatch(TrialLogError):
     """An unfinished session exists but its protocol, stimulus set or seed differ."""
+
+
+class SessionComplete(TrialLogError):
+    """The subject's session is complete; running it again needs ``--new-session REASON``.
+
+    ``session`` is the completed ``sessions`` row. ``confocal session run`` and ``active run``
+    check before opening the log to write, report the session and exit 0.
+    """
+
+    def __init__(self, message: str, session: dict[str, Any]) -> None:
+        super().__init__(message)
+        self.session = session
+
+
+#: The table that records the applied migrations.
+_MIGRATIONS_TABLE = (
+    "CREATE TABLE IF NOT EXISTS schema_migrations ("
+    "version INTEGER PRIMARY KEY, name TEXT NOT NULL, applied_at TEXT NOT NULL)"
+)
+#: The first bytes of every SQLite 3 database file.
+_SQLITE_MAGIC = b"SQLite format 3\x00"
+#: Files SQLite keeps beside a database while it is written.
+_SIDE_SUFFIXES = ("-wal", "-shm", "-journal")
+#: Tables every confocal trial log has (migration 1).
+_CORE_TABLES = ("sessions", "schedule", "trials", "scores", "events", "locks")
+
+
+def identify_log_file(path: str | Path) -> str:
+    """Decide, reading only, whether ``path`` may be opened as a confocal trial log.
+
+    Nothing is written, created or renamed: the header is read as bytes; a header without our
+    :data:`APPLICATION_ID` (a log made before it was set, or not ours) is checked through an
+    ``immutable`` read-only connection, or, when a ``-wal`` file lies beside it (a log whose
+    last run was killed), through a private copy of the file and its WAL in a temporary folder.
+
+    Returns
+    -------
+    str
+        ``"new"``: no such file, or a 0-byte file with no ``-wal``/``-shm``/``-journal`` beside
+        it (it holds nothing, and is replaced whole by a new log); ``"trial log"``: a confocal
+        trial log (our application id, or id 0 with confocal's ``schema_migrations`` rows --
+        migration 1 -- and its core tables).
+
+    Raises
+    ------
+    TrialLogError
+        One line naming the file: a folder or other non-file, unreadable, not SQLite, another
+        program's SQLite file (its own application id, or no confocal schema).
+    """
+    p = Path(path)
+    try:
+        st = p.stat()
+    except FileNotFoundError:
+        return "new"
+    except OSError as exc:
+        raise TrialLogError(f"{p}: cannot read ({exc.strerror}); nothing was changed") from None
+    if stat.S_ISDIR(st.st_mode):
+        raise TrialLogError(f"{p}: a folder, not a trial log file; expected a .sqlite file")
+    if not stat.S_ISREG(st.st_mode):
+        raise TrialLogError(f"{p}: not a regular file, so not a trial log; nothing was changed")
+    if st.st_size == 0:
+        beside = [f"{p.name}{s}" for s in _SIDE_SUFFIXES if Path(f"{p}{s}").exists()]
+        if beside:
+            raise TrialLogError(
+                f"{p}: an empty file with {beside[0]} beside it (a database another program is "
+                "writing), not a confocal trial log; nothing was changed"
+            )
+        return "new"
+    try:
+        with open(p, "rb") as f:
+            head = f.read(100)
+    except OSError as exc:
+        raise TrialLogError(f"{p}: cannot read ({exc.strerror}); nothing was changed") from None
+    if len(head) < 100 or not head.startswith(_SQLITE_MAGIC):
+        raise TrialLogError(
+            f"{p}: not a readable SQLite trial log (not an SQLite file); nothing was changed"
+        )
+    app_id = int.from_bytes(head[68:72], "big", signed=True)
+    if app_id == APPLICATION_ID:
+        return "trial log"
+    if app_id != 0:
+        raise TrialLogError(
+            f"{p}: an SQLite file of another program (application_id {app_id:#x}), not a "
+            "confocal trial log; nothing was changed"
+        )
+    problem = _probe_schema(p)
+    if problem:
+        raise TrialLogError(
+            f"{p}: an SQLite file but not a confocal trial log ({problem}); nothing was changed"
+        )
+    return "trial log"
+
+
+def _probe_schema(p: Path) -> str | None:
+    """Return why ``p`` (SQLite, application id 0 in its header) is not a trial log, or None."""
+    wal = Path(f"{p}-wal")
+    try:
+        if wal.exists() and wal.stat().st_size > 0:
+            # the WAL may hold the newest pages (even our application id): read a private
+            # copy, since a connection to the original could write -shm beside it
+            with tempfile.TemporaryDirectory(prefix="confocal-probe-") as tmp:
+                copy = Path(tmp) / "probe.sqlite"
+                shutil.copyfile(p, copy)
+                shutil.copyfile(wal, f"{copy}-wal")
+                con = sqlite3.connect(copy)
+                try:
+                    return _schema_problem(con)
+                finally:
+                    con.close()
+        con = sqlite3.connect(p.resolve().as_uri() + "?mode=ro&immutable=1", uri=True)
+        try:
+            return _schema_problem(con)
+        finally:
+            con.close()
+    except (OSError, sqlite3.DatabaseError) as exc:
+        return f"unreadable: {' '.join(str(exc).split())}"
+
+
+def _schema_problem(con: sqlite3.Connection) -> str | None:
+    app_id = con.execute("PRAGMA application_id").fetchone()[0]
+    if app_id == APPLICATION_ID:
+        return None
+    if app_id != 0:
+        return f"application_id {app_id:#x} of another program"
+    tables = {r[0] for r in con.execute("SELECT name FROM sqlite_master WHERE type = 'table'")}
+    if "schema_migrations" not in tables:
+        return "no schema_migrations table" if tables else "an SQLite file with no tables"
+    cols = [r[1] for r in con.execute("PRAGMA table_info(schema_migrations)")]
+    if cols[:3] != ["version", "name", "applied_at"]:
+        return f"its schema_migrations table has columns {', '.join(cols)}, not confocal's"
+    first = con.execute("SELECT name FROM schema_migrations WHERE version = 1").fetchone()
+    if first is None or first[0] != MIGRATIONS[0][1]:
+        return "its schema_migrations rows are not confocal's migrations"
+    missing = [t for t in _CORE_TABLES if t not in tables]
+    if missing:
+        return f"no {missing[0]} table"
+    return None
 
 
 def utc_now() -> str:
@@ -567,10 +746,14 @@ class TrialLog:
         self._held: set[int] = set()
         self._depth = 0
         memory = self.path == ":memory:"
+        kind = "memory"
         if not memory:
             p = Path(self.path)
-            if readonly and not p.is_file():
+            if readonly and not p.exists():
                 raise TrialLogError(f"{p}: trial log not found")
+            kind = identify_log_file(p)  # reads only: a foreign file is refused untouched
+            if readonly and kind == "new":
+                raise TrialLogError(f"{p}: empty file, not a confocal trial log")
             if not readonly:
                 # the mode bits too: root may write anything, but a file marked read-only
                 # (chmod a-w) means "do not touch" whoever runs the session
@@ -586,6 +769,8 @@ class TrialLog:
                         f"{p}: folder {parent} is read-only (SQLite needs it for its WAL files); "
                         "nothing was changed"
                     )
+                if kind == "new":
+                    _create_log_file(p)
         try:
             if readonly and not memory:
                 uri = Path(self.path).resolve().as_uri() + "?mode=ro"
@@ -693,10 +878,7 @@ class TrialLog:
         raise exc
 
     def _migrate(self) -> None:
-        self._con.execute(
-            "CREATE TABLE IF NOT EXISTS schema_migrations ("
-            "version INTEGER PRIMARY KEY, name TEXT NOT NULL, applied_at TEXT NOT NULL)"
-        )
+        self._con.execute(_MIGRATIONS_TABLE)
         done = {r[0] for r in self._con.execute("SELECT version FROM schema_migrations")}
         for version, name, sql in MIGRATIONS:
             if version in done:
@@ -780,6 +962,100 @@ class TrialLog:
             (subject,),
         )
         return dict(rows[0]) if rows else None
+
+    def new_session_reason(self, session_id: int) -> str | None:
+        """Return the reason a session was started as a further session (None for a first)."""
+        rows = self.execute(
+            "SELECT note FROM events WHERE session_id = ? AND kind = 'new_session' "
+            "ORDER BY event_id LIMIT 1",
+            (session_id,),
+        )
+        return rows[0][0] if rows else None
+
+    def session_progress(self, session_id: int) -> tuple[int, int]:
+        """Return ``(answered, planned)`` trials of a recognition or an active-search session."""
+        planned = self.planned_count(session_id)
+        if planned:
+            return self.answered_count(session_id), planned
+        try:
+            plan = self._con.execute(
+                "SELECT payload FROM active_events WHERE session_id = ? AND kind = 'plan' "
+                "ORDER BY seq LIMIT 1",
+                (session_id,),
+            ).fetchone()
+            if plan is None:
+                return 0, 0
+            answered = self._con.execute(
+                "SELECT count(DISTINCT trial) FROM active_events "
+                "WHERE session_id = ? AND kind = 'answer'",
+                (session_id,),
+            ).fetchone()[0]
+        except sqlite3.OperationalError:  # a log from before active search
+            return 0, 0
+        return int(answered), len(json.loads(plan[0]).get("trials", []))
+
+    def session_to_open(
+        self, subject: str, *, new_session: str | None = None
+    ) -> tuple[str, dict[str, Any] | None]:
+        """Decide what running a subject's session does now; reads only.
+
+        Parameters
+        ----------
+        subject : str
+        new_session : str, optional
+            The operator's reason for a further session (``--new-session REASON``). The reason
+            names that session: the same command again resumes it or reports it complete.
+
+        Returns
+        -------
+        (str, dict or None)
+            ``("resume", row)``: the subject's unfinished session; ``("complete", row)``: the
+            subject's session is complete (the latest one, or the one started with this
+            reason) and nothing is to be run; ``("new", None)``: start a session.
+
+        Raises
+        ------
+        TrialLogError
+            ``new_session`` is given while another unfinished session exists.
+        """
+        open_row = self.unfinished_session(subject)
+        if open_row is not None:
+            sid = int(open_row["session_id"])
+            if new_session is None or new_session == self.new_session_reason(sid):
+                return "resume", open_row
+            answered, planned = self.session_progress(sid)
+            raise TrialLogError(
+                f"{self.path}: subject {subject} has unfinished session {sid} ({answered}/"
+                f"{planned} trials answered); finish it first: run the command without "
+                "--new-session to resume it"
+            )
+        done = self.execute(
+            "SELECT * FROM sessions WHERE subject = ? AND status = 'completed' "
+            "ORDER BY session_id DESC",
+            (subject,),
+        )
+        if not done:
+            return "new", None
+        if new_session is None:
+            return "complete", dict(done[0])
+        for row in done:
+            if self.new_session_reason(int(row["session_id"])) == new_session:
+                return "complete", dict(row)
+        return "new", None
+
+    def complete_message(self, row: dict[str, Any]) -> str:
+        """Return the line that reports a completed session: subject, date, trials answered."""
+        sid = int(row["session_id"])
+        answered, planned = self.session_progress(sid)
+        day = (row.get("ended_at") or row.get("started_at") or "")[:10]
+        reason = self.new_session_reason(sid)
+        return (
+            f"subject {row['subject']}: session {sid} is complete (ended {day} UTC, "
+            f"{answered}/{planned} trials answered"
+            + (f"; new session: {reason}" if reason else "")
+            + f"); nothing was run or written. To run {row['subject']} again, add "
+            "--new-session REASON"
+        )
 
     def finish_session(self, session_id: int) -> None:
         """Mark a session completed (all planned trials answered)."""
@@ -1114,6 +1390,61 @@ class TrialLog:
 
     def __exit__(self, *exc: object) -> None:
         self.close()
+
+
+def _create_log_file(p: Path) -> None:
+    """Make a new, empty trial log at ``p``: built under a temporary name, then linked in.
+
+    The file gets :data:`APPLICATION_ID`, the WAL header and every migration before it has its
+    name, so a crash leaves either no file or a whole empty trial log (at worst a temporary
+    ``.*.new`` file beside it). A 0-byte file at ``p`` (see :func:`identify_log_file`) is
+    renamed over whole.
+    """
+    tmp = p.with_name(f".{p.name}.{uuid.uuid4().hex}.new")
+    try:
+        try:
+            con = sqlite3.connect(tmp, isolation_level=None)
+            try:
+                con.execute(f"PRAGMA application_id = {APPLICATION_ID}")
+                con.execute("PRAGMA journal_mode = WAL")
+                con.execute("BEGIN IMMEDIATE")
+                con.execute(_MIGRATIONS_TABLE)
+                for version, name, sql in MIGRATIONS:
+                    for stmt in _split_sql(sql):
+                        con.execute(stmt)
+                    con.execute(
+                        "INSERT INTO schema_migrations (version, name, applied_at) "
+                        "VALUES (?, ?, ?)",
+                        (version, name, utc_now()),
+                    )
+                con.execute("COMMIT")
+            finally:
+                con.close()  # the last connection: the WAL is checkpointed into the file
+        except sqlite3.DatabaseError as exc:
+            raise TrialLogError(f"{p}: cannot create the trial log ({exc})") from None
+        try:
+            os.link(tmp, p)  # never replaces a file made meanwhile by another process
+        except FileExistsError:
+            if p.stat().st_size == 0 and identify_log_file(p) == "new":
+                os.replace(tmp, p)
+            # else: another process made the log meanwhile; the caller opens that one
+        _fsync_dir(p.parent)
+    finally:
+        for suffix in ("", *_SIDE_SUFFIXES):
+            Path(f"{tmp}{suffix}").unlink(missing_ok=True)
+
+
+def _fsync_dir(folder: Path) -> None:
+    try:
+        fd = os.open(folder if str(folder) else ".", os.O_RDONLY)
+    except OSError:
+        return
+    try:
+        os.fsync(fd)
+    except OSError:
+        pass
+    finally:
+        os.close(fd)
 
 
 def _split_sql(script: str) -> list[str]:

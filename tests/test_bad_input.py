@@ -701,6 +701,15 @@ ROWS: list[Row] = [
       lambda w, t: session(w, t, subject="__"), "--subject", "no letter or digit"),
     R("session export", "bad --dates",
       lambda w, t: ["session", "export", w.db, "--out", t / "o", "--dates", "week"], "--dates"),
+    # foreign files are only read (the trial log's application_id and schema)
+    R("session run", "data of another program with its own schema_migrations",
+      lambda w, t: session(w, t, data=_other_with_migrations(t)), "theirs.sqlite",
+      "not a confocal trial log"),
+    R("active run", "data of another program", lambda w, t: ["active", "run", "active_search",
+      "--data", _other_with_migrations(t), "--subject", "S1"], "theirs.sqlite",
+      "not a confocal trial log"),
+    R("session run", "new session without a reason",
+      lambda w, t: session(w, t, "--new-session", " "), "--new-session", "reason"),
 ]
 # fmt: on
 
@@ -722,6 +731,17 @@ def _truncated(src: Path, dst: Path) -> Path:
     data = src.read_bytes()
     dst.write_bytes(data[: len(data) // 2])
     return dst
+
+
+def _other_with_migrations(t: Path) -> Path:
+    p = t / "theirs.sqlite"
+    con = sqlite3.connect(p)
+    con.execute("CREATE TABLE schema_migrations (version INTEGER PRIMARY KEY, name TEXT, x TEXT)")
+    con.execute("INSERT INTO schema_migrations VALUES (1, 'their first', 'x')")
+    con.execute("CREATE TABLE sessions (id INTEGER PRIMARY KEY)")
+    con.commit()
+    con.close()
+    return p
 
 
 def _other_sqlite(t: Path) -> Path:

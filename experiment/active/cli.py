@@ -20,9 +20,11 @@ import typer
 from experiment.errors import ConfocalError
 from experiment.session_cli import (
     FullscreenOption,
+    NewSessionOption,
     PresenterOption,
     ScreenOption,
     SkipTimingCheckOption,
+    report_if_complete,
 )
 
 __all__ = ["register", "active_app", "SEARCHERS", "PRESENTERS", "subject_phosphenes"]
@@ -66,9 +68,15 @@ def run_command(
     rater: Annotated[
         str, typer.Option("--rater", help="person: rater name stored with the scores.")
     ] = "operator",
+    new_session: NewSessionOption = None,
 ) -> None:
-    """Run or resume SUBJECT's active-search session: a person searches, or a simulated one."""
+    """Run or resume SUBJECT's active-search session: a person searches, or a simulated one.
+
+    A subject whose session is complete is reported (exit 0, nothing written), not run again;
+    ``--new-session REASON`` starts a further one.
+    """
     from experiment.protocol import load_protocol
+    from experiment.session import check_new_session_reason
 
     if searcher not in SEARCHERS:
         raise ConfocalError(f"--searcher must be one of {', '.join(SEARCHERS)}, got {searcher!r}")
@@ -83,12 +91,22 @@ def run_command(
         raise ConfocalError(
             f'{protocol}: not an active-search protocol (needs [task] type = "active_search")'
         )
+    check_new_session_reason(new_session)
     if searcher == "person":
         _run_person(
-            spec, data, subject, seed, screen, fullscreen, presenter, skip_timing_check, rater
+            spec,
+            data,
+            subject,
+            seed,
+            screen,
+            fullscreen,
+            presenter,
+            skip_timing_check,
+            rater,
+            new_session,
         )
         return
-    _run_simulated(protocol, spec, data, subject, searcher, seed)
+    _run_simulated(protocol, spec, data, subject, searcher, seed, new_session)
 
 
 def subject_phosphenes(spec) -> dict | None:
@@ -105,7 +123,7 @@ def subject_phosphenes(spec) -> dict | None:
 
 
 def _run_person(
-    spec, data, subject, seed, screen, fullscreen, presenter, skip_timing_check, rater
+    spec, data, subject, seed, screen, fullscreen, presenter, skip_timing_check, rater, new_session
 ) -> None:
     import json
     import sys
@@ -126,8 +144,12 @@ def _run_person(
     if not data.parent.is_dir():
         raise ConfocalError(f"--data {data}: folder {data.parent} does not exist")
     geometry = ScreenGeometry.from_display_spec(spec.display)
+    if report_if_complete(data, subject, new_session):
+        return
     with TrialLog(data) as log:
-        session = ActiveSession.open(log, spec, subject, seed=seed, responder="person")
+        session = ActiveSession.open(
+            log, spec, subject, seed=seed, responder="person", new_session=new_session
+        )
         try:
             try:
                 if presenter == "none":
@@ -173,7 +195,7 @@ def _run_person(
     typer.echo(f"session of {subject}: {done} of {total} trials answered; log: {data}")
 
 
-def _run_simulated(protocol, spec, data, subject, searcher, seed) -> None:
+def _run_simulated(protocol, spec, data, subject, searcher, seed, new_session=None) -> None:
     from experiment.active.searcher import EdgeRecogniser, SimulatedSearcher
     from experiment.active.session import ActiveSession
     from experiment.clock import FakeClock
@@ -184,9 +206,17 @@ def _run_simulated(protocol, spec, data, subject, searcher, seed) -> None:
             f"{protocol}: task.scene {spec.task.scene!r} is a recorded light field; the simulated "
             "searcher needs a synthetic scene (its model observer knows the objects' looks)"
         )
+    if report_if_complete(data, subject, new_session):
+        return
     with TrialLog(data) as log:
         session = ActiveSession.open(
-            log, spec, subject, seed=seed, clock=FakeClock(), responder=searcher
+            log,
+            spec,
+            subject,
+            seed=seed,
+            clock=FakeClock(),
+            responder=searcher,
+            new_session=new_session,
         )
         try:
             rec = EdgeRecogniser(session.scene, spec.task.grid_px, rng=session.seed)

@@ -29,7 +29,7 @@ from experiment.active.task import ActiveSearchSpec, ActiveTrial, plan_trials
 from experiment.clock import Clock, PerfCounterClock
 from experiment.protocol import SCORES, ProtocolError, ProtocolSpec
 from experiment.stimset import ObjectInfo
-from experiment.triallog import ResumeMismatch, TrialLog
+from experiment.triallog import ResumeMismatch, SessionComplete, TrialLog
 
 __all__ = ["ActiveSession", "SCENE_OBJECTS", "Scorer", "auto_scorer"]
 
@@ -134,11 +134,21 @@ class ActiveSession:
         seed: int | None = None,
         clock: Clock | None = None,
         responder: str | None = None,
+        new_session: str | None = None,
     ) -> ActiveSession:
         """Create an active-search session, or resume the subject's unfinished one.
 
+        A subject whose session is complete is not run again unless ``new_session`` gives the
+        reason for a further session (logged as a ``new_session`` event; the same reason again
+        resumes or reports that session).
+
         Raises
         ------
+        SessionComplete
+            The subject's session is complete and ``new_session`` is None (or names a
+            completed session).
+        TrialLogError
+            ``new_session`` is given while another unfinished session exists.
         ProtocolError
             The protocol has no active-search ``[task]``, or a target the scene lacks.
         ResumeMismatch
@@ -169,8 +179,13 @@ class ActiveSession:
                     f"task.targets: {missing[0]!r} is not an object of {task.scene} "
                     f"(objects: {', '.join(scene.objects)})"
                 )
-        existing = log.unfinished_session(subject)
-        if existing is not None:
+        from experiment.session import check_new_session_reason
+
+        check_new_session_reason(new_session)
+        decision, existing = log.session_to_open(subject, new_session=new_session)
+        if decision == "complete":
+            raise SessionComplete(log.complete_message(existing), existing)
+        if decision == "resume":
             return cls._resume(log, protocol, subject, existing, seed, scene, clock)
         root = int(seed) if seed is not None else int(np.random.SeedSequence().entropy % 2**63)
         ds, planes = adapter.detect_planes(scene, n_planes=task.n_planes)
@@ -205,6 +220,8 @@ class ActiveSession:
             )
             ActiveEventLog(log, sid).append("plan", plan, clock.now_s())
             log.acquire_lock(sid)
+            if new_session is not None:
+                log.add_event(sid, "new_session", new_session, clock.now_s())
             log.add_event(sid, "open", f"active search: {len(trials)} trials", clock.now_s())
         return cls(log, protocol, subject, sid, root, scene, plan, clock)
 

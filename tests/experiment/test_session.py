@@ -16,7 +16,7 @@ from experiment.protocol import load_protocol
 from experiment.session import Session
 from experiment.stimset import StimulusSet, StimulusSetError
 from experiment.testing import make_stimulus_set
-from experiment.triallog import ResumeMismatch, SessionLocked, TrialLog
+from experiment.triallog import ResumeMismatch, SessionComplete, SessionLocked, TrialLog
 
 PROTOCOL = """
 [protocol]
@@ -226,8 +226,12 @@ def test_headless_run_records_everything_with_breaks_and_timing(log, protocol, s
     with pytest.raises(ValueError, match="is finished"):
         s.record(s.schedule[0], Answer("x", "named", "operator"), FlipRecord(0.0))
     s.close()
-    nxt = Session.open(log, protocol, stimset, "S01")
+    with pytest.raises(SessionComplete, match=r"session 1 is complete .*--new-session"):
+        Session.open(log, protocol, stimset, "S01")  # a completed session is not run again
+    assert len(log.sessions()) == 1
+    nxt = Session.open(log, protocol, stimset, "S01", new_session="re-test")
     assert nxt.session_id == s.session_id + 1, "a completed session is not resumed"
+    assert log.new_session_reason(nxt.session_id) == "re-test"
 
 
 def test_interrupt_logs_abort_and_keeps_answers(log, protocol, stimset):
