@@ -1,4 +1,4 @@
-"""Benchmark: build a 20-object stimulus set from 1536x1024 photos (issue 2).
+"""Benchmark: build a 20-object stimulus set from 1536x1024 photos.
 
 Goal: the whole set in under 10 s on 2 cores. Reported as time per object and as a ratio to
 plain decoding of the same files (``PIL.Image.open(...).load()``, one process, same run), so the

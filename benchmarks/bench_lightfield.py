@@ -2,7 +2,7 @@
 
 Light field: the paper's three-plane scene (pedestrian 1 m, tree 4 m, building 9 m; simulated)
 rendered as a 9x9 camera array of 327x492 grey views (``float32``, 52 MB), with a 30 mm
-baseline (12, 3 and 1.33 px per view step at 1, 4 and 9 m). Goals (issue 12):
+baseline (12, 3 and 1.33 px per view step at 1, 4 and 9 m). Goals:
 
 * one sub-pixel plane with de-clutter and compress within 2.5x the memory floor;
 * the 200-plane scan with detection (range from the data, agreement sweep, null) under 0.5 s.

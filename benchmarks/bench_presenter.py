@@ -1,4 +1,4 @@
-"""Benchmark: presenter draw time per frame at 1280x1024 (issue 6).
+"""Benchmark: presenter draw time per frame at 1280x1024.
 
 Measures, in one process and one OpenGL context (EGL offscreen unless ``--window``), the time to
 draw one frame and wait for it (``glFinish``):

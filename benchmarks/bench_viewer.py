@@ -1,4 +1,4 @@
-"""Benchmark: ``confocal view`` frames per second, GPU shaders against the CPU pipeline (issue 14).
+"""Benchmark: ``confocal view`` frames per second, GPU shaders against the CPU pipeline.
 
 For each light field, the viewer draws all four panes (centre view, confocal image, edges,
 implant phosphenes) and the status line into a 1080x720 frame. *scan*: a new depth every frame

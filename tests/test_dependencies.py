@@ -1,4 +1,4 @@
-"""Every third-party module the packages import is provided by a declared dependency (issue 10).
+"""Every third-party module the packages import is provided by a declared dependency.
 
 The sources of ``stimuli/``, ``experiment/`` and ``analysis/`` are parsed with :mod:`ast` (no
 import is executed, so a module imported only inside a function counts too), and each top-level

@@ -1,4 +1,4 @@
-"""The installed package works, not only the checkout (issue 10).
+"""The installed package works, not only the checkout.
 
 The wheel is built from the checkout, installed (not editable) into a fresh virtual environment,
 and every command is run from an empty folder outside the checkout, so nothing can come from the

@@ -1,4 +1,4 @@
-"""Every command shown in README.md runs, in order, in one scratch folder (issue 7).
+"""Every command shown in README.md runs, in order, in one scratch folder.
 
 The README's fenced ``bash`` blocks are the source: nothing here lists the commands again. The
 set-up command's ``pip install`` half is what ``.ci/run`` has just executed, so only its

@@ -1,4 +1,4 @@
-"""The subject's voice: per-trial recordings of the spoken answer and their voice onset (issue 15).
+"""The subject's voice: per-trial recordings of the spoken answer and their voice onset.
 
 Optional: needs the ``audio`` extra (sounddevice, soundfile). See :mod:`experiment.audio.voice`
 for the onset method and :mod:`experiment.audio.recorder` for where files and rows go.

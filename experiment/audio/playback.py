@@ -1,4 +1,4 @@
-"""Replay a trial's recording for the second rater (issue 15, point 3)."""
+"""Replay a trial's recording for the second rater."""
 
 from __future__ import annotations
 

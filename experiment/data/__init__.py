@@ -1,4 +1,4 @@
-"""Study data around the trial log: monitor profiles and the Psych-DS export (issue 15).
+"""Study data around the trial log: monitor profiles and the Psych-DS export.
 
 - :mod:`experiment.data.monitors`: named monitor files (``protocols/monitors/*.toml``: width,
   distance, resolution, gamma) that override a protocol's display geometry.

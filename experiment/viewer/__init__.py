@@ -1,4 +1,4 @@
-"""The live active-confocal viewer (issue 14): GPU refocus, implant views, event log.
+"""The live active-confocal viewer: GPU refocus, implant views, event log.
 
 Only modules inside this package import ``moderngl``/``moderngl_window``, and only where they
 draw (house style H13); the state machine and event log are GL-free. The implant layouts it

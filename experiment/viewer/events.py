@@ -1,7 +1,7 @@
 """The viewer's event log: every input event and displayed state, appended to SQLite.
 
 One table, ``viewer_events``, in any SQLite file: a standalone ``confocal view --log FILE`` or a
-session's trial log (the active-search task of issue 14 writes it beside ``trials``). Rows are
+session's trial log (the active-search task writes it beside ``trials``). Rows are
 never updated or deleted (triggers), each :meth:`ViewerEventLog.append` is its own committed
 transaction (crash-safe: after a kill every appended event is there), and ``seq`` numbers the
 events of one ``session_id`` from 0 so a resumed run continues where the last committed event

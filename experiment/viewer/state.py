@@ -1,4 +1,4 @@
-"""The viewer's state machine: pure Python, no GL (issue 14).
+"""The viewer's state machine: pure Python, no GL.
 
 :class:`ViewerState` is everything the screen shows (depth, plane, zoom box, implant, levels,
 threshold, mode, obstacle range, marker, video frame). :func:`apply_event` maps a state and one

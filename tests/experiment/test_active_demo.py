@@ -1,4 +1,4 @@
-"""``confocal demo --active`` (issue 14, point 6): a simulated search drawn from its log."""
+"""``confocal demo --active``: a simulated search drawn from its log."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""The viewer's SQLite event log (issue 14): append-only, crash-safe, resumable, shareable."""
+"""The viewer's SQLite event log: append-only, crash-safe, resumable, shareable."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""GPU viewer pipeline against the CPU (numpy / ``stimuli``) pipeline, pixel by pixel (issue 14).
+"""GPU viewer pipeline against the CPU (numpy / ``stimuli``) pipeline, pixel by pixel.
 
 Headless EGL (llvmpipe is enough); skips with a reason when no OpenGL context can be made.
 

@@ -1,4 +1,4 @@
-"""The optional pulse2percept adapter (issue 14): tested when the ``p2p`` extra is installed."""
+"""The optional pulse2percept adapter: tested when the ``p2p`` extra is installed."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Viewer state machine, implant layouts, CPU modes and the ``confocal view`` command (issue 14).
+"""Viewer state machine, implant layouts, CPU modes and the ``confocal view`` command.
 
 All GL-free except the CLI screenshot test, which uses ``--cpu``.
 """

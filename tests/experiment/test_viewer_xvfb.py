@@ -1,4 +1,4 @@
-"""``confocal view`` in a real window (moderngl-window + pyglet over GLX) under Xvfb (issue 14).
+"""``confocal view`` in a real window (moderngl-window + pyglet over GLX) under Xvfb.
 
 The viewer runs on the synthetic three-plane scene (simulated). Input events are injected with
 ``--script``: a JSON-lines file whose events go, one per frame, through the same
