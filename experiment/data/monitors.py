@@ -1,4 +1,4 @@
-"""Monitor profiles: the lab's own screen, kept apart from the protocol (issue 15, point 10).
+"""Monitor profiles: the lab's own screen, kept apart from the protocol.
 
 A protocol's ``[display]`` table describes the paper's set-up (a 1280x1024 monitor 37.98 cm wide
 at 80 cm). A lab's monitor is described once in a *monitor file*, like PsychoPy's Monitor Center,

@@ -51,10 +51,10 @@ told about), and its exemplars come from the same drawing generator as the test 
 within-category variation is far smaller than among real mugs or lamps. It therefore recognises
 de-cluttered objects at much lower resolution than the paper's subjects did; what it shows is the
 *direction* of the effects of clutter and resolution and how they follow from the pixels, not
-the paper's absolute thresholds. In our runs (issue 13) the de-cluttered 50 % point stayed near
-100-270 px over the blur, cell size and noise values we tried, while the cluttered one moved
-from ~650 to ~28,000 px: the cluttered threshold depends strongly on these parameters and on the
-three training objects that set the criterion.
+the paper's absolute thresholds. In our runs when the model was built, the de-cluttered 50 %
+point stayed near 100-270 px over the blur, cell size and noise values we tried, while the
+cluttered one moved from ~650 to ~28,000 px: the cluttered threshold depends strongly on these
+parameters and on the three training objects that set the criterion.
 
 References
 ----------

@@ -1,5 +1,5 @@
 """Simulated observers: the logistic model's parameters, the template observer, and the
-``exemplar`` observer that recognises objects from other renderings (issue 13)."""
+``exemplar`` observer that recognises objects from other renderings."""
 
 from __future__ import annotations
 
@@ -216,7 +216,7 @@ def test_model_observer_full_resolution_memory_makes_coarse_stimuli_harder(mediu
     assert rates[None] - rates[8] > 0.15
 
 
-# -- the exemplar observer (issue 13) ----------------------------------------------------------
+# -- the exemplar observer ------------------------------------------------------------------------
 
 from experiment.observers.exemplar import (  # noqa: E402
     ExemplarParams,
@@ -391,7 +391,7 @@ def synth_sets(tmp_path_factory):
     return StimulusSet.load(root / "test"), root / "knowledge"
 
 
-def test_exemplar_observer_generalises_issue_13(synth_sets):
+def test_exemplar_observer_generalises_to_unseen_renderings(synth_sets):
     """Exemplars from another seed; (a) recognition rises with resolution in both conditions,
     (b) the de-cluttered 50 % threshold is below the cluttered one, (c) no test stimulus's
     pixels were part of what the observer knows or was calibrated on."""
@@ -439,7 +439,7 @@ def test_exemplar_observer_generalises_issue_13(synth_sets):
     assert not {e["file_sha256"] for e in observers[0].knowledge.sources} & all_test
 
 
-def test_headless_session_logs_its_observer_issue_13(tmp_path, tiny_knowledge, capsys):
+def test_headless_session_logs_its_observer(tmp_path, tiny_knowledge, capsys):
     """``session run --headless --observer exemplar`` logs who answered, and from what."""
     import json
     import sqlite3
@@ -475,7 +475,7 @@ def test_headless_session_logs_its_observer_issue_13(tmp_path, tiny_knowledge, c
     assert d["knowledge"]["manifest_sha256"] == StimulusSet.load(tiny_knowledge).manifest_sha256
 
 
-def test_declutter_advantage_is_not_built_into_the_exemplars_issue_13(synth_sets):
+def test_declutter_advantage_is_not_built_into_the_exemplars(synth_sets):
     """Remembering the exemplars *with* their own cluttered backgrounds, the observer still
     recognises de-cluttered stimuli better: the advantage comes from the test pixels, not from
     giving it de-cluttered knowledge."""

@@ -299,6 +299,6 @@ def test_wheel_ships_the_protocols(tmp_path, repo_root) -> None:
     listed = [line.split()[1] for line in (PROTOCOLS_DIR / "SHA256SUMS").read_text().splitlines()]
     for name in [*listed, "SHA256SUMS"]:
         assert any(n.endswith(f".data/data/share/confocal/protocols/{name}") for n in names), name
-    for layout in sorted((PROTOCOLS_DIR / "implants").glob("*.toml")):  # issue 14: stimuli uses
+    for layout in sorted((PROTOCOLS_DIR / "implants").glob("*.toml")):  # implant layouts
         want = f".data/data/share/confocal/protocols/implants/{layout.name}"
         assert any(n.endswith(want) for n in names), layout.name

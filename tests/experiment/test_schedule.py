@@ -93,7 +93,7 @@ def test_jung2015_training_part(jung, paper_set):
     assert len(train_ids) == 3
     assert {t.object for t in training} == train_ids
     # training comes first, the full-resolution colour photos first: wide, then confocal
-    # (Sec. 3.1, issue 15)
+    # (Sec. 3.1)
     assert [t.part for t in s.trials[: len(training)]] == ["training"] * len(training)
     assert [t.condition for t in training[:6]] == ["colour_wide"] * 3 + ["colour_confocal"] * 3
     assert {t.level for t in training[:6]} == {8}
