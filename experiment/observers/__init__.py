@@ -167,7 +167,6 @@ class LogisticObserver(SimulatedObserver):
     name = "logistic"
     model = "the paper's fitted logistic model with subject and object effects"
     params_class = LogisticParams
-    params: LogisticParams
 
     def _prepare(self) -> None:
         p = self.params
@@ -336,7 +335,6 @@ class TemplateObserver(SimulatedObserver):
     name = "model"
     model = "noisy template matching (pixel correlation)"
     params_class = TemplateParams
-    params: TemplateParams
 
     def _prepare(self) -> None:
         self._cache: dict[tuple[str, str, int], tuple[list[str], np.ndarray]] = {}

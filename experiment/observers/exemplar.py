@@ -564,7 +564,6 @@ class ExemplarObserver(SimulatedObserver):
 
     name = "exemplar"
     model = "HOG exemplar matcher with internal noise (experiment.observers.exemplar)"
-    params: ExemplarParams
 
     @staticmethod
     def params_class() -> ExemplarParams:
