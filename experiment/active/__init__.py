@@ -5,6 +5,6 @@ pipeline of :mod:`stimuli`; a person's screen is the presenter process."""
 
 from experiment.active.engine import ViewerState, apply_action
 from experiment.active.session import ActiveSession
-from experiment.active.task import ActiveSearchSpec
+from experiment.protocol.task import ActiveSearchSpec
 
 __all__ = ["ActiveSession", "ActiveSearchSpec", "ViewerState", "apply_action"]

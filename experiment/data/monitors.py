@@ -1,4 +1,4 @@
-"""Monitor profiles: the lab's own screen, kept apart from the protocol (issue 15, point 10).
+"""Monitor profiles: the lab's own screen, kept apart from the protocol.
 
 A protocol's ``[display]`` table describes the paper's set-up (a 1280x1024 monitor 37.98 cm wide
 at 80 cm). A lab's monitor is described once in a *monitor file*, like PsychoPy's Monitor Center,
@@ -97,31 +97,12 @@ class MonitorProfile:
     description: str = ""
 
     def __post_init__(self) -> None:
-        for f in dataclasses.fields(self):
-            getattr(self, f"_check_{f.name}")()
-
-    def _check_name(self) -> None:
         if not isinstance(self.name, str) or not self.name.strip():
             raise MonitorError(f"name must be a non-empty string, got {self.name!r}")
-
-    def _check_screen_width_cm(self) -> None:
-        _number(self.screen_width_cm, "screen_width_cm")
-
-    def _check_viewing_distance_cm(self) -> None:
-        _number(self.viewing_distance_cm, "viewing_distance_cm")
-
-    def _check_screen_width_px(self) -> None:
-        _number(self.screen_width_px, "screen_width_px", integer=True)
-
-    def _check_screen_height_px(self) -> None:
-        _number(self.screen_height_px, "screen_height_px", integer=True)
-
-    def _check_gamma(self) -> None:
-        _number(self.gamma, "gamma")
+        for name in MONITOR_FIELDS:
+            _number(getattr(self, name), name, integer=name.endswith("_px"))
         if not 0.2 <= self.gamma <= 5.0:
             raise MonitorError(f"gamma must be in [0.2, 5] (a display's gamma), got {self.gamma}")
-
-    def _check_description(self) -> None:
         if not isinstance(self.description, str):
             raise MonitorError(f"description must be a string, got {self.description!r}")
 

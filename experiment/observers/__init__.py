@@ -48,6 +48,7 @@ from typing import Any
 import numpy as np
 
 from experiment.interfaces import Answer
+from experiment.observers.base import SimulatedObserver, check_limits, response_time_s
 from experiment.observers.exemplar import ExemplarObserver, ExemplarParams
 from experiment.stimset import PHOTO_CONDITIONS, StimulusSet
 
@@ -77,33 +78,6 @@ def _stable_seed(*parts: object) -> int:
     """A seed from strings/ints that is the same on every run and platform (not ``hash()``)."""
     h = hashlib.sha256("\x1f".join(map(str, parts)).encode()).digest()
     return int.from_bytes(h[:8], "little")
-
-
-def _rt_s(rng: np.random.Generator, median_s: float, limit_s: float) -> float:
-    return float(min(limit_s, median_s * math.exp(rng.normal(0.0, 0.5))))
-
-
-def _answer_text(
-    rng: np.random.Generator,
-    stimset: StimulusSet,
-    trial: Any,
-    recognized: bool,
-    guess: str | None,
-    p_use: float,
-    p_shape: float,
-    rater: str,
-    rt_s: float,
-) -> Answer:
-    obj = stimset.objects[trial.object]
-    if recognized:
-        if obj.uses and rng.random() < p_use:
-            return Answer(f"you use it for {obj.uses[0]}", "use", rater, rt_s)
-        return Answer(obj.name, "named", rater, rt_s)
-    if guess is not None:
-        return Answer(stimset.objects[guess].name, "wrong", rater, rt_s)
-    if rng.random() < p_shape:
-        return Answer("something round", "shape", rater, rt_s)
-    return Answer("", "pass", rater, max(rt_s, float(trial.pass_allowed_after_s)))
 
 
 @dataclass(frozen=True)
@@ -154,24 +128,15 @@ class LogisticParams:
     population_seed: int = 0
 
     def __post_init__(self) -> None:
-        for f in fields(self):
-            getattr(self, f"_check_{f.name}", lambda: None)()
-
-    def _check_or_background(self) -> None:
-        if not self.or_background > 0:
-            raise ValueError(f"or_background must be > 0, got {self.or_background!r}")
-
-    def _check_or_per_log10_px(self) -> None:
-        if not self.or_per_log10_px > 1:
-            raise ValueError(f"or_per_log10_px must be > 1, got {self.or_per_log10_px!r}")
-
-    def _check_x50_cluttered_px(self) -> None:
-        if not self.x50_cluttered_px > 0:
-            raise ValueError(f"x50_cluttered_px must be > 0, got {self.x50_cluttered_px!r}")
-
-    def _check_lapse(self) -> None:
-        if not 0 <= self.lapse < 0.5:
-            raise ValueError(f"lapse must be in [0, 0.5), got {self.lapse!r}")
+        check_limits(
+            self,
+            {
+                "or_background": "> 0",
+                "or_per_log10_px": "> 1",
+                "x50_cluttered_px": "> 0",
+                "lapse": "in [0, 0.5)",
+            },
+        )
 
     @property
     def intercept(self) -> float:
@@ -185,7 +150,7 @@ class LogisticParams:
         return 10 ** (math.log10(self.x50_cluttered_px) - shift)
 
 
-class LogisticObserver:
+class LogisticObserver(SimulatedObserver):
     """The ``logistic`` simulated observer (a :class:`~experiment.interfaces.Responder`).
 
     Parameters
@@ -200,22 +165,13 @@ class LogisticObserver:
     """
 
     name = "logistic"
+    model = "the paper's fitted logistic model with subject and object effects"
+    params_class = LogisticParams
 
-    def __init__(
-        self,
-        stimset: StimulusSet,
-        subject: str,
-        *,
-        rng: np.random.Generator | int | None = None,
-        params: LogisticParams | None = None,
-    ) -> None:
-        self.stimset = stimset
-        self.subject = subject
-        self.params = params if params is not None else LogisticParams()
-        self.rng = np.random.default_rng(rng)
+    def _prepare(self) -> None:
         p = self.params
         self.subject_effect = float(
-            np.random.default_rng(_stable_seed(p.population_seed, "subject", subject)).normal(
+            np.random.default_rng(_stable_seed(p.population_seed, "subject", self.subject)).normal(
                 0.0, p.subject_sd
             )
         )
@@ -225,9 +181,8 @@ class LogisticObserver:
                     0.0, p.object_sd
                 )
             )
-            for oid in stimset.objects
+            for oid in self.stimset.objects
         }
-        self.rater = f"sim:{self.name}"
 
     def p_recognized(self, trial: Any) -> float:
         """Return P(recognised) for a trial (condition, pixels, object), lapse included."""
@@ -252,18 +207,12 @@ class LogisticObserver:
             others = [o for o in self.stimset.objects if o != trial.object]
             if others:
                 guess = others[int(self.rng.integers(len(others)))]
-        rt = _rt_s(self.rng, p.median_rt_s, 600.0)
-        return _answer_text(
-            self.rng, self.stimset, trial, ok, guess, p.p_use, p.p_shape, self.rater, rt
-        )
+        rt = response_time_s(self.rng, p.median_rt_s)
+        wrong = None if guess is None else self.stimset.objects[guess].name
+        return self._answer(trial, rt, recognized=ok, wrong=wrong, p_use=p.p_use, p_shape=p.p_shape)
 
-    def describe(self) -> dict[str, Any]:
-        """Return the observer's name, parameters and where its knowledge came from (JSON)."""
+    def _provenance(self) -> dict[str, Any]:
         return {
-            "observer": self.name,
-            "simulated": True,
-            "model": "the paper's fitted logistic model with subject and object effects",
-            "params": asdict(self.params),
             "knowledge": {
                 "source": "Jung et al. 2015, Sec. 3.3 (odds ratios and cluttered threshold); "
                 "it does not look at the images"
@@ -333,15 +282,10 @@ class TemplateParams:
         r = self.retina_shape_px
         if not (isinstance(r, tuple) and len(r) == 2 and all(int(v) >= 2 for v in r)):
             raise ValueError(f"retina_shape_px must be (rows, cols) >= 2, got {r!r}")
-        if self.blur_sd_px < 0:
-            raise ValueError(f"blur_sd_px must be >= 0, got {self.blur_sd_px!r}")
-        if self.pixel_noise_sd < 0:
-            raise ValueError(f"pixel_noise_sd must be >= 0, got {self.pixel_noise_sd!r}")
         tl = self.template_level
         if tl is not None and (isinstance(tl, bool) or not isinstance(tl, int) or tl < 1):
             raise ValueError(f"template_level must be a level >= 1 or None, got {tl!r}")
-        if not 0 <= self.lapse < 0.5:
-            raise ValueError(f"lapse must be in [0, 0.5), got {self.lapse!r}")
+        check_limits(self, {"blur_sd_px": ">= 0", "pixel_noise_sd": ">= 0", "lapse": "in [0, 0.5)"})
 
 
 def to_retina(image: np.ndarray, shape_px: tuple[int, int], blur_sd_px: float) -> np.ndarray:
@@ -375,7 +319,7 @@ def to_retina(image: np.ndarray, shape_px: tuple[int, int], blur_sd_px: float) -
     return (g - g.mean()) / (sd if sd > 0 else 1.0)
 
 
-class TemplateObserver:
+class TemplateObserver(SimulatedObserver):
     """The ``model`` simulated observer: noisy template matching on the shown image.
 
     Parameters
@@ -389,20 +333,10 @@ class TemplateObserver:
     """
 
     name = "model"
+    model = "noisy template matching (pixel correlation)"
+    params_class = TemplateParams
 
-    def __init__(
-        self,
-        stimset: StimulusSet,
-        subject: str,
-        *,
-        rng: np.random.Generator | int | None = None,
-        params: TemplateParams | None = None,
-    ) -> None:
-        self.stimset = stimset
-        self.subject = subject
-        self.params = params if params is not None else TemplateParams()
-        self.rng = np.random.default_rng(rng)
-        self.rater = f"sim:{self.name}"
+    def _prepare(self) -> None:
         self._cache: dict[tuple[str, str, int], tuple[list[str], np.ndarray]] = {}
 
     def _retina(self, image: np.ndarray) -> np.ndarray:
@@ -448,14 +382,9 @@ class TemplateObserver:
         n = float(np.sqrt(np.sum(x * x)))
         return ids, np.sum(t * x, axis=1) / (n if n > 0 else 1.0)
 
-    def describe(self) -> dict[str, Any]:
-        """Return the observer's name, parameters and where its knowledge came from (JSON)."""
+    def _provenance(self) -> dict[str, Any]:
         lv = self.params.template_level
         return {
-            "observer": self.name,
-            "simulated": True,
-            "model": "noisy template matching (pixel correlation)",
-            "params": asdict(self.params),
             "knowledge": {
                 "source": f"the test stimulus set itself ({self.stimset.root}): its de-cluttered "
                 + ("images at each stimulus' own level" if lv is None else f"level-{lv} images")
@@ -467,28 +396,20 @@ class TemplateObserver:
     def respond(self, trial: Any, image: np.ndarray) -> Answer:
         """Answer the best-matching object, or pass when no candidate stands out."""
         p = self.params
-        rt = _rt_s(self.rng, p.median_rt_s, 600.0)
+        rt = response_time_s(self.rng, p.median_rt_s)
         ids, r = self.correlations(trial, image)
         if self.rng.random() < p.lapse:
-            return _answer_text(
-                self.rng, self.stimset, trial, False, None, 0.0, 0.0, self.rater, rt
-            )
+            return self._answer(trial, rt, recognized=False)
         best = int(np.argmax(r))
         others = np.delete(r, best)
         spread = float(others.std()) if others.size > 1 else 0.0
         gap = float(r[best] - others.mean()) if others.size else float("inf")
         z = gap / spread if spread > 0 else (float("inf") if gap > 0 else 0.0)
         if z < p.criterion_z:
-            return _answer_text(
-                self.rng, self.stimset, trial, False, None, 0.0, p.p_shape, self.rater, rt
-            )
+            return self._answer(trial, rt, recognized=False, p_shape=p.p_shape)
         if ids[best] == trial.object:
-            return _answer_text(
-                self.rng, self.stimset, trial, True, None, p.p_use, 0.0, self.rater, rt
-            )
-        return _answer_text(
-            self.rng, self.stimset, trial, False, ids[best], 0.0, 0.0, self.rater, rt
-        )
+            return self._answer(trial, rt, recognized=True, p_use=p.p_use)
+        return self._answer(trial, rt, recognized=False, wrong=self.stimset.objects[ids[best]].name)
 
 
 #: Simulated observers by name: a factory ``(stimset, subject, *, rng, **params) -> Responder``.

@@ -20,9 +20,10 @@ from experiment.active.engine import SearchContext, ViewerState, apply_action
 from experiment.active.eventlog import ActiveEventLog
 from experiment.active.searcher import Action, EdgeRecogniser, ScriptedSearcher, SimulatedSearcher
 from experiment.active.session import ActiveSession
-from experiment.active.task import ActiveSearchSpec, plan_trials, task_from_table
+from experiment.active.task import plan_trials
 from experiment.clock import FakeClock
 from experiment.protocol import ProtocolError, ProtocolSpec, load_protocol
+from experiment.protocol.task import ActiveSearchSpec, task_from_table
 from experiment.triallog import ResumeMismatch, TrialLog, TrialLogError
 
 #: A small scene keeps every test in seconds (the shipped protocol uses the paper's 308x385).

@@ -1,5 +1,5 @@
 """Simulated observers: the logistic model's parameters, the template observer, and the
-``exemplar`` observer that recognises objects from other renderings (issue 13)."""
+``exemplar`` observer that recognises objects from other renderings."""
 
 from __future__ import annotations
 
@@ -216,7 +216,7 @@ def test_model_observer_full_resolution_memory_makes_coarse_stimuli_harder(mediu
     assert rates[None] - rates[8] > 0.15
 
 
-# -- the exemplar observer (issue 13) ----------------------------------------------------------
+# -- the exemplar observer ------------------------------------------------------------------------
 
 from experiment.observers.exemplar import (  # noqa: E402
     ExemplarParams,
@@ -280,30 +280,30 @@ def test_best_criterion_matches_brute_force():
         best_criterion(np.zeros(3), np.zeros(2))
 
 
+@pytest.mark.parametrize(
+    ("field", "value", "match"),
+    [
+        ("image_width_cm", 0, "image_width_cm must be > 0"),
+        ("samples_per_deg", 0, "samples_per_deg must be > 0"),
+        ("blur_deg", -0.1, "blur_deg must be >= 0"),
+        ("cell_deg", 0.1, "cell_deg must span >= 2 retinal samples"),
+        ("exemplar_level", 0, "exemplar_level must be a level >= 1 or None"),
+        ("exemplar_condition", "photo", "exemplar_condition must be 'decluttered' or"),
+        ("noise_sd", -1, "noise_sd must be >= 0"),
+        ("wrong_cost", 0, "wrong_cost must be > 0"),
+        ("calibration_repeats", 0, "calibration_repeats must be >= 1"),
+        ("lapse", 0.5, r"lapse must be in \[0, 0.5\)"),
+    ],
+)
+def test_exemplar_params_refuse_a_bad_value(tmp_path, field, value, match):
+    with pytest.raises(ValueError, match=match):
+        ExemplarParams(knowledge=str(tmp_path), **{field: value})
+
+
 def test_exemplar_params_are_checked(tmp_path):
     k = str(tmp_path)
     with pytest.raises(ValueError, match="knowledge must be the folder of a stimulus set"):
         ExemplarParams()
-    with pytest.raises(ValueError, match="image_width_cm must be > 0"):
-        ExemplarParams(knowledge=k, image_width_cm=0)
-    with pytest.raises(ValueError, match="samples_per_deg must be > 0"):
-        ExemplarParams(knowledge=k, samples_per_deg=0)
-    with pytest.raises(ValueError, match="blur_deg must be >= 0"):
-        ExemplarParams(knowledge=k, blur_deg=-0.1)
-    with pytest.raises(ValueError, match="cell_deg must span >= 2 retinal samples"):
-        ExemplarParams(knowledge=k, cell_deg=0.1)
-    with pytest.raises(ValueError, match="exemplar_level must be a level >= 1 or None"):
-        ExemplarParams(knowledge=k, exemplar_level=0)
-    with pytest.raises(ValueError, match="exemplar_condition must be 'decluttered' or"):
-        ExemplarParams(knowledge=k, exemplar_condition="photo")
-    with pytest.raises(ValueError, match="noise_sd must be >= 0"):
-        ExemplarParams(knowledge=k, noise_sd=-1)
-    with pytest.raises(ValueError, match="wrong_cost must be > 0"):
-        ExemplarParams(knowledge=k, wrong_cost=0)
-    with pytest.raises(ValueError, match="calibration_repeats must be >= 1"):
-        ExemplarParams(knowledge=k, calibration_repeats=0)
-    with pytest.raises(ValueError, match=r"lapse must be in \[0, 0.5\)"):
-        ExemplarParams(knowledge=k, lapse=0.5)
     # the paper's display: 14.6 x 9.7 cm at 80 cm is 10.4 x 6.9 deg (Jung et al. 2015, Sec. 3.1)
     h, w = ExemplarParams(knowledge=k).image_size_deg
     assert (round(w, 1), round(h, 1)) == (10.4, 6.9)
@@ -391,7 +391,7 @@ def synth_sets(tmp_path_factory):
     return StimulusSet.load(root / "test"), root / "knowledge"
 
 
-def test_exemplar_observer_generalises_issue_13(synth_sets):
+def test_exemplar_observer_generalises_to_unseen_renderings(synth_sets):
     """Exemplars from another seed; (a) recognition rises with resolution in both conditions,
     (b) the de-cluttered 50 % threshold is below the cluttered one, (c) no test stimulus's
     pixels were part of what the observer knows or was calibrated on."""
@@ -439,7 +439,7 @@ def test_exemplar_observer_generalises_issue_13(synth_sets):
     assert not {e["file_sha256"] for e in observers[0].knowledge.sources} & all_test
 
 
-def test_headless_session_logs_its_observer_issue_13(tmp_path, tiny_knowledge, capsys):
+def test_headless_session_logs_its_observer(tmp_path, tiny_knowledge, capsys):
     """``session run --headless --observer exemplar`` logs who answered, and from what."""
     import json
     import sqlite3
@@ -475,7 +475,7 @@ def test_headless_session_logs_its_observer_issue_13(tmp_path, tiny_knowledge, c
     assert d["knowledge"]["manifest_sha256"] == StimulusSet.load(tiny_knowledge).manifest_sha256
 
 
-def test_declutter_advantage_is_not_built_into_the_exemplars_issue_13(synth_sets):
+def test_declutter_advantage_is_not_built_into_the_exemplars(synth_sets):
     """Remembering the exemplars *with* their own cluttered backgrounds, the observer still
     recognises de-cluttered stimuli better: the advantage comes from the test pixels, not from
     giving it de-cluttered knowledge."""
@@ -496,3 +496,31 @@ def test_declutter_advantage_is_not_built_into_the_exemplars_issue_13(synth_sets
     print(f"cluttered exemplars: cluttered {clut:.2f}, de-cluttered {decl:.2f}")
     # 240 trials per condition: SE of the difference <= 0.046; require 0.15 (> 3 SE)
     assert decl - clut > 0.15
+
+
+@pytest.mark.parametrize(
+    ("value", "rule", "ok"),
+    [
+        (0.0, "> 0", False),
+        (1e-9, "> 0", True),
+        (0.0, ">= 0", True),
+        (-1e-9, ">= 0", False),
+        (0.0, "in [0, 0.5)", True),
+        (0.5, "in [0, 0.5)", False),
+        (0.5, "in [0, 0.5]", True),
+        (0.0, "in (0, 1]", False),
+        (float("nan"), ">= 0", False),
+        ("1", "> 0", False),
+    ],
+)
+def test_check_limits_reads_each_rule(value, rule, ok):
+    from types import SimpleNamespace
+
+    from experiment.observers.base import check_limits
+
+    params = SimpleNamespace(x=value)
+    if ok:
+        check_limits(params, {"x": rule})
+    else:
+        with pytest.raises(ValueError, match=r"^x must be "):
+            check_limits(params, {"x": rule})

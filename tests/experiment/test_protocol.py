@@ -299,6 +299,30 @@ def test_wheel_ships_the_protocols(tmp_path, repo_root) -> None:
     listed = [line.split()[1] for line in (PROTOCOLS_DIR / "SHA256SUMS").read_text().splitlines()]
     for name in [*listed, "SHA256SUMS"]:
         assert any(n.endswith(f".data/data/share/confocal/protocols/{name}") for n in names), name
-    for layout in sorted((PROTOCOLS_DIR / "implants").glob("*.toml")):  # issue 14: stimuli uses
+    for layout in sorted((PROTOCOLS_DIR / "implants").glob("*.toml")):  # implant layouts
         want = f".data/data/share/confocal/protocols/implants/{layout.name}"
         assert any(n.endswith(want) for n in names), layout.name
+
+
+def test_protocol_package_does_not_import_the_active_session():
+    """The ``[task]`` table is part of the protocol: loading one needs nothing of
+    ``experiment.active`` (which imports the protocol), so the two never import in a circle."""
+    import subprocess
+    import sys
+
+    code = (
+        "import sys; from experiment.protocol import load_protocol; "
+        "spec = load_protocol('active_search'); "
+        "print(type(spec.task).__module__, 'experiment.active' in sys.modules)"
+    )
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert r.returncode == 0, r.stderr[-2000:]
+    assert r.stdout.split() == ["experiment.protocol.task", "False"]
+
+
+def test_spec_fields_must_hold_their_spec_classes():
+    b = BlockSpec(part="main", objects="main", levels=(1,), conditions=("cluttered",))
+    with pytest.raises(ProtocolError, match="instructions must be an InstructionsSpec, got dict"):
+        ProtocolSpec(name="x", blocks=(b,), instructions={})  # type: ignore[arg-type]
+    with pytest.raises(ProtocolError, match="task must be an ActiveSearchSpec, got str"):
+        ProtocolSpec(name="x", blocks=(b,), task="active_search")  # type: ignore[arg-type]

@@ -93,7 +93,7 @@ def test_jung2015_training_part(jung, paper_set):
     assert len(train_ids) == 3
     assert {t.object for t in training} == train_ids
     # training comes first, the full-resolution colour photos first: wide, then confocal
-    # (Sec. 3.1, issue 15)
+    # (Sec. 3.1)
     assert [t.part for t in s.trials[: len(training)]] == ["training"] * len(training)
     assert [t.condition for t in training[:6]] == ["colour_wide"] * 3 + ["colour_confocal"] * 3
     assert {t.level for t in training[:6]} == {8}
@@ -248,48 +248,25 @@ conditions = ["cluttered"]
         build_schedule(spec, paper_set, rng=0)
 
 
-def test_object_missing_from_stimulus_set(tmp_path, paper_set):
+@pytest.mark.parametrize(
+    ("objects", "conditions", "match"),
+    [
+        ('["obj01", "teacup"]', '["cluttered"]', r"object 'teacup' is not in stimulus set"),
+        ('"practice"', '["cluttered"]', r"no objects with role 'practice'"),
+        ('"main"', '["photo"]', r"no image for object 'obj01', condition 'photo', level 1"),
+    ],
+    ids=["object_missing", "role_without_objects", "image_missing_for_a_combination"],
+)
+def test_stimuli_the_protocol_needs_are_missing(tmp_path, paper_set, objects, conditions, match):
     spec = write(
         tmp_path,
-        """
+        f"""
 [[blocks]]
 part = "main"
-objects = ["obj01", "teacup"]
+objects = {objects}
 levels = [1]
-conditions = ["cluttered"]
+conditions = {conditions}
 """,
     )
-    with pytest.raises(ProtocolError, match=r"object 'teacup' is not in stimulus set"):
-        build_schedule(spec, paper_set, rng=0)
-
-
-def test_role_without_objects(tmp_path, paper_set):
-    spec = write(
-        tmp_path,
-        """
-[[blocks]]
-part = "main"
-objects = "practice"
-levels = [1]
-conditions = ["cluttered"]
-""",
-    )
-    with pytest.raises(ProtocolError, match=r"no objects with role 'practice'"):
-        build_schedule(spec, paper_set, rng=0)
-
-
-def test_image_missing_for_a_combination(tmp_path, paper_set):
-    spec = write(
-        tmp_path,
-        """
-[[blocks]]
-part = "main"
-objects = "main"
-levels = [1]
-conditions = ["photo"]
-""",
-    )
-    with pytest.raises(
-        ProtocolError, match=r"no image for object 'obj01', condition 'photo', level 1"
-    ):
+    with pytest.raises(ProtocolError, match=match):
         build_schedule(spec, paper_set, rng=0)
