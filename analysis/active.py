@@ -470,34 +470,21 @@ def add_active_results(
 
 
 def write_active_report(paths: Iterable[str | Path], out_dir: str | Path) -> ActiveSearchResult:
-    """Write a report folder with only active-search results, replacing ``out_dir`` atomically.
+    """Write a report folder with only active-search results into a new or empty ``out_dir``.
+
+    The folder is filled beside ``out_dir`` and renamed at the end
+    (:func:`analysis.report.atomic_folder`); a non-empty ``out_dir`` is refused, never replaced.
 
     Raises
     ------
     DataError
-        No file has active-search events.
+        No file has active-search events, or ``out_dir`` is a file or a non-empty folder.
     """
-    import shutil
+    from analysis.report import atomic_folder
 
     paths = [Path(p) for p in paths]
-    out = Path(out_dir).resolve()
-    if out.exists() and not out.is_dir():
-        raise DataError(f"--out {out} exists and is not a folder")
-    out.parent.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.tmp-", dir=out.parent))
-    try:
+    with atomic_folder(out_dir) as tmp:
         result = add_active_results(paths, tmp)
         if result is None:
             raise DataError(f"{paths[0] if paths else 'no files'}: no active-search events")
-        os.chmod(tmp, 0o755)
-        if out.exists():
-            old = Path(tempfile.mkdtemp(prefix=f".{out.name}.old-", dir=out.parent))
-            os.replace(out, old / out.name)
-            os.replace(tmp, out)
-            shutil.rmtree(old, ignore_errors=True)
-        else:
-            os.replace(tmp, out)
-    except BaseException:
-        shutil.rmtree(tmp, ignore_errors=True)
-        raise
     return result
