@@ -384,7 +384,9 @@ def check_folder(
     if not real.exists():
         return "new"
     if not real.is_dir():
-        raise _refuse(flag, Path(out), "exists and is not a folder; expected a folder to write")
+        raise _refuse(
+            flag, Path(out), "exists and is a file, not a folder; expected a folder to write"
+        )
     files = folder_files(real)
     manifest = read_manifest(real)
     if manifest is None:

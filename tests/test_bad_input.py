@@ -690,7 +690,14 @@ ROWS: list[Row] = [
     R("demo", "negative seed", lambda w, t: ["demo", "--out", t / "d", "--seed", "-1"], "--seed"),
     R("demo", "out not empty",
       lambda w, t: ["demo", "--out", text_file(t / "full" / "keep.txt").parent], "full",
-      "--force"),
+      "did not write: keep.txt"),
+    R("demo", "out not empty, with --force",
+      lambda w, t: ["demo", "--out", text_file(t / "full" / "keep.txt").parent, "--force"],
+      "full", "did not write: keep.txt"),
+    R("analyze run", "out is the working folder",
+      lambda w, t: ["analyze", w.csv, "--out", ".", "--no-figures"], "current working folder"),
+    R("stimuli build", "out is the input PAIRS, with --force",
+      lambda w, t: ["stimuli", "build", w.pairs, "--out", w.pairs, "--force"], "is the input"),
 ]
 # fmt: on
 

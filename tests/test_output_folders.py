@@ -479,7 +479,7 @@ def _with(path: Path, name: str) -> Path:
         (lambda t: t / "in", {"inputs": ["in"]}, "is the input in"),
         (lambda t: t / "in" / "x", {"inputs": ["in"]}, "is inside the input in"),
         (lambda t: t / "a", {"inputs": ["a/b/log.sqlite"]}, "holds the input a/b/log.sqlite"),
-        (lambda t: _with(t / "f", ""), {}, "exists and is not a folder"),
+        (lambda t: _with(t / "f", ""), {}, "is a file, not a folder"),
         (
             lambda t: _with(t / "d", ".hidden"),
             {},
