@@ -433,6 +433,5 @@ def _check_missing_or_empty(out: Path) -> None:
         raise DataError(f"--out {out} exists and is not a folder; expected a report folder")
     if out.is_dir() and any(out.iterdir()):
         raise DataError(
-            f"--out {out}: folder is not empty; a report is written only into a new or empty "
-            "folder"
+            f"--out {out}: folder is not empty; a report is written only into a new or empty folder"
         )
