@@ -471,20 +471,20 @@ def add_active_results(
 
 
 def write_active_report(paths: Iterable[str | Path], out_dir: str | Path) -> ActiveSearchResult:
-    """Write a report folder with only active-search results, replacing ``out_dir`` atomically.
+    """Write a report folder with only active-search results into a new or empty ``out_dir``.
+
+    The folder is filled beside ``out_dir`` and renamed at the end
+    (:func:`analysis.report.atomic_folder`); a non-empty ``out_dir`` is refused, never replaced.
 
     Raises
     ------
     DataError
-        No file has active-search events.
+        No file has active-search events, or ``out_dir`` is a file or a non-empty folder.
     """
-    from analysis.report import atomic_folder  # the study report's modules, only when needed
+    from analysis.report import atomic_folder
 
     paths = [Path(p) for p in paths]
-    out = Path(out_dir).resolve()
-    if out.exists() and not out.is_dir():
-        raise DataError(f"--out {out} exists and is not a folder")
-    with atomic_folder(out) as tmp:
+    with atomic_folder(out_dir) as tmp:
         result = add_active_results(paths, tmp)
         if result is None:
             raise DataError(f"{paths[0] if paths else 'no files'}: no active-search events")

@@ -7,6 +7,7 @@ half-written report; an existing report at the same path is replaced.
 from __future__ import annotations
 
 import contextlib
+import errno
 import json
 import os
 import shutil
@@ -16,6 +17,7 @@ from pathlib import Path
 from typing import Any
 
 from analysis.data import CONDITIONS, object_order
+from analysis.errors import DataError
 from analysis.jung2015 import (
     OR_BACKGROUND,
     OR_BACKGROUND_CI95,
@@ -376,42 +378,60 @@ def write_report(result: AnalysisResult, out_dir: str | Path, *, figures: bool =
     return Path(out_dir).resolve()
 
 
+#: Name of the marker file inside a staging folder (``.NAME.tmp-*``): ``{"pid": N}``, the process
+#: that fills it (the same convention as ``stimuli.io.STAGING_MARKER``). It proves confocal made
+#: the folder, so a later run may delete it once that process is gone; it is removed before the
+#: rename.
+STAGING_MARKER = ".confocal-staging.json"
+
+
 @contextlib.contextmanager
 def atomic_folder(out_dir: str | Path) -> Iterator[Path]:
-    """Yield a temporary sibling folder that replaces ``out_dir`` when the block succeeds.
+    """Yield a staging folder beside ``out_dir`` that becomes ``out_dir`` when the block succeeds.
 
-    On any exception the temporary folder is removed and ``out_dir`` is left as it was.
+    ``out_dir`` must be missing or an empty folder: a non-empty folder is never replaced (this
+    checks before the block, and the kernel's rename refuses a non-empty target). On any
+    exception the staging folder is removed and ``out_dir`` is left as it was.
 
     Parameters
     ----------
     out_dir : str or Path
-        Folder to create or replace.
+        Folder to create (missing or empty).
 
     Yields
     ------
     Path
-        The temporary folder to fill.
+        The staging folder to fill.
 
     Raises
     ------
-    FileExistsError
-        ``out_dir`` is an existing file.
+    DataError
+        ``out_dir`` is an existing file or a non-empty folder.
     """
     out = Path(out_dir).resolve()
-    if out.exists() and not out.is_dir():
-        raise FileExistsError(f"out_dir must be a folder, got an existing file {out}")
+    _check_missing_or_empty(out)
     out.parent.mkdir(parents=True, exist_ok=True)
     tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.tmp-", dir=out.parent))
     try:
+        (tmp / STAGING_MARKER).write_text(json.dumps({"pid": os.getpid()}) + "\n", "utf-8")
         yield tmp
+        (tmp / STAGING_MARKER).unlink(missing_ok=True)
         os.chmod(tmp, _folder_mode())  # mkdtemp makes it private (0700)
-        old = None
-        if out.exists():
-            old = Path(tempfile.mkdtemp(prefix=f".{out.name}.old-", dir=out.parent))
-            os.replace(out, old / out.name)
-        os.replace(tmp, out)
-        if old is not None:
-            shutil.rmtree(old, ignore_errors=True)
+        try:
+            os.replace(tmp, out)  # onto a missing or empty folder only: the kernel checks
+        except OSError as exc:
+            if exc.errno in (errno.ENOTEMPTY, errno.EEXIST, errno.ENOTDIR, errno.EISDIR):
+                _check_missing_or_empty(out)
+            raise
     except BaseException:
         shutil.rmtree(tmp, ignore_errors=True)
         raise
+
+
+def _check_missing_or_empty(out: Path) -> None:
+    if out.exists() and not out.is_dir():
+        raise DataError(f"--out {out} exists and is not a folder; expected a report folder")
+    if out.is_dir() and any(out.iterdir()):
+        raise DataError(
+            f"--out {out}: folder is not empty; a report is written only into a new or empty folder"
+        )

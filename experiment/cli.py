@@ -105,8 +105,19 @@ def load_subcommand(name: str) -> object:
     importlib.import_module(module_name).register(holder)
     group = typer.main.get_group(holder)
     cmd = group.commands[name]
+    _guard_outputs(cmd, name)
     _tidy_flags(cmd)
     return cmd
+
+
+def _guard_outputs(cmd: object, path: str) -> None:
+    """Wrap each command that writes a folder or file in the contract of experiment.outputs."""
+    from experiment.outputs import guard_command
+
+    for sub_name, sub in getattr(cmd, "commands", {}).items():
+        _guard_outputs(sub, f"{path} {sub_name}")
+    if not hasattr(cmd, "commands"):
+        guard_command(cmd, path)
 
 
 class _LazyGroup(TyperGroup):

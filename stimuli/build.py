@@ -41,7 +41,6 @@ import os
 import re
 import shutil
 import subprocess
-import tempfile
 import time
 from collections.abc import Callable, Sequence
 from concurrent.futures import ThreadPoolExecutor
@@ -67,12 +66,14 @@ from stimuli.errors import InputError
 from stimuli.implants import ImplantError, ImplantLayout, render_phosphenes, to_implant_grid
 from stimuli.io import (
     check_gray,
-    default_mode,
+    check_missing_or_empty,
     image_shape_px,
     load_gray,
     load_rgb,
+    new_staging_folder,
     save_png,
     sha256_file,
+    swap_in,
 )
 from stimuli.manifest import (
     ObjectInfo,
@@ -1015,22 +1016,16 @@ def _set_id(
     return hashlib.sha256(json.dumps(blob, sort_keys=True).encode()).hexdigest()
 
 
-def _check_out_dir(out_dir: Path, set_id: str, force: bool) -> None:
-    if out_dir.exists() and not out_dir.is_dir():
-        raise InputError(f"{out_dir}: --out exists and is not a folder")
-    if not out_dir.is_dir() or not any(out_dir.iterdir()) or force:
+def _check_out_dir(out_dir: Path, set_id: str, force: bool, replaces: Path | None) -> None:
+    check_missing_or_empty(out_dir)
+    if replaces is None or force:
         return
-    meta = out_dir / "stimulus_set.json"
     try:
-        old_id = json.loads(meta.read_text(encoding="utf-8")).get("set_id")
+        meta = json.loads((replaces / "stimulus_set.json").read_text(encoding="utf-8"))
+        old_id = meta.get("set_id")
     except (OSError, ValueError, AttributeError):
         old_id = None
-    if old_id is None:
-        raise InputError(
-            f"{out_dir}: --out folder is not empty and holds no stimulus set; refusing to "
-            "replace it (use --force to replace it)"
-        )
-    if old_id != set_id:
+    if old_id is not None and old_id != set_id:
         raise InputError(
             f"{out_dir}: --out folder already holds a different stimulus set (set_id "
             f"{str(old_id)[:12]}, this build {set_id[:12]}); use --force to replace it"
@@ -1289,6 +1284,7 @@ def build_stimulus_set(
     *,
     params: BuildParams | None = None,
     force: bool = False,
+    replaces: str | os.PathLike | None = None,
     workers: int | None = None,
     progress: ProgressFn | None = None,
     implants: Sequence[ImplantLayout] = (),
@@ -1301,12 +1297,17 @@ def build_stimulus_set(
     pairs : str or path-like
         PAIRS folder or CSV (see :func:`read_pairs`).
     out_dir : str or path-like
-        Stimulus-set folder to write. Built in a temporary folder beside it and renamed at the
-        end; untouched by any error.
+        Stimulus-set folder to write: a new or empty folder (a non-empty one is refused, never
+        replaced). Built in a staging folder beside it and renamed at the end; untouched by
+        any error.
     params : BuildParams, optional
         Pipeline parameters; defaults are the paper's.
     force : bool
-        Replace ``out_dir`` even if it holds a different stimulus set or other files.
+        Build even if ``replaces`` holds a different stimulus set.
+    replaces : str or path-like, optional
+        A stimulus set the caller moved aside from ``out_dir`` to be replaced by this build
+        (``confocal stimuli build`` does so for a set it wrote there before); a different set
+        (another ``set_id``) is refused without ``force``.
     workers : int, optional
         Threads for reading and writing (default: the number of CPUs, at most 8).
     progress : callable(stage, done, total), optional
@@ -1329,8 +1330,8 @@ def build_stimulus_set(
     ------
     InputError
         Bad input (missing or unreadable photo, empty folder, duplicate ids, crop outside the
-        image, photos of different sizes without ``allow_resize``) or an ``out_dir`` holding a
-        different set without ``force``.
+        image, photos of different sizes without ``allow_resize``), an ``out_dir`` that is a
+        file or a non-empty folder, or ``replaces`` holding a different set without ``force``.
     ImplantError
         Two implant layouts share a name, or a grid is finer than the working size (checked
         before anything is read or written).
@@ -1354,7 +1355,7 @@ def build_stimulus_set(
         )
     hashes = [_source_hashes(s) for s in inp.sources]
     set_id = _set_id(params, inp, hashes, implants, implant_px_per_electrode)
-    _check_out_dir(out_dir, set_id, force)
+    _check_out_dir(out_dir, set_id, force, None if replaces is None else Path(replaces))
 
     works = _map(
         lambda pair: (
@@ -1380,8 +1381,7 @@ def build_stimulus_set(
 
     ladder = _ladder(params.working_shape_px, params.windows_px)
     labels = [f"L{lv} {s[1]}x{s[0]} (w{w})" for lv, w, s in ladder]
-    out_dir.parent.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(prefix=f".{out_dir.name}.tmp-", dir=out_dir.parent))
+    tmp = new_staging_folder(out_dir)
     try:
         (tmp / "contact").mkdir()
         per_object = _map(
@@ -1477,8 +1477,7 @@ def build_stimulus_set(
                 implants, views, params, edge_ratio, implant_px_per_electrode
             )
         (tmp / "stimulus_set.json").write_text(json.dumps(meta, indent=2) + "\n", "utf-8")
-        os.chmod(tmp, default_mode(directory=True))  # mkdtemp makes it private
-        _swap_in(tmp, out_dir)
+        swap_in(tmp, out_dir)
     except BaseException as exc:
         shutil.rmtree(tmp, ignore_errors=True)
         if isinstance(exc, OSError) and exc.errno in (errno.ENOSPC, errno.EDQUOT):
@@ -1553,18 +1552,3 @@ def _write_overview(
         title="all objects, every level (cluttered / decluttered)",
     )
     save_contact_sheet(sheet, tmp / "contact" / "all.png")
-
-
-def _swap_in(tmp: Path, out_dir: Path) -> None:
-    if out_dir.exists():
-        old = Path(tempfile.mkdtemp(prefix=f".{out_dir.name}.old-", dir=out_dir.parent))
-        old.rmdir()
-        os.replace(out_dir, old)
-        try:
-            os.replace(tmp, out_dir)
-        except OSError:
-            os.replace(old, out_dir)
-            raise
-        shutil.rmtree(old, ignore_errors=True)
-    else:
-        os.replace(tmp, out_dir)

@@ -94,8 +94,20 @@ def build_command(
     ] = False,
     force: Annotated[
         bool,
-        typer.Option("--force", help="Replace --out even if it holds a different stimulus set."),
+        typer.Option(
+            "--force",
+            help="Replace a set this command wrote in --out before even if it is a different "
+            "stimulus set (a folder holding anything else is never replaced).",
+        ),
     ] = False,
+    replaces: Annotated[
+        Path | None,
+        typer.Option(
+            "--replaces",
+            hidden=True,
+            help="Set by confocal: the earlier set in --out, moved aside to be replaced.",
+        ),
+    ] = None,
     implant: Annotated[
         list[str] | None,
         typer.Option(
@@ -180,6 +192,7 @@ def build_command(
             out,
             params=params,
             force=force,
+            replaces=replaces,
             progress=progress,
             implants=layouts,
             implant_px_per_electrode=implant_px,
@@ -221,7 +234,14 @@ def synth_command(
     size: Annotated[
         str, typer.Option("--size", help="Photo size WIDTHxHEIGHT, pixels (e.g. 1536x1024).")
     ] = "492x327",
-    force: Annotated[bool, typer.Option("--force", help="Replace a non-empty --out.")] = False,
+    force: Annotated[
+        bool,
+        typer.Option(
+            "--force",
+            help="Replace a PAIRS folder this command wrote before (never a folder holding "
+            "anything else).",
+        ),
+    ] = False,
 ) -> None:
     """Write synthetic wide/narrow-DOF photo pairs of named objects in front of clutter."""
     from stimuli.build import parse_working_size
@@ -242,7 +262,6 @@ def synth_command(
         n_training=training,
         seed=seed,
         shape_px=shape,
-        force=force,
     )
     typer.echo(f"wrote {objects} + {training} synthetic photo pairs to {path}")
 

@@ -7,8 +7,11 @@ orientation applied) and written atomically (temporary file, then rename).
 
 from __future__ import annotations
 
+import errno
 import hashlib
+import json
 import os
+import shutil
 import tempfile
 from collections.abc import Iterator
 from contextlib import contextmanager
@@ -26,6 +29,11 @@ __all__ = [
     "save_png",
     "sha256_file",
     "atomic_path",
+    "staged_folder",
+    "new_staging_folder",
+    "swap_in",
+    "check_missing_or_empty",
+    "STAGING_MARKER",
     "current_umask",
     "default_mode",
     "check_gray",
@@ -288,6 +296,87 @@ def atomic_path(path: str | os.PathLike) -> Iterator[Path]:
     finally:
         if tmp_path.exists():
             tmp_path.unlink()
+
+
+#: Name of the marker file inside a staging folder (``.NAME.tmp-*``): ``{"pid": N}``, the process
+#: that fills it. It proves confocal made the folder, so a later run may delete it once that
+#: process is gone (``experiment.outputs`` does); it is removed before the folder is renamed.
+STAGING_MARKER = ".confocal-staging.json"
+
+
+@contextmanager
+def staged_folder(out_dir: str | os.PathLike) -> Iterator[Path]:
+    """Yield a staging folder beside ``out_dir``; rename it onto ``out_dir`` if the block succeeds.
+
+    ``out_dir`` must be missing or an empty folder: an existing non-empty folder is never
+    replaced (this checks before any work, and the kernel's rename refuses a non-empty target).
+    On any exception the staging folder is removed and ``out_dir`` is left as it was.
+
+    Raises
+    ------
+    InputError
+        ``out_dir`` is a file, or a folder that is not empty.
+    """
+    out = Path(out_dir)
+    check_missing_or_empty(out)
+    tmp = new_staging_folder(out)
+    try:
+        yield tmp
+        swap_in(tmp, out)
+    except BaseException:
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise
+
+
+def new_staging_folder(out_dir: str | os.PathLike) -> Path:
+    """Create the private staging folder ``.NAME.tmp-*`` beside ``out_dir``, with its marker.
+
+    The marker (:data:`STAGING_MARKER`) names this process, so a later run can tell a folder
+    left by a killed run from one still being filled.
+    """
+    out = Path(out_dir)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.tmp-", dir=out.parent))
+    (tmp / STAGING_MARKER).write_text(json.dumps({"pid": os.getpid()}) + "\n", "utf-8")
+    return tmp
+
+
+def swap_in(tmp: str | os.PathLike, out_dir: str | os.PathLike) -> None:
+    """Rename the filled staging folder ``tmp`` onto ``out_dir``, a missing or empty folder.
+
+    Raises
+    ------
+    InputError
+        ``out_dir`` became a file or a non-empty folder meanwhile (``tmp`` is left in place
+        for the caller to remove).
+    """
+    tmp, out = Path(tmp), Path(out_dir)
+    (tmp / STAGING_MARKER).unlink(missing_ok=True)
+    os.chmod(tmp, default_mode(directory=True))  # mkdtemp makes it private
+    try:
+        os.replace(tmp, out)  # the kernel refuses a non-empty target folder: keep it that way
+    except OSError as exc:
+        if exc.errno in (errno.ENOTEMPTY, errno.EEXIST, errno.ENOTDIR, errno.EISDIR):
+            check_missing_or_empty(out)
+        raise
+
+
+def check_missing_or_empty(out_dir: str | os.PathLike) -> None:
+    """Refuse an ``out_dir`` that is a file or a non-empty folder (confocal never replaces one).
+
+    Raises
+    ------
+    InputError
+        Naming the folder and what was expected.
+    """
+    out = Path(out_dir)
+    if out.exists() and not out.is_dir():
+        raise InputError(f"{out}: --out exists and is not a folder")
+    if out.is_dir() and any(out.iterdir()):
+        raise InputError(
+            f"{out}: --out folder is not empty; confocal never replaces a folder's contents "
+            "here: choose a new or empty folder"
+        )
 
 
 def save_png(image: np.ndarray, path: str | os.PathLike) -> Path:

@@ -24,8 +24,6 @@ from __future__ import annotations
 import json
 import math
 import os
-import shutil
-import tempfile
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -33,7 +31,7 @@ import numpy as np
 
 from stimuli import jung2015
 from stimuli.errors import InputError
-from stimuli.io import default_mode, save_png
+from stimuli.io import check_missing_or_empty, save_png, staged_folder
 from stimuli.manifest import OBJECTS_COLUMNS
 from stimuli.objects.backgrounds import BACKGROUNDS
 from stimuli.objects.drawing import Canvas
@@ -264,7 +262,6 @@ def write_pairs(
     n_training: int = 3,
     seed: int = 0,
     shape_px: tuple[int, int] = jung2015.WORKING_SHAPE_PX,
-    force: bool = False,
 ) -> Path:
     """Render synthetic photo pairs and write a PAIRS folder for the stimulus builder.
 
@@ -292,7 +289,8 @@ def write_pairs(
     Parameters
     ----------
     out_dir : str or path-like
-        Folder to create. Written to a temporary folder beside it and renamed at the end.
+        Folder to create: a new or empty folder (a non-empty one is refused, never replaced).
+        Written to a staging folder beside it and renamed at the end.
     n_objects : int >= 1
         Main objects.
     n_training : int >= 0
@@ -303,8 +301,6 @@ def write_pairs(
     shape_px : (rows, cols)
         Photo size, pixels (the paper's working size by default; e.g. ``(1024, 1536)`` for the
         benchmark). Each at least 32.
-    force : bool
-        Replace an existing non-empty ``out_dir``.
 
     Returns
     -------
@@ -314,7 +310,7 @@ def write_pairs(
     Raises
     ------
     InputError
-        If ``out_dir`` exists and is not empty (without ``force``) or is a file, or a count,
+        If ``out_dir`` exists and is not empty or is a file, or a count,
         ``seed`` or ``shape_px`` is invalid.
 
     References
@@ -336,18 +332,13 @@ def write_pairs(
     if rows < 32 or cols < 32:
         raise InputError(f"shape_px must be at least (32, 32), got {shape_px!r}")
     out = Path(out_dir)
-    if out.exists() and not out.is_dir():
-        raise InputError(f"out_dir {out} exists and is not a folder")
-    if out.is_dir() and any(out.iterdir()) and not force:
-        raise InputError(f"out_dir {out} is not empty; use force=True (--force) to replace it")
+    check_missing_or_empty(out)
 
     camera = ThinLensCamera(shape_px=(rows, cols))
     main_kinds, training_kinds = _assign_kinds(n_obj, n_tr)
     jobs = [("main", i, k) for i, k in enumerate(main_kinds)]
     jobs += [("training", i, k) for i, k in enumerate(training_kinds)]
-    out.parent.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", suffix=".tmp", dir=out.parent))
-    try:
+    with staged_folder(out) as tmp:
         records = []
         scenes = []
         for role, i, kind in jobs:
@@ -405,15 +396,4 @@ def write_pairs(
             "scenes": scenes,
         }
         (tmp / "synth.json").write_text(json.dumps(meta, indent=2) + "\n", encoding="utf-8")
-        os.chmod(tmp, default_mode(directory=True))  # mkdtemp makes it private
-        if out.exists():
-            old = Path(tempfile.mkdtemp(prefix=f".{out.name}.", suffix=".old", dir=out.parent))
-            os.replace(out, old / "x")
-            os.replace(tmp, out)
-            shutil.rmtree(old, ignore_errors=True)
-        else:
-            os.replace(tmp, out)
-    finally:
-        if tmp.exists():
-            shutil.rmtree(tmp, ignore_errors=True)
     return out

@@ -22,7 +22,6 @@ All times are simulated (the searcher's key and look times are drawn, not measur
 from __future__ import annotations
 
 import json
-import shutil
 from dataclasses import replace
 from pathlib import Path
 
@@ -30,6 +29,7 @@ import numpy as np
 from PIL import Image, ImageDraw
 
 from experiment.errors import ConfocalError
+from experiment.outputs import require_missing_or_empty
 
 __all__ = ["run_active_demo", "render_frame", "DEMO_PANE_PX"]
 
@@ -145,7 +145,6 @@ def run_active_demo(
     out_dir: str | Path,
     *,
     seed: int = 0,
-    force: bool = False,
     shape_px: tuple[int, int] | None = None,
     strategy: str = "planes",
 ) -> list[str]:
@@ -154,11 +153,10 @@ def run_active_demo(
     Parameters
     ----------
     out_dir : str or Path
-        Folder to write (an existing non-empty one needs ``force``).
+        Folder to write: a new or empty one (a non-empty folder is refused, never replaced;
+        ``confocal demo --force`` replaces a folder an earlier demo wrote).
     seed : int >= 0
         Seed of the searcher (its times and its model observer's noise).
-    force : bool
-        Replace a non-empty ``out_dir``.
     shape_px : (rows, cols), optional
         View size of the scene (default: the protocol's, the paper's 308x385).
     strategy : {'planes', 'ordered'}
@@ -187,12 +185,7 @@ def run_active_demo(
     if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
         raise ConfocalError(f"--seed must be an integer >= 0, got {seed!r}")
     out = Path(out_dir)
-    if out.exists() and not out.is_dir():
-        raise ConfocalError(f"--out {out} exists and is not a folder")
-    if out.is_dir() and any(out.iterdir()):
-        if not force:
-            raise ConfocalError(f"--out {out} is not empty; use --force to replace it")
-        shutil.rmtree(out)
+    require_missing_or_empty(out)
     out.mkdir(parents=True, exist_ok=True)
 
     base = load_protocol("active_search")

@@ -21,13 +21,12 @@ Every image is computed here; nothing is drawn from stored results.
 from __future__ import annotations
 
 import json
-import shutil
 from pathlib import Path
 
 import numpy as np
 from PIL import Image, ImageDraw
 
-from experiment.errors import ConfocalError
+from experiment.outputs import require_missing_or_empty
 
 __all__ = ["run_lightfield_demo", "FIG11_DEPTHS_M", "FIG13_GRID_PX"]
 
@@ -70,17 +69,16 @@ def _montage(tiles: list[tuple[str, np.ndarray]], path: Path, *, height_px: int 
     return path
 
 
-def run_lightfield_demo(out_dir: str | Path, *, seed: int = 0, force: bool = False) -> list[str]:
+def run_lightfield_demo(out_dir: str | Path, *, seed: int = 0) -> list[str]:
     """Render the paper's three-plane light field, scan it, and write Figs. 10-16 analogues.
 
     Parameters
     ----------
     out_dir : str or Path
-        Folder to write (an existing non-empty one needs ``force``).
+        Folder to write: a new or empty one (a non-empty folder is refused, never replaced;
+        ``confocal demo --force`` replaces a folder an earlier demo wrote).
     seed : int >= 0
         Seed of the scene's textures.
-    force : bool
-        Replace a non-empty ``out_dir``.
 
     Returns
     -------
@@ -103,12 +101,7 @@ def run_lightfield_demo(out_dir: str | Path, *, seed: int = 0, force: bool = Fal
     from stimuli.tables import write_table
 
     out = Path(out_dir)
-    if out.exists() and not out.is_dir():
-        raise ConfocalError(f"--out {out} exists and is not a folder")
-    if out.is_dir() and any(out.iterdir()):
-        if not force:
-            raise ConfocalError(f"--out {out} is not empty; use --force to replace it")
-        shutil.rmtree(out)
+    require_missing_or_empty(out)
     out.mkdir(parents=True, exist_ok=True)
 
     layers = three_plane_scene(rng=seed)

@@ -35,7 +35,6 @@ from __future__ import annotations
 
 import json
 import multiprocessing
-import shutil
 import time
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import asdict, dataclass, field
@@ -46,6 +45,7 @@ import numpy as np
 import typer
 
 from experiment.errors import ConfocalError
+from experiment.outputs import require_missing_or_empty
 
 __all__ = [
     "DemoResult",
@@ -127,18 +127,6 @@ def _lap(
 ) -> None:
     seconds[stage] = time.perf_counter() - t0[0]
     cpu[stage] = _cpu_s() - t0[1]
-
-
-def _prepare_out(out_dir: Path, force: bool) -> None:
-    if out_dir.exists() and not out_dir.is_dir():
-        raise ConfocalError(f"--out {out_dir} exists and is not a folder")
-    if out_dir.is_dir() and any(out_dir.iterdir()):
-        if not force:
-            raise ConfocalError(
-                f"--out {out_dir} is not empty; use --force to replace it or choose another folder"
-            )
-        shutil.rmtree(out_dir)
-    out_dir.mkdir(parents=True, exist_ok=True)
 
 
 class _Bars:
@@ -243,7 +231,6 @@ def run_demo(
     seed: int = 0,
     observer: str = DEFAULT_OBSERVER,
     knowledge_seed: int | None = None,
-    force: bool = False,
     show_progress: bool = True,
 ) -> DemoResult:
     """Run the whole study on synthetic data and write everything under ``out_dir``.
@@ -251,7 +238,9 @@ def run_demo(
     Parameters
     ----------
     out_dir : str or Path
-        Demo folder (created; an existing non-empty one needs ``force``).
+        Demo folder: a new or empty one (a non-empty folder is refused, never replaced;
+        ``confocal demo --force`` replaces a folder an earlier demo wrote, see
+        :mod:`experiment.outputs`).
     n_subjects : int >= 1
         Simulated subjects (the paper had 6).
     seed : int >= 0
@@ -263,8 +252,6 @@ def run_demo(
     knowledge_seed : int >= 0, optional
         Seed of the exemplar observer's knowledge set; must differ from ``seed``. Default
         ``seed + 1``.
-    force : bool
-        Replace a non-empty ``out_dir``.
     show_progress : bool
         Draw progress bars on the terminal.
 
@@ -303,7 +290,8 @@ def run_demo(
             f"--knowledge-seed must be an integer >= 0 other than --seed ({seed}), got {kseed!r}"
         )
     out = Path(out_dir)
-    _prepare_out(out, force)
+    require_missing_or_empty(out)
+    out.mkdir(parents=True, exist_ok=True)
     paths = {
         "pairs": out / "pairs",
         "stimuli": out / "stimuli",
@@ -638,7 +626,14 @@ def register(app: typer.Typer) -> None:
             bool,
             typer.Option("--lightfield", help="Run the light-field demo (paper Figs. 10-16)."),
         ] = False,
-        force: Annotated[bool, typer.Option("--force", help="Replace a non-empty --out.")] = False,
+        force: Annotated[
+            bool,
+            typer.Option(
+                "--force",
+                help="Replace a folder an earlier demo of the same kind wrote (never a folder "
+                "holding anything else).",
+            ),
+        ] = False,
         active: Annotated[
             bool, typer.Option("--active", help="Draw a simulated active search (issue 14).")
         ] = False,
@@ -652,14 +647,14 @@ def register(app: typer.Typer) -> None:
             from experiment.active.demo import run_active_demo
 
             out_a = out if out != Path("confocal-demo") else Path("confocal-demo-active")
-            for line in run_active_demo(out_a, seed=seed, force=force):
+            for line in run_active_demo(out_a, seed=seed):
                 typer.echo(line)
             return
         if lightfield:
             from experiment.demos.lightfield import run_lightfield_demo
 
             out_lf = out if out != Path("confocal-demo") else Path("confocal-demo-lightfield")
-            for line in run_lightfield_demo(out_lf, seed=seed, force=force):
+            for line in run_lightfield_demo(out_lf, seed=seed):
                 typer.echo(line)
             return
         result = run_demo(
@@ -668,7 +663,6 @@ def register(app: typer.Typer) -> None:
             seed=seed,
             observer=observer,
             knowledge_seed=knowledge_seed,
-            force=force,
         )
         for line in summary_lines(result):
             typer.echo(line)

@@ -8,6 +8,7 @@ import pytest
 
 from analysis.data import file_record
 from experiment.cli import main
+from experiment.outputs import write_manifest
 
 PASS_KEYS = {
     "p50_pixels",
@@ -26,6 +27,7 @@ def report(tmp_path_factory, small_csv):
     out = tmp_path_factory.mktemp("rep") / "report"
     out.mkdir()
     (out / "stale.txt").write_text("old report")
+    write_manifest(out, "analyze run", ["stale.txt"])  # an earlier report of this command
     with pytest.raises(SystemExit) as exc:
         main(["analyze", str(small_csv), "--out", str(out), "--seed", "1"])
     assert exc.value.code in (0, None)

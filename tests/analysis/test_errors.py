@@ -67,8 +67,19 @@ def test_report_over_a_file(tmp_path, small_result):
 
     f = tmp_path / "x"
     f.write_text("a file")
-    with pytest.raises(FileExistsError, match="out_dir must be a folder, got an existing file"):
+    with pytest.raises(DataError, match="exists and is not a folder; expected a report folder"):
         write_report(small_result, f, figures=False)
+
+
+def test_report_never_replaces_a_non_empty_folder(tmp_path, small_result):
+    from analysis.report import write_report
+
+    (tmp_path / "thesis").mkdir()
+    (tmp_path / "thesis" / "chapter1.tex").write_text("mine")
+    with pytest.raises(DataError, match="thesis: folder is not empty"):
+        write_report(small_result, tmp_path / "thesis", figures=False)
+    assert (tmp_path / "thesis" / "chapter1.tex").read_text() == "mine"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["thesis"]
 
 
 @pytest.mark.parametrize(

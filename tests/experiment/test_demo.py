@@ -159,3 +159,24 @@ def test_demo_logs_and_reports_its_simulated_observers(tmp_path):
     summary = json.loads((demo.out_dir / "demo.json").read_text())
     assert summary["simulated"] is True and summary["knowledge_seed"] == 1
     assert summary["observers"][0]["observer"] == "exemplar"
+
+
+@pytest.mark.slow
+def test_demo_runs_twice_into_the_same_folder_and_keeps_a_users_file_beside_it(
+    tmp_path, monkeypatch, capsys
+):
+    """`confocal demo` twice in a row (the second with --force) replaces only its own files."""
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "notes.txt").write_text("mine")
+    argv = ["demo", "--out", str(tmp_path / "d"), "--subjects", "1"]
+    for extra in ([], ["--force"]):
+        with pytest.raises(SystemExit) as exc:
+            cli.main([*argv, *extra])
+        assert exc.value.code in (0, None), capsys.readouterr().err
+    assert (tmp_path / "d" / "report" / "report.md").is_file()
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["d", "notes.txt"]
+    (tmp_path / "d" / "mine.txt").write_text("mine")
+    with pytest.raises(SystemExit) as exc:
+        cli.main([*argv, "--force"])
+    assert exc.value.code == 2 and "did not write: mine.txt" in capsys.readouterr().err
+    assert (tmp_path / "d" / "mine.txt").read_text() == "mine"

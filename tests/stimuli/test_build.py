@@ -208,11 +208,17 @@ def test_build_is_deterministic(tmp_path: Path) -> None:
 
 
 def test_same_set_rebuilds_in_place_without_force(tmp_path: Path) -> None:
-    """An out folder holding the same set (same set_id) is replaced without --force."""
+    """The command replaces a set it wrote (same set_id) without --force."""
     pairs = write_pairs_folder(tmp_path / "p", 1, (200, 300))
-    build_stimulus_set(pairs, tmp_path / "s", workers=1)
-    (tmp_path / "s" / "obj00" / "photo.png").unlink()
-    build_stimulus_set(pairs, tmp_path / "s", workers=1)
+    for _ in range(2):
+        with pytest.raises(SystemExit) as exc:
+            main(["stimuli", "build", str(pairs), "--out", str(tmp_path / "s")])
+        assert exc.value.code == 0
+        (tmp_path / "s" / "obj00" / "photo.png").unlink()
+    build = ["stimuli", "build", str(pairs), "--out", str(tmp_path / "s")]
+    with pytest.raises(SystemExit) as exc:  # the own folder, one file short: still its own
+        main(build)
+    assert exc.value.code == 0
     assert (tmp_path / "s" / "obj00" / "photo.png").is_file()
     assert not [p for p in tmp_path.iterdir() if p.name.startswith(".s.")]  # no leftovers
 
@@ -374,23 +380,23 @@ def test_cli_synth_calls_write_pairs(tmp_path: Path, monkeypatch, capsys) -> Non
     """confocal stimuli synth passes its options to stimuli.synth.write_pairs."""
     calls = []
 
-    def write_pairs(
-        out_dir, *, n_objects=20, n_training=3, seed=0, shape_px=(327, 492), force=False
-    ):
-        calls.append((Path(out_dir), n_objects, n_training, seed, shape_px, force))
+    def write_pairs(out_dir, *, n_objects=20, n_training=3, seed=0, shape_px=(327, 492)):
+        calls.append((Path(out_dir), n_objects, n_training, seed, shape_px))
+        Path(out_dir).mkdir()
         return Path(out_dir)
 
+    out = tmp_path / "pairs"
     monkeypatch.setitem(
         sys.modules, "stimuli.synth", types.SimpleNamespace(write_pairs=write_pairs)
     )
     with pytest.raises(SystemExit) as exc:
-        main(["stimuli", "synth", "--out", str(tmp_path), "--objects", "5", "--size", "300x200"])
+        main(["stimuli", "synth", "--out", str(out), "--objects", "5", "--size", "300x200"])
     assert exc.value.code == 0
-    assert calls == [(tmp_path, 5, 3, 0, (200, 300), False)]
+    assert calls == [(out, 5, 3, 0, (200, 300))]
     with pytest.raises(SystemExit) as exc:
-        main(["stimuli", "synth", "--out", str(tmp_path), "--force"])
+        main(["stimuli", "synth", "--out", str(out), "--force"])
     assert exc.value.code == 0
-    assert calls[-1] == (tmp_path, 20, 3, 0, (327, 492), True)
+    assert calls[-1] == (out, 20, 3, 0, (327, 492))
 
 
 def _jpeg_pairs(root: Path, n: int, shape_px: tuple[int, int]) -> Path:

@@ -51,11 +51,14 @@ def _snapshot(folder: Path) -> dict[str, bytes] | None:
 
 
 def _existing_set(tmp_path: Path) -> Path:
-    """A folder that already holds a (different) stimulus set."""
+    """A folder that already holds a (different) stimulus set an earlier build wrote."""
+    from experiment.outputs import write_manifest
+
     out = tmp_path / "stimset"
     out.mkdir()
     (out / "stimulus_set.json").write_text(json.dumps({"set_id": "0" * 64}))
     (out / "manifest.csv").write_text("object,condition\nold,cluttered\n")
+    write_manifest(out, "stimuli build", ["stimulus_set.json", "manifest.csv"])
     return out
 
 
@@ -225,12 +228,31 @@ def test_out_folder_with_a_different_set_is_refused_unless_force(tmp_path: Path,
 
 
 def test_out_folder_with_other_files_is_refused(tmp_path: Path) -> None:
-    """A non-empty folder that is not a stimulus set is never replaced without force."""
+    """A non-empty folder is never replaced by the library, set or not."""
     (tmp_path / "mine").mkdir()
     (tmp_path / "mine" / "thesis.tex").write_text("precious")
-    with pytest.raises(InputError, match=r"mine: --out folder is not empty and holds no stimulus"):
+    with pytest.raises(InputError, match=r"mine: --out folder is not empty; confocal never"):
         build_stimulus_set(_pairs(tmp_path), tmp_path / "mine")
     assert (tmp_path / "mine" / "thesis.tex").read_text() == "precious"
+    out = _existing_set(tmp_path)
+    before = _snapshot(out)
+    with pytest.raises(InputError, match=r"stimset: --out folder is not empty"):
+        build_stimulus_set(_pairs(tmp_path), out, force=True)
+    assert _snapshot(out) == before
+
+
+def test_cli_refuses_a_folder_with_other_files_even_with_force(tmp_path: Path, capsys) -> None:
+    """`stimuli build --force` replaces only a set it wrote, never a folder holding other files."""
+    (tmp_path / "mine").mkdir()
+    (tmp_path / "mine" / "thesis.tex").write_text("precious")
+    pairs = str(_pairs(tmp_path))
+    code, err = _run(
+        ["stimuli", "build", pairs, "--out", str(tmp_path / "mine"), "--force"], capsys
+    )
+    assert code == 2 and "holds files confocal did not write: thesis.tex" in err
+    assert (tmp_path / "mine" / "thesis.tex").read_text() == "precious"
+    code, err = _run(["stimuli", "build", pairs, "--out", pairs, "--force"], capsys)
+    assert code == 2 and "is the input" in err
 
 
 def test_out_is_a_file(tmp_path: Path) -> None:

@@ -227,17 +227,15 @@ def test_write_pairs_larger_shape_scales_the_scene(tmp_path) -> None:
     assert mask.mean() == pytest.approx(m_small.mean(), rel=0.05)
 
 
-def test_write_pairs_refuses_a_non_empty_folder_unless_forced(tmp_path) -> None:
+def test_write_pairs_never_replaces_a_non_empty_folder(tmp_path) -> None:
     out = tmp_path / "PAIRS"
     out.mkdir()
     (out / "keep.txt").write_text("x")
     with pytest.raises(InputError, match="not empty"):
         write_pairs(out, n_objects=1, n_training=0)
     assert (out / "keep.txt").read_text() == "x"
-    write_pairs(out, n_objects=1, n_training=0, force=True)
-    assert not (out / "keep.txt").exists()
-    assert (out / "obj01_cup" / "wide.png").is_file()
     assert sorted(p.name for p in tmp_path.iterdir()) == ["PAIRS"]
+    assert sorted(p.name for p in out.iterdir()) == ["keep.txt"]
 
 
 def test_write_pairs_accepts_an_empty_existing_folder(tmp_path) -> None:

@@ -163,7 +163,10 @@ def test_cli_tune_writes_objects_csv_and_sheet_then_build_uses_it(tmp_path: Path
     _ok(["stimuli", "tune", str(pairs), "--sheet", str(sheet), "--dry-run"])
     assert "dry run" in capsys.readouterr().out
     assert (pairs / "objects.csv").read_text() == "object,name\nobj00,cup\n"
-    _ok(["stimuli", "tune", str(pairs), "--sheet", str(sheet)])
+    with pytest.raises(SystemExit) as exc:  # an existing sheet is replaced only with --force
+        main(["stimuli", "tune", str(pairs), "--sheet", str(sheet)])
+    assert exc.value.code == 2 and "exists; use --force" in capsys.readouterr().err
+    _ok(["stimuli", "tune", str(pairs), "--sheet", str(sheet), "--force"])
     out = capsys.readouterr().out
     assert "wrote 2 thresholds" in out and "mean wide-DOF edge fraction" in out
     objs = {o.object: o for o in read_objects_csv(pairs / "objects.csv")}

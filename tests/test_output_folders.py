@@ -1,0 +1,615 @@
+"""The output contract (experiment/outputs.py), measured on every command that writes.
+
+Each writing command runs against the folders a user could hand it by mistake: (a) a folder with
+the user's own file, (b) ``.``, the working folder, (c) the input itself, (d) a parent of the
+input, (e) a folder inside the input, (f) a folder the same command wrote before (allowed), and
+(g) a folder another command wrote. Every file under the test's folders is hashed before and
+after: a refusal (exit 2, one line, no traceback) changes nothing, and a run changes nothing
+outside its own output.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import shutil
+import subprocess
+import sys
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+
+import pytest
+
+from experiment import cli
+from experiment.outputs import (
+    MANIFEST_NAME,
+    STAGING_MARKER,
+    WRITING_COMMANDS,
+    OutputFolderError,
+    check_file,
+    check_folder,
+    clean_leftovers,
+    read_manifest,
+    write_manifest,
+)
+from experiment.testing import make_stimulus_set
+
+PROTOCOL = """
+[protocol]
+name = "tiny"
+
+[[blocks]]
+part = "main"
+objects = "main"
+levels = [1, 2]
+conditions = ["cluttered", "decluttered"]
+"""
+
+
+def _run(argv: list) -> int:
+    try:
+        cli.main([str(a) for a in argv])
+    except SystemExit as exc:
+        return int(exc.code or 0)
+    return 0
+
+
+@dataclass(frozen=True)
+class World:
+    root: Path
+    pairs: Path
+    stim_png: Path
+    lf: Path
+    db: Path
+    table: Path
+    proto: Path
+
+
+@pytest.fixture(scope="module")
+def world(tmp_path_factory) -> World:
+    root = tmp_path_factory.mktemp("inputs")
+    pairs = root / "pairs"
+    synth = ["stimuli", "synth", "--objects", "1", "--training", "0", "--size", "64x48"]
+    assert _run([*synth, "--out", pairs]) == 0
+    lf = root / "lf.npz"
+    assert _run(["lightfield", "synth", "--size", "40x32", "--out", lf]) == 0
+    stim = make_stimulus_set(root / "stim", n_main=3, n_training=1, levels=(1, 2))
+    proto = root / "tiny.toml"
+    proto.write_text(PROTOCOL)
+    db = root / "study.sqlite"
+    run = ["session", "run", "--protocol", proto, "--stimuli", stim, "--subject", "S01"]
+    assert _run([*run, "--data", db, "--headless", "--seed", "1"]) == 0
+    from experiment.triallog import TrialLog
+
+    with TrialLog(db) as log:  # some recognised trials, so that an analysis can run
+        for r in log.tidy_trials():
+            if r["trial_index"] % 3 != 1 if r["level"] == 2 else r["trial_index"] % 3 == 0:
+                log.add_score(r["session"], r["trial_index"], "named", True, r["rater"])
+    table = root / "table.csv"
+    rows = ["level,correct"] + [
+        f"{lv},{int((i * 7 + lv) % 6 < lv)}" for lv in range(1, 6) for i in range(8)
+    ]
+    table.write_text("\n".join(rows) + "\n")
+    return World(root, pairs, pairs / "obj01_cup" / "wide.png", lf, db, table, proto)
+
+
+# -- the table of writing commands --------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class Cmd:
+    """A writing command at its cheapest: ``argv(world, out)`` and what its input is."""
+
+    name: str  # the manifest's command name
+    kind: str  # 'folder' or 'file'
+    argv: Callable[[World, Path], list]
+    input: Callable[[World], Path] | None = None
+    again: tuple[str, ...] = ()  # the flag a second run into its own output needs
+    out_name: str = "out"  # a file output's name (its suffix matters)
+    rerun: str | None = "ok"  # None: cannot run here (why in `why`)
+    why: str = ""
+
+
+def _tiny_demo(monkeypatch) -> None:
+    """The whole study takes ~25 s: the table runs a stand-in that writes like it does."""
+    import experiment.demos.study as study
+    from experiment.outputs import require_missing_or_empty
+
+    def run_demo(out_dir, **_):
+        out = Path(out_dir)
+        require_missing_or_empty(out)
+        (out / "report").mkdir(parents=True, exist_ok=True)
+        (out / "report" / "report.md").write_text("# demo\n")
+        return None
+
+    monkeypatch.setattr(study, "run_demo", run_demo)
+    monkeypatch.setattr(study, "summary_lines", lambda result: ["demo written"])
+
+
+CMDS: list[Cmd] = [
+    Cmd(
+        "analyze run",
+        "folder",
+        lambda w, o: ["analyze", w.db, "--out", o, "--no-figures", "--seed", "1"],
+        lambda w: w.db,
+    ),
+    Cmd(
+        "analyze fit",
+        "folder",
+        lambda w, o: [
+            "analyze",
+            "fit",
+            w.table,
+            "--x",
+            "level",
+            "--y",
+            "correct",
+            "--out",
+            o,
+            "--no-plots",
+        ],
+        lambda w: w.table,
+    ),
+    Cmd(
+        "stimuli build",
+        "folder",
+        lambda w, o: ["stimuli", "build", w.pairs, "--out", o, "--working-size", "64x48"],
+        lambda w: w.pairs,
+    ),
+    Cmd(
+        "stimuli synth",
+        "folder",
+        lambda w, o: [
+            "stimuli",
+            "synth",
+            "--objects",
+            "1",
+            "--training",
+            "0",
+            "--size",
+            "64x48",
+            "--out",
+            o,
+        ],
+        again=("--force",),
+    ),
+    Cmd(
+        "stimuli tune",
+        "file",
+        lambda w, o: [
+            "stimuli",
+            "tune",
+            w.pairs,
+            "--sheet",
+            o,
+            "--working-size",
+            "64x48",
+            "--dry-run",
+        ],
+        lambda w: w.pairs,
+        again=("--force",),
+        out_name="sheet.png",
+    ),
+    Cmd(
+        "lightfield scan",
+        "folder",
+        lambda w, o: ["lightfield", "scan", w.lf, "--out", o, "--planes", "4"],
+        lambda w: w.lf,
+    ),
+    Cmd(
+        "lightfield refocus --stack",
+        "folder",
+        lambda w, o: ["lightfield", "refocus", w.lf, "--stack", "--planes", "3", "--out", o],
+        lambda w: w.lf,
+    ),
+    Cmd(
+        "lightfield refocus",
+        "file",
+        lambda w, o: ["lightfield", "refocus", w.lf, "--disparity", "0", "--out", o],
+        lambda w: w.lf,
+        again=("--force",),
+        out_name="img.png",
+    ),
+    Cmd(
+        "lightfield synth",
+        "folder",
+        lambda w, o: ["lightfield", "synth", "--size", "40x32", "--out", o],
+    ),
+    Cmd(
+        "lightfield synth .npz",
+        "file",
+        lambda w, o: ["lightfield", "synth", "--size", "40x32", "--out", o],
+        again=("--force",),
+        out_name="lf2.npz",
+    ),
+    Cmd(
+        "session export",
+        "folder",
+        lambda w, o: ["session", "export", w.db, "--out", o],
+        lambda w: w.db,
+    ),
+    Cmd("demo", "folder", lambda w, o: ["demo", "--out", o], again=("--force",)),
+    Cmd(
+        "demo --lightfield",
+        "folder",
+        lambda w, o: ["demo", "--lightfield", "--out", o],
+        again=("--force",),
+    ),
+    Cmd(
+        "demo --active", "folder", lambda w, o: ["demo", "--active", "--out", o], again=("--force",)
+    ),
+    Cmd(
+        "view --screenshot",
+        "file",
+        lambda w, o: ["view", w.lf, "--cpu", "--planes", "4", "--screenshot", o],
+        lambda w: w.lf,
+        again=("--force",),
+        out_name="shot.png",
+    ),
+    Cmd(
+        "view --shots",
+        "folder",
+        lambda w, o: ["view", w.lf, "--cpu", "--shots", o],
+        lambda w: w.lf,
+        rerun=None,
+        why="--shots saves frames of a window; none in CI",
+    ),
+    Cmd(
+        "present --screenshot",
+        "file",
+        lambda w, o: ["present", "--stimulus", w.stim_png, "--screenshot", o],
+        lambda w: w.stim_png,
+        again=("--force",),
+        out_name="shot.png",
+    ),
+]
+
+CASES = [
+    "user file",
+    "working folder",
+    "the input",
+    "parent of the input",
+    "inside the input",
+    "own earlier output",
+    "another command's folder",
+]
+
+
+def _hashes(*tops: Path) -> dict[str, str]:
+    out = {}
+    for top in tops:
+        for dirpath, _, filenames in os.walk(top):
+            for name in filenames:
+                p = Path(dirpath) / name
+                out[str(p)] = hashlib.sha256(p.read_bytes()).hexdigest()
+    return out
+
+
+def _case_out(cmd: Cmd, case: str, w: World, t: Path) -> tuple[Path | str, Path | None]:
+    """Return (the --out to give, the folder to run in) for ``case``; skip what cannot apply."""
+    inp = cmd.input(w) if cmd.input else None
+    if case in ("the input", "parent of the input", "inside the input") and inp is None:
+        pytest.skip(f"{cmd.name} reads no input")
+    if case == "user file":
+        if cmd.kind == "file":
+            p = t / cmd.out_name
+            p.write_text("my own file\n")
+            return p, None
+        (t / "thesis").mkdir()
+        (t / "thesis" / "chapter1.tex").write_text("\\chapter{One}\n")
+        return t / "thesis", None
+    if case == "working folder":
+        work = t / "work"
+        work.mkdir()
+        (work / "notes.txt").write_text("mine\n")
+        return ".", work
+    if case == "the input":
+        return inp, None
+    if case == "parent of the input":
+        return inp.parent, None
+    if case == "inside the input":
+        return inp / ("sub" if cmd.kind == "folder" else "obj01_cup/wide.png"), None
+    if case == "another command's folder":
+        other = t / ("other" if cmd.kind == "folder" else cmd.out_name)
+        other.mkdir()
+        (other / "results.json").write_text("{}\n")
+        write_manifest(other, "some other command", ["results.json"])
+        return other, None
+    raise AssertionError(case)
+
+
+def _expected(cmd: Cmd, case: str) -> str:
+    if cmd.kind == "file":
+        return {
+            "user file": "exists; use --force",
+            "working folder": "is a folder|current working folder",  # '.' has no file suffix
+            "the input": "is an input|is a folder",
+            "inside the input": "inside the input|exists; use --force",
+        }.get(case, "is a folder")
+    return {
+        "user file": "did not write: chapter1.tex",
+        "working folder": "current working folder",
+        "the input": "is the input",
+        "parent of the input": "holds the input",
+        "inside the input": "inside the input",
+        "another command's folder": "was written by 'confocal some other command'",
+    }[case]
+
+
+@pytest.mark.parametrize("case", CASES)
+@pytest.mark.parametrize("cmd", CMDS, ids=[c.name for c in CMDS])
+def test_writing_command_never_touches_what_it_did_not_write(
+    cmd: Cmd, case: str, world: World, tmp_path, monkeypatch, capsys
+):
+    monkeypatch.setenv("COLUMNS", "250")
+    _tiny_demo(monkeypatch)
+    t = tmp_path
+    monkeypatch.chdir(t)
+    if case == "own earlier output":
+        if cmd.rerun is None:
+            pytest.skip(cmd.why)
+        out = t / (cmd.out_name if cmd.kind == "file" else "out")
+        assert _run(cmd.argv(world, out)) == 0, capsys.readouterr().err
+        if cmd.kind == "folder":
+            assert read_manifest(out)["command"] == cmd.name.split(" .")[0].replace(
+                "refocus --stack", "refocus"
+            )
+        (t / "keep.txt").write_text("beside the output\n")
+        before = _hashes(world.root, t)
+        code = _run([*cmd.argv(world, out), *cmd.again])
+        err = capsys.readouterr().err
+        assert code == 0, err
+        after = _hashes(world.root, t)
+        gone = [k for k in before if k not in after and not k.startswith(str(out))]
+        changed = [
+            k for k in before if k in after and before[k] != after[k] and not k.startswith(str(out))
+        ]
+        assert not gone and not changed, (gone, changed)
+        assert not [p for p in t.iterdir() if ".tmp-" in p.name or ".old-" in p.name]
+        return
+    out, cwd = _case_out(cmd, case, world, t)
+    if cwd is not None:
+        monkeypatch.chdir(cwd)
+    capsys.readouterr()
+    before = _hashes(world.root, t)
+    # --force never opens a refused folder; for a file it would replace it, so only with inputs
+    forced = cmd.again and (cmd.kind == "folder" or case == "the input")
+    code = _run([*cmd.argv(world, out), *cmd.again] if forced else cmd.argv(world, out))
+    err = capsys.readouterr().err
+    assert code == 2, f"exit {code}; stderr: {err}"
+    assert "Traceback" not in err, err
+    lines = [ln for ln in err.splitlines() if ln.strip()]
+    assert len(lines) == 1 and lines[0].startswith("confocal: error:"), err
+    assert any(x in lines[0] for x in _expected(cmd, case).split("|")), lines[0]
+    assert _hashes(world.root, t) == before
+
+
+def test_without_force_an_own_output_is_refused_where_the_command_needs_it(
+    world, tmp_path, monkeypatch, capsys
+):
+    monkeypatch.chdir(tmp_path)
+    synth = ["stimuli", "synth", "--objects", "1", "--training", "0", "--size", "64x48"]
+    assert _run([*synth, "--out", tmp_path / "p"]) == 0
+    before = _hashes(tmp_path)
+    capsys.readouterr()
+    assert _run([*synth, "--out", tmp_path / "p"]) == 2
+    assert "use --force to replace it" in capsys.readouterr().err
+    assert _hashes(tmp_path) == before
+
+
+def test_table_covers_every_out_and_screenshot_option():
+    """A new command with --out/--screenshot cannot skip the contract (walks the click tree)."""
+    listed = {(s.command, s.out) for s in WRITING_COMMANDS}
+    found = set()
+
+    def walk(cmd, path):
+        if hasattr(cmd, "commands"):
+            for name, sub in cmd.commands.items():
+                walk(sub, f"{path} {name}")
+            return
+        for p in cmd.params:
+            if {"--out", "--screenshot", "--shots"} & set(getattr(p, "opts", ())):
+                found.add((path, p.name))
+
+    for name in cli.SUBCOMMANDS:
+        walk(cli.load_subcommand(name), name)
+    assert found, "no writing command found: the walk is broken"
+    assert found <= listed, f"not in experiment.outputs.WRITING_COMMANDS: {found - listed}"
+    tested = {c.name.split(" --")[0].split(" .")[0] for c in CMDS}
+    assert {s.command for s in WRITING_COMMANDS} <= tested
+
+
+def test_refused_build_leaves_the_earlier_set_in_place(world, tmp_path, monkeypatch, capsys):
+    """A different set without --force is refused and the earlier set is renamed back."""
+    monkeypatch.chdir(tmp_path)
+    build = ["stimuli", "build", world.pairs, "--out", tmp_path / "s"]
+    assert _run([*build, "--working-size", "64x48"]) == 0
+    before = _hashes(tmp_path)
+    capsys.readouterr()
+    assert _run([*build, "--working-size", "64x42"]) == 2
+    assert "different stimulus set" in capsys.readouterr().err
+    assert _hashes(tmp_path) == before
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["s"]
+    assert _run([*build, "--working-size", "64x42", "--force"]) == 0
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["s"]
+
+
+def test_tune_updates_its_sheet_in_the_pairs_folder_and_keeps_synth_able_to_replace_it(
+    world, tmp_path, monkeypatch
+):
+    """tune edits its input folder by design; its files join the folder's manifest."""
+    monkeypatch.chdir(tmp_path)
+    pairs = tmp_path / "pairs"
+    shutil.copytree(world.pairs, pairs)
+    tune = ["stimuli", "tune", pairs, "--working-size", "64x48"]
+    assert _run(tune) == 0
+    assert _run(tune) == 0  # its own default sheet: no --force needed
+    assert "tune_sheet.png" in read_manifest(pairs)["files"]
+    synth = ["stimuli", "synth", "--objects", "1", "--training", "0", "--size", "64x48"]
+    assert _run([*synth, "--out", pairs, "--force"]) == 0
+
+
+# -- the rule itself -----------------------------------------------------------------------------
+
+
+def _own(folder: Path, command: str = "analyze run") -> Path:
+    folder.mkdir(parents=True)
+    (folder / "report.md").write_text("x")
+    write_manifest(folder, command, ["report.md"])
+    return folder
+
+
+def _with(path: Path, name: str) -> Path:
+    """``path`` as a file (``name`` empty) or a folder holding the file ``name``."""
+    if not name:
+        path.write_text("x")
+        return path
+    path.mkdir(exist_ok=True)
+    (path / name).write_text("x")
+    return path
+
+
+@pytest.mark.parametrize(
+    ("make", "kwargs", "match"),
+    [
+        (lambda t: t, {}, "is the current working folder"),
+        (lambda t: t.parent, {}, "holds the current working folder"),
+        (lambda t: t / "in", {"inputs": ["in"]}, "is the input in"),
+        (lambda t: t / "in" / "x", {"inputs": ["in"]}, "is inside the input in"),
+        (lambda t: t / "a", {"inputs": ["a/b/log.sqlite"]}, "holds the input a/b/log.sqlite"),
+        (lambda t: _with(t / "f", ""), {}, "is a file, not a folder"),
+        (
+            lambda t: _with(t / "d", ".hidden"),
+            {},
+            r"holds files confocal did not write: \.hidden; choose a new or empty folder",
+        ),
+        (
+            lambda t: _own(t / "o", "stimuli build"),
+            {},
+            "was written by 'confocal stimuli build', not 'confocal analyze run'",
+        ),
+        (lambda t: _with(_own(t / "o"), "mine.txt"), {}, "did not write: mine.txt"),
+        (lambda t: _own(t / "o"), {"needs_force": True}, "use --force to replace it"),
+    ],
+    ids=[
+        "cwd",
+        "holds cwd",
+        "input",
+        "inside input",
+        "holds input",
+        "a file",
+        "hidden file",
+        "other command",
+        "own plus a user file",
+        "own without force",
+    ],
+)
+def test_check_folder_refuses(make, kwargs, match, tmp_path, monkeypatch):
+    work = tmp_path / "w"
+    work.mkdir()
+    monkeypatch.chdir(work)
+    out = make(work)
+    with pytest.raises(OutputFolderError, match=match):
+        check_folder(out, command="analyze run", **kwargs)
+
+
+def test_check_folder_accepts_new_empty_and_own(tmp_path):
+    assert check_folder(tmp_path / "new", command="c", cwd=tmp_path) == "new"
+    (tmp_path / "empty").mkdir()
+    assert check_folder(tmp_path / "empty", command="c", cwd=tmp_path) == "empty"
+    own = _own(tmp_path / "own", "c")
+    assert check_folder(own, command="c", cwd=tmp_path) == "own"
+    assert check_folder(own, command="c", cwd=tmp_path, needs_force=True, force=True) == "own"
+
+
+def test_check_folder_resolves_symlinks_and_dots(tmp_path):
+    (tmp_path / "data").mkdir()
+    (tmp_path / "link").symlink_to(tmp_path / "data")
+    with pytest.raises(OutputFolderError, match="is the input"):
+        check_folder(tmp_path / "link", command="c", inputs=[tmp_path / "data"], cwd="/")
+    with pytest.raises(OutputFolderError, match="holds the input"):
+        check_folder(tmp_path / "data" / "..", command="c", inputs=[tmp_path / "data"], cwd="/")
+
+
+def test_check_file_refuses(tmp_path):
+    (tmp_path / "in").mkdir()
+    (tmp_path / "in" / "a.png").write_text("x")
+    (tmp_path / "b.png").write_text("x")
+    with pytest.raises(OutputFolderError, match="is a folder; expected a file path"):
+        check_file(tmp_path / "in")
+    with pytest.raises(OutputFolderError, match="is an input of this command"):
+        check_file(tmp_path / "b.png", inputs=[tmp_path / "b.png"], force=True)
+    with pytest.raises(OutputFolderError, match="is inside the input"):
+        check_file(tmp_path / "in" / "new.png", inputs=[tmp_path / "in"], force=True)
+    with pytest.raises(OutputFolderError, match="exists; use --force to replace it"):
+        check_file(tmp_path / "b.png")
+    assert check_file(tmp_path / "b.png", force=True) is True
+    assert check_file(tmp_path / "c.png") is False
+
+
+# -- stale leftovers of killed runs --------------------------------------------------------------
+
+
+def _dead_pid() -> int:
+    p = subprocess.Popen([sys.executable, "-c", "pass"])
+    p.wait()
+    return p.pid
+
+
+def test_leftover_aside_folder_is_restored_not_deleted(tmp_path, monkeypatch, capsys):
+    """A run killed after moving its own folder aside: the next run puts the folder back."""
+    monkeypatch.chdir(tmp_path)
+    aside = _own(tmp_path / ".rep.old-1234")
+    (aside / STAGING_MARKER).write_text(json.dumps({"pid": _dead_pid()}))
+    done = clean_leftovers(tmp_path / "rep")
+    assert done and "restored" in done[0]
+    assert (tmp_path / "rep" / "report.md").read_text() == "x"
+    assert not (tmp_path / "rep" / STAGING_MARKER).exists()
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["rep"]
+
+
+def test_leftover_aside_folder_of_a_running_process_is_left_alone(tmp_path):
+    aside = _own(tmp_path / ".rep.old-1234")
+    (aside / STAGING_MARKER).write_text(json.dumps({"pid": os.getpid()}))
+    assert clean_leftovers(tmp_path / "rep") == []
+    assert aside.is_dir()
+
+
+def test_leftover_staging_folder_is_deleted_only_with_a_dead_marker(tmp_path):
+    dead = tmp_path / ".rep.tmp-aaaa"
+    dead.mkdir()
+    (dead / "half.png").write_text("x")
+    (dead / STAGING_MARKER).write_text(json.dumps({"pid": _dead_pid()}))
+    alive = tmp_path / ".rep.tmp-bbbb"
+    alive.mkdir()
+    (alive / STAGING_MARKER).write_text(json.dumps({"pid": os.getpid()}))
+    unmarked = tmp_path / ".rep.tmp-cccc"
+    unmarked.mkdir()
+    (unmarked / "mine.txt").write_text("x")
+    clean_leftovers(tmp_path / "rep")
+    assert not dead.exists()
+    assert alive.is_dir() and (unmarked / "mine.txt").is_file()
+
+
+def test_next_run_of_a_command_restores_a_killed_runs_output(world, tmp_path, monkeypatch):
+    """End to end: `analyze fit` finds its earlier report aside, restores it, then replaces it."""
+    monkeypatch.chdir(tmp_path)
+    fit = ["analyze", "fit", world.table, "--x", "level", "--y", "correct", "--no-plots"]
+    assert _run([*fit, "--out", tmp_path / "rep"]) == 0
+    aside = tmp_path / ".rep.old-dead"
+    os.replace(tmp_path / "rep", aside)
+    (aside / STAGING_MARKER).write_text(json.dumps({"pid": _dead_pid()}))
+    assert _run([*fit, "--out", tmp_path / "rep"]) == 0
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["rep"]
+    assert read_manifest(tmp_path / "rep")["command"] == "analyze fit"
+
+
+def test_manifest_names_the_command_and_its_files_only(world, tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    out = tmp_path / "ds"
+    assert _run(["session", "export", world.db, "--out", out]) == 0
+    m = json.loads((out / MANIFEST_NAME).read_text())
+    assert set(m) == {"command", "files"} and m["command"] == "session export"
+    assert "participants.tsv" in m["files"] and not any(str(tmp_path) in f for f in m["files"])
