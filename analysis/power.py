@@ -544,7 +544,20 @@ def _execute(tasks, processes: int | None, cluster: str | None) -> Iterator[tupl
     import multiprocessing as mp
     from concurrent.futures import ProcessPoolExecutor, as_completed
 
-    with ProcessPoolExecutor(max_workers=n, mp_context=mp.get_context("spawn")) as ex:
+    from analysis.workers import worker_init
+
+    # Workers die with this process even when it is SIGKILLed (no finally runs then); on a
+    # stop signal or an error the finally below cancels what has not started and waits only
+    # for the chunks in flight (CHUNK_SIMS studies each).
+    ex = ProcessPoolExecutor(
+        max_workers=n,
+        mp_context=mp.get_context("spawn"),
+        initializer=worker_init,
+        initargs=(os.getpid(),),
+    )
+    try:
         futs = {ex.submit(_run_chunk, *args): gi for gi, args in tasks}
         for fut in as_completed(futs):
             yield futs[fut], fut.result()
+    finally:
+        ex.shutdown(wait=True, cancel_futures=True)

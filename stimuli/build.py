@@ -1029,10 +1029,16 @@ def _map(fn: Callable, items: Sequence, workers: int, progress: ProgressFn | Non
         return results
     with ThreadPoolExecutor(max_workers=workers) as ex:
         futures = [ex.submit(fn, it) for it in items]
-        for i, fut in enumerate(futures):
-            results.append(fut.result())
-            if progress:
-                progress(stage, i + 1, total)
+        try:
+            for i, fut in enumerate(futures):
+                results.append(fut.result())
+                if progress:
+                    progress(stage, i + 1, total)
+        except BaseException:
+            # Stopped (a signal) or failed: drop the objects not started, so the caller's
+            # cleanup of the temporary folder waits only for the ones being written.
+            ex.shutdown(wait=True, cancel_futures=True)
+            raise
     return results
 
 

@@ -35,6 +35,7 @@ from __future__ import annotations
 
 import json
 import multiprocessing
+import os
 import shutil
 import time
 from concurrent.futures import ProcessPoolExecutor
@@ -324,7 +325,14 @@ def run_demo(
     # progress bars start a thread; where fork is unavailable it is made afterwards, in turn.
     pool, knowledge_job = None, None
     if needs_knowledge and "fork" in multiprocessing.get_all_start_methods():
-        pool = ProcessPoolExecutor(1, mp_context=multiprocessing.get_context("fork"))
+        from experiment.signals import worker_init
+
+        pool = ProcessPoolExecutor(
+            1,
+            mp_context=multiprocessing.get_context("fork"),
+            initializer=worker_init,
+            initargs=(os.getpid(),),
+        )
         knowledge_job = pool.submit(
             make_knowledge_set, paths["knowledge_pairs"], paths["knowledge"], kseed
         )
@@ -354,6 +362,11 @@ def run_demo(
                     make_knowledge_set(paths["knowledge_pairs"], paths["knowledge"], kseed)
                 bars.update(task, 1, 1)
                 _lap(t0, "knowledge_wait", seconds, cpu_seconds)
+        except BaseException:
+            if pool is not None:  # stopped or failed: do not wait for the exemplars
+                for proc in list((getattr(pool, "_processes", None) or {}).values()):
+                    proc.terminate()
+            raise
         finally:
             if pool is not None:
                 pool.shutdown(cancel_futures=True)
