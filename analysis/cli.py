@@ -435,7 +435,7 @@ def power(
     from rich.progress import Progress
 
     from analysis.errors import OptionError
-    from analysis.power import GridPoint, power_grid
+    from analysis.power import MAX_SIMS, GridPoint, power_grid
 
     if (odds_ratio is None) == (threshold_ratio is None):
         raise OptionError("give exactly one of --odds-ratio and --threshold-ratio")
@@ -448,8 +448,10 @@ def power(
         raise OptionError(f"--power must be in (0, 1), got {target!r}")
     if not (0.0 < alpha < 1.0):
         raise OptionError(f"--alpha must be in (0, 1), got {alpha!r}")
-    if sims < 1:
-        raise OptionError(f"--sims must be >= 1, got {sims!r}")
+    if not 1 <= sims <= MAX_SIMS:
+        raise OptionError(f"--sims must be an integer in [1, {MAX_SIMS}], got {sims!r}")
+    if processes is not None and processes < 1:
+        raise OptionError(f"--processes must be >= 1, got {processes!r}")
     ns = sorted(set(_numbers(subjects, "--subjects", int)))
     nos = sorted(set(_numbers(objects, "--objects", int)))
     nls = sorted(set(_numbers(levels, "--levels", int)))

@@ -11,6 +11,7 @@ and score them, blind to the first rater's scores; each score is appended to the
 
 from __future__ import annotations
 
+import sys
 from pathlib import Path
 from typing import Annotated
 
@@ -286,6 +287,12 @@ def register(app: typer.Typer) -> None:
             + (f" -> {screenshot}" if screenshot is not None else "")
         )
 
+    def _isatty(f) -> bool:
+        try:
+            return f is not None and f.isatty()
+        except (AttributeError, ValueError):  # replaced or closed stream
+            return False
+
     @app.command("score")
     def score(
         log_path: Annotated[Path, typer.Argument(help="The study's trial log (SQLite).")],
@@ -307,10 +314,22 @@ def register(app: typer.Typer) -> None:
             raise ConfocalError(f"--rater must be a name without surrounding spaces, got {rater!r}")
         with TrialLog(log_path, readonly=True) as ro:  # check before the log is opened to write
             ids = [s["session_id"] for s in ro.sessions()]
-        if session_id is not None and session_id not in ids:
+            if session_id is not None and session_id not in ids:
+                raise ConfocalError(
+                    f"{log_path}: --session {session_id} does not exist; expected one of "
+                    f"{', '.join(map(str, ids)) or '(no sessions yet)'}"
+                )
+            to_score = pending_for_rater(
+                ro, rater, session_id=session_id, include_training=include_training
+            )
+        # Scoring is interactive: without a terminal (a pipe, cron, a CI job) the screen would
+        # wait forever for keys that never come.
+        no_tty = [n for n, f in (("stdin", sys.stdin), ("stdout", sys.stdout)) if not _isatty(f)]
+        if to_score and no_tty:
             raise ConfocalError(
-                f"{log_path}: --session {session_id} does not exist; expected one of "
-                f"{', '.join(map(str, ids)) or '(no sessions yet)'}"
+                f"score: {' and '.join(no_tty)} {'is' if len(no_tty) == 1 else 'are'} not a "
+                f"terminal; {len(to_score)} trial(s) wait for {rater!r}: run 'confocal score' "
+                "in an interactive terminal"
             )
         with TrialLog(log_path) as log:
             pending = pending_for_rater(
