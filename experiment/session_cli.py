@@ -21,7 +21,7 @@ from typing import Annotated
 import typer
 
 from experiment.errors import ConfocalError
-from stimuli.resources import check_memory, finite_option
+from stimuli.resources import MAX_SEED, check_memory, finite_option
 
 __all__ = [
     "register",
@@ -111,7 +111,9 @@ def run_command(
     ] = None,
     seed: Annotated[
         int | None,
-        typer.Option("--seed", min=0, help="Root seed of a new session (drawn if omitted)."),
+        typer.Option(
+            "--seed", min=0, max=MAX_SEED, help="Root seed of a new session (drawn if omitted)."
+        ),
     ] = None,
     hold_s: Annotated[
         float,

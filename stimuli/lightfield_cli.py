@@ -36,7 +36,7 @@ import typer
 
 from stimuli.build import parse_threshold
 from stimuli.errors import InputError
-from stimuli.resources import check_memory, finite_option
+from stimuli.resources import MAX_PLANES, MAX_SEED, check_memory, finite_option
 
 __all__ = [
     "register",
@@ -107,6 +107,7 @@ _Background = Annotated[
     float,
     typer.Option(
         "--background",
+        callback=finite_option(0.0, 1.0),
         help="Grey level (0-1) that views with an alpha channel are composited over; use the "
         "protocol's background (jung2015: 0, black).",
     ),
@@ -378,7 +379,7 @@ def scan_command(
     ],
     out: Annotated[Path, typer.Option("--out", "-o", help="Folder to write.")],
     planes: Annotated[
-        int, typer.Option("--planes", min=3, help="Number of planes (paper: 200).")
+        int, typer.Option("--planes", min=3, max=MAX_PLANES, help="Number of planes (paper: 200).")
     ] = 200,
     near: Annotated[
         float | None,
@@ -536,7 +537,9 @@ def refocus_command(
         ),
     ] = None,
     stack: Annotated[bool, typer.Option("--stack", help="Write a focal stack into --out.")] = False,
-    planes: Annotated[int, typer.Option("--planes", min=3, help="Planes in the stack.")] = 20,
+    planes: Annotated[
+        int, typer.Option("--planes", min=3, max=MAX_PLANES, help="Planes in the stack.")
+    ] = 20,
     near: Annotated[
         float | None,
         typer.Option(
@@ -654,7 +657,9 @@ def synth_command(
     size: Annotated[str, typer.Option("--size", help="View size COLSxROWS (paper: 385x308).")] = (
         "385x308"
     ),
-    seed: Annotated[int, typer.Option("--seed", min=0, help="Seed of the textures.")] = 0,
+    seed: Annotated[
+        int, typer.Option("--seed", min=0, max=MAX_SEED, help="Seed of the textures.")
+    ] = 0,
 ) -> None:
     """Write the paper's simulated three-plane scene (Fig. 10)."""
     from stimuli.io import atomic_path, save_png

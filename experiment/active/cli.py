@@ -24,6 +24,7 @@ from experiment.session_cli import (
     ScreenOption,
     SkipTimingCheckOption,
 )
+from stimuli.resources import MAX_SEED
 
 __all__ = ["register", "active_app", "SEARCHERS", "PRESENTERS", "subject_phosphenes"]
 
@@ -58,7 +59,9 @@ def run_command(
             "sim:planes / sim:ordered (simulated, headless).",
         ),
     ] = "sim:planes",
-    seed: Annotated[int | None, typer.Option("--seed", min=0, help="Root seed.")] = None,
+    seed: Annotated[
+        int | None, typer.Option("--seed", min=0, max=MAX_SEED, help="Root seed.")
+    ] = None,
     screen: ScreenOption = None,
     fullscreen: FullscreenOption = True,
     presenter: PresenterOption = "process",

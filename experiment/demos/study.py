@@ -47,6 +47,7 @@ import numpy as np
 import typer
 
 from experiment.errors import ConfocalError
+from stimuli.resources import MAX_SEED
 
 __all__ = [
     "DemoResult",
@@ -621,7 +622,7 @@ def register(app: typer.Typer) -> None:
         subjects: Annotated[
             int, typer.Option("--subjects", min=1, help="Simulated subjects (paper: 6).")
         ] = DEFAULT_SUBJECTS,
-        seed: Annotated[int, typer.Option("--seed", min=0, help="Root seed.")] = 0,
+        seed: Annotated[int, typer.Option("--seed", min=0, max=MAX_SEED, help="Root seed.")] = 0,
         observer: Annotated[
             str,
             typer.Option(
@@ -636,6 +637,7 @@ def register(app: typer.Typer) -> None:
             typer.Option(
                 "--knowledge-seed",
                 min=0,
+                max=MAX_SEED,
                 help="Seed of the exemplar observer's knowledge set (default: --seed + 1).",
             ),
         ] = None,
