@@ -21,7 +21,7 @@ from typing import Annotated
 import typer
 
 from experiment.errors import ConfocalError
-from stimuli.resources import MAX_SEED, check_memory, finite_option
+from stimuli.resources import MAX_ID_CHARS, MAX_SEED, check_memory, finite_option
 
 __all__ = [
     "register",
@@ -197,6 +197,11 @@ def run_command(
         raise ConfocalError(
             f"--subject must be a subject code without surrounding spaces, e.g. S01; got "
             f"{subject!r}"
+        )
+    if len(subject) > MAX_ID_CHARS:
+        raise ConfocalError(
+            f"--subject must be at most {MAX_ID_CHARS} characters, got {len(subject)} "
+            f"({subject[:20]!r}...)"
         )
     if data.is_dir():
         raise ConfocalError(f"--data {data} is a folder; expected the study's .sqlite file")

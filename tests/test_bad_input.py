@@ -713,8 +713,21 @@ ROWS: list[Row] = [
       lambda w, t: ["analyze", "power", "--odds-ratio", "2", "--sims", "1", "--cluster",
                     "tcp://127.0.0.1:9"], "--cluster", "127.0.0.1:9"),
     R("score", "no terminal", lambda w, t: ["score", w.db, "--rater", "B"], "not a terminal"),
+    R("session run", "subject id of 300 characters",
+      lambda w, t: session(w, t, subject="S" * 300), "--subject", "at most 64"),
+    R("score", "rater id of 300 characters", lambda w, t: ["score", w.db, "--rater", "R" * 300],
+      "--rater", "at most 64"),
+    R("stimuli build", "object id of 200 characters",
+      lambda w, t: build(w, t, _long_object_id(t, w)), "at most 64"),
 ]
 # fmt: on
+
+
+def _long_object_id(t: Path, w: World) -> Path:
+    p = pairs_with(t, w)
+    first = sorted(d for d in p.iterdir() if d.is_dir())[0]
+    first.rename(p / ("o" * 200))
+    return p
 
 
 def _huge_npy(path: Path) -> Path:

@@ -19,7 +19,7 @@ import numpy as np
 import typer
 
 from experiment.errors import ConfocalError
-from stimuli.resources import MAX_SEED, check_memory, finite_option
+from stimuli.resources import MAX_ID_CHARS, MAX_SEED, check_memory, finite_option
 
 __all__ = ["register", "load_stimulus", "geometry_from_options", "pending_for_rater"]
 
@@ -314,6 +314,11 @@ def register(app: typer.Typer) -> None:
             raise ConfocalError(f"{log_path}: trial log not found")
         if not rater.strip() or rater != rater.strip():
             raise ConfocalError(f"--rater must be a name without surrounding spaces, got {rater!r}")
+        if len(rater) > MAX_ID_CHARS:
+            raise ConfocalError(
+                f"--rater must be at most {MAX_ID_CHARS} characters, got {len(rater)} "
+                f"({rater[:20]!r}...)"
+            )
         with TrialLog(log_path, readonly=True) as ro:  # check before the log is opened to write
             ids = [s["session_id"] for s in ro.sessions()]
             if session_id is not None and session_id not in ids:
