@@ -423,8 +423,12 @@ def export_command(
     """Write a Psych-DS dataset: data/ (one CSV per session), participants.tsv, description."""
     from experiment.data.psychds import export_dataset
 
+    from stimuli.errors import InputError
+
     try:
         info = export_dataset(data, out, study=study)
+    except InputError:  # the disk filled up while writing; the message names --out
+        raise
     except ValueError as exc:
         raise ConfocalError(f"--study: {exc}") from None
     sim = info["simulated_sessions"]

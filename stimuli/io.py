@@ -7,8 +7,10 @@ orientation applied) and written atomically (temporary file, then rename).
 
 from __future__ import annotations
 
+import errno
 import hashlib
 import os
+import shutil
 import tempfile
 from collections.abc import Iterator
 from contextlib import contextmanager
@@ -26,6 +28,7 @@ __all__ = [
     "save_png",
     "sha256_file",
     "atomic_path",
+    "staged_folder",
     "current_umask",
     "default_mode",
     "check_gray",
@@ -288,6 +291,60 @@ def atomic_path(path: str | os.PathLike) -> Iterator[Path]:
     finally:
         if tmp_path.exists():
             tmp_path.unlink()
+
+
+@contextmanager
+def staged_folder(out: str | os.PathLike, *, what: str) -> Iterator[Path]:
+    """Yield an empty temporary folder beside ``out``; move its files into ``out`` on success.
+
+    A command that writes several files (a scan's ``scan.json`` with its images) writes them
+    here first, so a failure (a full disk, a stop signal, a bug) leaves ``out`` as it was, and
+    no folder when ``out`` did not exist: neither a ``scan.json`` without its images nor an
+    empty folder. A new ``out`` appears whole in one rename; into an existing one each file is
+    renamed, sub-folders merged (other files in it are kept, as before).
+
+    Parameters
+    ----------
+    out : str or path-like
+        The folder the command writes.
+    what : str
+        What is written, for the message (``"the scan"``).
+
+    Raises
+    ------
+    InputError
+        The disk filled up (ENOSPC, EDQUOT); the message names ``out``.
+    """
+    out = Path(out)
+    created = None  # the top-most missing parent: removed again if nothing was written
+    for parent in [out.parent, *out.parent.parents]:
+        if parent.exists():
+            break
+        created = parent
+    out.parent.mkdir(parents=True, exist_ok=True)
+    tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.tmp-", dir=out.parent))
+    try:
+        yield tmp
+        os.chmod(tmp, default_mode(directory=True))  # mkdtemp makes it private
+        if not out.exists():
+            os.replace(tmp, out)
+        else:  # merge: make every folder first (that needs space), then rename the files
+            staged = sorted(p for p in tmp.rglob("*") if not p.is_dir())
+            for f in staged:
+                (out / f.relative_to(tmp)).parent.mkdir(parents=True, exist_ok=True)
+            for f in staged:
+                os.replace(f, out / f.relative_to(tmp))
+    except BaseException as exc:
+        if created is not None and not out.exists():
+            shutil.rmtree(created, ignore_errors=True)
+        if isinstance(exc, OSError) and exc.errno in (errno.ENOSPC, errno.EDQUOT):
+            raise InputError(
+                f"{out}: the disk is full ({exc.strerror or exc}) while writing {what}; the "
+                f"partial output was removed and {out} was left as it was"
+            ) from None
+        raise
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
 
 
 def save_png(image: np.ndarray, path: str | os.PathLike) -> Path:

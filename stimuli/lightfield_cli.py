@@ -433,7 +433,7 @@ def scan_command(
     from rich.progress import Progress
 
     from stimuli.declutter import in_focus_mask
-    from stimuli.io import atomic_path, save_png
+    from stimuli.io import atomic_path, save_png, staged_folder
     from stimuli.planes import (
         SCAN_METHODS,
         auto_binning,
@@ -482,40 +482,41 @@ def scan_command(
                     bar.advance(task)
             scan = scan_result(lf, ds, scores, binning=b)
     _warn_lines(caught)
-    out.mkdir(parents=True, exist_ok=True)
-    rows = scan.rows()
-    with atomic_path(out / "planes.csv") as tmp, open(tmp, "w", newline="") as f:
-        w = csv.DictWriter(f, fieldnames=list(rows[0]))
-        w.writeheader()
-        w.writerows(rows)
-    with atomic_path(out / "scan.json") as tmp:
-        tmp.write_text(
-            json.dumps(
-                {"source": lf.source, "declutter": declutter_mode, **scan.to_dict()}, indent=1
+    # Written whole or not at all: a full disk or a stop leaves --out as it was.
+    with staged_folder(out, what="the scan") as tmp:
+        rows = scan.rows()
+        with atomic_path(tmp / "planes.csv") as part, open(part, "w", newline="") as f:
+            w = csv.DictWriter(f, fieldnames=list(rows[0]))
+            w.writeheader()
+            w.writerows(rows)
+        with atomic_path(tmp / "scan.json") as part:
+            part.write_text(
+                json.dumps(
+                    {"source": lf.source, "declutter": declutter_mode, **scan.to_dict()}, indent=1
+                )
             )
-        )
-    plot_scores(scan, out / "scores.png")
-    save_png(lf.centre_view(), out / "centre.png")
-    for k, p in enumerate(scan.peaks):
-        img = refocus(lf, p.disparity_px)
-        focus = in_focus_mask(lf, p.disparity_px) if declutter_mode == "depth" else None
-        edges, cells, t = declutter_and_compress(
-            img, shape, threshold=threshold, edge_ratio=edge_ratio, focus_mask=focus
-        )
-        stem = f"plane{k + 1:02d}"
-        save_png(img, out / f"{stem}_confocal.png")
-        save_png(edges, out / f"{stem}_edges.png")
-        save_png(cells, out / f"{stem}_grid.png")
-        where = f"{p.depth_m:.3g} m, " if p.depth_m is not None else ""
-        extra = (
-            f", support {p.support:.3f}, evidence {p.evidence:.3g}"
-            if math.isfinite(p.support)
-            else ""
-        )
-        typer.echo(
-            f"{stem}: {where}disparity {p.disparity_px:.3f} px/view, score {p.score:.3f}"
-            f"{extra}, threshold {t:.4g} ({declutter_mode})"
-        )
+        plot_scores(scan, tmp / "scores.png")
+        save_png(lf.centre_view(), tmp / "centre.png")
+        for k, p in enumerate(scan.peaks):
+            img = refocus(lf, p.disparity_px)
+            focus = in_focus_mask(lf, p.disparity_px) if declutter_mode == "depth" else None
+            edges, cells, t = declutter_and_compress(
+                img, shape, threshold=threshold, edge_ratio=edge_ratio, focus_mask=focus
+            )
+            stem = f"plane{k + 1:02d}"
+            save_png(img, tmp / f"{stem}_confocal.png")
+            save_png(edges, tmp / f"{stem}_edges.png")
+            save_png(cells, tmp / f"{stem}_grid.png")
+            where = f"{p.depth_m:.3g} m, " if p.depth_m is not None else ""
+            extra = (
+                f", support {p.support:.3f}, evidence {p.evidence:.3g}"
+                if math.isfinite(p.support)
+                else ""
+            )
+            typer.echo(
+                f"{stem}: {where}disparity {p.disparity_px:.3f} px/view, score {p.score:.3f}"
+                f"{extra}, threshold {t:.4g} ({declutter_mode})"
+            )
     span = f"{float(np.min(ds)):.4g}..{float(np.max(ds)):.4g} px/view"
     typer.echo(f"{len(scan.peaks)} object plane(s) in {len(ds)} planes ({span}); wrote {out}")
 
