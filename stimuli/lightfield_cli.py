@@ -36,7 +36,7 @@ import typer
 
 from stimuli.build import parse_threshold
 from stimuli.errors import InputError
-from stimuli.resources import MAX_PLANES, MAX_SEED, check_memory, finite_option
+from stimuli.resources import MAX_SEED, check_memory, finite_option
 
 __all__ = [
     "register",
@@ -379,7 +379,7 @@ def scan_command(
     ],
     out: Annotated[Path, typer.Option("--out", "-o", help="Folder to write.")],
     planes: Annotated[
-        int, typer.Option("--planes", min=3, max=MAX_PLANES, help="Number of planes (paper: 200).")
+        int, typer.Option("--planes", min=3, help="Number of planes (paper: 200).")
     ] = 200,
     near: Annotated[
         float | None,
@@ -538,9 +538,7 @@ def refocus_command(
         ),
     ] = None,
     stack: Annotated[bool, typer.Option("--stack", help="Write a focal stack into --out.")] = False,
-    planes: Annotated[
-        int, typer.Option("--planes", min=3, max=MAX_PLANES, help="Planes in the stack.")
-    ] = 20,
+    planes: Annotated[int, typer.Option("--planes", min=3, help="Planes in the stack.")] = 20,
     near: Annotated[
         float | None,
         typer.Option(

@@ -16,8 +16,8 @@ from stimuli.errors import InputError
 #: seed can be logged and typed again; a larger one is no more random.
 MAX_SEED: int = 2**63 - 1
 
-#: Most depth planes of a scan or stack (ours): the paper scans 200; at 10^5 the steps are far
-#: below what a refocus can resolve, and the count only sets the time and memory of a scan.
+#: Most depth planes of the viewer's startup scan (ours): the paper scans 200; at 10^5 the steps
+#: are far below what a refocus can resolve, and the count only sets the time of the scan.
 MAX_PLANES: int = 100_000
 
 #: Longest subject, rater or object id (ours): ids become file and folder names and table
@@ -79,6 +79,10 @@ def check_memory(needed_bytes: float, what: str) -> None:
         Naming ``what``, the memory needed and the memory available.
     """
     avail = available_memory_bytes()
+    try:  # an int from a typed count (--planes 10**308) can be too large for a float
+        needed_bytes = float(needed_bytes)
+    except OverflowError:
+        needed_bytes = math.inf
     if not math.isfinite(needed_bytes) or needed_bytes > avail:
         raise InputError(
             f"{what} needs about {format_bytes(needed_bytes)} of memory but only "
