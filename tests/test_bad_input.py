@@ -719,6 +719,10 @@ ROWS: list[Row] = [
       "--rater", "at most 64"),
     R("stimuli build", "object id of 200 characters",
       lambda w, t: build(w, t, _long_object_id(t, w)), "at most 64"),
+    R("stimuli build", "threshold 1e308", lambda w, t: build(w, t, w.pairs, "--threshold", "1e308"),
+      "--threshold", "[0, 1]"),
+    R("lightfield scan", "threshold 1e308", lambda w, t: scan(w, t, "--threshold", "1e308"),
+      "--threshold", "[0, 1]"),
 ]
 # fmt: on
 
