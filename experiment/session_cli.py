@@ -422,7 +422,6 @@ def export_command(
 ) -> None:
     """Write a Psych-DS dataset: data/ (one CSV per session), participants.tsv, description."""
     from experiment.data.psychds import export_dataset
-
     from stimuli.errors import InputError
 
     try:

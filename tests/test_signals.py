@@ -44,6 +44,8 @@ def _start(args: list, cwd: Path) -> subprocess.Popen:
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         text=True,
+        # a test run started in the background ignores SIGINT, and children inherit that
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),
     )
 
 
@@ -77,6 +79,15 @@ def _alive(pid: int) -> bool:
     except OSError:
         return False
     return state not in ("Z", "X")  # a zombie has stopped; only its exit status is left
+
+
+def _left_after(pids: list[int], seconds: float) -> list[int]:
+    """The processes still running after up to ``seconds`` (multiprocessing's resource tracker
+    leaves when it reads the end of its pipe, a moment after the parent)."""
+    end = time.monotonic() + seconds
+    while [p for p in pids if _alive(p)] and time.monotonic() < end:
+        time.sleep(0.05)
+    return [p for p in pids if _alive(p)]
 
 
 def _one_line(proc: subprocess.Popen, sig: signal.Signals) -> str:
@@ -151,7 +162,7 @@ def test_stop_signal_during_power_ends_the_workers(tmp_path):
     try:
         _one_line(proc, signal.SIGTERM)
     finally:
-        left = [p for p in workers if _alive(p)]
+        left = _left_after(workers, 5.0)
         for p in left:
             os.kill(p, signal.SIGKILL)
     assert not left, f"workers outlived the stopped command: {left}"
@@ -168,10 +179,7 @@ def test_sigkilled_power_takes_its_workers_with_it(tmp_path):
     workers = _children(proc.pid)
     proc.send_signal(signal.SIGKILL)
     proc.wait(10)
-    end = time.monotonic() + 5
-    while [p for p in workers if _alive(p)] and time.monotonic() < end:
-        time.sleep(0.05)
-    left = [p for p in workers if _alive(p)]
+    left = _left_after(workers, 5.0)
     for p in left:  # do not leave them computing on a shared machine
         os.kill(p, signal.SIGKILL)
     assert not left, f"workers outlived their SIGKILLed parent: {left}"
