@@ -27,6 +27,13 @@ logger = logging.getLogger(__name__)
 #: Memory per simulated trial in ``power``, bytes (ours, rounded up: the trial table and the
 #: logistic model's design matrix); checked before simulating so a huge --subjects is refused.
 _POWER_BYTES_PER_TRIAL = 2048
+#: Largest seed a command accepts (ours; as ``stimuli.resources.MAX_SEED``, which analysis does
+#: not import): SQLite's INTEGER and NumPy's int64 hold it.
+_MAX_SEED = 2**63 - 1
+
+#: Most local worker processes (ours): far above any machine's cores; each costs memory.
+_MAX_PROCESSES = 1024
+
 #: Trials per simulated subject in the paper's design (20 objects x 8 levels x 2 conditions).
 _TRIALS_PER_SUBJECT = 320
 
@@ -143,7 +150,7 @@ def run(
         ),
     ] = 0.0,
     seed: Annotated[
-        int | None, typer.Option("--seed", min=0, help="Seed of the MCMC runs.")
+        int | None, typer.Option("--seed", min=0, max=_MAX_SEED, help="Seed of the MCMC runs.")
     ] = None,
     mixed: Annotated[
         bool, typer.Option("--mixed", help="Also fit the mixed logistic model.")
@@ -306,7 +313,12 @@ def fit(
     axis: Annotated[
         str, typer.Option("--axis", help="auto (the sigmoid's own), log or linear.")
     ] = "auto",
-    guess: Annotated[float, typer.Option("--guess", help="Guess rate (0.5 for 2AFC).")] = 0.0,
+    guess: Annotated[
+        float,
+        typer.Option(
+            "--guess", callback=_finite(0.0, 1.0, open_hi=True), help="Guess rate (0.5 for 2AFC)."
+        ),
+    ] = 0.0,
     pc: Annotated[
         str, typer.Option("--pc", help="Comma-separated proportions correct of the thresholds.")
     ] = "0.5",
@@ -315,7 +327,9 @@ def fit(
         typer.Option("--overdispersion/--no-overdispersion", help="Beta-binomial posteriors."),
     ] = True,
     plots: Annotated[bool, typer.Option("--plots/--no-plots", help="One plot per group.")] = True,
-    seed: Annotated[int | None, typer.Option("--seed", help="Seed of the sampler.")] = None,
+    seed: Annotated[
+        int | None, typer.Option("--seed", min=0, max=_MAX_SEED, help="Seed of the sampler.")
+    ] = None,
 ) -> None:
     """Fit psychometric functions to any table: thresholds, intervals, goodness of fit, plots."""
     from rich.console import Console
@@ -418,10 +432,16 @@ def power(
     sims: Annotated[int, typer.Option("--sims", help="Simulated studies per grid point.")] = 200,
     alpha: Annotated[float, typer.Option("--alpha", help="Test level.")] = 0.05,
     seed: Annotated[
-        int | None, typer.Option("--seed", min=0, help="Seed of the simulations.")
+        int | None, typer.Option("--seed", min=0, max=_MAX_SEED, help="Seed of the simulations.")
     ] = None,
     processes: Annotated[
-        int | None, typer.Option("--processes", help="Local worker processes (default: CPUs).")
+        int | None,
+        typer.Option(
+            "--processes",
+            min=1,
+            max=_MAX_PROCESSES,
+            help="Local worker processes (default: CPUs).",
+        ),
     ] = None,
     cluster: Annotated[
         str | None,
@@ -435,7 +455,7 @@ def power(
     from rich.progress import Progress
 
     from analysis.errors import OptionError
-    from analysis.power import GridPoint, power_grid
+    from analysis.power import MAX_SIMS, GridPoint, power_grid
 
     if (odds_ratio is None) == (threshold_ratio is None):
         raise OptionError("give exactly one of --odds-ratio and --threshold-ratio")
@@ -448,8 +468,8 @@ def power(
         raise OptionError(f"--power must be in (0, 1), got {target!r}")
     if not (0.0 < alpha < 1.0):
         raise OptionError(f"--alpha must be in (0, 1), got {alpha!r}")
-    if sims < 1:
-        raise OptionError(f"--sims must be >= 1, got {sims!r}")
+    if not 1 <= sims <= MAX_SIMS:
+        raise OptionError(f"--sims must be an integer in [1, {MAX_SIMS}], got {sims!r}")
     ns = sorted(set(_numbers(subjects, "--subjects", int)))
     nos = sorted(set(_numbers(objects, "--objects", int)))
     nls = sorted(set(_numbers(levels, "--levels", int)))

@@ -381,12 +381,17 @@ def save_all(result: Any, folder: str | Path, *, processes: int = 2) -> list[Pat
     names = list(STUDY_FIGURES)
     if processes > 1:
         import multiprocessing as mp
+        import os
         from concurrent.futures import ProcessPoolExecutor
 
         groups = [names[:1], names[1:]]
         try:
             ctx = mp.get_context("fork")
-            with ProcessPoolExecutor(max_workers=2, mp_context=ctx) as ex:
+            from analysis.workers import worker_init
+
+            with ProcessPoolExecutor(
+                max_workers=2, mp_context=ctx, initializer=worker_init, initargs=(os.getpid(),)
+            ) as ex:
                 futs = [ex.submit(_draw_and_save, result, g, folder) for g in groups]
                 return [p for f in futs for p in f.result()]
         except (OSError, ValueError, RuntimeError):  # no fork here: draw in this process

@@ -33,6 +33,8 @@ from analysis.simulate import (
 from analysis.weibull.model import _log_likelihood
 
 __all__ = [
+    "CLUSTER_CONNECT_TIMEOUT_S",
+    "MAX_SIMS",
     "PowerPoint",
     "PowerResult",
     "GridPoint",
@@ -269,8 +271,8 @@ def iter_power(
         raise ValueError(f"effect must be 'odds_ratio' or 'threshold_ratio', got {effect!r}")
     if not size > 0:
         raise ValueError(f"size must be > 0, got {size!r}")
-    if n_sims < 1:
-        raise ValueError(f"n_sims must be >= 1, got {n_sims!r}")
+    if not 1 <= n_sims <= MAX_SIMS:
+        raise ValueError(f"n_sims must be in [1, {MAX_SIMS}], got {n_sims!r}")
     if not (0 < alpha < 1):
         raise ValueError(f"alpha must be in (0, 1), got {alpha!r}")
     if not n_subjects or min(n_subjects) < 1:
@@ -420,6 +422,14 @@ def _run_chunk(
 #: Studies per task sent to a worker (ours): large enough to hide the task overhead.
 CHUNK_SIMS: int = 10
 
+#: Most simulated studies per grid point (ours): at 10^6 the power's 95 % interval is about
+#: +-0.001 wide, and every study costs seeds and a task before any work, so more only hangs.
+MAX_SIMS: int = 1_000_000
+
+#: Seconds to wait for a Dask scheduler (ours): a reachable scheduler answers in well under a
+#: second; an unreachable address otherwise waits Dask's 30 s default.
+CLUSTER_CONNECT_TIMEOUT_S: float = 5.0
+
 
 def power_grid(
     effect: Effect,
@@ -477,8 +487,8 @@ def power_grid(
         raise ValueError(f"effect must be 'odds_ratio' or 'threshold_ratio', got {effect!r}")
     if not sizes or not all(math.isfinite(v) and v > 0 for v in sizes):
         raise ValueError(f"effect sizes must be finite and > 0, got {list(sizes)!r}")
-    if n_sims < 1:
-        raise ValueError(f"n_sims must be >= 1, got {n_sims!r}")
+    if not 1 <= n_sims <= MAX_SIMS:
+        raise ValueError(f"n_sims must be in [1, {MAX_SIMS}], got {n_sims!r}")
     if not (0 < alpha < 1):
         raise ValueError(f"alpha must be in (0, 1), got {alpha!r}")
     for name, vals, low in (
@@ -529,7 +539,16 @@ def _execute(tasks, processes: int | None, cluster: str | None) -> Iterator[tupl
             raise ImportError(
                 "--cluster needs Dask: install the 'dask' extra (pip install .[dask])"
             ) from exc
-        with Client(cluster) as client:
+        from analysis.errors import OptionError
+
+        try:
+            client = Client(cluster, timeout=f"{CLUSTER_CONNECT_TIMEOUT_S}s")
+        except (OSError, ValueError) as exc:  # unreachable (a timeout) or not an address
+            raise OptionError(
+                f"--cluster {cluster}: cannot reach the Dask scheduler within "
+                f"{CLUSTER_CONNECT_TIMEOUT_S:g} s ({exc}); start it or check the address"
+            ) from None
+        with client:
             futs = {client.submit(_run_chunk, *args, pure=False): gi for gi, args in tasks}
             for fut in as_completed(list(futs)):
                 yield futs[fut], fut.result()
@@ -544,7 +563,20 @@ def _execute(tasks, processes: int | None, cluster: str | None) -> Iterator[tupl
     import multiprocessing as mp
     from concurrent.futures import ProcessPoolExecutor, as_completed
 
-    with ProcessPoolExecutor(max_workers=n, mp_context=mp.get_context("spawn")) as ex:
+    from analysis.workers import worker_init
+
+    # Workers die with this process even when it is SIGKILLed (no finally runs then); on a
+    # stop signal or an error the finally below cancels what has not started and waits only
+    # for the chunks in flight (CHUNK_SIMS studies each).
+    ex = ProcessPoolExecutor(
+        max_workers=n,
+        mp_context=mp.get_context("spawn"),
+        initializer=worker_init,
+        initargs=(os.getpid(),),
+    )
+    try:
         futs = {ex.submit(_run_chunk, *args): gi for gi, args in tasks}
         for fut in as_completed(futs):
             yield futs[fut], fut.result()
+    finally:
+        ex.shutdown(wait=True, cancel_futures=True)

@@ -178,9 +178,22 @@ def _one_line(text: str) -> str:
 
 
 def main(argv: list[str] | None = None) -> None:
-    """Run the ``confocal`` command; user errors end with one line and exit status 2."""
+    """Run the ``confocal`` command; user errors end with one line and exit status 2.
+
+    SIGTERM and SIGINT stop a running command through :class:`experiment.signals.Stopped`, so
+    its ``finally:`` blocks close the trial log and remove temporary folders; it ends with one
+    line and status 128 + the signal number (143, 130).
+    """
+    from experiment.signals import Stopped, stop_on_signals
+
     try:
-        app(args=argv, prog_name="confocal")
+        with stop_on_signals():
+            app(args=argv, prog_name="confocal")
+    except Stopped as stop:
+        typer.echo(
+            f"confocal: stopped by {stop.name}; the log is closed, nothing half-written", err=True
+        )
+        sys.exit(stop.exit_code)
     except Exception as exc:  # noqa: BLE001 - classified just below
         if getattr(exc, "exit_code", None) == 2:
             typer.echo(f"confocal: error: {_one_line(exc)}", err=True)

@@ -29,6 +29,7 @@ from experiment.interfaces import Answer, Display, FlipRecord, Responder, combin
 from experiment.protocol import SCORES, DisplaySpec, ProtocolError, ProtocolSpec
 from experiment.schedule import Schedule, Trial, build_schedule
 from experiment.scoring import suggest_score
+from experiment.signals import Stopped
 from experiment.stimset import StimulusSet, StimulusSetError
 from experiment.triallog import ResumeMismatch, SessionComplete, TrialLog, TrialLogError
 
@@ -498,7 +499,7 @@ class Session:
                 self.record(trial, answer, combine_flips(flip, off))
                 if progress is not None:
                     progress(*self.progress())
-        except KeyboardInterrupt:
+        except (KeyboardInterrupt, Stopped):
             self.log_event("abort", f"interrupted at trial {self._next}")
             raise
         display.show_text(self.protocol.instructions.end)

@@ -24,7 +24,7 @@ from typing import Annotated
 import typer
 
 from experiment.errors import ConfocalError
-from stimuli.resources import check_memory, finite_option
+from stimuli.resources import MAX_ID_CHARS, MAX_SEED, check_memory, finite_option
 
 __all__ = [
     "register",
@@ -127,7 +127,9 @@ def run_command(
     ] = None,
     seed: Annotated[
         int | None,
-        typer.Option("--seed", min=0, help="Root seed of a new session (drawn if omitted)."),
+        typer.Option(
+            "--seed", min=0, max=MAX_SEED, help="Root seed of a new session (drawn if omitted)."
+        ),
     ] = None,
     hold_s: Annotated[
         float,
@@ -225,6 +227,11 @@ def run_command(
         raise ConfocalError(
             f"--subject must be a subject code without surrounding spaces, e.g. S01; got "
             f"{subject!r}"
+        )
+    if len(subject) > MAX_ID_CHARS:
+        raise ConfocalError(
+            f"--subject must be at most {MAX_ID_CHARS} characters, got {len(subject)} "
+            f"({subject[:20]!r}...)"
         )
     if data.is_dir():
         raise ConfocalError(f"--data {data} is a folder; expected the study's .sqlite file")
@@ -545,11 +552,14 @@ def export_command(
 ) -> None:
     """Write a Psych-DS dataset: data/ (one CSV per session), participants.tsv, description."""
     from experiment.data.psychds import export_dataset
+    from stimuli.errors import InputError
 
     try:
         info = export_dataset(
             data, out, study=study, dates=dates, include_identifying=include_identifying
         )
+    except InputError:  # the disk filled up while writing; the message names --out
+        raise
     except ValueError as exc:
         raise ConfocalError(f"--study: {exc}") from None
     sim = info["simulated_sessions"]

@@ -161,13 +161,18 @@ def parse_working_size(text: str) -> tuple[int, int]:
     return (int(m.group(2)), int(m.group(1)))
 
 
+#: Largest Sobel magnitude of an image in [0, 1]: scikit-image's kernels have weights summing
+#: to 1 per side, so |Gx|, |Gy| <= 1 and sqrt((Gx**2 + Gy**2) / 2) <= 1.
+_MAX_SOBEL = 1.0
+
+
 def parse_threshold(text: str | float | None) -> float | None:
     """Parse a Sobel threshold: ``"auto"`` (or ``None``) gives ``None``, else a number >= 0.
 
     Raises
     ------
     InputError
-        If the text is neither ``auto`` nor a finite number >= 0.
+        If the text is neither ``auto`` nor a number in [0, 1] (no Sobel magnitude exceeds 1).
     """
     if text is None or (isinstance(text, str) and text.strip().lower() == "auto"):
         return None
@@ -177,6 +182,12 @@ def parse_threshold(text: str | float | None) -> float | None:
         raise InputError(f"--threshold must be 'auto' or a number >= 0, got {text!r}") from None
     if not np.isfinite(v) or v < 0:
         raise InputError(f"--threshold must be 'auto' or a number >= 0, got {text!r}")
+    if v > _MAX_SOBEL:
+        raise InputError(
+            f"--threshold must be 'auto' or a number in [0, {_MAX_SOBEL:g}] (the Sobel magnitude "
+            f"of an image in [0, 1] is at most {_MAX_SOBEL:g}, so no pixel would be an edge), "
+            f"got {text!r}"
+        )
     return v
 
 
@@ -1045,10 +1056,16 @@ def _map(fn: Callable, items: Sequence, workers: int, progress: ProgressFn | Non
         return results
     with ThreadPoolExecutor(max_workers=workers) as ex:
         futures = [ex.submit(fn, it) for it in items]
-        for i, fut in enumerate(futures):
-            results.append(fut.result())
-            if progress:
-                progress(stage, i + 1, total)
+        try:
+            for i, fut in enumerate(futures):
+                results.append(fut.result())
+                if progress:
+                    progress(stage, i + 1, total)
+        except BaseException:
+            # Stopped (a signal) or failed: drop the objects not started, so the caller's
+            # cleanup of the temporary folder waits only for the ones being written.
+            ex.shutdown(wait=True, cancel_futures=True)
+            raise
     return results
 
 

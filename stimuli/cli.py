@@ -7,6 +7,8 @@ from typing import Annotated
 
 import typer
 
+from stimuli.resources import MAX_SEED
+
 __all__ = ["register", "stimuli_app"]
 
 #: Peak memory of ``synth`` per photo pixel, bytes (ours: measured 147 B/px at 2000x1500).
@@ -229,7 +231,10 @@ def synth_command(
         int, typer.Option("--training", min=0, help="Number of training objects.")
     ] = 3,
     seed: Annotated[
-        int, typer.Option("--seed", min=0, help="Random seed (the set is deterministic by seed).")
+        int,
+        typer.Option(
+            "--seed", min=0, max=MAX_SEED, help="Random seed (the set is deterministic by seed)."
+        ),
     ] = 0,
     size: Annotated[
         str, typer.Option("--size", help="Photo size WIDTHxHEIGHT, pixels (e.g. 1536x1024).")

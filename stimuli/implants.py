@@ -289,6 +289,8 @@ def load_implant(name_or_path: str | Path) -> ImplantLayout:
         raise ImplantError(f"{path}: cannot read ({exc})") from None
     except tomllib.TOMLDecodeError as exc:
         raise ImplantError(f"{path}: not valid TOML ({exc})") from None
+    except RecursionError:  # tomllib parses nested tables and arrays recursively
+        raise ImplantError(f"{path}: not valid TOML (tables or arrays nested too deeply)") from None
     try:
         return ImplantLayout.from_dict(data, name=path.stem)
     except ImplantError as exc:

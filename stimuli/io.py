@@ -305,27 +305,69 @@ STAGING_MARKER = ".confocal-staging.json"
 
 
 @contextmanager
-def staged_folder(out_dir: str | os.PathLike) -> Iterator[Path]:
-    """Yield a staging folder beside ``out_dir``; rename it onto ``out_dir`` if the block succeeds.
+def staged_folder(
+    out_dir: str | os.PathLike, *, what: str = "the output", merge: bool = False
+) -> Iterator[Path]:
+    """Yield a staging folder beside ``out_dir``; move what it holds into ``out_dir`` on success.
 
-    ``out_dir`` must be missing or an empty folder: an existing non-empty folder is never
-    replaced (this checks before any work, and the kernel's rename refuses a non-empty target).
-    On any exception the staging folder is removed and ``out_dir`` is left as it was.
+    A command that writes several files (a scan's ``scan.json`` with its images) writes them
+    here first, so a failure (a full disk, a stop signal, a bug) leaves ``out_dir`` as it was,
+    and no folder when it did not exist: neither a ``scan.json`` without its images nor an empty
+    folder. Without ``merge``, ``out_dir`` must be missing or an empty folder: an existing
+    non-empty folder is never replaced (checked before any work; the kernel's rename refuses a
+    non-empty target too), and the new folder appears whole in one rename. With ``merge`` (a
+    dataset that an export updates), each staged file is renamed into the existing folder and
+    the folder's other files are kept.
+
+    Parameters
+    ----------
+    out_dir : str or path-like
+        The folder the command writes.
+    what : str
+        What is written, for the message (``"the scan"``).
+    merge : bool
+        Merge into an existing folder instead of refusing it.
 
     Raises
     ------
     InputError
-        ``out_dir`` is a file, or a folder that is not empty.
+        ``out_dir`` is a file, or (without ``merge``) a folder that is not empty; or the disk
+        filled up (ENOSPC, EDQUOT), with a message naming ``out_dir``.
     """
     out = Path(out_dir)
-    check_missing_or_empty(out)
+    if merge:
+        if out.exists() and not out.is_dir():
+            raise InputError(f"{out}: --out exists and is not a folder")
+    else:
+        check_missing_or_empty(out)
+    created = None  # the top-most missing parent: removed again if nothing was written
+    for parent in [out.parent, *out.parent.parents]:
+        if parent.exists():
+            break
+        created = parent
     tmp = new_staging_folder(out)
     try:
         yield tmp
-        swap_in(tmp, out)
-    except BaseException:
-        shutil.rmtree(tmp, ignore_errors=True)
+        if merge and out.exists():
+            (tmp / STAGING_MARKER).unlink(missing_ok=True)
+            staged = sorted(p for p in tmp.rglob("*") if not p.is_dir())
+            for f in staged:  # make every folder first (that needs space), then rename the files
+                (out / f.relative_to(tmp)).parent.mkdir(parents=True, exist_ok=True)
+            for f in staged:
+                os.replace(f, out / f.relative_to(tmp))
+        else:
+            swap_in(tmp, out)
+    except BaseException as exc:
+        if created is not None and not out.exists():
+            shutil.rmtree(created, ignore_errors=True)
+        if isinstance(exc, OSError) and exc.errno in (errno.ENOSPC, errno.EDQUOT):
+            raise InputError(
+                f"{out}: the disk is full ({exc.strerror or exc}) while writing {what}; the "
+                f"partial output was removed and {out} was left as it was"
+            ) from None
         raise
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
 
 
 def new_staging_folder(out_dir: str | os.PathLike) -> Path:

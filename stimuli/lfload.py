@@ -44,6 +44,7 @@ from __future__ import annotations
 
 import json
 import logging
+import math
 import os
 import re
 import tomllib
@@ -81,6 +82,8 @@ def _read_toml(path: Path) -> dict:
             return tomllib.load(f)
     except tomllib.TOMLDecodeError as exc:
         raise InputError(f"{path}: not valid TOML ({exc})") from None
+    except RecursionError:  # tomllib parses nested tables and arrays recursively
+        raise InputError(f"{path}: not valid TOML (tables or arrays nested too deeply)") from None
 
 
 def _find_toml(path: Path) -> Path | None:
@@ -316,12 +319,45 @@ def _order_axes(a: np.ndarray, axes: str | None, path: Path) -> np.ndarray:
     return a
 
 
+def _check_npy_header(f, stored_bytes: int, where: str) -> None:
+    """Refuse an ``.npy`` stream whose header claims more data than is stored or fits in memory.
+
+    ``np.load`` allocates the array the header describes before reading it, so a corrupt or
+    hostile header (``shape`` of 10^14 values) would end in a ``MemoryError`` traceback, or in
+    the kernel killing the process. ``stored_bytes`` is the file's (or zip member's) size.
+    """
+    from numpy.lib import format as npy_format
+
+    from stimuli.resources import check_memory
+
+    try:
+        version = npy_format.read_magic(f)
+        if version == (1, 0):
+            shape, _, dtype = npy_format.read_array_header_1_0(f)
+        else:
+            shape, _, dtype = npy_format.read_array_header_2_0(f)
+    except (ValueError, EOFError, SyntaxError, TypeError) as exc:
+        raise InputError(f"{where}: not a readable .npy array header ({exc})") from None
+    n_values = math.prod(int(d) for d in shape)
+    need = n_values * dtype.itemsize
+    have = stored_bytes - f.tell()
+    if need > have:
+        raise InputError(
+            f"{where}: the header claims shape {tuple(shape)} ({need} bytes of data) but the "
+            f"file holds {max(have, 0)} bytes; the file is truncated or damaged"
+        )
+    # float32 working copy on top of the stored array (uint16 and bool light fields convert)
+    check_memory(need + 4 * n_values, f"{where} (shape {tuple(shape)})")
+
+
 def _load_array_file(
     path: Path, bit_depth: int | None = None, axes: str | None = None
 ) -> tuple[np.ndarray, dict]:
     meta: dict = {}
     try:
         if path.suffix.lower() == ".npy":
+            with open(path, "rb") as f:
+                _check_npy_header(f, os.fstat(f.fileno()).st_size, str(path))
             a = np.load(path, allow_pickle=False)
         else:
             with np.load(path, allow_pickle=False) as z:
@@ -329,9 +365,14 @@ def _load_array_file(
                 key = "views" if "views" in keys else (keys[0] if len(keys) == 1 else None)
                 if key is None:
                     raise InputError(f"{path}: .npz must hold an array 'views' (found keys {keys})")
+                member = f"{key}.npy"
+                with z.zip.open(member) as f:
+                    _check_npy_header(f, z.zip.getinfo(member).file_size, f"{path} ({key})")
                 a = z[key]
                 if "geometry" in keys:
                     meta["geometry"] = json.loads(str(z["geometry"]))
+    except InputError:
+        raise
     except (OSError, ValueError, EOFError, zipfile.BadZipFile, zlib.error) as exc:
         # a truncated .npz is a BadZipFile; a damaged member a zlib.error or EOFError
         raise InputError(f"{path}: not a readable light-field array ({exc})") from None

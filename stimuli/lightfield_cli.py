@@ -39,7 +39,7 @@ import typer
 
 from stimuli.build import parse_threshold
 from stimuli.errors import InputError
-from stimuli.resources import check_memory, finite_option
+from stimuli.resources import MAX_SEED, check_memory, finite_option
 
 __all__ = [
     "register",
@@ -113,6 +113,7 @@ _Background = Annotated[
     float,
     typer.Option(
         "--background",
+        callback=finite_option(0.0, 1.0),
         help="Grey level (0-1) that views with an alpha channel are composited over; use the "
         "protocol's background (jung2015: 0, black).",
     ),
@@ -474,7 +475,7 @@ def scan_command(
     from rich.progress import Progress
 
     from stimuli.declutter import in_focus_mask
-    from stimuli.io import atomic_path, save_png
+    from stimuli.io import atomic_path, save_png, staged_folder
     from stimuli.planes import (
         SCAN_METHODS,
         auto_binning,
@@ -512,39 +513,41 @@ def scan_command(
                     bar.advance(task)
             scan = scan_result(lf, ds, scores, binning=b)
     _warn_lines(caught)
-    out.mkdir(parents=True, exist_ok=True)
-    rows = scan.rows()
-    write_table(out / "planes.csv", rows, list(rows[0]))
-    with atomic_path(out / "scan.json") as tmp:
-        tmp.write_text(
-            json.dumps(
-                # the light field's file name only: no host path in a file that gets shared
-                {"source": Path(lf.source).name, "declutter": declutter_mode, **scan.to_dict()},
-                indent=1,
+    # Written whole or not at all: a full disk or a stop leaves --out as it was.
+    with staged_folder(out, what="the scan") as tmp:
+        rows = scan.rows()
+        write_table(tmp / "planes.csv", rows, list(rows[0]))
+        with atomic_path(tmp / "scan.json") as part:
+            part.write_text(
+                json.dumps(
+                    # the light field's file name only: no host path in a file that gets shared
+                    {"source": Path(lf.source).name, "declutter": declutter_mode}
+                    | scan.to_dict(),
+                    indent=1,
+                )
             )
-        )
-    plot_scores(scan, out / "scores.png")
-    save_png(lf.centre_view(), out / "centre.png")
-    for k, p in enumerate(scan.peaks):
-        img = refocus(lf, p.disparity_px)
-        focus = in_focus_mask(lf, p.disparity_px) if declutter_mode == "depth" else None
-        edges, cells, t = declutter_and_compress(
-            img, shape, threshold=threshold, edge_ratio=edge_ratio, focus_mask=focus
-        )
-        stem = f"plane{k + 1:02d}"
-        save_png(img, out / f"{stem}_confocal.png")
-        save_png(edges, out / f"{stem}_edges.png")
-        save_png(cells, out / f"{stem}_grid.png")
-        where = f"{p.depth_m:.3g} m, " if p.depth_m is not None else ""
-        extra = (
-            f", support {p.support:.3f}, evidence {p.evidence:.3g}"
-            if math.isfinite(p.support)
-            else ""
-        )
-        typer.echo(
-            f"{stem}: {where}disparity {p.disparity_px:.3f} px/view, score {p.score:.3f}"
-            f"{extra}, threshold {t:.4g} ({declutter_mode})"
-        )
+        plot_scores(scan, tmp / "scores.png")
+        save_png(lf.centre_view(), tmp / "centre.png")
+        for k, p in enumerate(scan.peaks):
+            img = refocus(lf, p.disparity_px)
+            focus = in_focus_mask(lf, p.disparity_px) if declutter_mode == "depth" else None
+            edges, cells, t = declutter_and_compress(
+                img, shape, threshold=threshold, edge_ratio=edge_ratio, focus_mask=focus
+            )
+            stem = f"plane{k + 1:02d}"
+            save_png(img, tmp / f"{stem}_confocal.png")
+            save_png(edges, tmp / f"{stem}_edges.png")
+            save_png(cells, tmp / f"{stem}_grid.png")
+            where = f"{p.depth_m:.3g} m, " if p.depth_m is not None else ""
+            extra = (
+                f", support {p.support:.3f}, evidence {p.evidence:.3g}"
+                if math.isfinite(p.support)
+                else ""
+            )
+            typer.echo(
+                f"{stem}: {where}disparity {p.disparity_px:.3f} px/view, score {p.score:.3f}"
+                f"{extra}, threshold {t:.4g} ({declutter_mode})"
+            )
     span = f"{float(np.min(ds)):.4g}..{float(np.max(ds)):.4g} px/view"
     typer.echo(f"{len(scan.peaks)} object plane(s) in {len(ds)} planes ({span}); wrote {out}")
 
@@ -663,7 +666,9 @@ def synth_command(
     size: Annotated[str, typer.Option("--size", help="View size COLSxROWS (paper: 385x308).")] = (
         "385x308"
     ),
-    seed: Annotated[int, typer.Option("--seed", min=0, help="Seed of the textures.")] = 0,
+    seed: Annotated[
+        int, typer.Option("--seed", min=0, max=MAX_SEED, help="Seed of the textures.")
+    ] = 0,
 ) -> None:
     """Write the paper's simulated three-plane scene (Fig. 10)."""
     from stimuli.io import atomic_path, save_png

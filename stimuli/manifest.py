@@ -126,8 +126,16 @@ def check_object_id(object_id: str, *, where: str) -> str:
     """Return ``object_id`` if it is a safe folder name, else raise naming ``where``.
 
     Ids are used as folder and file names, so they may hold letters, digits, ``.``, ``_`` and
-    ``-`` and must start with a letter or digit.
+    ``-``, must start with a letter or digit, and have at most
+    :data:`stimuli.resources.MAX_ID_CHARS` characters.
     """
+    from stimuli.resources import MAX_ID_CHARS
+
+    if isinstance(object_id, str) and len(object_id) > MAX_ID_CHARS:
+        raise InputError(
+            f"{where}: object id must be at most {MAX_ID_CHARS} characters, got "
+            f"{len(object_id)} ({object_id[:20]!r}...)"
+        )
     if not isinstance(object_id, str) or not _ID_RE.match(object_id):
         raise InputError(
             f"{where}: object id must be letters, digits, '.', '_' or '-' (starting with a letter "

@@ -12,7 +12,27 @@ import os
 
 from stimuli.errors import InputError
 
-__all__ = ["available_memory_bytes", "check_memory", "format_bytes", "finite_option"]
+#: Largest seed a command accepts (ours): SQLite's INTEGER and NumPy's int64 hold it, so every
+#: seed can be logged and typed again; a larger one is no more random.
+MAX_SEED: int = 2**63 - 1
+
+#: Most depth planes of the viewer's startup scan (ours): the paper scans 200; at 10^5 the steps
+#: are far below what a refocus can resolve, and the count only sets the time of the scan.
+MAX_PLANES: int = 100_000
+
+#: Longest subject, rater or object id (ours): ids become file and folder names and table
+#: cells; 64 characters is far more than any study's naming scheme needs.
+MAX_ID_CHARS: int = 64
+
+__all__ = [
+    "MAX_ID_CHARS",
+    "MAX_PLANES",
+    "MAX_SEED",
+    "available_memory_bytes",
+    "check_memory",
+    "format_bytes",
+    "finite_option",
+]
 
 
 def available_memory_bytes() -> int:
@@ -59,6 +79,10 @@ def check_memory(needed_bytes: float, what: str) -> None:
         Naming ``what``, the memory needed and the memory available.
     """
     avail = available_memory_bytes()
+    try:  # an int from a typed count (--planes 10**308) can be too large for a float
+        needed_bytes = float(needed_bytes)
+    except OverflowError:
+        needed_bytes = math.inf
     if not math.isfinite(needed_bytes) or needed_bytes > avail:
         raise InputError(
             f"{what} needs about {format_bytes(needed_bytes)} of memory but only "

@@ -717,8 +717,68 @@ ROWS: list[Row] = [
       "not a confocal trial log"),
     R("session run", "new session without a reason",
       lambda w, t: session(w, t, "--new-session", " "), "--new-session", "reason"),
+    # hostile values: nesting, headers and numbers that would exhaust the stack or memory
+    R("session run", "protocol nested 10000 deep",
+      lambda w, t: session(w, t, proto=protocol(t, "x = " + "[" * 10000 + "]" * 10000)),
+      "p.toml", "nested too deeply"),
+    R("session run", "protocol with 10000 nested inline tables",
+      lambda w, t: session(w, t, proto=protocol(t, "x = " + "{a=" * 10000 + "1" + "}" * 10000)),
+      "p.toml", "nested too deeply"),
+    R("lightfield scan", "npy header claims 10^14 values",
+      lambda w, t: scan(w, t, lf=_huge_npy(t / "huge.npy")), "huge.npy", "header claims"),
+    R("lightfield scan", "npz member header claims 10^14 values",
+      lambda w, t: scan(w, t, lf=_huge_npz(t)), "huge.npz", "header claims"),
+    R("analyze power", "sims 10^12",
+      lambda w, t: ["analyze", "power", "--odds-ratio", "2", "--sims", str(10**12)], "--sims",
+      "1000000"),
+    R("analyze power", "sims 1e12",
+      lambda w, t: ["analyze", "power", "--odds-ratio", "2", "--sims", "1e12"], "--sims"),
+    R("analyze power", "zero processes",
+      lambda w, t: ["analyze", "power", "--odds-ratio", "2", "--processes", "0"], "--processes"),
+    R("analyze power", "unreachable cluster",
+      lambda w, t: ["analyze", "power", "--odds-ratio", "2", "--sims", "1", "--cluster",
+                    "tcp://127.0.0.1:9"], "--cluster", "127.0.0.1:9"),
+    R("score", "no terminal", lambda w, t: ["score", w.db, "--rater", "B"], "not a terminal"),
+    R("session run", "subject id of 300 characters",
+      lambda w, t: session(w, t, subject="S" * 300), "--subject", "at most 64"),
+    R("score", "rater id of 300 characters", lambda w, t: ["score", w.db, "--rater", "R" * 300],
+      "--rater", "at most 64"),
+    R("stimuli build", "object id of 200 characters",
+      lambda w, t: build(w, t, _long_object_id(t, w)), "at most 64"),
+    R("stimuli build", "threshold 1e308", lambda w, t: build(w, t, w.pairs, "--threshold", "1e308"),
+      "--threshold", "[0, 1]"),
+    R("lightfield scan", "threshold 1e308", lambda w, t: scan(w, t, "--threshold", "1e308"),
+      "--threshold", "[0, 1]"),
 ]
 # fmt: on
+
+
+def _long_object_id(t: Path, w: World) -> Path:
+    p = pairs_with(t, w)
+    first = sorted(d for d in p.iterdir() if d.is_dir())[0]
+    first.rename(p / ("o" * 200))
+    return p
+
+
+def _huge_npy(path: Path) -> Path:
+    """An ``.npy`` file whose header claims 10^14 float32 values; 1 KiB of data follows."""
+    from numpy.lib import format as npy_format
+
+    with open(path, "wb") as f:
+        header = {"descr": "<f4", "fortran_order": False, "shape": (10**4, 10**4, 10**3, 10**3)}
+        npy_format.write_array_header_1_0(f, header)
+        f.write(bytes(1024))
+    return path
+
+
+def _huge_npz(t: Path) -> Path:
+    import zipfile
+
+    npy = _huge_npy(t / "member.npy")
+    with zipfile.ZipFile(t / "huge.npz", "w") as z:
+        z.write(npy, "views.npy")
+    npy.unlink()
+    return t / "huge.npz"
 
 
 def _objects_csv(t: Path, w: World, text: str) -> Path:

@@ -26,6 +26,7 @@ from experiment.session_cli import (
     SkipTimingCheckOption,
     report_if_complete,
 )
+from stimuli.resources import MAX_ID_CHARS, MAX_SEED
 
 __all__ = ["register", "active_app", "SEARCHERS", "PRESENTERS", "subject_phosphenes"]
 
@@ -60,7 +61,9 @@ def run_command(
             "sim:planes / sim:ordered (simulated, headless).",
         ),
     ] = "sim:planes",
-    seed: Annotated[int | None, typer.Option("--seed", min=0, help="Root seed.")] = None,
+    seed: Annotated[
+        int | None, typer.Option("--seed", min=0, max=MAX_SEED, help="Root seed.")
+    ] = None,
     screen: ScreenOption = None,
     fullscreen: FullscreenOption = True,
     presenter: PresenterOption = "process",
@@ -82,6 +85,12 @@ def run_command(
         raise ConfocalError(f"--searcher must be one of {', '.join(SEARCHERS)}, got {searcher!r}")
     if not rater.strip():
         raise ConfocalError("--rater must not be blank")
+    for option, value in (("--subject", subject), ("--rater", rater)):
+        if not value.strip() or len(value) > MAX_ID_CHARS:
+            raise ConfocalError(
+                f"{option} must be 1 to {MAX_ID_CHARS} characters, got {len(value)} "
+                f"({value[:20]!r})"
+            )
     if presenter not in PRESENTERS:
         raise ConfocalError(
             f"--presenter must be one of {', '.join(PRESENTERS)}, got {presenter!r}"

@@ -166,6 +166,8 @@ def load_monitor(name_or_path: str | Path) -> tuple[MonitorProfile, dict[str, An
         data = tomllib.loads(raw.decode("utf-8"))
     except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
         raise MonitorError(f"{p}: not valid TOML ({exc})") from None
+    except RecursionError:  # tomllib parses nested tables and arrays recursively
+        raise MonitorError(f"{p}: not valid TOML (tables or arrays nested too deeply)") from None
     unknown = sorted(set(data) - {"monitor"})
     if unknown or "monitor" not in data:
         raise MonitorError(

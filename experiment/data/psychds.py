@@ -559,16 +559,19 @@ def export_dataset(
     part_doc = _participants_json(columns)
     undocumented = [c for c, d in part_doc.items() if d.get("Undocumented")]
 
-    # everything is built; now write (each file atomically)
-    for path, text in files:
-        _write(path, text)
-    _write(out / "participants.tsv", participants)
-    _write(out / "documentation" / "participants.json", json.dumps(part_doc, indent=2) + "\n")
-    _write(
-        sessions_path,
-        json.dumps({"trial_log": data.name, "sessions": merged_records}, indent=2) + "\n",
-    )
-    _write(desc_path, json.dumps(desc, indent=2) + "\n")
+    # everything is built; now write, all files or none (a full disk leaves the old dataset)
+    from stimuli.io import staged_folder
+
+    with staged_folder(out, what="the dataset", merge=True) as tmp:
+        for path, text in files:
+            _write(tmp / path.relative_to(out), text)
+        _write(tmp / "participants.tsv", participants)
+        _write(tmp / "documentation" / "participants.json", json.dumps(part_doc, indent=2) + "\n")
+        _write(
+            tmp / sessions_path.relative_to(out),
+            json.dumps({"trial_log": data.name, "sessions": merged_records}, indent=2) + "\n",
+        )
+        _write(tmp / desc_path.relative_to(out), json.dumps(desc, indent=2) + "\n")
     return {
         "files": [str(p) for p, _ in files],
         "sessions": len(sessions),

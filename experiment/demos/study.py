@@ -35,6 +35,7 @@ from __future__ import annotations
 
 import json
 import multiprocessing
+import os
 import time
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import asdict, dataclass, field
@@ -46,6 +47,7 @@ import typer
 
 from experiment.errors import ConfocalError
 from experiment.outputs import require_missing_or_empty
+from stimuli.resources import MAX_SEED
 
 __all__ = [
     "DemoResult",
@@ -312,7 +314,14 @@ def run_demo(
     # progress bars start a thread; where fork is unavailable it is made afterwards, in turn.
     pool, knowledge_job = None, None
     if needs_knowledge and "fork" in multiprocessing.get_all_start_methods():
-        pool = ProcessPoolExecutor(1, mp_context=multiprocessing.get_context("fork"))
+        from experiment.signals import worker_init
+
+        pool = ProcessPoolExecutor(
+            1,
+            mp_context=multiprocessing.get_context("fork"),
+            initializer=worker_init,
+            initargs=(os.getpid(),),
+        )
         knowledge_job = pool.submit(
             make_knowledge_set, paths["knowledge_pairs"], paths["knowledge"], kseed
         )
@@ -342,6 +351,11 @@ def run_demo(
                     make_knowledge_set(paths["knowledge_pairs"], paths["knowledge"], kseed)
                 bars.update(task, 1, 1)
                 _lap(t0, "knowledge_wait", seconds, cpu_seconds)
+        except BaseException:
+            if pool is not None:  # stopped or failed: do not wait for the exemplars
+                for proc in list((getattr(pool, "_processes", None) or {}).values()):
+                    proc.terminate()
+            raise
         finally:
             if pool is not None:
                 pool.shutdown(cancel_futures=True)
@@ -604,7 +618,7 @@ def register(app: typer.Typer) -> None:
         subjects: Annotated[
             int, typer.Option("--subjects", min=1, help="Simulated subjects (paper: 6).")
         ] = DEFAULT_SUBJECTS,
-        seed: Annotated[int, typer.Option("--seed", min=0, help="Root seed.")] = 0,
+        seed: Annotated[int, typer.Option("--seed", min=0, max=MAX_SEED, help="Root seed.")] = 0,
         observer: Annotated[
             str,
             typer.Option(
@@ -619,6 +633,7 @@ def register(app: typer.Typer) -> None:
             typer.Option(
                 "--knowledge-seed",
                 min=0,
+                max=MAX_SEED,
                 help="Seed of the exemplar observer's knowledge set (default: --seed + 1).",
             ),
         ] = None,

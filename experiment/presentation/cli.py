@@ -11,6 +11,7 @@ and score them, blind to the first rater's scores; each score is appended to the
 
 from __future__ import annotations
 
+import sys
 from pathlib import Path
 from typing import Annotated
 
@@ -18,7 +19,7 @@ import numpy as np
 import typer
 
 from experiment.errors import ConfocalError
-from stimuli.resources import check_memory, finite_option
+from stimuli.resources import MAX_ID_CHARS, MAX_SEED, check_memory, finite_option
 
 __all__ = ["register", "load_stimulus", "geometry_from_options", "pending_for_rater"]
 
@@ -182,7 +183,9 @@ def register(app: typer.Typer) -> None:
         phosphene_spacing_deg: Annotated[
             float | None, typer.Option(callback=_positive, help="Degrees.")
         ] = None,
-        seed: Annotated[int, typer.Option(min=0, help="Seed of the dropout pattern.")] = 0,
+        seed: Annotated[
+            int, typer.Option(min=0, max=MAX_SEED, help="Seed of the dropout pattern.")
+        ] = 0,
         implant: Annotated[
             str | None,
             typer.Option(
@@ -286,6 +289,12 @@ def register(app: typer.Typer) -> None:
             + (f" -> {screenshot}" if screenshot is not None else "")
         )
 
+    def _isatty(f) -> bool:
+        try:
+            return f is not None and f.isatty()
+        except (AttributeError, ValueError):  # replaced or closed stream
+            return False
+
     @app.command("score")
     def score(
         log_path: Annotated[Path, typer.Argument(help="The study's trial log (SQLite).")],
@@ -305,12 +314,29 @@ def register(app: typer.Typer) -> None:
             raise ConfocalError(f"{log_path}: trial log not found")
         if not rater.strip() or rater != rater.strip():
             raise ConfocalError(f"--rater must be a name without surrounding spaces, got {rater!r}")
+        if len(rater) > MAX_ID_CHARS:
+            raise ConfocalError(
+                f"--rater must be at most {MAX_ID_CHARS} characters, got {len(rater)} "
+                f"({rater[:20]!r}...)"
+            )
         with TrialLog(log_path, readonly=True) as ro:  # check before the log is opened to write
             ids = [s["session_id"] for s in ro.sessions()]
-        if session_id is not None and session_id not in ids:
+            if session_id is not None and session_id not in ids:
+                raise ConfocalError(
+                    f"{log_path}: --session {session_id} does not exist; expected one of "
+                    f"{', '.join(map(str, ids)) or '(no sessions yet)'}"
+                )
+            to_score = pending_for_rater(
+                ro, rater, session_id=session_id, include_training=include_training
+            )
+        # Scoring is interactive: without a terminal (a pipe, cron, a CI job) the screen would
+        # wait forever for keys that never come.
+        no_tty = [n for n, f in (("stdin", sys.stdin), ("stdout", sys.stdout)) if not _isatty(f)]
+        if to_score and no_tty:
             raise ConfocalError(
-                f"{log_path}: --session {session_id} does not exist; expected one of "
-                f"{', '.join(map(str, ids)) or '(no sessions yet)'}"
+                f"score: {' and '.join(no_tty)} {'is' if len(no_tty) == 1 else 'are'} not a "
+                f"terminal; {len(to_score)} trial(s) wait for {rater!r}: run 'confocal score' "
+                "in an interactive terminal"
             )
         with TrialLog(log_path) as log:
             pending = pending_for_rater(

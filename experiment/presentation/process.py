@@ -313,6 +313,29 @@ def main(argv: list[str] | None = None) -> int:
 # -- the console's side -----------------------------------------------------------------------
 
 
+def _child_setup(parent_pid: int) -> Callable[[], None]:
+    """Return the presenter's ``preexec_fn``: die with this process; leave Ctrl-C to it.
+
+    A SIGKILLed session runs no ``finally``, so only the kernel can close the subject's window
+    (``PR_SET_PDEATHSIG``). SIGINT is ignored in the child (the setting survives ``exec``, and
+    Python then installs no ``KeyboardInterrupt`` handler): a terminal's Ctrl-C reaches the
+    whole process group, and the session stops the presenter itself after logging the stop.
+    The imports happen here, in the parent: importing between ``fork`` and ``exec`` can hang.
+    """
+
+    import signal
+
+    from experiment.signals import _prctl, die_with_parent
+
+    _prctl()  # load libc's prctl now: no dlopen between fork and exec
+
+    def setup() -> None:
+        die_with_parent(parent_pid)
+        signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+    return setup
+
+
 class RemoteDisplay:
     """A :class:`~experiment.interfaces.Display` that drives a presenter process.
 
@@ -420,6 +443,7 @@ class RemoteDisplay:
                 text=True,
                 encoding="utf-8",
                 bufsize=1,
+                preexec_fn=_child_setup(os.getpid()) if sys.platform.startswith("linux") else None,
             )
         finally:
             if err is not None:

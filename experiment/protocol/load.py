@@ -41,6 +41,8 @@ def load_protocol(path: str | Path) -> ProtocolSpec:
         data = tomllib.loads(raw.decode("utf-8"))
     except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
         raise ProtocolError(f"{p}: not valid TOML ({exc})") from None
+    except RecursionError:  # tomllib parses nested tables and arrays recursively
+        raise ProtocolError(f"{p}: not valid TOML (tables or arrays nested too deeply)") from None
     try:
         return ProtocolSpec.from_dict(
             data, source_path=str(p), source_sha256=hashlib.sha256(raw).hexdigest()

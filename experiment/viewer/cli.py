@@ -17,6 +17,7 @@ from typing import Annotated
 import typer
 
 from experiment.errors import ConfocalError
+from stimuli.resources import MAX_PLANES, finite_option
 
 __all__ = ["register", "view_command"]
 
@@ -66,10 +67,13 @@ def view_command(
     ] = "auto",
     size: Annotated[str, typer.Option(help="Frame size WIDTHxHEIGHT.")] = "1080x720",
     disparity: Annotated[
-        float | None, typer.Option(help="Start depth, px per view step (default: nearest plane).")
+        float | None,
+        typer.Option(
+            callback=finite_option(), help="Start depth, px per view step (default: nearest plane)."
+        ),
     ] = None,
     plane: Annotated[
-        int | None, typer.Option(help="Start at detected plane N (1 = nearest).")
+        int | None, typer.Option(min=1, help="Start at detected plane N (1 = nearest).")
     ] = None,
     zoom: Annotated[str | None, typer.Option(help="Zoom box x,y,w,h (view pixels).")] = None,
     levels: Annotated[int, typer.Option(help="2: binary edges; 4 or 8: grey levels.")] = 2,
@@ -81,16 +85,26 @@ def view_command(
         str | None, typer.Option(help="Confocal extension: marked point x,y (view pixels).")
     ] = None,
     extension: Annotated[
-        float, typer.Option(help="Extension: focus this many px/view nearer than the marker.")
+        float,
+        typer.Option(
+            callback=finite_option(),
+            help="Extension: focus this many px/view nearer than the marker.",
+        ),
     ] = 0.0,
     track_bright: Annotated[
         bool, typer.Option(help="Extension: follow the brightest spot as the marker.")
     ] = False,
     average: Annotated[bool, typer.Option(help="Temporal averaging of the implant view.")] = False,
     px_per_deg: Annotated[
-        float | None, typer.Option(help="Draw the implant's field of view at this px/deg.")
+        float | None,
+        typer.Option(
+            callback=finite_option(0.0, lo_open=True),
+            help="Draw the implant's field of view at this px/deg.",
+        ),
     ] = None,
-    planes: Annotated[int, typer.Option(help="Planes of the startup depth scan.")] = 100,
+    planes: Annotated[
+        int, typer.Option(min=3, max=MAX_PLANES, help="Planes of the startup depth scan.")
+    ] = 100,
     script: Annotated[
         Path | None, typer.Option(help="JSON-lines events to apply (one per frame in a window).")
     ] = None,
@@ -100,8 +114,14 @@ def view_command(
     shots: Annotated[
         Path | None, typer.Option(help="Window: save a PNG after each scripted event here.")
     ] = None,
-    seconds: Annotated[float | None, typer.Option(help="Window: close after this long.")] = None,
-    video_fps: Annotated[float, typer.Option(help="Video: frames per second (0: keys).")] = 0.0,
+    seconds: Annotated[
+        float | None,
+        typer.Option(callback=finite_option(0.0), help="Window: close after this long."),
+    ] = None,
+    video_fps: Annotated[
+        float,
+        typer.Option(callback=finite_option(0.0), help="Video: frames per second (0: keys)."),
+    ] = 0.0,
     p2p: Annotated[
         str | None,
         typer.Option(

@@ -1,0 +1,147 @@
+"""Stop a command cleanly on SIGTERM or SIGINT, and let no worker process outlive its parent.
+
+A terminal's Ctrl-C (SIGINT) or a job scheduler's ``kill`` (SIGTERM) must not leave a trial log
+mid-transaction or a ``.tmp-*`` folder beside the output. :func:`stop_on_signals` turns either
+signal into a :class:`Stopped` exception raised in the main thread, so every ``finally:`` block
+and context manager on the way up runs (the trial log rolls back the open trial and closes;
+the stimulus, scan and report writers remove their temporary folders). The ``confocal`` root
+catches it and prints one line; the exit status is 128 + the signal number (130 for SIGINT,
+143 for SIGTERM), the shell's convention.
+
+:class:`Stopped` derives from :class:`BaseException`, like :class:`KeyboardInterrupt`, so that an
+``except Exception`` meant for bad data never swallows it; it is not a ``KeyboardInterrupt``
+because click turns those into "Aborted!" with status 1 before the root could name the signal.
+
+:func:`die_with_parent` covers the case no handler can, a SIGKILLed parent: the presenter
+subprocess and the demo's worker pool ask Linux to kill them when their parent dies.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import signal
+import sys
+import threading
+from collections.abc import Callable, Iterator
+
+__all__ = ["STOP_SIGNALS", "Stopped", "die_with_parent", "stop_on_signals", "worker_init"]
+
+#: The signals that stop a command.
+STOP_SIGNALS: tuple[int, ...] = (signal.SIGTERM, signal.SIGINT)
+
+
+class Stopped(BaseException):  # noqa: N818 - a stop, like KeyboardInterrupt, not an error
+    """A stop signal (SIGTERM, SIGINT) arrived; raised in the main thread by the handler.
+
+    Attributes
+    ----------
+    signum : int
+        The signal number.
+    exit_code : int
+        128 + ``signum``: 130 for SIGINT, 143 for SIGTERM.
+    """
+
+    def __init__(self, signum: int) -> None:
+        self.signum = int(signum)
+        self.exit_code = 128 + self.signum
+        super().__init__(f"stopped by {self.name}")
+
+    @property
+    def name(self) -> str:
+        """The signal's name, e.g. ``'SIGTERM'``."""
+        try:
+            return signal.Signals(self.signum).name
+        except ValueError:  # pragma: no cover - only the stop signals are handled
+            return f"signal {self.signum}"
+
+
+def _raise_stopped(signum: int, frame: object) -> None:
+    # Block a second signal while the first unwinds: finally blocks (a rollback, a rmtree of a
+    # temporary folder) must finish, and a repeated Ctrl-C would otherwise cut them short.
+    for s in STOP_SIGNALS:
+        signal.signal(s, signal.SIG_IGN)
+    raise Stopped(signum)
+
+
+@contextlib.contextmanager
+def stop_on_signals() -> Iterator[None]:
+    """Raise :class:`Stopped` in the main thread on SIGTERM or SIGINT while the block runs.
+
+    Outside the main thread (an embedding application) it does nothing: Python only runs
+    signal handlers there. The previous handlers are restored on exit.
+    """
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    old = {s: signal.getsignal(s) for s in STOP_SIGNALS}
+    for s in STOP_SIGNALS:
+        if old[s] is signal.SIG_IGN and s == signal.SIGINT:
+            continue  # started in the background with SIGINT ignored (``cmd &`` in sh): keep it
+        signal.signal(s, _raise_stopped)
+    try:
+        yield
+    finally:
+        for s, h in old.items():
+            signal.signal(s, h if h is not None else signal.SIG_DFL)
+
+
+#: ``PR_SET_PDEATHSIG`` from ``<linux/prctl.h>``: deliver a signal when the parent thread exits.
+_PR_SET_PDEATHSIG = 1
+
+
+_PRCTL: Callable[..., int] | bool | None = None
+
+
+def _prctl() -> Callable[..., int] | None:
+    """Return libc's ``prctl`` (Linux), or None; loaded once, so that a child made by ``fork``
+    calls it without ``dlopen`` (not safe between ``fork`` and ``exec``)."""
+    global _PRCTL
+    if _PRCTL is None and sys.platform.startswith("linux"):
+        import ctypes
+
+        try:
+            _PRCTL = ctypes.CDLL(None, use_errno=True).prctl
+        except (OSError, AttributeError):  # pragma: no cover - no prctl in this C library
+            _PRCTL = False
+    return _PRCTL or None
+
+
+def die_with_parent(parent_pid: int | None = None, sig: int = signal.SIGKILL) -> bool:
+    """Ask the kernel to send ``sig`` to this process when its parent dies (Linux only).
+
+    The same request as :func:`analysis.workers.die_with_parent`, kept here because importing
+    ``analysis`` loads pandas and SciPy, too heavy for a ``preexec_fn`` or the presenter. The
+    kernel tracks the parent *thread*: make children from a thread that lives as long as they
+    should. For a ``preexec_fn``, call :func:`_prctl` once in the parent first.
+
+    Parameters
+    ----------
+    parent_pid : int or None
+        The parent's process id, taken before the child started; when the child's parent is
+        already another process, the child sends ``sig`` to itself.
+    sig : int
+        The signal to receive.
+
+    Returns
+    -------
+    bool
+        True where the request was made (Linux with a C library), False elsewhere.
+    """
+    prctl = _prctl()
+    if prctl is None or prctl(_PR_SET_PDEATHSIG, int(sig), 0, 0, 0) != 0:
+        return False
+    if parent_pid is not None and os.getppid() != parent_pid:
+        os.kill(os.getpid(), sig)
+    return True
+
+
+def worker_init(parent_pid: int | None = None) -> None:
+    """Initialise a pool worker: die with the parent; ignore SIGINT; default SIGTERM.
+
+    A forked worker inherits :func:`stop_on_signals`' handler, and a terminal's Ctrl-C reaches
+    the whole process group; the parent stops its pool itself.
+    """
+    die_with_parent(parent_pid)
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)

@@ -1,0 +1,219 @@
+"""SIGTERM, SIGINT and a SIGKILLed parent: long commands stop cleanly; no worker outlives them.
+
+Each test starts a real ``confocal`` process, waits for a sign that the work has started (a
+printed trial, a temporary folder, worker processes), sends the signal and checks what is
+left: one line on stderr, the exit status 128 + signal, no ``.tmp-`` folder, a readable log.
+"""
+
+from __future__ import annotations
+
+import os
+import signal
+import sqlite3
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from experiment.testing import make_stimulus_set
+
+pytestmark = pytest.mark.skipif(sys.platform != "linux", reason="Linux signals and /proc")
+
+ROOT = Path(__file__).resolve().parents[1]
+
+PROTOCOL = """
+[protocol]
+name = "long"
+
+[[blocks]]
+part = "main"
+objects = "main"
+levels = [1, 2]
+conditions = ["cluttered", "decluttered"]
+"""
+
+
+def _start(args: list, cwd: Path) -> subprocess.Popen:
+    env = dict(os.environ, PYTHONPATH=str(ROOT), COLUMNS="200")
+    return subprocess.Popen(
+        [sys.executable, "-m", "experiment.cli", *map(str, args)],
+        cwd=cwd,
+        env=env,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        # a test run started in the background ignores SIGINT, and children inherit that
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),
+    )
+
+
+def _wait_for(cond, proc: subprocess.Popen, timeout_s: float = 60.0) -> None:
+    end = time.monotonic() + timeout_s
+    while not cond():
+        if proc.poll() is not None:
+            out, err = proc.communicate()
+            pytest.fail(f"the command ended before the signal (exit {proc.returncode}): {err}")
+        if time.monotonic() > end:
+            proc.kill()
+            pytest.fail("the command did not start its work in time")
+        time.sleep(0.05)
+
+
+def _children(pid: int) -> list[int]:
+    out = []
+    for stat in Path("/proc").glob("[0-9]*/stat"):
+        try:
+            fields = stat.read_text().rsplit(")", 1)[1].split()
+        except OSError:
+            continue
+        if int(fields[1]) == pid:
+            out.append(int(stat.parent.name))
+    return out
+
+
+def _alive(pid: int) -> bool:
+    try:
+        state = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0]
+    except OSError:
+        return False
+    return state not in ("Z", "X")  # a zombie has stopped; only its exit status is left
+
+
+def _left_after(pids: list[int], seconds: float) -> list[int]:
+    """The processes still running after up to ``seconds`` (multiprocessing's resource tracker
+    leaves when it reads the end of its pipe, a moment after the parent)."""
+    end = time.monotonic() + seconds
+    while [p for p in pids if _alive(p)] and time.monotonic() < end:
+        time.sleep(0.05)
+    return [p for p in pids if _alive(p)]
+
+
+def _one_line(proc: subprocess.Popen, sig: signal.Signals) -> str:
+    _, err = proc.communicate(timeout=60)
+    assert proc.returncode == 128 + sig, f"exit {proc.returncode}: {err}"
+    lines = [ln for ln in err.splitlines() if ln.strip()]
+    assert len(lines) == 1, err
+    assert "Traceback" not in err
+    assert lines[0] == f"confocal: stopped by {sig.name}; the log is closed, nothing half-written"
+    return lines[0]
+
+
+@pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGINT])
+def test_stop_signal_during_a_session_keeps_the_committed_trials(tmp_path, sig):
+    stim = make_stimulus_set(tmp_path / "stim", n_main=3, n_training=1, levels=(1, 2))
+    proto = tmp_path / "long.toml"
+    proto.write_text(PROTOCOL)
+    db = tmp_path / "study.sqlite"
+    proc = _start(
+        ["session", "run", "--protocol", proto, "--stimuli", stim, "--subject", "S01",
+         "--data", db, "--headless", "--seed", "1", "--hold-s", "0.3", "--progress-every", "1"],
+        tmp_path,
+    )  # fmt: skip
+    assert proc.stdout is not None
+    line = proc.stdout.readline()  # "trial 1/n": a trial is committed
+    assert "trial" in line, line
+    proc.send_signal(sig)
+    _one_line(proc, sig)
+    con = sqlite3.connect(f"file:{db}?mode=ro", uri=True)
+    try:
+        assert con.execute("PRAGMA integrity_check").fetchone()[0] == "ok"
+        n = con.execute("SELECT COUNT(*) FROM trials").fetchone()[0]
+        events = [r[0] for r in con.execute("SELECT kind FROM events")]
+    finally:
+        con.close()
+    assert n >= 1
+    assert "abort" in events
+    assert not list(tmp_path.glob("*-journal")), "a transaction was left open"
+
+
+@pytest.fixture(scope="module")
+def pairs(tmp_path_factory) -> Path:
+    out = tmp_path_factory.mktemp("pairs") / "pairs"
+    made = _start(["stimuli", "synth", "--objects", "20", "--size", "640x480", "--out", out],
+                  out.parent)  # fmt: skip
+    _, err = made.communicate(timeout=120)
+    assert made.returncode == 0, err
+    return out
+
+
+@pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGINT])
+def test_stop_signal_during_a_build_leaves_no_temporary_folder(tmp_path, sig, pairs):
+    out = tmp_path / "set"
+    proc = _start(["stimuli", "build", pairs, "--out", out], tmp_path)
+    _wait_for(lambda: any(tmp_path.glob(".set.tmp-*")), proc)
+    time.sleep(0.2)  # the first stimuli are written into it
+    proc.send_signal(sig)
+    _one_line(proc, sig)
+    assert list(tmp_path.iterdir()) == [], "temporary folder or partial set left"
+
+
+def test_stop_signal_during_power_ends_the_workers(tmp_path):
+    proc = _start(
+        ["analyze", "power", "--odds-ratio", "2", "--sims", "100000", "--subjects", "2",
+         "--processes", "2", "--seed", "1"],
+        tmp_path,
+    )  # fmt: skip
+    _wait_for(lambda: len(_children(proc.pid)) >= 2, proc)
+    workers = _children(proc.pid)
+    time.sleep(0.5)
+    proc.send_signal(signal.SIGTERM)
+    try:
+        _one_line(proc, signal.SIGTERM)
+    finally:
+        left = _left_after(workers, 5.0)
+        for p in left:
+            os.kill(p, signal.SIGKILL)
+    assert not left, f"workers outlived the stopped command: {left}"
+
+
+def test_sigkilled_power_takes_its_workers_with_it(tmp_path):
+    proc = _start(
+        ["analyze", "power", "--odds-ratio", "2", "--sims", "100000", "--subjects", "2",
+         "--processes", "2", "--seed", "1"],
+        tmp_path,
+    )  # fmt: skip
+    _wait_for(lambda: len(_children(proc.pid)) >= 3, proc)  # two workers and the tracker
+    time.sleep(1.0)  # the workers have run their initializer
+    workers = _children(proc.pid)
+    proc.send_signal(signal.SIGKILL)
+    proc.wait(10)
+    left = _left_after(workers, 5.0)
+    for p in left:  # do not leave them computing on a shared machine
+        os.kill(p, signal.SIGKILL)
+    assert not left, f"workers outlived their SIGKILLed parent: {left}"
+
+
+def test_sigkilled_session_takes_its_presenter_with_it(tmp_path):
+    """A RemoteDisplay's child (a stand-in presenter that says ready, then waits) dies with it."""
+    fake = tmp_path / "presenter.py"
+    fake.write_text(
+        "import json, sys, time\n"
+        "print(json.dumps({'event': 'ready', 'protocol': 1}), flush=True)\n"
+        "time.sleep(60)\n"
+    )
+    script = tmp_path / "parent.py"
+    script.write_text(
+        "import sys, time\n"
+        "from experiment.presentation.process import RemoteDisplay\n"
+        f"d = RemoteDisplay({{}}, command=[sys.executable, {str(fake)!r}])\n"
+        "print(d.pid, flush=True)\n"
+        "time.sleep(60)\n"
+    )
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    parent = subprocess.Popen(
+        [sys.executable, str(script)], stdout=subprocess.PIPE, text=True, env=env
+    )
+    assert parent.stdout is not None
+    child = int(parent.stdout.readline())
+    assert _alive(child)
+    parent.send_signal(signal.SIGKILL)
+    parent.wait(10)
+    end = time.monotonic() + 5
+    while _alive(child) and time.monotonic() < end:
+        time.sleep(0.05)
+    alive = _alive(child)
+    if alive:
+        os.kill(child, signal.SIGKILL)
+    assert not alive, "the presenter outlived its SIGKILLed parent"
