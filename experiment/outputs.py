@@ -33,6 +33,7 @@ it only onto a missing or empty folder (``stimuli.io.staged_folder``,
 from __future__ import annotations
 
 import contextlib
+import errno
 import functools
 import json
 import logging
@@ -517,6 +518,12 @@ def _marker_pid(folder: Path) -> int | None:
     return pid if isinstance(pid, int) and not isinstance(pid, bool) else None
 
 
+def _name_pid(suffix: str) -> int | None:
+    """The pid in an aside folder's name suffix ``PID-TOKEN``, or None."""
+    head, sep, _ = suffix.partition("-")
+    return int(head) if sep and head.isdigit() else None
+
+
 def clean_leftovers(out: str | os.PathLike) -> list[str]:
     """Clean staging leftovers of killed runs beside ``out``; return what was done, one per line.
 
@@ -535,7 +542,7 @@ def clean_leftovers(out: str | os.PathLike) -> list[str]:
         if not entry.is_dir() or entry.is_symlink():
             continue
         if name.startswith(f".{out.name}.old-"):
-            pid = _marker_pid(entry)
+            pid = _name_pid(name[len(f".{out.name}.old-") :]) or _marker_pid(entry)
             if pid is not None and _pid_alive(pid):
                 continue
             if not out.exists() and not out.is_symlink():
@@ -616,14 +623,26 @@ class _Output:
         if self.kind != "folder" or self.state != "own" or self.spec.mode != "replace":
             return None
         out = Path(os.path.abspath(self.path))
-        aside = out.parent / f".{out.name}.old-{secrets.token_hex(4)}"
+        # the pid in the name (no file to write: a full disk cannot stop it) tells a later run
+        # whether this run still owns the folder
+        aside = out.parent / f".{out.name}.old-{os.getpid()}-{secrets.token_hex(4)}"
         os.replace(out, aside)
         self.aside = aside
-        with contextlib.suppress(OSError):
-            (aside / STAGING_MARKER).write_text(json.dumps({"pid": os.getpid()}) + "\n", "utf-8")
         return aside
 
     def commit(self) -> None:
+        try:
+            self._commit()
+        except OSError as exc:  # the manifest could not be written: undo, say where
+            self.rollback()
+            if exc.errno in (errno.ENOSPC, errno.EDQUOT):
+                raise OutputFolderError(
+                    f"{self.path}: the disk is full ({exc.strerror or exc}) while finishing the "
+                    f"output; the new output was removed and {self.path} was left as it was"
+                ) from None
+            raise
+
+    def _commit(self) -> None:
         if self.path is None:
             return
         out = Path(self.path)

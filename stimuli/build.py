@@ -1398,8 +1398,9 @@ def build_stimulus_set(
 
     ladder = _ladder(params.working_shape_px, params.windows_px)
     labels = [f"L{lv} {s[1]}x{s[0]} (w{w})" for lv, w, s in ladder]
-    tmp = new_staging_folder(out_dir)
+    tmp = None
     try:
+        tmp = new_staging_folder(out_dir)  # its marker is the set's first write
         (tmp / "contact").mkdir()
         per_object = _map(
             lambda wh: _write_object(wh[0], tmp, params, edge_ratio, inp.root, wh[1], labels),
@@ -1496,7 +1497,8 @@ def build_stimulus_set(
         (tmp / "stimulus_set.json").write_text(json.dumps(meta, indent=2) + "\n", "utf-8")
         swap_in(tmp, out_dir)
     except BaseException as exc:
-        shutil.rmtree(tmp, ignore_errors=True)
+        if tmp is not None:
+            shutil.rmtree(tmp, ignore_errors=True)
         if isinstance(exc, OSError) and exc.errno in (errno.ENOSPC, errno.EDQUOT):
             raise InputError(
                 f"{out_dir}: the disk is full ({exc.strerror or exc}) while writing the stimulus "

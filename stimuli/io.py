@@ -345,8 +345,9 @@ def staged_folder(
         if parent.exists():
             break
         created = parent
-    tmp = new_staging_folder(out)
+    tmp = None
     try:
+        tmp = new_staging_folder(out)  # its marker file is the first write: inside the try
         yield tmp
         if merge and out.exists():
             (tmp / STAGING_MARKER).unlink(missing_ok=True)
@@ -367,7 +368,8 @@ def staged_folder(
             ) from None
         raise
     finally:
-        shutil.rmtree(tmp, ignore_errors=True)
+        if tmp is not None:
+            shutil.rmtree(tmp, ignore_errors=True)
 
 
 def new_staging_folder(out_dir: str | os.PathLike) -> Path:
@@ -379,7 +381,11 @@ def new_staging_folder(out_dir: str | os.PathLike) -> Path:
     out = Path(out_dir)
     out.parent.mkdir(parents=True, exist_ok=True)
     tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.tmp-", dir=out.parent))
-    (tmp / STAGING_MARKER).write_text(json.dumps({"pid": os.getpid()}) + "\n", "utf-8")
+    try:
+        (tmp / STAGING_MARKER).write_text(json.dumps({"pid": os.getpid()}) + "\n", "utf-8")
+    except BaseException:
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise
     return tmp
 
 

@@ -124,7 +124,9 @@ def test_full_disk_leaves_the_previous_output_or_nothing(
     if full.count < nth:  # the command writes fewer files than that: nothing to check
         pytest.skip(f"{command} opened {full.count} file(s) for writing")
     assert code == 2, err
-    lines = [ln for ln in err.splitlines() if ln.strip() and not ln.startswith("note:")]
+    lines = [
+        ln for ln in err.splitlines() if ln.strip() and not ln.startswith(("note:", "warning:"))
+    ]  # the analysis's warnings on these few trials come before the write that fails
     assert len(lines) == 1 and lines[0].startswith("confocal: error:"), err
     assert "disk is full" in lines[0] and str(out) in lines[0], lines[0]
     assert "Traceback" not in err
