@@ -27,9 +27,9 @@ from experiment.active.eventlog import ActiveEventLog
 from experiment.active.searcher import Action, Observation, Searcher
 from experiment.active.task import ActiveSearchSpec, ActiveTrial, plan_trials
 from experiment.clock import Clock, PerfCounterClock
+from experiment.log import ResumeMismatch, SessionComplete, TrialLog
 from experiment.protocol import SCORES, ProtocolError, ProtocolSpec
 from experiment.stimset import ObjectInfo
-from experiment.triallog import ResumeMismatch, SessionComplete, TrialLog
 
 __all__ = ["ActiveSession", "SCENE_OBJECTS", "Scorer", "auto_scorer"]
 

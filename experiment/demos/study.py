@@ -280,12 +280,12 @@ def run_demo(
     from analysis.data import read_trials
     from analysis.pipeline import AnalysisOptions, analyze
     from analysis.report import write_report
+    from experiment.log import TrialLog
     from experiment.observers import OBSERVERS, describe_observer, make_observer
     from experiment.presentation.displays import NullDisplay
     from experiment.protocol import load_protocol
     from experiment.session import Session
     from experiment.stimset import StimulusSet
-    from experiment.triallog import TrialLog
     from stimuli.build import build_stimulus_set
     from stimuli.synth import write_pairs
 

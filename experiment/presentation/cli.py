@@ -299,7 +299,7 @@ def register(app: typer.Typer) -> None:
         ] = False,
     ) -> None:
         """Score logged responses as a second rater, blind to the first rater's scores."""
-        from experiment.triallog import TrialLog
+        from experiment.log import TrialLog
 
         if not log_path.is_file():
             raise ConfocalError(f"{log_path}: trial log not found")

@@ -22,8 +22,8 @@ from experiment.active.searcher import Action, EdgeRecogniser, ScriptedSearcher,
 from experiment.active.session import ActiveSession
 from experiment.active.task import ActiveSearchSpec, plan_trials, task_from_table
 from experiment.clock import FakeClock
+from experiment.log import ResumeMismatch, TrialLog, TrialLogError
 from experiment.protocol import ProtocolError, ProtocolSpec, load_protocol
-from experiment.triallog import ResumeMismatch, TrialLog, TrialLogError
 
 #: A small scene keeps every test in seconds (the shipped protocol uses the paper's 308x385).
 SMALL = {
@@ -382,7 +382,7 @@ _CHILD = textwrap.dedent(
     from experiment.active.session import ActiveSession
     from experiment.clock import FakeClock
     from experiment.protocol import ProtocolSpec
-    from experiment.triallog import TrialLog
+    from experiment.log import TrialLog
 
     db, kill_after, proto = sys.argv[1], int(sys.argv[2]), json.loads(sys.argv[3])
     original = ActiveEventLog.append

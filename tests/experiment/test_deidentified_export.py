@@ -18,8 +18,8 @@ from experiment.data.psychds import (
     identifying_reason,
     parse_dates,
 )
+from experiment.log import TrialLog
 from experiment.testing import make_stimulus_set
-from experiment.triallog import TrialLog
 
 PROTOCOL = """
 [protocol]

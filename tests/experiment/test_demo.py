@@ -17,8 +17,8 @@ from experiment.demos.study import (
     summary_lines,
 )
 from experiment.errors import ConfocalError
+from experiment.log import TrialLog
 from experiment.observers import PAPER_OR_BACKGROUND, PAPER_OR_PER_LOG10_PX, PAPER_X50_CLUTTERED_PX
-from experiment.triallog import TrialLog
 
 
 def test_paper_results_are_the_papers():

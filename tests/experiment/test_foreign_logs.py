@@ -14,8 +14,8 @@ import sqlite3
 import pytest
 
 from experiment import cli
+from experiment.log import APPLICATION_ID, MIGRATIONS, TrialLog, TrialLogError
 from experiment.testing import make_stimulus_set
-from experiment.triallog import APPLICATION_ID, MIGRATIONS, TrialLog, TrialLogError
 
 PROTOCOL = """
 [protocol]

@@ -24,8 +24,8 @@ from experiment.data.psychds import (
     keyword_value,
     parse_participant,
 )
+from experiment.log import TrialLog
 from experiment.testing import make_stimulus_set
-from experiment.triallog import TrialLog
 
 #: Psych-DS 1.x schema, objects/files/Datafile: fileRegex.
 FILE_REGEX = re.compile(r"([a-z]+-[a-zA-Z0-9]+)(_[a-z]+-[a-zA-Z0-9]+)*_data\.csv")

@@ -12,13 +12,13 @@ import pytest
 from experiment import cli
 from experiment.clock import FakeClock
 from experiment.interfaces import Answer, FlipRecord
+from experiment.log import TrialLog
 from experiment.presentation.cli import pending_for_rater
 from experiment.protocol import load_protocol
 from experiment.scoring import cohen_kappa, kappa, kappa_interval
 from experiment.session import Session
 from experiment.stimset import StimulusSet
 from experiment.testing import make_stimulus_set
-from experiment.triallog import TrialLog
 
 PROTOCOL = """
 [protocol]

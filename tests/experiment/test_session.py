@@ -11,12 +11,12 @@ import pytest
 
 from experiment.clock import FakeClock
 from experiment.interfaces import Answer, FlipRecord
+from experiment.log import ResumeMismatch, SessionComplete, SessionLocked, TrialLog
 from experiment.presentation.displays import NullDisplay
 from experiment.protocol import load_protocol
 from experiment.session import Session
 from experiment.stimset import StimulusSet, StimulusSetError
 from experiment.testing import make_stimulus_set
-from experiment.triallog import ResumeMismatch, SessionComplete, SessionLocked, TrialLog
 
 PROTOCOL = """
 [protocol]

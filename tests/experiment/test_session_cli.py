@@ -10,9 +10,9 @@ import pytest
 
 from experiment import cli
 from experiment.data.psychds import EXPORT_COLUMNS
+from experiment.log import TrialLog
 from experiment.observers import LogisticParams
 from experiment.testing import make_stimulus_set
-from experiment.triallog import TrialLog
 
 PROTOCOL = """
 [protocol]

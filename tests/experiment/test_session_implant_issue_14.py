@@ -17,12 +17,12 @@ import pytest
 from experiment.clock import FakeClock
 from experiment.errors import ConfocalError
 from experiment.interfaces import Answer
+from experiment.log import TrialLog
 from experiment.presentation.displays import NullDisplay
 from experiment.protocol import DisplaySpec, ProtocolError, ProtocolSpec, load_protocol
 from experiment.session import Session, display_json
 from experiment.stimset import StimulusSet
 from experiment.testing import make_stimulus_set
-from experiment.triallog import TrialLog
 from stimuli.compress import compress, compress_grey
 from stimuli.implants import load_implant
 from stimuli.io import load_gray, load_rgb

@@ -12,14 +12,14 @@ import sqlite3
 
 import pytest
 
-from experiment import cli, triallog
+from experiment import cli
+from experiment.log import MIGRATIONS, TIDY_COLUMNS, ResumeMismatch, TrialLog, schema
 from experiment.observers import make_observer
 from experiment.presentation.displays import NullDisplay
 from experiment.protocol import load_protocol
 from experiment.session import Session
 from experiment.stimset import StimulusSet
 from experiment.testing import make_stimulus_set
-from experiment.triallog import MIGRATIONS, TIDY_COLUMNS, ResumeMismatch, TrialLog
 
 PROTOCOL = """
 [protocol]
@@ -88,7 +88,7 @@ def test_observer_and_params_stored_and_in_tidy_trials(study, capsys):
 
 def test_migration_back_fills_an_old_log(tmp_path, monkeypatch):
     db = tmp_path / "old.sqlite"
-    monkeypatch.setattr(triallog, "MIGRATIONS", MIGRATIONS[:1])
+    monkeypatch.setattr(schema, "MIGRATIONS", MIGRATIONS[:1])
     with TrialLog(db) as log:
         common = dict(protocol_name="p", protocol_sha256="x", protocol_json="{}",
                       display_json="{}", stimset_path="s", stimset_manifest_sha256="y", seed="1",
@@ -96,7 +96,7 @@ def test_migration_back_fills_an_old_log(tmp_path, monkeypatch):
         log.create_session(subject="S01", responder="console", **common)
         log.create_session(subject="S02", responder="sim:model", **common)
         assert log.schema_version() == 1
-    monkeypatch.setattr(triallog, "MIGRATIONS", MIGRATIONS)
+    monkeypatch.setattr(schema, "MIGRATIONS", MIGRATIONS)
     with TrialLog(db) as log:
         assert log.schema_version() == MIGRATIONS[-1][0] >= 2
         assert [s["observer"] for s in log.sessions()] == [None, "model"]

@@ -12,17 +12,19 @@ import pytest
 
 from experiment.clock import FakeClock
 from experiment.interfaces import Answer, FlipRecord
-from experiment.protocol import load_protocol
-from experiment.session import Session
-from experiment.stimset import StimulusSet
-from experiment.testing import make_stimulus_set
-from experiment.triallog import (
+from experiment.log import (
     MIGRATIONS,
     TIDY_COLUMNS,
     SessionLocked,
     TrialLog,
     TrialLogError,
+    faults,
+    schema,
 )
+from experiment.protocol import load_protocol
+from experiment.session import Session
+from experiment.stimset import StimulusSet
+from experiment.testing import make_stimulus_set
 
 PROTOCOL = """
 [protocol]
@@ -315,10 +317,8 @@ def test_migration_2_adds_viewings_to_an_existing_log_issue_10(
     tmp_path, protocol, stimset, monkeypatch
 ):
     """A schema-1 log is upgraded in place: old trials have 0 logged viewings, new ones >= 1."""
-    import experiment.triallog as tl
-
     db = tmp_path / "old.sqlite"
-    monkeypatch.setattr(tl, "MIGRATIONS", MIGRATIONS[:-1])  # before the viewings migration
+    monkeypatch.setattr(schema, "MIGRATIONS", MIGRATIONS[:-1])  # before the viewings migration
     with TrialLog(db) as log:
         s = Session.open(log, protocol, stimset, "S01", seed=3, clock=FakeClock())
         t0 = s.next_trial()
@@ -335,7 +335,7 @@ def test_migration_2_adds_viewings_to_an_existing_log_issue_10(
             )
         s.close()
         assert log.schema_version() == MIGRATIONS[-2][0]
-    monkeypatch.setattr(tl, "MIGRATIONS", MIGRATIONS)
+    monkeypatch.setattr(schema, "MIGRATIONS", MIGRATIONS)
     with TrialLog(db) as log:
         assert log.schema_version() == MIGRATIONS[-1][0]
         s = Session.open(log, protocol, stimset, "S01", clock=FakeClock())
@@ -362,27 +362,23 @@ def test_migration_2_adds_viewings_to_an_existing_log_issue_10(
 
 
 def test_fault_spec_is_checked_issue_10(monkeypatch):
-    import experiment.triallog as tl
-
     for bad in ("commit", "commit@0=exit", "nowhere@1=exit", "commit@1=explode"):
         with pytest.raises(ValueError, match="CONFOCAL_FAULT must look like STEP@N=exit|enospc"):
-            tl._parse_fault(bad)
-    assert tl._parse_fault("") is None
-    assert tl._parse_fault("record.trial@3=exit") == ("record.trial", 3, "exit")
+            faults.parse_fault(bad)
+    assert faults.parse_fault("") is None
+    assert faults.parse_fault("record.trial@3=exit") == ("record.trial", 3, "exit")
 
 
 def test_disk_full_rolls_back_and_says_so_issue_10(tmp_path, protocol, stimset, monkeypatch):
-    import experiment.triallog as tl
-
     db = tmp_path / "full.sqlite"
     with TrialLog(db) as log:
         s = Session.open(log, protocol, stimset, "S01", seed=3, clock=FakeClock())
         t0 = s.next_trial()
-        monkeypatch.setattr(tl, "_fault_spec", ("record.score", 1, "enospc"))
-        monkeypatch.setattr(tl, "_fault_hits", {})
+        monkeypatch.setattr(faults, "_fault_spec", ("record.score", 1, "enospc"))
+        monkeypatch.setattr(faults, "_fault_hits", {})
         with pytest.raises(TrialLogError, match="disk is full .*rolled back.*run the same"):
             s.record(t0, Answer("mug", "named", "operator"), FlipRecord(0.0, 1.0))
-        monkeypatch.setattr(tl, "_fault_spec", None)
+        monkeypatch.setattr(faults, "_fault_spec", None)
         assert log.answered_count(s.session_id) == 0, "the half-written trial was rolled back"
         assert log.viewings(s.session_id, 0) == 0
         s.record(t0, Answer("mug", "named", "operator"), FlipRecord(0.0, 1.0))
