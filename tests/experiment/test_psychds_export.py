@@ -1,4 +1,4 @@
-"""``confocal session export`` writes a valid Psych-DS 1.x dataset (issue 15, point 2).
+"""``confocal session export`` writes a valid Psych-DS 1.x dataset.
 
 :func:`check_psychds` below is an independent check of the Psych-DS 1.x rules that apply to this
 export (schema objects ``dataset_description``, ``Datafile``, ``columnsMatchMetadata`` and the CSV
