@@ -26,23 +26,9 @@ from experiment.protocol import load_protocol
 from experiment.session import Session
 from experiment.stimset import StimulusSet
 from experiment.testing import make_stimulus_set
+from tests.experiment.conftest import protocol_toml
 
-PROTOCOL = """
-[protocol]
-name = "tiny"
-
-[[blocks]]
-part = "training"
-objects = "training"
-levels = [2]
-conditions = ["decluttered"]
-
-[[blocks]]
-part = "main"
-objects = "main"
-levels = [1, 2]
-conditions = ["cluttered", "decluttered"]
-"""
+PROTOCOL = protocol_toml((1, 2), name="tiny", training=(2, "decluttered"))
 
 
 @pytest.fixture(scope="module")
