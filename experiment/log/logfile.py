@@ -28,7 +28,7 @@ from pathlib import Path
 from experiment.log import schema
 from experiment.log.errors import TrialLogError
 
-__all__ = ["SIDE_SUFFIXES", "identify_log_file", "create_log_file"]
+__all__ = ["SIDE_SUFFIXES", "identify_log_file", "check_writable", "create_log_file"]
 
 #: The first bytes of every SQLite 3 database file.
 _SQLITE_MAGIC = b"SQLite format 3\x00"
@@ -148,6 +148,31 @@ def _schema_problem(con: sqlite3.Connection) -> str | None:
     if missing:
         return f"no {missing[0]} table"
     return None
+
+
+def check_writable(p: Path) -> None:
+    """Refuse, before anything is written, a log file or folder that may not be written.
+
+    Raises
+    ------
+    TrialLogError
+        ``p`` is read-only, or its folder is missing or read-only (SQLite writes its ``-wal``
+        and ``-shm`` files there).
+    """
+    # the mode bits too: root may write anything, but a file marked read-only
+    # (chmod a-w) means "do not touch" whoever runs the session
+    if p.exists() and (not os.access(p, os.W_OK) or not p.stat().st_mode & 0o222):
+        raise TrialLogError(
+            f"{p}: trial log is read-only (no write permission); nothing was changed"
+        )
+    parent = p.parent if str(p.parent) else Path(".")
+    if not parent.is_dir():
+        raise TrialLogError(f"{p}: folder {parent} does not exist")
+    if not os.access(parent, os.W_OK) or not parent.stat().st_mode & 0o222:
+        raise TrialLogError(
+            f"{p}: folder {parent} is read-only (SQLite needs it for its WAL files); "
+            "nothing was changed"
+        )
 
 
 def create_log_file(p: Path) -> None:

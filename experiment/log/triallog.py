@@ -29,7 +29,7 @@ from experiment.interfaces import Answer, FlipRecord
 from experiment.log import locks, schema
 from experiment.log.errors import TrialLogError
 from experiment.log.faults import fault_point
-from experiment.log.logfile import create_log_file, identify_log_file
+from experiment.log.logfile import check_writable, create_log_file, identify_log_file
 from experiment.log.readers import LogQueries
 from experiment.log.schema import utc_now
 from experiment.protocol import SCORES
@@ -72,20 +72,7 @@ class TrialLog(LogQueries):
             if readonly and kind == "new":
                 raise TrialLogError(f"{p}: empty file, not a confocal trial log")
             if not readonly:
-                # the mode bits too: root may write anything, but a file marked read-only
-                # (chmod a-w) means "do not touch" whoever runs the session
-                if p.exists() and (not os.access(p, os.W_OK) or not p.stat().st_mode & 0o222):
-                    raise TrialLogError(
-                        f"{p}: trial log is read-only (no write permission); nothing was changed"
-                    )
-                parent = p.parent if str(p.parent) else Path(".")
-                if not parent.is_dir():
-                    raise TrialLogError(f"{p}: folder {parent} does not exist")
-                if not os.access(parent, os.W_OK) or not parent.stat().st_mode & 0o222:
-                    raise TrialLogError(
-                        f"{p}: folder {parent} is read-only (SQLite needs it for its WAL files); "
-                        "nothing was changed"
-                    )
+                check_writable(p)
                 if kind == "new":
                     create_log_file(p)
         try:
@@ -419,17 +406,11 @@ class TrialLog(LogQueries):
             )
 
     def acquire_lock(self, session_id: int) -> dict[str, Any] | None:
-        """Claim a session for this process.
+        """Claim a session for this process, in one transaction.
 
-        Returns
-        -------
-        dict or None
-            The stale lock row that was taken over (a crashed run), or None.
-
-        Raises
-        ------
-        SessionLocked
-            A live process (or one on another host) holds the session.
+        Returns the stale lock row that was taken over (a crashed run), or None; raises
+        :class:`~experiment.log.errors.SessionLocked` when a live process (or one on another
+        host) holds the session (:func:`~experiment.log.locks.claim_session`).
         """
         with self.atomic() as con:
             stale = locks.claim_session(con, self.path, session_id, self._token)
