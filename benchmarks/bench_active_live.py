@@ -1,4 +1,4 @@
-"""Benchmark: how long a person's key takes to change what the subject sees (issue 14).
+"""Benchmark: how long a person's key takes to change what the subject sees.
 
 A person's active search (``confocal active run --searcher person``) applies each input in the
 console process: the state changes, the CPU pipeline refocuses, de-clutters and compresses the

@@ -1,4 +1,4 @@
-"""An active-search session: plan, durable event log, resume (issue 14, point 5).
+"""An active-search session: plan, durable event log, resume.
 
 :meth:`ActiveSession.open` creates a session in a trial log (a ``sessions`` row, a ``plan``
 event with the trials, the scene's sha256 and its detected planes) or resumes the subject's

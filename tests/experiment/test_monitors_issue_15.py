@@ -1,5 +1,4 @@
-"""Monitor profiles: named monitor files override the protocol's display, recorded in the log
-(issue 15, point 10)."""
+"""Monitor profiles: named monitor files override the protocol's display, recorded in the log."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Training and instructions as in the paper (issue 15, point 9).
+"""Training and instructions as in the paper.
 
 Jung et al. 2015, Sec. 3.1: "First, at full resolution (160,884 pixels, 492x327), conventional
 and confocal images were shown followed by the edge-filtered and compressed (decreased
