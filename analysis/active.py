@@ -1,7 +1,7 @@
 """Active-search metrics: time to recognition, planes visited and zoom use, per condition.
 
 Reads the ``active_events`` table of a trial log (SQLite) through its documented schema
-(``experiment/triallog.py``, migration 3; payloads in ``experiment/active/eventlog.py``) and
+(``experiment/log/schema.py``, migration 3; payloads in ``experiment/active/eventlog.py``) and
 imports neither ``experiment`` nor ``stimuli``.
 
 Per answered trial (the attempt that holds the ``answer`` row; attempts cut by a crash are left

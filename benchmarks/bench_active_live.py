@@ -44,9 +44,9 @@ def main(argv: list[str] | None = None) -> int:
 
     from experiment.active.live import LiveSearch
     from experiment.active.session import ActiveSession
+    from experiment.log import TrialLog
     from experiment.presentation.displays import NullDisplay
     from experiment.protocol import load_protocol
-    from experiment.triallog import TrialLog
     from stimuli.refocus import refocus
 
     spec = load_protocol("active_search")

@@ -192,7 +192,8 @@ def _file_hashes(log: Path) -> tuple[str, str]:
 
 def _fork_command(argv: list[str], out: Path) -> int:
     """Fork a child that runs ``confocal ARGV`` (output to ``out``); return its pid."""
-    from experiment import cli, triallog
+    from experiment import cli
+    from experiment.log import faults
 
     sys.stdout.flush()
     sys.stderr.flush()
@@ -208,8 +209,8 @@ def _fork_command(argv: list[str], out: Path) -> int:
         sys.stdout = io.TextIOWrapper(open(1, "wb", closefd=False), line_buffering=True)  # noqa: SIM115
         sys.stderr = io.TextIOWrapper(open(2, "wb", closefd=False), line_buffering=True)  # noqa: SIM115
         signal.signal(signal.SIGINT, signal.SIG_DFL)
-        os.environ.pop(triallog.FAULT_ENV, None)
-        triallog._fault_spec = False
+        os.environ.pop(faults.FAULT_ENV, None)
+        faults.reset_faults()
         try:
             cli.main(argv)
             code = 0

@@ -220,7 +220,7 @@ def cohen_kappa(log, rater_a: str, rater_b: str, *, labels: str = "score") -> Ka
 
     Parameters
     ----------
-    log : experiment.triallog.TrialLog
+    log : experiment.log.TrialLog
     rater_a, rater_b : str
         Rater names as stored in ``scores.rater``.
     labels : {'score', 'recognized'}

@@ -26,12 +26,12 @@ import numpy as np
 
 from experiment.clock import Clock, PerfCounterClock
 from experiment.interfaces import Answer, Display, FlipRecord, Responder, combine_flips
+from experiment.log import ResumeMismatch, SessionComplete, TrialLog, TrialLogError
 from experiment.protocol import SCORES, DisplaySpec, ProtocolError, ProtocolSpec
 from experiment.schedule import Schedule, Trial, build_schedule
 from experiment.scoring import suggest_score
 from experiment.signals import Stopped
 from experiment.stimset import StimulusSet, StimulusSetError
-from experiment.triallog import ResumeMismatch, SessionComplete, TrialLog, TrialLogError
 
 __all__ = [
     "Session",

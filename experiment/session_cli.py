@@ -191,13 +191,13 @@ def run_command(
     A subject whose session is complete is reported (exit 0, nothing written), not run again;
     ``--new-session REASON`` starts a further one.
     """
+    from experiment.log import SessionComplete, TrialLog
     from experiment.observers import OBSERVERS, describe_observer, make_observer
     from experiment.presentation.displays import NullDisplay
     from experiment.protocol import load_protocol
     from experiment.schedule import planned_trials
     from experiment.session import Session
     from experiment.stimset import StimulusSet
-    from experiment.triallog import SessionComplete, TrialLog
 
     if presenter not in ("process", "offscreen", "none"):
         raise ConfocalError(
@@ -324,7 +324,7 @@ def run_command(
 def _check_subject_is_new_or_same(data: Path, subject: str) -> None:
     """Refuse a subject code that an export could not tell from one already in the log."""
     from experiment.data.psychds import SubjectCollision, keyword_value, subject_key
-    from experiment.triallog import TrialLog
+    from experiment.log import TrialLog
 
     try:
         key = subject_key(subject)
@@ -355,7 +355,7 @@ def report_if_complete(data: Path, subject: str, new_session: str | None) -> boo
         The file is not a trial log, or ``new_session`` is given while another session of
         the subject is unfinished.
     """
-    from experiment.triallog import TrialLog
+    from experiment.log import TrialLog
 
     if not data.exists() or (data.is_file() and data.stat().st_size == 0):
         return False
@@ -408,8 +408,8 @@ def status_report(path: Path) -> dict:
         session, or None); each subject has ``complete`` (its latest session is), that
         ``session``, ``sessions`` (how many), ``answered``, ``planned`` and ``ended_at``.
     """
+    from experiment.log import TrialLog
     from experiment.scoring import cohen_kappa
-    from experiment.triallog import TrialLog
 
     with TrialLog(path, readonly=True) as log:
         locks = {r["session_id"]: r for r in log.locks()}

@@ -141,9 +141,9 @@ def _run_person(
     from experiment.active.session import ActiveSession
     from experiment.console import logs_to_file, session_log_path
     from experiment.console.active import run_active_console
+    from experiment.log import TrialLog
     from experiment.presentation.presenter import ScreenGeometry
     from experiment.presentation.process import PresenterDied, RemoteDisplay
-    from experiment.triallog import TrialLog
 
     if not (sys.stdin.isatty() and sys.stdout.isatty()):
         raise ConfocalError(
@@ -208,7 +208,7 @@ def _run_simulated(protocol, spec, data, subject, searcher, seed, new_session=No
     from experiment.active.searcher import EdgeRecogniser, SimulatedSearcher
     from experiment.active.session import ActiveSession
     from experiment.clock import FakeClock
-    from experiment.triallog import TrialLog
+    from experiment.log import TrialLog
 
     if not spec.task.scene.startswith("synthetic:"):
         raise ConfocalError(

@@ -178,8 +178,8 @@ def run_active_demo(
     from experiment.active.searcher import EdgeRecogniser, SimulatedSearcher
     from experiment.active.session import ActiveSession, _grid_hex
     from experiment.clock import FakeClock
+    from experiment.log import TrialLog
     from experiment.protocol import load_protocol
-    from experiment.triallog import TrialLog
     from stimuli.io import atomic_path
 
     if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:

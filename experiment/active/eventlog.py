@@ -36,7 +36,7 @@ import json
 import sqlite3
 from typing import Any
 
-from experiment.triallog import TrialLog, TrialLogError, utc_now
+from experiment.log import TrialLog, TrialLogError, utc_now
 
 __all__ = ["ActiveEventLog", "EVENT_KINDS"]
 

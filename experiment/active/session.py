@@ -1,4 +1,4 @@
-"""An active-search session: plan, durable event log, resume (issue 14, point 5).
+"""An active-search session: plan, durable event log, resume.
 
 :meth:`ActiveSession.open` creates a session in a trial log (a ``sessions`` row, a ``plan``
 event with the trials, the scene's sha256 and its detected planes) or resumes the subject's
@@ -27,9 +27,9 @@ from experiment.active.eventlog import ActiveEventLog
 from experiment.active.searcher import Action, Observation, Searcher
 from experiment.active.task import ActiveSearchSpec, ActiveTrial, plan_trials
 from experiment.clock import Clock, PerfCounterClock
+from experiment.log import ResumeMismatch, SessionComplete, TrialLog
 from experiment.protocol import SCORES, ProtocolError, ProtocolSpec
 from experiment.stimset import ObjectInfo
-from experiment.triallog import ResumeMismatch, SessionComplete, TrialLog
 
 __all__ = ["ActiveSession", "SCENE_OBJECTS", "Scorer", "auto_scorer"]
 

@@ -25,7 +25,7 @@ class ScoringApp(App):
 
     Parameters
     ----------
-    log : experiment.triallog.TrialLog
+    log : experiment.log.TrialLog
     rater : str
     pending : list of dict
         Trials to score, from :func:`experiment.presentation.cli.pending_for_rater`.

@@ -446,7 +446,7 @@ def export_dataset(
     ValueError
         ``study`` has no letter or digit.
     """
-    from experiment.triallog import TrialLog, TrialLogError
+    from experiment.log import TrialLog, TrialLogError
 
     data = Path(data)
     out = Path(out_dir)
@@ -454,10 +454,10 @@ def export_dataset(
         raise TrialLogError(f"--out {out}: exists and is not a folder (a dataset is a folder)")
     study = keyword_value(study if study is not None else data.stem)
     rule = parse_dates(dates)
-    from experiment.triallog import MIGRATIONS
+    from experiment.log.schema import latest_version
 
     with TrialLog(data, readonly=True) as log:
-        old = log.schema_version() < max(m[0] for m in MIGRATIONS)
+        old = log.schema_version() < latest_version()
     if old:  # an older log is upgraded in place first: migrations only add tables and columns
         with TrialLog(data):
             pass

@@ -269,12 +269,12 @@ def run_demo(
     from analysis.data import read_trials
     from analysis.pipeline import AnalysisOptions, analyze
     from analysis.report import write_report
+    from experiment.log import TrialLog
     from experiment.observers import OBSERVERS, describe_observer, make_observer
     from experiment.presentation.displays import NullDisplay
     from experiment.protocol import load_protocol
     from experiment.session import Session
     from experiment.stimset import StimulusSet
-    from experiment.triallog import TrialLog
     from stimuli.build import build_stimulus_set
     from stimuli.synth import write_pairs
 
@@ -650,7 +650,7 @@ def register(app: typer.Typer) -> None:
             ),
         ] = False,
         active: Annotated[
-            bool, typer.Option("--active", help="Draw a simulated active search (issue 14).")
+            bool, typer.Option("--active", help="Draw a simulated active search.")
         ] = False,
     ) -> None:
         """Run the whole study on synthetic data: scenes, stimuli, sessions, analysis, report.

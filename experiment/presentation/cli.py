@@ -1,4 +1,4 @@
-"""Presenter and scoring commands (issue 6): ``confocal present`` and ``confocal score``.
+"""Presenter and scoring commands: ``confocal present`` and ``confocal score``.
 
 ``confocal present --protocol P --stimulus IMG --screenshot OUT.png`` renders one offscreen frame
 at the protocol's full screen resolution, exactly as the subject's screen would show it (EGL, no
@@ -236,7 +236,7 @@ def register(app: typer.Typer) -> None:
         if layout is not None:
             # The stimulus resampled to the implant's grid (binary: the paper's compression;
             # grey: window means at the implant's brightness levels) and drawn as its
-            # phosphenes at its field of view (issue 14).
+            # phosphenes at its field of view.
             from experiment.presentation.implant import phosphene_spec
             from stimuli.implants import to_implant_grid
 
@@ -308,7 +308,7 @@ def register(app: typer.Typer) -> None:
         ] = False,
     ) -> None:
         """Score logged responses as a second rater, blind to the first rater's scores."""
-        from experiment.triallog import TrialLog
+        from experiment.log import TrialLog
 
         if not log_path.is_file():
             raise ConfocalError(f"{log_path}: trial log not found")

@@ -52,7 +52,7 @@ def _state(depth, zoom=None, plane=None):
 def db(tmp_path):
     """A hand-made log: 1 session, 3 trials; trial 1 crashed once and was resumed."""
     from experiment.active.eventlog import ActiveEventLog
-    from experiment.triallog import TrialLog
+    from experiment.log import TrialLog
 
     path = tmp_path / "hand.sqlite"
     log = TrialLog(path)
@@ -248,7 +248,7 @@ def test_files_without_active_events(tmp_path) -> None:
 
 def test_inconsistent_logs_are_refused(tmp_path) -> None:
     from experiment.active.eventlog import ActiveEventLog
-    from experiment.triallog import TrialLog
+    from experiment.log import TrialLog
 
     path = tmp_path / "bad.sqlite"
     log = TrialLog(path)

@@ -1,4 +1,4 @@
-"""Active search as a study (issue 14, point 5): protocol task, state machine, event log,
+"""Active search as a study: protocol task, state machine, event log,
 simulated searcher end to end, crash and resume."""
 
 from __future__ import annotations
@@ -22,9 +22,9 @@ from experiment.active.searcher import Action, EdgeRecogniser, ScriptedSearcher,
 from experiment.active.session import ActiveSession
 from experiment.active.task import plan_trials
 from experiment.clock import FakeClock
+from experiment.log import ResumeMismatch, TrialLog, TrialLogError
 from experiment.protocol import ProtocolError, ProtocolSpec, load_protocol
 from experiment.protocol.task import ActiveSearchSpec, task_from_table
-from experiment.triallog import ResumeMismatch, TrialLog, TrialLogError
 
 #: A small scene keeps every test in seconds (the shipped protocol uses the paper's 308x385).
 SMALL = {
@@ -383,7 +383,7 @@ _CHILD = textwrap.dedent(
     from experiment.active.session import ActiveSession
     from experiment.clock import FakeClock
     from experiment.protocol import ProtocolSpec
-    from experiment.triallog import TrialLog
+    from experiment.log import TrialLog
 
     db, kill_after, proto = sys.argv[1], int(sys.argv[2]), json.loads(sys.argv[3])
     original = ActiveEventLog.append
@@ -417,7 +417,7 @@ def _by_trial(rows):
     }
 
 
-def test_resume_after_kill_keeps_events_exact_issue_14(tmp_path, protocol) -> None:
+def test_resume_after_kill_keeps_events_exact(tmp_path, protocol) -> None:
     ref_log = TrialLog(tmp_path / "ref.sqlite")
     ref, _ = run_session(ref_log, protocol)
     ref_rows = ActiveEventLog(ref_log, ref.session_id).rows()

@@ -16,8 +16,8 @@ import pytest
 from experiment.active.live import INPUT_ACTIONS, LiveSearch, zoom_box_px
 from experiment.active.session import ActiveSession
 from experiment.clock import FakeClock
+from experiment.log import TrialLog
 from experiment.presentation.displays import NullDisplay
-from experiment.triallog import TrialLog
 from stimuli import jung2015
 from stimuli.compress import compress
 from stimuli.declutter import auto_threshold, declutter

@@ -27,11 +27,11 @@ from experiment.audio.voice import (
 from experiment.clock import FakeClock
 from experiment.console import OperatorConsole
 from experiment.console.launch import _open_recorder
+from experiment.log import MIGRATIONS, TrialLog
 from experiment.presentation.displays import NullDisplay
 from experiment.protocol import load_protocol
 from experiment.session import Session
 from experiment.stimset import StimulusSet
-from experiment.triallog import MIGRATIONS, TrialLog
 from tests.experiment.test_console import PROTOCOL, make_stimset
 
 sf = pytest.importorskip("soundfile", reason="soundfile (the 'audio' extra) is not installed")

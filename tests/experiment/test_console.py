@@ -20,11 +20,11 @@ from PIL import Image
 from experiment.clock import FakeClock, PerfCounterClock
 from experiment.console import OperatorConsole, preview_text
 from experiment.interfaces import FlipRecord, combine_flips
+from experiment.log import TrialLog
 from experiment.presentation.displays import NullDisplay
 from experiment.protocol import load_protocol
 from experiment.session import Session
 from experiment.stimset import MANIFEST_COLUMNS, StimulusSet
-from experiment.triallog import TrialLog
 
 PROTOCOL = """
 [protocol]

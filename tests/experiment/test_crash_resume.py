@@ -1,10 +1,10 @@
 """Crash safety: kills at every write step of the trial log, a few real SIGKILLs, a full disk.
 
-Issue 5 ("must show"): the session ends with exactly the planned trials, in the planned order,
+The session ends with exactly the planned trials, in the planned order,
 with no duplicates and no gaps; a second concurrent process is refused (H22).
 
-Issue 10: the kill points are chosen among the trial log's write steps (``CONFOCAL_FAULT``,
-:func:`experiment.triallog.fault_point`) in processes forked from the test (no interpreter start
+The kill points are chosen among the trial log's write steps (``CONFOCAL_FAULT``,
+:func:`experiment.log.faults.fault_point`) in processes forked from the test (no interpreter start
 per kill), so 50 kills cost seconds, not minutes; a handful of real SIGKILLs of a fresh process
 stay to cover what injection cannot (a kill inside SQLite itself). A full disk (injected
 ``ENOSPC``) during a session keeps every acknowledged trial and ends with one line; during
@@ -27,7 +27,8 @@ import traceback
 import numpy as np
 import pytest
 
-from experiment import cli, triallog
+from experiment import cli
+from experiment.log import faults
 from experiment.protocol import load_protocol
 from experiment.schedule import build_schedule
 from experiment.stimset import StimulusSet
@@ -93,11 +94,10 @@ def forked(argv: list[str], tmp_path, fault: str | None = None) -> tuple[int, st
             sys.stdout = open(out, "w", buffering=1)  # noqa: SIM115 - closed by _exit
             sys.stderr = open(err, "w", buffering=1)  # noqa: SIM115
             if fault is None:
-                os.environ.pop(triallog.FAULT_ENV, None)
+                os.environ.pop(faults.FAULT_ENV, None)
             else:
-                os.environ[triallog.FAULT_ENV] = fault
-            triallog._fault_spec = False
-            triallog._fault_hits.clear()
+                os.environ[faults.FAULT_ENV] = fault
+            faults.reset_faults()
             try:
                 cli.main(argv)
                 code = 0
@@ -175,12 +175,12 @@ def check_complete(db, stim, proto, *, repeats: set[int]) -> None:
 
 
 @pytest.mark.slow  # 51 forked sessions with fsync'd commits: ~10 s idle, ~35 s on 2 busy cores
-def test_kills_at_injected_write_steps_then_resume_exactly_issue_10(study, tmp_path):
+def test_kills_at_injected_write_steps_then_resume_exactly(study, tmp_path):
     stim, proto, db = study
     print(f"kill seed: {KILL_SEED}")
     rng = np.random.default_rng(KILL_SEED)
     argv = args(stim, proto, db)
-    steps = [*triallog.FAULT_STEPS, "any"]
+    steps = [*faults.FAULT_STEPS, "any"]
     kills, repeats, counts, fired = 0, set(), [], set()
     while kills < N_INJECTED_KILLS:
         step = steps[rng.integers(len(steps))]
@@ -197,7 +197,7 @@ def test_kills_at_injected_write_steps_then_resume_exactly_issue_10(study, tmp_p
         if shown is not None:
             repeats.add(shown)  # shown before the kill, to be shown again on resume
     assert kills == N_INJECTED_KILLS, f"the session finished after {kills} kills; lengthen it"
-    assert fired >= set(triallog.FAULT_STEPS), f"every write step was a kill point: {fired}"
+    assert fired >= set(faults.FAULT_STEPS), f"every write step was a kill point: {fired}"
     assert counts == sorted(counts), "committed trials never disappear"
     code, out, err = forked(argv, tmp_path)
     assert code == 0, err
@@ -209,7 +209,7 @@ def test_kills_at_injected_write_steps_then_resume_exactly_issue_10(study, tmp_p
     print(f"injected kills: {kills}, repeat viewings: {len(repeats)}, crash events: {crashes}")
 
 
-def test_export_marks_the_repeat_viewing_issue_10(study, tmp_path):
+def test_export_marks_the_repeat_viewing(study, tmp_path):
     stim, proto, db = study
     argv = args(stim, proto, db)
     # killed right after the onset of trial 3 was committed, before its answer
@@ -235,7 +235,7 @@ def test_export_marks_the_repeat_viewing_issue_10(study, tmp_path):
     ]
 
 
-def test_full_disk_during_a_session_keeps_every_acknowledged_trial_issue_10(study, tmp_path):
+def test_full_disk_during_a_session_keeps_every_acknowledged_trial(study, tmp_path):
     stim, proto, db = study
     argv = args(stim, proto, db, "S01", 0.0, "--progress-every", "1")
     prev = 0
@@ -322,7 +322,7 @@ def test_a_second_concurrent_process_is_refused(study):
     assert answered(db) >= 1
 
 
-def test_full_disk_during_stimuli_build_leaves_no_partial_set_issue_10(
+def test_full_disk_during_stimuli_build_leaves_no_partial_set(
     tmp_path, monkeypatch, capsys
 ):
     from PIL import Image

@@ -10,7 +10,6 @@ from datetime import date, timedelta
 
 import pytest
 
-from experiment import cli
 from experiment.data.psychds import (
     ParticipantError,
     SubjectCollision,
@@ -18,39 +17,17 @@ from experiment.data.psychds import (
     identifying_reason,
     parse_dates,
 )
-from experiment.testing import make_stimulus_set
-from experiment.triallog import TrialLog
-
-PROTOCOL = """
-[protocol]
-name = "small"
-
-[[blocks]]
-part = "main"
-objects = "main"
-levels = [1, 8]
-conditions = ["cluttered", "decluttered"]
-"""
-
-
-def confocal(args, capsys):
-    with pytest.raises(SystemExit) as exc:
-        cli.main([str(a) for a in args])
-    out = capsys.readouterr()
-    return exc.value.code, out.out, out.err
+from experiment.log import TrialLog
+from tests.experiment.conftest import confocal, make_study, session_run_args
 
 
 @pytest.fixture()
 def study(tmp_path):
-    stim = make_stimulus_set(tmp_path / "stim", n_main=2, n_training=1, levels=(1, 8))
-    proto = tmp_path / "small.toml"
-    proto.write_text(PROTOCOL)
-    return stim, proto, tmp_path / "study.sqlite"
+    return make_study(tmp_path, (1, 8), n_main=2, training=None)
 
 
 def run(stim, proto, db, subject, *extra):
-    return ["session", "run", "--protocol", proto, "--stimuli", stim, "--subject", subject,
-            "--data", db, "--headless", "--seed", "2", *extra]  # fmt: skip
+    return session_run_args(stim, proto, db, subject, "--headless", "--seed", "2", *extra)
 
 
 def read(path, delimiter=","):

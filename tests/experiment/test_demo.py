@@ -1,5 +1,5 @@
 """``confocal demo``: simulated observers labelled as such, the paper's numbers beside them, the
-in-memory trial log saved whole, and a run end to end (issue 13)."""
+in-memory trial log saved whole, and a run end to end."""
 
 from __future__ import annotations
 
@@ -17,8 +17,8 @@ from experiment.demos.study import (
     summary_lines,
 )
 from experiment.errors import ConfocalError
+from experiment.log import TrialLog
 from experiment.observers import PAPER_OR_BACKGROUND, PAPER_OR_PER_LOG10_PX, PAPER_X50_CLUTTERED_PX
-from experiment.triallog import TrialLog
 
 
 def test_paper_results_are_the_papers():
@@ -142,7 +142,7 @@ def test_demo_logs_and_reports_its_simulated_observers(tmp_path):
     finally:
         con.close()
     assert n == 2 * 320 and responders == {"sim:exemplar"}
-    assert labels == {(1, "exemplar")}  # the sessions table labels them simulated (issue 15)
+    assert labels == {(1, "exemplar")}  # the sessions table labels them simulated
     assert all(p["knowledge"] == str(demo.paths["knowledge"]) for p in params)
     assert [sid for sid, _ in events] == [1, 2]
     manifest = (demo.paths["stimuli"] / "manifest.csv").read_text()

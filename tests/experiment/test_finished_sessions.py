@@ -15,8 +15,8 @@ from pathlib import Path
 import pytest
 
 from experiment import cli
+from experiment.log import TrialLog
 from experiment.testing import make_stimulus_set
-from experiment.triallog import TrialLog
 
 PROTOCOL = """
 [protocol]

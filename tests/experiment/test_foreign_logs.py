@@ -14,19 +14,8 @@ import sqlite3
 import pytest
 
 from experiment import cli
-from experiment.testing import make_stimulus_set
-from experiment.triallog import APPLICATION_ID, MIGRATIONS, TrialLog, TrialLogError
-
-PROTOCOL = """
-[protocol]
-name = "tiny"
-
-[[blocks]]
-part = "main"
-objects = "main"
-levels = [1]
-conditions = ["cluttered"]
-"""
+from experiment.log import APPLICATION_ID, MIGRATIONS, TrialLog, TrialLogError
+from tests.experiment.conftest import make_study
 
 
 def snapshot(folder):
@@ -106,9 +95,9 @@ def test_foreign_file_is_refused_before_any_write(tmp_path, make, match):
 
 
 def test_session_run_on_another_programs_file_exits_2_and_changes_nothing(tmp_path, capsys):
-    stim = make_stimulus_set(tmp_path / "stim", n_main=2, n_training=1, levels=(1,))
-    proto = tmp_path / "tiny.toml"
-    proto.write_text(PROTOCOL)
+    stim, proto, _ = make_study(
+        tmp_path, (1,), n_main=2, name="tiny", conditions=("cluttered",), training=None
+    )
     folder = tmp_path / "data"
     folder.mkdir()
     other = other_program_with_schema_migrations(folder / "other.sqlite")

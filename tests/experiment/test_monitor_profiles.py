@@ -18,12 +18,12 @@ from experiment.data.monitors import (
     load_monitor,
     shipped_monitors,
 )
+from experiment.log import TrialLog
 from experiment.presentation.cli import geometry_from_options
 from experiment.protocol import DisplaySpec, load_protocol
 from experiment.session import Session
 from experiment.stimset import StimulusSet
 from experiment.testing import make_stimulus_set
-from experiment.triallog import TrialLog
 
 PROTOCOL = """
 [protocol]

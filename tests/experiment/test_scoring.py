@@ -10,12 +10,12 @@ from hypothesis import strategies as st
 
 from experiment.clock import FakeClock
 from experiment.interfaces import Answer, FlipRecord
+from experiment.log import TrialLog
 from experiment.protocol import load_protocol
 from experiment.scoring import cohen_kappa, kappa, normalize, suggest_score
 from experiment.session import Session
 from experiment.stimset import ObjectInfo, StimulusSet
 from experiment.testing import make_stimulus_set
-from experiment.triallog import TrialLog
 
 MUG = ObjectInfo("o1", "mug", ("coffee cup",), ("drinking coffee", "holding pens"), "main")
 SCISSORS = ObjectInfo("o2", "scissors", ("shears",), ("cutting paper",), "main")

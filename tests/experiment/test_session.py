@@ -11,31 +11,20 @@ import pytest
 
 from experiment.clock import FakeClock
 from experiment.interfaces import Answer, FlipRecord
+from experiment.log import ResumeMismatch, SessionComplete, SessionLocked, TrialLog
 from experiment.presentation.displays import NullDisplay
 from experiment.protocol import load_protocol
 from experiment.session import Session
 from experiment.stimset import StimulusSet, StimulusSetError
 from experiment.testing import make_stimulus_set
-from experiment.triallog import ResumeMismatch, SessionComplete, SessionLocked, TrialLog
+from tests.experiment.conftest import protocol_toml
 
-PROTOCOL = """
-[protocol]
-name = "tiny"
-pass_allowed_after_s = 30.0
-
-[[blocks]]
-part = "training"
-objects = "training"
-levels = [8]
-conditions = ["photo"]
-
-[[blocks]]
-part = "main"
-objects = "main"
-levels = [1, 2, 3]
-conditions = ["cluttered", "decluttered"]
-break_every_blocks = 2
-"""
+PROTOCOL = protocol_toml(
+    (1, 2, 3),
+    name="tiny",
+    settings="pass_allowed_after_s = 30.0",
+    main_settings="break_every_blocks = 2",
+)
 
 
 @pytest.fixture()

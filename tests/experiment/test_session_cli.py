@@ -8,50 +8,20 @@ import sys
 
 import pytest
 
-from experiment import cli
 from experiment.data.psychds import EXPORT_COLUMNS
+from experiment.log import TrialLog
 from experiment.observers import LogisticParams
 from experiment.testing import make_stimulus_set
-from experiment.triallog import TrialLog
+from tests.experiment.conftest import confocal, make_study, protocol_toml
+from tests.experiment.conftest import session_run_args as run_args
 
-PROTOCOL = """
-[protocol]
-name = "small"
-
-[[blocks]]
-part = "training"
-objects = "training"
-levels = [8]
-conditions = ["photo"]
-
-[[blocks]]
-part = "main"
-objects = "main"
-levels = [1, 2, 8]
-conditions = ["cluttered", "decluttered"]
-"""
+PROTOCOL = protocol_toml((1, 2, 8))
 N_TRIALS = 1 + 3 * 3 * 2
-
-
-def confocal(args, capsys):
-    """Run ``confocal ARGS`` in-process; return (exit code, stdout, stderr)."""
-    with pytest.raises(SystemExit) as exc:
-        cli.main([str(a) for a in args])
-    out = capsys.readouterr()
-    return exc.value.code, out.out, out.err
 
 
 @pytest.fixture()
 def study(tmp_path):
-    stim = make_stimulus_set(tmp_path / "stim", n_main=3, n_training=1, levels=(1, 2, 8))
-    proto = tmp_path / "small.toml"
-    proto.write_text(PROTOCOL)
-    return stim, proto, tmp_path / "study.sqlite"
-
-
-def run_args(stim, proto, db, subject="S01", *extra):
-    return ["session", "run", "--protocol", proto, "--stimuli", stim, "--subject", subject,
-            "--data", db, *extra]  # fmt: skip
+    return make_study(tmp_path, (1, 2, 8))
 
 
 def snapshot(db):
@@ -279,6 +249,6 @@ def test_integration_with_a_built_stimulus_set(tmp_path, capsys):
         rows = log.tidy_trials()
     main = [r for r in rows if r["part"] == "main"]
     assert len(main) == 2 * 4 * 8 * 2
-    # training: colour photos (wide, then confocal), then 8 x 2 each (issue 15)
+    # training: colour photos (wide, then confocal), then 8 x 2 each
     assert len(rows) - len(main) == 2 * (2 * 3 + 3 * 8 * 2)
     assert {r["pixels"] for r in main} == {96, 486, 950, 3290, 6370, 17876, 40344, 160884}

@@ -18,6 +18,7 @@ from PIL import Image
 
 from experiment.clock import FakeClock
 from experiment.console import OperatorConsole
+from experiment.log import TrialLog
 from experiment.presentation.displays import NullDisplay
 from experiment.protocol import (
     PROTOCOLS_DIR,
@@ -29,7 +30,6 @@ from experiment.protocol import (
 from experiment.session import Session
 from experiment.stimset import StimulusSet
 from experiment.testing import make_stimulus_set
-from experiment.triallog import TrialLog
 from stimuli.build import aspect_crop_box, build_stimulus_set
 from stimuli.io import load_gray
 from stimuli.manifest import read_manifest

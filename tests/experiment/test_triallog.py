@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import hashlib
 import os
 import socket
 import sqlite3
@@ -12,34 +13,22 @@ import pytest
 
 from experiment.clock import FakeClock
 from experiment.interfaces import Answer, FlipRecord
-from experiment.protocol import load_protocol
-from experiment.session import Session
-from experiment.stimset import StimulusSet
-from experiment.testing import make_stimulus_set
-from experiment.triallog import (
+from experiment.log import (
     MIGRATIONS,
     TIDY_COLUMNS,
     SessionLocked,
     TrialLog,
     TrialLogError,
+    faults,
+    schema,
 )
+from experiment.protocol import load_protocol
+from experiment.session import Session
+from experiment.stimset import StimulusSet
+from experiment.testing import make_stimulus_set
+from tests.experiment.conftest import protocol_toml
 
-PROTOCOL = """
-[protocol]
-name = "tiny"
-
-[[blocks]]
-part = "training"
-objects = "training"
-levels = [2]
-conditions = ["decluttered"]
-
-[[blocks]]
-part = "main"
-objects = "main"
-levels = [1, 2]
-conditions = ["cluttered", "decluttered"]
-"""
+PROTOCOL = protocol_toml((1, 2), name="tiny", training=(2, "decluttered"))
 
 
 @pytest.fixture(scope="module")
@@ -89,6 +78,31 @@ def test_wal_full_and_numbered_migrations(tmp_path):
     with TrialLog(path) as log:  # reopening applies nothing twice
         assert log.execute("SELECT count(*) FROM schema_migrations")[0][0] == len(MIGRATIONS)
         assert log.schema_version() == MIGRATIONS[-1][0]
+
+
+#: sha256 of each released migration's SQL, whitespace-normalised (runs of blanks made one
+#: space). A released migration is never edited, so that every existing log migrates exactly as
+#: before; a change of schema is a new migration, appended.
+RELEASED_MIGRATION_SQL_SHA256 = {
+    1: "70ba9b4ba922bfeffe74899969a7ac7e0711dcb1a34c226574c4f57d99a19c8b",
+    2: "3e602d161a53b9800ebbfde2fb665cd7b3b706cb48b7ac306ef51df43f1fbfab",
+    3: "3772af95847b46255b1f624e55ebcaf890e21c27f371660001ca110d40de811f",
+    4: "99f4a3f6f704334e455170cacd132fd025a40a87790532f5c889b7c9e837535b",
+    5: "20b37a2c24e2d422ef77ca795b8030938f3c7ea928d83c77e57d065751a347c9",
+    6: "42d8159020a9c05d6931d0db640e0ec7621c25f2c8d65cd728815f94adf04766",
+}
+
+
+def test_released_migrations_run_the_sql_they_always_ran():
+    versions = [v for v, _, _ in MIGRATIONS]
+    assert versions == sorted(set(versions)), "migration numbers are unique and ascending"
+    assert set(RELEASED_MIGRATION_SQL_SHA256) <= set(versions), "a released migration was removed"
+    for version, name, sql in MIGRATIONS:
+        if version in RELEASED_MIGRATION_SQL_SHA256:
+            digest = hashlib.sha256(" ".join(sql.split()).encode()).hexdigest()
+            assert digest == RELEASED_MIGRATION_SQL_SHA256[version], (
+                f"migration {version} ({name}) was edited; append a new migration instead"
+            )
 
 
 def test_tidy_view_has_the_contract_columns(tmp_path, protocol, stimset):
@@ -311,14 +325,12 @@ def test_misc_errors(tmp_path):
             log.execute("SELECT nope FROM nothing")
 
 
-def test_migration_2_adds_viewings_to_an_existing_log_issue_10(
+def test_an_older_log_is_upgraded_in_place_and_keeps_its_trials(
     tmp_path, protocol, stimset, monkeypatch
 ):
     """A schema-1 log is upgraded in place: old trials have 0 logged viewings, new ones >= 1."""
-    import experiment.triallog as tl
-
     db = tmp_path / "old.sqlite"
-    monkeypatch.setattr(tl, "MIGRATIONS", MIGRATIONS[:-1])  # before the viewings migration
+    monkeypatch.setattr(schema, "MIGRATIONS", MIGRATIONS[:-1])  # before the viewings migration
     with TrialLog(db) as log:
         s = Session.open(log, protocol, stimset, "S01", seed=3, clock=FakeClock())
         t0 = s.next_trial()
@@ -335,7 +347,7 @@ def test_migration_2_adds_viewings_to_an_existing_log_issue_10(
             )
         s.close()
         assert log.schema_version() == MIGRATIONS[-2][0]
-    monkeypatch.setattr(tl, "MIGRATIONS", MIGRATIONS)
+    monkeypatch.setattr(schema, "MIGRATIONS", MIGRATIONS)
     with TrialLog(db) as log:
         assert log.schema_version() == MIGRATIONS[-1][0]
         s = Session.open(log, protocol, stimset, "S01", clock=FakeClock())
@@ -361,28 +373,24 @@ def test_migration_2_adds_viewings_to_an_existing_log_issue_10(
             con.close()
 
 
-def test_fault_spec_is_checked_issue_10(monkeypatch):
-    import experiment.triallog as tl
-
+def test_fault_spec_is_checked():
     for bad in ("commit", "commit@0=exit", "nowhere@1=exit", "commit@1=explode"):
         with pytest.raises(ValueError, match="CONFOCAL_FAULT must look like STEP@N=exit|enospc"):
-            tl._parse_fault(bad)
-    assert tl._parse_fault("") is None
-    assert tl._parse_fault("record.trial@3=exit") == ("record.trial", 3, "exit")
+            faults.parse_fault(bad)
+    assert faults.parse_fault("") is None
+    assert faults.parse_fault("record.trial@3=exit") == ("record.trial", 3, "exit")
 
 
-def test_disk_full_rolls_back_and_says_so_issue_10(tmp_path, protocol, stimset, monkeypatch):
-    import experiment.triallog as tl
-
+def test_disk_full_rolls_back_and_says_so(tmp_path, protocol, stimset, monkeypatch):
     db = tmp_path / "full.sqlite"
     with TrialLog(db) as log:
         s = Session.open(log, protocol, stimset, "S01", seed=3, clock=FakeClock())
         t0 = s.next_trial()
-        monkeypatch.setattr(tl, "_fault_spec", ("record.score", 1, "enospc"))
-        monkeypatch.setattr(tl, "_fault_hits", {})
+        monkeypatch.setattr(faults, "_fault_spec", ("record.score", 1, "enospc"))
+        monkeypatch.setattr(faults, "_fault_hits", {})
         with pytest.raises(TrialLogError, match="disk is full .*rolled back.*run the same"):
             s.record(t0, Answer("mug", "named", "operator"), FlipRecord(0.0, 1.0))
-        monkeypatch.setattr(tl, "_fault_spec", None)
+        monkeypatch.setattr(faults, "_fault_spec", None)
         assert log.answered_count(s.session_id) == 0, "the half-written trial was rolled back"
         assert log.viewings(s.session_id, 0) == 0
         s.record(t0, Answer("mug", "named", "operator"), FlipRecord(0.0, 1.0))

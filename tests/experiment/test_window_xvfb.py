@@ -226,8 +226,8 @@ def test_a_person_searches_in_the_window_and_the_operator_scores(x_display, tmp_
     from experiment.active.live import LiveSearch
     from experiment.active.session import ActiveSession
     from experiment.console.active import ActiveConsole
+    from experiment.log import TrialLog
     from experiment.presentation.presenter import stimulus_rect_px
-    from experiment.triallog import TrialLog
     from tests.experiment.test_active import small_protocol
 
     spec = small_protocol(conditions=["decluttered"], trial_order="listed")

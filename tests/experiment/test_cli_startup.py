@@ -1,6 +1,6 @@
 """``confocal --help``/``--version`` start without the heavy modules; help pages render cleanly.
 
-Issue 15, point 11. Start-up time itself is measured in ``benchmarks/bench_startup.py`` (a ratio
+Start-up time itself is measured in ``benchmarks/bench_startup.py`` (a ratio
 against ``python -c pass``), not asserted here.
 """
 

@@ -1,4 +1,4 @@
-"""Files written atomically get the user's umask, not mkstemp's private 0600 (issue 15, point 4)."""
+"""Files written atomically get the user's umask, not mkstemp's private 0600."""
 
 from __future__ import annotations
 

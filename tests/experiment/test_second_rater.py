@@ -1,5 +1,4 @@
-"""Second rater: main trials by default, undo, progress; kappa with a 95 % interval
-(issue 15, point 6)."""
+"""Second rater: main trials by default, undo, progress; kappa with a 95 % interval."""
 
 from __future__ import annotations
 
@@ -10,51 +9,16 @@ import numpy as np
 import pytest
 
 from experiment import cli
-from experiment.clock import FakeClock
-from experiment.interfaces import Answer, FlipRecord
+from experiment.log import TrialLog
 from experiment.presentation.cli import pending_for_rater
-from experiment.protocol import load_protocol
 from experiment.scoring import cohen_kappa, kappa, kappa_interval
-from experiment.session import Session
-from experiment.stimset import StimulusSet
-from experiment.testing import make_stimulus_set
-from experiment.triallog import TrialLog
-
-PROTOCOL = """
-[protocol]
-name = "small"
-
-[[blocks]]
-part = "training"
-objects = "training"
-levels = [8]
-conditions = ["photo"]
-
-[[blocks]]
-part = "main"
-objects = "main"
-levels = [1, 8]
-conditions = ["cluttered", "decluttered"]
-"""
+from tests.experiment.conftest import make_answered_log
 
 
 @pytest.fixture()
 def answered(tmp_path):
     """A log with one person's session: 2 training + 8 main trials, all answered 'named'."""
-    stim = make_stimulus_set(tmp_path / "stim", n_main=2, n_training=2, levels=(1, 8))
-    proto = tmp_path / "p.toml"
-    proto.write_text(PROTOCOL)
-    db = tmp_path / "study.sqlite"
-    clock = FakeClock(0.0)
-    with TrialLog(db) as log:
-        s = Session.open(log, load_protocol(proto), StimulusSet.load(stim), "S01", seed=1,
-                         clock=clock)  # fmt: skip
-        with s:
-            while (trial := s.next_trial()) is not None:
-                clock.advance(1.0)
-                s.record(trial, Answer(f"word {trial.index}", "named", "operator", rt_s=0.5),
-                         FlipRecord(onset_s=0.0, offset_s=1.0))  # fmt: skip
-    return db
+    return make_answered_log(tmp_path)
 
 
 def test_main_trials_only_unless_asked(answered):

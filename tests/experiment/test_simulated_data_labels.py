@@ -1,4 +1,4 @@
-"""Simulated data is labelled everywhere (issue 15, point 1).
+"""Simulated data is labelled everywhere.
 
 The observer and its parameters are stored per session (migration 2, back-filled for older
 logs); ``tidy_trials`` says ``simulated`` and ``observer``; ``confocal analyze`` refuses to pool
@@ -12,40 +12,18 @@ import sqlite3
 
 import pytest
 
-from experiment import cli, triallog
+from experiment.log import MIGRATIONS, TIDY_COLUMNS, ResumeMismatch, TrialLog, schema
 from experiment.observers import make_observer
 from experiment.presentation.displays import NullDisplay
 from experiment.protocol import load_protocol
 from experiment.session import Session
 from experiment.stimset import StimulusSet
-from experiment.testing import make_stimulus_set
-from experiment.triallog import MIGRATIONS, TIDY_COLUMNS, ResumeMismatch, TrialLog
-
-PROTOCOL = """
-[protocol]
-name = "small"
-
-[[blocks]]
-part = "main"
-objects = "main"
-levels = [1, 2, 8]
-conditions = ["cluttered", "decluttered"]
-"""
-
-
-def confocal(args, capsys):
-    with pytest.raises(SystemExit) as exc:
-        cli.main([str(a) for a in args])
-    out = capsys.readouterr()
-    return exc.value.code, out.out, out.err
+from tests.experiment.conftest import confocal, make_study, session_run_args
 
 
 @pytest.fixture()
 def study(tmp_path):
-    stim = make_stimulus_set(tmp_path / "stim", n_main=3, n_training=1, levels=(1, 2, 8))
-    proto = tmp_path / "small.toml"
-    proto.write_text(PROTOCOL)
-    return stim, proto, tmp_path / "study.sqlite"
+    return make_study(tmp_path, (1, 2, 8), training=None)
 
 
 def human_session(stim, proto, db, subject="S01"):
@@ -58,8 +36,7 @@ def human_session(stim, proto, db, subject="S01"):
 
 
 def headless(stim, proto, db, subject, *extra):
-    return ["session", "run", "--protocol", proto, "--stimuli", stim, "--subject", subject,
-            "--data", db, "--headless", "--seed", "5", *extra]  # fmt: skip
+    return session_run_args(stim, proto, db, subject, "--headless", "--seed", "5", *extra)
 
 
 def test_observer_and_params_stored_and_in_tidy_trials(study, capsys):
@@ -88,7 +65,7 @@ def test_observer_and_params_stored_and_in_tidy_trials(study, capsys):
 
 def test_migration_back_fills_an_old_log(tmp_path, monkeypatch):
     db = tmp_path / "old.sqlite"
-    monkeypatch.setattr(triallog, "MIGRATIONS", MIGRATIONS[:1])
+    monkeypatch.setattr(schema, "MIGRATIONS", MIGRATIONS[:1])
     with TrialLog(db) as log:
         common = dict(protocol_name="p", protocol_sha256="x", protocol_json="{}",
                       display_json="{}", stimset_path="s", stimset_manifest_sha256="y", seed="1",
@@ -96,7 +73,7 @@ def test_migration_back_fills_an_old_log(tmp_path, monkeypatch):
         log.create_session(subject="S01", responder="console", **common)
         log.create_session(subject="S02", responder="sim:model", **common)
         assert log.schema_version() == 1
-    monkeypatch.setattr(triallog, "MIGRATIONS", MIGRATIONS)
+    monkeypatch.setattr(schema, "MIGRATIONS", MIGRATIONS)
     with TrialLog(db) as log:
         assert log.schema_version() == MIGRATIONS[-1][0] >= 2
         assert [s["observer"] for s in log.sessions()] == [None, "model"]

@@ -1,4 +1,4 @@
-"""A protocol's ``[display] implant``: sessions show each stimulus as the implant does (issue 14).
+"""A protocol's ``[display] implant``: sessions show each stimulus as the implant does.
 
 The headless session's shown images are checked against :func:`stimuli.compress.compress` /
 ``compress_grey`` of the stimulus files read directly (not through the session), the logged
@@ -17,12 +17,12 @@ import pytest
 from experiment.clock import FakeClock
 from experiment.errors import ConfocalError
 from experiment.interfaces import Answer
+from experiment.log import TrialLog
 from experiment.presentation.displays import NullDisplay
 from experiment.protocol import DisplaySpec, ProtocolError, ProtocolSpec, load_protocol
 from experiment.session import Session, display_json
 from experiment.stimset import StimulusSet
 from experiment.testing import make_stimulus_set
-from experiment.triallog import TrialLog
 from stimuli.compress import compress, compress_grey
 from stimuli.implants import load_implant
 from stimuli.io import load_gray, load_rgb

@@ -1,4 +1,4 @@
-"""``confocal session export`` writes a valid Psych-DS 1.x dataset (issue 15, point 2).
+"""``confocal session export`` writes a valid Psych-DS 1.x dataset.
 
 :func:`check_psychds` below is an independent check of the Psych-DS 1.x rules that apply to this
 export (schema objects ``dataset_description``, ``Datafile``, ``columnsMatchMetadata`` and the CSV
@@ -17,36 +17,17 @@ from pathlib import Path
 
 import pytest
 
-from experiment import cli
 from experiment.data.psychds import (
     ParticipantError,
     datafile_name,
     keyword_value,
     parse_participant,
 )
-from experiment.testing import make_stimulus_set
-from experiment.triallog import TrialLog
+from experiment.log import TrialLog
+from tests.experiment.conftest import confocal, make_study, session_run_args
 
 #: Psych-DS 1.x schema, objects/files/Datafile: fileRegex.
 FILE_REGEX = re.compile(r"([a-z]+-[a-zA-Z0-9]+)(_[a-z]+-[a-zA-Z0-9]+)*_data\.csv")
-
-PROTOCOL = """
-[protocol]
-name = "small"
-
-[[blocks]]
-part = "training"
-objects = "training"
-levels = [8]
-conditions = ["photo"]
-
-[[blocks]]
-part = "main"
-objects = "main"
-levels = [1, 8]
-conditions = ["cluttered", "decluttered"]
-"""
-
 
 def check_psychds(root: Path) -> list[str]:
     """Return the Psych-DS 1.x rule violations of dataset folder ``root`` (empty: valid)."""
@@ -114,24 +95,13 @@ def strings(obj):
             yield from strings(v)
 
 
-def confocal(args, capsys):
-    with pytest.raises(SystemExit) as exc:
-        cli.main([str(a) for a in args])
-    out = capsys.readouterr()
-    return exc.value.code, out.out, out.err
-
-
 @pytest.fixture()
 def study(tmp_path):
-    stim = make_stimulus_set(tmp_path / "stim", n_main=2, n_training=1, levels=(1, 8))
-    proto = tmp_path / "small.toml"
-    proto.write_text(PROTOCOL)
-    return stim, proto, tmp_path / "study.sqlite"
+    return make_study(tmp_path, (1, 8), n_main=2)
 
 
 def run(stim, proto, db, subject, *extra):
-    return ["session", "run", "--protocol", proto, "--stimuli", stim, "--subject", subject,
-            "--data", db, "--headless", "--seed", "2", *extra]  # fmt: skip
+    return session_run_args(stim, proto, db, subject, "--headless", "--seed", "2", *extra)
 
 
 def test_export_is_a_valid_psychds_dataset(study, tmp_path, capsys):
