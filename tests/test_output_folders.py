@@ -81,7 +81,7 @@ def world(tmp_path_factory) -> World:
     db = root / "study.sqlite"
     run = ["session", "run", "--protocol", proto, "--stimuli", stim, "--subject", "S01"]
     assert _run([*run, "--data", db, "--headless", "--seed", "1"]) == 0
-    from experiment.triallog import TrialLog
+    from experiment.log import TrialLog
 
     with TrialLog(db) as log:  # some recognised trials, so that an analysis can run
         for r in log.tidy_trials():
