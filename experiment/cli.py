@@ -35,7 +35,7 @@ SUBCOMMANDS: dict[str, tuple[str, str]] = {
         "Light fields (Jung et al. 2015, Sec. 4): scan depth planes, refocus, zoom, synthesise.",
     ),
     "session": (
-        "experiment.session_cli",
+        "experiment.session.cli",
         "Run recognition sessions and inspect or export the study's trial log.",
     ),
     "present": (

@@ -84,7 +84,7 @@ from typing import Any
 from experiment.errors import ConfocalError
 from experiment.interfaces import Answer, FlipRecord
 from experiment.protocol import SCORES
-from experiment.schedule import Schedule, Trial
+from experiment.session.schedule import Schedule, Trial
 
 __all__ = [
     "TrialLogError",

@@ -18,7 +18,7 @@ from typing import Annotated
 import typer
 
 from experiment.errors import ConfocalError
-from experiment.session_cli import (
+from experiment.session.cli import (
     FullscreenOption,
     NewSessionOption,
     PresenterOption,
@@ -76,7 +76,7 @@ def run_command(
     ``--new-session REASON`` starts a further one.
     """
     from experiment.protocol import load_protocol
-    from experiment.session import check_new_session_reason
+    from experiment.session.engine import check_new_session_reason
 
     if searcher not in SEARCHERS:
         raise ConfocalError(f"--searcher must be one of {', '.join(SEARCHERS)}, got {searcher!r}")

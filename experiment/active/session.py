@@ -28,7 +28,7 @@ from experiment.active.searcher import Action, Observation, Searcher
 from experiment.active.task import ActiveSearchSpec, ActiveTrial, plan_trials
 from experiment.clock import Clock, PerfCounterClock
 from experiment.protocol import SCORES, ProtocolError, ProtocolSpec
-from experiment.stimset import ObjectInfo
+from experiment.session.stimset import ObjectInfo
 from experiment.triallog import ResumeMismatch, SessionComplete, TrialLog
 
 __all__ = ["ActiveSession", "SCENE_OBJECTS", "Scorer", "auto_scorer"]
@@ -66,8 +66,9 @@ def _object_info(name: str) -> ObjectInfo:
 def auto_scorer(
     trial: ActiveTrial, response: str, targets: tuple[str, ...] = ()
 ) -> tuple[str, str]:
-    """Score an answer as the console suggests it (:func:`experiment.scoring.suggest_score`)."""
-    from experiment.scoring import suggest_score
+    """Score an answer as the console suggests it
+    (:func:`~experiment.session.scoring.suggest_score`)."""
+    from experiment.session.scoring import suggest_score
 
     others = [_object_info(t) for t in targets if t != trial.target]
     return suggest_score(response, _object_info(trial.target), others), "auto"
@@ -179,7 +180,7 @@ class ActiveSession:
                     f"task.targets: {missing[0]!r} is not an object of {task.scene} "
                     f"(objects: {', '.join(scene.objects)})"
                 )
-        from experiment.session import check_new_session_reason
+        from experiment.session.engine import check_new_session_reason
 
         check_new_session_reason(new_session)
         decision, existing = log.session_to_open(subject, new_session=new_session)
@@ -200,7 +201,7 @@ class ActiveSession:
             "scan_px": [float(ds.max()), float(ds.min())],
             "objects_px": dict(scene.objects),
         }
-        from experiment.session import software_provenance
+        from experiment.session.engine import software_provenance
 
         with log.atomic():
             sid = log.create_session(

@@ -49,7 +49,7 @@ import numpy as np
 
 from experiment.interfaces import Answer
 from experiment.observers.exemplar import ExemplarObserver, ExemplarParams
-from experiment.stimset import PHOTO_CONDITIONS, StimulusSet
+from experiment.session.stimset import PHOTO_CONDITIONS, StimulusSet
 
 __all__ = [
     "ExemplarParams",

@@ -29,8 +29,8 @@ from experiment.console import OperatorConsole
 from experiment.console.launch import _open_recorder
 from experiment.presentation.displays import NullDisplay
 from experiment.protocol import load_protocol
-from experiment.session import Session
-from experiment.stimset import StimulusSet
+from experiment.session.engine import Session
+from experiment.session.stimset import StimulusSet
 from experiment.triallog import MIGRATIONS, TrialLog
 from tests.experiment.test_console import PROTOCOL, make_stimset
 

@@ -22,8 +22,8 @@ from experiment.console import OperatorConsole, preview_text
 from experiment.interfaces import FlipRecord, combine_flips
 from experiment.presentation.displays import NullDisplay
 from experiment.protocol import load_protocol
-from experiment.session import Session
-from experiment.stimset import MANIFEST_COLUMNS, StimulusSet
+from experiment.session.engine import Session
+from experiment.session.stimset import MANIFEST_COLUMNS, StimulusSet
 from experiment.triallog import TrialLog
 
 PROTOCOL = """

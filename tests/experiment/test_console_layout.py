@@ -24,8 +24,8 @@ from experiment.console import OperatorConsole, logs_to_file, session_log_path
 from experiment.presentation.displays import NullDisplay
 from experiment.presentation.process import PROTOCOL_VERSION, RemoteDisplay
 from experiment.protocol import load_protocol
-from experiment.session import Session
-from experiment.stimset import MANIFEST_COLUMNS, StimulusSet
+from experiment.session.engine import Session
+from experiment.session.stimset import MANIFEST_COLUMNS, StimulusSet
 from experiment.triallog import TrialLog
 from tests.experiment.test_console import PROTOCOL
 

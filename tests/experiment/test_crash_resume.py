@@ -29,8 +29,8 @@ import pytest
 
 from experiment import cli, triallog
 from experiment.protocol import load_protocol
-from experiment.schedule import build_schedule
-from experiment.stimset import StimulusSet
+from experiment.session.schedule import build_schedule
+from experiment.session.stimset import StimulusSet
 from experiment.testing import make_stimulus_set
 
 #: Seed of the kill points; printed so that a failure can be replayed (H18).

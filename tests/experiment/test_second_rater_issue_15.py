@@ -14,9 +14,9 @@ from experiment.clock import FakeClock
 from experiment.interfaces import Answer, FlipRecord
 from experiment.presentation.cli import pending_for_rater
 from experiment.protocol import load_protocol
-from experiment.scoring import cohen_kappa, kappa, kappa_interval
-from experiment.session import Session
-from experiment.stimset import StimulusSet
+from experiment.session.engine import Session
+from experiment.session.scoring import cohen_kappa, kappa, kappa_interval
+from experiment.session.stimset import StimulusSet
 from experiment.testing import make_stimulus_set
 from experiment.triallog import TrialLog
 

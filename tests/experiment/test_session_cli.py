@@ -113,8 +113,8 @@ def test_status_shows_what_is_left(study, capsys):
     stim, proto, db = study
     with TrialLog(db) as log:
         from experiment.protocol import load_protocol
-        from experiment.session import Session
-        from experiment.stimset import StimulusSet
+        from experiment.session.engine import Session
+        from experiment.session.stimset import StimulusSet
 
         s = Session.open(log, load_protocol(proto), StimulusSet.load(stim), "S07")
         s.close()
@@ -174,8 +174,8 @@ def test_bad_input_one_line_exit_2_no_data_lost(study, tmp_path, capsys, case, m
     elif case == "resume_other_seed":
         with TrialLog(db) as log:
             from experiment.protocol import load_protocol
-            from experiment.session import Session
-            from experiment.stimset import StimulusSet
+            from experiment.session.engine import Session
+            from experiment.session.stimset import StimulusSet
 
             Session.open(log, load_protocol(proto), StimulusSet.load(stim), "S09", seed=11).close()
         args = run_args(stim, proto, db, "S09", "--headless", "--seed", "12")

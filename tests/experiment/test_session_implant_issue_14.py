@@ -19,8 +19,8 @@ from experiment.errors import ConfocalError
 from experiment.interfaces import Answer
 from experiment.presentation.displays import NullDisplay
 from experiment.protocol import DisplaySpec, ProtocolError, ProtocolSpec, load_protocol
-from experiment.session import Session, display_json
-from experiment.stimset import StimulusSet
+from experiment.session.engine import Session, display_json
+from experiment.session.stimset import StimulusSet
 from experiment.testing import make_stimulus_set
 from experiment.triallog import TrialLog
 from stimuli.compress import compress, compress_grey

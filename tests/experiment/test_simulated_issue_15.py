@@ -16,8 +16,8 @@ from experiment import cli, triallog
 from experiment.observers import make_observer
 from experiment.presentation.displays import NullDisplay
 from experiment.protocol import load_protocol
-from experiment.session import Session
-from experiment.stimset import StimulusSet
+from experiment.session.engine import Session
+from experiment.session.stimset import StimulusSet
 from experiment.testing import make_stimulus_set
 from experiment.triallog import MIGRATIONS, TIDY_COLUMNS, ResumeMismatch, TrialLog
 

@@ -13,8 +13,8 @@ import pytest
 from experiment.clock import FakeClock
 from experiment.interfaces import Answer, FlipRecord
 from experiment.protocol import load_protocol
-from experiment.session import Session
-from experiment.stimset import StimulusSet
+from experiment.session.engine import Session
+from experiment.session.stimset import StimulusSet
 from experiment.testing import make_stimulus_set
 from experiment.triallog import (
     MIGRATIONS,

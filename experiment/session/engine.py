@@ -27,9 +27,9 @@ import numpy as np
 from experiment.clock import Clock, PerfCounterClock
 from experiment.interfaces import Answer, Display, FlipRecord, Responder, combine_flips
 from experiment.protocol import SCORES, DisplaySpec, ProtocolError, ProtocolSpec
-from experiment.schedule import Schedule, Trial, build_schedule
-from experiment.scoring import suggest_score
-from experiment.stimset import StimulusSet, StimulusSetError
+from experiment.session.schedule import Schedule, Trial, build_schedule
+from experiment.session.scoring import suggest_score
+from experiment.session.stimset import StimulusSet, StimulusSetError
 from experiment.triallog import ResumeMismatch, SessionComplete, TrialLog, TrialLogError
 
 __all__ = [
@@ -356,7 +356,7 @@ class Session:
         StimulusSetError
             The file changed since the session started (sha256 differs).
         """
-        from experiment.stimset import decode_stimulus
+        from experiment.session.stimset import decode_stimulus
 
         p = self.stimset.root / trial.path
         try:
@@ -540,7 +540,7 @@ def check_implant_fits(display: DisplaySpec, stimset: StimulusSet, schedule: Sch
     layout = display.implant_layout
     if layout is None:
         return
-    from experiment.stimset import COLOUR_CONDITIONS
+    from experiment.session.stimset import COLOUR_CONDITIONS
     from stimuli.errors import InputError
     from stimuli.io import image_shape_px
 

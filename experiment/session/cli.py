@@ -192,9 +192,9 @@ def run_command(
     from experiment.observers import OBSERVERS, describe_observer, make_observer
     from experiment.presentation.displays import NullDisplay
     from experiment.protocol import load_protocol
-    from experiment.schedule import planned_trials
-    from experiment.session import Session
-    from experiment.stimset import StimulusSet
+    from experiment.session.engine import Session
+    from experiment.session.schedule import planned_trials
+    from experiment.session.stimset import StimulusSet
     from experiment.triallog import SessionComplete, TrialLog
 
     if presenter not in ("process", "offscreen", "none"):
@@ -228,7 +228,7 @@ def run_command(
         )
     if data.is_dir():
         raise ConfocalError(f"--data {data} is a folder; expected the study's .sqlite file")
-    from experiment.session import check_new_session_reason
+    from experiment.session.engine import check_new_session_reason
 
     check_new_session_reason(new_session)
     meta = None
@@ -252,8 +252,8 @@ def run_command(
     # the whole plan is checked before the trial log is created or touched
     check_memory(planned_trials(spec, stimset) * _BYTES_PER_TRIAL, f"protocol {protocol}")
     if spec.display.implant_layout is not None:
-        from experiment.schedule import build_schedule
-        from experiment.session import check_implant_fits
+        from experiment.session.engine import check_implant_fits
+        from experiment.session.schedule import build_schedule
 
         check_implant_fits(spec.display, stimset, build_schedule(spec, stimset, 0))
     effective_params = None
@@ -401,7 +401,7 @@ def status_report(path: Path) -> dict:
         session, or None); each subject has ``complete`` (its latest session is), that
         ``session``, ``sessions`` (how many), ``answered``, ``planned`` and ``ended_at``.
     """
-    from experiment.scoring import cohen_kappa
+    from experiment.session.scoring import cohen_kappa
     from experiment.triallog import TrialLog
 
     with TrialLog(path, readonly=True) as log:

@@ -16,7 +16,7 @@ import warnings
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 
-from experiment.stimset import ObjectInfo
+from experiment.session.stimset import ObjectInfo
 
 __all__ = [
     "SHAPE_WORDS",
