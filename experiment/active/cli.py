@@ -18,19 +18,19 @@ from typing import Annotated
 import typer
 
 from experiment.errors import ConfocalError
-from experiment.session.cli import (
+from experiment.session.run_options import (
+    DataOption,
     FullscreenOption,
     NewSessionOption,
     PresenterOption,
     ScreenOption,
     SkipTimingCheckOption,
+    SubjectOption,
+    check_presenter,
     report_if_complete,
 )
 
-__all__ = ["register", "active_app", "SEARCHERS", "PRESENTERS", "subject_phosphenes"]
-
-#: Subject's screens of ``--searcher person`` (as ``confocal session run --presenter``).
-PRESENTERS: tuple[str, ...] = ("process", "offscreen", "none")
+__all__ = ["register", "active_app", "SEARCHERS", "subject_phosphenes"]
 
 #: Searchers ``confocal active run`` can use: a person (a subject at the presenter window) or
 #: a simulated one (headless).
@@ -50,8 +50,8 @@ def run_command(
     protocol: Annotated[
         Path, typer.Argument(help='Protocol with \\[task] type = "active_search" (or its name).')
     ],
-    data: Annotated[Path, typer.Option("--data", help="The study's SQLite trial log.")],
-    subject: Annotated[str, typer.Option("--subject", help="Subject code, e.g. S01.")],
+    data: DataOption,
+    subject: SubjectOption,
     searcher: Annotated[
         str,
         typer.Option(
@@ -76,16 +76,13 @@ def run_command(
     ``--new-session REASON`` starts a further one.
     """
     from experiment.protocol import load_protocol
-    from experiment.session.engine import check_new_session_reason
+    from experiment.session.lifecycle import check_new_session_reason
 
     if searcher not in SEARCHERS:
         raise ConfocalError(f"--searcher must be one of {', '.join(SEARCHERS)}, got {searcher!r}")
     if not rater.strip():
         raise ConfocalError("--rater must not be blank")
-    if presenter not in PRESENTERS:
-        raise ConfocalError(
-            f"--presenter must be one of {', '.join(PRESENTERS)}, got {presenter!r}"
-        )
+    check_presenter(presenter)
     spec = load_protocol(protocol)
     if spec.task is None:
         raise ConfocalError(

@@ -24,6 +24,17 @@ from typing import Annotated
 import typer
 
 from experiment.errors import ConfocalError
+from experiment.session.run_options import (
+    DataOption,
+    FullscreenOption,
+    NewSessionOption,
+    PresenterOption,
+    ScreenOption,
+    SkipTimingCheckOption,
+    SubjectOption,
+    check_presenter,
+    report_if_complete,
+)
 from stimuli.resources import check_memory, finite_option
 
 __all__ = [
@@ -32,43 +43,6 @@ __all__ = [
     "status_command",
     "export_command",
     "status_report",
-    "report_if_complete",
-    "NewSessionOption",
-]
-
-# The subject's-screen options, shared by ``session run`` and ``active run --searcher person``.
-ScreenOption = Annotated[
-    int | None, typer.Option("--screen", min=0, help="Screen index of the subject's window.")
-]
-FullscreenOption = Annotated[
-    bool, typer.Option("--fullscreen/--window", help="Subject's window full screen or windowed.")
-]
-PresenterOption = Annotated[
-    str,
-    typer.Option(
-        "--presenter",
-        envvar="CONFOCAL_PRESENTER",
-        help="process (a window, in its own process), offscreen (no window: GL renders into "
-        "memory), or none.",
-    ),
-]
-SkipTimingCheckOption = Annotated[
-    bool,
-    typer.Option(
-        "--skip-timing-check",
-        help="Start even if the frame-timing self-test fails (the choice is logged).",
-    ),
-]
-
-NewSessionOption = Annotated[
-    str | None,
-    typer.Option(
-        "--new-session",
-        metavar="REASON",
-        help="Start a further session for a subject whose session is complete; the reason is "
-        'logged, e.g. --new-session "re-test after new glasses". Without it a complete '
-        "subject's session is reported, not run again.",
-    ),
 ]
 
 logger = logging.getLogger(__name__)
@@ -102,10 +76,8 @@ def run_command(
         typer.Option("--protocol", "-p", help="Protocol TOML file, or a shipped name (jung2015)."),
     ],
     stimuli: Annotated[Path, typer.Option("--stimuli", "-s", help="Stimulus set folder.")],
-    subject: Annotated[str, typer.Option("--subject", help="Subject code, e.g. S01.")],
-    data: Annotated[
-        Path, typer.Option("--data", "-d", help="The study's SQLite trial log.")
-    ] = Path("study.sqlite"),
+    subject: SubjectOption,
+    data: DataOption = Path("study.sqlite"),
     observer: Annotated[
         str | None,
         typer.Option(
@@ -193,14 +165,12 @@ def run_command(
     from experiment.presentation.displays import NullDisplay
     from experiment.protocol import load_protocol
     from experiment.session.engine import Session
+    from experiment.session.lifecycle import check_new_session_reason
     from experiment.session.schedule import planned_trials
     from experiment.session.stimset import StimulusSet
     from experiment.triallog import SessionComplete, TrialLog
 
-    if presenter not in ("process", "offscreen", "none"):
-        raise ConfocalError(
-            f"--presenter must be one of process, offscreen, none; got {presenter!r}"
-        )
+    check_presenter(presenter)
     if observer is not None and not headless:
         raise ConfocalError("--observer needs --headless (a simulated subject has no screen)")
     if headless:
@@ -228,8 +198,6 @@ def run_command(
         )
     if data.is_dir():
         raise ConfocalError(f"--data {data} is a folder; expected the study's .sqlite file")
-    from experiment.session.engine import check_new_session_reason
-
     check_new_session_reason(new_session)
     meta = None
     if participant is not None:
@@ -333,31 +301,6 @@ def _check_subject_is_new_or_same(data: Path, subject: str) -> None:
                 f"--subject {subject!r}: the log already has subject {other!r}, and both would "
                 f"be exported as subject-{keyword_value(subject)}; use {other!r} or another code"
             )
-
-
-def report_if_complete(data: Path, subject: str, new_session: str | None) -> bool:
-    """Print that SUBJECT's session is complete and return True, or return False; reads only.
-
-    Opens the log read-only (nothing is written, migrated or checkpointed), so running a
-    completed subject's command again -- the recovery after a crash -- changes nothing. False
-    when the subject has an unfinished session, no session, or ``new_session`` asks for one.
-
-    Raises
-    ------
-    TrialLogError
-        The file is not a trial log, or ``new_session`` is given while another session of
-        the subject is unfinished.
-    """
-    from experiment.triallog import TrialLog
-
-    if not data.exists() or (data.is_file() and data.stat().st_size == 0):
-        return False
-    with TrialLog(data, readonly=True) as log:
-        decision, row = log.session_to_open(subject, new_session=new_session)
-        if decision != "complete":
-            return False
-        typer.echo(log.complete_message(row))
-    return True
 
 
 def _params_dict(spec: object, given: dict[str, object]) -> dict[str, object]:
