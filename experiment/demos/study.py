@@ -640,7 +640,7 @@ def register(app: typer.Typer) -> None:
         ] = False,
         force: Annotated[bool, typer.Option("--force", help="Replace a non-empty --out.")] = False,
         active: Annotated[
-            bool, typer.Option("--active", help="Draw a simulated active search (issue 14).")
+            bool, typer.Option("--active", help="Draw a simulated active search.")
         ] = False,
     ) -> None:
         """Run the whole study on synthetic data: scenes, stimuli, sessions, analysis, report.

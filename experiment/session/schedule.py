@@ -238,7 +238,7 @@ def build_schedule(
     Jung et al. 2015, Sec. 3.2: levels lowest to highest; at each level the cluttered block
     then the de-cluttered block; random object order inside a block.
     """
-    if protocol.task is not None:  # issue 14: a [task] protocol has no static schedule
+    if protocol.task is not None:  # an active-search [task] has no static schedule
         raise ProtocolError(
             f"{protocol.source_path or protocol.name}: an active-search protocol runs with "
             "'confocal active run', not as a static session"

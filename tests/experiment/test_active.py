@@ -1,4 +1,4 @@
-"""Active search as a study (issue 14, point 5): protocol task, state machine, event log,
+"""Active search as a study: protocol task, state machine, event log,
 simulated searcher end to end, crash and resume."""
 
 from __future__ import annotations
@@ -416,7 +416,7 @@ def _by_trial(rows):
     }
 
 
-def test_resume_after_kill_keeps_events_exact_issue_14(tmp_path, protocol) -> None:
+def test_resume_after_kill_keeps_events_exact(tmp_path, protocol) -> None:
     ref_log = TrialLog(tmp_path / "ref.sqlite")
     ref, _ = run_session(ref_log, protocol)
     ref_rows = ActiveEventLog(ref_log, ref.session_id).rows()

@@ -1,9 +1,9 @@
 """Crash safety: kills at every write step of the trial log, a few real SIGKILLs, a full disk.
 
-Issue 5 ("must show"): the session ends with exactly the planned trials, in the planned order,
+What must hold: the session ends with exactly the planned trials, in the planned order,
 with no duplicates and no gaps; a second concurrent process is refused (H22).
 
-Issue 10: the kill points are chosen among the trial log's write steps (``CONFOCAL_FAULT``,
+The kill points are chosen among the trial log's write steps (``CONFOCAL_FAULT``,
 :func:`experiment.triallog.fault_point`) in processes forked from the test (no interpreter start
 per kill), so 50 kills cost seconds, not minutes; a handful of real SIGKILLs of a fresh process
 stay to cover what injection cannot (a kill inside SQLite itself). A full disk (injected
@@ -175,7 +175,7 @@ def check_complete(db, stim, proto, *, repeats: set[int]) -> None:
 
 
 @pytest.mark.slow  # 51 forked sessions with fsync'd commits: ~10 s idle, ~35 s on 2 busy cores
-def test_kills_at_injected_write_steps_then_resume_exactly_issue_10(study, tmp_path):
+def test_kills_at_injected_write_steps_then_resume_exactly(study, tmp_path):
     stim, proto, db = study
     print(f"kill seed: {KILL_SEED}")
     rng = np.random.default_rng(KILL_SEED)
@@ -209,7 +209,7 @@ def test_kills_at_injected_write_steps_then_resume_exactly_issue_10(study, tmp_p
     print(f"injected kills: {kills}, repeat viewings: {len(repeats)}, crash events: {crashes}")
 
 
-def test_export_marks_the_repeat_viewing_issue_10(study, tmp_path):
+def test_export_marks_the_repeat_viewing(study, tmp_path):
     stim, proto, db = study
     argv = args(stim, proto, db)
     # killed right after the onset of trial 3 was committed, before its answer
@@ -235,7 +235,7 @@ def test_export_marks_the_repeat_viewing_issue_10(study, tmp_path):
     ]
 
 
-def test_full_disk_during_a_session_keeps_every_acknowledged_trial_issue_10(study, tmp_path):
+def test_full_disk_during_a_session_keeps_every_acknowledged_trial(study, tmp_path):
     stim, proto, db = study
     argv = args(stim, proto, db, "S01", 0.0, "--progress-every", "1")
     prev = 0
@@ -322,9 +322,7 @@ def test_a_second_concurrent_process_is_refused(study):
     assert answered(db) >= 1
 
 
-def test_full_disk_during_stimuli_build_leaves_no_partial_set_issue_10(
-    tmp_path, monkeypatch, capsys
-):
+def test_full_disk_during_stimuli_build_leaves_no_partial_set(tmp_path, monkeypatch, capsys):
     from PIL import Image
 
     pairs, out = tmp_path / "pairs", tmp_path / "set"

@@ -279,6 +279,6 @@ def test_integration_with_a_built_stimulus_set(tmp_path, capsys):
         rows = log.tidy_trials()
     main = [r for r in rows if r["part"] == "main"]
     assert len(main) == 2 * 4 * 8 * 2
-    # training: colour photos (wide, then confocal), then 8 x 2 each (issue 15)
+    # training: colour photos (wide, then confocal), then 8 x 2 each (Sec. 3.1)
     assert len(rows) - len(main) == 2 * (2 * 3 + 3 * 8 * 2)
     assert {r["pixels"] for r in main} == {96, 486, 950, 3290, 6370, 17876, 40344, 160884}

@@ -1,4 +1,4 @@
-"""A protocol's ``[display] implant``: sessions show each stimulus as the implant does (issue 14).
+"""A protocol's ``[display] implant``: sessions show each stimulus as the implant does.
 
 The headless session's shown images are checked against :func:`stimuli.compress.compress` /
 ``compress_grey`` of the stimulus files read directly (not through the session), the logged

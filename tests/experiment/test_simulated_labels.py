@@ -1,4 +1,4 @@
-"""Simulated data is labelled everywhere (issue 15, point 1).
+"""Simulated data is labelled everywhere.
 
 The observer and its parameters are stored per session (migration 2, back-filled for older
 logs); ``tidy_trials`` says ``simulated`` and ``observer``; ``confocal analyze`` refuses to pool

@@ -1,5 +1,4 @@
-"""Second rater: main trials by default, undo, progress; kappa with a 95 % interval
-(issue 15, point 6)."""
+"""Second rater: main trials by default, undo, progress; kappa with a 95 % interval."""
 
 from __future__ import annotations
 
