@@ -11,6 +11,7 @@ A newcomer's map of this room:
   position in a saved schedule, and its headless loop.
 - :mod:`~experiment.session.run_options`: the command-line options and checks that
   ``confocal session run`` and ``confocal active run`` share.
+- :mod:`~experiment.session.status`: the study's status read from its trial log.
 - :mod:`~experiment.session.cli`: ``confocal session run | status | export``.
 
 Import from the modules themselves: the package re-exports nothing, so that the trial log (which
