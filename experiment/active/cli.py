@@ -18,17 +18,7 @@ from typing import Annotated
 import typer
 
 from experiment.errors import ConfocalError
-from experiment.session.run_options import (
-    DataOption,
-    FullscreenOption,
-    NewSessionOption,
-    PresenterOption,
-    ScreenOption,
-    SkipTimingCheckOption,
-    SubjectOption,
-    check_presenter,
-    report_if_complete,
-)
+from experiment.session import run_options
 
 __all__ = ["register", "active_app", "SEARCHERS", "subject_phosphenes"]
 
@@ -50,8 +40,8 @@ def run_command(
     protocol: Annotated[
         Path, typer.Argument(help='Protocol with \\[task] type = "active_search" (or its name).')
     ],
-    data: DataOption,
-    subject: SubjectOption,
+    data: run_options.DataOption,
+    subject: run_options.SubjectOption,
     searcher: Annotated[
         str,
         typer.Option(
@@ -61,14 +51,14 @@ def run_command(
         ),
     ] = "sim:planes",
     seed: Annotated[int | None, typer.Option("--seed", min=0, help="Root seed.")] = None,
-    screen: ScreenOption = None,
-    fullscreen: FullscreenOption = True,
-    presenter: PresenterOption = "process",
-    skip_timing_check: SkipTimingCheckOption = False,
+    screen: run_options.ScreenOption = None,
+    fullscreen: run_options.FullscreenOption = True,
+    presenter: run_options.PresenterOption = "process",
+    skip_timing_check: run_options.SkipTimingCheckOption = False,
     rater: Annotated[
         str, typer.Option("--rater", help="person: rater name stored with the scores.")
     ] = "operator",
-    new_session: NewSessionOption = None,
+    new_session: run_options.NewSessionOption = None,
 ) -> None:
     """Run or resume SUBJECT's active-search session: a person searches, or a simulated one.
 
@@ -82,7 +72,7 @@ def run_command(
         raise ConfocalError(f"--searcher must be one of {', '.join(SEARCHERS)}, got {searcher!r}")
     if not rater.strip():
         raise ConfocalError("--rater must not be blank")
-    check_presenter(presenter)
+    run_options.check_presenter(presenter)
     spec = load_protocol(protocol)
     if spec.task is None:
         raise ConfocalError(
@@ -141,7 +131,7 @@ def _run_person(
     if not data.parent.is_dir():
         raise ConfocalError(f"--data {data}: folder {data.parent} does not exist")
     geometry = ScreenGeometry.from_display_spec(spec.display)
-    if report_if_complete(data, subject, new_session):
+    if run_options.report_if_complete(data, subject, new_session):
         return
     with TrialLog(data) as log:
         session = ActiveSession.open(
@@ -203,7 +193,7 @@ def _run_simulated(protocol, spec, data, subject, searcher, seed, new_session=No
             f"{protocol}: task.scene {spec.task.scene!r} is a recorded light field; the simulated "
             "searcher needs a synthetic scene (its model observer knows the objects' looks)"
         )
-    if report_if_complete(data, subject, new_session):
+    if run_options.report_if_complete(data, subject, new_session):
         return
     with TrialLog(data) as log:
         session = ActiveSession.open(

@@ -29,14 +29,7 @@ from experiment.active.searcher import Action, Observation, Searcher
 from experiment.active.task import ActiveSearchSpec, ActiveTrial, plan_trials
 from experiment.clock import Clock, PerfCounterClock
 from experiment.protocol import ProtocolError, ProtocolSpec
-from experiment.session.lifecycle import (
-    LoggedSession,
-    check_subject_and_seed,
-    create_session,
-    reopen,
-    session_to_resume,
-    stored_seed,
-)
+from experiment.session import lifecycle
 from experiment.session.scoring import check_rater, check_score, suggest_score
 from experiment.session.stimset import ObjectInfo
 from experiment.triallog import ResumeMismatch, TrialLog
@@ -84,7 +77,7 @@ def _grid_hex(grid: np.ndarray) -> str:
     return np.packbits(np.asarray(grid, dtype=bool).ravel()).tobytes().hex()
 
 
-class ActiveSession(LoggedSession):
+class ActiveSession(lifecycle.LoggedSession):
     """One subject's active-search session in a trial log. Create with :meth:`open`.
 
     Attributes
@@ -168,7 +161,7 @@ class ActiveSession(LoggedSession):
                 f"{protocol.source_path or protocol.name}: not an active-search protocol "
                 '(needs [task] type = "active_search")'
             )
-        check_subject_and_seed(subject, seed)
+        lifecycle.check_subject_and_seed(subject, seed)
         clock = clock if clock is not None else PerfCounterClock()
         scene = adapter.load_scene(
             task.scene,
@@ -182,7 +175,7 @@ class ActiveSession(LoggedSession):
                     f"task.targets: {missing[0]!r} is not an object of {task.scene} "
                     f"(objects: {', '.join(scene.objects)})"
                 )
-        existing = session_to_resume(log, subject, new_session)
+        existing = lifecycle.session_to_resume(log, subject, new_session)
         if existing is not None:
             return cls._resume(log, protocol, subject, existing, seed, scene, clock)
         root = int(seed) if seed is not None else int(np.random.SeedSequence().entropy % 2**63)
@@ -198,7 +191,7 @@ class ActiveSession(LoggedSession):
             "scan_px": [float(ds.max()), float(ds.min())],
             "objects_px": dict(scene.objects),
         }
-        sid = create_session(
+        sid = lifecycle.create_session(
             log,
             protocol,
             subject,
@@ -227,7 +220,7 @@ class ActiveSession(LoggedSession):
                 f"{log.path}: session {sid} searched scene {row['stimset_path']} with sha256 "
                 f"{row['stimset_manifest_sha256'][:12]}...; {scene.name} now differs"
             )
-        stored = stored_seed(log, subject, row, seed)
+        stored = lifecycle.stored_seed(log, subject, row, seed)
         events = ActiveEventLog(log, sid)
         plan = events.plan()
         if plan is None:
@@ -254,7 +247,7 @@ class ActiveSession(LoggedSession):
                         attempt=n - 1,
                     )
 
-        reopen(log, sid, clock, describe, abandon_cut_attempts)
+        lifecycle.reopen(log, sid, clock, describe, abandon_cut_attempts)
         return cls(log, protocol, subject, sid, stored, scene, plan, clock)
 
     # -- position -----------------------------------------------------------------------------
