@@ -5,7 +5,7 @@ Every sub-command module exposes ``register(app)``, which adds its commands or g
 ``analysis.DataError``, ``experiment.ConfocalError`` and their subclasses) are user errors: they
 are printed as one line on stderr, without a traceback, and the command exits with status 2.
 
-Start-up is lazy (issue 15): the sub-command modules import numpy, scipy, pandas and friends, so
+Start-up is lazy: the sub-command modules import numpy, scipy, pandas and friends, so
 the root lists them from :data:`SUBCOMMANDS` (name, module, one-line help) and imports a module
 only when one of its commands runs. ``confocal --help`` and ``--version`` import none of them
 (``benchmarks/bench_startup.py`` measures it; a test checks the table against the modules).
@@ -35,7 +35,7 @@ SUBCOMMANDS: dict[str, tuple[str, str]] = {
         "Light fields (Jung et al. 2015, Sec. 4): scan depth planes, refocus, zoom, synthesise.",
     ),
     "session": (
-        "experiment.session_cli",
+        "experiment.session.cli",
         "Run recognition sessions and inspect or export the study's trial log.",
     ),
     "present": (

@@ -106,5 +106,6 @@ class Responder(Protocol):
     """Who answers a trial: the operator console (a person) or a simulated observer."""
 
     def respond(self, trial: object, image: np.ndarray) -> Answer:
-        """Return the answer to ``trial`` (an ``experiment.schedule.Trial``) shown as ``image``."""
+        """Return the answer to ``trial`` (a :class:`~experiment.session.schedule.Trial`) shown as
+        ``image``."""
         ...

@@ -17,7 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
-from experiment.stimset import MANIFEST_COLUMNS
+from experiment.session.stimset import MANIFEST_COLUMNS
 
 __all__ = ["make_stimulus_set", "DEFAULT_WINDOWS_PX", "OBJECT_WORDS"]
 

@@ -77,7 +77,7 @@ def pipeline(tmp_path_factory):
 def test_hostile_object_name_is_text_in_every_table_and_reads_back(pipeline):
     root, oid = pipeline
     from analysis.data import read_trials
-    from experiment.stimset import StimulusSet
+    from experiment.session.stimset import StimulusSet
 
     for table in (root / "pairs" / "objects.csv", root / "stim" / "objects.csv"):
         raw = table.read_text(encoding="utf-8")
@@ -132,7 +132,7 @@ def test_exemplar_knowledge_keeps_its_synth_provenance_without_a_path(pipeline):
     """The exemplar observer logs which synthetic renderings it learned from; it used to follow
     the set's absolute ``pairs`` path to ``synth.json``, which a shared set no longer holds."""
     from experiment.observers.exemplar import _synth_provenance
-    from experiment.stimset import StimulusSet
+    from experiment.session.stimset import StimulusSet
 
     root, _ = pipeline
     info = StimulusSet.load(root / "stim").info

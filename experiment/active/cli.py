@@ -18,20 +18,10 @@ from typing import Annotated
 import typer
 
 from experiment.errors import ConfocalError
-from experiment.session_cli import (
-    FullscreenOption,
-    NewSessionOption,
-    PresenterOption,
-    ScreenOption,
-    SkipTimingCheckOption,
-    report_if_complete,
-)
+from experiment.session import run_options
 from stimuli.resources import MAX_ID_CHARS, MAX_SEED
 
-__all__ = ["register", "active_app", "SEARCHERS", "PRESENTERS", "subject_phosphenes"]
-
-#: Subject's screens of ``--searcher person`` (as ``confocal session run --presenter``).
-PRESENTERS: tuple[str, ...] = ("process", "offscreen", "none")
+__all__ = ["register", "active_app", "SEARCHERS", "subject_phosphenes"]
 
 #: Searchers ``confocal active run`` can use: a person (a subject at the presenter window) or
 #: a simulated one (headless).
@@ -51,8 +41,8 @@ def run_command(
     protocol: Annotated[
         Path, typer.Argument(help='Protocol with \\[task] type = "active_search" (or its name).')
     ],
-    data: Annotated[Path, typer.Option("--data", help="The study's SQLite trial log.")],
-    subject: Annotated[str, typer.Option("--subject", help="Subject code, e.g. S01.")],
+    data: run_options.DataOption,
+    subject: run_options.SubjectOption,
     searcher: Annotated[
         str,
         typer.Option(
@@ -64,14 +54,14 @@ def run_command(
     seed: Annotated[
         int | None, typer.Option("--seed", min=0, max=MAX_SEED, help="Root seed.")
     ] = None,
-    screen: ScreenOption = None,
-    fullscreen: FullscreenOption = True,
-    presenter: PresenterOption = "process",
-    skip_timing_check: SkipTimingCheckOption = False,
+    screen: run_options.ScreenOption = None,
+    fullscreen: run_options.FullscreenOption = True,
+    presenter: run_options.PresenterOption = "process",
+    skip_timing_check: run_options.SkipTimingCheckOption = False,
     rater: Annotated[
         str, typer.Option("--rater", help="person: rater name stored with the scores.")
     ] = "operator",
-    new_session: NewSessionOption = None,
+    new_session: run_options.NewSessionOption = None,
 ) -> None:
     """Run or resume SUBJECT's active-search session: a person searches, or a simulated one.
 
@@ -79,7 +69,7 @@ def run_command(
     ``--new-session REASON`` starts a further one.
     """
     from experiment.protocol import load_protocol
-    from experiment.session import check_new_session_reason
+    from experiment.session.lifecycle import check_new_session_reason
 
     if searcher not in SEARCHERS:
         raise ConfocalError(f"--searcher must be one of {', '.join(SEARCHERS)}, got {searcher!r}")
@@ -91,10 +81,7 @@ def run_command(
                 f"{option} must be 1 to {MAX_ID_CHARS} characters, got {len(value)} "
                 f"({value[:20]!r})"
             )
-    if presenter not in PRESENTERS:
-        raise ConfocalError(
-            f"--presenter must be one of {', '.join(PRESENTERS)}, got {presenter!r}"
-        )
+    run_options.check_presenter(presenter)
     spec = load_protocol(protocol)
     if spec.task is None:
         raise ConfocalError(
@@ -153,7 +140,7 @@ def _run_person(
     if not data.parent.is_dir():
         raise ConfocalError(f"--data {data}: folder {data.parent} does not exist")
     geometry = ScreenGeometry.from_display_spec(spec.display)
-    if report_if_complete(data, subject, new_session):
+    if run_options.report_if_complete(data, subject, new_session):
         return
     with TrialLog(data) as log:
         session = ActiveSession.open(
@@ -215,7 +202,7 @@ def _run_simulated(protocol, spec, data, subject, searcher, seed, new_session=No
             f"{protocol}: task.scene {spec.task.scene!r} is a recorded light field; the simulated "
             "searcher needs a synthetic scene (its model observer knows the objects' looks)"
         )
-    if report_if_complete(data, subject, new_session):
+    if run_options.report_if_complete(data, subject, new_session):
         return
     with TrialLog(data) as log:
         session = ActiveSession.open(

@@ -5,7 +5,9 @@ event with the trials, the scene's sha256 and its detected planes) or resumes th
 unfinished one. The trial is driven by :meth:`start_trial`, :meth:`press` and :meth:`answer`,
 which a live viewer calls for each key and which :meth:`iter_run` calls for a (simulated)
 searcher. Every input and every displayed state is an ``active_events`` row committed before
-the next one is produced; the answer and its score are one transaction.
+the next one is produced; the answer and its score are one transaction. Opening, resuming,
+locking, completing and closing the session in the log is the recognition session's
+(:mod:`experiment.session.lifecycle`).
 
 Resume: the trials with an ``answer`` row are done; a trial whose attempt was cut by a crash is
 marked ``attempt_abandoned`` and restarted as attempt + 1 (its old rows stay: the log is
@@ -15,7 +17,6 @@ append-only; analysis uses the answered attempt).
 from __future__ import annotations
 
 import json
-import logging
 from collections.abc import Callable, Iterator
 from typing import Any
 
@@ -27,13 +28,13 @@ from experiment.active.eventlog import ActiveEventLog
 from experiment.active.searcher import Action, Observation, Searcher
 from experiment.active.task import ActiveSearchSpec, ActiveTrial, plan_trials
 from experiment.clock import Clock, PerfCounterClock
-from experiment.log import ResumeMismatch, SessionComplete, TrialLog
-from experiment.protocol import SCORES, ProtocolError, ProtocolSpec
-from experiment.stimset import ObjectInfo
+from experiment.log import ResumeMismatch, TrialLog
+from experiment.protocol import ProtocolError, ProtocolSpec
+from experiment.session import lifecycle
+from experiment.session.scoring import check_rater, check_score, suggest_score
+from experiment.session.stimset import ObjectInfo
 
 __all__ = ["ActiveSession", "SCENE_OBJECTS", "Scorer", "auto_scorer"]
-
-logger = logging.getLogger(__name__)
 
 #: Names, synonyms and uses of the synthetic three-plane scene's objects (for scoring answers).
 SCENE_OBJECTS: dict[str, ObjectInfo] = {
@@ -66,9 +67,8 @@ def _object_info(name: str) -> ObjectInfo:
 def auto_scorer(
     trial: ActiveTrial, response: str, targets: tuple[str, ...] = ()
 ) -> tuple[str, str]:
-    """Score an answer as the console suggests it (:func:`experiment.scoring.suggest_score`)."""
-    from experiment.scoring import suggest_score
-
+    """Score an answer as the console suggests it
+    (:func:`~experiment.session.scoring.suggest_score`)."""
     others = [_object_info(t) for t in targets if t != trial.target]
     return suggest_score(response, _object_info(trial.target), others), "auto"
 
@@ -77,7 +77,7 @@ def _grid_hex(grid: np.ndarray) -> str:
     return np.packbits(np.asarray(grid, dtype=bool).ravel()).tobytes().hex()
 
 
-class ActiveSession:
+class ActiveSession(lifecycle.LoggedSession):
     """One subject's active-search session in a trial log. Create with :meth:`open`.
 
     Attributes
@@ -120,7 +120,6 @@ class ActiveSession:
         self._current: tuple[ActiveTrial, int, float] | None = None
         self.state: ViewerState | None = None
         self.view: View | None = None
-        self._closed = False
 
     # -- creation and resume ------------------------------------------------------------------
 
@@ -162,10 +161,7 @@ class ActiveSession:
                 f"{protocol.source_path or protocol.name}: not an active-search protocol "
                 '(needs [task] type = "active_search")'
             )
-        if not isinstance(subject, str) or not subject.strip():
-            raise ValueError(f"subject must be a non-empty string, got {subject!r}")
-        if seed is not None and (isinstance(seed, bool) or not isinstance(seed, int) or seed < 0):
-            raise ValueError(f"seed must be a non-negative integer or None, got {seed!r}")
+        lifecycle.check_subject_and_seed(subject, seed)
         clock = clock if clock is not None else PerfCounterClock()
         scene = adapter.load_scene(
             task.scene,
@@ -179,13 +175,8 @@ class ActiveSession:
                     f"task.targets: {missing[0]!r} is not an object of {task.scene} "
                     f"(objects: {', '.join(scene.objects)})"
                 )
-        from experiment.session import check_new_session_reason
-
-        check_new_session_reason(new_session)
-        decision, existing = log.session_to_open(subject, new_session=new_session)
-        if decision == "complete":
-            raise SessionComplete(log.complete_message(existing), existing)
-        if decision == "resume":
+        existing = lifecycle.session_to_resume(log, subject, new_session)
+        if existing is not None:
             return cls._resume(log, protocol, subject, existing, seed, scene, clock)
         root = int(seed) if seed is not None else int(np.random.SeedSequence().entropy % 2**63)
         ds, planes = adapter.detect_planes(scene, n_planes=task.n_planes)
@@ -200,29 +191,20 @@ class ActiveSession:
             "scan_px": [float(ds.max()), float(ds.min())],
             "objects_px": dict(scene.objects),
         }
-        from experiment.session import software_provenance
-
-        with log.atomic():
-            sid = log.create_session(
-                subject=subject,
-                protocol_name=protocol.name,
-                protocol_sha256=protocol.content_sha256(),
-                protocol_file_sha256=protocol.source_sha256,
-                protocol_path=protocol.source_path,
-                protocol_json=json.dumps(protocol.to_dict(), sort_keys=True),
-                display_json=json.dumps(protocol.display.to_dict(), sort_keys=True),
-                stimset_path=task.scene,
-                stimset_manifest_sha256=scene.sha256,
-                seed=str(root),
-                primary_rater=protocol.scoring.primary_rater,
-                responder=responder,
-                **software_provenance(),
-            )
-            ActiveEventLog(log, sid).append("plan", plan, clock.now_s())
-            log.acquire_lock(sid)
-            if new_session is not None:
-                log.add_event(sid, "new_session", new_session, clock.now_s())
-            log.add_event(sid, "open", f"active search: {len(trials)} trials", clock.now_s())
+        sid = lifecycle.create_session(
+            log,
+            protocol,
+            subject,
+            clock,
+            seed=root,
+            write_plan=lambda sid: ActiveEventLog(log, sid).append("plan", plan, clock.now_s()),
+            open_note=f"active search: {len(trials)} trials",
+            new_session=new_session,
+            display_json=json.dumps(protocol.display.to_dict(), sort_keys=True),
+            stimset_path=task.scene,
+            stimset_manifest_sha256=scene.sha256,
+            responder=responder,
+        )
         return cls(log, protocol, subject, sid, root, scene, plan, clock)
 
     @classmethod
@@ -238,12 +220,7 @@ class ActiveSession:
                 f"{log.path}: session {sid} searched scene {row['stimset_path']} with sha256 "
                 f"{row['stimset_manifest_sha256'][:12]}...; {scene.name} now differs"
             )
-        stored = int(row["seed"])
-        if seed is not None and int(seed) != stored:
-            raise ResumeMismatch(
-                f"{log.path}: subject {subject} has unfinished session {sid} with seed {stored}, "
-                f"not {seed}; omit --seed to resume it"
-            )
+        stored = lifecycle.stored_seed(log, subject, row, seed)
         events = ActiveEventLog(log, sid)
         plan = events.plan()
         if plan is None:
@@ -251,18 +228,13 @@ class ActiveSession:
         last = events.last_t_s()
         if last is not None and hasattr(clock, "advance") and clock.now_s() < last:
             clock.advance(last - clock.now_s())  # a simulated clock continues where it stopped
-        with log.atomic():
-            stale = log.acquire_lock(sid)
+
+        def describe() -> tuple[str, str]:
+            n = len(events.committed_trials())
+            return f"{n} active-search trials were committed", f"resuming after {n} trials"
+
+        def abandon_cut_attempts() -> None:
             done = events.committed_trials()
-            if stale is not None:
-                log.add_event(
-                    sid,
-                    "crash",
-                    f"previous run (pid {stale['pid']}) ended without closing; {len(done)} "
-                    "active-search trials were committed",
-                    clock.now_s(),
-                )
-            log.add_event(sid, "resume", f"resuming after {len(done)} trials", clock.now_s())
             for t in plan["trials"]:
                 k = int(t["index"])
                 n = events.attempts(k)
@@ -274,6 +246,8 @@ class ActiveSession:
                         trial=k,
                         attempt=n - 1,
                     )
+
+        lifecycle.reopen(log, sid, clock, describe, abandon_cut_attempts)
         return cls(log, protocol, subject, sid, stored, scene, plan, clock)
 
     # -- position -----------------------------------------------------------------------------
@@ -409,8 +383,7 @@ class ActiveSession:
                 score, rater = scorer(trial, response)
             else:
                 score, rater = auto_scorer(trial, response, self.task.targets)
-        if score not in SCORES:
-            raise ValueError(f"score must be one of {', '.join(SCORES)}, got {score!r}")
+        check_score(score)
         rater = rater or self.protocol.scoring.primary_rater
         now = self.clock.now_s()
         t = now if t_s is None else min(float(t_s), now)
@@ -437,8 +410,7 @@ class ActiveSession:
         with self.log.atomic():
             seqs = self.events.append_many(rows, trial=trial.index, attempt=attempt)
             if finished:
-                self.log.finish_session(self.session_id)
-                self.log.add_event(self.session_id, "complete", "", now)
+                self._mark_complete(now)
         self._current = None
         return [
             {
@@ -458,10 +430,8 @@ class ActiveSession:
         The new score is primary when ``rater`` is the trial's first rater or the protocol's
         primary rater.
         """
-        if score not in SCORES:
-            raise ValueError(f"score must be one of {', '.join(SCORES)}, got {score!r}")
-        if not isinstance(rater, str) or not rater.strip():
-            raise ValueError(f"rater must be a non-empty string, got {rater!r}")
+        check_score(score)
+        check_rater(rater)
         rows = [r for r in self.events.rows() if r["trial"] == trial_index and r["kind"] == "score"]
         if not rows:
             raise ValueError(f"trial {trial_index} has no answer to re-score")
@@ -531,22 +501,3 @@ class ActiveSession:
     def run(self, searcher: Searcher, *, scorer: Scorer | None = None) -> list[dict]:
         """Run the remaining trials; return the events written (a thin loop over iter_run)."""
         return list(self.iter_run(searcher, scorer=scorer))
-
-    def close(self) -> None:
-        """Log a ``close`` event and release the session lock (the log stays open)."""
-        if self._closed:
-            return
-        a, n = self.progress()
-        try:
-            self.log.add_event(
-                self.session_id, "close", f"{a} of {n} trials answered", self.clock.now_s()
-            )
-        finally:
-            self.log.release_lock(self.session_id)
-            self._closed = True
-
-    def __enter__(self) -> ActiveSession:
-        return self
-
-    def __exit__(self, *exc: object) -> None:
-        self.close()

@@ -63,7 +63,7 @@ class TrialAudio:
 
     Parameters
     ----------
-    session : experiment.session.Session
+    session : experiment.session.engine.Session
         An open session on a file trial log.
     microphone : Microphone
     """

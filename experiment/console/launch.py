@@ -111,7 +111,7 @@ def run_console(
 
     Parameters
     ----------
-    session : experiment.session.Session
+    session : experiment.session.engine.Session
         An open session (new or resumed); it is closed (lock released) on return.
     screen : int or None
         Screen index of the subject's window.

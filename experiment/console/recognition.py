@@ -85,7 +85,7 @@ class OperatorConsole(TrialConsole):
 
     Parameters
     ----------
-    session : experiment.session.Session
+    session : experiment.session.engine.Session
     display : Display
         The subject's screen (``RemoteDisplay``, ``Presenter`` or a headless twin).
     clock : Clock or None

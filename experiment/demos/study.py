@@ -273,8 +273,8 @@ def run_demo(
     from experiment.observers import OBSERVERS, describe_observer, make_observer
     from experiment.presentation.displays import NullDisplay
     from experiment.protocol import load_protocol
-    from experiment.session import Session
-    from experiment.stimset import StimulusSet
+    from experiment.session.engine import Session
+    from experiment.session.stimset import StimulusSet
     from stimuli.build import build_stimulus_set
     from stimuli.synth import write_pairs
 

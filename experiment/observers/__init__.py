@@ -50,7 +50,7 @@ import numpy as np
 from experiment.interfaces import Answer
 from experiment.observers.base import SimulatedObserver, check_limits, response_time_s
 from experiment.observers.exemplar import ExemplarObserver, ExemplarParams
-from experiment.stimset import PHOTO_CONDITIONS, StimulusSet
+from experiment.session.stimset import PHOTO_CONDITIONS, StimulusSet
 
 __all__ = [
     "ExemplarParams",

@@ -14,7 +14,7 @@ from typing import Any
 import numpy as np
 
 from experiment.interfaces import Answer
-from experiment.stimset import StimulusSet
+from experiment.session.stimset import StimulusSet
 
 __all__ = ["SimulatedObserver", "check_limits", "response_time_s"]
 

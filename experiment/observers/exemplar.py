@@ -86,8 +86,8 @@ import numpy as np
 
 from experiment.interfaces import Answer
 from experiment.observers.base import SimulatedObserver, check_limits, response_time_s
-from experiment.scoring import normalize
-from experiment.stimset import StimulusSet
+from experiment.session.scoring import normalize
+from experiment.session.stimset import StimulusSet
 
 __all__ = [
     "ExemplarParams",
@@ -374,7 +374,7 @@ class Knowledge:
     ----------
     categories : tuple of str
         Category names (the vocabulary), in knowledge-set order; objects whose names are equal
-        after :func:`experiment.scoring.normalize` are one category.
+        after :func:`experiment.session.scoring.normalize` are one category.
     features : ndarray of shape (n_exemplars, n_features)
         Unit-length HOG rows.
     category_of_row : ndarray of shape (n_exemplars,), int

@@ -15,8 +15,8 @@ from experiment.clock import FakeClock
 from experiment.interfaces import Answer, FlipRecord
 from experiment.log import TrialLog
 from experiment.protocol import load_protocol
-from experiment.session import Session
-from experiment.stimset import StimulusSet
+from experiment.session.engine import Session
+from experiment.session.stimset import StimulusSet
 from experiment.testing import make_stimulus_set
 
 

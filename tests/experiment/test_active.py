@@ -114,7 +114,7 @@ def test_bad_task_in_protocol_file_is_one_line_naming_file(tmp_path) -> None:
 
 
 def test_static_schedule_refuses_an_active_protocol() -> None:
-    from experiment.schedule import build_schedule
+    from experiment.session.schedule import build_schedule
 
     with pytest.raises(ProtocolError, match=r"runs with 'confocal active run'"):
         build_schedule(load_protocol("active_search"), stimset=None, rng=0)

@@ -30,8 +30,8 @@ from experiment.console.launch import _open_recorder
 from experiment.log import MIGRATIONS, TrialLog
 from experiment.presentation.displays import NullDisplay
 from experiment.protocol import load_protocol
-from experiment.session import Session
-from experiment.stimset import StimulusSet
+from experiment.session.engine import Session
+from experiment.session.stimset import StimulusSet
 from tests.experiment.test_console import PROTOCOL, make_stimset
 
 sf = pytest.importorskip("soundfile", reason="soundfile (the 'audio' extra) is not installed")

@@ -23,8 +23,8 @@ from experiment.interfaces import FlipRecord, combine_flips
 from experiment.log import TrialLog
 from experiment.presentation.displays import NullDisplay
 from experiment.protocol import load_protocol
-from experiment.session import Session
-from experiment.stimset import MANIFEST_COLUMNS, StimulusSet
+from experiment.session.engine import Session
+from experiment.session.stimset import MANIFEST_COLUMNS, StimulusSet
 
 PROTOCOL = """
 [protocol]

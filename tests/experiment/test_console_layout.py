@@ -25,8 +25,8 @@ from experiment.log import TrialLog
 from experiment.presentation.displays import NullDisplay
 from experiment.presentation.process import PROTOCOL_VERSION, RemoteDisplay
 from experiment.protocol import load_protocol
-from experiment.session import Session
-from experiment.stimset import MANIFEST_COLUMNS, StimulusSet
+from experiment.session.engine import Session
+from experiment.session.stimset import MANIFEST_COLUMNS, StimulusSet
 from tests.experiment.test_console import PROTOCOL
 
 #: Stimulus shape (rows, cols): the paper's level 3 (164x109 is 1/3 of 492x327), the aspect of

@@ -30,8 +30,8 @@ import pytest
 from experiment import cli
 from experiment.log import faults
 from experiment.protocol import load_protocol
-from experiment.schedule import build_schedule
-from experiment.stimset import StimulusSet
+from experiment.session.schedule import build_schedule
+from experiment.session.stimset import StimulusSet
 from experiment.testing import make_stimulus_set
 
 #: Seed of the kill points; printed so that a failure can be replayed (H18).
@@ -322,9 +322,7 @@ def test_a_second_concurrent_process_is_refused(study):
     assert answered(db) >= 1
 
 
-def test_full_disk_during_stimuli_build_leaves_no_partial_set(
-    tmp_path, monkeypatch, capsys
-):
+def test_full_disk_during_stimuli_build_leaves_no_partial_set(tmp_path, monkeypatch, capsys):
     from PIL import Image
 
     pairs, out = tmp_path / "pairs", tmp_path / "set"

@@ -112,8 +112,8 @@ def test_new_session_needs_a_reason_and_logs_it(study, capsys):
 def test_new_session_while_one_is_unfinished_is_refused(study, capsys):
     stim, proto, db = study
     from experiment.protocol import load_protocol
-    from experiment.session import Session
-    from experiment.stimset import StimulusSet
+    from experiment.session.engine import Session
+    from experiment.session.stimset import StimulusSet
 
     with TrialLog(db) as log:
         Session.open(log, load_protocol(proto), StimulusSet.load(stim), "S01", seed=3).close()
@@ -127,8 +127,8 @@ def test_status_shows_complete_and_incomplete_subjects(study, capsys):
     stim, proto, db = study
     assert confocal(run_args(stim, proto, db, "S01"), capsys)[0] == 0
     from experiment.protocol import load_protocol
-    from experiment.session import Session
-    from experiment.stimset import StimulusSet
+    from experiment.session.engine import Session
+    from experiment.session.stimset import StimulusSet
 
     with TrialLog(db) as log:
         Session.open(log, load_protocol(proto), StimulusSet.load(stim), "S02").close()

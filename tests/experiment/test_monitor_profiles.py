@@ -21,8 +21,8 @@ from experiment.data.monitors import (
 from experiment.log import TrialLog
 from experiment.presentation.cli import geometry_from_options
 from experiment.protocol import DisplaySpec, load_protocol
-from experiment.session import Session
-from experiment.stimset import StimulusSet
+from experiment.session.engine import Session
+from experiment.session.stimset import StimulusSet
 from experiment.testing import make_stimulus_set
 
 PROTOCOL = """

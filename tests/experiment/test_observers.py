@@ -19,8 +19,8 @@ from experiment.observers import (
     to_retina,
 )
 from experiment.protocol import load_protocol
-from experiment.schedule import Trial, build_schedule
-from experiment.stimset import StimulusSet
+from experiment.session.schedule import Trial, build_schedule
+from experiment.session.stimset import StimulusSet
 from experiment.testing import make_stimulus_set
 
 

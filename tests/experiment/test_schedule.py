@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 from experiment.protocol import ProtocolError, load_protocol
-from experiment.schedule import Schedule, Trial, build_schedule
-from experiment.stimset import StimulusSet
+from experiment.session.schedule import Schedule, Trial, build_schedule
+from experiment.session.stimset import StimulusSet
 from experiment.testing import make_stimulus_set
 
 

@@ -12,9 +12,9 @@ from experiment.clock import FakeClock
 from experiment.interfaces import Answer, FlipRecord
 from experiment.log import TrialLog
 from experiment.protocol import load_protocol
-from experiment.scoring import cohen_kappa, kappa, normalize, suggest_score
-from experiment.session import Session
-from experiment.stimset import ObjectInfo, StimulusSet
+from experiment.session.engine import Session
+from experiment.session.scoring import cohen_kappa, kappa, normalize, suggest_score
+from experiment.session.stimset import ObjectInfo, StimulusSet
 from experiment.testing import make_stimulus_set
 
 MUG = ObjectInfo("o1", "mug", ("coffee cup",), ("drinking coffee", "holding pens"), "main")

@@ -11,7 +11,7 @@ import pytest
 from experiment import cli
 from experiment.log import TrialLog
 from experiment.presentation.cli import pending_for_rater
-from experiment.scoring import cohen_kappa, kappa, kappa_interval
+from experiment.session.scoring import cohen_kappa, kappa, kappa_interval
 from tests.experiment.conftest import make_answered_log
 
 

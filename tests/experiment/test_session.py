@@ -14,8 +14,8 @@ from experiment.interfaces import Answer, FlipRecord
 from experiment.log import ResumeMismatch, SessionComplete, SessionLocked, TrialLog
 from experiment.presentation.displays import NullDisplay
 from experiment.protocol import load_protocol
-from experiment.session import Session
-from experiment.stimset import StimulusSet, StimulusSetError
+from experiment.session.engine import Session
+from experiment.session.stimset import StimulusSet, StimulusSetError
 from experiment.testing import make_stimulus_set
 from tests.experiment.conftest import protocol_toml
 
@@ -270,7 +270,7 @@ def test_bad_arguments(log, protocol, stimset):
 
 
 def test_stimulus_set_reader_errors(tmp_path, stim_dir):
-    from experiment.stimset import StimulusSet as SS
+    from experiment.session.stimset import StimulusSet as SS
 
     with pytest.raises(StimulusSetError, match="stimulus set folder not found"):
         SS.load(tmp_path / "none")

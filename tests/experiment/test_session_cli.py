@@ -83,8 +83,8 @@ def test_status_shows_what_is_left(study, capsys):
     stim, proto, db = study
     with TrialLog(db) as log:
         from experiment.protocol import load_protocol
-        from experiment.session import Session
-        from experiment.stimset import StimulusSet
+        from experiment.session.engine import Session
+        from experiment.session.stimset import StimulusSet
 
         s = Session.open(log, load_protocol(proto), StimulusSet.load(stim), "S07")
         s.close()
@@ -144,8 +144,8 @@ def test_bad_input_one_line_exit_2_no_data_lost(study, tmp_path, capsys, case, m
     elif case == "resume_other_seed":
         with TrialLog(db) as log:
             from experiment.protocol import load_protocol
-            from experiment.session import Session
-            from experiment.stimset import StimulusSet
+            from experiment.session.engine import Session
+            from experiment.session.stimset import StimulusSet
 
             Session.open(log, load_protocol(proto), StimulusSet.load(stim), "S09", seed=11).close()
         args = run_args(stim, proto, db, "S09", "--headless", "--seed", "12")
@@ -249,6 +249,6 @@ def test_integration_with_a_built_stimulus_set(tmp_path, capsys):
         rows = log.tidy_trials()
     main = [r for r in rows if r["part"] == "main"]
     assert len(main) == 2 * 4 * 8 * 2
-    # training: colour photos (wide, then confocal), then 8 x 2 each
+    # training: colour photos (wide, then confocal), then 8 x 2 each (Sec. 3.1)
     assert len(rows) - len(main) == 2 * (2 * 3 + 3 * 8 * 2)
     assert {r["pixels"] for r in main} == {96, 486, 950, 3290, 6370, 17876, 40344, 160884}

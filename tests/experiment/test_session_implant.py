@@ -20,8 +20,8 @@ from experiment.interfaces import Answer
 from experiment.log import TrialLog
 from experiment.presentation.displays import NullDisplay
 from experiment.protocol import DisplaySpec, ProtocolError, ProtocolSpec, load_protocol
-from experiment.session import Session, display_json
-from experiment.stimset import StimulusSet
+from experiment.session.engine import Session, display_json
+from experiment.session.stimset import StimulusSet
 from experiment.testing import make_stimulus_set
 from stimuli.compress import compress, compress_grey
 from stimuli.implants import load_implant

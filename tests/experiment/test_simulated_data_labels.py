@@ -16,8 +16,8 @@ from experiment.log import MIGRATIONS, TIDY_COLUMNS, ResumeMismatch, TrialLog, s
 from experiment.observers import make_observer
 from experiment.presentation.displays import NullDisplay
 from experiment.protocol import load_protocol
-from experiment.session import Session
-from experiment.stimset import StimulusSet
+from experiment.session.engine import Session
+from experiment.session.stimset import StimulusSet
 from tests.experiment.conftest import confocal, make_study, session_run_args
 
 

@@ -27,8 +27,8 @@ from experiment.protocol import (
     ProtocolSpec,
     load_protocol,
 )
-from experiment.session import Session
-from experiment.stimset import StimulusSet
+from experiment.session.engine import Session
+from experiment.session.stimset import StimulusSet
 from experiment.testing import make_stimulus_set
 from stimuli.build import aspect_crop_box, build_stimulus_set
 from stimuli.io import load_gray

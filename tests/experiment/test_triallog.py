@@ -23,8 +23,8 @@ from experiment.log import (
     schema,
 )
 from experiment.protocol import load_protocol
-from experiment.session import Session
-from experiment.stimset import StimulusSet
+from experiment.session.engine import Session
+from experiment.session.stimset import StimulusSet
 from experiment.testing import make_stimulus_set
 from tests.experiment.conftest import protocol_toml
 

@@ -14,7 +14,7 @@ from dataclasses import asdict, dataclass, fields
 import numpy as np
 
 from experiment.protocol import BlockSpec, ProtocolError, ProtocolSpec
-from experiment.stimset import StimulusSet
+from experiment.session.stimset import StimulusSet
 
 __all__ = ["Trial", "Schedule", "build_schedule", "planned_trials"]
 

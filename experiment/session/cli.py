@@ -14,7 +14,6 @@ What the export leaves out (identifying participant fields, wall-clock times) is
 
 from __future__ import annotations
 
-import itertools
 import json
 import logging
 import math
@@ -24,6 +23,17 @@ from typing import Annotated
 import typer
 
 from experiment.errors import ConfocalError
+from experiment.session.run_options import (
+    DataOption,
+    FullscreenOption,
+    NewSessionOption,
+    PresenterOption,
+    ScreenOption,
+    SkipTimingCheckOption,
+    SubjectOption,
+    check_presenter,
+    report_if_complete,
+)
 from stimuli.resources import MAX_ID_CHARS, MAX_SEED, check_memory, finite_option
 
 __all__ = [
@@ -31,44 +41,6 @@ __all__ = [
     "run_command",
     "status_command",
     "export_command",
-    "status_report",
-    "report_if_complete",
-    "NewSessionOption",
-]
-
-# The subject's-screen options, shared by ``session run`` and ``active run --searcher person``.
-ScreenOption = Annotated[
-    int | None, typer.Option("--screen", min=0, help="Screen index of the subject's window.")
-]
-FullscreenOption = Annotated[
-    bool, typer.Option("--fullscreen/--window", help="Subject's window full screen or windowed.")
-]
-PresenterOption = Annotated[
-    str,
-    typer.Option(
-        "--presenter",
-        envvar="CONFOCAL_PRESENTER",
-        help="process (a window, in its own process), offscreen (no window: GL renders into "
-        "memory), or none.",
-    ),
-]
-SkipTimingCheckOption = Annotated[
-    bool,
-    typer.Option(
-        "--skip-timing-check",
-        help="Start even if the frame-timing self-test fails (the choice is logged).",
-    ),
-]
-
-NewSessionOption = Annotated[
-    str | None,
-    typer.Option(
-        "--new-session",
-        metavar="REASON",
-        help="Start a further session for a subject whose session is complete; the reason is "
-        'logged, e.g. --new-session "re-test after new glasses". Without it a complete '
-        "subject's session is reported, not run again.",
-    ),
 ]
 
 logger = logging.getLogger(__name__)
@@ -102,10 +74,8 @@ def run_command(
         typer.Option("--protocol", "-p", help="Protocol TOML file, or a shipped name (jung2015)."),
     ],
     stimuli: Annotated[Path, typer.Option("--stimuli", "-s", help="Stimulus set folder.")],
-    subject: Annotated[str, typer.Option("--subject", help="Subject code, e.g. S01.")],
-    data: Annotated[
-        Path, typer.Option("--data", "-d", help="The study's SQLite trial log.")
-    ] = Path("study.sqlite"),
+    subject: SubjectOption,
+    data: DataOption = Path("study.sqlite"),
     observer: Annotated[
         str | None,
         typer.Option(
@@ -195,14 +165,12 @@ def run_command(
     from experiment.observers import OBSERVERS, describe_observer, make_observer
     from experiment.presentation.displays import NullDisplay
     from experiment.protocol import load_protocol
-    from experiment.schedule import planned_trials
-    from experiment.session import Session
-    from experiment.stimset import StimulusSet
+    from experiment.session.engine import Session
+    from experiment.session.lifecycle import check_new_session_reason
+    from experiment.session.schedule import planned_trials
+    from experiment.session.stimset import StimulusSet
 
-    if presenter not in ("process", "offscreen", "none"):
-        raise ConfocalError(
-            f"--presenter must be one of process, offscreen, none; got {presenter!r}"
-        )
+    check_presenter(presenter)
     if observer is not None and not headless:
         raise ConfocalError("--observer needs --headless (a simulated subject has no screen)")
     if headless:
@@ -235,8 +203,6 @@ def run_command(
         )
     if data.is_dir():
         raise ConfocalError(f"--data {data} is a folder; expected the study's .sqlite file")
-    from experiment.session import check_new_session_reason
-
     check_new_session_reason(new_session)
     meta = None
     if participant is not None:
@@ -259,8 +225,8 @@ def run_command(
     # the whole plan is checked before the trial log is created or touched
     check_memory(planned_trials(spec, stimset) * _BYTES_PER_TRIAL, f"protocol {protocol}")
     if spec.display.implant_layout is not None:
-        from experiment.schedule import build_schedule
-        from experiment.session import check_implant_fits
+        from experiment.session.engine import check_implant_fits
+        from experiment.session.schedule import build_schedule
 
         check_implant_fits(spec.display, stimset, build_schedule(spec, stimset, 0))
     effective_params = None
@@ -342,31 +308,6 @@ def _check_subject_is_new_or_same(data: Path, subject: str) -> None:
             )
 
 
-def report_if_complete(data: Path, subject: str, new_session: str | None) -> bool:
-    """Print that SUBJECT's session is complete and return True, or return False; reads only.
-
-    Opens the log read-only (nothing is written, migrated or checkpointed), so running a
-    completed subject's command again -- the recovery after a crash -- changes nothing. False
-    when the subject has an unfinished session, no session, or ``new_session`` asks for one.
-
-    Raises
-    ------
-    TrialLogError
-        The file is not a trial log, or ``new_session`` is given while another session of
-        the subject is unfinished.
-    """
-    from experiment.log import TrialLog
-
-    if not data.exists() or (data.is_file() and data.stat().st_size == 0):
-        return False
-    with TrialLog(data, readonly=True) as log:
-        decision, row = log.session_to_open(subject, new_session=new_session)
-        if decision != "complete":
-            return False
-        typer.echo(log.complete_message(row))
-    return True
-
-
 def _params_dict(spec: object, given: dict[str, object]) -> dict[str, object]:
     """Return the observer's effective parameters (its params dataclass), else those given."""
     import dataclasses
@@ -391,90 +332,14 @@ def _parse_params(items: list[str]) -> dict[str, object]:
     return out
 
 
-def status_report(path: Path) -> dict:
-    """Return the study's status: sessions, subjects, progress, next trial, locks, agreement.
-
-    Parameters
-    ----------
-    path : Path
-        The study's SQLite trial log (opened read-only).
-
-    Returns
-    -------
-    dict
-        ``{"sessions": [...], "subjects": [...], "raters": [...], "kappa": [...]}``; each
-        session has ``answered``, ``planned``, ``left`` and ``next`` (the first unanswered trial
-        or None; None for active search), and ``new_session`` (the reason for a further
-        session, or None); each subject has ``complete`` (its latest session is), that
-        ``session``, ``sessions`` (how many), ``answered``, ``planned`` and ``ended_at``.
-    """
-    from experiment.log import TrialLog
-    from experiment.scoring import cohen_kappa
-
-    with TrialLog(path, readonly=True) as log:
-        locks = {r["session_id"]: r for r in log.locks()}
-        out = []
-        for s in log.sessions():
-            sid = s["session_id"]
-            answered, planned = log.session_progress(sid)  # recognition or active search
-            nxt = log.execute(
-                "SELECT trial_index, part, block, object, condition, level FROM schedule "
-                "WHERE session_id = ? AND trial_index NOT IN "
-                "(SELECT trial_index FROM trials WHERE session_id = ?) "
-                "ORDER BY trial_index LIMIT 1",
-                (sid, sid),
-            )
-            crashes = log.execute(
-                "SELECT count(*) FROM events WHERE session_id = ? AND kind = 'crash'", (sid,)
-            )[0][0]
-            out.append(
-                {
-                    "session": sid,
-                    "subject": s["subject"],
-                    "protocol": s["protocol_name"],
-                    "status": s["status"],
-                    "answered": answered,
-                    "planned": planned,
-                    "left": planned - answered,
-                    "next": dict(nxt[0]) if nxt else None,
-                    "started_at": s["started_at"],
-                    "ended_at": s["ended_at"],
-                    "crashes": int(crashes),
-                    "observer": s.get("observer"),
-                    "new_session": log.new_session_reason(sid),
-                    "lock": (
-                        {k: locks[sid][k] for k in ("pid", "host", "acquired_at")}
-                        if sid in locks
-                        else None
-                    ),
-                }
-            )
-        raters = [r[0] for r in log.execute("SELECT DISTINCT rater FROM scores ORDER BY rater")]
-        kappas = []
-        for a, b in itertools.combinations(raters, 2):
-            k = cohen_kappa(log, a, b)
-            if k.n > 0:
-                kappas.append(k.to_dict())
-    subjects: dict[str, dict] = {}
-    for s in out:  # oldest first: the last one seen is the subject's latest session
-        subjects[s["subject"]] = {
-            "subject": s["subject"],
-            "complete": s["status"] == "completed",
-            "session": s["session"],
-            "sessions": subjects.get(s["subject"], {}).get("sessions", 0) + 1,
-            "answered": s["answered"],
-            "planned": s["planned"],
-            "ended_at": s["ended_at"],
-        }
-    return {"sessions": out, "subjects": list(subjects.values()), "raters": raters, "kappa": kappas}
-
-
 @session_app.command("status")
 def status_command(
     data: Annotated[Path, typer.Argument(help="The study's SQLite trial log.")],
     as_json: Annotated[bool, typer.Option("--json", help="Print JSON instead of text.")] = False,
 ) -> None:
     """Show subjects, progress, what is left, open locks and rater agreement (Cohen's kappa)."""
+    from experiment.session.status import status_report
+
     rep = status_report(data)
     if as_json:
         typer.echo(json.dumps(rep, indent=2))

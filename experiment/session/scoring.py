@@ -16,10 +16,13 @@ import warnings
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 
-from experiment.stimset import ObjectInfo
+from experiment.protocol import SCORES
+from experiment.session.stimset import ObjectInfo
 
 __all__ = [
     "SHAPE_WORDS",
+    "check_rater",
+    "check_score",
     "normalize",
     "suggest_score",
     "kappa",
@@ -45,6 +48,30 @@ _FILLER = frozenset(
     "a an the it its is it's its's this that some kind of like looks maybe i think something "
     "thing for to used use you and or with which".split()
 )
+
+
+def check_score(score: object, name: str = "score") -> None:
+    """Refuse a score that is not one of the protocol's scores (``named``, ``use``, ...).
+
+    Raises
+    ------
+    ValueError
+        Naming ``name`` (``score``, ``answer.score``), the scores allowed and the value given.
+    """
+    if score not in SCORES:
+        raise ValueError(f"{name} must be one of {', '.join(SCORES)}, got {score!r}")
+
+
+def check_rater(rater: object) -> None:
+    """Refuse a rater that is not a non-empty string.
+
+    Raises
+    ------
+    ValueError
+        Naming ``rater`` and the value given.
+    """
+    if not isinstance(rater, str) or not rater.strip():
+        raise ValueError(f"rater must be a non-empty string, got {rater!r}")
 
 
 def _singular(word: str) -> str:

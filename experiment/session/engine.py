@@ -15,60 +15,28 @@ from __future__ import annotations
 
 import hashlib
 import json
-import logging
-import platform
-import socket
-import subprocess
 from collections.abc import Callable
-from pathlib import Path
 
 import numpy as np
 
 from experiment.clock import Clock, PerfCounterClock
 from experiment.interfaces import Answer, Display, FlipRecord, Responder, combine_flips
-from experiment.log import ResumeMismatch, SessionComplete, TrialLog, TrialLogError
-from experiment.protocol import SCORES, DisplaySpec, ProtocolError, ProtocolSpec
-from experiment.schedule import Schedule, Trial, build_schedule
-from experiment.scoring import suggest_score
+from experiment.log import ResumeMismatch, TrialLog
+from experiment.protocol import DisplaySpec, ProtocolError, ProtocolSpec
+from experiment.session.lifecycle import (
+    LoggedSession,
+    check_subject_and_seed,
+    create_session,
+    reopen,
+    session_to_resume,
+    stored_seed,
+)
+from experiment.session.schedule import Schedule, Trial, build_schedule
+from experiment.session.scoring import check_rater, check_score, suggest_score
+from experiment.session.stimset import StimulusSet, StimulusSetError
 from experiment.signals import Stopped
-from experiment.stimset import StimulusSet, StimulusSetError
 
-__all__ = [
-    "Session",
-    "Trial",
-    "check_implant_fits",
-    "check_new_session_reason",
-    "display_json",
-    "software_provenance",
-]
-
-logger = logging.getLogger(__name__)
-
-
-def software_provenance() -> dict[str, str | None]:
-    """Return ``{'software_version', 'git_commit', 'machine'}`` for the sessions row (H15)."""
-    try:
-        from stimuli import __version__ as version
-    except ImportError:  # pragma: no cover - stimuli is part of the same distribution
-        version = None
-    commit = None
-    try:
-        out = subprocess.run(
-            ["git", "rev-parse", "HEAD"],
-            cwd=Path(__file__).resolve().parent,
-            capture_output=True,
-            text=True,
-            timeout=5,
-        )
-        if out.returncode == 0:
-            commit = out.stdout.strip() or None
-    except (OSError, subprocess.SubprocessError):
-        commit = None
-    machine = (
-        f"{socket.gethostname()} ({platform.system()} {platform.machine()}, "
-        f"Python {platform.python_version()})"
-    )
-    return {"software_version": version, "git_commit": commit, "machine": machine}
+__all__ = ["Session", "Trial", "check_implant_fits", "display_json"]
 
 
 def display_json(display: DisplaySpec) -> str:
@@ -84,7 +52,7 @@ def display_json(display: DisplaySpec) -> str:
     return json.dumps(d, sort_keys=True)
 
 
-class Session:
+class Session(LoggedSession):
     """One subject's session in a trial log. Create with :meth:`open`.
 
     Attributes
@@ -123,7 +91,6 @@ class Session:
         self.clock = clock
         last = log.last_committed_trial(session_id)
         self._next = 0 if last is None else last + 1
-        self._closed = False
 
     # -- creation and resume ------------------------------------------------------------------
 
@@ -194,55 +161,37 @@ class Session:
             The protocol asks for objects or levels the stimulus set lacks, or its
             ``display.implant`` grid is finer than a planned stimulus.
         """
-        if not isinstance(subject, str) or not subject.strip():
-            raise ValueError(f"subject must be a non-empty string, got {subject!r}")
-        if seed is not None and (
-            isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0
-        ):
-            raise ValueError(f"seed must be a non-negative integer or None, got {seed!r}")
+        check_subject_and_seed(subject, seed)
         clock = clock if clock is not None else PerfCounterClock()
         if observer is None and responder and responder.startswith("sim:"):
             observer = responder[4:]
-        check_new_session_reason(new_session)
-        decision, existing = log.session_to_open(subject, new_session=new_session)
-        if decision == "complete":
-            raise SessionComplete(log.complete_message(existing), existing)
-        if decision == "resume":
+        existing = session_to_resume(log, subject, new_session)
+        if existing is not None:
             return cls._resume(log, protocol, stimset, subject, existing, seed, clock, observer)
         root_seed = int(seed) if seed is not None else int(np.random.SeedSequence().entropy)
         schedule = build_schedule(protocol, stimset, _child_rng(root_seed, 0))
         _verify_files(stimset, schedule)
         check_implant_fits(protocol.display, stimset, schedule)
-        prov = software_provenance()
-        with log.atomic():
-            sid = log.create_session(
-                subject=subject,
-                protocol_name=protocol.name,
-                protocol_sha256=protocol.content_sha256(),
-                protocol_file_sha256=protocol.source_sha256,
-                protocol_path=protocol.source_path,
-                protocol_json=json.dumps(protocol.to_dict(), sort_keys=True),
-                display_json=display_json(protocol.display),
-                stimset_path=str(stimset.root),
-                stimset_manifest_sha256=stimset.manifest_sha256,
-                seed=str(root_seed),
-                primary_rater=protocol.scoring.primary_rater,
-                responder=responder,
-                observer=observer,
-                observer_params=(
-                    None if observer is None else json.dumps(observer_params or {}, default=str)
-                ),
-                participant_json=json.dumps(participant, sort_keys=True) if participant else None,
-                monitor_json=json.dumps(monitor, sort_keys=True) if monitor else None,
-                **prov,
-            )
-            log.write_schedule(sid, schedule)
-            log.acquire_lock(sid)
-            if new_session is not None:
-                log.add_event(sid, "new_session", new_session, clock.now_s())
-            log.add_event(
-                sid, "open", f"new session: {len(schedule)} trials planned", clock.now_s()
-            )
+        sid = create_session(
+            log,
+            protocol,
+            subject,
+            clock,
+            seed=root_seed,
+            write_plan=lambda sid: log.write_schedule(sid, schedule),
+            open_note=f"new session: {len(schedule)} trials planned",
+            new_session=new_session,
+            display_json=display_json(protocol.display),
+            stimset_path=str(stimset.root),
+            stimset_manifest_sha256=stimset.manifest_sha256,
+            responder=responder,
+            observer=observer,
+            observer_params=(
+                None if observer is None else json.dumps(observer_params or {}, default=str)
+            ),
+            participant_json=json.dumps(participant, sort_keys=True) if participant else None,
+            monitor_json=json.dumps(monitor, sort_keys=True) if monitor else None,
+        )
         return cls(log, protocol, stimset, subject, sid, root_seed, schedule, clock)
 
     @classmethod
@@ -277,12 +226,7 @@ class Session:
                 f"{row['stimset_path']} (manifest sha256 {row['stimset_manifest_sha256'][:12]}...);"
                 f" {stimset.root}/manifest.csv differs"
             )
-        stored = int(row["seed"])
-        if seed is not None and int(seed) != stored:
-            raise ResumeMismatch(
-                f"{log.path}: subject {subject} has unfinished session {sid} with seed {stored}, "
-                f"not {seed}; omit --seed to resume it"
-            )
+        stored = stored_seed(log, subject, row, seed)
         if (row.get("observer") or None) != observer:
 
             def who(o: str | None) -> str:
@@ -295,21 +239,15 @@ class Session:
         schedule = log.read_schedule(sid)
         _verify_files(stimset, schedule)
         check_implant_fits(protocol.display, stimset, schedule)
-        with log.atomic():
-            stale = log.acquire_lock(sid)
+
+        def describe() -> tuple[str, str]:
             done = log.answered_count(sid)
-            if stale is not None:
-                log.add_event(
-                    sid,
-                    "crash",
-                    f"previous run (pid {stale['pid']} on {stale['host']}, since "
-                    f"{stale['acquired_at']}) ended without closing; {done} of {len(schedule)} "
-                    "trials were committed",
-                    clock.now_s(),
-                )
-            log.add_event(
-                sid, "resume", f"resuming at trial {done} of {len(schedule)}", clock.now_s()
+            return (
+                f"{done} of {len(schedule)} trials were committed",
+                f"resuming at trial {done} of {len(schedule)}",
             )
+
+        def note_repeat_viewing() -> None:
             nxt = log.last_committed_trial(sid)
             nxt = 0 if nxt is None else nxt + 1
             seen = log.viewings(sid, nxt) if nxt < len(schedule) else 0
@@ -321,8 +259,8 @@ class Session:
                     "ended; it is shown again and marked as a repeat viewing",
                     clock.now_s(),
                 )
-        if stale is not None:
-            logger.warning("session %s: previous run crashed; resuming at trial %d", sid, done)
+
+        reopen(log, sid, clock, describe, note_repeat_viewing)
         return cls(log, protocol, stimset, subject, sid, stored, schedule, clock)
 
     # -- the position in the schedule ---------------------------------------------------------
@@ -357,7 +295,7 @@ class Session:
         StimulusSetError
             The file changed since the session started (sha256 differs).
         """
-        from experiment.stimset import decode_stimulus
+        from experiment.session.stimset import decode_stimulus
 
         p = self.stimset.root / trial.path
         try:
@@ -397,16 +335,12 @@ class Session:
                 f"trial must be the next unanswered trial (index {nxt.index}), got index "
                 f"{getattr(trial, 'index', trial)!r}"
             )
-        if answer.score not in SCORES:
-            raise ValueError(
-                f"answer.score must be one of {', '.join(SCORES)}, got {answer.score!r}"
-            )
+        check_score(answer.score, "answer.score")
         recognized = self.protocol.scoring.is_recognized(answer.score)
         if self._next + 1 == len(self.schedule):
             with self.log.atomic():
                 self.log.record(self.session_id, trial, flip, answer, recognized)
-                self.log.finish_session(self.session_id)
-                self.log.add_event(self.session_id, "complete", "", self.clock.now_s())
+                self._mark_complete(self.clock.now_s())
         else:
             self.log.record(self.session_id, trial, flip, answer, recognized)
         self._next += 1
@@ -430,10 +364,8 @@ class Session:
 
     def rescore(self, trial_index: int, score: str, rater: str, note: str = "") -> None:
         """Append a new score for an answered trial (the old ones are kept)."""
-        if not isinstance(rater, str) or not rater.strip():
-            raise ValueError(f"rater must be a non-empty string, got {rater!r}")
-        if score not in SCORES:
-            raise ValueError(f"score must be one of {', '.join(SCORES)}, got {score!r}")
+        check_rater(rater)
+        check_score(score)
         self.log.add_score(
             self.session_id,
             trial_index,
@@ -442,27 +374,6 @@ class Session:
             rater,
             note=note,
         )
-
-    def log_event(self, kind: str, note: str = "") -> None:
-        """Append an event (pause, resume, abort, note, crash, ...) stamped with the clock."""
-        self.log.add_event(self.session_id, kind, note, self.clock.now_s())
-
-    def close(self) -> None:
-        """Log a ``close`` event and release the session lock (the log stays open)."""
-        if self._closed:
-            return
-        a, n = self.progress()
-        try:
-            self.log_event("close", f"{a} of {n} trials answered")
-        finally:
-            self.log.release_lock(self.session_id)
-            self._closed = True
-
-    def __enter__(self) -> Session:
-        return self
-
-    def __exit__(self, *exc: object) -> None:
-        self.close()
 
     # -- the headless loop --------------------------------------------------------------------
 
@@ -505,23 +416,6 @@ class Session:
         display.show_text(self.protocol.instructions.end)
 
 
-def check_new_session_reason(reason: str | None) -> None:
-    """Refuse a blank or multi-line ``--new-session`` reason (None: no new session asked for).
-
-    Raises
-    ------
-    TrialLogError
-        Naming ``--new-session`` and what is expected.
-    """
-    if reason is None:
-        return
-    if not isinstance(reason, str) or not reason.strip() or not reason.isprintable():
-        raise TrialLogError(
-            "--new-session needs the reason for another session on one line, e.g. "
-            f'--new-session "re-test after new glasses"; got {reason!r}'
-        )
-
-
 def _child_rng(seed: int, k: int) -> np.random.Generator:
     return np.random.default_rng(np.random.SeedSequence(seed).spawn(k + 1)[k])
 
@@ -541,7 +435,7 @@ def check_implant_fits(display: DisplaySpec, stimset: StimulusSet, schedule: Sch
     layout = display.implant_layout
     if layout is None:
         return
-    from experiment.stimset import COLOUR_CONDITIONS
+    from experiment.session.stimset import COLOUR_CONDITIONS
     from stimuli.errors import InputError
     from stimuli.io import image_shape_px
 

@@ -1,0 +1,21 @@
+"""The recognition session: what a subject is shown, in which order, and how answers are scored.
+
+A newcomer's map of this room:
+
+- :mod:`~experiment.session.stimset`: a stimulus set folder read back (manifest, objects, files).
+- :mod:`~experiment.session.schedule`: the protocol and stimulus set drawn into a trial order.
+- :mod:`~experiment.session.scoring`: suggested scores for spoken answers; rater agreement.
+- :mod:`~experiment.session.lifecycle`: a subject's session in the trial log, opened or resumed,
+  locked, completed and closed; shared with active search (:mod:`experiment.active.session`).
+- :mod:`~experiment.session.engine`: :class:`~experiment.session.engine.Session`, one subject's
+  position in a saved schedule, and its headless loop.
+- :mod:`~experiment.session.run_options`: the command-line options and checks that
+  ``confocal session run`` and ``confocal active run`` share.
+- :mod:`~experiment.session.status`: the study's status read from its trial log.
+- :mod:`~experiment.session.cli`: ``confocal session run | status | export``.
+
+Import from the modules themselves: the package re-exports nothing, so that the trial log (which
+reads :mod:`~experiment.session.schedule`) can be imported without loading the session engine.
+"""
+
+__all__: list[str] = []

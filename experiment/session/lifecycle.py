@@ -1,0 +1,278 @@
+"""A subject's session in the trial log, from opening to closing; shared by every kind of session.
+
+The recognition :class:`~experiment.session.engine.Session` and the active-search
+:class:`~experiment.active.session.ActiveSession` differ in what they plan and record, not in how
+a session lives in the log:
+
+1. :func:`check_subject_and_seed` refuses a blank subject or a bad seed.
+2. :func:`session_to_resume` decides between a new session and the subject's unfinished one; a
+   complete subject is refused (``SessionComplete``) unless ``--new-session REASON``
+   (:func:`check_new_session_reason`) asks for a further session.
+3. A new session: :func:`create_session` writes the ``sessions`` row with its provenance
+   (:func:`software_provenance`), the plan, the lock and the ``new_session`` and ``open`` events
+   in one transaction.
+4. A resumed one: :func:`stored_seed` checks the seed, :func:`reopen` takes the lock and logs a
+   ``crash`` (when the last run ended without closing) and the ``resume`` event together.
+5. :class:`LoggedSession` logs events, marks the session complete and closes it (``close``
+   event, lock released).
+
+References
+----------
+Jung et al. 2015, Sec. 3.2 (procedure).
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import platform
+import socket
+import subprocess
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any, Self
+
+import numpy as np
+
+from experiment.clock import Clock
+from experiment.log import ResumeMismatch, SessionComplete, TrialLog, TrialLogError
+from experiment.protocol import ProtocolSpec
+
+__all__ = [
+    "LoggedSession",
+    "check_new_session_reason",
+    "check_subject_and_seed",
+    "create_session",
+    "reopen",
+    "session_to_resume",
+    "software_provenance",
+    "stored_seed",
+]
+
+logger = logging.getLogger(__name__)
+
+
+def software_provenance() -> dict[str, str | None]:
+    """Return ``{'software_version', 'git_commit', 'machine'}`` for the sessions row (H15)."""
+    try:
+        from stimuli import __version__ as version
+    except ImportError:  # pragma: no cover - stimuli is part of the same distribution
+        version = None
+    commit = None
+    try:
+        out = subprocess.run(
+            ["git", "rev-parse", "HEAD"],
+            cwd=Path(__file__).resolve().parent,
+            capture_output=True,
+            text=True,
+            timeout=5,
+        )
+        if out.returncode == 0:
+            commit = out.stdout.strip() or None
+    except (OSError, subprocess.SubprocessError):
+        commit = None
+    machine = (
+        f"{socket.gethostname()} ({platform.system()} {platform.machine()}, "
+        f"Python {platform.python_version()})"
+    )
+    return {"software_version": version, "git_commit": commit, "machine": machine}
+
+
+def check_new_session_reason(reason: str | None) -> None:
+    """Refuse a blank or multi-line ``--new-session`` reason (None: no new session asked for).
+
+    Raises
+    ------
+    TrialLogError
+        Naming ``--new-session`` and what is expected.
+    """
+    if reason is None:
+        return
+    if not isinstance(reason, str) or not reason.strip() or not reason.isprintable():
+        raise TrialLogError(
+            "--new-session needs the reason for another session on one line, e.g. "
+            f'--new-session "re-test after new glasses"; got {reason!r}'
+        )
+
+
+def check_subject_and_seed(subject: object, seed: object) -> None:
+    """Refuse a subject that is not a non-empty string, or a seed that is not None or >= 0.
+
+    Raises
+    ------
+    ValueError
+        Naming ``subject`` or ``seed`` and the value given.
+    """
+    if not isinstance(subject, str) or not subject.strip():
+        raise ValueError(f"subject must be a non-empty string, got {subject!r}")
+    if seed is not None and (
+        isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0
+    ):
+        raise ValueError(f"seed must be a non-negative integer or None, got {seed!r}")
+
+
+def session_to_resume(log: TrialLog, subject: str, new_session: str | None) -> dict | None:
+    """Return the subject's unfinished session row to resume, or None to create a session.
+
+    Raises
+    ------
+    TrialLogError
+        ``new_session`` is blank or multi-line, or given while another session of the subject
+        is unfinished.
+    SessionComplete
+        The subject's session is complete and ``new_session`` is None (or names a completed
+        session).
+    """
+    check_new_session_reason(new_session)
+    decision, existing = log.session_to_open(subject, new_session=new_session)
+    if decision == "complete":
+        raise SessionComplete(log.complete_message(existing), existing)
+    return existing if decision == "resume" else None
+
+
+def create_session(
+    log: TrialLog,
+    protocol: ProtocolSpec,
+    subject: str,
+    clock: Clock,
+    *,
+    seed: int,
+    write_plan: Callable[[int], None],
+    open_note: str,
+    new_session: str | None = None,
+    **columns: Any,
+) -> int:
+    """Write a new session in one transaction and return its id.
+
+    The ``sessions`` row (the protocol, its hashes, ``seed``, the primary rater, the software's
+    provenance and ``columns``: ``display_json``, ``stimset_path``, ``stimset_manifest_sha256``,
+    ``responder``, ...), then the plan (``write_plan(session_id)``), the lock, the
+    ``new_session`` event (with the operator's reason, when given) and the ``open`` event.
+
+    Raises
+    ------
+    SessionLocked
+        Another live process holds the lock (nothing is written).
+    """
+    prov = software_provenance()
+    with log.atomic():
+        sid = log.create_session(
+            subject=subject,
+            protocol_name=protocol.name,
+            protocol_sha256=protocol.content_sha256(),
+            protocol_file_sha256=protocol.source_sha256,
+            protocol_path=protocol.source_path,
+            protocol_json=json.dumps(protocol.to_dict(), sort_keys=True),
+            seed=str(seed),
+            primary_rater=protocol.scoring.primary_rater,
+            **columns,
+            **prov,
+        )
+        write_plan(sid)
+        log.acquire_lock(sid)
+        if new_session is not None:
+            log.add_event(sid, "new_session", new_session, clock.now_s())
+        log.add_event(sid, "open", open_note, clock.now_s())
+    return sid
+
+
+def stored_seed(log: TrialLog, subject: str, row: dict, seed: int | None) -> int:
+    """Return the unfinished session's stored root seed; ``seed`` must be None or the same.
+
+    Raises
+    ------
+    ResumeMismatch
+        ``seed`` differs from the stored one.
+    """
+    stored = int(row["seed"])
+    if seed is not None and int(seed) != stored:
+        raise ResumeMismatch(
+            f"{log.path}: subject {subject} has unfinished session {row['session_id']} with "
+            f"seed {stored}, not {seed}; omit --seed to resume it"
+        )
+    return stored
+
+
+def reopen(
+    log: TrialLog,
+    session_id: int,
+    clock: Clock,
+    describe: Callable[[], tuple[str, str]],
+    then: Callable[[], None] | None = None,
+) -> dict | None:
+    """Lock an unfinished session to resume it; log the crash it recovers from, and the resume.
+
+    One transaction: the lock is taken; ``describe()`` returns what was committed (for the
+    ``crash`` event, logged when the previous run ended without closing) and the ``resume``
+    event's note; ``then()`` adds what else the resume writes.
+
+    Returns
+    -------
+    dict or None
+        The stale lock of the run that crashed (``pid``, ``host``, ``acquired_at``), or None.
+
+    Raises
+    ------
+    SessionLocked
+        Another live process has the session open.
+    """
+    with log.atomic():
+        stale = log.acquire_lock(session_id)
+        committed, resumed = describe()
+        if stale is not None:
+            log.add_event(
+                session_id,
+                "crash",
+                f"previous run (pid {stale['pid']} on {stale['host']}, since "
+                f"{stale['acquired_at']}) ended without closing; {committed}",
+                clock.now_s(),
+            )
+        log.add_event(session_id, "resume", resumed, clock.now_s())
+        if then is not None:
+            then()
+    if stale is not None:
+        logger.warning("session %s: previous run crashed; %s", session_id, resumed)
+    return stale
+
+
+class LoggedSession:
+    """What every session does with its row in the trial log: events, completion, closing.
+
+    A subclass sets ``log``, ``session_id`` and ``clock`` and defines :meth:`progress`.
+    """
+
+    log: TrialLog
+    session_id: int
+    clock: Clock
+    _closed: bool = False
+
+    def progress(self) -> tuple[int, int]:
+        """Return ``(answered, total)`` trials."""
+        raise NotImplementedError
+
+    def log_event(self, kind: str, note: str = "") -> None:
+        """Append an event (pause, resume, abort, note, crash, ...) stamped with the clock."""
+        self.log.add_event(self.session_id, kind, note, self.clock.now_s())
+
+    def _mark_complete(self, t_s: float) -> None:
+        """Mark the session completed, with its ``complete`` event; inside the caller's
+        transaction, so that the last answer and the completion commit together."""
+        self.log.finish_session(self.session_id)
+        self.log.add_event(self.session_id, "complete", "", t_s)
+
+    def close(self) -> None:
+        """Log a ``close`` event and release the session lock (the log stays open)."""
+        if self._closed:
+            return
+        a, n = self.progress()
+        try:
+            self.log_event("close", f"{a} of {n} trials answered")
+        finally:
+            self.log.release_lock(self.session_id)
+            self._closed = True
+
+    def __enter__(self) -> Self:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
