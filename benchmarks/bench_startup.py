@@ -3,8 +3,8 @@
 Each case runs as a fresh subprocess, in the same run as the baseline ``python -c pass`` (the
 interpreter's own start-up on this machine), so the ratio compares across machines. The
 target is under 0.5 s wall time for ``--help`` and ``--version``; before start-up was made
-lazy, when every sub-command module (numpy, scipy, pandas, emcee, ...) was imported by the root, they took
-2.7-4 s. A sub-command that does work (``confocal session --help``) imports its own module
+lazy, when every sub-command module (numpy, scipy, pandas, emcee, ...) was imported by the
+root, they took 2.7-4 s. A sub-command that does work (``confocal session --help``) imports its own module
 and is shown for comparison.
 
 Run: ``python benchmarks/bench_startup.py [--repeat 7]``.
