@@ -27,12 +27,18 @@ def study(tmp_path):
 
 
 def human_session(stim, proto, db, subject="S01"):
-    """A session opened as a person's (console); answers come from a scripted responder."""
+    """A session opened as a person's (console); answers come from a scripted responder.
+
+    The scripted answers are scored by an operator (rater ``operator``), as a person's are: a
+    rater ``sim:...`` would mark the rows simulated wherever they go.
+    """
     stimset = StimulusSet.load(stim)
+    scripted = make_observer("logistic", stimset, subject, rng=0)
+    scripted.rater = "operator"
     with TrialLog(db) as log:
         s = Session.open(log, load_protocol(proto), stimset, subject, seed=3, responder="console")
         with s:
-            s.run(NullDisplay(), make_observer("logistic", stimset, subject, rng=0))
+            s.run(NullDisplay(), scripted)
 
 
 def headless(stim, proto, db, subject, *extra):
