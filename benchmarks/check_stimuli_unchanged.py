@@ -123,7 +123,8 @@ def _hash_stimulus_set_json(path: Path) -> str:
     d = json.loads(path.read_text(encoding="utf-8"))
     for key in _BUILD_TIME_AND_VERSION:
         d.pop(key)
-    return hashlib.sha256(json.dumps(d, indent=2, sort_keys=True).encode()).hexdigest()
+    # in the order written: a reordered file is a different file
+    return hashlib.sha256(json.dumps(d, indent=2).encode()).hexdigest()
 
 
 def _scan_summary(scan) -> dict:
