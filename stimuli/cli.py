@@ -296,7 +296,8 @@ def tune_command(
     """Propose each object's Sobel threshold, draw the candidates, write them to objects.csv."""
     from stimuli.build import parse_working_size, read_pairs
     from stimuli.errors import InputError
-    from stimuli.tune import save_tuning_sheet, tune_pairs, tuning_sheet, write_thresholds
+    from stimuli.contact import save_contact_sheet
+    from stimuli.tune import tune_pairs, tuning_sheet, write_thresholds
 
     shape = parse_working_size(working_size)
     inp = read_pairs(pairs)
@@ -313,7 +314,7 @@ def tune_command(
     if sheet.suffix.lower() != ".png":
         raise InputError(f"--sheet must be a .png file, got {str(sheet)!r}")
     results = tune_pairs(pairs, working_shape_px=shape)
-    save_tuning_sheet(tuning_sheet(results), sheet)
+    save_contact_sheet(tuning_sheet(results), sheet)
     n = max(6, *(len(r.object) for r in results))
     typer.echo(
         f"{'object':<{n}} {'was':>8} {'proposed':>9} {'wide %':>7} {'narrow %':>9} {'Otsu':>7}"

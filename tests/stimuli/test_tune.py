@@ -25,14 +25,8 @@ from stimuli.declutter import auto_threshold, sobel_magnitude
 from stimuli.errors import InputError
 from stimuli.io import load_gray
 from stimuli.manifest import read_objects_csv
-from stimuli.tune import (
-    UPPER_QUANTILE,
-    retention_curve,
-    retention_threshold,
-    tune_pairs,
-    tuning_sheet,
-    write_thresholds,
-)
+from stimuli.retention import UPPER_QUANTILE, retention_curve, retention_threshold
+from stimuli.tune import tune_pairs, tuning_sheet, write_thresholds
 from tests.conftest import require_data
 from tests.stimuli._build_fixtures import make_pair, write_pairs_folder
 
