@@ -6,11 +6,6 @@ wide-DOF photo (Jung et al. 2015, Sec. 3.1). This module proposes that threshold
 itself (the minimum edge retention of :mod:`stimuli.retention`, the method and its numbers are
 described there) and shows the candidates on a contact sheet so that a person can check or
 overrule it.
-
-References
-----------
-Jung, J.-H., Aloni, D., Yitzhaky, Y., & Peli, E. (2015). Active confocal imaging for visual
-prostheses. Vision Research 111, 182-196, Sec. 2.2 and 3.1.
 """
 
 from __future__ import annotations

@@ -69,16 +69,16 @@ def plan_build(
     pairs: str | os.PathLike,
     out_dir: str | os.PathLike,
     *,
-    params: BuildParams | None = None,
-    force: bool = False,
-    replaces: str | os.PathLike | None = None,
-    workers: int | None = None,
-    implants: Sequence[ImplantLayout] = (),
-    implant_px_per_electrode: int = IMPLANT_PX_PER_ELECTRODE,
+    params: BuildParams | None,
+    force: bool,
+    replaces: str | os.PathLike | None,
+    workers: int | None,
+    implants: Sequence[ImplantLayout],
+    implant_px_per_electrode: int,
 ) -> BuildPlan:
     """Check the arguments of a build and resolve them into a :class:`BuildPlan`.
 
-    Parameters are those of :func:`stimuli.build.build_stimulus_set`.
+    Parameters are those of :func:`stimuli.build.build_stimulus_set`, all given.
 
     Returns
     -------

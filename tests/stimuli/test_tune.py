@@ -13,6 +13,8 @@ Kinds of test (house style H21):
 from __future__ import annotations
 
 import csv
+import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -251,3 +253,14 @@ def test_real_pairs_edge_ratio_in_paper_range_and_share_in_mask_rises(
         s_w, s_n = (ew & mask).sum() / ew.sum(), (en & mask).sum() / en.sum()
         print(f"{r.object}: t={r.threshold:.4f} share in mask {s_w:.3f} -> {s_n:.3f}")
         assert s_n > 1.5 * s_w, r.object
+
+
+def test_build_does_not_import_the_tuner() -> None:
+    """The builder and the tuner share the retention threshold and the photo preparation
+    without importing each other: the build alone leaves ``stimuli.tune`` unloaded."""
+    code = (
+        "import sys, stimuli.build\n"
+        "print(sorted(m for m in sys.modules if m in ('stimuli.tune', 'stimuli.cli')))"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "[]"
