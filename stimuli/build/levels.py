@@ -27,8 +27,7 @@ def level_ladder(
     [(1, 40, (8, 12)), (2, 1, (327, 492))]
     """
     return [
-        (i + 1, w, s)
-        for i, (w, s) in enumerate(resolution_ladder(shape_px, tuple(windows_px)))
+        (i + 1, w, s) for i, (w, s) in enumerate(resolution_ladder(shape_px, tuple(windows_px)))
     ]
 
 
