@@ -10,12 +10,21 @@ Writes, in a temporary folder and with fixed seeds:
   ``confocal lightfield refocus`` with its edge and grid images;
 
 then loads each light field and runs the plane detection on it (agreement scan, the paper's
-Haar scan, the range estimate and the confocal plane chosen for the stimulus builder).
+Haar scan, the range estimate and the confocal plane chosen for the stimulus builder), and builds
+stimulus sets with ``confocal stimuli build`` from a PAIRS CSV of six synthetic pairs (one a
+training object, one with a crop box, one with its own threshold in ``objects.csv``, one saved as
+JPEG) and two light-field objects (the camera-array ``.npz`` at the plane the builder picks, the
+folder at a given disparity): Sobel edges and grey mode, each with and without ``--implant``, the
+depth de-cluttering with the bokeh guard and Otsu's threshold, and a global threshold with
+``--fast-decode`` at a smaller working size. ``confocal stimuli tune --dry-run`` on the same input
+adds its contact sheet and the table it prints.
 
 Prints one JSON object: the sha256 of every file written (by path relative to the temporary
 folder) and the detected planes. ``--compare FILE`` compares with an earlier output and exits 1
 on any difference, naming each. The ``scores.png`` plot is left out of the file hashes: it is
-drawn by matplotlib, whose output is not ours to keep stable.
+drawn by matplotlib, whose output is not ours to keep stable. Each ``stimulus_set.json`` is
+hashed without its ``built_utc`` (the time of the build) and ``software`` (package version and git
+commit) entries, which legitimately change from one run or commit to the next.
 
 Run: ``python benchmarks/check_stimuli_unchanged.py > /tmp/stimuli_before.json``, change the
 code, then ``python benchmarks/check_stimuli_unchanged.py --compare /tmp/stimuli_before.json``.
@@ -34,6 +43,7 @@ from pathlib import Path
 import numpy as np
 from typer.testing import CliRunner
 
+from stimuli.cli import stimuli_app
 from stimuli.lightfield import load_lightfield
 from stimuli.lightfield_cli import lightfield_app
 from stimuli.planes import confocal_plane, estimate_disparity_range, find_object_planes
@@ -45,12 +55,76 @@ PAIRS_SHAPE_PX = (327, 492)
 #: Light-field view size, COLSxROWS as the CLI takes it (ours, small for speed).
 LF_SIZE = "192x160"
 SEED = 7
+#: Pair folders of the PAIRS set that the stimulus-set builds use (ours: six, for speed).
+BUILD_OBJECTS = 6
+#: ``confocal stimuli build`` options of each stimulus set built, by the set's folder name.
+BUILD_SETS: dict[str, tuple[str, ...]] = {
+    "set_edges": (),
+    "set_edges_implants": ("--implant", "argus2", "--implant", "alpha_ims"),
+    "set_grey": ("--mode", "grey", "--grey-levels", "4"),
+    "set_grey_implant": ("--mode", "grey", "--implant", "brainport", "--implant-px", "8"),
+    "set_depth": (
+        "--declutter",
+        "depth",
+        "--bokeh-guard",
+        "--threshold-method",
+        "otsu",
+        "--edge-ratio",
+        "0.08",
+    ),  # fmt: skip
+    "set_fast": ("--threshold", "0.15", "--fast-decode", "--working-size", "246x164"),
+}
+#: Entries of ``stimulus_set.json`` that record when and by which software version it was built.
+_BUILD_TIME_AND_VERSION = ("built_utc", "software")
 
 
 def _cli(args: list[str]) -> None:
     result = CliRunner().invoke(lightfield_app, args)
     if result.exit_code != 0:
         raise SystemExit(f"lightfield {' '.join(args)} failed:\n{result.output}")
+
+
+def _stimuli_cli(args: list[str]) -> str:
+    result = CliRunner().invoke(stimuli_app, args)
+    if result.exit_code != 0:
+        raise SystemExit(f"stimuli {' '.join(args)} failed:\n{result.output}")
+    return result.stdout  # not stderr: Python prints a warning only the first time it is given
+
+
+def _build_input(root: Path) -> Path:
+    """Write a PAIRS CSV (and ``objects.csv``) of synthetic pairs and light fields; return it."""
+    from PIL import Image
+
+    folders = sorted(p for p in (root / "pairs").iterdir() if p.is_dir())
+    main = [p for p in folders if not p.name.startswith("train")][: BUILD_OBJECTS - 1]
+    chosen = [*main, next(p for p in folders if p.name.startswith("train"))]
+    jpeg = root / "jpeg_pair"
+    jpeg.mkdir()
+    for role in ("wide", "narrow"):
+        Image.open(chosen[1] / f"{role}.png").convert("RGB").save(jpeg / f"{role}.jpg", quality=90)
+    rows = ["object,wide,narrow,lightfield,crop"]
+    for i, p in enumerate(chosen):
+        crop = '"40,30,400,266"' if i == 0 else ""
+        rows.append(f"{p.name},pairs/{p.name}/wide.png,pairs/{p.name}/narrow.png,,{crop}")
+    rows.append("jpeg_pair,jpeg_pair/wide.jpg,jpeg_pair/narrow.jpg,,")
+    rows.append("lf_npz,,,camera.npz,")
+    rows.append("lf_folder,,,camera,")
+    (root / "build_pairs.csv").write_text("\n".join(rows) + "\n", encoding="utf-8")
+    objects = ["object,name,role,sobel_threshold,plane_disparity_px"]
+    objects += [f"{p.name},{p.name.split('_', 1)[1]},main,," for p in chosen[:-1]]
+    objects[2] = objects[2].replace(",main,,", ",main,0.2,")
+    objects.append(f"{chosen[-1].name},{chosen[-1].name.split('_', 1)[1]},training,,")
+    objects.append("lf_folder,bust,main,,1.5")
+    (root / "objects.csv").write_text("\n".join(objects) + "\n", encoding="utf-8")
+    return root / "build_pairs.csv"
+
+
+def _hash_stimulus_set_json(path: Path) -> str:
+    d = json.loads(path.read_text(encoding="utf-8"))
+    for key in _BUILD_TIME_AND_VERSION:
+        d.pop(key)
+    # in the order written: a reordered file is a different file
+    return hashlib.sha256(json.dumps(d, indent=2).encode()).hexdigest()
 
 
 def _scan_summary(scan) -> dict:
@@ -106,12 +180,22 @@ def run(root: Path) -> dict:
             "focus_mask_sha256": hashlib.sha256(chosen.focus_mask.tobytes()).hexdigest(),
         }
 
+    pairs_csv = _build_input(root)
+    for name, options in BUILD_SETS.items():
+        _stimuli_cli(["build", str(pairs_csv), "--out", str(root / name), *options])
+    tune_table = _stimuli_cli(
+        ["tune", str(pairs_csv), "--dry-run", "--sheet", str(root / "tune_sheet.png")]
+    )
+
     files = {}
     for p in sorted(root.rglob("*")):
         if p.is_file() and p.name != "scores.png":
             rel = p.relative_to(root).as_posix()
-            files[rel] = hashlib.sha256(p.read_bytes()).hexdigest()
-    return {"files": files, "planes": planes}
+            if p.name == "stimulus_set.json":
+                files[rel] = _hash_stimulus_set_json(p)
+            else:
+                files[rel] = hashlib.sha256(p.read_bytes()).hexdigest()
+    return {"files": files, "planes": planes, "tune_output": tune_table}
 
 
 def _differences(before: dict, after: dict, where: str = "") -> list[str]:

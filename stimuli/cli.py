@@ -1,4 +1,4 @@
-"""``confocal stimuli ...``: build stimulus sets (issue 2) and write synthetic photo pairs."""
+"""``confocal stimuli ...``: build stimulus sets, tune their thresholds, write synthetic pairs."""
 
 from __future__ import annotations
 
@@ -17,6 +17,21 @@ _SYNTH_BYTES_PER_PX = 160
 #: and float64 images of the working size; the estimate only has to catch absurd sizes).
 _BUILD_BYTES_PER_PX = 64
 
+#: The PAIRS input of ``build`` and ``tune``.
+_PairsArgument = Annotated[
+    Path,
+    typer.Argument(
+        help="Folder with one sub-folder per object holding wide.* and narrow.* (optional "
+        "objects.csv), or a CSV object,wide,narrow[,crop] with paths relative to it.",
+        show_default=False,
+    ),
+]
+#: The working size of ``build`` and ``tune``.
+_WorkingSizeOption = Annotated[
+    str,
+    typer.Option("--working-size", help="Working size WIDTHxHEIGHT, pixels (paper: 492x327)."),
+]
+
 stimuli_app = typer.Typer(
     name="stimuli",
     help="Build stimulus sets (Jung et al. 2015, Sec. 3.1) from photo pairs or light fields.",
@@ -26,19 +41,9 @@ stimuli_app = typer.Typer(
 
 @stimuli_app.command("build")
 def build_command(
-    pairs: Annotated[
-        Path,
-        typer.Argument(
-            help="Folder with one sub-folder per object holding wide.* and narrow.* (optional "
-            "objects.csv), or a CSV object,wide,narrow[,crop] with paths relative to it.",
-            show_default=False,
-        ),
-    ],
+    pairs: _PairsArgument,
     out: Annotated[Path, typer.Option("--out", "-o", help="Stimulus-set folder to write.")],
-    working_size: Annotated[
-        str,
-        typer.Option("--working-size", help="Working size WIDTHxHEIGHT, pixels (paper: 492x327)."),
-    ] = "492x327",
+    working_size: _WorkingSizeOption = "492x327",
     threshold: Annotated[
         str,
         typer.Option(
@@ -273,13 +278,7 @@ def synth_command(
 
 @stimuli_app.command("tune")
 def tune_command(
-    pairs: Annotated[
-        Path,
-        typer.Argument(
-            help="PAIRS folder or CSV, as for 'stimuli build'.",
-            show_default=False,
-        ),
-    ],
+    pairs: _PairsArgument,
     sheet: Annotated[
         Path | None,
         typer.Option(
@@ -289,10 +288,7 @@ def tune_command(
             show_default=False,
         ),
     ] = None,
-    working_size: Annotated[
-        str,
-        typer.Option("--working-size", help="Working size WIDTHxHEIGHT, pixels (paper: 492x327)."),
-    ] = "492x327",
+    working_size: _WorkingSizeOption = "492x327",
     dry_run: Annotated[
         bool,
         typer.Option("--dry-run", help="Show the proposals and the sheet; keep objects.csv."),
@@ -300,8 +296,9 @@ def tune_command(
 ) -> None:
     """Propose each object's Sobel threshold, draw the candidates, write them to objects.csv."""
     from stimuli.build import parse_working_size, read_pairs
+    from stimuli.contact import save_contact_sheet
     from stimuli.errors import InputError
-    from stimuli.tune import save_tuning_sheet, tune_pairs, tuning_sheet, write_thresholds
+    from stimuli.tune import tune_pairs, tuning_sheet, write_thresholds
 
     shape = parse_working_size(working_size)
     inp = read_pairs(pairs)
@@ -318,7 +315,7 @@ def tune_command(
     if sheet.suffix.lower() != ".png":
         raise InputError(f"--sheet must be a .png file, got {str(sheet)!r}")
     results = tune_pairs(pairs, working_shape_px=shape)
-    save_tuning_sheet(tuning_sheet(results), sheet)
+    save_contact_sheet(tuning_sheet(results), sheet)
     n = max(6, *(len(r.object) for r in results))
     typer.echo(
         f"{'object':<{n}} {'was':>8} {'proposed':>9} {'wide %':>7} {'narrow %':>9} {'Otsu':>7}"

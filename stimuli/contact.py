@@ -105,7 +105,11 @@ def contact_sheet(
 
 
 def save_contact_sheet(sheet: np.ndarray, path: str | os.PathLike) -> Path:
-    """Write a sheet from :func:`contact_sheet` as PNG, atomically; return the path."""
+    """Write a sheet as PNG, atomically; return the path.
+
+    The sheet is a uint8 image, grey ``(H, W)`` or RGB ``(H, W, 3)``: one from
+    :func:`contact_sheet` or :func:`stimuli.tune.tuning_sheet`.
+    """
     path = Path(path)
     with atomic_path(path) as tmp:
         Image.fromarray(np.asarray(sheet, dtype=np.uint8)).save(tmp, format="PNG")

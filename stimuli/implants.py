@@ -1,4 +1,4 @@
-"""Implant layouts as data: electrode grid, field of view, phosphene look (issue 14).
+"""Implant layouts as data: electrode grid, field of view, phosphene look.
 
 A layout is a TOML file in ``protocols/implants/`` (shipped like the protocols; installed under
 ``<prefix>/share/confocal/protocols/implants``) or any ``.toml`` file a user writes. Fields:

@@ -2,7 +2,7 @@
 
 A size typed on the command line (a 24,000 px photo, a 10^9-plane scan) is estimated first and
 refused with the memory it would need, instead of dying with a ``MemoryError`` traceback or being
-killed by the kernel with no message (issue 10).
+killed by the kernel with no message.
 """
 
 from __future__ import annotations

@@ -1,46 +1,11 @@
-"""Tune the de-cluttering threshold of photo pairs (issue 15, point 7).
+"""Tune the de-cluttering threshold of photo pairs: ``confocal stimuli tune``.
 
 The paper set the Sobel threshold by hand for each confocal (narrow-DOF) photo, "aiming to fully
 remove the suppressed background clutter and leave only the OI", and applied it to the paired
 wide-DOF photo (Jung et al. 2015, Sec. 3.1). This module proposes that threshold from the pair
-itself and shows the candidates on a contact sheet so that a person can check or overrule it.
-
-Method: minimum edge retention (ours, not the paper's)
-------------------------------------------------------
-Both photos show the same scene. The in-focus object has sharp edges in both; the background
-has sharp edges in the wide photo only, because the narrow aperture blurs it. For a threshold
-``t`` let ``f_wide(t)`` and ``f_narrow(t)`` be the fractions of pixels whose Sobel magnitude
-exceeds ``t``. Their ratio, the *edge retention* ``f_narrow(t) / f_wide(t)``, falls as ``t``
-rises past the weak gradients of the blurred background (they vanish from the narrow edge image
-but their sharp twins stay in the wide one), and stops falling, or rises again, once only the
-object's edges, present in both photos, are left to remove. The proposed threshold is the one
-with the lowest retention: the point where the narrow photo has shed the largest share of the
-wide photo's edges, i.e. where the blurred background is gone and nothing is gained by cutting
-further into the in-focus edges.
-
-Candidates run from Otsu's threshold on the narrow photo's Sobel magnitude
-(:func:`stimuli.declutter.auto_threshold`: the split between its weak gradients, flat regions
-and blur, and its strong ones) up to the magnitude's 0.99 quantile (:data:`UPPER_QUANTILE`), in
-steps of equal pixel counts, so the search range comes from the photo in front of it, not from
-constants on the Sobel scale. Ties go to the lowest threshold, which keeps the most edges. When
-the narrow photo's blurred background is already below Otsu's threshold (strong blur, as in the
-synthetic pairs of ``stimuli synth``) the retention rises from there on and the proposal is
-Otsu's threshold itself; when the blur leaves gradients above it (real photos at 492x327) the
-proposal moves up until they are gone.
-
-On the six real pairs in ``dof_pairs/`` (VABD and EBB!, 492x327) this gives a mean wide-DOF
-edge fraction of 0.068 (paper: 1/13 = 0.077), against 0.28 with Otsu's threshold alone, and the
-share of edge pixels inside the in-focus mask rises from 1-30 % (wide) to 5-90 % (narrow) for
-every pair; see ``tests/stimuli/test_tune.py``. The upper quantile matters for three of the six
-pairs, whose retention still falls there: with 0.97, 0.98 or 0.995 instead of 0.99 the mean is
-0.098, 0.085 or 0.060, still in the paper's range. Where the retention curve is flat (EBB! 2979,
-whose background is hardly blurred) the proposal can move by 20 % with the candidate grid; the
-contact sheet shows the neighbours for such cases.
-
-References
-----------
-Jung, J.-H., Aloni, D., Yitzhaky, Y., & Peli, E. (2015). Active confocal imaging for visual
-prostheses. Vision Research 111, 182-196, Sec. 2.2 and 3.1.
+itself (the minimum edge retention of :mod:`stimuli.retention`, the method and its numbers are
+described there) and shows the candidates on a contact sheet so that a person can check or
+overrule it.
 """
 
 from __future__ import annotations
@@ -48,7 +13,7 @@ from __future__ import annotations
 import csv
 import logging
 import os
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -56,171 +21,28 @@ import numpy as np
 from PIL import Image, ImageDraw, ImageFont
 
 from stimuli import jung2015
-from stimuli.declutter import auto_threshold, sobel_magnitude
+from stimuli.build.pairs import read_pairs
+from stimuli.build.parallel import ProgressFn, map_objects, thread_count
+from stimuli.build.params import BuildParams
+from stimuli.build.prepare import prepare_object
 from stimuli.errors import InputError
-from stimuli.io import atomic_path, check_gray
 from stimuli.manifest import OBJECTS_COLUMNS, read_objects_csv
+from stimuli.retention import RetentionCurve, pair_magnitudes, retention_curve
 from stimuli.tables import unescape_row, write_table
 
 __all__ = [
-    "UPPER_QUANTILE",
-    "N_CANDIDATES",
-    "RetentionCurve",
+    "SHEET_FACTORS",
     "TuneResult",
-    "retention_curve",
-    "retention_threshold",
     "tune_pairs",
     "tuning_sheet",
-    "save_tuning_sheet",
     "write_thresholds",
 ]
 
 logger = logging.getLogger(__name__)
 
-#: Quantile of the narrow photo's Sobel magnitude that bounds the threshold search from above
-#: (ours, not the paper's). Above it fewer than 1 % of the pixels stay edges, about the outline
-#: of an object a third of the frame wide (at 492x327 a 160x160 px outline is ~0.4 % of the
-#: pixels), so a higher threshold would start to erase the object itself.
-UPPER_QUANTILE: float = 0.99
-
-#: Number of candidate thresholds between Otsu's threshold and the upper quantile (ours): at
-#: most 0.5 % of the pixels apart, finer than a viewer can tell apart on the contact sheet.
-N_CANDIDATES: int = 100
-
 #: Factors around the proposed threshold shown on the contact sheet (ours): half an octave
 #: apart, so the sheet spans a factor of four.
 SHEET_FACTORS: tuple[float, ...] = (0.5, 2**-0.5, 1.0, 2**0.5, 2.0)
-
-ProgressFn = Callable[[str, int, int], None]
-
-
-@dataclass(frozen=True)
-class RetentionCurve:
-    """Edge fractions of a photo pair over candidate thresholds.
-
-    Parameters
-    ----------
-    thresholds : ndarray of shape (n,), float
-        Candidate Sobel thresholds, ascending (scale of :func:`stimuli.declutter.sobel_magnitude`).
-    wide_fraction, narrow_fraction : ndarray of shape (n,), float in [0, 1]
-        Fraction of pixels above each threshold in the wide and narrow photo.
-    """
-
-    thresholds: np.ndarray
-    wide_fraction: np.ndarray
-    narrow_fraction: np.ndarray
-
-    @property
-    def retention(self) -> np.ndarray:
-        """Return ``narrow_fraction / wide_fraction`` (dimensionless; ``inf`` where wide is 0)."""
-        with np.errstate(divide="ignore", invalid="ignore"):
-            r = self.narrow_fraction / self.wide_fraction
-        return np.where(self.wide_fraction > 0, r, np.inf)
-
-    def best_index(self) -> int:
-        """Return the index of the lowest retention (the lowest threshold among ties)."""
-        return int(np.argmin(self.retention))
-
-
-def _pair_magnitudes(wide: np.ndarray, narrow: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    w, n = check_gray(wide), check_gray(narrow)
-    if w.shape != n.shape:
-        raise InputError(
-            f"wide and narrow images must have the same shape, got {w.shape} and {n.shape}"
-        )
-    return sobel_magnitude(w), sobel_magnitude(n)
-
-
-def _fraction_above(sorted_values: np.ndarray, thresholds: np.ndarray) -> np.ndarray:
-    n = sorted_values.size
-    return 1.0 - np.searchsorted(sorted_values, thresholds, side="right") / n
-
-
-def retention_curve(
-    wide: np.ndarray, narrow: np.ndarray, *, n_candidates: int = N_CANDIDATES
-) -> RetentionCurve:
-    """Return the edge fractions of a pair at thresholds spread over the narrow photo's range.
-
-    Parameters
-    ----------
-    wide, narrow : ndarray of shape (rows, cols), float32 in [0, 1]
-        The wide-DOF and narrow-DOF (confocal) photos of one object, at the working size.
-    n_candidates : int >= 2
-        Number of candidate thresholds: quantiles of the narrow photo's Sobel magnitude evenly
-        spaced in probability from Otsu's threshold to :data:`UPPER_QUANTILE` (repeated
-        values dropped; only Otsu's threshold when it is above that quantile).
-
-    Returns
-    -------
-    RetentionCurve
-
-    Raises
-    ------
-    InputError
-        If an image is not a grey image in [0, 1], the shapes differ or ``n_candidates < 2``.
-    """
-    if int(n_candidates) < 2:
-        raise InputError(f"n_candidates must be >= 2, got {n_candidates!r}")
-    sw, sn = _pair_magnitudes(wide, narrow)
-    sorted_n = np.sort(sn.ravel())
-    t_otsu = auto_threshold(narrow)
-    q_otsu = 1.0 - float(_fraction_above(sorted_n, np.array([t_otsu]))[0])
-    if q_otsu < UPPER_QUANTILE:
-        q = np.linspace(q_otsu, UPPER_QUANTILE, int(n_candidates))[1:]
-        # quantiles of the sorted values by index (nearest rank): np.quantile would sort again
-        idx = np.clip(np.round(q * (sorted_n.size - 1)).astype(np.int64), 0, sorted_n.size - 1)
-        ts = np.unique(np.concatenate([[t_otsu], sorted_n[idx]]).astype(np.float64))
-        ts = ts[ts >= t_otsu]
-    else:
-        ts = np.array([t_otsu], np.float64)
-    return RetentionCurve(
-        thresholds=ts,
-        wide_fraction=_fraction_above(np.sort(sw.ravel()), ts),
-        narrow_fraction=_fraction_above(sorted_n, ts),
-    )
-
-
-def retention_threshold(wide: np.ndarray, narrow: np.ndarray) -> float:
-    """Propose the Sobel threshold that removes the blurred background of a photo pair.
-
-    The threshold with the lowest edge retention ``f_narrow(t) / f_wide(t)`` (module docstring).
-
-    Parameters
-    ----------
-    wide, narrow : ndarray of shape (rows, cols), float32 in [0, 1]
-        The wide-DOF and narrow-DOF photos of one object, at the working size.
-
-    Returns
-    -------
-    float >= 0
-        On the scale of :func:`stimuli.declutter.sobel_magnitude`; never below Otsu's threshold
-        on the narrow photo (:func:`stimuli.declutter.auto_threshold`), which is also the
-        answer for a photo without gradients or a wide photo without edges above any candidate.
-
-    References
-    ----------
-    Jung et al. (2015), Sec. 3.1 (the threshold the paper set by hand).
-
-    Examples
-    --------
-    >>> rng = np.random.default_rng(0)
-    >>> from scipy.ndimage import gaussian_filter
-    >>> bg = rng.random((64, 96)).astype(np.float32)
-    >>> wide = 0.5 * bg; wide[16:48, 32:64] = 1.0
-    >>> narrow = 0.5 * gaussian_filter(bg, 3); narrow[16:48, 32:64] = 1.0
-    >>> t = retention_threshold(wide, narrow)
-    >>> edges = sobel_magnitude(narrow) > t
-    >>> bool(edges[16, 40:56].all()), bool(edges[:10].any())
-    (True, False)
-    """
-    return _best_threshold(retention_curve(wide, narrow))
-
-
-def _best_threshold(curve: RetentionCurve) -> float:
-    # thresholds[0] is Otsu's threshold (retention_curve), the fallback when no wide edges
-    if not np.isfinite(curve.retention).any():
-        return float(curve.thresholds[0])
-    return float(curve.thresholds[curve.best_index()])
 
 
 @dataclass(frozen=True)
@@ -278,7 +100,7 @@ def tune_pairs(
     Parameters
     ----------
     pairs : str or path-like
-        PAIRS folder or CSV (:func:`stimuli.build.read_pairs`).
+        PAIRS folder or CSV (:func:`stimuli.build.pairs.read_pairs`).
     working_shape_px : (rows, cols)
         Working size (paper: 327x492).
     workers : int, optional
@@ -294,21 +116,19 @@ def tune_pairs(
     Raises
     ------
     InputError
-        Bad PAIRS input (see :func:`stimuli.build.read_pairs`), unreadable photos, or photos
+        Bad PAIRS input (see :func:`stimuli.build.pairs.read_pairs`), unreadable photos, or photos
         of one pair with different pixel sizes.
     """
-    from stimuli.build import BuildParams, _map, _prepare, read_pairs
-
     params = BuildParams(working_shape_px=tuple(int(v) for v in working_shape_px))
     inp = read_pairs(pairs)
-    workers = min(8, os.cpu_count() or 1) if workers is None else max(1, int(workers))
+    workers = thread_count(workers)
 
     def one(item) -> TuneResult:
         src, info = item
-        work = _prepare(src, info, params)
+        work = prepare_object(src, info, params)
         curve = retention_curve(work.wide, work.narrow)
-        t = _best_threshold(curve)
-        sw, sn = _pair_magnitudes(work.wide, work.narrow)
+        t = curve.best_threshold()
+        sw, sn = pair_magnitudes(work.wide, work.narrow)
         return TuneResult(
             object=info.object,
             role=info.role,
@@ -322,8 +142,8 @@ def tune_pairs(
             narrow=work.narrow,
         )
 
-    return list(
-        _map(one, list(zip(inp.sources, inp.objects, strict=True)), workers, progress, "read")
+    return map_objects(
+        one, list(zip(inp.sources, inp.objects, strict=True)), workers, progress, "read"
     )
 
 
@@ -397,7 +217,7 @@ def tuning_sheet(
     )
     y0 = _LABEL_PX + _GAP_PX
     for r in results:
-        sw, sn = _pair_magnitudes(r.wide, r.narrow)
+        sw, sn = pair_magnitudes(r.wide, r.narrow)
         draw.text(
             (_GAP_PX, y0),
             f"{r.object} ({r.role}): proposed {r.threshold:.4g}, wide edges "
@@ -431,14 +251,6 @@ def tuning_sheet(
                     )
         y0 += block_h + _GAP_PX
     return np.asarray(sheet)
-
-
-def save_tuning_sheet(sheet: np.ndarray, path: str | os.PathLike) -> Path:
-    """Write a sheet from :func:`tuning_sheet` as PNG, atomically; return the path."""
-    path = Path(path)
-    with atomic_path(path) as tmp:
-        Image.fromarray(np.asarray(sheet, dtype=np.uint8)).save(tmp, format="PNG")
-    return path
 
 
 # --------------------------------------------------------------------------------------------

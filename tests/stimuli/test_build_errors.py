@@ -9,6 +9,7 @@ direct test below (house style H11).
 from __future__ import annotations
 
 import json
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -353,8 +354,38 @@ def test_every_raise(call, match) -> None:
         call()
 
 
-def test_file_level_raises(tmp_path: Path) -> None:
-    """CSV/folder readers name the file (and line) and what was expected."""
+_MANIFEST_HEADER = (
+    "object,role,condition,level,window,width,height,pixels,path,"
+    "sha256,sobel_threshold,edge_ratio,source,source_sha256,mode,crop\n"
+)
+
+#: (reader, file name, its content or None for a missing file, what the message says after
+#: the file name)
+_BAD_FILES = [
+    (read_objects_csv, "objects.csv", None, r" not found"),
+    (read_objects_csv, "o1.csv", "name\nmug\n", r": missing column\(s\) object"),
+    (read_objects_csv, "o2.csv", "object\nmug\nMUG\n", r", line 3: duplicate object id 'MUG'"),
+    (read_objects_csv, "o3.csv", b"object\n\xff\xfe\n", r": not a UTF-8 text CSV file"),
+    (read_manifest, "manifest.csv", None, r" not found"),
+    (read_manifest, "m.csv", _MANIFEST_HEADER + "a,main,photo,eight,1,2,2,4,p,s,,,src,h,edges,\n",
+     r", line 2: field level: expected an integer"),
+    (read_pairs, "p1.csv", "object,wide\na,w.png\n", r": expected columns object,wide,narrow"),
+    (read_pairs, "p2.csv", "object,wide,narrow\na,w.png,\n", r", line 2: field narrow is empty"),
+    (read_pairs, "p3.csv", "object,wide,narrow\n", r": no object rows"),
+    (read_pairs, "p4.csv", b"object,wide,narrow\n\xff,a,b\n", r": not a UTF-8 text CSV file"),
+]  # fmt: skip
+
+
+@pytest.mark.parametrize(("reader", "name", "text", "message"), _BAD_FILES)
+def test_file_level_raises(tmp_path: Path, reader, name: str, text, message: str) -> None:
+    """CSV readers name the file (and line) and what was expected."""
+    path = tmp_path / name if text is None else _csv(tmp_path, name, text)
+    with pytest.raises(InputError, match=re.escape(name) + message):
+        reader(path)
+
+
+def test_image_and_folder_raises(tmp_path: Path) -> None:
+    """Image and PAIRS-folder readers name the file or folder and what was expected."""
     from stimuli.io import image_shape_px
 
     with pytest.raises(InputError, match=r"nope\.jpg: image file not found"):
@@ -362,40 +393,6 @@ def test_file_level_raises(tmp_path: Path) -> None:
     (tmp_path / "bad.jpg").write_bytes(b"garbage")
     with pytest.raises(InputError, match=r"bad\.jpg: not a readable image"):
         image_shape_px(tmp_path / "bad.jpg")
-    with pytest.raises(InputError, match=r"objects\.csv not found"):
-        read_objects_csv(tmp_path / "objects.csv")
-    p = _csv(tmp_path, "o1.csv", "name\nmug\n")
-    with pytest.raises(InputError, match=r"o1\.csv: missing column\(s\) object"):
-        read_objects_csv(p)
-    p = _csv(tmp_path, "o2.csv", "object\nmug\nMUG\n")
-    with pytest.raises(InputError, match=r"o2\.csv, line 3: duplicate object id 'MUG'"):
-        read_objects_csv(p)
-    p = _csv(tmp_path, "o3.csv", b"object\n\xff\xfe\n")
-    with pytest.raises(InputError, match=r"o3\.csv: not a UTF-8 text CSV file"):
-        read_objects_csv(p)
-    with pytest.raises(InputError, match=r"manifest\.csv not found"):
-        read_manifest(tmp_path / "manifest.csv")
-    p = _csv(
-        tmp_path,
-        "m.csv",
-        "object,role,condition,level,window,width,height,pixels,path,"
-        "sha256,sobel_threshold,edge_ratio,source,source_sha256,mode,crop\n"
-        "a,main,photo,eight,1,2,2,4,p,s,,,src,h,edges,\n",
-    )
-    with pytest.raises(InputError, match=r"m\.csv, line 2: field level: expected an integer"):
-        read_manifest(p)
-    p = _csv(tmp_path, "p1.csv", "object,wide\na,w.png\n")
-    with pytest.raises(InputError, match=r"p1\.csv: expected columns object,wide,narrow"):
-        read_pairs(p)
-    p = _csv(tmp_path, "p2.csv", "object,wide,narrow\na,w.png,\n")
-    with pytest.raises(InputError, match=r"p2\.csv, line 2: field narrow is empty"):
-        read_pairs(p)
-    p = _csv(tmp_path, "p3.csv", "object,wide,narrow\n")
-    with pytest.raises(InputError, match=r"p3\.csv: no object rows"):
-        read_pairs(p)
-    p = _csv(tmp_path, "p4.csv", b"object,wide,narrow\n\xff,a,b\n")
-    with pytest.raises(InputError, match=r"p4\.csv: not a UTF-8 text CSV file"):
-        read_pairs(p)
     (tmp_path / "two" / "a").mkdir(parents=True)
     (tmp_path / "two" / "a" / "wide.png").write_bytes(b"")
     (tmp_path / "two" / "a" / "wide.jpg").write_bytes(b"")

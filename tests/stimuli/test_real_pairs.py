@@ -35,7 +35,7 @@ PAIRS = [
 
 #: Measured shares of edge pixels inside the in-focus mask, cluttered -> decluttered. Native:
 #: Otsu threshold on the narrow photo (2026-11-21). Levels 8 and 3: the built set, whose
-#: automatic threshold is the pair's minimum edge retention (stimuli/tune.py;
+#: automatic threshold is the pair's minimum edge retention (stimuli/retention.py;
 #: edge ratio 0.068 = mean wide-DOF edge fraction; with Otsu it was 0.28); 2026-11-23:
 #:
 #: ========  =====================  =====================  =====================

@@ -13,6 +13,8 @@ Kinds of test (house style H21):
 from __future__ import annotations
 
 import csv
+import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -25,14 +27,8 @@ from stimuli.declutter import auto_threshold, sobel_magnitude
 from stimuli.errors import InputError
 from stimuli.io import load_gray
 from stimuli.manifest import read_objects_csv
-from stimuli.tune import (
-    UPPER_QUANTILE,
-    retention_curve,
-    retention_threshold,
-    tune_pairs,
-    tuning_sheet,
-    write_thresholds,
-)
+from stimuli.retention import UPPER_QUANTILE, retention_curve, retention_threshold
+from stimuli.tune import tune_pairs, tuning_sheet, write_thresholds
 from tests.conftest import require_data
 from tests.stimuli._build_fixtures import make_pair, write_pairs_folder
 
@@ -257,3 +253,14 @@ def test_real_pairs_edge_ratio_in_paper_range_and_share_in_mask_rises(
         s_w, s_n = (ew & mask).sum() / ew.sum(), (en & mask).sum() / en.sum()
         print(f"{r.object}: t={r.threshold:.4f} share in mask {s_w:.3f} -> {s_n:.3f}")
         assert s_n > 1.5 * s_w, r.object
+
+
+def test_build_does_not_import_the_tuner() -> None:
+    """The builder and the tuner share the retention threshold and the photo preparation
+    without importing each other: the build alone leaves ``stimuli.tune`` unloaded."""
+    code = (
+        "import sys, stimuli.build\n"
+        "print(sorted(m for m in sys.modules if m in ('stimuli.tune', 'stimuli.cli')))"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "[]"

@@ -1,0 +1,250 @@
+"""Build a stimulus set from photo pairs (or light fields): Jung et al. 2015, Sec. 3.1.
+
+The pipeline, per object
+------------------------
+1. Read the wide-DOF ("conventional") and narrow-DOF ("confocal") photos with
+   :func:`stimuli.io.load_gray` (luminance, float32 in [0, 1], EXIF orientation applied). A
+   light-field object gives the pair through ``stimuli.planes.confocal_pair`` instead: its
+   centre view is the cluttered image and the confocal image the de-cluttered one.
+2. Zoom (optional, paper Sec. 4.1, Fig. 14): the ``crop`` box ``x,y,w,h`` of ``objects.csv`` is
+   cut out at full resolution before anything else.
+3. Centre-crop to the working aspect (492:327 by default) if needed, then an anti-aliased resize
+   to the working size with ``skimage.transform.resize(..., anti_aliasing=True)``.
+4. Sobel magnitude and threshold (:mod:`stimuli.declutter`): the per-object value of
+   ``objects.csv``, else the global ``threshold``, else an automatic one at the working size:
+   by default the pair's minimum edge retention (:func:`stimuli.retention.retention_threshold`,
+   the method of ``confocal stimuli tune``), or Otsu / triangle on the narrow-DOF image
+   (:func:`stimuli.declutter.auto_threshold`); the same value is applied to the wide-DOF
+   image, as in the paper.
+5. Edge ratio ``r``: given, or the mean edge-pixel fraction over the wide-DOF edge images of the
+   set's main objects (the paper found 1/13 = 7.7 %).
+6. Compression by non-overlapping windows 1, 2, 3, 5, 7, 13, 18, 40 (:mod:`stimuli.compress`);
+   in grey mode the photos themselves are compressed to ``grey_levels`` levels (Fig. 2).
+7. Implant views (optional): for each implant layout given, each condition's image at
+   the working size (the edge image, i.e. the window-1 stimulus; in grey mode the grey photo)
+   is resampled to the implant's electrode grid (:func:`stimuli.implants.to_implant_grid`, with
+   the set's edge ratio) and drawn as its phosphenes (:func:`stimuli.implants.render_phosphenes`,
+   :data:`IMPLANT_PX_PER_ELECTRODE` px per electrode), under ``implants/<name>/<object>/``.
+   ``stimulus_set.json`` lists every file with its sha256 and the implant's whole layout.
+
+The set is written into a temporary folder beside the output folder and renamed onto it at
+the end, so the output folder is untouched by any error.
+
+The modules, one per step
+-------------------------
+``params``         the command line's texts and the frozen :class:`BuildParams`
+``plan``           every argument checked and resolved once into a :class:`BuildPlan`
+``pairs``          the PAIRS input: object folders or CSV, source hashes (step 1)
+``lightfield``     a light-field object's pair at its confocal plane (step 1)
+``prepare``        zoom, aspect crop and resize to the working size (steps 2-3)
+``edges``          threshold choice, de-cluttering and the set's edge ratio (steps 4-5)
+``levels``         compression at every window (step 6)
+``implant_views``  the stimuli as implants show them (step 7)
+``write``          the PNGs, contact sheets, ``manifest.csv``, through a staging folder
+``provenance``     object summaries, notes and ``stimulus_set.json``
+``parallel``       one step over every object on a thread pool, with progress
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from stimuli.build.edges import declutter_object, edge_fraction, set_edge_ratio
+from stimuli.build.implant_views import IMPLANT_PX_PER_ELECTRODE
+from stimuli.build.levels import edge_ladder, grey_ladder
+from stimuli.build.pairs import PairsInput, PairSource, read_pairs
+from stimuli.build.parallel import ProgressFn, map_objects
+from stimuli.build.params import (
+    THRESHOLD_METHODS,
+    BuildParams,
+    min_photo_shape_px,
+    parse_edge_ratio,
+    parse_threshold,
+    parse_working_size,
+)
+from stimuli.build.plan import plan_build
+from stimuli.build.prepare import (
+    ObjectImages,
+    aspect_crop_box,
+    prepare_object,
+    to_working_size,
+    zoom_crop,
+)
+from stimuli.build.provenance import ObjectSummary
+from stimuli.build.write import write_stimulus_set
+from stimuli.implants import ImplantLayout
+from stimuli.manifest import ObjectInfo
+
+__all__ = [
+    "BuildParams",
+    "PairSource",
+    "PairsInput",
+    "ObjectSummary",
+    "BuildResult",
+    "parse_working_size",
+    "parse_threshold",
+    "parse_edge_ratio",
+    "read_pairs",
+    "zoom_crop",
+    "aspect_crop_box",
+    "to_working_size",
+    "edge_fraction",
+    "edge_ladder",
+    "grey_ladder",
+    "build_stimulus_set",
+    "THRESHOLD_METHODS",
+    "IMPLANT_PX_PER_ELECTRODE",
+    "min_photo_shape_px",
+]
+
+logger = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True)
+class BuildResult:
+    """Result of :func:`build_stimulus_set`.
+
+    Parameters
+    ----------
+    out_dir : Path
+        The stimulus-set folder.
+    set_id : str
+        SHA-256 identifying the set (parameters, object table and input hashes).
+    n_stimuli : int
+        Rows of ``manifest.csv``.
+    edge_ratio : float or None
+        Edge ratio used (``None`` in grey mode).
+    mean_wide_edge_fraction : float or None
+        Mean edge fraction of the main objects' wide-DOF edge images.
+    objects : tuple of ObjectSummary
+    notes : tuple of str
+        Things the user should know (centre crops, upsampling).
+    seconds : dict of str to float
+        Wall time per stage: ``read``, ``write``, ``total``.
+    implants : tuple of str
+        Names of the implants whose views were written (``implants/<name>/``).
+    n_implant_views : int
+        Implant views written: (grid, phosphenes) pairs, one per object, condition and implant.
+    """
+
+    out_dir: Path
+    set_id: str
+    n_stimuli: int
+    edge_ratio: float | None
+    mean_wide_edge_fraction: float | None
+    objects: tuple[ObjectSummary, ...]
+    notes: tuple[str, ...] = ()
+    seconds: dict[str, float] = field(default_factory=dict)
+    implants: tuple[str, ...] = ()
+    n_implant_views: int = 0
+
+
+def build_stimulus_set(
+    pairs: str | os.PathLike,
+    out_dir: str | os.PathLike,
+    *,
+    params: BuildParams | None = None,
+    force: bool = False,
+    replaces: str | os.PathLike | None = None,
+    workers: int | None = None,
+    progress: ProgressFn | None = None,
+    implants: Sequence[ImplantLayout] = (),
+    implant_px_per_electrode: int = IMPLANT_PX_PER_ELECTRODE,
+) -> BuildResult:
+    """Build a stimulus set from photo pairs (or light fields) into ``out_dir``.
+
+    Parameters
+    ----------
+    pairs : str or path-like
+        PAIRS folder or CSV (see :func:`read_pairs`).
+    out_dir : str or path-like
+        Stimulus-set folder to write: a new or empty folder (a non-empty one is refused, never
+        replaced). Built in a staging folder beside it and renamed at the end; untouched by
+        any error.
+    params : BuildParams, optional
+        Pipeline parameters; defaults are the paper's.
+    force : bool
+        Build even if ``replaces`` holds a different stimulus set.
+    replaces : str or path-like, optional
+        A stimulus set the caller moved aside from ``out_dir`` to be replaced by this build
+        (``confocal stimuli build`` does so for a set it wrote there before); a different set
+        (another ``set_id``) is refused without ``force``.
+    workers : int, optional
+        Threads for reading and writing (default: the number of CPUs, at most 8).
+    progress : callable(stage, done, total), optional
+        Called as objects are read (stage ``'read'``) and written (``'write'``), and as their
+        implant views are drawn (``'implants'``).
+    implants : sequence of ImplantLayout
+        Also write each object's two conditions as every one of these implants shows them
+        (:func:`stimuli.implants.load_implant`): the image resampled to the electrode grid
+        (``implants/<name>/<object>/<condition>_grid.png``) and its phosphenes
+        (``<condition>_phosphenes.png``), recorded with sha256 and the full layout under
+        ``implants`` in ``stimulus_set.json``.
+    implant_px_per_electrode : int in [1, 256]
+        Side of each electrode's cell in the phosphene PNGs, px.
+
+    Returns
+    -------
+    BuildResult
+
+    Raises
+    ------
+    InputError
+        Bad input (missing or unreadable photo, empty folder, duplicate ids, crop outside the
+        image, photos of different sizes without ``allow_resize``), an ``out_dir`` that is a
+        file or a non-empty folder, or ``replaces`` holding a different set without ``force``.
+    ImplantError
+        Two implant layouts share a name, or a grid is finer than the working size (checked
+        before anything is read or written).
+
+    References
+    ----------
+    Jung et al. (2015), Sec. 2.2 (de-cluttering, compression) and Sec. 3.1 (stimuli).
+    """
+    t0 = time.perf_counter()
+    plan = plan_build(
+        pairs,
+        out_dir,
+        params=params,
+        force=force,
+        replaces=replaces,
+        workers=workers,
+        implants=implants,
+        implant_px_per_electrode=implant_px_per_electrode,
+    )
+    works = map_objects(
+        lambda item: _read_object(*item, plan.params),
+        list(zip(plan.inp.sources, plan.inp.objects, strict=True)),
+        plan.workers,
+        progress,
+        "read",
+    )
+    t_read = time.perf_counter()
+    ratio = set_edge_ratio(works, plan.params)
+    written = write_stimulus_set(plan, works, ratio, progress)
+    t_end = time.perf_counter()
+    for n in written.notes:
+        logger.info("%s", n)
+    return BuildResult(
+        out_dir=plan.out_dir,
+        set_id=plan.set_id,
+        n_stimuli=written.n_stimuli,
+        edge_ratio=ratio.edge_ratio,
+        mean_wide_edge_fraction=ratio.mean_wide_edge_fraction,
+        objects=written.objects,
+        notes=written.notes,
+        seconds={"read": t_read - t0, "write": t_end - t_read, "total": t_end - t0},
+        implants=tuple(lay.name for lay in plan.implants),
+        n_implant_views=written.n_implant_views,
+    )
+
+
+def _read_object(src: PairSource, info: ObjectInfo, params: BuildParams) -> ObjectImages:
+    """Prepare one object's pair at the working size and, in edge mode, de-clutter it."""
+    work = prepare_object(src, info, params)
+    return declutter_object(work, params) if params.mode == "edges" else work

@@ -1,0 +1,235 @@
+"""Parameters of a stimulus-set build: the command line's texts and the frozen ``BuildParams``."""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Callable
+from dataclasses import asdict, dataclass
+
+import numpy as np
+
+from stimuli import jung2015
+from stimuli.declutter import AUTO_THRESHOLD_METHODS, DECLUTTER_MODES
+from stimuli.errors import InputError
+
+__all__ = [
+    "BuildParams",
+    "MODES",
+    "THRESHOLD_METHODS",
+    "parse_working_size",
+    "parse_threshold",
+    "parse_edge_ratio",
+    "min_photo_shape_px",
+]
+
+#: Automatic threshold methods of the build (ours, not the paper's: the paper set the threshold
+#: by hand). ``'retention'`` (the default) uses both photos of a pair; the others only the narrow
+#: photo. On the six real photo pairs in ``dof_pairs/`` Otsu leaves a mean wide-DOF edge fraction
+#: of 0.28, retention 0.068 (paper 0.077); see ``stimuli/retention.py``.
+THRESHOLD_METHODS: tuple[str, ...] = ("retention", *AUTO_THRESHOLD_METHODS)
+
+#: Kinds of stimuli: binary edge images, or grey-level compression of the photos (Fig. 2).
+MODES: tuple[str, ...] = ("edges", "grey")
+
+_SIZE_RE = re.compile(r"^\s*(\d+)\s*[xX×]\s*(\d+)\s*$")
+
+
+def parse_working_size(text: str) -> tuple[int, int]:
+    """Parse ``"WIDTHxHEIGHT"`` (the paper's order, e.g. ``"492x327"``) into ``(rows, cols)``.
+
+    Raises
+    ------
+    InputError
+        If the text is not two positive integers separated by ``x``.
+
+    Examples
+    --------
+    >>> parse_working_size("492x327")
+    (327, 492)
+    """
+    m = _SIZE_RE.match(str(text))
+    if not m or int(m.group(1)) < 1 or int(m.group(2)) < 1:
+        raise InputError(
+            f"--working-size must be WIDTHxHEIGHT in pixels (e.g. 492x327), got {text!r}"
+        )
+    return (int(m.group(2)), int(m.group(1)))
+
+
+#: Largest Sobel magnitude of an image in [0, 1]: scikit-image's kernels have weights summing
+#: to 1 per side, so |Gx|, |Gy| <= 1 and sqrt((Gx**2 + Gy**2) / 2) <= 1.
+_MAX_SOBEL = 1.0
+
+
+def _parse_auto_or_number(
+    text: str | float | None, option: str, expected: str, accept: Callable[[float], bool]
+) -> float | None:
+    """``None`` for ``"auto"`` (or ``None``), else the number, refused unless ``accept`` holds."""
+    if text is None or (isinstance(text, str) and text.strip().lower() == "auto"):
+        return None
+    message = f"{option} must be 'auto' or {expected}, got {text!r}"
+    try:
+        v = float(text)
+    except (TypeError, ValueError):
+        raise InputError(message) from None
+    if not accept(v):
+        raise InputError(message)
+    return v
+
+
+def parse_threshold(text: str | float | None) -> float | None:
+    """Parse a Sobel threshold: ``"auto"`` (or ``None``) gives ``None``, else a number in [0, 1].
+
+    Raises
+    ------
+    InputError
+        If the text is neither ``auto`` nor a number in [0, 1] (no Sobel magnitude exceeds 1).
+    """
+    return _parse_auto_or_number(
+        text,
+        "--threshold",
+        f"a number in [0, {_MAX_SOBEL:g}] (the Sobel magnitude of an image in [0, 1] is at most "
+        f"{_MAX_SOBEL:g}, so above it no pixel would be an edge)",
+        lambda v: bool(np.isfinite(v)) and 0 <= v <= _MAX_SOBEL,
+    )
+
+
+def parse_edge_ratio(text: str | float | None) -> float | None:
+    """Parse an edge ratio: ``"auto"`` (or ``None``) gives ``None``, else a number in [0, 1).
+
+    Raises
+    ------
+    InputError
+        If the text is neither ``auto`` nor a number in [0, 1).
+    """
+    return _parse_auto_or_number(text, "--edge-ratio", "a number in [0, 1)", lambda v: 0 <= v < 1)
+
+
+@dataclass(frozen=True)
+class BuildParams:
+    """Parameters of a stimulus-set build (every field is recorded in ``stimulus_set.json``).
+
+    Parameters
+    ----------
+    working_shape_px : (rows, cols)
+        Working size of the edge images (paper: 327 x 492).
+    threshold : float >= 0 or None
+        Global Sobel threshold; ``None`` = automatic per object (objects.csv values win).
+    threshold_method : {'retention', 'otsu', 'triangle'}
+        Automatic threshold method: ``'retention'`` uses both photos of the pair
+        (:func:`stimuli.retention.retention_threshold`); the others the narrow photo alone
+        (:func:`stimuli.declutter.auto_threshold`).
+    edge_ratio : float in [0, 1) or None
+        Compression edge ratio; ``None`` = mean wide-DOF edge fraction of the set.
+    mode : {'edges', 'grey'}
+        Binary edge stimuli, or grey-level compression of the photos (Fig. 2).
+    grey_levels : int >= 2
+        Grey levels in grey mode (the paper shows 8, 4 and 2).
+    allow_resize : bool
+        Accept pairs whose two photos differ in pixel size (each is resized on its own).
+    windows_px : tuple of int
+        Compression windows (paper: 1, 2, 3, 5, 7, 13, 18, 40).
+    declutter : {'sobel', 'depth'}
+        De-cluttering of light-field objects: the paper's Sobel + threshold, or Sobel edges kept
+        where the light field's views agree at the plane (:func:`stimuli.declutter.in_focus_mask`;
+        ours, beyond the paper). Photo pairs always use Sobel.
+    bokeh_guard : bool
+        Photo pairs: drop narrow-DOF edges with no wide-DOF edge nearby
+        (:func:`stimuli.declutter.bokeh_guard`; ours, beyond the paper).
+    fast_decode : bool
+        Decode JPEG photos at reduced size (1/2, 1/4 or 1/8 in the DCT domain, Pillow's
+        ``draft``), just large enough for the working size, before the anti-aliased resize.
+        About 3-5x faster per photo; the images differ slightly from a full decode (on the real
+        VABD/EBB! pairs 96-99 % of edge pixels agree). Off by default; recorded in the set.
+    """
+
+    working_shape_px: tuple[int, int] = jung2015.WORKING_SHAPE_PX
+    threshold: float | None = None
+    threshold_method: str = "retention"
+    edge_ratio: float | None = None
+    mode: str = "edges"
+    grey_levels: int = 8
+    allow_resize: bool = False
+    windows_px: tuple[int, ...] = jung2015.WINDOWS_PX
+    fast_decode: bool = False
+    declutter: str = "sobel"
+    bokeh_guard: bool = False
+
+    def __post_init__(self) -> None:
+        for name in (
+            "working_shape_px",
+            "threshold",
+            "threshold_method",
+            "edge_ratio",
+            "mode",
+            "grey_levels",
+            "windows_px",
+            "declutter",
+        ):
+            getattr(self, f"_check_{name}")()
+
+    def _check_working_shape_px(self) -> None:
+        s = self.working_shape_px
+        if len(s) != 2 or any(int(v) < 1 for v in s):
+            raise InputError(f"working_shape_px must be (rows, cols) > 0, got {s!r}")
+
+    def _check_threshold(self) -> None:
+        if self.threshold is not None and not (np.isfinite(self.threshold) and self.threshold >= 0):
+            raise InputError(f"threshold must be None or a number >= 0, got {self.threshold!r}")
+
+    def _check_threshold_method(self) -> None:
+        if self.threshold_method not in THRESHOLD_METHODS:
+            raise InputError(
+                f"threshold_method must be one of {THRESHOLD_METHODS}, "
+                f"got {self.threshold_method!r}"
+            )
+
+    def _check_edge_ratio(self) -> None:
+        if self.edge_ratio is not None and not (0.0 <= self.edge_ratio < 1.0):
+            raise InputError(f"edge_ratio must be None or in [0, 1), got {self.edge_ratio!r}")
+
+    def _check_declutter(self) -> None:
+        if self.declutter not in DECLUTTER_MODES:
+            raise InputError(f"declutter must be one of {DECLUTTER_MODES}, got {self.declutter!r}")
+
+    def _check_mode(self) -> None:
+        if self.mode not in MODES:
+            raise InputError(f"mode must be one of {MODES}, got {self.mode!r}")
+
+    def _check_grey_levels(self) -> None:
+        g = self.grey_levels
+        if isinstance(g, bool) or not isinstance(g, int) or not 2 <= g <= 256:
+            raise InputError(f"grey_levels must be an integer in [2, 256], got {g!r}")
+
+    def _check_windows_px(self) -> None:
+        w = self.windows_px
+        if not w or any(isinstance(v, bool) or int(v) != v or v < 1 for v in w):
+            raise InputError(f"windows_px must be positive integers, got {w!r}")
+        if len(set(w)) != len(w):
+            raise InputError(f"windows_px must not repeat a window, got {w!r}")
+
+    def to_dict(self) -> dict:
+        """Return the parameters as JSON-ready values."""
+        d = asdict(self)
+        d["working_shape_px"] = list(self.working_shape_px)
+        d["windows_px"] = list(self.windows_px)
+        return d
+
+    @classmethod
+    def from_dict(cls, d: dict) -> BuildParams:
+        """Inverse of :meth:`to_dict`."""
+        d = dict(d)
+        d["working_shape_px"] = tuple(d["working_shape_px"])
+        d["windows_px"] = tuple(d["windows_px"])
+        return cls(**d)
+
+
+def min_photo_shape_px(params: BuildParams) -> tuple[int, int]:
+    """Return the smallest photo ``(rows, cols)`` the builder accepts for ``params``.
+
+    A photo must give at least one pixel per cell of the coarsest level (working size divided
+    by the largest window, rounded up) and at least 3x3 for the Sobel filter; anything smaller
+    would be upsampled into a stimulus set with no information in it (a 1x1 photo, say).
+    """
+    w = max(params.windows_px)
+    rows, cols = params.working_shape_px
+    return max(3, -(-rows // w)), max(3, -(-cols // w))

@@ -1,0 +1,165 @@
+"""Plan of a build: every argument checked and resolved once, before any image is read.
+
+:func:`plan_build` turns the arguments of :func:`stimuli.build.build_stimulus_set` into a frozen
+:class:`BuildPlan`: the parameters, the implant layouts, the thread count, the PAIRS input with
+its source hashes, the set id and the levels. The output folder is checked here too, so that a
+refused build has read no photo and written nothing.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+from stimuli.build.implant_views import IMPLANT_PX_PER_ELECTRODE, check_implants
+from stimuli.build.levels import level_ladder
+from stimuli.build.pairs import PairsInput, read_pairs, source_hashes
+from stimuli.build.parallel import thread_count
+from stimuli.build.params import BuildParams
+from stimuli.errors import InputError
+from stimuli.implants import ImplantLayout
+from stimuli.io import check_missing_or_empty
+from stimuli.manifest import format_crop
+
+__all__ = ["BuildPlan", "plan_build", "set_id"]
+
+
+@dataclass(frozen=True)
+class BuildPlan:
+    """What a build will do, resolved from its arguments (see :func:`plan_build`).
+
+    Parameters
+    ----------
+    pairs : Path
+        The PAIRS argument as given (folder or CSV).
+    out_dir : Path
+        The stimulus-set folder to write (missing or empty).
+    params : BuildParams
+    inp : PairsInput
+        The objects and their sources.
+    hashes : tuple of dict
+        Each source's sha256 (:func:`stimuli.build.pairs.source_hashes`), in object order.
+    set_id : str
+        SHA-256 of the parameters, object table, source hashes and implant layouts.
+    workers : int >= 1
+        Threads for reading and writing.
+    implants : tuple of ImplantLayout
+    implant_px_per_electrode : int in [1, 256]
+    ladder : tuple of (level, window_px, (rows, cols))
+        The set's levels (:func:`stimuli.build.levels.level_ladder`).
+    """
+
+    pairs: Path
+    out_dir: Path
+    params: BuildParams
+    inp: PairsInput
+    hashes: tuple[dict[str, str], ...]
+    set_id: str
+    workers: int
+    implants: tuple[ImplantLayout, ...]
+    implant_px_per_electrode: int
+    ladder: tuple[tuple[int, int, tuple[int, int]], ...]
+
+
+def plan_build(
+    pairs: str | os.PathLike,
+    out_dir: str | os.PathLike,
+    *,
+    params: BuildParams | None,
+    force: bool,
+    replaces: str | os.PathLike | None,
+    workers: int | None,
+    implants: Sequence[ImplantLayout],
+    implant_px_per_electrode: int,
+) -> BuildPlan:
+    """Check the arguments of a build and resolve them into a :class:`BuildPlan`.
+
+    Parameters are those of :func:`stimuli.build.build_stimulus_set`, all given.
+
+    Returns
+    -------
+    BuildPlan
+
+    Raises
+    ------
+    InputError
+        ``params`` not a BuildParams, bad PAIRS input or a missing source, an object named
+        ``implants`` with implant views asked for, an ``out_dir`` that is a file or a non-empty
+        folder, or ``replaces`` holding a different set without ``force``.
+    ImplantError
+        Two implant layouts share a name, or a grid is finer than the working size.
+    """
+    params = BuildParams() if params is None else params
+    if not isinstance(params, BuildParams):
+        raise InputError(f"params must be a BuildParams, got {type(params).__name__}")
+    implants = check_implants(implants, implant_px_per_electrode, params)
+    n_threads = thread_count(workers)
+    out_dir = Path(out_dir)
+    inp = read_pairs(pairs)
+    if implants and any(o.object == "implants" for o in inp.objects):
+        raise InputError(
+            f"{inp.root}: an object is named 'implants', the folder of the implant views; "
+            "rename it or build without --implant"
+        )
+    hashes = tuple(source_hashes(s) for s in inp.sources)
+    sid = set_id(params, inp, hashes, implants, implant_px_per_electrode)
+    _check_out_dir(out_dir, sid, force, None if replaces is None else Path(replaces))
+    return BuildPlan(
+        pairs=Path(pairs),
+        out_dir=out_dir,
+        params=params,
+        inp=inp,
+        hashes=hashes,
+        set_id=sid,
+        workers=n_threads,
+        implants=implants,
+        implant_px_per_electrode=implant_px_per_electrode,
+        ladder=tuple(level_ladder(params.working_shape_px, params.windows_px)),
+    )
+
+
+def set_id(
+    params: BuildParams,
+    inp: PairsInput,
+    hashes: Sequence[dict[str, str]],
+    implants: Sequence[ImplantLayout] = (),
+    px_per_electrode: int = IMPLANT_PX_PER_ELECTRODE,
+) -> str:
+    """Return the SHA-256 that identifies a stimulus set: parameters, objects, sources, implants.
+
+    A set built without implant views keeps the id it had before implant views existed.
+    """
+    blob: dict = {
+        "params": params.to_dict(),
+        "objects": [o.to_row() for o in inp.objects],
+        "sources": [
+            {"object": s.object, "kind": s.kind, "crop": format_crop(s.crop), "sha256": h}
+            for s, h in zip(inp.sources, hashes, strict=True)
+        ],
+    }
+    if implants:
+        blob["implants"] = {
+            "layouts": [lay.to_dict() for lay in implants],
+            "px_per_electrode": px_per_electrode,
+        }
+    return hashlib.sha256(json.dumps(blob, sort_keys=True).encode()).hexdigest()
+
+
+def _check_out_dir(out_dir: Path, set_id: str, force: bool, replaces: Path | None) -> None:
+    check_missing_or_empty(out_dir)
+    if replaces is None or force:
+        return
+    try:
+        meta = json.loads((replaces / "stimulus_set.json").read_text(encoding="utf-8"))
+        old_id = meta.get("set_id")
+    except (OSError, ValueError, AttributeError):
+        old_id = None
+    if old_id is not None and old_id != set_id:
+        raise InputError(
+            f"{out_dir}: --out folder already holds a different stimulus set (set_id "
+            f"{str(old_id)[:12]}, this build {set_id[:12]}); use --force to replace it"
+        )

@@ -1,0 +1,351 @@
+"""Photo preparation of a build: read a pair, zoom, centre-crop to the aspect, resize.
+
+Paper Sec. 3.1 and 4.1, and the module docstring of :mod:`stimuli.build` (steps 1-3). The
+threshold tuner (``confocal stimuli tune``) prepares its pairs here too, so that the thresholds it
+proposes mean the same thing in the build.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from skimage.transform import resize
+
+from stimuli.build.lightfield import load_confocal_pair
+from stimuli.build.pairs import PairSource
+from stimuli.build.params import BuildParams, min_photo_shape_px
+from stimuli.errors import InputError
+from stimuli.io import check_gray, image_shape_px, load_gray, load_rgb
+from stimuli.manifest import ObjectInfo, format_crop
+
+__all__ = [
+    "ObjectImages",
+    "zoom_crop",
+    "aspect_crop_box",
+    "to_working_size",
+    "prepare_object",
+    "colour_photos",
+]
+
+Box = tuple[int, int, int, int]
+
+
+@dataclass
+class ObjectImages:
+    """One object's images at the working size and what was done to them (mutable: the
+    de-clutter step of :mod:`stimuli.build.edges` fills the edge fields).
+
+    Parameters
+    ----------
+    info : ObjectInfo
+        The object's ``objects.csv`` row.
+    source : PairSource
+    wide, narrow : ndarray of shape working_shape_px, float32 in [0, 1]
+        Wide-DOF photo (or centre view) and narrow-DOF photo (or confocal image).
+    original_shape_px : (rows, cols)
+        The wide photo's size on file.
+    crop : (x, y, w, h) or None
+        Zoom box applied (``objects.csv`` or the PAIRS CSV), on the photo as on file.
+    aspect_crop : (x, y, w, h) or None
+        Centre crop to the working aspect, on the zoomed wide photo.
+    notes : list of str
+        Things the user should know (a resize of unequal photos, upsampling).
+    threshold : float or None
+        Sobel threshold used (edge mode).
+    threshold_source : str
+        Where it came from: ``objects.csv``, ``global`` or ``auto:<method>``.
+    wide_edges, narrow_edges : ndarray of bool or None
+        Edge images (edge mode).
+    decoded_shape_px : (rows, cols) or None
+        The wide photo's size as decoded (smaller than on file with ``fast_decode``).
+    plane : str
+        A light-field object's confocal plane (provenance); ``""`` for photos.
+    focus : ndarray of bool or None
+        A light-field object's in-focus mask at the working size (``declutter='depth'``).
+    """
+
+    info: ObjectInfo
+    source: PairSource
+    wide: np.ndarray
+    narrow: np.ndarray
+    original_shape_px: tuple[int, int]
+    crop: Box | None
+    aspect_crop: Box | None
+    notes: list[str]
+    threshold: float | None = None
+    threshold_source: str = ""
+    wide_edges: np.ndarray | None = None
+    narrow_edges: np.ndarray | None = None
+    decoded_shape_px: tuple[int, int] | None = None
+    plane: str = ""
+    focus: np.ndarray | None = None
+
+
+def _cut(image: np.ndarray, box: Box | None) -> np.ndarray:
+    """The box ``(x, y, w, h)`` of an image (a view), or the image itself for ``None``."""
+    if box is None:
+        return image
+    x, y, w, h = box
+    return image[y : y + h, x : x + w]
+
+
+def zoom_crop(
+    image: np.ndarray, crop: tuple[int, int, int, int] | None, *, where: str = "crop"
+) -> np.ndarray:
+    """Cut the zoom box ``(x, y, w, h)`` out of a full-resolution image (paper Sec. 4.1).
+
+    Parameters
+    ----------
+    image : ndarray of shape (rows, cols)
+    crop : (x, y, w, h) or None
+        Top-left column ``x`` and row ``y``, width and height, pixels; ``None`` = no crop.
+    where : str
+        Names the field in error messages.
+
+    Returns
+    -------
+    ndarray
+        A copy of the box (the input is not modified).
+
+    Raises
+    ------
+    InputError
+        If the box does not lie inside the image.
+    """
+    a = np.asarray(image)
+    if crop is None:
+        return a.copy()
+    _check_crop_inside(crop, a.shape[:2], where=where)
+    return _cut(a, crop).copy()
+
+
+def _check_crop_inside(
+    crop: tuple[int, int, int, int], shape_px: tuple[int, int], *, where: str
+) -> None:
+    x, y, w, h = crop
+    rows, cols = shape_px
+    if x < 0 or y < 0 or w <= 0 or h <= 0 or x + w > cols or y + h > rows:
+        raise InputError(
+            f"{where}: crop box x,y,w,h = {format_crop(crop)} lies outside the "
+            f"{cols}x{rows} image (expected x + w <= {cols} and y + h <= {rows})"
+        )
+
+
+def aspect_crop_box(
+    shape_px: tuple[int, int], working_shape_px: tuple[int, int]
+) -> tuple[int, int, int, int] | None:
+    """Return the centred box ``(x, y, w, h)`` with the working aspect, or ``None`` if it fits.
+
+    The box keeps the full width or the full height and trims the other side symmetrically
+    (the extra pixel of an odd trim goes to the right or bottom).
+
+    Examples
+    --------
+    >>> aspect_crop_box((1024, 1536), (327, 492))
+    (0, 1, 1536, 1021)
+    """
+    rows, cols = shape_px
+    wr, wc = working_shape_px
+    aspect = wc / wr
+    new_cols = int(np.floor(rows * aspect + 0.5))
+    new_rows = int(np.floor(cols / aspect + 0.5))
+    if new_cols < cols:
+        return ((cols - new_cols) // 2, 0, new_cols, rows)
+    if new_rows < rows:
+        return (0, (rows - new_rows) // 2, cols, new_rows)
+    return None
+
+
+def to_working_size(image: np.ndarray, working_shape_px: tuple[int, int]) -> np.ndarray:
+    """Resize a grey image to the working size with scikit-image's anti-aliased resize.
+
+    Parameters
+    ----------
+    image : ndarray of shape (rows, cols), float32 in [0, 1]
+        Already cropped to the working aspect.
+    working_shape_px : (rows, cols)
+
+    Returns
+    -------
+    ndarray of shape ``working_shape_px``, float32 in [0, 1]
+        ``skimage.transform.resize(image, shape, order=1, anti_aliasing=True)`` (a Gaussian
+        pre-filter with sigma ``(scale - 1) / 2`` before bilinear sampling).
+    """
+    img = check_gray(image)
+    shape = tuple(int(v) for v in working_shape_px)
+    if img.shape == shape:
+        return img.copy()
+    out = resize(img, shape, order=1, mode="reflect", anti_aliasing=True)
+    return np.clip(out, 0.0, 1.0).astype(np.float32)
+
+
+def _draft_shape(
+    full_px: tuple[int, int], region_px: tuple[int, int], working_shape_px: tuple[int, int]
+) -> tuple[int, int]:
+    """Smallest decode size at which the zoom region still covers the working size."""
+    s = max(working_shape_px[0] / region_px[0], working_shape_px[1] / region_px[1])
+    return (int(np.ceil(full_px[0] * s)), int(np.ceil(full_px[1] * s)))
+
+
+def _scale_crop(
+    crop: tuple[int, int, int, int] | None, ref_px: tuple[int, int], shape_px: tuple[int, int]
+) -> tuple[int, int, int, int] | None:
+    """Map a crop box given on an image of size ``ref_px`` to one of size ``shape_px``."""
+    if crop is None or tuple(ref_px) == tuple(shape_px):
+        return crop
+    fy, fx = shape_px[0] / ref_px[0], shape_px[1] / ref_px[1]
+    x, y, w, h = crop
+    x0, y0 = int(np.floor(x * fx + 0.5)), int(np.floor(y * fy + 0.5))
+    x1 = min(shape_px[1], int(np.floor((x + w) * fx + 0.5)))
+    y1 = min(shape_px[0], int(np.floor((y + h) * fy + 0.5)))
+    return (x0, y0, max(1, x1 - x0), max(1, y1 - y0))
+
+
+def _load_photos(
+    src: PairSource, params: BuildParams, crop: Box | None
+) -> tuple[np.ndarray, np.ndarray, tuple[int, int], tuple[int, int]]:
+    """Return ``(wide, narrow, wide_full_px, narrow_full_px)`` (full = the size on file)."""
+    assert src.wide is not None and src.narrow is not None
+    if not params.fast_decode:
+        wide, narrow = load_gray(src.wide), load_gray(src.narrow)
+        return wide, narrow, wide.shape, narrow.shape
+    full = [image_shape_px(src.wide), image_shape_px(src.narrow)]
+    out = []
+    for path, f in zip((src.wide, src.narrow), full, strict=True):
+        region = f if crop is None else (crop[3], crop[2])
+        if crop is not None and f != full[0]:
+            region = (crop[3] * f[0] / full[0][0], crop[2] * f[1] / full[0][1])
+        draft = _draft_shape(f, (max(region[0], 1), max(region[1], 1)), params.working_shape_px)
+        out.append(load_gray(path, draft_shape_px=draft))
+    return out[0], out[1], full[0], full[1]
+
+
+def _load_raw(
+    src: PairSource, info: ObjectInfo, params: BuildParams, crop: Box | None
+) -> tuple[np.ndarray, np.ndarray, tuple[int, int], tuple[int, int], str, np.ndarray | None]:
+    """Return ``(wide, narrow, wide_full_px, narrow_full_px, plane, focus)`` (full = on file).
+
+    ``plane`` describes the confocal plane of a light-field object (provenance), else ``""``;
+    ``focus`` is its in-focus mask in the depth de-cluttering mode, else ``None``.
+    """
+    if src.lightfield is None:
+        return (*_load_photos(src, params, crop), "", None)
+    pair = load_confocal_pair(src, info, params)
+    return (
+        pair.centre,
+        pair.confocal,
+        pair.centre.shape,
+        pair.confocal.shape,
+        pair.plane,
+        pair.focus,
+    )
+
+
+def prepare_object(src: PairSource, info: ObjectInfo, params: BuildParams) -> ObjectImages:
+    """Read one object's pair and bring both images to the working size.
+
+    Zoom crop (``objects.csv`` wins over the PAIRS CSV), centre crop to the working aspect and
+    anti-aliased resize, the same for both images (and a light field's in-focus mask).
+
+    Parameters
+    ----------
+    src : PairSource
+    info : ObjectInfo
+    params : BuildParams
+
+    Returns
+    -------
+    ObjectImages
+        Without edges (see :func:`stimuli.build.edges.declutter_object`).
+
+    Raises
+    ------
+    InputError
+        An unreadable photo, photos of one pair with different sizes without
+        ``allow_resize``, a photo smaller than :func:`~stimuli.build.params.min_photo_shape_px`,
+        or a crop box outside the photo.
+    """
+    crop = info.crop if info.crop is not None else src.crop
+    wide_raw, narrow_raw, wide_full, narrow_full, plane, focus = _load_raw(src, info, params, crop)
+    notes: list[str] = []
+    name = src.lightfield if src.lightfield is not None else src.wide
+    if tuple(wide_full) != tuple(narrow_full):
+        msg = (
+            f"{src.object}: wide photo {src.wide} is {wide_full[1]}x{wide_full[0]} "
+            f"but narrow photo {src.narrow} is {narrow_full[1]}x{narrow_full[0]}"
+        )
+        if not params.allow_resize:
+            raise InputError(
+                f"{msg}; the two photos of a pair must have the same pixel size "
+                "(use --allow-resize to resize each on its own)"
+            )
+        notes.append(msg + "; resized each on its own (--allow-resize)")
+    min_px = min_photo_shape_px(params)
+    if wide_full[0] < min_px[0] or wide_full[1] < min_px[1]:
+        raise InputError(
+            f"{name}: photo is {wide_full[1]}x{wide_full[0]} px; expected at least "
+            f"{min_px[1]}x{min_px[0]} px (one pixel per cell of the coarsest level at working "
+            f"size {params.working_shape_px[1]}x{params.working_shape_px[0]})"
+        )
+    where = f"object {src.object!r} ({name}): field crop"
+    if crop is not None:
+        _check_crop_inside(crop, wide_full, where=where)
+    wide = zoom_crop(wide_raw, _scale_crop(crop, wide_full, wide_raw.shape), where=where)
+    narrow = zoom_crop(narrow_raw, _scale_crop(crop, wide_full, narrow_raw.shape), where=where)
+    out = []
+    for img in (wide, narrow):
+        img = _cut(img, aspect_crop_box(img.shape, params.working_shape_px))
+        if img.shape[0] < params.working_shape_px[0] or img.shape[1] < params.working_shape_px[1]:
+            notes.append(
+                f"{src.object}: image {img.shape[1]}x{img.shape[0]} is smaller than the working "
+                f"size; upsampled"
+            )
+        out.append(to_working_size(img, params.working_shape_px))
+    if focus is not None:  # the in-focus mask follows the confocal image (zoom, aspect, resize)
+        f = zoom_crop(
+            focus.astype(np.float32),
+            _scale_crop(crop, wide_full, narrow_raw.shape),
+            where=where,
+        )
+        f = _cut(f, aspect_crop_box(f.shape, params.working_shape_px))
+        focus = to_working_size(f, params.working_shape_px) >= 0.5
+        plane = f"{plane},declutter=depth"
+    return ObjectImages(
+        info=info,
+        source=src,
+        wide=out[0],
+        narrow=out[1],
+        original_shape_px=tuple(int(v) for v in wide_full),
+        crop=crop,
+        aspect_crop=aspect_crop_box(wide.shape, params.working_shape_px),
+        notes=notes,
+        decoded_shape_px=tuple(int(v) for v in wide_raw.shape),
+        plane=plane,
+        focus=focus,
+    )
+
+
+def colour_photos(work: ObjectImages, params: BuildParams) -> tuple[np.ndarray, np.ndarray]:
+    """Return the colour photos (wide, narrow) at the working size, for training objects.
+
+    The same zoom crop, aspect crop and anti-aliased resize as the grey images, per channel; a
+    light-field object's grey centre view and confocal image on three channels (Jung et al.
+    2015, Sec. 3.1: training objects were shown in colour first).
+
+    Returns
+    -------
+    (ndarray, ndarray) of shape (rows, cols, 3), float32 in [0, 1]
+    """
+    src = work.source
+    if src.lightfield is not None:
+        return tuple(np.repeat(g[..., None], 3, axis=2) for g in (work.wide, work.narrow))
+    out = []
+    for path in (src.wide, src.narrow):
+        rgb = load_rgb(path)
+        rgb = _cut(rgb, _scale_crop(work.crop, work.original_shape_px, rgb.shape[:2]))
+        rgb = _cut(rgb, aspect_crop_box(rgb.shape[:2], params.working_shape_px))
+        shape = (*params.working_shape_px, 3)
+        rgb = resize(rgb, shape, order=1, mode="reflect", anti_aliasing=True)
+        out.append(np.clip(rgb, 0.0, 1.0).astype(np.float32))
+    return out[0], out[1]

@@ -1,0 +1,248 @@
+"""Writing a stimulus set: stimulus PNGs, contact sheets, implant views, manifest, set record.
+
+The set is written into a staging folder beside the output folder and renamed onto it at the
+end (:func:`stimuli.io.swap_in`: only onto a missing or empty folder, never deleting anything),
+so the output folder is untouched by any error; a full disk ends with a one-line message.
+"""
+
+from __future__ import annotations
+
+import errno
+import json
+import shutil
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from stimuli.build.edges import SetEdgeRatio
+from stimuli.build.implant_views import write_implant_views
+from stimuli.build.levels import edge_ladder, grey_ladder, level_labels
+from stimuli.build.pairs import path_in_pairs
+from stimuli.build.parallel import ProgressFn, map_objects
+from stimuli.build.params import BuildParams
+from stimuli.build.plan import BuildPlan
+from stimuli.build.prepare import ObjectImages, colour_photos
+from stimuli.build.provenance import ObjectSummary, build_notes, object_summary, set_record
+from stimuli.contact import contact_sheet, save_contact_sheet
+from stimuli.errors import InputError
+from stimuli.io import new_staging_folder, save_png, sha256_file, swap_in
+from stimuli.manifest import StimulusRecord, format_crop, write_manifest, write_objects_csv
+
+__all__ = ["WrittenSet", "write_stimulus_set", "write_object"]
+
+
+@dataclass(frozen=True)
+class WrittenSet:
+    """What :func:`write_stimulus_set` wrote.
+
+    Parameters
+    ----------
+    n_stimuli : int
+        Rows of ``manifest.csv``.
+    objects : tuple of ObjectSummary
+    notes : tuple of str
+        Things the user should know (centre crops, upsampling).
+    n_implant_views : int
+        (grid, phosphenes) pairs written, one per object, condition and implant.
+    """
+
+    n_stimuli: int
+    objects: tuple[ObjectSummary, ...]
+    notes: tuple[str, ...]
+    n_implant_views: int
+
+
+def write_stimulus_set(
+    plan: BuildPlan,
+    works: list[ObjectImages],
+    ratio: SetEdgeRatio,
+    progress: ProgressFn | None = None,
+) -> WrittenSet:
+    """Write the whole set into ``plan.out_dir``, through a staging folder renamed at the end.
+
+    Parameters
+    ----------
+    plan : BuildPlan
+    works : list of ObjectImages
+        Every object, prepared (and de-cluttered in edge mode), in object order.
+    ratio : SetEdgeRatio
+    progress : callable(stage, done, total), optional
+        Called as objects are written (``'write'``) and their implant views drawn
+        (``'implants'``).
+
+    Returns
+    -------
+    WrittenSet
+
+    Raises
+    ------
+    InputError
+        If the disk fills up (the partial set is removed, ``out_dir`` left as it was).
+    """
+    out_dir, edge_ratio = plan.out_dir, ratio.edge_ratio
+    labels = level_labels(plan.ladder)
+    tmp = None
+    try:
+        tmp = new_staging_folder(out_dir)  # its marker is the set's first write
+        (tmp / "contact").mkdir()
+        per_object = map_objects(
+            lambda wh: write_object(
+                wh[0], tmp, plan.params, edge_ratio, plan.inp.root, wh[1], labels
+            ),
+            list(zip(works, plan.hashes, strict=True)),
+            plan.workers,
+            progress,
+            "write",
+        )
+        records = [r for recs in per_object for r in recs]
+        views: list[dict] = []
+        if plan.implants:
+            per_object_views = map_objects(
+                lambda w: write_implant_views(
+                    w, tmp, plan.implants, edge_ratio, plan.implant_px_per_electrode
+                ),
+                works,
+                plan.workers,
+                progress,
+                "implants",
+            )
+            views = [v for vs in per_object_views for v in vs]
+        write_manifest(records, tmp / "manifest.csv")
+        write_objects_csv(plan.inp.objects, tmp / "objects.csv")
+        _write_overview(works, per_object, tmp, labels)
+        summaries = tuple(object_summary(w) for w in works)
+        notes = build_notes(works, plan.params)
+        meta = set_record(plan, ratio, summaries, notes, len(records), tmp / "manifest.csv", views)
+        (tmp / "stimulus_set.json").write_text(json.dumps(meta, indent=2) + "\n", "utf-8")
+        swap_in(tmp, out_dir)
+    except BaseException as exc:
+        if tmp is not None:
+            shutil.rmtree(tmp, ignore_errors=True)
+        if isinstance(exc, OSError) and exc.errno in (errno.ENOSPC, errno.EDQUOT):
+            raise InputError(
+                f"{out_dir}: the disk is full ({exc.strerror or exc}) while writing the stimulus "
+                f"set; the partial set was removed and {out_dir} was left as it was"
+            ) from None
+        raise
+    return WrittenSet(
+        n_stimuli=len(records), objects=summaries, notes=notes, n_implant_views=len(views)
+    )
+
+
+def write_object(
+    work: ObjectImages,
+    tmp: Path,
+    params: BuildParams,
+    edge_ratio: float | None,
+    root: Path,
+    hashes: dict[str, str],
+    ladder_labels: list[str],
+) -> list[StimulusRecord]:
+    """Write one object's stimuli and contact sheet into the staging folder; return its rows.
+
+    ``tmp/<object>/``: ``photo.png`` (and the colour photos of a training object), then each
+    condition at every level, ``<condition>_L<level>_w<window>.png``; ``tmp/contact/<object>.png``.
+    """
+    oid = work.info.object
+    folder = tmp / oid
+    folder.mkdir()
+    src = work.source
+    if src.lightfield is not None:
+        sources = {
+            "cluttered": (path_in_pairs(src.lightfield, root) + "#centre", hashes["lightfield"]),
+            "decluttered": (
+                path_in_pairs(src.lightfield, root) + "#confocal@" + work.plane,
+                hashes["lightfield"],
+            ),
+        }
+    else:
+        sources = {
+            "cluttered": (path_in_pairs(src.wide, root), hashes["wide"]),
+            "decluttered": (path_in_pairs(src.narrow, root), hashes["narrow"]),
+        }
+    sources["photo"] = sources["cluttered"]
+    sources["colour_wide"] = sources["cluttered"]
+    sources["colour_confocal"] = sources["decluttered"]
+    grey = params.mode == "grey"
+    common = dict(
+        object=oid,
+        role=work.info.role,
+        sobel_threshold=None if grey else work.threshold,
+        edge_ratio=None if grey else edge_ratio,
+        mode=params.mode,
+        crop=format_crop(work.crop),
+        grey_levels=params.grey_levels if grey else None,
+        threshold_source="" if grey else work.threshold_source,
+    )
+    records = []
+
+    def emit(img: np.ndarray, condition: str, level: int, window: int, name: str) -> None:
+        path = save_png(img, folder / name)
+        h, w = img.shape[:2]
+        records.append(
+            StimulusRecord(
+                condition=condition,
+                level=level,
+                window=window,
+                width=w,
+                height=h,
+                pixels=w * h,
+                path=f"{oid}/{name}",
+                sha256=sha256_file(path),
+                source=sources[condition][0],
+                source_sha256=sources[condition][1],
+                **common,
+            )
+        )
+
+    n_levels = len(params.windows_px)
+    emit(work.wide, "photo", n_levels, 1, "photo.png")
+    if work.info.role == "training":
+        colour_wide, colour_confocal = colour_photos(work, params)
+        emit(colour_wide, "colour_wide", n_levels, 1, "colour_wide.png")
+        emit(colour_confocal, "colour_confocal", n_levels, 1, "colour_confocal.png")
+    rows = []
+    for condition, img, edges in (
+        ("cluttered", work.wide, work.wide_edges),
+        ("decluttered", work.narrow, work.narrow_edges),
+    ):
+        if grey:
+            ladder = grey_ladder(img, levels=params.grey_levels, windows_px=params.windows_px)
+        else:
+            ladder = edge_ladder(edges, edge_ratio=edge_ratio, windows_px=params.windows_px)
+        for level, window, stim in ladder:
+            emit(stim, condition, level, window, f"{condition}_L{level}_w{window:02d}.png")
+        rows.append((condition, [s for _, _, s in ladder]))
+    sheet = contact_sheet(
+        rows,
+        column_labels=ladder_labels,
+        title=f"{oid}: {work.info.display_name} ({work.info.role}; "
+        + ("grey" if grey else f"threshold {work.threshold:.4g}, edge ratio {edge_ratio:.4g}")
+        + ")",
+    )
+    save_contact_sheet(sheet, tmp / "contact" / f"{oid}.png")
+    return records
+
+
+def _write_overview(
+    works: list[ObjectImages], per_object: list[list[StimulusRecord]], tmp: Path, labels: list[str]
+) -> None:
+    from PIL import Image
+
+    rows = []
+    for w, recs in zip(works, per_object, strict=True):
+        for condition in ("cluttered", "decluttered"):
+            imgs = [
+                np.asarray(Image.open(tmp / r.path))
+                for r in sorted(recs, key=lambda r: r.level)
+                if r.condition == condition
+            ]
+            rows.append((f"{w.info.object} {condition[:5]}", imgs))
+    sheet = contact_sheet(
+        rows,
+        cell_shape_px=(65, 98),
+        column_labels=labels,
+        title="all objects, every level (cluttered / decluttered)",
+    )
+    save_contact_sheet(sheet, tmp / "contact" / "all.png")
