@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import csv
 import json
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -31,6 +32,13 @@ def _grid(n_u=2, n_v=3, rows=24, cols=32, seed=0):
     return np.random.default_rng(seed).integers(0, 256, (n_u, n_v, rows, cols), dtype=np.uint8)
 
 
+def _outside(tmp_path: Path) -> Path:
+    """A folder beside ``tmp_path``: an output never lies inside the light field it reads."""
+    out = tmp_path.parent / f"{tmp_path.name}-out"
+    out.mkdir(exist_ok=True)
+    return out
+
+
 def test_pattern_format_widths(tmp_path, capsys):
     """``{row:02d}{col:02d}`` reads ``0101.png``: two digits each, not a greedy split."""
     g = _grid()
@@ -50,7 +58,7 @@ def test_pattern_format_widths(tmp_path, capsys):
             "--disparity",
             "0",
             "--out",
-            str(tmp_path / "o" / "r.png"),
+            str(_outside(tmp_path) / "r.png"),
         ],
         capsys,
     )
@@ -108,12 +116,12 @@ def test_alpha_is_composited_over_the_background(tmp_path, capsys):
             "--background",
             "0.25",
             "--out",
-            str(tmp_path / "r.png"),
+            str(_outside(tmp_path) / "r.png"),
         ],
         capsys,
     )
     assert code == 0
-    assert np.asarray(Image.open(tmp_path / "r.png"))[0, 0] == round(0.25 * 255)
+    assert np.asarray(Image.open(_outside(tmp_path) / "r.png"))[0, 0] == round(0.25 * 255)
 
 
 def test_sixteen_bit_data_scaled_by_its_bit_depth(tmp_path, capsys):
@@ -139,7 +147,7 @@ def test_sixteen_bit_data_scaled_by_its_bit_depth(tmp_path, capsys):
             "--bit-depth",
             "10",
             "--out",
-            str(tmp_path / "r.png"),
+            str(_outside(tmp_path) / "r.png"),
         ],
         capsys,
     )
