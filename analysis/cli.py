@@ -200,7 +200,7 @@ def run(
     from analysis.active import add_active_results, only_active, summary_lines, write_active_report
 
     if only_active(trials):  # active-search logs only: no static trials to fit
-        res = write_active_report(trials, out)
+        res = write_active_report(trials, out, figures=figures)
         typer.echo("\n".join([*summary_lines(res), f"report: {Path(out) / 'report.md'}"]))
         return
     if out.exists() and not out.is_dir():
@@ -233,7 +233,7 @@ def run(
         if exc.errno in (errno.ENOSPC, errno.EDQUOT):
             raise _disk_full(exc, out) from None
         raise
-    active = add_active_results(trials, folder)
+    active = add_active_results(trials, folder, figures=figures)
     _print_summary(result, folder)
     if active is not None:
         typer.echo("\n".join(summary_lines(active)))
