@@ -13,10 +13,14 @@ column                      meaning
 ``subject, session``        from ``sessions``
 ``trial, attempt``          plan index and the answered attempt
 ``target, condition``       from ``trial_start``
+``scene``                   the scene searched: ``trial_start``'s ``scene`` when logged, else the
+                            session's scene (``sessions.stimset_path``)
 ``searcher``                who searched (``sim:...`` = simulated)
-``rt_s``                    answer time - onset time (session clock), seconds
+``rt_s``                    answer time - onset time (session clock), seconds: the time the
+                            trial ended (the answer, pass or time-out)
 ``recognized, score``       the trial's latest primary ``score`` row
-``time_to_recognition_s``   ``rt_s`` when recognised, else empty
+``time_to_recognition_s``   ``rt_s`` when recognised, else empty (the trial is right-censored at
+                            ``rt_s``; see :mod:`analysis.survival`)
 ``planes_visited``          distinct depths (``depth_px``) shown, the first view included
 ``detected_planes_visited`` distinct detected planes (``plane`` not null) shown
 ``depth_keys``              depth and plane-jump inputs
@@ -35,7 +39,7 @@ import os
 import sqlite3
 import tempfile
 from collections.abc import Iterable
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, fields
 from pathlib import Path
 from typing import Any
 
@@ -44,6 +48,7 @@ import pandas as pd
 
 from analysis.data import connect_readonly
 from analysis.errors import DataError
+from analysis.survival import CENSORING, SurvivalAnalysis, analyze_survival
 from analysis.tables import frame_csv_text
 
 __all__ = [
@@ -57,6 +62,7 @@ __all__ = [
     "analyze_active",
     "render_active_markdown",
     "summary_lines",
+    "hazard_ratio_text",
     "add_active_results",
     "only_active",
     "write_active_report",
@@ -69,6 +75,7 @@ TRIAL_COLUMNS: tuple[str, ...] = (
     "trial",
     "attempt",
     "target",
+    "scene",
     "condition",
     "searcher",
     "rt_s",
@@ -139,7 +146,8 @@ def read_active_events(paths: Iterable[str | Path]) -> pd.DataFrame:
     -------
     DataFrame
         Columns ``source, subject, session, trial, attempt, seq, t_s, kind, payload`` (payload
-        decoded to a dict), ordered by source, session and seq.
+        decoded to a dict) and ``stimset_path`` (the session's scene), ordered by source,
+        session and seq.
 
     Raises
     ------
@@ -158,7 +166,7 @@ def read_active_events(paths: Iterable[str | Path]) -> pd.DataFrame:
             df = pd.read_sql_query(
                 "SELECT s.subject AS subject, e.session_id AS session, e.trial AS trial, "
                 "e.attempt AS attempt, e.seq AS seq, e.t_s AS t_s, e.kind AS kind, "
-                "e.payload AS payload FROM active_events e "
+                "e.payload AS payload, s.stimset_path AS stimset_path FROM active_events e "
                 "JOIN sessions s ON s.session_id = e.session_id ORDER BY e.session_id, e.seq",
                 con,
             )
@@ -207,6 +215,7 @@ def _trial_row(rows: pd.DataFrame, plan: dict[str, Any] | None) -> dict[str, Any
         if r.payload.get("zoom") is not None:
             zoom_time += float(end) - float(r.t_s)
     target = start["payload"].get("target")
+    scene = start["payload"].get("scene") or (plan or {}).get("scene") or ans.get("stimset_path")
     at_plane = None
     if plan is not None and target in plan.get("objects_px", {}):
         d_ans = ans["payload"].get("state", {}).get("depth_px")
@@ -221,6 +230,7 @@ def _trial_row(rows: pd.DataFrame, plan: dict[str, Any] | None) -> dict[str, Any
         "trial": int(ans["trial"]),
         "attempt": int(ans["attempt"]),
         "target": target,
+        "scene": scene,
         "condition": start["payload"].get("condition"),
         "searcher": start["payload"].get("searcher", ""),
         "rt_s": rt,
@@ -267,8 +277,10 @@ class ConditionSummary:
     condition : str
     n_trials, n_recognized : int
     recognition_rate : float
-    time_to_recognition_median_s, time_to_recognition_mean_s : float or None
-        Over recognised trials, seconds.
+    median_rt_recognised_only_s, mean_rt_recognised_only_s : float or None
+        Over the recognised trials only, seconds. Biased: a condition whose subjects often
+        pass looks fast; the censored Kaplan-Meier median
+        (``time_to_recognition_km_median_s``, :mod:`analysis.survival`) is the headline.
     planes_visited_mean, planes_visited_median : float
         Distinct depths shown per trial.
     depth_keys_mean : float
@@ -286,8 +298,8 @@ class ConditionSummary:
     n_trials: int
     n_recognized: int
     recognition_rate: float
-    time_to_recognition_median_s: float | None
-    time_to_recognition_mean_s: float | None
+    median_rt_recognised_only_s: float | None
+    mean_rt_recognised_only_s: float | None
     planes_visited_mean: float
     planes_visited_median: float
     depth_keys_mean: float
@@ -318,6 +330,9 @@ class ActiveSearchResult:
         Whether any trial was searched by a simulated searcher (``sim:...``).
     searchers : tuple of str
     sources : tuple of str
+    survival : SurvivalAnalysis or None
+        Censored time to recognition, hazard ratio, mixed model, per-subject results
+        (:mod:`analysis.survival`); None without answered trials.
     """
 
     conditions: dict[str, ConditionSummary]
@@ -325,26 +340,44 @@ class ActiveSearchResult:
     simulated: bool
     searchers: tuple[str, ...] = ()
     sources: tuple[str, ...] = field(default=())
+    survival: SurvivalAnalysis | None = None
 
     def to_dict(self) -> dict[str, Any]:
-        """Return the ``results.json`` ``active_search`` entry."""
+        """Return the ``results.json`` ``active_search`` entry.
+
+        With a survival analysis, each ``conditions.<c>`` gains its Kaplan-Meier median
+        (``time_to_recognition_km_median_s``, ``..._ci95_s``) and intervals, and the entry gains
+        ``comparison`` (hazard ratio), ``recognition_model``, ``subjects`` and ``censoring``.
+        """
+        conds = {k: v.to_dict() for k, v in self.conditions.items()}
+        extra: dict[str, Any] = {}
+        if self.survival is not None:
+            extra = self.survival.to_dict()
+            for k, v in extra.pop("conditions").items():
+                conds.setdefault(k, {}).update(v)
         return {
             "n_trials": self.n_trials,
             "simulated": self.simulated,
             "searchers": list(self.searchers),
             "sources": list(self.sources),
-            "conditions": {k: v.to_dict() for k, v in self.conditions.items()},
+            "conditions": conds,
+            **extra,
         }
 
     @classmethod
     def from_dict(cls, d: dict[str, Any]) -> ActiveSearchResult:
         """Inverse of :meth:`to_dict`."""
+        own = {f.name for f in fields(ConditionSummary)}
         return cls(
-            conditions={k: ConditionSummary.from_dict(v) for k, v in d["conditions"].items()},
+            conditions={
+                k: ConditionSummary.from_dict({n: x for n, x in v.items() if n in own})
+                for k, v in d["conditions"].items()
+            },
             n_trials=int(d["n_trials"]),
             simulated=bool(d["simulated"]),
             searchers=tuple(d.get("searchers", ())),
             sources=tuple(d.get("sources", ())),
+            survival=SurvivalAnalysis.from_dict(d) if d.get("censoring") else None,
         )
 
 
@@ -360,8 +393,8 @@ def summarize_active(trials: pd.DataFrame, sources: tuple[str, ...] = ()) -> Act
             n_trials=int(len(g)),
             n_recognized=int(len(rec)),
             recognition_rate=float(len(rec) / len(g)),
-            time_to_recognition_median_s=_num(ttr.median()) if len(rec) else None,
-            time_to_recognition_mean_s=_num(ttr.mean()) if len(rec) else None,
+            median_rt_recognised_only_s=_num(ttr.median()) if len(rec) else None,
+            mean_rt_recognised_only_s=_num(ttr.mean()) if len(rec) else None,
             planes_visited_mean=float(g["planes_visited"].mean()),
             planes_visited_median=float(g["planes_visited"].median()),
             depth_keys_mean=float(g["depth_keys"].mean()),
@@ -372,7 +405,12 @@ def summarize_active(trials: pd.DataFrame, sources: tuple[str, ...] = ()) -> Act
         )
     searchers = tuple(sorted({str(s) for s in trials["searcher"]}))
     return ActiveSearchResult(
-        conds, int(len(trials)), any(s.startswith("sim:") for s in searchers), searchers, sources
+        conds,
+        int(len(trials)),
+        any(s.startswith("sim:") for s in searchers),
+        searchers,
+        sources,
+        analyze_survival(trials) if len(trials) else None,
     )
 
 
@@ -389,8 +427,109 @@ def _f(v: float | None, digits: int = 1) -> str:
     return "n/a" if v is None else f"{v:.{digits}f}"
 
 
-def render_active_markdown(result: ActiveSearchResult) -> str:
-    """Return the report's "Active search" section (Markdown)."""
+def _ci(ci, digits: int = 1, scale: float = 1.0, unit: str = "") -> str:
+    lo, hi = ci
+    if lo is None and hi is None:
+        return "n/a"
+    lo_s = "n/a" if lo is None else f"{scale * lo:.{digits}f}"
+    hi_s = "not reached" if hi is None else f"{scale * hi:.{digits}f}"
+    return f"{lo_s}-{hi_s}{unit}"
+
+
+def _median_text(km, unit: str = "") -> str:
+    if km.median_s is None:
+        return "not reached"
+    return f"{km.median_s:.1f}{unit} ({_ci(km.median_ci95_s)})"
+
+
+def hazard_ratio_text(h) -> str:
+    """Return a hazard ratio as text: value, 95 % interval and p, or why it is not estimable."""
+    if h.hazard_ratio is None:
+        return f"not estimable ({h.note})"
+    p = "p < 0.001" if h.p < 0.001 else f"p = {h.p:.3f}"
+    return f"{h.hazard_ratio:.2f} (95 % CI {_ci(h.ci95, 2)}), {p}"
+
+
+def _survival_markdown(result: ActiveSearchResult) -> list[str]:
+    sv = result.survival
+    lines = [
+        "| condition | trials | recognised (95 % CI) | censored | time to recognition, "
+        "Kaplan-Meier median s (95 % CI) | planes visited, mean (95 % CI) | depth keys, mean "
+        "(95 % CI) | zoom use (95 % CI) | answered at target plane |",
+        "|---|---|---|---|---|---|---|---|---|",
+    ]
+    for c in result.conditions.values():
+        km, sec = sv.conditions[c.condition], sv.secondary.get(c.condition, {})
+        rate = f"{c.n_recognized} ({100 * c.recognition_rate:.0f}%, "
+        lines.append(
+            f"| {c.condition} | {c.n_trials} | {rate}{_ci(km.recognition_rate_ci95, 0, 100, '%')})"
+            f" | {km.n_censored} | {_median_text(km)} | {c.planes_visited_mean:.1f} "
+            f"({_ci(sec.get('planes_visited_mean', (None, None)))}) | {c.depth_keys_mean:.1f} "
+            f"({_ci(sec.get('depth_keys_mean', (None, None)))}) | {100 * c.zoom_use_rate:.0f}% "
+            f"({_ci(sec.get('zoom_use_rate', (None, None)), 0, 100, '%')}) | "
+            + ("n/a" if c.at_target_plane_rate is None else f"{100 * c.at_target_plane_rate:.0f}%")
+            + " |"
+        )
+    lines += [
+        "",
+        f'**Censoring**: {CENSORING}. A median is "not reached" while the Kaplan-Meier curve '
+        "stays at or above one half (fewer than half recognised by the time trials ended). "
+        "Recognition rates have Wilson intervals; the secondary measures are the "
+        f"{sv.secondary_interval}.",
+        "",
+    ]
+    for h in sv.comparisons:
+        lines.append(
+            f"**Hazard ratio of recognition**, {h.condition} vs {h.reference} (above 1: "
+            f"{h.condition} recognised sooner): {hazard_ratio_text(h)}; {h.method}; "
+            f"{h.n_trials} trials, {h.n_recognized} recognised, {h.n_subjects} subject(s)."
+        )
+    m = sv.recognition_model
+    if m is not None:
+        what = (
+            f"odds ratio {m.condition} vs {m.reference} {m.odds_ratio:.2f} "
+            f"(95 % interval {_ci(m.ci95, 2)}), subject SD {m.subject_sd:.2f} log-odds"
+            if m.odds_ratio is not None
+            else m.note
+        )
+        lines.append(f"\n**Recognition (mixed-effects logistic model)**: {what}; {m.method}.")
+    lines += [
+        "",
+        "Per subject (Kaplan-Meier median, or how many were censored):",
+        "",
+        "| subject | condition | trials | recognised | censored | time to recognition, KM "
+        "median s | planes visited, mean | zoom use |",
+        "|---|---|---|---|---|---|---|---|",
+    ]
+    for subj, by_c in sv.subjects.items():
+        for cond, km in by_c.items():
+            mm = sv.subject_means.get(subj, {}).get(cond, {})
+            med = f"{km.median_s:.1f}" if km.median_s is not None else "not reached"
+            lines.append(
+                f"| {subj} | {cond} | {km.n_trials} | {km.n_recognized} | {km.n_censored} | "
+                f"{med} | {mm.get('planes_visited_mean', float('nan')):.1f} | "
+                f"{100 * mm.get('zoom_use_rate', float('nan')):.0f}% |"
+            )
+    naive = ", ".join(
+        f"{c.condition} {_f(c.median_rt_recognised_only_s)} s" for c in result.conditions.values()
+    )
+    lines += [
+        "",
+        f"For comparison only, the median time over the recognised trials alone (biased toward "
+        f"conditions in which subjects give up: it drops the censored trials): {naive}.",
+    ]
+    return lines
+
+
+def render_active_markdown(result: ActiveSearchResult, *, figure: str | None = None) -> str:
+    """Return the report's "Active search" section (Markdown).
+
+    Parameters
+    ----------
+    result : ActiveSearchResult
+    figure : str or None
+        File name of the time-to-recognition figure to show (PNG), if drawn.
+    """
     label = " (SIMULATED searcher)" if result.simulated else ""
     lines = [
         f"## Active search{label}",
@@ -399,32 +538,28 @@ def render_active_markdown(result: ActiveSearchResult) -> str:
         "Time to recognition is from the cue's onset to the recognised answer; planes visited "
         "counts the distinct depths shown.",
         "",
-        "| condition | trials | recognised | time to recognition, median (mean) s | planes "
-        "visited, mean (median) | depth keys | zoom use | zooms/trial | answered at target plane |",
-        "|---|---|---|---|---|---|---|---|---|",
     ]
-    for c in result.conditions.values():
-        lines.append(
-            f"| {c.condition} | {c.n_trials} | {c.n_recognized} ({100 * c.recognition_rate:.0f}%)"
-            f" | {_f(c.time_to_recognition_median_s)} ({_f(c.time_to_recognition_mean_s)})"
-            f" | {c.planes_visited_mean:.1f} ({c.planes_visited_median:g}) | "
-            f"{c.depth_keys_mean:.1f} | {100 * c.zoom_use_rate:.0f}% | {c.zooms_mean:.1f} | "
-            + ("n/a" if c.at_target_plane_rate is None else f"{100 * c.at_target_plane_rate:.0f}%")
-            + " |"
-        )
+    if result.survival is not None:
+        lines += _survival_markdown(result)
+    if figure:
+        lines += ["", f"![Time to recognition, Kaplan-Meier, per condition and subject]({figure})"]
     return "\n".join(lines) + "\n"
 
 
 def summary_lines(result: ActiveSearchResult) -> list[str]:
-    """Return one printable line per condition (time to recognition, planes, zoom use)."""
+    """Return printable lines: per condition, then the hazard ratio between conditions."""
     sim = " (SIMULATED searcher)" if result.simulated else ""
     out = [f"active search: {result.n_trials} trials{sim}"]
+    sv = result.survival
     for c in result.conditions.values():
+        med = _median_text(sv.conditions[c.condition], " s") if sv is not None else "n/a"
         out.append(
             f"{c.condition:>11}: {c.n_recognized}/{c.n_trials} recognised, time to recognition "
-            f"median {_f(c.time_to_recognition_median_s)} s, planes visited "
+            f"(Kaplan-Meier, censored) median {med}, planes visited "
             f"{c.planes_visited_mean:.1f}, zoom use {100 * c.zoom_use_rate:.0f}%"
         )
+    for h in sv.comparisons if sv is not None else ():
+        out.append(f"hazard ratio {h.condition} vs {h.reference}: {hazard_ratio_text(h)}")
     return out
 
 
@@ -440,13 +575,15 @@ def _write_atomic(path: Path, text: str) -> None:
 
 
 def add_active_results(
-    paths: Iterable[str | Path], folder: str | Path
+    paths: Iterable[str | Path], folder: str | Path, *, figures: bool = True
 ) -> ActiveSearchResult | None:
     """Add active-search results to a report folder, if the trial logs have any.
 
     Writes (each atomically) ``active_trials.csv``, the ``active_search`` key of
     ``results.json`` (created when absent) and an "Active search" section at the end of
-    ``report.md`` (created when absent).
+    ``report.md`` (created when absent); with ``figures``, the Kaplan-Meier figure
+    ``active_time_to_recognition.{png,svg,pdf}``
+    (:func:`analysis.figures.save_time_to_recognition`).
 
     Returns
     -------
@@ -460,17 +597,25 @@ def add_active_results(
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
     _write_atomic(folder / "active_trials.csv", frame_csv_text(trials))
+    figure = None
+    if figures and result.survival is not None:
+        from analysis.figures import ACTIVE_FIGURE, save_time_to_recognition
+
+        save_time_to_recognition(result.survival, folder, simulated=result.simulated)
+        figure = f"{ACTIVE_FIGURE}.png"
     rj = folder / "results.json"
     data = json.loads(rj.read_text(encoding="utf-8")) if rj.is_file() else {}
     data["active_search"] = result.to_dict()
     _write_atomic(rj, json.dumps(data, indent=2, allow_nan=False) + "\n")
     md = folder / "report.md"
     head = md.read_text(encoding="utf-8") if md.is_file() else "# Report\n"
-    _write_atomic(md, head.rstrip("\n") + "\n\n" + render_active_markdown(result))
+    _write_atomic(md, head.rstrip("\n") + "\n\n" + render_active_markdown(result, figure=figure))
     return result
 
 
-def write_active_report(paths: Iterable[str | Path], out_dir: str | Path) -> ActiveSearchResult:
+def write_active_report(
+    paths: Iterable[str | Path], out_dir: str | Path, *, figures: bool = True
+) -> ActiveSearchResult:
     """Write a report folder with only active-search results into a new or empty ``out_dir``.
 
     The folder is filled beside ``out_dir`` and renamed at the end
@@ -485,7 +630,7 @@ def write_active_report(paths: Iterable[str | Path], out_dir: str | Path) -> Act
 
     paths = [Path(p) for p in paths]
     with atomic_folder(out_dir) as tmp:
-        result = add_active_results(paths, tmp)
+        result = add_active_results(paths, tmp, figures=figures)
         if result is None:
             raise DataError(f"{paths[0] if paths else 'no files'}: no active-search events")
     return result

@@ -110,7 +110,10 @@ analyze_app = typer.Typer(
         "for any table.\n\n"
         "  confocal analyze power --odds-ratio 2,5.6 | --threshold-ratio 2.5 [--subjects 1,2,4,6] "
         "[--objects 10,20] [--levels 4,8] [--processes N | --cluster ADDRESS]: power by "
-        "simulation, in parallel."
+        "simulation, in parallel.\n\n"
+        "  confocal analyze power --active --hazard-ratio 2,3 [--subjects 4,8] [--scenes 2,4] "
+        "[--targets 3] [--time-limit 60] [--median-time 20] [--weibull-shape 1] [--frailty-sd "
+        "0.5]: power of an active-search study (censored times, Cox model by subject)."
     ),
 )
 
@@ -207,7 +210,7 @@ def run(
     from analysis.active import add_active_results, only_active, summary_lines, write_active_report
 
     if only_active(trials):  # active-search logs only: no static trials to fit
-        res = write_active_report(trials, out)
+        res = write_active_report(trials, out, figures=figures)
         typer.echo("\n".join([*summary_lines(res), f"report: {Path(out) / 'report.md'}"]))
         return
     if out.exists() and not out.is_dir():
@@ -240,7 +243,7 @@ def run(
         if exc.errno in (errno.ENOSPC, errno.EDQUOT):
             raise _disk_full(exc, out) from None
         raise
-    active = add_active_results(trials, folder)
+    active = add_active_results(trials, folder, figures=figures)
     _print_summary(result, folder)
     if active is not None:
         typer.echo("\n".join(summary_lines(active)))
@@ -447,8 +450,62 @@ def power(
         str | None,
         typer.Option("--cluster", help="Dask scheduler address (needs the 'dask' extra)."),
     ] = None,
+    active: Annotated[
+        bool, typer.Option("--active", help="Plan an active-search study (needs --hazard-ratio).")
+    ] = False,
+    hazard_ratio: Annotated[
+        str | None,
+        typer.Option("--hazard-ratio", help="Active search: hazard ratio(s) of recognition."),
+    ] = None,
+    scenes: Annotated[
+        str | None, typer.Option("--scenes", help="Active search: numbers of scenes (2).")
+    ] = None,
+    targets: Annotated[
+        int | None, typer.Option("--targets", help="Active search: targets per scene (3).")
+    ] = None,
+    time_limit: Annotated[
+        float | None, typer.Option("--time-limit", help="Active search: trial limit, s (60).")
+    ] = None,
+    median_time: Annotated[
+        float | None,
+        typer.Option("--median-time", help="Active search: cluttered median time, s (20)."),
+    ] = None,
+    weibull_shape: Annotated[
+        float | None,
+        typer.Option("--weibull-shape", help="Active search: Weibull shape (1: exponential)."),
+    ] = None,
+    frailty_sd: Annotated[
+        float | None,
+        typer.Option("--frailty-sd", help="Active search: subject log-hazard SD (0.5)."),
+    ] = None,
 ) -> None:
-    """Estimate power over effect sizes, subjects, objects and levels (simulated studies)."""
+    """Estimate power over effect sizes, subjects, objects and levels (simulated studies).
+
+    With --hazard-ratio (and --active), simulate active-search studies instead: censored times
+    to recognition, tested by a Cox model stratified by subject.
+    """
+    active_opts = {
+        "--scenes": scenes,
+        "--targets": targets,
+        "--time-limit": time_limit,
+        "--median-time": median_time,
+        "--weibull-shape": weibull_shape,
+        "--frailty-sd": frailty_sd,
+    }
+    from analysis.errors import OptionError as _OptionError
+
+    if active or hazard_ratio is not None:
+        if odds_ratio is not None or threshold_ratio is not None:
+            raise _OptionError(
+                "--hazard-ratio (active search) excludes --odds-ratio and --threshold-ratio"
+            )
+        _active_power(
+            hazard_ratio, subjects, active_opts, sims, alpha, target, seed, processes, cluster
+        )
+        return
+    given = [k for k, v in active_opts.items() if v is not None]
+    if given:
+        raise _OptionError(f"{given[0]} is for active-search power; add --hazard-ratio")
     import math
 
     from rich.console import Console
@@ -523,6 +580,95 @@ def power(
                     else f"no simulated number of subjects reached power {target:g}"
                 )
                 typer.echo(f"size {z:g}, {nl} levels, {no} objects: {what}")
+
+
+def _active_power(hazard_ratio, subjects, opts, sims, alpha, target, seed, processes, cluster):
+    """Run and print ``analyze power --hazard-ratio``: power of active-search studies."""
+    from rich.console import Console
+    from rich.progress import Progress
+
+    from analysis.active_power import ActiveDesign, ActivePowerPoint, active_power_grid
+    from analysis.errors import OptionError
+
+    if hazard_ratio is None:
+        raise OptionError("--active needs --hazard-ratio (the effect to detect), e.g. 2")
+    hrs = _numbers(hazard_ratio, "--hazard-ratio")
+    if not all(math.isfinite(v) and v > 0 for v in hrs):
+        raise OptionError(f"--hazard-ratio must be in (0, inf), a finite number; got {hrs!r}")
+    if not (0.0 < target < 1.0):
+        raise OptionError(f"--power must be in (0, 1), got {target!r}")
+    if not (0.0 < alpha < 1.0):
+        raise OptionError(f"--alpha must be in (0, 1), got {alpha!r}")
+    if sims < 1:
+        raise OptionError(f"--sims must be >= 1, got {sims!r}")
+    ns = sorted(set(_numbers(subjects, "--subjects", int)))
+    nsc = sorted(set(_numbers(opts["--scenes"] or "2", "--scenes", int)))
+    for opt, vals in (("--subjects", ns), ("--scenes", nsc)):
+        if min(vals) < 1:
+            raise OptionError(f"{opt} must be integers >= 1, got {vals!r}")
+    fixed = {
+        "n_targets": opts["--targets"] if opts["--targets"] is not None else 3,
+        "time_limit_s": opts["--time-limit"] if opts["--time-limit"] is not None else 60.0,
+        "median_time_s": opts["--median-time"] if opts["--median-time"] is not None else 20.0,
+        "weibull_shape": opts["--weibull-shape"] if opts["--weibull-shape"] is not None else 1.0,
+        "frailty_sd": opts["--frailty-sd"] if opts["--frailty-sd"] is not None else 0.5,
+    }
+    names = dict(
+        zip(
+            fixed,
+            ("--targets", "--time-limit", "--median-time", "--weibull-shape", "--frailty-sd"),
+            strict=True,
+        )
+    )
+    try:
+        ActiveDesign(1, 1, **fixed)
+    except ValueError as exc:
+        field = str(exc).split()[0]
+        raise OptionError(f"{names.get(field, field)}: {exc}") from None
+    points: list[ActivePowerPoint] = []
+    gen = active_power_grid(
+        hrs,
+        ns,
+        n_scenes=nsc,
+        n_sims=sims,
+        alpha=alpha,
+        seed=seed,
+        processes=processes,
+        cluster=cluster,
+        **fixed,
+    )
+    with Progress(console=Console(stderr=True), transient=True) as bar:
+        task = bar.add_task("simulating active search", total=len(hrs) * len(ns) * len(nsc) * sims)
+        for item in gen:
+            if isinstance(item, ActivePowerPoint):
+                points.append(item)
+            else:
+                bar.update(task, completed=item)
+    typer.echo(
+        f"active search, hazard ratio (Cox, stratified by subject, Wald), alpha = {alpha:g}, "
+        f"{sims} SIMULATED studies per row, seed {seed}"
+    )
+    typer.echo(
+        f"targets/scene {fixed['n_targets']}, time limit {fixed['time_limit_s']:g} s, cluttered "
+        f"median {fixed['median_time_s']:g} s, Weibull shape {fixed['weibull_shape']:g}, "
+        f"subject frailty SD {fixed['frailty_sd']:g}"
+    )
+    typer.echo(f"{'HR':>6} {'scenes':>6} {'subjects':>8}  power  (95% CI)")
+    for p in points:
+        typer.echo(
+            f"{p.hazard_ratio:>6g} {p.n_scenes:>6} {p.n_subjects:>8}  {p.power:.2f}   "
+            f"({p.ci95[0]:.2f}-{p.ci95[1]:.2f})"
+        )
+    for hr in hrs:
+        for sc in nsc:
+            row = [p for p in points if (p.hazard_ratio, p.n_scenes) == (hr, sc)]
+            need = next((p.n_subjects for p in row if p.power >= target), None)
+            what = (
+                f"subjects needed for power {target:g}: {need}"
+                if need is not None
+                else f"no simulated number of subjects reached power {target:g}"
+            )
+            typer.echo(f"hazard ratio {hr:g}, {sc} scenes: {what}")
 
 
 def register(app: typer.Typer) -> None:

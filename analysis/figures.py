@@ -27,6 +27,9 @@ __all__ = [
     "save_figures",
     "STUDY_FIGURES",
     "binomial_ci95",
+    "plot_time_to_recognition",
+    "save_time_to_recognition",
+    "ACTIVE_FIGURE",
 ]
 
 #: Colours per condition (ours): grey for cluttered, blue for de-cluttered.
@@ -426,3 +429,131 @@ def save_figures(figs: dict[str, Figure], folder: str | Path) -> list[Path]:
             fig.savefig(p, dpi=300)
             written.append(p)
     return written
+
+
+#: File stem of the active-search figure (:func:`save_time_to_recognition`).
+ACTIVE_FIGURE: str = "active_time_to_recognition"
+
+
+def _condition_color(condition: str, i: int) -> str:
+    return COLORS.get(condition, f"C{(i + 2) % 10}")
+
+
+def plot_time_to_recognition(survival: Any, *, simulated: bool = False) -> Figure:
+    """Draw censored time to recognition: Kaplan-Meier curves and a per-subject panel.
+
+    Left: per condition, the share of trials not yet recognised against time, with its
+    pointwise 95 % band, censor marks (passes and time-outs, at the time the trial ended) and
+    the median; the hazard ratio in the title. Right: per subject and condition, each trial's
+    end time (filled: recognised; open: censored) and the subject's Kaplan-Meier median (bar).
+
+    Parameters
+    ----------
+    survival : analysis.survival.SurvivalAnalysis
+    simulated : bool
+        Write "SIMULATED" across the figure (the searcher was simulated, not a person).
+
+    Returns
+    -------
+    Figure
+    """
+    fig = Figure(figsize=(7.2, 3.6), layout="constrained")
+    ax, axs = fig.subplots(1, 2, gridspec_kw={"width_ratios": [1.25, 1.0]})
+    t_max = 0.0
+    for i, (cond, km) in enumerate(survival.conditions.items()):
+        col = _condition_color(cond, i)
+        t = np.concatenate([[0.0], km.time_s, [km.longest_s]])
+        s = np.concatenate([[1.0], km.survival, [km.survival[-1] if km.survival else 1.0]])
+        lo = np.concatenate([[1.0], km.survival_ci95_low, [s[-1]]])
+        hi = np.concatenate([[1.0], km.survival_ci95_high, [s[-1]]])
+        if km.survival:
+            lo[-1], hi[-1] = km.survival_ci95_low[-1], km.survival_ci95_high[-1]
+        med = "not reached" if km.median_s is None else f"{km.median_s:.1f} s"
+        ax.step(
+            t, s, where="post", color=col, lw=1.6, label=f"{cond} (n={km.n_trials}, median {med})"
+        )
+        ax.fill_between(t, lo, hi, step="post", color=col, alpha=0.18, lw=0)
+        if km.censored_s:
+            cs = np.asarray(km.censored_s)
+            ax.plot(cs, km.survival_at(cs), "|", color=col, ms=9, mew=1.4)
+        t_max = max(t_max, km.longest_s)
+    ax.axhline(0.5, color="0.6", lw=0.8, ls=":")
+    ax.plot([], [], "|", color="0.3", ms=9, mew=1.4, label="censored (pass / time-out)")
+    ax.set_xlim(0, t_max * 1.03 if t_max > 0 else 1.0)
+    ax.set_ylim(0, 1.02)
+    ax.set_xlabel("time since cue onset (s)")
+    ax.set_ylabel("not yet recognised (Kaplan-Meier)")
+    ax.legend(fontsize="x-small", frameon=False, loc="upper right")
+    comp = survival.comparison
+    if comp is not None:
+        if comp.hazard_ratio is not None:
+            p = "p < 0.001" if comp.p < 0.001 else f"p = {comp.p:.3f}"
+            txt = (
+                f"HR {comp.condition} / {comp.reference} = {comp.hazard_ratio:.2f} "
+                f"[{comp.ci95[0]:.2f}, {comp.ci95[1]:.2f}], {p}"
+            )
+        else:
+            txt = "hazard ratio not estimable"
+        ax.set_title(txt, fontsize="small")
+    subjects = list(survival.subjects)
+    conds = list(survival.conditions)
+    step = 0.6 / max(len(conds), 1)
+    for i, cond in enumerate(conds):
+        col = _condition_color(cond, i)
+        for j, subj in enumerate(subjects):
+            km = survival.subjects[subj].get(cond)
+            if km is None:
+                continue
+            y = j + (i - (len(conds) - 1) / 2) * step
+            ax_kw = {"color": col, "ms": 5, "ls": "none"}
+            axs.plot(km.time_s, [y] * len(km.time_s), "o", **ax_kw)
+            axs.plot(km.censored_s, [y] * len(km.censored_s), "o", mfc="white", **ax_kw)
+            if km.median_s is not None:
+                axs.plot([km.median_s] * 2, [y - step / 2, y + step / 2], color=col, lw=2)
+    axs.plot([], [], "o", color="0.3", ms=5, ls="none", label="recognised")
+    axs.plot([], [], "o", color="0.3", mfc="white", ms=5, ls="none", label="censored")
+    axs.plot([], [], "-", color="0.3", lw=2, label="subject's KM median")
+    axs.set_yticks(range(len(subjects)), subjects)
+    axs.set_ylim(-0.6, len(subjects) - 0.4)
+    axs.invert_yaxis()
+    axs.set_xlim(0, t_max * 1.03 if t_max > 0 else 1.0)
+    axs.set_xlabel("time the trial ended (s)")
+    axs.set_title("per subject", fontsize="small")
+    axs.legend(fontsize="x-small", frameon=False, loc="lower right")
+    if simulated:
+        fig.text(
+            0.5,
+            0.5,
+            "SIMULATED",
+            ha="center",
+            va="center",
+            rotation=20,
+            fontsize=44,
+            color="tab:red",
+            alpha=0.22,
+            zorder=10,
+        )
+        fig.suptitle("SIMULATED searcher, not a person", color="tab:red", fontsize="small")
+    return fig
+
+
+def save_time_to_recognition(
+    survival: Any, folder: str | Path, *, simulated: bool = False
+) -> list[Path]:
+    """Draw :func:`plot_time_to_recognition` and save it as PNG (300 dpi), SVG and PDF.
+
+    Parameters
+    ----------
+    survival : analysis.survival.SurvivalAnalysis
+    folder : str or Path
+        Existing folder; the files are ``active_time_to_recognition.{png,svg,pdf}``.
+    simulated : bool
+        Mark the figure "SIMULATED".
+
+    Returns
+    -------
+    list of Path
+        Files written.
+    """
+    fig = plot_time_to_recognition(survival, simulated=simulated)
+    return save_figures({ACTIVE_FIGURE: fig}, folder)

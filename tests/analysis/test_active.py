@@ -182,7 +182,7 @@ def test_condition_summary_matches_hand_computation(db) -> None:
     result, _ = analyze_active([db])
     d = result.conditions["decluttered"]
     assert (d.n_trials, d.n_recognized, d.recognition_rate) == (2, 1, 0.5)
-    assert d.time_to_recognition_median_s == pytest.approx(6.5)
+    assert d.median_rt_recognised_only_s == pytest.approx(6.5)
     assert d.planes_visited_mean == pytest.approx((3 + 1) / 2)
     assert d.depth_keys_mean == pytest.approx(1.0)
     assert d.zoom_use_rate == pytest.approx(0.5) and d.zooms_mean == pytest.approx(0.5)
@@ -190,7 +190,7 @@ def test_condition_summary_matches_hand_computation(db) -> None:
     assert d.at_target_plane_rate == pytest.approx(1.0)  # of recognised trials
     c = result.conditions["cluttered"]
     assert (c.n_trials, c.n_recognized) == (1, 1)
-    assert c.time_to_recognition_mean_s == pytest.approx(3.0)
+    assert c.mean_rt_recognised_only_s == pytest.approx(3.0)
     assert result.simulated is True and result.n_trials == 3
     assert ActiveSearchResult.from_dict(json.loads(json.dumps(result.to_dict()))) == result
 
@@ -280,5 +280,8 @@ def test_confocal_analyze_on_an_active_only_log(db, tmp_path, capsys) -> None:
     assert exc.value.code in (0, None)
     text = capsys.readouterr().out
     assert "active search: 3 trials (SIMULATED searcher)" in text
-    assert "decluttered: 1/2 recognised, time to recognition median 6.5 s" in text
+    assert (
+        "decluttered: 1/2 recognised, time to recognition (Kaplan-Meier, censored) median 6.5 s"
+        in text
+    )
     assert json.loads((out / "results.json").read_text())["active_search"]["n_trials"] == 3
