@@ -41,7 +41,7 @@ from analysis.errors import DataError
 from analysis.weibull import SIGMOIDS, WeibullFit, default_prior, fit_mle, is_log_axis
 from analysis.weibull.batch import FitJob, sample_batch
 from analysis.weibull.model import _data_warnings
-from analysis.weibull.threshold import _json_float
+from analysis.weibull.threshold import _bracket_text, _json_float
 
 __all__ = [
     "FitSpec",
@@ -531,6 +531,9 @@ def _threshold_md(t: dict[str, Any]) -> str:
         return f"< {_fmt(t['lowest_tested'])} (censored: {t['reason']})"
     if st == "censored_above":
         return f"> {_fmt(t['highest_tested'])} (censored: {t['reason']})"
+    where = _bracket_text(t.get("bracket") or (None, None), "{:.4g}", "")
+    if where:
+        return f"{where} (unidentified: {t['reason']})"
     return f"not identified ({t['reason']})"
 
 

@@ -26,6 +26,7 @@ from analysis.jung2015 import (
     THRESHOLD_P50_PX,
 )
 from analysis.pipeline import AnalysisResult
+from analysis.weibull.threshold import _bracket_text
 
 __all__ = [
     "render_markdown",
@@ -78,7 +79,9 @@ def threshold_text(t: dict[str, Any], *, side: bool = False) -> str:
     -------
     str
         ``"8,695 px (...; 95 % CrI ...; ML ...)"`` when measured; ``"< 96 px (...)"``,
-        ``"> 160,884 px (...)"`` or ``"not identified (...)"`` otherwise.
+        ``"> 160,884 px (...)"`` when censored; ``"between 3,290 and 17,876 px (unidentified:
+        2 levels with data; ...)"`` (the tested levels that bracket it, or a bound) or
+        ``"not identified (...)"`` when the data do not identify it.
     """
     st = t["status"]
     if st == "measured":
@@ -88,6 +91,9 @@ def threshold_text(t: dict[str, Any], *, side: bool = False) -> str:
         return f"< {_px(t['lowest_tested'])} px (below the lowest level tested: {t['reason']})"
     if st == "censored_above":
         return f"> {_px(t['highest_tested'])} px (above the highest level tested: {t['reason']})"
+    where = _bracket_text(t.get("bracket") or (None, None), "{:,.0f}", " px")
+    if where:
+        return f"{where} (unidentified: {t['reason']}; no interval is given)"
     return f"not identified ({t['reason']})"
 
 
