@@ -171,6 +171,7 @@ class AnalysisResult:
                 "n_significant_objects": self.logistic.n_significant_objects(),
                 "method": self.logistic.method,
                 "separated": list(self.logistic.separated),
+                "profile_ci95": self.logistic.to_dict()["profile_ci95"],
                 "warnings": list(self.logistic.warnings),
             },
             "predictions": self.predictions(),

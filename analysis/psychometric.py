@@ -565,7 +565,13 @@ def render_fit_markdown(r: dict[str, Any], plots: Sequence[str]) -> str:
         lines.append(
             f"| {g['label']} | {g['n_trials']:g} | "
             + " | ".join(cells)
-            + f" | {gof['deviance']:.2f} ({gof['deviance_df']}) | {gof['ppp']:.2f} | "
+            + " | "
+            + (
+                f"{gof['deviance']:.2f} ({gof['deviance_df']})"
+                if gof["deviance_df"] > 0
+                else "n/a (df <= 0)"
+            )
+            + f" | {gof['ppp']:.2f} | "
             + ("yes" if g["converged"] else "NO")
             + " |"
         )
@@ -614,7 +620,11 @@ def write_fit_report(result: TableFit, out_dir: str | Path, *, plots: bool = Tru
                 ax.set_xlabel(result.spec.x)
                 ax.set_ylabel("proportion correct")
                 ax.set_title(g.label, fontsize="small")
-                ax.figure.savefig(tmp / name, dpi=300)
+                if any(w.startswith("SIMULATED data") for w in result.warnings):
+                    from analysis.figures import mark_simulated
+
+                    mark_simulated(ax.figure)
+                ax.figure.savefig(tmp / name, dpi=300, bbox_inches="tight", pad_inches=0.04)
     return Path(out_dir).resolve()
 
 
