@@ -211,7 +211,7 @@ def plot_subject_thresholds(
     """
     from matplotlib.lines import Line2D
 
-    ax = _new_ax(ax)
+    ax = _new_ax(ax, (6.8, 3.8))
     subjects = list(subject_fits)
     drawn: dict[str, Any] = {}
     width = max(0.06, min(0.5 / max(len(subjects), 1), 0.12))
@@ -301,7 +301,8 @@ def plot_subject_thresholds(
             list(drawn),
             fontsize="x-small",
             frameon=False,
-            ncols=2,
+            loc="upper left",
+            bbox_to_anchor=(1.01, 1.0),
             title="subjects: median, 95 % CrI",
             title_fontsize="x-small",
         )
@@ -366,9 +367,11 @@ def plot_object_difficulty(logistic: LogisticFit, *, ax: Axes | None = None) -> 
     ----------
     Jung et al. 2015, Fig. S3 (difficulty as the log odds ratio of failure).
     """
-    ax = _new_ax(ax, (7.0, 4.2))
     rows = [r for r in logistic.odds_ratios.rows if r[0].startswith("object:")]
     names = [logistic.reference_object] + [r[0].split(":", 1)[1] for r in rows]
+    # Rotated object names take height from the axes; grow the figure with the longest, so the
+    # y-label (centred on the axes) keeps inside it.
+    ax = _new_ax(ax, (7.0, max(4.2, 3.4 + 0.075 * max(len(n) for n in names))))
     prof = logistic.profile_ci95
     use_profile = bool(rows) and all(r[0] in prof for r in rows)
     ci = [prof[r[0]] if use_profile else (r[2], r[3]) for r in rows]
@@ -393,7 +396,7 @@ def plot_object_difficulty(logistic: LogisticFit, *, ax: Axes | None = None) -> 
     ax.axhline(0, color="0.6", lw=0.5)
     ax.set_xticks(x, names, fontsize="small", rotation=55, ha="right", rotation_mode="anchor")
     ax.set_xlabel(f"object (reference: object {logistic.reference_object})")
-    ax.set_ylabel("difficulty\n(log10 odds ratio of not recognising)")
+    ax.set_ylabel("difficulty (log10 odds\nratio of not recognising)")
     ax.set_title(
         "above 0: harder than the reference object; below 0: easier "
         f"(95 % {'profile-likelihood' if use_profile else 'Wald'} CI; "
