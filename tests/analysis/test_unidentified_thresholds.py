@@ -139,7 +139,7 @@ def test_pooled_unidentified_fit_prints_no_population_interval(sim, case):
     assert res.population_ci == {c: {} for c in res.thresholds}
     text = render_markdown(res, figures=False)
     assert expect in text
-    assert "population 95 % interval" not in text
+    assert "95 % population interval" not in text  # the per-condition interval
     r = res.results_json()
     for c in res.thresholds:
         assert r["thresholds"][c]["p50_pixels"] is None
