@@ -30,12 +30,47 @@ __all__ = [
     "plot_time_to_recognition",
     "save_time_to_recognition",
     "ACTIVE_FIGURE",
+    "mark_simulated",
+    "SIMULATED_MARK",
 ]
 
 #: Colours per condition (ours): grey for cluttered, blue for de-cluttered.
 COLORS: dict[str, str] = {"cluttered": "0.35", "decluttered": "tab:blue"}
 #: Prosthesis resolution line of Fig. 9, pixels. Source: Jung et al. 2015, Fig. 9 caption.
 PROSTHESIS_PX: float = 1500.0
+#: Text stamped on every figure drawn from simulated sessions (:func:`mark_simulated`).
+SIMULATED_MARK: str = "SIMULATED"
+
+
+def mark_simulated(fig: Figure) -> Figure:
+    """Stamp :data:`SIMULATED_MARK` across a figure drawn from simulated data; return it.
+
+    A large, light diagonal label over the whole figure (drawn above the axes), so that a
+    cropped panel still says it is not data from people.
+
+    Parameters
+    ----------
+    fig : matplotlib Figure
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        The same figure.
+    """
+    fig.text(
+        0.5,
+        0.5,
+        SIMULATED_MARK,
+        ha="center",
+        va="center",
+        rotation=25,
+        fontsize=40,
+        color="tab:red",
+        alpha=0.25,
+        zorder=10,
+        gid="simulated-mark",
+    )
+    return fig
 
 
 def _new_ax(ax: Axes | None, size: tuple[float, float] = (5.0, 3.8)) -> Axes:
@@ -146,18 +181,27 @@ def plot_subject_thresholds(
     pooled: dict[str, WeibullFit] | None = None,
     *,
     pc: float = 0.5,
+    population_ci: dict[str, dict[str, Any]] | None = None,
     ax: Axes | None = None,
 ) -> Axes:
-    """Plot each subject's threshold (with 95 % CrI) per condition; pooled values as grey bars.
+    """Plot each subject's threshold per condition and the pooled one with its intervals (log axis).
+
+    A measured threshold is a point with its 95 % credible interval; a censored one an open
+    triangle at the tested limit; an unidentified one a bar spanning the tested levels that
+    bracket it (no point). The pooled threshold is a black diamond with its 95 % credible
+    interval (these subjects and objects) and, when given, a wider grey bar for its population
+    interval. The legend lists only what is drawn.
 
     Parameters
     ----------
     subject_fits : dict
         Subject -> condition -> fit.
     pooled : dict of str to WeibullFit, optional
-        Pooled fits, drawn as bars.
+        Pooled fits.
     pc : float
         Proportion correct of the thresholds.
+    population_ci : dict, optional
+        ``AnalysisResult.population_ci``: condition -> ``{"0.5": [low, high]}``.
     ax : matplotlib Axes, optional
 
     Returns
@@ -168,36 +212,76 @@ def plot_subject_thresholds(
     ----------
     Jung et al. 2015, Fig. 9.
     """
-    ax = _new_ax(ax)
+    from matplotlib.lines import Line2D
+
+    ax = _new_ax(ax, (6.8, 3.8))
     subjects = list(subject_fits)
+    drawn: dict[str, Any] = {}
+    width = max(0.06, min(0.5 / max(len(subjects), 1), 0.12))
     for j, cond in enumerate(CONDITIONS):
-        if pooled and cond in pooled:
-            t = pooled[cond].threshold(pc).median
-            if np.isfinite(t):
-                ax.bar(j, t, width=0.6, color="0.85", zorder=0)
         for i, s in enumerate(subjects):
             fit = subject_fits[s].get(cond)
             if fit is None:
                 continue
             t = fit.threshold(pc)
-            off = (i - (len(subjects) - 1) / 2) * 0.06
+            off = (i - (len(subjects) - 1) / 2) * width - 0.15
+            color = f"C{i % 10}"
             if t.status in ("censored_below", "censored_above"):
-                # A bound, not a measurement: an open triangle at the tested limit.
                 y, m = (t.lowest, "v") if t.status == "censored_below" else (t.highest, "^")
-                ax.plot(
-                    j + off, y, m, mfc="none", ms=5, color=f"C{i % 10}", label=s if j == 0 else None
-                )
+                ax.plot(j + off, y, m, mfc="none", ms=5, color=color)
+                key = "< lowest level tested" if m == "v" else "> highest level tested"
+                drawn.setdefault(key, Line2D([], [], marker=m, ls="", mfc="none", color="0.3"))
+                drawn.setdefault(f"subject {s}", Line2D([], [], marker="o", ls="", color=color))
             elif t.measured:
                 lo, hi = t.ci95
-                hi = hi if np.isfinite(hi) else t.median * 10
                 ax.errorbar(
                     j + off,
                     t.median,
                     yerr=[[t.median - lo], [hi - t.median]],
                     fmt="o",
                     ms=4,
-                    color=f"C{i % 10}",
-                    label=s if j == 0 else None,
+                    color=color,
+                )
+                drawn.setdefault(f"subject {s}", Line2D([], [], marker="o", ls="", color=color))
+            else:
+                blo, bhi = t.bracket
+                blo = blo if np.isfinite(blo) else t.lowest
+                bhi = bhi if np.isfinite(bhi) else t.highest
+                if np.isfinite(blo) and np.isfinite(bhi):
+                    ax.plot([j + off] * 2, [blo, bhi], color=color, lw=3, alpha=0.5)
+                    drawn.setdefault(
+                        "not identified: between tested levels",
+                        Line2D([], [], color="0.3", lw=3, alpha=0.5),
+                    )
+                    drawn.setdefault(f"subject {s}", Line2D([], [], marker="o", ls="", color=color))
+        if pooled and cond in pooled:
+            t = pooled[cond].threshold(pc)
+            x = j + 0.3
+            pop = (population_ci or {}).get(cond, {}).get(f"{pc:g}")
+            if t.measured:
+                if pop:
+                    ax.plot([x, x], pop, color="0.6", lw=6, solid_capstyle="butt", zorder=1)
+                    drawn["pooled: population 95 % interval"] = Line2D([], [], color="0.6", lw=6)
+                lo, hi = t.ci95
+                ax.errorbar(
+                    x,
+                    t.median,
+                    yerr=[[t.median - lo], [hi - t.median]],
+                    fmt="D",
+                    ms=6,
+                    color="k",
+                    capsize=3,
+                    zorder=3,
+                )
+                drawn["pooled: median, 95 % CrI"] = Line2D([], [], marker="D", ls="", color="k")
+            elif t.status in ("censored_below", "censored_above"):
+                y, m = (t.lowest, "v") if t.status == "censored_below" else (t.highest, "^")
+                ax.plot(x, y, m, ms=7, color="k")
+                drawn["pooled: censored"] = Line2D([], [], marker=m, ls="", color="k")
+            elif np.isfinite(t.bracket[0]) and np.isfinite(t.bracket[1]):
+                ax.plot([x, x], t.bracket, color="k", lw=3, alpha=0.5)
+                drawn["pooled: not identified, between tested levels"] = Line2D(
+                    [], [], color="k", lw=3, alpha=0.5
                 )
     ax.axhline(PROSTHESIS_PX, color="k", ls="--", lw=0.8)
     ax.annotate(
@@ -212,29 +296,17 @@ def plot_subject_thresholds(
     )
     ax.set_yscale("log")
     ax.set_xticks(range(len(CONDITIONS)), CONDITIONS)
+    ax.set_xlim(-0.6, len(CONDITIONS) - 0.4)
     ax.set_ylabel(f"pixels for {100 * pc:g} % recognition")
-    if subjects:
-        from matplotlib.lines import Line2D
-        from matplotlib.patches import Patch
-
-        got = dict(zip(*reversed(ax.get_legend_handles_labels()), strict=True))
-        labels = [s for s in subjects if s in got]
-        handles = [got[s] for s in labels]
-        if pooled:
-            handles.append(Patch(color="0.85"))
-            labels.append("pooled (posterior median)")
-        handles += [
-            Line2D([], [], marker="^", ls="", mfc="none", color="0.3"),
-            Line2D([], [], marker="v", ls="", mfc="none", color="0.3"),
-        ]
-        labels += ["> highest level tested", "< lowest level tested"]
+    if drawn:
         ax.legend(
-            handles,
-            labels,
+            list(drawn.values()),
+            list(drawn),
             fontsize="x-small",
             frameon=False,
-            ncols=2,
-            title="subject (median, 95 % CrI)",
+            loc="upper left",
+            bbox_to_anchor=(1.01, 1.0),
+            title="subjects: median, 95 % CrI",
             title_fontsize="x-small",
         )
     return ax
@@ -282,7 +354,8 @@ def plot_subject_curves(
 def plot_object_difficulty(logistic: LogisticFit, *, ax: Axes | None = None) -> Axes:
     """Plot object difficulty: log odds ratio of *not* recognising each object vs object 1.
 
-    Positive = harder than the reference object. Error bars are 95 % Wald intervals.
+    Positive = harder than the reference object. Error bars are 95 % profile-likelihood intervals
+    (Wald intervals when the fit has none).
 
     Parameters
     ----------
@@ -297,13 +370,19 @@ def plot_object_difficulty(logistic: LogisticFit, *, ax: Axes | None = None) -> 
     ----------
     Jung et al. 2015, Fig. S3 (difficulty as the log odds ratio of failure).
     """
-    ax = _new_ax(ax, (7.0, 4.2))
     rows = [r for r in logistic.odds_ratios.rows if r[0].startswith("object:")]
     names = [logistic.reference_object] + [r[0].split(":", 1)[1] for r in rows]
+    # Rotated object names take height from the axes; grow the figure with the longest, so the
+    # y-label (centred on the axes) keeps inside it.
+    ax = _new_ax(ax, (7.0, max(4.2, 3.4 + 0.075 * max(len(n) for n in names))))
+    prof = logistic.profile_ci95
+    use_profile = bool(rows) and all(r[0] in prof for r in rows)
+    ci = [prof[r[0]] if use_profile else (r[2], r[3]) for r in rows]
     # Failure odds ratio = 1 / recognition odds ratio, so its log10 is the negated log10.
-    val = [0.0] + [-np.log10(r[1]) for r in rows]
-    lo = [0.0] + [-np.log10(r[3]) for r in rows]
-    hi = [0.0] + [-np.log10(r[2]) for r in rows]
+    with np.errstate(divide="ignore"):
+        val = [0.0] + [-np.log10(r[1]) for r in rows]
+        lo = [0.0] + [-np.log10(c[1]) for c in ci]
+        hi = [0.0] + [-np.log10(c[0]) for c in ci]
     x = np.arange(len(names))
     ax.errorbar(
         x,
@@ -320,21 +399,34 @@ def plot_object_difficulty(logistic: LogisticFit, *, ax: Axes | None = None) -> 
     ax.axhline(0, color="0.6", lw=0.5)
     ax.set_xticks(x, names, fontsize="small", rotation=55, ha="right", rotation_mode="anchor")
     ax.set_xlabel(f"object (reference: object {logistic.reference_object})")
-    ax.set_ylabel("difficulty: log10 odds ratio of not recognising")
+    ax.set_ylabel("difficulty (log10 odds\nratio of not recognising)")
     ax.set_title(
         "above 0: harder than the reference object; below 0: easier "
-        "(95 % Wald CI; * p < 0.05, ** p < 0.01)",
+        f"(95 % {'profile-likelihood' if use_profile else 'Wald'} CI; "
+        "* p < 0.05, ** p < 0.01)",
         fontsize="x-small",
     )
     return ax
 
 
 def _draw(result: Any, name: str) -> Figure:
+    fig = _draw_figure(result, name)
+    if getattr(result, "simulated_sessions", ()):
+        mark_simulated(fig)
+    return fig
+
+
+def _draw_figure(result: Any, name: str) -> Figure:
     pc = result.options.pc
     if name == "fig8_recognition_vs_pixels":
         return plot_recognition(result.thresholds, pc=pc).figure
     if name == "fig9_subject_thresholds":
-        return plot_subject_thresholds(result.subject_thresholds, result.thresholds, pc=pc).figure
+        return plot_subject_thresholds(
+            result.subject_thresholds,
+            result.thresholds,
+            pc=pc,
+            population_ci=getattr(result, "population_ci", None),
+        ).figure
     if name == "figS2_subject_curves":
         return plot_subject_curves(result.subject_thresholds, pc=pc)
     ax = plot_object_difficulty(result.logistic)
@@ -405,7 +497,8 @@ def save_all(result: Any, folder: str | Path, *, processes: int = 2) -> list[Pat
 def save_figures(figs: dict[str, Figure], folder: str | Path) -> list[Path]:
     """Save each figure as a 300 dpi PNG, an SVG and a PDF (journal formats).
 
-    The layout is computed once per figure, not once per file.
+    The layout is computed once per figure, not once per file; the saved area is grown to
+    every label (``bbox_inches='tight'``), so a long axis label is never clipped.
 
     Parameters
     ----------
@@ -426,7 +519,8 @@ def save_figures(figs: dict[str, Figure], folder: str | Path) -> list[Path]:
         fig.set_layout_engine("none")
         for ext in ("png", "svg", "pdf"):
             p = folder / f"{name}.{ext}"
-            fig.savefig(p, dpi=300)
+            # 'tight' grows the saved area to every label, so none is clipped at an edge.
+            fig.savefig(p, dpi=300, bbox_inches="tight", pad_inches=0.04)
             written.append(p)
     return written
 

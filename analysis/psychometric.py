@@ -41,7 +41,7 @@ from analysis.errors import DataError
 from analysis.weibull import SIGMOIDS, WeibullFit, default_prior, fit_mle, is_log_axis
 from analysis.weibull.batch import FitJob, sample_batch
 from analysis.weibull.model import _data_warnings
-from analysis.weibull.threshold import _json_float
+from analysis.weibull.threshold import _bracket_text, _json_float
 
 __all__ = [
     "FitSpec",
@@ -531,6 +531,9 @@ def _threshold_md(t: dict[str, Any]) -> str:
         return f"< {_fmt(t['lowest_tested'])} (censored: {t['reason']})"
     if st == "censored_above":
         return f"> {_fmt(t['highest_tested'])} (censored: {t['reason']})"
+    where = _bracket_text(t.get("bracket") or (None, None), "{:.4g}", "")
+    if where:
+        return f"{where} (unidentified: {t['reason']})"
     return f"not identified ({t['reason']})"
 
 
@@ -562,7 +565,13 @@ def render_fit_markdown(r: dict[str, Any], plots: Sequence[str]) -> str:
         lines.append(
             f"| {g['label']} | {g['n_trials']:g} | "
             + " | ".join(cells)
-            + f" | {gof['deviance']:.2f} ({gof['deviance_df']}) | {gof['ppp']:.2f} | "
+            + " | "
+            + (
+                f"{gof['deviance']:.2f} ({gof['deviance_df']})"
+                if gof["deviance_df"] > 0
+                else "n/a (df <= 0)"
+            )
+            + f" | {gof['ppp']:.2f} | "
             + ("yes" if g["converged"] else "NO")
             + " |"
         )
@@ -611,7 +620,11 @@ def write_fit_report(result: TableFit, out_dir: str | Path, *, plots: bool = Tru
                 ax.set_xlabel(result.spec.x)
                 ax.set_ylabel("proportion correct")
                 ax.set_title(g.label, fontsize="small")
-                ax.figure.savefig(tmp / name, dpi=300)
+                if any(w.startswith("SIMULATED data") for w in result.warnings):
+                    from analysis.figures import mark_simulated
+
+                    mark_simulated(ax.figure)
+                ax.figure.savefig(tmp / name, dpi=300, bbox_inches="tight", pad_inches=0.04)
     return Path(out_dir).resolve()
 
 

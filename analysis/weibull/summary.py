@@ -22,7 +22,14 @@ from analysis.weibull.model import (
 )
 from analysis.weibull.posterior import TAU_MULTIPLE
 from analysis.weibull.priors import PsychometricPrior
-from analysis.weibull.threshold import Threshold, _axis_value, _decreasing, _json_float
+from analysis.weibull.threshold import (
+    Threshold,
+    _axis_value,
+    _decreasing,
+    _json_float,
+    _separated,
+    bracket,
+)
 
 __all__ = ["WeibullFit"]
 
@@ -139,8 +146,11 @@ class WeibullFit:
         )
         lo, hi = min(self.levels), max(self.levels)
         status, reason = self._status(pc, float(q[1]), (float(q[0]), float(q[2])), t_mle)
+        br = (math.nan, math.nan)
+        if status != "unidentified" or "decreases" not in reason:
+            br = bracket(self.levels, self.k, self.n, pc)
         return Threshold(
-            float(pc), float(q[1]), (float(q[0]), float(q[2])), t_mle, status, lo, hi, reason
+            float(pc), float(q[1]), (float(q[0]), float(q[2])), t_mle, status, lo, hi, reason, br
         )
 
     def _status(
@@ -165,11 +175,56 @@ class WeibullFit:
             return "censored_above", "posterior median above the highest level tested"
         if med < lo:
             return "censored_below", "posterior median below the lowest level tested"
+        # Where the data do not identify the curve, an interval would be the prior's, not the
+        # data's: each case below is reported by its bracketing levels, with no interval.
+        if len(self.levels) < 3:
+            return "unidentified", f"{len(self.levels)} levels with data"
+        step = _separated(k, n)
+        if step is not None:
+            x = self.levels
+            return "unidentified", (
+                f"step response (none correct at {_num(x[step[0]])} or below, all from "
+                f"{_num(x[step[1]])}): the data are separated and set no slope"
+            )
+        on_bound = self._on_prior_bound()
+        if on_bound:
+            return "unidentified", on_bound
+        if ci[0] < lo or not (ci[1] <= hi):
+            side = (
+                f"down to {_num(ci[0])}, below the lowest level {_num(lo)}"
+                if ci[0] < lo
+                else f"up to {_num(ci[1])}, above the highest level {_num(hi)}"
+            )
+            return "unidentified", f"95 % interval runs beyond the tested range ({side})"
         a_lo, a_hi = (_axis_value(c, self.sigmoid) for c in ci)
         prior_width = self.prior.loc_range[1] - self.prior.loc_range[0]
         if not math.isfinite(a_hi - a_lo) or (a_hi - a_lo) > 0.8 * prior_width:
             return "unidentified", "95 % interval spans most of the prior range"
         return "measured", ""
+
+    def _on_prior_bound(self) -> str:
+        """Return why the slope or lapse rate sits on its prior bound ('' when neither does).
+
+        A parameter is on its bound when its ML value is there (within 0.1 % of the box) or more
+        than 10 % of its posterior lies within 2 % of it, the test :meth:`diagnostics` warns on.
+        The lapse rate's lower bound 0 is a natural limit, not a prior choice, and is not counted.
+        """
+        box = self.prior.bounds(3)
+        theta_ml = _theta_of_mle(self.mle, self.sigmoid)
+        for j, name in ((1, "slope"), (2, "lapse rate")):
+            lo, hi = box[j]
+            w = hi - lo
+            sides = (("upper", hi),) if j == 2 else (("lower", lo), ("upper", hi))
+            for side, bound in sides:
+                near = (
+                    self.samples[:, j] < lo + 0.02 * w
+                    if side == "lower"
+                    else self.samples[:, j] > hi - 0.02 * w
+                )
+                if abs(theta_ml[j] - bound) <= 1e-3 * w or float(np.mean(near)) > 0.10:
+                    value = math.exp(bound) if j == 1 else bound
+                    return f"{name} on its prior {side} bound ({value:.3g})"
+        return ""
 
     def diagnostics(self, pc: float = 0.5) -> list[str]:
         """Return one-line warnings about this fit (unconverged chain, binding prior bound, ...).
@@ -395,6 +450,11 @@ class WeibullFit:
             prior=PsychometricPrior.from_dict(d["prior"]),
             overdispersion=bool(d.get("overdispersion", False)),
         )
+
+
+def _num(v: float) -> str:
+    """A level or bound for a status reason: ``17,876``, ``2.35`` (no exponent for pixels)."""
+    return f"{v:,.0f}" if abs(v) >= 1000 else f"{v:.3g}"
 
 
 def _deviance(k: np.ndarray, n: np.ndarray, p: np.ndarray) -> np.ndarray:

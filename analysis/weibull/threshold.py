@@ -11,7 +11,7 @@ from scipy import special
 
 from analysis.weibull.model import _axis, is_log_axis
 
-__all__ = ["STATUSES", "Threshold"]
+__all__ = ["STATUSES", "Threshold", "bracket"]
 
 
 #: Threshold statuses (see :class:`Threshold`).
@@ -25,8 +25,11 @@ class Threshold:
     Only a ``measured`` threshold is a number to report. ``censored_below`` means "below the
     lowest level tested" (e.g. everything was recognised), ``censored_above`` "above the highest
     level tested" (e.g. the curve never reaches ``pc`` there), and ``unidentified`` that the data
-    do not locate it (the posterior is essentially the prior, one level only, or the data decrease
-    with level). The numbers are kept for the record but are not measurements in those cases.
+    do not locate it: fewer than three levels carry data, the data are separated (a step
+    response), the slope or the lapse rate sits on its prior bound, the 95 % interval runs
+    beyond the tested levels or spans most of the prior, or the data decrease with level. The
+    numbers are kept for the record but are not measurements in those cases; an unidentified
+    threshold is reported by the tested levels that bracket it (:func:`bracket`) instead.
 
     Parameters
     ----------
@@ -42,7 +45,11 @@ class Threshold:
     lowest, highest : float
         Lowest and highest level tested, x units.
     reason : str
-        Why the status is not ``measured`` (empty when it is).
+        Why the status is not ``measured`` (empty when it is), e.g. ``2 levels with data``.
+    bracket : (float, float)
+        The tested levels between which the observed proportion correct crosses ``pc``
+        (:func:`bracket`), x units; NaN on a side with no such level, both NaN when the data
+        give no bracket (e.g. proportion correct decreasing with level).
     """
 
     pc: float
@@ -53,6 +60,7 @@ class Threshold:
     lowest: float = math.nan
     highest: float = math.nan
     reason: str = ""
+    bracket: tuple[float, float] = (math.nan, math.nan)
 
     @property
     def measured(self) -> bool:
@@ -71,7 +79,10 @@ class Threshold:
             return f"< {fmt.format(self.lowest)}{u} (below the lowest level tested)"
         if self.status == "censored_above":
             return f"> {fmt.format(self.highest)}{u} (above the highest level tested)"
-        return f"not identified ({self.reason})"
+        where = _bracket_text(self.bracket, fmt, u)
+        if not where:
+            return f"not identified ({self.reason})"
+        return f"{where} (unidentified: {self.reason})"
 
     def to_dict(self) -> dict[str, Any]:
         """Return a JSON-ready dict (inf -> None)."""
@@ -84,7 +95,96 @@ class Threshold:
             "lowest_tested": _json_float(self.lowest),
             "highest_tested": _json_float(self.highest),
             "reason": self.reason,
+            "bracket": [_json_float(self.bracket[0]), _json_float(self.bracket[1])],
         }
+
+
+def _bracket_text(br: Any, fmt: str, u: str) -> str:
+    """``"between A and B px"``, ``"< B px"``, ``"> A px"``, or '' without a bracket.
+
+    ``br`` is a bracket pair; None (from JSON) counts as NaN.
+    """
+    lo, hi = (math.nan if v is None else float(v) for v in br)
+    if math.isfinite(lo) and math.isfinite(hi):
+        return f"between {fmt.format(lo)} and {fmt.format(hi)}{u}"
+    if math.isfinite(hi):
+        return f"< {fmt.format(hi)}{u}"
+    if math.isfinite(lo):
+        return f"> {fmt.format(lo)}{u}"
+    return ""
+
+
+def bracket(levels: Any, k: Any, n: Any, pc: float) -> tuple[float, float]:
+    """Return the tested levels that bracket where proportion correct crosses ``pc``.
+
+    The observed proportions are made non-decreasing in level first (pool-adjacent-violators,
+    weighted by trials), so one noisy level does not split the bracket. The bracket is the
+    highest level whose pooled proportion is below ``pc`` and the lowest level whose pooled
+    proportion is above it; levels at exactly ``pc`` lie inside. A side with no such level is
+    NaN: ``(nan, B)`` means "below B", ``(A, nan)`` "above A".
+
+    Parameters
+    ----------
+    levels, k, n : array_like of shape (n_levels,)
+        Distinct levels in increasing order (x units), number correct, number of trials (> 0).
+    pc : float
+        Proportion correct, in (0, 1).
+
+    Returns
+    -------
+    (float, float)
+        Lower and upper bracketing level, x units.
+
+    Examples
+    --------
+    >>> bracket([3290.0, 17876.0], [24, 100], [120, 120], 0.5)
+    (3290.0, 17876.0)
+    >>> bracket([96.0, 486.0, 950.0], [0, 0, 3], [2, 2, 3], 0.5)
+    (486.0, 950.0)
+    """
+    x = np.asarray(levels, float)
+    p = _pava(np.asarray(k, float) / np.asarray(n, float), np.asarray(n, float))
+    below, above = x[p < pc], x[p > pc]
+    lo = float(below.max()) if below.size else math.nan
+    hi = float(above.min()) if above.size else math.nan
+    return lo, hi
+
+
+def _pava(y: np.ndarray, w: np.ndarray) -> np.ndarray:
+    """Weighted least-squares non-decreasing fit of ``y`` (pool adjacent violators)."""
+    vals: list[float] = []
+    wts: list[float] = []
+    sizes: list[int] = []
+    for yi, wi in zip(y, w, strict=True):
+        vals.append(float(yi))
+        wts.append(float(wi))
+        sizes.append(1)
+        while len(vals) > 1 and vals[-2] > vals[-1]:
+            wsum = wts[-2] + wts[-1]
+            v = (vals[-2] * wts[-2] + vals[-1] * wts[-1]) / wsum
+            s = sizes[-2] + sizes[-1]
+            del vals[-1], wts[-1], sizes[-1]
+            vals[-1], wts[-1], sizes[-1] = v, wsum, s
+    return np.repeat(vals, sizes)
+
+
+def _separated(k: np.ndarray, n: np.ndarray) -> tuple[int, int] | None:
+    """Return ``(i, j)`` when the data are a step: none correct at levels <= i, all from j.
+
+    At most one level between the two (``j - i <= 2``) may be mixed (quasi-complete separation,
+    as in logistic regression): no finite slope fits such data better than a vertical step.
+    None when the data are not separated.
+    """
+    none = k == 0
+    every = k == n
+    m = len(k)
+    for i in range(m - 1):
+        if not none[: i + 1].all():
+            break
+        for j in (i + 1, i + 2):
+            if j < m and every[j:].all() and (j == i + 1 or 0 < k[i + 1] < n[i + 1]):
+                return i, j
+    return None
 
 
 def _axis_value(v: float, sigmoid: str) -> float:

@@ -375,6 +375,8 @@ def status_command(
             f"subject {sub['subject']:<8} {state}, {sub['answered']}/{sub['planned']} trials "
             f"answered; {sub['sessions']} session(s))"
         )
+    from experiment.session.scoring import KAPPA_MIN_TRIALS
+
     for k in rep["kappa"]:
         kv = "nan" if k["kappa"] is None or math.isnan(k["kappa"]) else f"{k['kappa']:.3f}"
         ci = (
@@ -382,6 +384,8 @@ def status_command(
             if k.get("ci95_low") is None or math.isnan(k["ci95_low"])
             else f" (95% CI {k['ci95_low']:.3f} to {k['ci95_high']:.3f})"
         )
+        if not ci and 0 < k["n"] < KAPPA_MIN_TRIALS:
+            ci = f" (no 95% CI: too few trials, fewer than {KAPPA_MIN_TRIALS})"
         typer.echo(
             f"agreement {k['rater_a']} vs {k['rater_b']}: Cohen's kappa {kv}{ci} on {k['n']} "
             f"trials (observed {k['observed']:.3f}, chance {k['expected']:.3f})"

@@ -29,6 +29,8 @@ __all__ = [
     "KappaResult",
     "cohen_kappa",
     "kappa_interval",
+    "kappa_interval_few_trials",
+    "KAPPA_MIN_TRIALS",
 ]
 
 #: Words that describe shape or features rather than identity or use; a response made only of
@@ -274,7 +276,7 @@ def cohen_kappa(log, rater_a: str, rater_b: str, *, labels: str = "score") -> Ka
     k, po, pe = kappa(la, lb)
     se, lo, hi = float("nan"), float("nan"), float("nan")
     if la and not math.isnan(k):
-        k, se, lo, hi = kappa_interval(la, lb)
+        k, se, lo, hi = kappa_interval_few_trials(la, lb)
     return KappaResult(rater_a, rater_b, len(common), po, pe, k, se, lo, hi)
 
 
@@ -315,3 +317,56 @@ def kappa_interval(
         res = cohens_kappa(table)  # its default alpha, 0.025 per side: a 95 % interval
     k, se = float(res["kappa"]), float(res["std_kappa"])
     return k, se, max(-1.0, float(res["kappa_low"])), min(1.0, float(res["kappa_upp"]))
+
+
+#: Fewest trials scored by both raters for which a 95 % interval of kappa is given (ours): below
+#: it the interval is left out and reported as "too few trials", because the asymptotic standard
+#: error behind the Wald interval then misstates the uncertainty (it is 0 at perfect agreement).
+KAPPA_MIN_TRIALS: int = 20
+
+
+def kappa_interval_few_trials(
+    scores_a: Sequence[str], scores_b: Sequence[str]
+) -> tuple[float, float, float, float]:
+    """Return Cohen's kappa with a 95 % interval that stays honest on few trials.
+
+    Below :data:`KAPPA_MIN_TRIALS` trials the standard error and interval are NaN ("too few
+    trials"). From there on it is the Wald interval of :func:`kappa_interval`, widened where
+    needed to contain the exact interval conditional on the raters' marginals: the
+    Clopper-Pearson 95 % interval of the observed agreement ``po`` mapped to kappa with the
+    chance agreement ``pe`` held at its observed value, ``(po - pe) / (1 - pe)``. So perfect
+    agreement on 30 trials gives an interval reaching well below 1, never "1.000 to 1.000".
+
+    Parameters
+    ----------
+    scores_a, scores_b : sequence of str
+        Labels of the same trials by two raters (equally long, non-empty).
+
+    Returns
+    -------
+    (kappa, se, ci95_low, ci95_high) : floats
+        NaN for se and the interval below :data:`KAPPA_MIN_TRIALS` trials.
+
+    Raises
+    ------
+    ValueError
+        Unequal lengths or no trials.
+
+    References
+    ----------
+    Clopper, C. J., Pearson, E. S. (1934). Biometrika 26, 404-413; Fleiss, Cohen & Everitt 1969.
+    """
+    from scipy import stats
+
+    k, se, lo, hi = kappa_interval(scores_a, scores_b)
+    n = len(scores_a)
+    if n < KAPPA_MIN_TRIALS:
+        return k, float("nan"), float("nan"), float("nan")
+    _, po, pe = kappa(scores_a, scores_b)
+    if pe < 1.0:
+        agree = round(po * n)
+        po_lo = stats.beta.ppf(0.025, agree, n - agree + 1) if agree > 0 else 0.0
+        po_hi = stats.beta.ppf(0.975, agree + 1, n - agree) if agree < n else 1.0
+        lo = float(min(lo, max(-1.0, (po_lo - pe) / (1.0 - pe))))
+        hi = float(max(hi, min(1.0, (po_hi - pe) / (1.0 - pe))))
+    return k, se, lo, hi

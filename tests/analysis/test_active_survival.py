@@ -262,7 +262,7 @@ def test_figure_has_curves_censor_marks_and_the_simulated_mark(simulated) -> Non
 def _active_log(path):
     """A trial log of two simulated trials: one recognised, one passed."""
     from experiment.active.eventlog import ActiveEventLog
-    from experiment.triallog import TrialLog
+    from experiment.log import TrialLog
 
     log = TrialLog(path)
     sid = log.create_session(

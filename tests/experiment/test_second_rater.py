@@ -11,7 +11,13 @@ import pytest
 from experiment import cli
 from experiment.log import TrialLog
 from experiment.presentation.cli import pending_for_rater
-from experiment.session.scoring import cohen_kappa, kappa, kappa_interval
+from experiment.session.scoring import (
+    KAPPA_MIN_TRIALS,
+    cohen_kappa,
+    kappa,
+    kappa_interval,
+    kappa_interval_few_trials,
+)
 from tests.experiment.conftest import make_answered_log
 
 
@@ -115,15 +121,29 @@ def test_kappa_interval_matches_the_closed_form():
         kappa_interval([], [])
 
 
-def test_status_prints_kappa_with_interval(answered, capsys):
+def test_status_says_too_few_trials_for_a_kappa_interval(answered, capsys):
     with TrialLog(answered) as log:
         pending = pending_for_rater(log, "B")
         for i, p in enumerate(pending):
             log.add_score(p["session_id"], p["trial_index"], "named" if i % 3 else "wrong",
                           i % 3 != 0, "B")  # fmt: skip
         res = cohen_kappa(log, "B", "operator")
-    assert res.ci95_low <= res.kappa <= res.ci95_high
+    assert res.n < KAPPA_MIN_TRIALS and math.isnan(res.ci95_low)
     with pytest.raises(SystemExit):
         cli.main(["session", "status", str(answered)])
     out = capsys.readouterr().out
-    assert f"(95% CI {res.ci95_low:.3f} to {res.ci95_high:.3f})" in out
+    assert "95% CI -" not in out and "(95% CI 1.000 to 1.000)" not in out
+    assert f"(no 95% CI: too few trials, fewer than {KAPPA_MIN_TRIALS})" in out
+
+
+def test_kappa_interval_on_perfect_agreement_is_not_a_point():
+    # 30 of 30 trials agree: the Wald interval is 1.000 to 1.000 (standard error 0). The
+    # Clopper-Pearson lower bound of 30/30 is 0.025^(1/30) = 0.8843 in closed form; mapped with
+    # chance agreement 0.5 it gives kappa (0.8843 - 0.5) / 0.5.
+    a = ["a", "b"] * 15
+    k, _, lo, hi = kappa_interval_few_trials(a, a)
+    assert k == 1.0 and hi == 1.0
+    assert lo == pytest.approx((0.025 ** (1 / 30) - 0.5) / 0.5, rel=1e-9)
+    assert kappa_interval(a, a)[2:] == (1.0, 1.0)
+    k, se, lo, hi = kappa_interval_few_trials(a[:2], a[:2])
+    assert k == 1.0 and math.isnan(se) and math.isnan(lo) and math.isnan(hi)
