@@ -18,13 +18,8 @@ import pandas as pd
 
 from analysis.data import CONDITIONS, TrialTable, file_record, object_order
 from analysis.errors import DataError
-from analysis.logistic import (
-    LogisticFit,
-    MixedFit,
-    fit_logistic,
-    fit_mixed,
-    predict_from_odds_ratio,
-)
+from analysis.logistic import LogisticFit, fit_logistic, predict_from_odds_ratio
+from analysis.mixed import MixedFit, fit_mixed
 from analysis.weibull import PsychometricPrior, WeibullFit, aggregate, default_prior, fit_mle
 from analysis.weibull.batch import FitJob, sample_batch
 from analysis.weibull.model import _data_warnings

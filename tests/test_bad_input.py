@@ -1,4 +1,4 @@
-"""Bad input, measured (issue 10): every command, fed bad files, options and protocols.
+"""Bad input, measured: every command, fed bad files, options and protocols.
 
 Each row runs ``confocal ...`` in-process and asserts: exit status 2; one message on stderr that
 names the file, field or option and what was expected (one ``confocal: error:`` line, or typer's
@@ -825,7 +825,7 @@ _PASSED: Counter = Counter()
 
 
 @pytest.mark.parametrize("row", ROWS, ids=[f"{r.command}: {r.name}" for r in ROWS])
-def test_bad_input_issue_10(row: Row, world: World, tmp_path, capsys, monkeypatch):
+def test_bad_input_is_one_line_and_exit_2(row: Row, world: World, tmp_path, capsys, monkeypatch):
     monkeypatch.setenv("COLUMNS", "250")
     monkeypatch.setenv("TERMINAL_WIDTH", "250")
     monkeypatch.chdir(tmp_path)
@@ -884,7 +884,7 @@ def _one_error_line(capsys) -> str:
 
 
 @pytest.mark.gl
-def test_screen_larger_than_the_gl_framebuffer_is_one_line_issue_10(world, tmp_path, capsys):
+def test_screen_larger_than_the_gl_framebuffer_is_one_line(world, tmp_path, capsys):
     """A screen the GL driver cannot allocate (once an incomplete-framebuffer traceback)."""
     from experiment.presentation.presenter import Presenter, PresenterError, ScreenGeometry
 
@@ -920,7 +920,7 @@ def test_screen_larger_than_the_gl_framebuffer_is_one_line_issue_10(world, tmp_p
 
 
 @pytest.mark.parametrize("command", ["status", "export", "analyze"])
-def test_reading_a_log_leaves_no_wal_or_shm_files_issue_10(world, tmp_path, command, capsys):
+def test_reading_a_log_leaves_no_wal_or_shm_files(world, tmp_path, command, capsys):
     """Read-only commands open the database read-only: nothing appears beside it."""
     db = tmp_path / "copy.sqlite"
     shutil.copy(world.db, db)
@@ -943,7 +943,7 @@ def test_reading_a_log_leaves_no_wal_or_shm_files_issue_10(world, tmp_path, comm
     assert sorted(p.name for p in tmp_path.iterdir() if p.name != "out") == ["copy.sqlite"]
 
 
-def test_full_disk_while_analyze_writes_its_report_issue_10(world, tmp_path, monkeypatch, capsys):
+def test_full_disk_while_analyze_writes_its_report(world, tmp_path, monkeypatch, capsys):
     """ENOSPC in the middle of the report: one line, exit 2, no partial report folder."""
     real = Path.write_text
 

@@ -3,7 +3,7 @@
 Every call into ``stimuli`` (scene synthesis, loading, refocus, de-clutter, compress, plane
 detection) goes through a function here, so a rename in ``stimuli`` is a one-line fix. Only
 public ``stimuli`` functions are used. Nothing here needs OpenGL: this is the CPU reference
-pipeline the GL viewer of issue 14 is compared against.
+pipeline the GL viewer is compared against.
 """
 
 from __future__ import annotations

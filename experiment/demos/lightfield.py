@@ -174,7 +174,7 @@ def run_lightfield_demo(out_dir: str | Path, *, seed: int = 0) -> list[str]:
     ds = np.linspace(lf.disparity_px(lo), lf.disparity_px(hi), SCAN_PLANES)
     with Progress(transient=True) as bar:
         bar.add_task("scanning 200 confocal planes", total=None)
-        scan = find_object_planes(lf, ds)  # agreement with a null (issue 12)
+        scan = find_object_planes(lf, ds)  # agreement with a null
     rows_csv = scan.rows()
     write_table(out / "planes.csv", rows_csv, list(rows_csv[0]))
     plot_scores(scan, out / "fig15_scores.png")

@@ -1,4 +1,4 @@
-"""``confocal view LIGHTFIELD``: the live active-confocal viewer (issue 14).
+"""``confocal view LIGHTFIELD``: the live active-confocal viewer.
 
 Without ``--screenshot`` it opens a window (moderngl-window); with ``--screenshot OUT.png`` it
 renders one state offscreen (EGL, or ``--cpu`` with numpy only) and exits, so the viewer runs in

@@ -12,14 +12,12 @@ from scipy import optimize, special, stats
 from analysis.jung2015 import EQ1_EXAMPLES, eq1
 from analysis.logistic import (
     LogisticFit,
-    MixedFit,
     OddsRatioTable,
     firth_logit,
     fit_logistic,
-    fit_mixed,
-    laplace_glmm,
     predict_from_odds_ratio,
 )
+from analysis.mixed import MixedFit, fit_mixed, laplace_glmm
 from analysis.simulate import LogisticObserver, simulate_logistic_trials
 
 

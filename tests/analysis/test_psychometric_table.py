@@ -7,7 +7,7 @@ import pandas as pd
 import pytest
 
 from analysis.errors import DataError
-from analysis.logistic import fit_mixed
+from analysis.mixed import fit_mixed
 from analysis.psychometric import FitSpec, counts_by_group, read_table, resolve_sigmoid
 from analysis.weibull import default_prior, fit_mle
 from analysis.weibull.batch import FitJob, sample_batch
