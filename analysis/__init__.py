@@ -13,13 +13,44 @@ Typical use::
 
 from __future__ import annotations
 
-from analysis.data import TrialTable, read_trials
-from analysis.errors import DataError
-from analysis.logistic import LogisticFit, OddsRatioTable, fit_logistic
-from analysis.pipeline import AnalysisOptions, AnalysisResult, analyze
-from analysis.psychometric import FitSpec, fit_table
-from analysis.report import write_report
-from analysis.weibull import WeibullFit, fit_counts, fit_weibull, threshold_at
+import importlib
+from typing import Any
+
+#: Where each public name lives. The package imports a module only when one of its names is
+#: first used, so ``import analysis.errors`` (or ``confocal analyze --help``) does not load
+#: pandas, scipy and emcee.
+_HOME = {
+    "DataError": "analysis.errors",
+    "TrialTable": "analysis.data",
+    "read_trials": "analysis.data",
+    "WeibullFit": "analysis.weibull",
+    "fit_weibull": "analysis.weibull",
+    "fit_counts": "analysis.weibull",
+    "threshold_at": "analysis.weibull",
+    "FitSpec": "analysis.psychometric",
+    "fit_table": "analysis.psychometric",
+    "LogisticFit": "analysis.logistic",
+    "OddsRatioTable": "analysis.logistic",
+    "fit_logistic": "analysis.logistic",
+    "AnalysisOptions": "analysis.pipeline",
+    "AnalysisResult": "analysis.pipeline",
+    "analyze": "analysis.pipeline",
+    "write_report": "analysis.report",
+}
+
+
+def __getattr__(name: str) -> Any:
+    """Import the module that holds ``name`` on first use (PEP 562)."""
+    if name not in _HOME:
+        raise AttributeError(f"module 'analysis' has no attribute {name!r}")
+    value = getattr(importlib.import_module(_HOME[name]), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(_HOME))
+
 
 __all__ = [
     "DataError",

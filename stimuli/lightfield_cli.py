@@ -37,7 +37,6 @@ from typing import Annotated
 import numpy as np
 import typer
 
-from stimuli.build import parse_threshold
 from stimuli.errors import InputError
 from stimuli.resources import MAX_SEED, check_memory, finite_option
 
@@ -49,6 +48,14 @@ __all__ = [
     "parse_grid",
     "declutter_and_compress",
 ]
+
+
+def parse_threshold(text: str | float | None) -> float | None:
+    """The build's Sobel threshold rule (imported when used: ``--help`` stays light)."""
+    from stimuli.build.params import parse_threshold as parse
+
+    return parse(text)
+
 
 lightfield_app = typer.Typer(
     name="lightfield",
@@ -521,8 +528,7 @@ def scan_command(
             part.write_text(
                 json.dumps(
                     # the light field's file name only: no host path in a file that gets shared
-                    {"source": Path(lf.source).name, "declutter": declutter_mode}
-                    | scan.to_dict(),
+                    {"source": Path(lf.source).name, "declutter": declutter_mode} | scan.to_dict(),
                     indent=1,
                 )
             )

@@ -119,3 +119,32 @@ def test_edge_ratio_default_is_readable(capsys, monkeypatch):
     monkeypatch.setenv("COLUMNS", "400")
     page = _help(["lightfield", "refocus"], capsys)
     assert "1/13 ≈ 0.077" in page and "0.0769230" not in page
+
+
+#: What a sub-command's ``--help`` may not load: the libraries that take most of a second to
+#: import (numpy and Pillow, about 0.1 s together, are allowed: option types and defaults use them).
+HEAVY_FOR_HELP = (
+    "pandas",
+    "scipy",
+    "emcee",
+    "matplotlib",
+    "moderngl",
+    "statsmodels",
+    "skimage",
+    "textual",
+    "dask",
+)
+
+
+def _command_paths() -> list[list[str]]:
+    return [path for path, _ in _all_commands()]
+
+
+@pytest.mark.parametrize("path", _command_paths(), ids=" ".join)
+def test_every_help_page_imports_nothing_heavy(path):
+    """``confocal CMD --help`` stays fast: the libraries a command needs load when it runs."""
+    code = _PROBE.format(argv=[*path, "--help"], heavy=HEAVY_FOR_HELP)
+    out = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, timeout=60, check=True
+    ).stdout
+    assert json.loads(out.strip().splitlines()[-1]) == [], " ".join(path)
