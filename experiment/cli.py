@@ -13,10 +13,14 @@ only when one of its commands runs. ``confocal --help`` and ``--version`` import
 
 from __future__ import annotations
 
+import contextlib
 import errno
 import importlib
 import logging
 import sys
+import warnings
+from collections.abc import Iterator
+from pathlib import Path
 
 import typer
 from typer.core import TyperCommand, TyperGroup, TyperOption
@@ -177,6 +181,38 @@ def _one_line(text: str) -> str:
     return " ".join(str(text).split())
 
 
+#: The packages whose warnings are meant for the user (a scan that hit its range, a fit on its
+#: prior bound): shown as one line each, never as Python's ``path:line: UserWarning`` report.
+_OWN_PACKAGES = ("stimuli", "experiment", "analysis")
+
+
+@contextlib.contextmanager
+def _warnings_as_lines() -> Iterator[None]:
+    """Show the project's warnings as ``warning: MESSAGE`` lines on stderr while a command runs.
+
+    Warnings raised from third-party code keep Python's default handling (most are filtered out
+    unless ``-W`` asks for them).
+    """
+    shown = warnings.showwarning
+
+    def show(message, category, filename, lineno, file=None, line=None) -> None:
+        module = Path(filename).as_posix()
+        own = any(f"/{pkg}/" in module for pkg in _OWN_PACKAGES) and issubclass(
+            category, UserWarning
+        )
+        if not own:
+            shown(message, category, filename, lineno, file, line)
+            return
+        text = " ".join(str(message).split())
+        print(f"warning: {text}", file=file or sys.stderr)
+
+    warnings.showwarning = show
+    try:
+        yield
+    finally:
+        warnings.showwarning = shown
+
+
 def main(argv: list[str] | None = None) -> None:
     """Run the ``confocal`` command; user errors end with one line and exit status 2.
 
@@ -187,7 +223,7 @@ def main(argv: list[str] | None = None) -> None:
     from experiment.signals import Stopped, stop_on_signals
 
     try:
-        with stop_on_signals():
+        with stop_on_signals(), _warnings_as_lines():
             app(args=argv, prog_name="confocal")
     except Stopped as stop:
         typer.echo(

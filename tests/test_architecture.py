@@ -231,3 +231,29 @@ def test_no_history_in_names() -> None:
         if pattern.search(line) or pattern.search(p.name)
     ]
     assert not hits, f"history in names: {hits[:20]}"
+
+
+def test_project_warnings_are_one_line(monkeypatch, capsys) -> None:
+    """A warning from the project's code reaches the user as one line, without a source path."""
+    import warnings
+
+    import typer
+
+    from experiment import cli
+    from stimuli import planes
+
+    probe = typer.Typer()
+
+    @probe.command()
+    def warn() -> None:
+        warnings.warn_explicit(
+            "a scan hit its range;\n  widen it", UserWarning, planes.__file__, 10, module="x"
+        )
+
+    monkeypatch.setattr(cli, "app", probe)
+    with warnings.catch_warnings(), pytest.raises(SystemExit) as done:
+        warnings.simplefilter("always")
+        cli.main([])
+    assert done.value.code in (0, None)
+    err = capsys.readouterr().err
+    assert err == "warning: a scan hit its range; widen it\n"
