@@ -30,6 +30,7 @@ import json
 import os
 import time
 import tracemalloc
+import warnings
 
 import numpy as np
 
@@ -102,42 +103,44 @@ def _median(fn, repeat):
     return float(np.median(times))
 
 
+def _one_layout(grid, shape, baseline, repeat) -> dict:
+    lf = render_camera_array(
+        three_plane_scene(shape), grid=grid, shape_px=shape, baseline_m=baseline
+    )
+    views = lf.views
+    dst = np.empty_like(views)
+    d = lf.geometry.disparity_px(4.0) + 0.37
+    cells = grid_shape(shape, 13)
+    threshold = auto_threshold(refocus(lf, d))
+    floor_s = _median(lambda: np.copyto(dst, views), 2 * repeat)
+    ref_s = _median(lambda: refocus(lf, d), repeat)
+
+    def pipe():
+        edges = declutter(refocus(lf, d), threshold=threshold)
+        return compress(edges, cells, edge_ratio=1 / 13)
+
+    pipe_s = _median(pipe, repeat)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        scan_s = _median(lambda: find_object_planes(lf, n_planes=N_PLANES), max(3, repeat // 2))
+    return {
+        "floor_ms": floor_s * 1e3,
+        "refocus_x_floor": ref_s / floor_s,
+        "pipeline_x_floor": pipe_s / floor_s,
+        "scan_s": scan_s,
+    }
+
+
 def per_layout(repeat: int) -> dict:
     """Refocus, pipeline and scan per layout: median ms and ratios to the same-process floor."""
-    import warnings
-
     out = {}
     print(f"{'layout':22s} {'floor ms':>9s} {'refocus x':>10s} {'pipe x':>8s} {'scan s':>8s}")
     for grid, shape, baseline in LAYOUTS:
-        lf = render_camera_array(
-            three_plane_scene(shape), grid=grid, shape_px=shape, baseline_m=baseline
-        )
-        views = lf.views
-        dst = np.empty_like(views)
-        d = lf.geometry.disparity_px(4.0) + 0.37
-        cells = grid_shape(shape, 13)
-        threshold = auto_threshold(refocus(lf, d))
-        floor_s = _median(lambda: np.copyto(dst, views), 2 * repeat)
-        ref_s = _median(lambda: refocus(lf, d), repeat)
-
-        def pipe():
-            return compress(declutter(refocus(lf, d), threshold=threshold), cells, edge_ratio=1 / 13)
-
-        pipe_s = _median(pipe, repeat)
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            scan_s = _median(lambda: find_object_planes(lf, n_planes=N_PLANES), max(3, repeat // 2))
         name = f"{grid[0]}x{grid[1]} of {shape[1]}x{shape[0]}"
-        row = {
-            "floor_ms": floor_s * 1e3,
-            "refocus_x_floor": ref_s / floor_s,
-            "pipeline_x_floor": pipe_s / floor_s,
-            "scan_s": scan_s,
-        }
-        out[name] = row
+        row = out[name] = _one_layout(grid, shape, baseline, repeat)
         print(
             f"{name:22s} {row['floor_ms']:9.2f} {row['refocus_x_floor']:10.2f} "
-            f"{row['pipeline_x_floor']:8.2f} {scan_s:8.3f}"
+            f"{row['pipeline_x_floor']:8.2f} {row['scan_s']:8.3f}"
         )
     return out
 
