@@ -67,3 +67,12 @@ def test_cluster_without_dask_is_one_line(monkeypatch):
 def test_processes_below_one_is_refused():
     with pytest.raises(InputError, match="--processes must be >= 1, got 0"):
         list(run_per_capture(_square, [(2,)], processes=0))
+
+
+def test_build_reads_a_folder_of_captures_as_objects(captures):
+    from stimuli.build.pairs import read_pairs
+
+    pairs = read_pairs(captures)
+    assert [s.object for s in pairs.sources] == ["far", "near"]
+    assert all(s.kind == "lightfield" for s in pairs.sources)
+    assert pairs.sources[1].lightfield == captures / "near.npy"
