@@ -15,7 +15,12 @@ Every time is reported with ratios measured in the same run, because the machine
 Peak memory is the largest extra allocation during the call (``tracemalloc``; numpy reports its
 buffers to it), in MB. Times are the best of ``--repeat`` runs.
 
-Run: ``python benchmarks/bench_lightfield.py [--repeat 7] [--json out.json]``.
+``--layouts`` adds the same figures per grid layout (9x9, 7x7, 3x3 of 1024x1024 views, 1x7),
+as *medians* over ``--repeat`` runs with ratios to the floor measured in the same process:
+refocus (goal <= 1.5x the floor), refocus + de-clutter + compress (goal <= 2x), and the
+200-plane scan with detection (goals < 0.1 s on the 9x9, < 0.5 s on the 1024x1024 3x3).
+
+Run: ``python benchmarks/bench_lightfield.py [--repeat 7] [--layouts] [--json out.json]``.
 """
 
 from __future__ import annotations
@@ -25,6 +30,7 @@ import json
 import os
 import time
 import tracemalloc
+import warnings
 
 import numpy as np
 
@@ -77,10 +83,73 @@ def integer_shift_and_add(views, d):
     return acc / np.maximum(cnt, 1.0)
 
 
+#: Layouts of ``--layouts``: (grid, view shape (rows, cols), baseline m), each rendered from
+#: the three-plane scene (ours: the sizes of the shared captures: Lytro 7x7 383x552, HCI 3x3 at
+#: the 1024x1024 of a full-resolution grid, Middlebury 1x7 555x620).
+LAYOUTS = (
+    ((9, 9), (327, 492), 0.03),
+    ((7, 7), (383, 552), 0.02),
+    ((3, 3), (1024, 1024), 0.03),
+    ((1, 7), (555, 620), 0.03),
+)
+
+
+def _median(fn, repeat):
+    times = []
+    for _ in range(repeat):
+        t = time.perf_counter()
+        fn()
+        times.append(time.perf_counter() - t)
+    return float(np.median(times))
+
+
+def _one_layout(grid, shape, baseline, repeat) -> dict:
+    lf = render_camera_array(
+        three_plane_scene(shape), grid=grid, shape_px=shape, baseline_m=baseline
+    )
+    views = lf.views
+    dst = np.empty_like(views)
+    d = lf.geometry.disparity_px(4.0) + 0.37
+    cells = grid_shape(shape, 13)
+    threshold = auto_threshold(refocus(lf, d))
+    floor_s = _median(lambda: np.copyto(dst, views), 2 * repeat)
+    ref_s = _median(lambda: refocus(lf, d), repeat)
+
+    def pipe():
+        edges = declutter(refocus(lf, d), threshold=threshold)
+        return compress(edges, cells, edge_ratio=1 / 13)
+
+    pipe_s = _median(pipe, repeat)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        scan_s = _median(lambda: find_object_planes(lf, n_planes=N_PLANES), max(3, repeat // 2))
+    return {
+        "floor_ms": floor_s * 1e3,
+        "refocus_x_floor": ref_s / floor_s,
+        "pipeline_x_floor": pipe_s / floor_s,
+        "scan_s": scan_s,
+    }
+
+
+def per_layout(repeat: int) -> dict:
+    """Refocus, pipeline and scan per layout: median ms and ratios to the same-process floor."""
+    out = {}
+    print(f"{'layout':22s} {'floor ms':>9s} {'refocus x':>10s} {'pipe x':>8s} {'scan s':>8s}")
+    for grid, shape, baseline in LAYOUTS:
+        name = f"{grid[0]}x{grid[1]} of {shape[1]}x{shape[0]}"
+        row = out[name] = _one_layout(grid, shape, baseline, repeat)
+        print(
+            f"{name:22s} {row['floor_ms']:9.2f} {row['refocus_x_floor']:10.2f} "
+            f"{row['pipeline_x_floor']:8.2f} {row['scan_s']:8.3f}"
+        )
+    return out
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--repeat", type=int, default=7)
     ap.add_argument("--json", default=None, help="also write the results here")
+    ap.add_argument("--layouts", action="store_true", help="also report per grid layout")
     args = ap.parse_args(argv)
 
     lf = render_camera_array(three_plane_scene(SHAPE), grid=GRID, shape_px=SHAPE, baseline_m=0.03)
@@ -151,6 +220,8 @@ def main(argv=None):
         f"scan < {SCAN_GOAL_S} s: {res['scan_goal_met']}; planes found (m): "
         f"{res['scan_planes_m']} (truth 1, 4, 9)"
     )
+    if args.layouts:
+        res["layouts"] = per_layout(args.repeat)
     if args.json:
         with open(args.json, "w") as f:
             json.dump(res, f, indent=1)

@@ -43,9 +43,12 @@ __all__ = [
     "MIN_SUPPORT",
     "MIN_EVIDENCE",
     "SHOULDER_FRACTION",
+    "SHOULDER_FRACTION_STRONG",
+    "STRONG_EVIDENCE",
     "SMOOTH_SHIFT_PX",
     "SCAN_SHORT_SIDE_PX",
     "COARSE_SHORT_SIDE_PX",
+    "RANGE_REFINE_STEPS",
 ]
 
 #: A pixel's views *agree* at its best plane when their aggregated difference from the centre
@@ -74,6 +77,16 @@ MIN_EVIDENCE: float = 2.0
 #: top of a neighbouring hill, i.e. the same object (ours).
 SHOULDER_FRACTION: float = 0.5
 
+#: Hysteresis of the shoulder rule (ours): a peak standing :data:`STRONG_EVIDENCE` times above
+#: the null's largest peak is a plane of its own when its prominence is at least this fraction
+#: of its height, so a real near plane whose hill sits on the flank of a bigger one is not
+#: dropped on a knife edge of :data:`SHOULDER_FRACTION` (49 % against 50 %).
+SHOULDER_FRACTION_STRONG: float = 0.25
+
+#: A peak this many times more prominent than the null's largest peak is strong evidence (ours:
+#: four times :data:`MIN_EVIDENCE`); it needs only :data:`SHOULDER_FRACTION_STRONG`.
+STRONG_EVIDENCE: float = 4.0 * MIN_EVIDENCE
+
 #: The support curve is smoothed by a Gaussian of this many binned pixels of the outermost
 #: view's shift (ours: the precision of a sub-pixel match), at least one plane.
 SMOOTH_SHIFT_PX: float = 0.25
@@ -86,6 +99,11 @@ SCAN_SHORT_SIDE_PX: int = 100
 #: The coarse range-finding sweep works on views about this small (short side, pixels; ours),
 #: binned by at most four times the largest view offset (a 3x3 grid keeps 2 px steps).
 COARSE_SHORT_SIDE_PX: int = 64
+
+
+#: The coarse range is refined by a finer sweep when it spans fewer than this many coarse steps
+#: (ours: then a coarse step, which the range is widened by, is a sizeable part of the scene).
+RANGE_REFINE_STEPS: int = 20
 
 
 def scan_binning(lightfield: LightField) -> int:
@@ -281,17 +299,60 @@ def _support_curves(best_i, agrees, nbest_i, nagrees, n_planes: int, sigma_plane
     return raw, smooth, nsmooth, ends
 
 
+def _occupied_span(
+    ds: np.ndarray, best_i, agrees, nbest_i, nagrees
+) -> tuple[float, float] | None:
+    """The disparities (of ``ds``) holding the scene: where more pixels agree than by chance.
+
+    The histogram of the agreeing pixels' best planes is smoothed by one plane and compared
+    with the same histogram against the non-coincident reference (the null): planes above the
+    null's highest bin hold the scene, runs of them holding at least half of
+    :data:`MIN_SUPPORT` count (so a plane the scan would report is never cut, and a stray
+    bin is). The end planes are censored (their optimum may lie beyond them) and do not count.
+    Returns ``(low, high)`` in the units of ``ds``, or None when nothing passes.
+    """
+    n_px = best_i.size
+    h = np.bincount(best_i[agrees], minlength=len(ds)).astype(np.float64) / n_px
+    nh = np.bincount(nbest_i[nagrees], minlength=len(ds)).astype(np.float64) / n_px
+    ends = (float(h[0]), float(h[-1]))
+    h[0] = h[-1] = nh[0] = nh[-1] = 0.0
+    hs = gaussian_filter1d(h, 1.0, mode="constant")
+    level = MIN_EVIDENCE * max(float(gaussian_filter1d(nh, 1.0, mode="constant").max()), 1.0 / n_px)
+    idx = np.flatnonzero(hs > level)
+    runs = np.split(idx, np.flatnonzero(np.diff(idx) > 1) + 1) if idx.size else []
+    runs = [r for r in runs if h[r[0] : r[-1] + 1].sum() >= 0.5 * MIN_SUPPORT]
+    if not runs:
+        return None
+    lo, hi = int(runs[0][0]), int(runs[-1][-1])
+    # A pile-up at an end plane means the scene goes on beyond it: keep that end open.
+    if ends[0] >= MIN_SUPPORT:
+        lo = 0
+    if ends[1] >= MIN_SUPPORT:
+        hi = len(ds) - 1
+    return float(ds[lo]), float(ds[hi])
+
+
 def estimate_disparity_range(
     lightfield: LightField | np.ndarray, *, workers: int | None = None
 ) -> tuple[float, float]:
     """Estimate the disparities the scene occupies, pixels per view step (full resolution).
 
-    A coarse plane sweep of view agreement (:func:`find_object_planes`, ``method='agreement'``)
-    on views binned to about :data:`COARSE_SHORT_SIDE_PX` pixels, over every disparity that
-    moves the outermost view by up to half the image, in steps of half a coarse pixel of the
-    outermost view. The range is the 1-99 % span of the best planes of the pixels whose views
-    agree, widened by one coarse step on each side, and clipped to the geometry's
-    ``near_m``/``far_m`` when it has them.
+    Measured from the views, not from the image size: the outermost and half-way views of the
+    centre row and column are matched to the centre view over candidate shifts (the agreement
+    sweep of :func:`agreement_scan`, with its null), twice:
+
+    1. *coarse*: views binned to about :data:`COARSE_SHORT_SIDE_PX` pixels, every disparity that
+       moves the outermost view by up to half the image, in steps of half a coarse pixel of the
+       outermost view;
+    2. *fine*: views binned as the scan bins them (:func:`scan_binning`), over the coarse span
+       widened by two coarse steps, in steps of a quarter of a binned pixel of the outermost
+       view (so small grids, whose coarse steps are whole pixels per view step, are bracketed
+       to a fraction of a pixel).
+
+    Each stage keeps the disparities where more pixels agree than against a non-coincident
+    reference (runs holding at least half of :data:`MIN_SUPPORT`); the range is the fine span
+    widened by one fine step on each side, and clipped to the geometry's ``near_m``/``far_m``
+    when it has them.
 
     Returns
     -------
@@ -304,22 +365,37 @@ def estimate_disparity_range(
         No pixel's views agree at any plane (a flat or non-light-field input).
     """
     lf = as_lightfield(lightfield).gray()
+    n = workers or default_workers()
     m = _max_offset(lf)
     b = max(1, min(min(lf.shape_px) // COARSE_SHORT_SIDE_PX, 4 * m))
-    small, views, offsets, centre, null_centre = _scan_inputs(lf, b)
+    _, views, offsets, centre, null_centre = _scan_inputs(lf, b)
     step = 0.5 / m  # binned px per view step
     dmax = min(centre.shape) / (2.0 * m)
     ds = np.arange(-dmax, dmax + step / 2, step)
-    best_i, agrees, _, _ = _sweep(
-        views, offsets, centre, null_centre, ds, workers or default_workers()
-    )
-    if int(np.count_nonzero(agrees)) < MIN_EDGE_PIXELS:
+    sweep = _sweep(views, offsets, centre, null_centre, ds, n)
+    if int(np.count_nonzero(sweep[1])) < MIN_EDGE_PIXELS or (
+        span := _occupied_span(ds * b, *sweep)
+    ) is None:
         raise InputError(
             f"{lf.source}: the views agree at no plane in [-{dmax * b:.3g}, {dmax * b:.3g}] px "
             "per view step (a flat scene, or not a light field); give the disparities to scan"
         )
-    lo, hi = np.quantile(ds[best_i[agrees]], [0.01, 0.99])
-    lo, hi = (lo - step) * b, (hi + step) * b
+    lo, hi = span[0] - 2 * step * b, span[1] + 2 * step * b
+    fine_step = step * b  # full-resolution px per view step of the coarse stage, for the margin
+    b2 = min(scan_binning(lf), b)
+    step2 = 0.25 / m * b2  # full-resolution px per view step
+    # Refine only where the coarse steps are coarse for the span found (small grids, whose
+    # coarse step is whole pixels per view step); the fine sweep holds at most 64 planes.
+    step2 = max(step2, (hi - lo) / 64)
+    if fine_step > (hi - lo) / RANGE_REFINE_STEPS and step2 < fine_step:
+        _, views, offsets, centre, null_centre = _scan_inputs(lf, b2)
+        ds2 = np.arange(lo, hi + step2 / 2, step2)
+        if ds2.size >= 3:
+            sweep = _sweep(views, offsets, centre, null_centre, ds2 / b2, n)
+            span2 = _occupied_span(ds2, *sweep)
+            if span2 is not None:
+                lo, hi = span2[0] - step2, span2[1] + step2
+                fine_step = step2
     g = lf.geometry
     if g is not None and g.near_m is not None and g.far_m is not None:
         a, c = sorted((g.disparity_px(g.near_m), g.disparity_px(g.far_m)))
@@ -329,6 +405,23 @@ def estimate_disparity_range(
     if not hi > lo:
         raise InputError(f"{lf.source}: the estimated disparity range is empty")
     return float(lo), float(hi)
+
+
+def _is_plane_peak(height: float, prominence: float, null_prominence: float) -> bool:
+    """The peak rule with hysteresis: evidence against the null, and not a shoulder.
+
+    A peak needs :data:`MIN_EVIDENCE` times the null's largest prominence and a prominence of
+    :data:`SHOULDER_FRACTION` of its height; with :data:`STRONG_EVIDENCE`, a prominence of
+    :data:`SHOULDER_FRACTION_STRONG` of its height is enough.
+    """
+    if prominence < MIN_EVIDENCE * null_prominence:
+        return False
+    if prominence >= SHOULDER_FRACTION * height:
+        return True
+    return (
+        prominence >= SHOULDER_FRACTION_STRONG * height
+        and prominence >= STRONG_EVIDENCE * null_prominence
+    )
 
 
 def agreement_scan(
@@ -359,7 +452,7 @@ def agreement_scan(
     keep = [
         (int(i), float(p))
         for i, p in zip(idx, prom, strict=True)
-        if p >= SHOULDER_FRACTION * s[i] and p >= MIN_EVIDENCE * null_prom
+        if _is_plane_peak(float(s[i]), float(p), null_prom)
     ]
     # Hills: each kept peak owns the support between the lowest points towards its neighbours.
     bounds = [0]

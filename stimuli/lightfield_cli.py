@@ -43,7 +43,6 @@ from stimuli.resources import MAX_SEED, check_memory, finite_option
 __all__ = [
     "register",
     "lightfield_app",
-    "plot_scores",
     "parse_zoom",
     "parse_grid",
     "declutter_and_compress",
@@ -363,58 +362,6 @@ def check_zoom_aspect(box_hw: tuple[int, int], grid_px: tuple[int, int]) -> None
         )
 
 
-def plot_scores(scan, path: Path, *, size_in: tuple[float, float] = (7.0, 3.6)) -> Path:
-    """Draw the score versus depth (or disparity) as a PNG with matplotlib (Fig. 15).
-
-    Detected planes are marked and labelled; the agreement scan's null is drawn dashed. Uses
-    ``matplotlib.figure.Figure`` directly, so no backend is chosen and nothing is shown.
-    Returns the written path.
-    """
-    from matplotlib.figure import Figure
-    from matplotlib.ticker import MaxNLocator
-
-    from stimuli.io import atomic_path
-
-    use_depth = scan.depths_m is not None and bool(np.all(np.isfinite(scan.depths_m)))
-    xs = np.asarray(scan.depths_m if use_depth else scan.disparities_px, dtype=float)
-    order = np.argsort(xs)
-    fig = Figure(figsize=size_in, dpi=100, layout="constrained")
-    ax = fig.subplots()
-    label = (
-        "fraction of pixels whose views agree best here"
-        if scan.method == "agreement"
-        else "fraction of edge pixels coinciding with the centre view"
-    )
-    ax.plot(xs[order], np.asarray(scan.scores)[order], color="#00468c", lw=1.5, label=label)
-    if scan.null_scores is not None:
-        ax.plot(
-            xs[order],
-            np.asarray(scan.null_scores)[order],
-            color="0.5",
-            lw=1.0,
-            ls="--",
-            label="null (non-coincident reference)",
-        )
-    for p in scan.peaks:
-        xv = p.depth_m if use_depth else p.disparity_px
-        ax.plot([xv], [p.score], "o", color="#c80000", ms=5)
-        ax.annotate(
-            f"{xv:.3g}", (xv, p.score), textcoords="offset points", xytext=(4, 4), color="#c80000"
-        )
-    ax.set_xlabel("depth (m)" if use_depth else "disparity (px per view step)")
-    ax.set_ylabel("score")
-    ax.xaxis.set_major_locator(MaxNLocator(nbins=8))
-    ax.yaxis.set_major_locator(MaxNLocator(nbins=5))
-    top = max(float(np.max(scan.scores)), 1e-9)
-    ax.set_ylim(0, 1.3 * top)  # room for the legend above the peaks
-    ax.grid(True, color="0.9")
-    ax.legend(loc="upper right", fontsize="small", frameon=False)
-    path = Path(path)
-    with atomic_path(path) as tmp:
-        fig.savefig(tmp, format="png")
-    return path
-
-
 _Declutter = Annotated[
     str,
     typer.Option(
@@ -428,6 +375,90 @@ _Declutter = Annotated[
 def _warn_lines(caught) -> None:
     for w in caught:
         typer.echo(f"warning: {w.message}", err=True)
+
+
+def _scan_one(
+    lightfield: Path,
+    out: Path,
+    opts: dict,
+    loader: _LoaderOptions,
+) -> list[str]:
+    """Scan one capture into ``out`` and return the lines to print (options checked already).
+
+    A module-level function so that worker processes and Dask workers can run it by name.
+    """
+    import warnings
+
+    from rich.progress import Progress
+
+    from stimuli.declutter import in_focus_mask
+    from stimuli.io import atomic_path, save_png, staged_folder
+    from stimuli.planes import auto_binning, find_object_planes, iter_plane_scores, scan_result
+    from stimuli.refocus import refocus
+    from stimuli.scanplot import plot_scores
+    from stimuli.tables import write_table
+
+    planes, near, far, disparities = opts["planes"], opts["near"], opts["far"], opts["disparities"]
+    method, binning, fast = opts["method"], opts["binning"], opts["fast"]
+    declutter_mode, threshold, edge_ratio = (
+        opts["declutter_mode"],
+        opts["threshold"],
+        opts["edge_ratio"],
+    )
+    shape = parse_grid(opts["grid"])
+    lf = _load(lightfield, loader)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        ds = _disparities(lf, planes, near, far, disparities)
+        if method == "agreement":
+            scan = find_object_planes(lf, ds, binning=binning)
+        else:
+            b = auto_binning(lf) if binning is None else binning
+            scores = np.zeros(len(ds))
+            with Progress(transient=True) as bar:
+                task = bar.add_task("scanning planes", total=len(ds))
+                for i, _, sc in iter_plane_scores(lf, ds, binning=b, nearest_shifts=fast):
+                    scores[i] = sc
+                    bar.advance(task)
+            scan = scan_result(lf, ds, scores, binning=b)
+    lines = [f"warning: {w.message}" for w in caught]
+    # Written whole or not at all: a full disk or a stop leaves --out as it was.
+    with staged_folder(out, what="the scan") as tmp:
+        rows = scan.rows()
+        write_table(tmp / "planes.csv", rows, list(rows[0]))
+        with atomic_path(tmp / "scan.json") as part:
+            part.write_text(
+                json.dumps(
+                    # the light field's file name only: no host path in a file that gets shared
+                    {"source": Path(lf.source).name, "declutter": declutter_mode} | scan.to_dict(),
+                    indent=1,
+                )
+            )
+        plot_scores(scan, tmp / "scores.png")
+        save_png(lf.centre_view(), tmp / "centre.png")
+        for k, p in enumerate(scan.peaks):
+            img = refocus(lf, p.disparity_px)
+            focus = in_focus_mask(lf, p.disparity_px) if declutter_mode == "depth" else None
+            edges, cells, t = declutter_and_compress(
+                img, shape, threshold=threshold, edge_ratio=edge_ratio, focus_mask=focus
+            )
+            stem = f"plane{k + 1:02d}"
+            save_png(img, tmp / f"{stem}_confocal.png")
+            save_png(edges, tmp / f"{stem}_edges.png")
+            save_png(cells, tmp / f"{stem}_grid.png")
+            where = f"{p.depth_m:.3g} m, " if p.depth_m is not None else ""
+            extra = (
+                f", support {p.support:.3f}, evidence {p.evidence:.3g}"
+                if math.isfinite(p.support)
+                else ""
+            )
+            lines.append(
+                f"{stem}: {where}disparity {p.disparity_px:.3f} px/view, score {p.score:.3f}"
+                f"{extra}, threshold {t:.4g} ({declutter_mode})"
+            )
+    span = f"{float(np.min(ds)):.4g}..{float(np.max(ds)):.4g} px/view"
+    lines.append(f"{len(scan.peaks)} object plane(s) in {len(ds)} planes ({span}); wrote {out}")
+    return lines
 
 
 @lightfield_app.command("scan")
@@ -473,28 +504,33 @@ def scan_command(
     declutter_mode: _Declutter = "sobel",
     threshold: _Threshold = "auto",
     edge_ratio: _EdgeRatio = 1.0 / 13.0,
+    processes: Annotated[
+        int | None,
+        typer.Option(
+            "--processes",
+            help="Folder of captures: local worker processes (default: CPUs; 1: run here).",
+        ),
+    ] = None,
+    cluster: Annotated[
+        str | None,
+        typer.Option(
+            "--cluster",
+            help="Folder of captures: Dask scheduler address (needs the 'dask' extra).",
+        ),
+    ] = None,
     *,
     loader: _LoaderOptions,
 ) -> None:
-    """Scan planes, detect the object planes and write them with their edge and grid images."""
-    import warnings
+    """Scan planes, detect the object planes and write them with their edge and grid images.
 
-    from rich.progress import Progress
-
-    from stimuli.declutter import in_focus_mask
-    from stimuli.io import atomic_path, save_png, staged_folder
-    from stimuli.planes import (
-        SCAN_METHODS,
-        auto_binning,
-        find_object_planes,
-        iter_plane_scores,
-        scan_result,
-    )
-    from stimuli.refocus import refocus
-    from stimuli.tables import write_table
+    LIGHTFIELD may also be a folder of captures (sub-folders of views or .npz/.npy files):
+    each is scanned into its own sub-folder of --out, in worker processes or on a Dask cluster.
+    """
+    from stimuli.lfbatch import discover_captures, is_capture_folder, run_per_capture
+    from stimuli.planes import SCAN_METHODS
 
     # every option is checked before the light field is read or anything is written
-    shape = parse_grid(grid)
+    parse_grid(grid)
     _check_mode(declutter_mode)
     if method not in SCAN_METHODS:
         raise InputError(f"--method must be one of {', '.join(SCAN_METHODS)}, got {method!r}")
@@ -504,58 +540,35 @@ def scan_command(
         _parse_range(disparities)
     if out.exists() and not out.is_dir():
         raise InputError(f"--out {out} exists and is a file; expected a folder to write")
-    lf = _load(lightfield, loader)
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always")
-        ds = _disparities(lf, planes, near, far, disparities)
-        if method == "agreement":
-            scan = find_object_planes(lf, ds, binning=binning)
-        else:
-            b = auto_binning(lf) if binning is None else binning
-            scores = np.zeros(len(ds))
-            with Progress(transient=True) as bar:
-                task = bar.add_task("scanning planes", total=len(ds))
-                for i, _, sc in iter_plane_scores(lf, ds, binning=b, nearest_shifts=fast):
-                    scores[i] = sc
-                    bar.advance(task)
-            scan = scan_result(lf, ds, scores, binning=b)
-    _warn_lines(caught)
-    # Written whole or not at all: a full disk or a stop leaves --out as it was.
-    with staged_folder(out, what="the scan") as tmp:
-        rows = scan.rows()
-        write_table(tmp / "planes.csv", rows, list(rows[0]))
-        with atomic_path(tmp / "scan.json") as part:
-            part.write_text(
-                json.dumps(
-                    # the light field's file name only: no host path in a file that gets shared
-                    {"source": Path(lf.source).name, "declutter": declutter_mode} | scan.to_dict(),
-                    indent=1,
-                )
-            )
-        plot_scores(scan, tmp / "scores.png")
-        save_png(lf.centre_view(), tmp / "centre.png")
-        for k, p in enumerate(scan.peaks):
-            img = refocus(lf, p.disparity_px)
-            focus = in_focus_mask(lf, p.disparity_px) if declutter_mode == "depth" else None
-            edges, cells, t = declutter_and_compress(
-                img, shape, threshold=threshold, edge_ratio=edge_ratio, focus_mask=focus
-            )
-            stem = f"plane{k + 1:02d}"
-            save_png(img, tmp / f"{stem}_confocal.png")
-            save_png(edges, tmp / f"{stem}_edges.png")
-            save_png(cells, tmp / f"{stem}_grid.png")
-            where = f"{p.depth_m:.3g} m, " if p.depth_m is not None else ""
-            extra = (
-                f", support {p.support:.3f}, evidence {p.evidence:.3g}"
-                if math.isfinite(p.support)
-                else ""
-            )
-            typer.echo(
-                f"{stem}: {where}disparity {p.disparity_px:.3f} px/view, score {p.score:.3f}"
-                f"{extra}, threshold {t:.4g} ({declutter_mode})"
-            )
-    span = f"{float(np.min(ds)):.4g}..{float(np.max(ds)):.4g} px/view"
-    typer.echo(f"{len(scan.peaks)} object plane(s) in {len(ds)} planes ({span}); wrote {out}")
+    opts = {
+        "planes": planes,
+        "near": near,
+        "far": far,
+        "disparities": disparities,
+        "grid": grid,
+        "method": method,
+        "binning": binning,
+        "fast": fast,
+        "declutter_mode": declutter_mode,
+        "threshold": threshold,
+        "edge_ratio": edge_ratio,
+    }
+    if processes is not None and processes < 1:
+        raise InputError(f"--processes must be >= 1, got {processes}")
+    if not is_capture_folder(lightfield):
+        for line in _scan_one(lightfield, out, opts, loader):
+            typer.echo(line, err=line.startswith("warning: "))
+        return
+    captures = discover_captures(lightfield)
+    names = [c.stem if c.is_file() else c.name for c in captures]
+    if len(set(names)) != len(names):
+        raise InputError(f"{lightfield}: two captures share a name; each needs its own")
+    out.mkdir(parents=True, exist_ok=True)
+    tasks = [(c, out / n, opts, loader) for c, n in zip(captures, names, strict=True)]
+    for i, lines in run_per_capture(_scan_one, tasks, processes=processes, cluster=cluster):
+        for line in lines:
+            typer.echo(f"{names[i]}: {line}", err=line.startswith("warning: "))
+    typer.echo(f"scanned {len(captures)} capture(s) of {lightfield} into {out}")
 
 
 @lightfield_app.command("refocus")

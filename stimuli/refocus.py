@@ -154,6 +154,35 @@ def _check_disparity(lf: LightField, disparity_px: float) -> float:
     return d
 
 
+def _saxpy_cols(dst: np.ndarray, src: np.ndarray, m: int, w: float) -> None:
+    """``dst[:, x] += w * src[:, x - m]`` where ``0 <= x - m < cols`` (C-contiguous 2-D float32).
+
+    One BLAS ``saxpy`` over the flattened images (a whole-column shift is an offset there),
+    then the ``|m|`` columns that wrapped round from the neighbouring row are taken off again:
+    one pass over the image instead of numpy's three (multiply, add, store).
+    """
+    rows, cols = dst.shape
+    if abs(m) >= cols or rows == 0:
+        return
+    size = rows * cols
+    k = abs(m)
+    z = _saxpy(
+        src.reshape(-1),
+        dst.reshape(-1),
+        n=size - k,
+        a=w,
+        offx=0 if m >= 0 else k,
+        offy=k if m >= 0 else 0,
+    )
+    if z is not None and not np.shares_memory(z, dst):  # the wrapper copied: never in place
+        raise RuntimeError("saxpy did not work in place")
+    if k and rows > 1:
+        if m > 0:
+            dst[1:, :k] -= np.float32(w) * src[:-1, cols - k :]
+        else:
+            dst[:-1, cols - k :] -= np.float32(w) * src[1:, :k]
+
+
 def _refocus_views_flat(
     views: np.ndarray,
     row_shifts: Sequence[float],
@@ -166,14 +195,24 @@ def _refocus_views_flat(
     First, for each view column ``v``, the views are added with their *row* shifts: a shift by
     whole rows is a plain offset in the flattened image, so each tap is one BLAS ``saxpy``
     (``y += a x``, one pass, about four times faster than numpy's multiply-then-add). Then the
-    ``n_v`` partial images are added with their column shifts (numpy slices).
+    ``n_v`` partial images are added with their column shifts (:func:`_saxpy_cols`, one pass
+    per tap as well). An axis with one view is not passed over: a single grid row's views are
+    the partial images themselves, and a single grid column's row pass writes the result.
     """
     n_u, n_v, rows, cols = views.shape
     size = rows * cols
     flat = views.reshape(n_u, n_v, size)
-    partial = np.zeros((n_v, rows, cols), dtype=np.float32)
-    pflat = partial.reshape(n_v, size)
     taps = [[(m, w) for m, w in _shift_weights(row_shifts[u]) if abs(m) < rows] for u in range(n_u)]
+    col_taps = [_shift_weights(col_shifts[v]) for v in range(n_v)]
+    no_row_pass = n_u == 1 and taps[0] == [(0, 1.0)]
+    no_col_pass = n_v == 1 and list(col_taps[0]) == [(0, 1.0)]
+    if no_row_pass:
+        partial = views[0]  # (n_v, rows, cols), read only
+    elif no_col_pass:
+        partial = result.reshape(1, rows, cols)
+    else:
+        partial = np.zeros((n_v, rows, cols), dtype=np.float32)
+    pflat = partial.reshape(n_v, size)
 
     def pass_rows(v0: int, v1: int) -> None:
         for v in range(v0, v1):
@@ -188,33 +227,53 @@ def _refocus_views_flat(
                     if z is not y:  # the wrapper copied: should not happen for contiguous float32
                         raise RuntimeError("saxpy did not work in place")
 
-    scratch = np.empty((rows, cols), dtype=np.float32)
-
-    def pass_cols(c0: int, c1: int) -> None:
-        tmp = scratch[:, c0:c1] if c1 - c0 < cols else scratch
+    def pass_cols_rows(r0: int, r1: int) -> None:
+        # Row blocks of C-contiguous images are C-contiguous: each tap is one saxpy.
         for v in range(n_v):
-            _accumulate(result[:, c0:c1], partial[v][:, c0:c1], col_shifts[v], 1, tmp)
+            for m, w in col_taps[v]:
+                _saxpy_cols(result[r0:r1], partial[v][r0:r1], m, w)
 
-    n_threads = max(1, min(workers, n_v))
+    n_threads = max(1, min(workers, max(n_v, 2)))
     if n_u * n_v * size < _THREAD_MIN_PIXELS:
         n_threads = 1
     result[...] = 0.0
     if n_threads == 1:
-        pass_rows(0, n_v)
-        pass_cols(0, cols)
+        if not no_row_pass:
+            pass_rows(0, n_v)
+        if not no_col_pass:
+            pass_cols_rows(0, rows)
         return
-    vb = np.linspace(0, n_v, n_threads + 1).astype(int)
     with ThreadPoolExecutor(n_threads) as ex:
-        list(ex.map(pass_rows, vb[:-1], vb[1:]))
-    # column shifts mix neighbouring columns: split by rows instead
-    rb = np.linspace(0, rows, n_threads + 1).astype(int)
+        if not no_row_pass:
+            if no_col_pass:  # one view column: split its row pass by blocks of rows instead
+                rb = np.linspace(0, rows, n_threads + 1).astype(int)
+                list(ex.map(lambda a, b: _row_block(flat, taps, result, a, b), rb[:-1], rb[1:]))
+            else:
+                vb = np.linspace(0, n_v, min(n_threads, n_v) + 1).astype(int)
+                list(ex.map(pass_rows, vb[:-1], vb[1:]))
+        if not no_col_pass:
+            # column shifts mix neighbouring columns: split by rows instead
+            rb = np.linspace(0, rows, n_threads + 1).astype(int)
+            list(ex.map(pass_cols_rows, rb[:-1], rb[1:]))
 
-    def pass_cols_rows(r0: int, r1: int) -> None:
-        for v in range(n_v):
-            _accumulate(result[r0:r1], partial[v][r0:r1], col_shifts[v], 1, scratch[r0:r1])
 
-    with ThreadPoolExecutor(n_threads) as ex:
-        list(ex.map(pass_cols_rows, rb[:-1], rb[1:]))
+def _row_block(flat, taps, result, r0: int, r1: int) -> None:
+    """Row pass of a single view column for output rows ``r0:r1`` (threads split by rows)."""
+    n_u = flat.shape[0]
+    rows, cols = result.shape
+    out = result[r0:r1]
+    for u in range(n_u):
+        src = flat[u, 0].reshape(rows, cols)
+        for m, w in taps[u]:
+            # out rows r take src rows r - m, valid where 0 <= r - m < rows
+            a, b = max(r0, m), min(r1, rows + m)
+            if a < b:
+                _saxpy(
+                    src[a - m : b - m].reshape(-1),
+                    out[a - r0 : b - r0].reshape(-1),
+                    n=(b - a) * cols,
+                    a=w,
+                )
 
 
 def _refocus_views(

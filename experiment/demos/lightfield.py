@@ -95,9 +95,10 @@ def run_lightfield_demo(out_dir: str | Path, *, seed: int = 0) -> list[str]:
     from stimuli.io import atomic_path, save_png
     from stimuli.lfsynth import render_elemental_image, three_plane_scene
     from stimuli.lightfield import LightField, views_from_elemental
-    from stimuli.lightfield_cli import declutter_and_compress, plot_scores
+    from stimuli.lightfield_cli import declutter_and_compress
     from stimuli.planes import find_object_planes
     from stimuli.refocus import refocus
+    from stimuli.scanplot import plot_scores
     from stimuli.tables import write_table
 
     out = Path(out_dir)

@@ -93,7 +93,26 @@ def _find_lightfield(folder: Path) -> Path | None:
 
 
 def _pairs_from_folder(root: Path) -> list[PairSource]:
+    from stimuli.lfbatch import discover_captures, is_capture_folder
+
     subs = sorted(p for p in root.iterdir() if p.is_dir() and not p.name.startswith((".", "_")))
+    arrays = sorted(
+        p for p in root.iterdir() if p.is_file() and p.suffix.lower() in (".npz", ".npy")
+    )
+    if is_capture_folder(root) and (arrays or not any(_find_named(s, "wide") for s in subs)):
+        try:
+            captures = discover_captures(root)
+        except InputError:
+            captures = []
+        # A folder of light-field captures: each sub-folder of views or .npz/.npy file is an
+        # object, named after it (object folders with lightfield/ inside are handled below).
+        if captures and all(_find_lightfield(c) is None for c in captures if c.is_dir()):
+            out = []
+            for c in captures:
+                oid = c.stem if c.is_file() else c.name
+                check_object_id(oid, where=f"{c}: capture name")
+                out.append(PairSource(oid, lightfield=c))
+            return out
     if not subs:
         raise InputError(
             f"{root}: no object sub-folders; expected one folder per object holding wide.* and "
