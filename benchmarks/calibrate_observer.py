@@ -88,7 +88,8 @@ def main(argv: list[str] | None = None) -> int:
         f"seeds {args.seeds}, knowledge seeds {[s + 1 for s in args.seeds]}; {args.repeats} "
         "noise draws per stimulus) is compared level by level with the paper's cluttered "
         "Weibull curve and the point with the least squared difference is kept; the criterion "
-        "is never below the open-set floor (90 % of unknown-kind trials passed). No de-cluttered stimulus is read."
+        "is never below the open-set floor (90 % of unknown-kind trials passed). No "
+        "de-cluttered stimulus is read."
     )
     result["seeds"] = {"test": args.seeds, "knowledge": [s + 1 for s in args.seeds]}
     result["git_commit"] = _git_commit()

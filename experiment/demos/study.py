@@ -498,7 +498,7 @@ def _distance(sim: float | None, paper: float) -> str:
     if sim is None:
         return "not estimated"
     r = sim / paper
-    return f"{(r - 1) * 100:+.0f} %" if 0.5 <= r <= 2 else f"{r:.2g}x the paper's"
+    return f"{(r - 1) * 100:+.0f} %" if 0.25 <= r <= 2 else f"{r:.2g}x the paper's"
 
 
 def _calibrated_line(demo: DemoResult, first: dict[str, Any]) -> str:
@@ -668,8 +668,8 @@ def register(app: typer.Typer) -> None:
                 "--observer",
                 help="Simulated subject: calibrated (exemplar with a person's decision stage "
                 "fitted to the paper's cluttered condition), exemplar (recognises the images "
-                "from other renderings of each kind), logistic (draws from the paper's fitted model) or "
-                "model (matches the test set's own images).",
+                "from other renderings of each kind), logistic (draws from the paper's fitted "
+                "model) or model (matches the test set's own images).",
             ),
         ] = DEFAULT_OBSERVER,
         knowledge_seed: Annotated[

@@ -1,4 +1,5 @@
-"""The ``calibrated`` observer: the exemplar observer with a person's limits, fitted to one condition.
+"""The ``calibrated`` observer: the exemplar observer with a person's limits, fitted to one
+condition.
 
 What is added to :mod:`experiment.observers.exemplar`
 ------------------------------------------------------
@@ -103,7 +104,8 @@ def read_calibration(path: str | Path = CALIBRATION_FILE) -> dict[str, Any]:
     fitted = d.get("fitted") if isinstance(d, dict) else None
     if not isinstance(fitted, dict) or not {"blur_deg", "noise_sd", "criterion"} <= set(fitted):
         raise ValueError(
-            f"{path}: expected a 'fitted' table with blur_deg, noise_sd and criterion, got {d!r:.80}"
+            f"{path}: expected a 'fitted' table with blur_deg, noise_sd and criterion, "
+            f"got {d!r:.80}"
         )
     return d
 
@@ -151,7 +153,7 @@ def normalized_responses(similarities: np.ndarray) -> np.ndarray:
     """
     s = np.asarray(similarities, dtype=float)
     sd = s.std(axis=-1, keepdims=True)
-    return (s - s.mean(axis=-1, keepdims=True)) / np.where(sd > 0, sd, 1.0)
+    return (s - s.mean(axis=-1, keepdims=True)) / np.where(sd > 1e-12, sd, np.inf)
 
 
 class CalibratedObserver(ExemplarObserver):
@@ -369,9 +371,15 @@ def calibrate(
                 if best is None or loss < best["loss"] - 1e-12:
                     best = {
                         "loss": loss,
-                        "fitted": {"blur_deg": float(blur), "noise_sd": float(sd),
-                                   "criterion": round(c, 6), "lapse": lapse},  # fmt: skip
-                        "cluttered_rate": {f"{lv:.0f}": float(r) for lv, r in zip(levels, rate)},
+                        "fitted": {
+                            "blur_deg": float(blur),
+                            "noise_sd": float(sd),
+                            "criterion": round(c, 6),
+                            "lapse": lapse,
+                        },  # fmt: skip
+                        "cluttered_rate": {
+                            f"{lv:.0f}": float(r) for lv, r in zip(levels, rate, strict=True)
+                        },
                         "_counts": (levels, rate * n_per_level, n_per_level),
                         "open_set": {
                             "floor": floor,
@@ -391,8 +399,11 @@ def calibrate(
         "repeats": int(repeats),
     }
     best["sets"] = [
-        {"test": Path(t).name, "knowledge": Path(k).name,
-         "test_manifest_sha256": StimulusSet.load(t).manifest_sha256}  # fmt: skip
+        {
+            "test": Path(t).name,
+            "knowledge": Path(k).name,
+            "test_manifest_sha256": StimulusSet.load(t).manifest_sha256,
+        }  # fmt: skip
         for t, k in sets
     ]
     return best
