@@ -1,10 +1,16 @@
 """Simulated observers: responders that answer headless sessions (dry runs, pilots, CI).
 
-Three observers are registered by name (:data:`OBSERVERS`, :func:`make_observer`). Every one
+Four observers are registered by name (:data:`OBSERVERS`, :func:`make_observer`). Every one
 is a simulation: its sessions are logged with ``responder = 'sim:<name>'`` and, through
 :func:`describe_observer`, with its parameters and the data its knowledge came from.
 
-``exemplar`` (:mod:`experiment.observers.exemplar`; the demo's default)
+``calibrated`` (:mod:`experiment.observers.calibration`; the demo's default)
+    The exemplar observer with a person's decision stage (normalised responses, internal
+    noise, an open-set criterion that passes on kinds it does not know, lapses), its few
+    parameters fitted to the paper's cluttered condition only; the de-cluttered threshold it
+    gives is a prediction.
+
+``exemplar`` (:mod:`experiment.observers.exemplar`)
     Looks at the image and recognises it from *other* exemplars of each category (another
     rendering of the same kinds, or held-out photos), never from the test stimuli: a HOG
     exemplar matcher behind a front end at the presenter's geometry, with internal noise and a
@@ -13,7 +19,7 @@ is a simulation: its sessions are logged with ``responder = 'sim:<name>'`` and, 
 
 ``logistic``
     Draws "recognised or not" from the logistic model the paper fitted (Jung et al. 2015,
-    Sec. 3.3), plus a subject effect, object effects and lapses::
+    Sec. 3.2.2), plus a subject effect, object effects and lapses::
 
         logit p = b0 + ln(OR_bg) * decluttered + ln(OR_px) * log10(pixels) + u_subject + v_object
         P(recognised) = (1 - lapse) * p
@@ -49,10 +55,13 @@ import numpy as np
 
 from experiment.interfaces import Answer
 from experiment.observers.base import SimulatedObserver, check_limits, response_time_s
+from experiment.observers.calibration import CalibratedObserver, CalibratedParams
 from experiment.observers.exemplar import ExemplarObserver, ExemplarParams
 from experiment.session.stimset import PHOTO_CONDITIONS, StimulusSet
 
 __all__ = [
+    "CalibratedParams",
+    "CalibratedObserver",
     "ExemplarParams",
     "ExemplarObserver",
     "LogisticParams",
@@ -65,12 +74,12 @@ __all__ = [
     "to_retina",
 ]
 
-#: Odds ratio of recognition, de-cluttered vs cluttered. Source: Jung et al. 2015, Sec. 3.3
+#: Odds ratio of recognition, de-cluttered vs cluttered. Source: Jung et al. 2015, Sec. 3.2.2
 #: (OR 5.6, 95 % CI 3.9-8.1).
 PAPER_OR_BACKGROUND: float = 5.6
-#: Odds ratio per log10 pixel. Source: Jung et al. 2015, Sec. 3.3 (OR 74.5, CI 48.9-113.5).
+#: Odds ratio per log10 pixel. Source: Jung et al. 2015, Sec. 3.2.2 (OR 74.5, CI 48.9-113.5).
 PAPER_OR_PER_LOG10_PX: float = 74.5
-#: 50 % threshold of the cluttered condition, pixels. Source: Jung et al. 2015, Sec. 3.3 (8,695).
+#: 50 % threshold of the cluttered condition, pixels. Source: Jung et al. 2015, Sec. 3.2.2 (8,695).
 PAPER_X50_CLUTTERED_PX: float = 8695.0
 
 
@@ -214,7 +223,7 @@ class LogisticObserver(SimulatedObserver):
     def _provenance(self) -> dict[str, Any]:
         return {
             "knowledge": {
-                "source": "Jung et al. 2015, Sec. 3.3 (odds ratios and cluttered threshold); "
+                "source": "Jung et al. 2015, Sec. 3.2.2 (odds ratios and cluttered threshold); "
                 "it does not look at the images"
             },
         }
@@ -434,6 +443,7 @@ def _register(name: str, cls: type, params_cls: type) -> None:
 _register("logistic", LogisticObserver, LogisticParams)
 _register("model", TemplateObserver, TemplateParams)
 _register("exemplar", ExemplarObserver, ExemplarParams)
+_register("calibrated", CalibratedObserver, CalibratedParams)
 
 
 def describe_observer(responder: Any) -> dict[str, Any]:
@@ -464,12 +474,13 @@ def make_observer(
 
     Parameters
     ----------
-    name : {'exemplar', 'logistic', 'model'}
+    name : {'calibrated', 'exemplar', 'logistic', 'model'}
     stimset : StimulusSet
     subject : str
     rng : numpy.random.Generator, int or None
     **params
-        Fields of :class:`ExemplarParams`, :class:`LogisticParams` or :class:`TemplateParams`.
+        Fields of :class:`CalibratedParams`, :class:`ExemplarParams`, :class:`LogisticParams`
+        or :class:`TemplateParams`.
 
     Raises
     ------

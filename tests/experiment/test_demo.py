@@ -22,7 +22,7 @@ from experiment.observers import PAPER_OR_BACKGROUND, PAPER_OR_PER_LOG10_PX, PAP
 
 
 def test_paper_results_are_the_papers():
-    # Jung et al. 2015, Sec. 3.3 (Results): Weibull 50 % thresholds 8,695 px cluttered and
+    # Jung et al. 2015, Sec. 3.2.2 (Results): Weibull 50 % thresholds 8,695 px cluttered and
     # 3,532 px de-cluttered; OR background 5.6; OR per log10 pixels 74.5.
     assert PAPER_RESULTS["x50_cluttered_px"] == 8695 == PAPER_X50_CLUTTERED_PX
     assert PAPER_RESULTS["x50_decluttered_px"] == 3532
@@ -93,6 +93,23 @@ def test_console_and_report_say_simulated_and_print_the_paper_beside(tmp_path):
     assert "| odds ratio per log10 px | 43.2 | 74.5 |" in section
 
 
+def test_calibrated_observer_says_in_one_sentence_what_it_is_and_how_far_from_the_paper(
+    tmp_path,
+):
+    demo = _fake_demo(tmp_path)
+    p = {"blur_deg": 0.05, "noise_sd": 0.1, "criterion": 1.42, "lapse": 0.02}
+    demo.observers = [{**demo.observers[0], "observer": "calibrated", "params": p}]
+    line = summary_lines(demo)[1]
+    assert line.startswith("simulated observer: calibrated") and "seed 5" in line
+    assert "fitted to the paper's cluttered condition only" in line
+    # 1,234 / 8,695 = 0.14x; 321 / 3,532 = 0.091x; ratio 1234 / 321 = 3.84
+    assert "cluttered 1,234 px (0.14x the paper's)" in line
+    assert "de-cluttered 321 px (0.091x the paper's)" in line
+    assert "ratio 3.84 against 2.46" in line
+    assert "\n" not in line and "WARNING" not in "\n".join(summary_lines(demo))
+    assert line + "." in simulated_section(demo)
+
+
 def test_logistic_observer_is_named_as_the_papers_model(tmp_path):
     demo = _fake_demo(tmp_path)
     demo.observers = [{"observer": "logistic", "params": {}}]
@@ -141,14 +158,14 @@ def test_demo_logs_and_reports_its_simulated_observers(tmp_path):
         n = con.execute("SELECT COUNT(*) FROM tidy_trials WHERE part = 'main'").fetchone()[0]
     finally:
         con.close()
-    assert n == 2 * 320 and responders == {"sim:exemplar"}
-    assert labels == {(1, "exemplar")}  # the sessions table labels them simulated
+    assert n == 2 * 320 and responders == {"sim:calibrated"}
+    assert labels == {(1, "calibrated")}  # the sessions table labels them simulated
     assert all(p["knowledge"] == str(demo.paths["knowledge"]) for p in params)
     assert [sid for sid, _ in events] == [1, 2]
     manifest = (demo.paths["stimuli"] / "manifest.csv").read_text()
     for _, note in events:
         d = json.loads(note)
-        assert d["observer"] == "exemplar" and d["simulated"] is True
+        assert d["observer"] == "calibrated" and d["simulated"] is True
         assert d["params"]["knowledge"] == str(demo.paths["knowledge"])
         assert d["knowledge"]["synth"]["seed"] == 1
         assert len(d["knowledge"]["categories"]) == 23
@@ -158,7 +175,7 @@ def test_demo_logs_and_reports_its_simulated_observers(tmp_path):
     assert "## Simulated observers" in report and "8,695 px" in report
     summary = json.loads((demo.out_dir / "demo.json").read_text())
     assert summary["simulated"] is True and summary["knowledge_seed"] == 1
-    assert summary["observers"][0]["observer"] == "exemplar"
+    assert summary["observers"][0]["observer"] == "calibrated"
 
 
 @pytest.mark.slow

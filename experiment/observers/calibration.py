@@ -1,0 +1,409 @@
+"""The ``calibrated`` observer: the exemplar observer with a person's limits, fitted to one
+condition.
+
+What is added to :mod:`experiment.observers.exemplar`
+------------------------------------------------------
+The front end (the image at the display's size, acuity blur, HOG features) and the knowledge
+(other renderings of the same kinds, never a test stimulus) are the exemplar observer's. The
+decision stage is a person's:
+
+1. **Response normalisation.** The category similarities of one image are divided by their
+   spread across categories (z-scored): a cluttered image correlates less with *every* category
+   than a clean one, and a person judges how much one category stands out, not the absolute
+   match (divisive normalisation, Heeger 1992; Carandini & Heeger 2012).
+2. **Internal noise** of SD ``noise_sd`` (normalised units) on every category's response, on
+   every trial (Thurstone 1927; Green & Swets 1966).
+3. **A decision criterion**: the best category is named when its noisy response exceeds the
+   second best's by more than ``criterion``; otherwise the observer passes.
+4. **Open-set criterion** ("don't know"): ``criterion`` is never below the margin that images
+   of kinds the observer does not know reach in calibration (``open_set_quantile`` of their
+   noisy margins, each image's own kind removed from the knowledge), so an unknown kind is
+   passed rather than named as the nearest known one.
+5. **Lapses**: a share ``lapse`` of trials is passed whatever the image (ours, not fitted).
+
+Calibration (:func:`calibrate`)
+-------------------------------
+``noise_sd`` and ``criterion`` (and ``blur_deg`` from a short list) are fitted to the paper's
+**cluttered** condition only: a Weibull (guess 0, lapse free; as the paper's Psychtoolbox fits)
+through the paper's cluttered 50 % threshold and slope is compared with the observer's expected
+recognition of the calibration sets' cluttered stimuli at each level, and the parameters with
+the least squared difference are kept. The calibration reads only records whose
+condition is ``cluttered`` (plus the knowledge sets); a test checks that removing every
+de-cluttered file leaves the fitted values unchanged. The de-cluttered threshold the observer
+then gives is a prediction. ``benchmarks/calibrate_observer.py`` re-runs the calibration and
+writes :data:`CALIBRATION_FILE`, from which :class:`CalibratedParams` takes its defaults.
+
+References
+----------
+Carandini M, Heeger DJ (2012). Normalization as a canonical neural computation. Nature Reviews
+Neuroscience 13, 51-62.
+Green DM, Swets JA (1966). Signal detection theory and psychophysics. Wiley.
+Heeger DJ (1992). Normalization of cell responses in cat striate cortex. Visual Neuroscience 9,
+181-197.
+Jung JH, Aloni D, Yitzhaky Y, Peli E (2015). Active confocal imaging for visual prostheses.
+Vision Research 111, 182-196 (Sec. 3.2.2: Weibull thresholds 8,695 px cluttered).
+Thurstone LL (1927). A law of comparative judgment. Psychological Review 34, 273-286.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass, replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from experiment.observers.base import check_limits
+from experiment.observers.exemplar import ExemplarObserver, ExemplarParams, load_knowledge
+from experiment.session.scoring import normalize
+from experiment.session.stimset import StimulusSet
+
+__all__ = [
+    "CALIBRATION_FILE",
+    "PAPER_CLUTTERED_X50_PX",
+    "PAPER_CLUTTERED_BETA",
+    "CalibratedParams",
+    "CalibratedObserver",
+    "normalized_responses",
+    "cluttered_responses",
+    "calibrate",
+    "read_calibration",
+]
+
+#: The fitted values and how they were obtained (written by benchmarks/calibrate_observer.py).
+CALIBRATION_FILE: Path = Path(__file__).with_name("jung2015_calibration.json")
+
+#: 50 % threshold of the cluttered condition, pixels. Source: Jung et al. 2015, Sec. 3.2.2.
+PAPER_CLUTTERED_X50_PX: float = 8695.0
+#: Where cluttered recognition "rises from", pixels. Source: Jung et al. 2015, Sec. 3.2.2.
+PAPER_CLUTTERED_ONSET_PX: float = 3100.0
+#: Weibull slope of the cluttered condition. Ours, from the paper's two cluttered numbers: the
+#: Weibull (guess 0, lapse 0) through 50 % at 8,695 px and 10 % at 3,100 px (reading "rises
+#: from ~3,100 px" as the 10 % point). It is then ~99.9 % at 31,000 px ("near ceiling").
+PAPER_CLUTTERED_BETA: float = (math.log(math.log(2.0)) - math.log(-math.log(0.9))) / math.log(
+    PAPER_CLUTTERED_X50_PX / PAPER_CLUTTERED_ONSET_PX
+)
+
+
+def read_calibration(path: str | Path = CALIBRATION_FILE) -> dict[str, Any]:
+    """Return the calibration file's content (``fitted`` values and how they were obtained).
+
+    Parameters
+    ----------
+    path : str or Path
+        A JSON file written by :func:`calibrate` (via ``benchmarks/calibrate_observer.py``).
+
+    Raises
+    ------
+    ValueError
+        The file has no ``fitted`` table with ``blur_deg``, ``noise_sd``, ``criterion``.
+    """
+    d = json.loads(Path(path).read_text(encoding="utf-8"))
+    fitted = d.get("fitted") if isinstance(d, dict) else None
+    if not isinstance(fitted, dict) or not {"blur_deg", "noise_sd", "criterion"} <= set(fitted):
+        raise ValueError(
+            f"{path}: expected a 'fitted' table with blur_deg, noise_sd and criterion, "
+            f"got {d!r:.80}"
+        )
+    return d
+
+
+_FITTED: dict[str, float] = read_calibration()["fitted"]
+
+
+@dataclass(frozen=True)
+class CalibratedParams(ExemplarParams):
+    """Parameters of the ``calibrated`` observer; defaults are the fitted ones.
+
+    As :class:`~experiment.observers.exemplar.ExemplarParams`, except that ``noise_sd`` and
+    ``criterion`` are in normalised units (similarities divided by their SD across
+    categories), and ``blur_deg``, ``noise_sd`` and ``criterion`` default to the values in
+    :data:`CALIBRATION_FILE` (fitted to the paper's cluttered condition).
+
+    Parameters
+    ----------
+    lapse : float in [0, 0.5)
+        Share of trials passed whatever the image. Ours, not fitted: 0.02, a usual lapse rate
+        of attentive observers (Wichmann & Hill 2001); the paper gives no ceiling to fit it to.
+    """
+
+    blur_deg: float = _FITTED["blur_deg"]
+    noise_sd: float = _FITTED["noise_sd"]
+    criterion: float | None = _FITTED["criterion"]
+    lapse: float = 0.02
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        check_limits(self, {"noise_sd": ">= 0"})
+
+
+def normalized_responses(similarities: np.ndarray) -> np.ndarray:
+    """Return similarities z-scored across categories (last axis); all zero when they are equal.
+
+    Parameters
+    ----------
+    similarities : ndarray of shape (..., n_categories)
+
+    Examples
+    --------
+    >>> normalized_responses(np.array([0.1, 0.2, 0.3])).round(3).tolist()
+    [-1.225, 0.0, 1.225]
+    """
+    s = np.asarray(similarities, dtype=float)
+    sd = s.std(axis=-1, keepdims=True)
+    return (s - s.mean(axis=-1, keepdims=True)) / np.where(sd > 1e-12, sd, np.inf)
+
+
+class CalibratedObserver(ExemplarObserver):
+    """The ``calibrated`` simulated observer (a :class:`~experiment.interfaces.Responder`).
+
+    The exemplar observer with normalised responses, internal noise, a fitted criterion that
+    is also an open-set criterion, and lapses; see the module docstring.
+
+    Parameters
+    ----------
+    stimset, subject, rng
+        As :class:`~experiment.observers.exemplar.ExemplarObserver`.
+    params : CalibratedParams
+    """
+
+    name = "calibrated"
+    model = (
+        "HOG exemplar matcher with normalised responses, internal noise, an open-set criterion "
+        "and lapses, calibrated to the paper's cluttered condition "
+        "(experiment.observers.calibration)"
+    )
+
+    @staticmethod
+    def params_class() -> CalibratedParams:
+        """Refuse to guess the knowledge set: the observer needs ``params``."""
+        raise ValueError("params must be a CalibratedParams with knowledge=FOLDER, got None")
+
+    def _prepare(self) -> None:
+        super()._prepare()
+        if self.params.criterion is not None:
+            fitted = {k: getattr(self.params, k) for k in ("blur_deg", "noise_sd", "criterion")}
+            self.calibration = {
+                "method": "fitted to the paper's cluttered condition only"
+                if fitted == {k: _FITTED[k] for k in fitted}
+                else "given (differs from the calibration file)",
+                "file": CALIBRATION_FILE.name,
+            }
+
+    def _decide(self, s: np.ndarray) -> tuple[int, float]:
+        """Normalise, add internal noise; return (best category, margin over the second)."""
+        noisy = normalized_responses(s) + self.rng.normal(0.0, self.params.noise_sd, s.shape)
+        order = np.argsort(noisy)[::-1]
+        margin = float(noisy[order[0]] - noisy[order[1]]) if len(order) > 1 else float("inf")
+        return int(order[0]), margin
+
+
+# -- calibration ----------------------------------------------------------------------------
+
+
+def cluttered_responses(
+    test: str | Path, knowledge: str | Path, params: ExemplarParams
+) -> dict[str, np.ndarray]:
+    """Return the noise-free normalised responses to a set's cluttered main stimuli.
+
+    Reads only the records whose condition is ``cluttered`` (and the knowledge set).
+
+    Parameters
+    ----------
+    test : str or Path
+        Calibration stimulus set (not a demo's test set).
+    knowledge : str or Path
+        Its knowledge set (other renderings of the same kinds).
+    params : ExemplarParams
+        Front end (``blur_deg`` etc.); ``knowledge`` is replaced by the argument.
+
+    Returns
+    -------
+    dict
+        ``pixels`` (n,), ``known`` (n, n_categories) normalised responses, ``correct`` (n,)
+        index of the true category, ``unknown`` (n, n_categories - 1) normalised responses
+        with the true category removed from the knowledge (an unknown kind).
+
+    Raises
+    ------
+    ValueError
+        A stimulus' object name is not a category of the knowledge set, or no cluttered
+        main stimulus is in ``test``.
+    """
+    ts = StimulusSet.load(test)
+    p = replace(params, knowledge=str(knowledge))
+    k = load_knowledge(p)
+    keys = [normalize(c) for c in k.categories]
+    px, known, correct, unknown = [], [], [], []
+    for rec in ts.records:
+        if rec.condition != "cluttered" or ts.objects[rec.object].role != "main":
+            continue
+        name = normalize(ts.objects[rec.object].name)
+        if name not in keys:
+            raise ValueError(f"object {rec.object!r} ({name}) is not a category of {knowledge}")
+        ts.verify([rec])
+        s = k.similarities(p.features(ts.load_image(rec)))
+        i = keys.index(name)
+        px.append(rec.pixels)
+        known.append(normalized_responses(s))
+        correct.append(i)
+        unknown.append(normalized_responses(np.delete(s, i)))
+    if not px:
+        raise ValueError(f"stimulus set {test} has no cluttered main stimuli to calibrate on")
+    return {
+        "pixels": np.asarray(px, dtype=float),
+        "known": np.vstack(known),
+        "correct": np.asarray(correct, dtype=int),
+        "unknown": np.vstack(unknown),
+    }
+
+
+def _margins(z: np.ndarray, noise: np.ndarray, sd: float) -> tuple[np.ndarray, np.ndarray]:
+    """Best category and margin of ``z + sd * noise``; z (n, c), noise (n, r, c)."""
+    noisy = z[:, None, :] + sd * noise
+    part = -np.partition(-noisy, 1, axis=-1)[..., :2]
+    return np.argmax(noisy, axis=-1), part[..., 0] - part[..., 1]
+
+
+def _weibull_x50_beta(px: np.ndarray, k: np.ndarray, n: np.ndarray) -> tuple[float, float, float]:
+    """ML Weibull (guess 0, lapse free) through counts: (x50 px, beta, lapse)."""
+    from analysis.weibull.mle import fit_mle
+    from analysis.weibull.model import threshold_at
+
+    fit = fit_mle(px, k, n)
+    x50 = float(threshold_at(0.5, fit.alpha, fit.beta, fit.lapse))
+    return x50, fit.beta, fit.lapse
+
+
+def calibrate(
+    sets: list[tuple[str | Path, str | Path]],
+    *,
+    blur_grid_deg: tuple[float, ...] = (0.1,),
+    noise_grid: tuple[float, ...] = (0.25, 0.5, 0.75, 1.0, 1.5),
+    criterion_grid: tuple[float, ...] = tuple(np.round(np.arange(0.0, 5.01, 0.1), 2)),
+    lapse: float = 0.02,
+    open_set_quantile: float = 0.9,
+    repeats: int = 50,
+    target_x50_px: float = PAPER_CLUTTERED_X50_PX,
+    target_beta: float = PAPER_CLUTTERED_BETA,
+    base: ExemplarParams | None = None,
+    rng: np.random.Generator | int | None = 0,
+) -> dict[str, Any]:
+    """Fit blur, internal noise and criterion to the cluttered condition's threshold and slope.
+
+    For each grid point, every cluttered main stimulus is answered ``repeats`` times (common
+    random numbers across the grid); the criterion is raised to the open-set floor (the
+    ``open_set_quantile`` of the unknown-kind margins at that noise) where it is below it; the
+    loss is the mean squared difference between the expected recognition at each pixel count
+    and the paper's cluttered curve there (the Weibull with 50 % at ``target_x50_px`` and slope
+    ``target_beta``). The best point's recognition is then fitted with an ML Weibull (guess 0,
+    lapse free) to report its threshold and slope.
+
+    Parameters
+    ----------
+    sets : list of (test folder, knowledge folder)
+        Calibration stimulus sets and their knowledge sets. Only cluttered records are read.
+    blur_grid_deg, noise_grid, criterion_grid : tuple of float
+        Values tried (degrees; normalised units; normalised units).
+    lapse : float in [0, 0.5)
+        The observer's lapse rate (not fitted).
+    open_set_quantile : float in (0, 1)
+        Share of unknown-kind trials the criterion must pass in calibration. 0.9: an unknown
+        kind is named on at most ~10 % of trials (ours; at 0.95 the floor alone keeps the
+        model's cluttered recognition below 50 % at every level of our calibration sets).
+    repeats : int >= 1
+        Noise draws per stimulus.
+    target_x50_px, target_beta : float
+        The cluttered threshold and Weibull slope to match.
+    base : ExemplarParams, optional
+        Front end other than blur (display geometry); ExemplarParams defaults when None.
+    rng : numpy.random.Generator, int or None
+
+    Returns
+    -------
+    dict
+        ``fitted`` (blur_deg, noise_sd, criterion, lapse), ``cluttered_rate`` (expected
+        recognition per pixel count), ``predicted_cluttered`` (ML Weibull x50_px, beta,
+        weibull_lapse), ``open_set`` (floor, quantile, unknown kinds named), ``target``,
+        ``loss``, ``grid`` (the values tried), ``sets`` (folders and manifest sha256).
+
+    Raises
+    ------
+    ValueError
+        No sets, or a bad quantile, lapse or repeat count.
+    """
+    if not sets:
+        raise ValueError("sets must name at least one (test, knowledge) pair, got none")
+    if not 0.0 < open_set_quantile < 1.0:
+        raise ValueError(f"open_set_quantile must be in (0, 1), got {open_set_quantile!r}")
+    if not 0.0 <= lapse < 0.5:
+        raise ValueError(f"lapse must be in [0, 0.5), got {lapse!r}")
+    if int(repeats) < 1:
+        raise ValueError(f"repeats must be >= 1, got {repeats!r}")
+    gen = np.random.default_rng(rng)
+    if base is None:
+        base = ExemplarParams(knowledge=str(sets[0][1]))
+    best: dict[str, Any] | None = None
+    for blur in blur_grid_deg:
+        p = replace(base, blur_deg=float(blur))
+        parts = [cluttered_responses(t, k, p) for t, k in sets]
+        px = np.concatenate([d["pixels"] for d in parts])
+        z = np.vstack([d["known"] for d in parts])
+        correct = np.concatenate([d["correct"] for d in parts])
+        zu = np.vstack([d["unknown"] for d in parts])
+        noise = gen.standard_normal((z.shape[0], int(repeats), z.shape[1]))
+        noise_u = gen.standard_normal((zu.shape[0], int(repeats), zu.shape[1]))
+        levels = np.unique(px)
+        n_per_level = np.array([(px == lv).sum() for lv in levels], float) * int(repeats)
+        target = 1.0 - np.exp(-math.log(2.0) * (levels / target_x50_px) ** target_beta)
+        for sd in noise_grid:
+            choice, margin = _margins(z, noise, float(sd))
+            _, margin_u = _margins(zu, noise_u, float(sd))
+            floor = float(np.quantile(margin_u, open_set_quantile))
+            right = choice == correct[:, None]
+            for crit in criterion_grid:
+                c = max(float(crit), floor)
+                hit = (right & (margin > c)).mean(axis=1) * (1.0 - lapse)
+                rate = np.array([hit[px == lv].mean() for lv in levels])
+                loss = float(np.mean((rate - target) ** 2))
+                if best is None or loss < best["loss"] - 1e-12:
+                    best = {
+                        "loss": loss,
+                        "fitted": {
+                            "blur_deg": float(blur),
+                            "noise_sd": float(sd),
+                            "criterion": round(c, 6),
+                            "lapse": lapse,
+                        },  # fmt: skip
+                        "cluttered_rate": {
+                            f"{lv:.0f}": float(r) for lv, r in zip(levels, rate, strict=True)
+                        },
+                        "_counts": (levels, rate * n_per_level, n_per_level),
+                        "open_set": {
+                            "floor": floor,
+                            "quantile": open_set_quantile,
+                            "unknown_kinds_named": float(((margin_u > c).mean()) * (1 - lapse)),
+                        },
+                    }
+    if best is None:
+        raise ValueError("no grid point gave a finite cluttered threshold; widen the grids")
+    x50, beta, wl = _weibull_x50_beta(*best.pop("_counts"))
+    best["predicted_cluttered"] = {"x50_px": x50, "beta": beta, "weibull_lapse": wl}
+    best["target"] = {"x50_px": target_x50_px, "beta": target_beta}
+    best["grid"] = {
+        "blur_deg": list(blur_grid_deg),
+        "noise_sd": list(noise_grid),
+        "criterion": [float(c) for c in criterion_grid],
+        "repeats": int(repeats),
+    }
+    best["sets"] = [
+        {
+            "test": Path(t).name,
+            "knowledge": Path(k).name,
+            "test_manifest_sha256": StimulusSet.load(t).manifest_sha256,
+        }  # fmt: skip
+        for t, k in sets
+    ]
+    return best

@@ -1,0 +1,132 @@
+"""The ``calibrated`` observer: fitted to the cluttered condition only, with an open-set
+criterion, and its defaults taken from the committed calibration file."""
+
+from __future__ import annotations
+
+import hashlib
+import math
+import shutil
+
+import numpy as np
+import pytest
+from PIL import Image
+
+from experiment.observers import CalibratedObserver, CalibratedParams, make_observer
+from experiment.observers.calibration import (
+    CALIBRATION_FILE,
+    PAPER_CLUTTERED_BETA,
+    calibrate,
+    normalized_responses,
+    read_calibration,
+)
+from experiment.session.stimset import StimulusSet
+from experiment.testing import make_stimulus_set
+
+GRIDS = {"blur_grid_deg": (0.1,), "noise_grid": (0.25, 0.5), "repeats": 5}
+
+
+@pytest.fixture(scope="module")
+def small_pair(tmp_path_factory):
+    """A small test set and its knowledge (the same kinds drawn with another seed)."""
+    root = tmp_path_factory.mktemp("cal")
+    test = make_stimulus_set(root / "test", n_main=4, n_training=1, levels=(1, 5, 8), rng=3)
+    knowledge = make_stimulus_set(root / "k", n_main=4, n_training=1, levels=(8,), rng=4)
+    return test, knowledge
+
+
+def test_calibration_never_reads_decluttered_stimuli(small_pair, tmp_path):
+    """Fitted on a copy with every de-cluttered image deleted, the values are identical: a
+    read of any de-cluttered stimulus would raise (missing file) or change them."""
+    test, knowledge = small_pair
+    full = calibrate([(test, knowledge)], **GRIDS, rng=1)
+    stripped = tmp_path / "test"
+    shutil.copytree(test, stripped)
+    ts = StimulusSet.load(stripped)
+    removed = [r for r in ts.records if r.condition == "decluttered"]
+    assert removed
+    for r in removed:
+        (stripped / r.path).unlink()
+    again = calibrate([(stripped, knowledge)], **GRIDS, rng=1)
+    for key in ("fitted", "cluttered_rate", "open_set", "predicted_cluttered", "loss"):
+        assert again[key] == full[key], key
+
+
+def test_poisoned_decluttered_stimuli_leave_the_fit_unchanged(small_pair, tmp_path):
+    """De-cluttered images swapped for blank ones (manifest hashes updated, so a read would
+    succeed and see them): the fitted values are still identical."""
+    test, knowledge = small_pair
+    full = calibrate([(test, knowledge)], **GRIDS, rng=1)
+    poisoned = tmp_path / "test"
+    shutil.copytree(test, poisoned)
+    manifest = (poisoned / "manifest.csv").read_text(encoding="utf-8").splitlines()
+    out = [manifest[0]]
+    for line in manifest[1:]:
+        cols = line.split(",")
+        if cols[2] == "decluttered":
+            path = poisoned / cols[8]
+            with Image.open(path) as im:
+                size = im.size
+            Image.new("1", size, 1).save(path)
+            cols[9] = hashlib.sha256(path.read_bytes()).hexdigest()
+        out.append(",".join(cols))
+    (poisoned / "manifest.csv").write_text("\n".join(out) + "\n", encoding="utf-8")
+    again = calibrate([(poisoned, knowledge)], **GRIDS, rng=1)
+    assert again["fitted"] == full["fitted"] and again["loss"] == full["loss"]
+
+
+def test_paper_cluttered_slope_is_the_weibull_through_both_paper_numbers():
+    # 1 - exp(-ln2 (x / 8695) ** beta) is 0.5 at 8,695 px and 0.10 at 3,100 px (Sec. 3.2.2)
+    p = 1 - math.exp(-math.log(2) * (3100 / 8695) ** PAPER_CLUTTERED_BETA)
+    assert p == pytest.approx(0.10, abs=1e-12)
+
+
+def test_calibration_file_is_the_default_and_says_how_it_was_obtained():
+    d = read_calibration()
+    p = CalibratedParams(knowledge="k")
+    for key in ("blur_deg", "noise_sd", "criterion"):
+        assert getattr(p, key) == d["fitted"][key]
+    assert "cluttered condition only" in d["how"] and "No de-cluttered stimulus" in d["how"]
+    assert d["open_set"]["floor"] <= d["fitted"]["criterion"]
+    assert CALIBRATION_FILE.name == "jung2015_calibration.json"
+
+
+def test_calibration_refuses_bad_arguments(small_pair, tmp_path):
+    with pytest.raises(ValueError, match="sets must name at least one"):
+        calibrate([])
+    with pytest.raises(ValueError, match=r"open_set_quantile must be in \(0, 1\), got 1.0"):
+        calibrate([small_pair], open_set_quantile=1.0)
+    with pytest.raises(ValueError, match=r"lapse must be in \[0, 0.5\), got 0.5"):
+        calibrate([small_pair], lapse=0.5)
+    with pytest.raises(ValueError, match="repeats must be >= 1, got 0"):
+        calibrate([small_pair], repeats=0)
+    bad = tmp_path / "bad.json"
+    bad.write_text('{"fitted": {"blur_deg": 0.1}}')
+    with pytest.raises(ValueError, match="expected a 'fitted' table"):
+        read_calibration(bad)
+
+
+def test_normalized_responses_are_scale_free():
+    s = np.array([0.1, 0.3, 0.2, 0.25])
+    assert np.allclose(normalized_responses(s), normalized_responses(3 * s + 0.4))
+    assert normalized_responses(np.full(3, 0.2)).tolist() == [0.0, 0.0, 0.0]
+
+
+def test_calibrated_observer_passes_on_a_kind_it_does_not_know(small_pair):
+    """The same image of a known kind is named once the observer knows its kind, and passed
+    when the knowledge's best match is two kinds in a near tie (margin below the criterion)."""
+    test, knowledge = small_pair
+    ts = StimulusSet.load(test)
+    obs = make_observer("calibrated", ts, "S1", rng=0, knowledge=str(knowledge), noise_sd=0.0,
+                        lapse=0.0)  # fmt: skip
+    assert isinstance(obs, CalibratedObserver) and obs.name == "calibrated"
+    # a response vector with two kinds tied for best: margin 0 <= criterion, a pass
+    tied = np.array([0.5, 0.5] + [0.1] * (len(obs.knowledge.categories) - 2))
+    best, margin = obs._decide(tied)
+    assert margin == pytest.approx(0.0) and margin <= obs.criterion
+    # one kind far above the rest: named
+    alone = np.array([0.9] + [0.1] * (len(obs.knowledge.categories) - 1))
+    best, margin = obs._decide(alone)
+    assert best == 0 and margin > obs.criterion
+    d = obs.describe()
+    assert d["observer"] == "calibrated"
+    assert d["calibration"]["method"] == "given (differs from the calibration file)"
