@@ -210,10 +210,12 @@ def object_mask(layers: Sequence[Layer], camera: ThinLensCamera) -> np.ndarray:
     layers : sequence of Layer
         A scene from :func:`make_scene` (its one layer named ``"object:..."``).
     camera : ThinLensCamera
+        The camera the scene is seen through; the mask is cropped to its image.
 
     Returns
     -------
     ndarray of shape ``camera.shape_px``, float32 in [0, 1]
+        How much of each pixel the object covers (1 inside, fractional at its edge).
 
     Raises
     ------

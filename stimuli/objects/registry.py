@@ -71,121 +71,78 @@ class ObjectKind:
     uses: tuple[str, ...]
 
 
+#: Other names accepted as correct, by kind, in the order the PAIRS writer uses the kinds.
+_SYNONYMS: dict[str, tuple[str, ...]] = {
+    "cup": ("teacup", "coffee cup", "cup and saucer"),
+    "mug": ("coffee mug", "tea mug", "cup"),
+    "desk_lamp": ("lamp", "table lamp", "reading lamp", "light"),
+    "bottle": ("wine bottle", "glass bottle", "beer bottle"),
+    "scissors": ("shears", "pair of scissors"),
+    "key": ("house key", "door key"),
+    "glasses": ("eyeglasses", "spectacles", "sunglasses", "specs"),
+    "hammer": ("claw hammer", "mallet"),
+    "umbrella": ("parasol", "brolly"),
+    "teapot": ("tea pot", "kettle", "pot"),
+    "clock": ("clock", "alarm", "timepiece"),
+    "light_bulb": ("bulb", "lightbulb", "lamp bulb"),
+    "fork": ("table fork", "dinner fork"),
+    "spoon": ("teaspoon", "tablespoon", "soup spoon"),
+    "toothbrush": ("tooth brush", "brush"),
+    "phone": ("phone", "cell phone", "smartphone", "cellphone", "mobile"),
+    "book": ("open book", "notebook"),
+    "wine_glass": ("glass", "goblet", "wineglass"),
+    "padlock": ("lock", "combination lock"),
+    "headphones": ("headset", "earphones", "headphone", "cans"),
+    "screwdriver": ("screw driver", "driver"),
+    "shoe": ("sneaker", "trainer", "running shoe", "boot"),
+    "chair": ("seat", "stool"),
+    "pen": ("ballpoint pen", "ballpoint", "biro"),
+    "watch": ("watch", "wrist watch"),
+    "remote": ("remote", "tv remote", "controller", "clicker"),
+}
+
+#: Descriptions of use accepted as correct, by kind.
+_USES: dict[str, tuple[str, ...]] = {
+    "cup": ("drinking", "drink tea", "drink coffee"),
+    "mug": ("drinking", "drink coffee", "drink tea"),
+    "desk_lamp": ("lighting", "reading light", "give light"),
+    "bottle": ("holding liquid", "drinking", "pouring"),
+    "scissors": ("cutting", "cut paper"),
+    "key": ("opening a lock", "unlock a door", "locking"),
+    "glasses": ("seeing", "reading", "correct vision"),
+    "hammer": ("hammering", "drive nails", "pull nails"),
+    "umbrella": ("rain protection", "keep dry", "shade from sun"),
+    "teapot": ("making tea", "pouring tea", "serving tea"),
+    "clock": ("telling time", "waking up", "alarm"),
+    "light_bulb": ("lighting", "give light", "lamp"),
+    "fork": ("eating", "eat food", "cutlery"),
+    "spoon": ("eating", "stirring", "eat soup"),
+    "toothbrush": ("brushing teeth", "cleaning teeth", "dental hygiene"),
+    "phone": ("calling", "phone calls", "texting", "communication"),
+    "book": ("reading", "learning", "study"),
+    "wine_glass": ("drinking", "drink wine"),
+    "padlock": ("locking", "security", "lock a door"),
+    "headphones": ("listening to music", "listening", "hearing audio"),
+    "screwdriver": ("turning screws", "tighten screws", "repair"),
+    "shoe": ("wearing", "walking", "running", "footwear"),
+    "chair": ("sitting", "sit on"),
+    "pen": ("writing", "write"),
+    "watch": ("telling time", "time", "wear on wrist"),
+    "remote": ("changing channels", "control the tv", "switching the tv"),
+}
+
+#: What a kind is called, where that is not its name with spaces for underscores.
+_DISPLAY_NAMES: dict[str, str] = {
+    "clock": "alarm clock",
+    "phone": "mobile phone",
+    "watch": "wristwatch",
+    "remote": "remote control",
+}
+
 #: Every kind, in the order the PAIRS writer uses them (see :func:`object_kinds`).
-KINDS: tuple[ObjectKind, ...] = (
-    ObjectKind(
-        "cup",
-        "cup",
-        ("teacup", "coffee cup", "cup and saucer"),
-        ("drinking", "drink tea", "drink coffee"),
-    ),
-    ObjectKind(
-        "mug", "mug", ("coffee mug", "tea mug", "cup"), ("drinking", "drink coffee", "drink tea")
-    ),
-    ObjectKind(
-        "desk_lamp",
-        "desk lamp",
-        ("lamp", "table lamp", "reading lamp", "light"),
-        ("lighting", "reading light", "give light"),
-    ),
-    ObjectKind(
-        "bottle",
-        "bottle",
-        ("wine bottle", "glass bottle", "beer bottle"),
-        ("holding liquid", "drinking", "pouring"),
-    ),
-    ObjectKind("scissors", "scissors", ("shears", "pair of scissors"), ("cutting", "cut paper")),
-    ObjectKind(
-        "key", "key", ("house key", "door key"), ("opening a lock", "unlock a door", "locking")
-    ),
-    ObjectKind(
-        "glasses",
-        "glasses",
-        ("eyeglasses", "spectacles", "sunglasses", "specs"),
-        ("seeing", "reading", "correct vision"),
-    ),
-    ObjectKind(
-        "hammer", "hammer", ("claw hammer", "mallet"), ("hammering", "drive nails", "pull nails")
-    ),
-    ObjectKind(
-        "umbrella",
-        "umbrella",
-        ("parasol", "brolly"),
-        ("rain protection", "keep dry", "shade from sun"),
-    ),
-    ObjectKind(
-        "teapot",
-        "teapot",
-        ("tea pot", "kettle", "pot"),
-        ("making tea", "pouring tea", "serving tea"),
-    ),
-    ObjectKind(
-        "clock",
-        "alarm clock",
-        ("clock", "alarm", "timepiece"),
-        ("telling time", "waking up", "alarm"),
-    ),
-    ObjectKind(
-        "light_bulb",
-        "light bulb",
-        ("bulb", "lightbulb", "lamp bulb"),
-        ("lighting", "give light", "lamp"),
-    ),
-    ObjectKind("fork", "fork", ("table fork", "dinner fork"), ("eating", "eat food", "cutlery")),
-    ObjectKind(
-        "spoon",
-        "spoon",
-        ("teaspoon", "tablespoon", "soup spoon"),
-        ("eating", "stirring", "eat soup"),
-    ),
-    ObjectKind(
-        "toothbrush",
-        "toothbrush",
-        ("tooth brush", "brush"),
-        ("brushing teeth", "cleaning teeth", "dental hygiene"),
-    ),
-    ObjectKind(
-        "phone",
-        "mobile phone",
-        ("phone", "cell phone", "smartphone", "cellphone", "mobile"),
-        ("calling", "phone calls", "texting", "communication"),
-    ),
-    ObjectKind("book", "book", ("open book", "notebook"), ("reading", "learning", "study")),
-    ObjectKind(
-        "wine_glass", "wine glass", ("glass", "goblet", "wineglass"), ("drinking", "drink wine")
-    ),
-    ObjectKind(
-        "padlock", "padlock", ("lock", "combination lock"), ("locking", "security", "lock a door")
-    ),
-    ObjectKind(
-        "headphones",
-        "headphones",
-        ("headset", "earphones", "headphone", "cans"),
-        ("listening to music", "listening", "hearing audio"),
-    ),
-    ObjectKind(
-        "screwdriver",
-        "screwdriver",
-        ("screw driver", "driver"),
-        ("turning screws", "tighten screws", "repair"),
-    ),
-    ObjectKind(
-        "shoe",
-        "shoe",
-        ("sneaker", "trainer", "running shoe", "boot"),
-        ("wearing", "walking", "running", "footwear"),
-    ),
-    ObjectKind("chair", "chair", ("seat", "stool"), ("sitting", "sit on")),
-    ObjectKind("pen", "pen", ("ballpoint pen", "ballpoint", "biro"), ("writing", "write")),
-    ObjectKind(
-        "watch", "wristwatch", ("watch", "wrist watch"), ("telling time", "time", "wear on wrist")
-    ),
-    ObjectKind(
-        "remote",
-        "remote control",
-        ("remote", "tv remote", "controller", "clicker"),
-        ("changing channels", "control the tv", "switching the tv"),
-    ),
+KINDS: tuple[ObjectKind, ...] = tuple(
+    ObjectKind(name, _DISPLAY_NAMES.get(name, name.replace("_", " ")), synonyms, _USES[name])
+    for name, synonyms in _SYNONYMS.items()
 )
 
 

@@ -70,6 +70,15 @@ def test_object_kinds_is_a_copy() -> None:
     assert len(object_kinds()) >= 23
 
 
+def test_the_answer_tables_and_the_drawers_name_the_same_kinds() -> None:
+    from stimuli.objects import registry
+
+    names = [k.name for k in object_kinds()]
+    assert list(registry._USES) == names
+    assert set(registry._DISPLAY_NAMES) <= set(names)
+    assert set(registry.DRAWERS) == set(names)
+
+
 # --- scenes -----------------------------------------------------------------------------------
 
 
