@@ -29,14 +29,27 @@ __all__ = [
     "render_elemental_image",
     "lens_array_geometry",
     "three_plane_scene",
+    "three_plane_lightfield",
     "layer_masks",
     "ground_truth_maps",
     "SIM_SHAPE_PX",
+    "SIM_BASELINE_M",
+    "SIM_FOCAL_LENGTH_PX",
 ]
 
 #: Size (rows, cols) of the simulated confocal images. Source: Jung et al. (2015), Fig. 11
 #: ("Confocal images (308x385)").
 SIM_SHAPE_PX: tuple[int, int] = (308, 385)
+
+#: The one camera through which every synthetic three-plane light field is seen (ours): a 30 mm
+#: baseline and 400 px focal length put the pedestrian (1 m) at +12, the tree (4 m) at +3 and
+#: the building (9 m) at +1.33 px per view step (larger = nearer, as in :mod:`stimuli.lightfield`).
+#: ``lightfield synth``, active search, the viewer's examples and the benchmarks all use it. The
+#: paper's own lens-array optics (``lightfield synth --kind lens`` or a ``.png`` elemental image,
+#: and ``demo --lightfield``, which redraws the paper's Figs. 10-16) are the one exception: there
+#: the same planes lie at -0.83, -3.33 and -7.5 px per view step (still larger = nearer).
+SIM_BASELINE_M = 0.03
+SIM_FOCAL_LENGTH_PX = 400.0
 
 
 def lens_array_geometry(
@@ -173,6 +186,32 @@ def render_camera_array(
     )
     ds = [g.disparity_px(layer.depth_m) for layer in layers]
     return LightField(render_views(layers, ds, grid, shape_px), g, "synthetic camera array")
+
+
+def three_plane_lightfield(
+    shape_px: tuple[int, int] = SIM_SHAPE_PX,
+    *,
+    grid: tuple[int, int] = (9, 9),
+    seed: int = 0,
+) -> tuple[LightField, list[Layer]]:
+    """Return the paper's three-plane scene (Fig. 10) as seen by the synthetic camera array.
+
+    The one convention for this scene: :data:`SIM_BASELINE_M` and :data:`SIM_FOCAL_LENGTH_PX`
+    put the pedestrian, tree and building at +12, +3 and +1.33 px per view step.
+
+    >>> lf, layers = three_plane_lightfield((64, 80), grid=(3, 3))
+    >>> [round(lf.disparity_px(layer.depth_m), 2) for layer in layers]
+    [1.33, 3.0, 12.0]
+    """
+    layers = three_plane_scene(shape_px, rng=seed)
+    lf = render_camera_array(
+        layers,
+        grid=grid,
+        shape_px=shape_px,
+        focal_length_px=SIM_FOCAL_LENGTH_PX,
+        baseline_m=SIM_BASELINE_M,
+    )
+    return lf, layers
 
 
 def render_elemental_image(

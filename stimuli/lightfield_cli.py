@@ -675,13 +675,19 @@ def synth_command(
         typer.Option(
             "--out",
             "-o",
-            help="NAME.png: lens-array elemental image (+ NAME.toml); NAME.npz: views; "
+            help="NAME.png: the lens array's elemental image (+ NAME.toml); NAME.npz: views; "
             "otherwise a folder of views with lightfield.toml.",
         ),
     ],
     kind: Annotated[
-        str, typer.Option("--kind", help="lens (paper's lens array) or camera (9x9 camera array).")
-    ] = "lens",
+        str | None,
+        typer.Option(
+            "--kind",
+            help="camera (9x9 camera array: pedestrian +12, tree +3, building +1.33 px/view; "
+            "the default, as in active search and the viewer) or lens (the paper's lens-array "
+            "optics; the default for a .png elemental image).",
+        ),
+    ] = None,
     size: Annotated[str, typer.Option("--size", help="View size COLSxROWS (paper: 385x308).")] = (
         "385x308"
     ),
@@ -693,13 +699,15 @@ def synth_command(
     from stimuli.io import atomic_path, save_png
     from stimuli.lfsynth import (
         ground_truth_maps,
-        render_camera_array,
         render_elemental_image,
+        three_plane_lightfield,
         three_plane_scene,
     )
     from stimuli.lightfield import views_from_elemental, write_pfm
 
     shape = parse_grid(size)
+    if kind is None:
+        kind = "lens" if out.suffix.lower() == ".png" else "camera"
     if kind not in ("lens", "camera"):
         raise InputError(f"--kind must be 'lens' or 'camera', got {kind!r}")
     suffix = out.suffix.lower()
@@ -711,12 +719,12 @@ def synth_command(
             + ("a folder of views" if suffix not in (".npz", ".png") else f"a {suffix} file")
         )
     check_memory(shape[0] * shape[1] * _SYNTH_BYTES_PER_VIEW_PX, f"--size {size}")
-    layers = three_plane_scene(shape, rng=seed)
     if kind == "lens":
+        layers = three_plane_scene(shape, rng=seed)
         ei, geometry = render_elemental_image(layers, shape_px=shape)
         views = views_from_elemental(ei, ei.shape[0] // shape[0])
-    elif kind == "camera":
-        lf = render_camera_array(layers, shape_px=shape, baseline_m=0.03)
+    else:
+        lf, layers = three_plane_lightfield(shape, seed=seed)
         views, geometry = lf.views, lf.geometry
     gtoml = "[geometry]\n" + "".join(
         f"{k} = {json.dumps(v)}\n" for k, v in geometry.to_dict().items()

@@ -60,7 +60,13 @@ def test_synth_folder_and_npz(tmp_path, capsys):
     lf = load_lightfield(tmp_path / "cam")
     assert lf.grid == (9, 9) and lf.geometry.kind == "camera_array"
     _run(["lightfield", "synth", "--out", str(tmp_path / "s.npz"), "--size", "40x30"], capsys)
-    assert load_lightfield(tmp_path / "s.npz").geometry.kind == "lens_array"
+    default = load_lightfield(tmp_path / "s.npz")
+    # one convention for the three-plane scene: the camera array, pedestrian +12 px/view
+    assert default.geometry.kind == "camera_array"
+    np.testing.assert_allclose([default.disparity_px(z) for z in (1, 4, 9)], [12, 3, 4 / 3])
+    lens = ["lightfield", "synth", "--out", str(tmp_path / "l.npz"), "--size", "40x30"]
+    _run([*lens, "--kind", "lens"], capsys)
+    assert load_lightfield(tmp_path / "l.npz").geometry.kind == "lens_array"
 
 
 # The 77x96 px test views leave 10 edge pixels per Haar sub-band: the scan warns, as it should.
