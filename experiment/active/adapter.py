@@ -66,6 +66,9 @@ class Scene:
         Words the scorer accepts for a recorded scene's targets (from its description).
     layout : dict or None
         Where a randomised synthetic scene's objects stand (logged with the trial).
+    edge_masks : dict of str to ndarray of shape (rows, cols), bool
+        A recorded scene's targets: their appearance is the whole view refocused at their
+        plane, and only its edges inside this box make the recogniser's template.
     scan_px : (nearest, farthest) or None
         Disparity range of the depth scan (a recorded scene's description), else the default.
     """
@@ -79,6 +82,7 @@ class Scene:
     synonyms: dict[str, tuple[tuple[str, ...], tuple[str, ...]]] = field(default_factory=dict)
     layout: dict | None = None
     scan_px: tuple[float, float] | None = None
+    edge_masks: dict[str, np.ndarray] = field(default_factory=dict)
 
     @property
     def shape_px(self) -> tuple[int, int]:
@@ -161,7 +165,8 @@ def _synthetic(name, shape_px, grid, baseline_m, seed, layout):
 
 
 def _recorded(desc):
-    """Load a described light field; each target's look is the view refocused at its plane."""
+    """Load a described light field; each target's look is the view refocused at its plane
+    (its template keeps that view's edges inside its box: :func:`object_edge_template`)."""
     from stimuli.errors import InputError
     from stimuli.lightfield import load_lightfield
     from stimuli.refocus import refocus
@@ -192,7 +197,7 @@ def _recorded(desc):
         img = refocus(lf, t.disparity_px, workers=1)
         objects[t.name] = t.disparity_px
         masks[t.name] = m
-        looks[t.name] = np.where(m, img, np.float32(0.5)).astype(np.float32)
+        looks[t.name] = np.asarray(img, dtype=np.float32)
         words[t.name] = (t.synonyms, t.uses)
     return lf, objects, masks, looks, words
 
@@ -252,6 +257,7 @@ def load_scene(
 
     words: dict = {}
     scan = None
+    edge_masks: dict = {}
     if name.startswith(SYNTHETIC_PREFIX):
         if name not in SYNTHETIC_SCENES:
             raise InputError(
@@ -265,7 +271,7 @@ def load_scene(
     elif (desc_path := scene_file_for(name, base_dir)) is not None:
         desc = read_scene_file(desc_path)
         lf, objects, masks, looks, words = _recorded(desc)
-        scan = desc.scan_px
+        scan, edge_masks = desc.scan_px, masks
     else:
         from stimuli.lightfield import load_lightfield
 
@@ -277,7 +283,7 @@ def load_scene(
         lf = load_lightfield(path).gray()
         objects, masks, looks = {}, {}, {}
     sha = hashlib.sha256(np.ascontiguousarray(lf.views).tobytes()).hexdigest()
-    return Scene(name, lf, objects, masks, looks, sha, words, layout, scan)
+    return Scene(name, lf, objects, masks, looks, sha, words, layout, scan, edge_masks)
 
 
 def refocus_image(scene: Scene, disparity_px: float) -> np.ndarray:
@@ -340,9 +346,22 @@ def object_edge_template(
     grid_px: tuple[int, int],
     *,
     zoom_box_xywh: tuple[int, int, int, int] | None = None,
+    mask: np.ndarray | None = None,
 ) -> np.ndarray:
-    """Return an object's implant view when it is alone and in focus (a recogniser template)."""
-    return implant_view(appearance, grid_px, zoom_box_xywh=zoom_box_xywh)[1]
+    """Return an object's implant view when it is alone and in focus (a recogniser template).
+
+    ``mask`` (rows, cols) bool keeps only the de-cluttered edges inside it before compression:
+    a recorded target is its whole view refocused at its plane, cut to its box after edge
+    detection so that the box's border makes no edges of its own.
+    """
+    if mask is None:
+        return implant_view(appearance, grid_px, zoom_box_xywh=zoom_box_xywh)[1]
+    from stimuli import jung2015
+    from stimuli.compress import compress
+
+    edges, _ = edge_image(_crop(appearance, zoom_box_xywh))
+    edges = edges & _crop(np.asarray(mask, dtype=bool), zoom_box_xywh)
+    return compress(edges, tuple(grid_px), edge_ratio=jung2015.EDGE_RATIO)
 
 
 def detect_planes(scene: Scene, *, n_planes: int) -> tuple[np.ndarray, tuple[float, ...]]:

@@ -182,7 +182,9 @@ class EdgeRecogniser:
         if key not in self._templates:
             names, rows = [], []
             for name, look in self.scene.appearances.items():
-                g = adapter.object_edge_template(look, self.grid_px, zoom_box_xywh=key)
+                g = adapter.object_edge_template(
+                    look, self.grid_px, zoom_box_xywh=key, mask=self.scene.edge_masks.get(name)
+                )
                 r = self._retina(g)
                 n = float(np.sqrt(np.sum(r * r)))
                 names.append(name)
@@ -206,7 +208,7 @@ class EdgeRecogniser:
         are also lit in the view (all its template's cells when none are), or None."""
         names, _ = self.templates(None)
         look = self.scene.appearances[name]
-        tg = adapter.object_edge_template(look, self.grid_px)
+        tg = adapter.object_edge_template(look, self.grid_px, mask=self.scene.edge_masks.get(name))
         both = tg & np.asarray(grid, dtype=bool)
         return _lit_box(both if both.any() else tg, shape_px)
 
