@@ -27,7 +27,8 @@ column                      meaning
 ``zooms``                   zoom inputs; ``zoomed``: at least one
 ``zoom_time_s``             time a zoomed view was on screen, seconds
 ``at_target_plane``         the answer was given within one depth step of the target's true
-                            plane (synthetic scenes, where the plan records it), else empty
+                            plane (where ``trial_start`` or the plan records it: synthetic
+                            scenes, described recorded ones), else empty
 ==========================  =====================================================================
 """
 
@@ -217,11 +218,13 @@ def _trial_row(rows: pd.DataFrame, plan: dict[str, Any] | None) -> dict[str, Any
     target = start["payload"].get("target")
     scene = start["payload"].get("scene") or (plan or {}).get("scene") or ans.get("stimset_path")
     at_plane = None
-    if plan is not None and target in plan.get("objects_px", {}):
+    # the trial's own scene facts (logged with trial_start) win over the plan's single scene
+    facts = start["payload"] if "objects_px" in start["payload"] else (plan or {})
+    if target in facts.get("objects_px", {}):
         d_ans = ans["payload"].get("state", {}).get("depth_px")
         if d_ans is not None:
-            tol = float(plan.get("depth_step_px", 0.0)) + 1e-9
-            at_plane = bool(abs(float(d_ans) - float(plan["objects_px"][target])) <= tol)
+            tol = float(facts.get("depth_step_px", 0.0)) + 1e-9
+            at_plane = bool(abs(float(d_ans) - float(facts["objects_px"][target])) <= tol)
     rt = t1 - t0
     recognized = bool(sc["recognized"])
     return {

@@ -30,6 +30,12 @@ __all__ = [
     "lens_array_geometry",
     "three_plane_scene",
     "three_plane_lightfield",
+    "random_three_plane_layout",
+    "JUNG2015_LAYOUT",
+    "RANDOM_LAYOUT_X_FRAC",
+    "RANDOM_LAYOUT_FRONT_M",
+    "RANDOM_LAYOUT_BACKDROP_M",
+    "RANDOM_LAYOUT_MIN_SEPARATION",
     "layer_masks",
     "ground_truth_maps",
     "SIM_SHAPE_PX",
@@ -279,7 +285,43 @@ def _to_arrays(
     return t.astype(np.float32), a
 
 
-def _building(shape_px: tuple[int, int], s: float, rng: np.random.Generator) -> Layer:
+#: Where the paper's scene puts each object: centre column as a fraction of the view width
+#: (ours, read off Fig. 10) and depth, metres (Jung et al. 2015, Sec. 4.1 and Fig. 10).
+JUNG2015_LAYOUT: dict[str, dict[str, float]] = {
+    "pedestrian": {"x_frac": 0.3, "depth_m": jung2015.LF_SIM_PLANES_M[0]},
+    "tree": {"x_frac": 0.62, "depth_m": jung2015.LF_SIM_PLANES_M[1]},
+    "building": {"x_frac": 0.56, "depth_m": jung2015.LF_SIM_PLANES_M[2]},
+}
+
+#: Range of a randomised pedestrian's or tree's centre column, fraction of the view width
+#: (ours: keeps the figure and most of the crown inside the view).
+RANDOM_LAYOUT_X_FRAC: tuple[float, float] = (0.2, 0.8)
+#: Depth range of the randomised pedestrian and tree, metres (ours: the paper's 1-4 m front
+#: objects, widened so that neither depth nor depth order can be learnt).
+RANDOM_LAYOUT_FRONT_M: tuple[float, float] = (1.0, 6.0)
+#: Depth range of the randomised building, metres (ours: it is the opaque backdrop, so it stays
+#: behind both front objects; the paper's 9 m lies inside).
+RANDOM_LAYOUT_BACKDROP_M: tuple[float, float] = (7.0, 11.0)
+#: Least difference of 1/depth between the two front objects, 1/m (ours: 0.1 /m is 1.2 px per
+#: view step with the active task's 400 px x 3 cm camera array, so their planes stay apart).
+RANDOM_LAYOUT_MIN_SEPARATION: float = 0.1
+#: Least distance between the pedestrian's and the tree's centre columns, fraction of the
+#: width (ours: the nearer one never hides the other whole).
+_MIN_X_GAP_FRAC = 0.2
+
+
+def _dx(layout: dict[str, dict[str, float]] | None, name: str, cols: int) -> int:
+    """Columns to move an object from where the paper's scene puts it."""
+    if layout is None:
+        return 0
+    return round((layout[name]["x_frac"] - JUNG2015_LAYOUT[name]["x_frac"]) * cols)
+
+
+def _depth(layout: dict[str, dict[str, float]] | None, name: str) -> float:
+    return float((layout or JUNG2015_LAYOUT)[name]["depth_m"])
+
+
+def _building(shape_px, s, rng, layout=None) -> Layer:
     rows, cols = shape_px
     tex, alpha = _canvas(shape_px)
     dt, da = ImageDraw.Draw(tex), ImageDraw.Draw(alpha)
@@ -287,7 +329,8 @@ def _building(shape_px: tuple[int, int], s: float, rng: np.random.Generator) -> 
     dt.rectangle([0, 0, cols, rows], fill=200)  # plain sky
     ground = int(rows * 0.86)
     dt.rectangle([0, ground, cols, rows], fill=110)
-    x0, x1 = int(cols * 0.2), int(cols * 0.92)
+    dx = _dx(layout, "building", cols)
+    x0, x1 = int(cols * 0.2) + dx, int(cols * 0.92) + dx
     top = int(rows * 0.12)
     dt.rectangle([x0, top, x1, ground], fill=150)
     # Irregular bricks and windows: a periodic facade would make ghost copies of the blurred
@@ -317,14 +360,14 @@ def _building(shape_px: tuple[int, int], s: float, rng: np.random.Generator) -> 
     facade = Image.new("L", tex.size, 0)
     ImageDraw.Draw(facade).rectangle([x0, top, x1, ground], fill=255)
     t, a = _to_arrays(tex, alpha, rng, facade)
-    return Layer("building", t, a, jung2015.LF_SIM_PLANES_M[2])
+    return Layer("building", t, a, _depth(layout, "building"))
 
 
-def _tree(shape_px: tuple[int, int], s: float, rng: np.random.Generator) -> Layer:
+def _tree(shape_px, s, rng, layout=None) -> Layer:
     rows, cols = shape_px
     tex, alpha = _canvas(shape_px)
     dt, da = ImageDraw.Draw(tex), ImageDraw.Draw(alpha)
-    cx, ground = int(cols * 0.62), int(rows * 0.93)
+    cx, ground = int(cols * 0.62) + _dx(layout, "tree", cols), int(rows * 0.93)
     tw = int(11 * s)
     trunk_top = int(rows * 0.42)
     da.rectangle([cx - tw, trunk_top, cx + tw, ground], fill=255)
@@ -341,14 +384,14 @@ def _tree(shape_px: tuple[int, int], s: float, rng: np.random.Generator) -> Laye
         da.ellipse(box, fill=255)
         dt.ellipse(box, fill=int(rng.integers(40, 150)), outline=20)
     t, a = _to_arrays(tex, alpha, rng)
-    return Layer("tree", t, a, jung2015.LF_SIM_PLANES_M[1])
+    return Layer("tree", t, a, _depth(layout, "tree"))
 
 
-def _pedestrian(shape_px: tuple[int, int], s: float, rng: np.random.Generator) -> Layer:
+def _pedestrian(shape_px, s, rng, layout=None) -> Layer:
     rows, cols = shape_px
     tex, alpha = _canvas(shape_px)
     dt, da = ImageDraw.Draw(tex), ImageDraw.Draw(alpha)
-    cx = int(cols * 0.3)
+    cx = int(cols * 0.3) + _dx(layout, "pedestrian", cols)
     foot = int(rows * 0.98)
     h = rows * 0.8  # figure height, px
     head_r = h * 0.07
@@ -378,7 +421,82 @@ def _pedestrian(shape_px: tuple[int, int], s: float, rng: np.random.Generator) -
         [cx - head_r, head_cy - head_r, cx + head_r, head_cy - head_r * 0.2], fill=25
     )  # hair
     t, a = _to_arrays(tex, alpha, rng)
-    return Layer("pedestrian", t, a, jung2015.LF_SIM_PLANES_M[0])
+    return Layer("pedestrian", t, a, _depth(layout, "pedestrian"))
+
+
+def _check_layout(layout: dict) -> dict[str, dict[str, float]]:
+    """Refuse a layout that does not place exactly the three objects, backdrop farthest."""
+    if not isinstance(layout, dict) or set(layout) != set(JUNG2015_LAYOUT):
+        got = sorted(layout) if isinstance(layout, dict) else type(layout).__name__
+        raise InputError(
+            f"layout must place exactly {', '.join(sorted(JUNG2015_LAYOUT))}, got {got}"
+        )
+    out = {}
+    for name, place in layout.items():
+        try:
+            x, z = float(place["x_frac"]), float(place["depth_m"])
+        except (TypeError, KeyError, ValueError):
+            raise InputError(
+                f"layout[{name!r}] must be {{'x_frac': float, 'depth_m': float}}, got {place!r}"
+            ) from None
+        if not (0.0 <= x <= 1.0 and math.isfinite(z) and z > 0):
+            raise InputError(
+                f"layout[{name!r}] needs x_frac in [0, 1] and depth_m > 0, got {place!r}"
+            )
+        out[name] = {"x_frac": x, "depth_m": z}
+    far = max(out["pedestrian"]["depth_m"], out["tree"]["depth_m"])
+    if out["building"]["depth_m"] <= far:
+        raise InputError(
+            f"layout: the building is the opaque backdrop and must be farther than the "
+            f"pedestrian and the tree ({far} m), got {out['building']['depth_m']} m"
+        )
+    return out
+
+
+def random_three_plane_layout(
+    rng: np.random.Generator | int | None = None,
+) -> dict[str, dict[str, float]]:
+    """Draw where the three-plane scene's objects stand: a new layout for every trial.
+
+    The pedestrian and the tree get a column in :data:`RANDOM_LAYOUT_X_FRAC` (at least a fifth
+    of the width apart) and a depth uniform in 1/depth over :data:`RANDOM_LAYOUT_FRONT_M`
+    (either may be the nearer, their 1/depth at least :data:`RANDOM_LAYOUT_MIN_SEPARATION`
+    apart); the building, the opaque backdrop, a depth in :data:`RANDOM_LAYOUT_BACKDROP_M` and
+    a column within 0.1 of the paper's. All ranges are ours, not the paper's.
+
+    Parameters
+    ----------
+    rng : numpy Generator, int or None
+
+    Returns
+    -------
+    dict of str -> {'x_frac': float, 'depth_m': float}
+        A layout for :func:`three_plane_scene` (plain data: it is logged with the trial).
+
+    Examples
+    --------
+    >>> a = random_three_plane_layout(3)
+    >>> a == random_three_plane_layout(3), sorted(a)
+    (True, ['building', 'pedestrian', 'tree'])
+    """
+    rng = np.random.default_rng(rng)
+    lo_x, hi_x = RANDOM_LAYOUT_X_FRAC
+    while True:
+        xp, xt = rng.uniform(lo_x, hi_x, size=2)
+        if abs(xp - xt) >= _MIN_X_GAP_FRAC:
+            break
+    near_m, far_m = RANDOM_LAYOUT_FRONT_M
+    while True:
+        inv = rng.uniform(1.0 / far_m, 1.0 / near_m, size=2)
+        if abs(inv[0] - inv[1]) >= RANDOM_LAYOUT_MIN_SEPARATION:
+            break
+    back_m = rng.uniform(1.0 / RANDOM_LAYOUT_BACKDROP_M[1], 1.0 / RANDOM_LAYOUT_BACKDROP_M[0])
+    xb = JUNG2015_LAYOUT["building"]["x_frac"] + rng.uniform(-0.1, 0.1)
+    return {
+        "pedestrian": {"x_frac": round(float(xp), 4), "depth_m": round(float(1 / inv[0]), 4)},
+        "tree": {"x_frac": round(float(xt), 4), "depth_m": round(float(1 / inv[1]), 4)},
+        "building": {"x_frac": round(float(xb), 4), "depth_m": round(float(1 / back_m), 4)},
+    }
 
 
 def three_plane_scene(
@@ -386,8 +504,12 @@ def three_plane_scene(
     *,
     margin_px: int = 48,
     rng: np.random.Generator | int | None = 0,
+    layout: dict[str, dict[str, float]] | None = None,
 ) -> list[Layer]:
     """Return the paper's simulated scene: pedestrian 1 m, tree 4 m, building 9 m (Fig. 10).
+
+    With a ``layout`` the same three objects stand elsewhere (a trial of a study whose subjects
+    must not learn where the objects are; see :func:`random_three_plane_layout`).
 
     Parameters
     ----------
@@ -397,11 +519,19 @@ def three_plane_scene(
         Texture margin on each side, pixels (48 covers the lens-array sim's 5 x 7.5 px shift).
     rng : numpy Generator, int or None
         Seeds the leaf and bark texture.
+    layout : dict of str -> {'x_frac': float, 'depth_m': float}, optional
+        Each object's centre column (fraction of the view width) and depth, metres. Default:
+        :data:`JUNG2015_LAYOUT`.
 
     Returns
     -------
     list of Layer
-        Building, tree, pedestrian (far to near), textures float32 in [0, 1].
+        Building, tree, pedestrian, textures float32 in [0, 1].
+
+    Raises
+    ------
+    stimuli.errors.InputError
+        A layout that misses an object, or puts the building (the backdrop) in front.
 
     References
     ----------
@@ -413,11 +543,13 @@ def three_plane_scene(
         raise InputError(f"shape_px must be at least 16x16, got {shape_px!r}")
     if margin_px < 0:
         raise InputError(f"margin_px must be >= 0, got {margin_px!r}")
+    if layout is not None:
+        layout = _check_layout(layout)
     big = (rows + 2 * margin_px, cols + 2 * margin_px)
     s = min(rows / SIM_SHAPE_PX[0], cols / SIM_SHAPE_PX[1])
 
     def centred(layer_fn) -> Layer:
-        inner = layer_fn((rows, cols), s, rng)
+        inner = layer_fn((rows, cols), s, rng, layout)
         t = np.zeros(big, np.float32)
         a = np.zeros(big, np.float32)
         t[margin_px : margin_px + rows, margin_px : margin_px + cols] = inner.texture

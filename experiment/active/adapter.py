@@ -15,6 +15,12 @@ import numpy as np
 
 __all__ = [
     "SYNTHETIC_PREFIX",
+    "FIXED_SCENE",
+    "RANDOM_SCENE",
+    "SYNTHETIC_SCENES",
+    "SYNTHETIC_OBJECTS",
+    "scene_objects",
+    "draw_layout",
     "Scene",
     "load_scene",
     "refocus_image",
@@ -26,6 +32,15 @@ __all__ = [
 
 #: Scene names that start with this are rendered, not loaded (``synthetic:three_plane``).
 SYNTHETIC_PREFIX = "synthetic:"
+#: The paper's Fig. 10 scene, the same in every trial.
+FIXED_SCENE = "synthetic:three_plane"
+#: The same three objects at new columns and depths in every trial (drawn from the session's
+#: seed and logged with the trial; :func:`stimuli.lfsynth.random_three_plane_layout`).
+RANDOM_SCENE = "synthetic:random_three_plane"
+#: The synthetic scenes a protocol may name.
+SYNTHETIC_SCENES: tuple[str, ...] = (FIXED_SCENE, RANDOM_SCENE)
+#: The objects of both synthetic scenes.
+SYNTHETIC_OBJECTS: tuple[str, ...] = ("pedestrian", "tree", "building")
 
 
 @dataclass(frozen=True, eq=False)
@@ -47,6 +62,15 @@ class Scene:
         (synthetic scenes only; the simulated recogniser's memory of the object).
     sha256 : str
         SHA-256 of the views' bytes (provenance, H15).
+    synonyms : dict of str to (synonyms, uses)
+        Words the scorer accepts for a recorded scene's targets (from its description).
+    layout : dict or None
+        Where a randomised synthetic scene's objects stand (logged with the trial).
+    edge_masks : dict of str to ndarray of shape (rows, cols), bool
+        A recorded scene's targets: their appearance is the whole view refocused at their
+        plane, and only its edges inside this box make the recogniser's template.
+    scan_px : (nearest, farthest) or None
+        Disparity range of the depth scan (a recorded scene's description), else the default.
     """
 
     name: str
@@ -55,6 +79,10 @@ class Scene:
     masks: dict[str, np.ndarray] = field(default_factory=dict)
     appearances: dict[str, np.ndarray] = field(default_factory=dict)
     sha256: str = ""
+    synonyms: dict[str, tuple[tuple[str, ...], tuple[str, ...]]] = field(default_factory=dict)
+    layout: dict | None = None
+    scan_px: tuple[float, float] | None = None
+    edge_masks: dict[str, np.ndarray] = field(default_factory=dict)
 
     @property
     def shape_px(self) -> tuple[int, int]:
@@ -80,6 +108,100 @@ class Scene:
         return float(self.lightfield.max_disparity_px())  # type: ignore[attr-defined]
 
 
+def scene_objects(name: str, *, base_dir: str | Path | None = None) -> tuple[str, ...] | None:
+    """Return the objects a scene entry holds without rendering or loading it.
+
+    Synthetic scenes: :data:`SYNTHETIC_OBJECTS`; a scene description: its targets; a plain
+    light field: None (its objects are unknown; any target may be cued).
+
+    Raises
+    ------
+    stimuli.errors.InputError
+        An unknown synthetic scene.
+    experiment.protocol.ProtocolError
+        A scene description with a bad field (one line naming the file and field).
+    """
+    from experiment.active.scenefile import read_scene_file, scene_file_for
+    from stimuli.errors import InputError
+
+    if name.startswith(SYNTHETIC_PREFIX):
+        if name not in SYNTHETIC_SCENES:
+            raise InputError(
+                f"scene must be one of {', '.join(SYNTHETIC_SCENES)} or a path, got {name!r}"
+            )
+        return SYNTHETIC_OBJECTS
+    desc = scene_file_for(name, base_dir)
+    return None if desc is None else read_scene_file(desc).names
+
+
+def draw_layout(name: str, rng: np.random.Generator | int | None) -> dict | None:
+    """Return a new object layout for a trial of a randomised scene (None for other scenes)."""
+    if name != RANDOM_SCENE:
+        return None
+    from stimuli.lfsynth import random_three_plane_layout
+
+    return random_three_plane_layout(rng)
+
+
+def _synthetic(name, shape_px, grid, baseline_m, seed, layout):
+    from stimuli.lfsynth import SIM_SHAPE_PX, layer_masks, render_camera_array
+    from stimuli.lfsynth import three_plane_scene as _three_plane
+
+    shape = tuple(int(v) for v in (shape_px or SIM_SHAPE_PX))
+    layers = _three_plane(shape, rng=seed, layout=layout)
+    lf = render_camera_array(layers, grid=grid, shape_px=shape, baseline_m=baseline_m)
+    masks = layer_masks(layers, shape)
+    objects, looks = {}, {}
+    for layer in layers:
+        objects[layer.name] = float(lf.disparity_px(layer.depth_m))
+        t, a = np.asarray(layer.texture), np.asarray(layer.alpha)
+        oy, ox = (t.shape[0] - shape[0]) // 2, (t.shape[1] - shape[1]) // 2
+        t = t[oy : oy + shape[0], ox : ox + shape[1]]
+        a = a[oy : oy + shape[0], ox : ox + shape[1]]
+        # the object as seen in the scene: only where it is visible (occlusion included)
+        a = a * masks[layer.name]
+        looks[layer.name] = np.clip(a * t + (1 - a) * 0.5, 0, 1).astype(np.float32)
+    return lf, objects, masks, looks
+
+
+def _recorded(desc):
+    """Load a described light field; each target's look is the view refocused at its plane
+    (its template keeps that view's edges inside its box: :func:`object_edge_template`)."""
+    from stimuli.errors import InputError
+    from stimuli.lightfield import load_lightfield
+    from stimuli.refocus import refocus
+
+    lf = load_lightfield(desc.lightfield).gray()
+    rows, cols = lf.shape_px
+    ox = oy = 0
+    if desc.crop_xywh is not None:
+        x, y, w, h = desc.crop_xywh
+        if x + w > cols or y + h > rows:
+            raise InputError(
+                f"{desc.path}: scene.crop_xywh {list(desc.crop_xywh)} must lie inside the "
+                f"{cols}x{rows} views of {desc.lightfield}"
+            )
+        lf, ox, oy = lf.cropped(desc.crop_xywh), x, y
+        rows, cols = lf.shape_px
+    objects, masks, looks, words = {}, {}, {}, {}
+    for i, t in enumerate(desc.targets):
+        x, y, w, h = t.box_xywh
+        x, y = x - ox, y - oy
+        if x + w > cols or y + h > rows:
+            raise InputError(
+                f"{desc.path}: targets[{i}].box_xywh {list(t.box_xywh)} must lie inside the "
+                f"searched {cols}x{rows} view"
+            )
+        m = np.zeros((rows, cols), bool)
+        m[y : y + h, x : x + w] = True
+        img = refocus(lf, t.disparity_px, workers=1)
+        objects[t.name] = t.disparity_px
+        masks[t.name] = m
+        looks[t.name] = np.asarray(img, dtype=np.float32)
+        words[t.name] = (t.synonyms, t.uses)
+    return lf, objects, masks, looks, words
+
+
 def load_scene(
     name: str,
     *,
@@ -87,16 +209,21 @@ def load_scene(
     grid: tuple[int, int] = (7, 7),
     baseline_m: float = 0.03,
     seed: int = 0,
+    layout: dict | None = None,
+    base_dir: str | Path | None = None,
 ) -> Scene:
-    """Render the synthetic three-plane scene, or load a light field from a path.
+    """Render a synthetic scene, or load a recorded light field (with its targets, if described).
 
     Parameters
     ----------
     name : str
         ``"synthetic:three_plane"`` (Jung et al. 2015, Fig. 10: pedestrian 1 m, tree 4 m,
-        building 9 m), or a light-field file or folder that ``confocal lightfield`` reads.
+        building 9 m), ``"synthetic:random_three_plane"`` (the same objects where ``layout``
+        puts them), a scene description (``.toml``, or a light-field folder holding
+        ``scene.toml``: :mod:`experiment.active.scenefile`), or a light-field file or folder
+        that ``confocal lightfield`` reads.
     shape_px : (rows, cols), optional
-        View size of the synthetic scene (default: the paper's 308x385).
+        View size of a synthetic scene (default: the paper's 308x385).
     grid : (n_u, n_v)
         Views of the synthetic scene's camera array.
     baseline_m : float > 0
@@ -105,6 +232,11 @@ def load_scene(
         each plane's neighbours by several pixels, as the paper's 10x10 lens array does).
     seed : int
         Seed of the synthetic scene's textures.
+    layout : dict, optional
+        Object layout of ``synthetic:random_three_plane`` (required there; see
+        :func:`draw_layout`).
+    base_dir : str or Path, optional
+        Folder relative scene paths are read from (the protocol's).
 
     Returns
     -------
@@ -113,43 +245,45 @@ def load_scene(
     Raises
     ------
     stimuli.errors.InputError
-        An unknown synthetic scene or an unreadable light field.
+        An unknown synthetic scene, a missing layout, an unreadable light field, a box or crop
+        outside the views.
+    experiment.protocol.ProtocolError
+        A scene description with a bad field.
     """
     import hashlib
 
+    from experiment.active.scenefile import read_scene_file, scene_file_for
     from stimuli.errors import InputError
 
+    words: dict = {}
+    scan = None
+    edge_masks: dict = {}
     if name.startswith(SYNTHETIC_PREFIX):
-        from stimuli.lfsynth import SIM_SHAPE_PX, layer_masks, render_camera_array
-        from stimuli.lfsynth import three_plane_scene as _three_plane
-
-        kind = name[len(SYNTHETIC_PREFIX) :]
-        if kind != "three_plane":
-            raise InputError(f"scene must be 'synthetic:three_plane' or a path, got {name!r}")
-        shape = tuple(int(v) for v in (shape_px or SIM_SHAPE_PX))
-        layers = _three_plane(shape, rng=seed)
-        lf = render_camera_array(layers, grid=grid, shape_px=shape, baseline_m=baseline_m)
-        masks = layer_masks(layers, shape)
-        objects, looks = {}, {}
-        for layer in layers:
-            objects[layer.name] = float(lf.disparity_px(layer.depth_m))
-            t, a = np.asarray(layer.texture), np.asarray(layer.alpha)
-            oy, ox = (t.shape[0] - shape[0]) // 2, (t.shape[1] - shape[1]) // 2
-            t = t[oy : oy + shape[0], ox : ox + shape[1]]
-            a = a[oy : oy + shape[0], ox : ox + shape[1]]
-            # the object as seen in the scene: only where it is visible (occlusion included)
-            a = a * masks[layer.name]
-            looks[layer.name] = np.clip(a * t + (1 - a) * 0.5, 0, 1).astype(np.float32)
+        if name not in SYNTHETIC_SCENES:
+            raise InputError(
+                f"scene must be one of {', '.join(SYNTHETIC_SCENES)} or a path, got {name!r}"
+            )
+        if name == RANDOM_SCENE and layout is None:
+            raise InputError(f"scene {name!r} needs the trial's layout (draw_layout)")
+        if name == FIXED_SCENE:
+            layout = None
+        lf, objects, masks, looks = _synthetic(name, shape_px, grid, baseline_m, seed, layout)
+    elif (desc_path := scene_file_for(name, base_dir)) is not None:
+        desc = read_scene_file(desc_path)
+        lf, objects, masks, looks, words = _recorded(desc)
+        scan, edge_masks = desc.scan_px, masks
     else:
         from stimuli.lightfield import load_lightfield
 
         path = Path(name)
+        if not path.is_absolute() and base_dir is not None and not path.exists():
+            path = Path(base_dir) / path
         if not path.exists():
             raise InputError(f"{path}: light field not found")
         lf = load_lightfield(path).gray()
         objects, masks, looks = {}, {}, {}
     sha = hashlib.sha256(np.ascontiguousarray(lf.views).tobytes()).hexdigest()
-    return Scene(name, lf, objects, masks, looks, sha)
+    return Scene(name, lf, objects, masks, looks, sha, words, layout, scan, edge_masks)
 
 
 def refocus_image(scene: Scene, disparity_px: float) -> np.ndarray:
@@ -212,9 +346,22 @@ def object_edge_template(
     grid_px: tuple[int, int],
     *,
     zoom_box_xywh: tuple[int, int, int, int] | None = None,
+    mask: np.ndarray | None = None,
 ) -> np.ndarray:
-    """Return an object's implant view when it is alone and in focus (a recogniser template)."""
-    return implant_view(appearance, grid_px, zoom_box_xywh=zoom_box_xywh)[1]
+    """Return an object's implant view when it is alone and in focus (a recogniser template).
+
+    ``mask`` (rows, cols) bool keeps only the de-cluttered edges inside it before compression:
+    a recorded target is its whole view refocused at its plane, cut to its box after edge
+    detection so that the box's border makes no edges of its own.
+    """
+    if mask is None:
+        return implant_view(appearance, grid_px, zoom_box_xywh=zoom_box_xywh)[1]
+    from stimuli import jung2015
+    from stimuli.compress import compress
+
+    edges, _ = edge_image(_crop(appearance, zoom_box_xywh))
+    edges = edges & _crop(np.asarray(mask, dtype=bool), zoom_box_xywh)
+    return compress(edges, tuple(grid_px), edge_ratio=jung2015.EDGE_RATIO)
 
 
 def detect_planes(scene: Scene, *, n_planes: int) -> tuple[np.ndarray, tuple[float, ...]]:
@@ -230,7 +377,9 @@ def detect_planes(scene: Scene, *, n_planes: int) -> tuple[np.ndarray, tuple[flo
     from stimuli.planes import auto_binning, default_disparities, find_object_planes
 
     lf = scene.lightfield
-    if getattr(lf, "geometry", None) is not None:
+    if scene.scan_px is not None:
+        ds = np.linspace(scene.scan_px[0], scene.scan_px[1], n_planes)
+    elif getattr(lf, "geometry", None) is not None:
         ds = default_disparities(lf, n_planes)
     else:
         m = 0.9 * scene.max_disparity_px()

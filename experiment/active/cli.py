@@ -7,7 +7,9 @@ view and where the subject is in depth, types the subject's words and scores the
 
 With ``sim:planes`` or ``sim:ordered`` (:mod:`experiment.active.searcher`) the searcher is
 simulated and its times run on a simulated clock; they are labelled simulated in the log
-(``searcher`` of each ``trial_start``) and in ``confocal analyze``'s report.
+(``searcher`` of each ``trial_start``) and in ``confocal analyze``'s report. It searches
+synthetic scenes and recorded light fields with a scene description (each target's plane and
+box: :mod:`experiment.active.scenefile`).
 """
 
 from __future__ import annotations
@@ -62,6 +64,17 @@ def run_command(
         str, typer.Option("--rater", help="person: rater name stored with the scores.")
     ] = "operator",
     new_session: run_options.NewSessionOption = None,
+    subject_index: Annotated[
+        int | None,
+        typer.Option(
+            "--subject-index",
+            min=0,
+            max=MAX_SEED,
+            help='counterbalance = "latin_square": the subject\'s position in the study '
+            "(picks the condition order; default: the subject's position in this log's "
+            "subjects). Saved in the plan.",
+        ),
+    ] = None,
 ) -> None:
     """Run or resume SUBJECT's active-search session: a person searches, or a simulated one.
 
@@ -100,9 +113,10 @@ def run_command(
             skip_timing_check,
             rater,
             new_session,
+            subject_index,
         )
         return
-    _run_simulated(protocol, spec, data, subject, searcher, seed, new_session)
+    _run_simulated(protocol, spec, data, subject, searcher, seed, new_session, subject_index)
 
 
 def subject_phosphenes(spec) -> dict | None:
@@ -119,7 +133,17 @@ def subject_phosphenes(spec) -> dict | None:
 
 
 def _run_person(
-    spec, data, subject, seed, screen, fullscreen, presenter, skip_timing_check, rater, new_session
+    spec,
+    data,
+    subject,
+    seed,
+    screen,
+    fullscreen,
+    presenter,
+    skip_timing_check,
+    rater,
+    new_session,
+    subject_index=None,
 ) -> None:
     import json
     import sys
@@ -144,7 +168,13 @@ def _run_person(
         return
     with TrialLog(data) as log:
         session = ActiveSession.open(
-            log, spec, subject, seed=seed, responder="person", new_session=new_session
+            log,
+            spec,
+            subject,
+            seed=seed,
+            responder="person",
+            new_session=new_session,
+            subject_index=subject_index,
         )
         try:
             try:
@@ -191,17 +221,25 @@ def _run_person(
     typer.echo(f"session of {subject}: {done} of {total} trials answered; log: {data}")
 
 
-def _run_simulated(protocol, spec, data, subject, searcher, seed, new_session=None) -> None:
+def _run_simulated(
+    protocol, spec, data, subject, searcher, seed, new_session=None, subject_index=None
+) -> None:
+    from pathlib import Path
+
+    from experiment.active.adapter import scene_objects
     from experiment.active.searcher import EdgeRecogniser, SimulatedSearcher
     from experiment.active.session import ActiveSession
     from experiment.clock import FakeClock
     from experiment.log import TrialLog
 
-    if not spec.task.scene.startswith("synthetic:"):
-        raise ConfocalError(
-            f"{protocol}: task.scene {spec.task.scene!r} is a recorded light field; the simulated "
-            "searcher needs a synthetic scene (its model observer knows the objects' looks)"
-        )
+    base = None if spec.source_path is None else Path(spec.source_path).parent
+    for name in spec.task.scenes:
+        if scene_objects(name, base_dir=base) is None:
+            raise ConfocalError(
+                f"{protocol}: task.scene {name!r} is a light field without a scene description; "
+                "the simulated searcher needs to know each target's plane and box (give a "
+                ".toml scene description: see experiment/active/scenefile.py)"
+            )
     if run_options.report_if_complete(data, subject, new_session):
         return
     with TrialLog(data) as log:
@@ -213,6 +251,7 @@ def _run_simulated(protocol, spec, data, subject, searcher, seed, new_session=No
             clock=FakeClock(),
             responder=searcher,
             new_session=new_session,
+            subject_index=subject_index,
         )
         try:
             rec = EdgeRecogniser(session.scene, spec.task.grid_px, rng=session.seed)

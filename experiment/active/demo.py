@@ -191,6 +191,8 @@ def run_active_demo(
     base = load_protocol("active_search")
     task = replace(
         base.task,
+        scene="synthetic:three_plane",
+        counterbalance="none",
         conditions=("decluttered",),
         trial_order="listed",
         targets=("pedestrian", "tree", "building"),

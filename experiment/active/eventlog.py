@@ -9,11 +9,20 @@ duplicated event is detectable.
 Payloads (JSON objects) by kind
 -------------------------------
 =====================  ===========================================================================
-``plan``               ``trials``: list of ``{index, target, condition, repetition}``; ``task``:
-                       the ``[task]`` table; ``scene_sha256``; ``planes_px``: detected planes
-                       (px per view step, nearest first); ``depth_step_px``; ``scan_px``:
-                       [nearest, farthest] disparity of the scan. Trial NULL.
-``trial_start``        ``target``, ``condition``, ``cue`` (text shown), ``searcher``.
+``plan``               ``trials``: list of ``{index, target, condition, repetition, scene}``
+                       (+ ``layout``, ``scene_seed`` for a randomised scene); ``task``: the
+                       ``[task]`` table; ``scenes``: per fixed scene ``{sha256, planes_px``
+                       (detected planes, px per view step, nearest first), ``depth_step_px``,
+                       ``scan_px`` ([nearest, farthest] disparity of the scan),
+                       ``objects_px}``; ``counterbalance``: ``{scheme, subject_index,
+                       condition_order}``. With one fixed scene also ``scene_sha256``,
+                       ``planes_px``, ``depth_step_px``, ``scan_px``, ``objects_px`` at top
+                       level. Trial NULL.
+``trial_start``        ``target``, ``condition``, ``cue`` (text shown), ``searcher``, ``scene``,
+                       ``scene_sha256``, ``planes_px``, ``depth_step_px``, ``objects_px``
+                       (target -> true disparity, where known); a randomised scene adds
+                       ``layout`` ({object: {x_frac, depth_m}}) and ``scene_seed``: the trial
+                       is rebuilt exactly from them.
 ``key``                ``key`` (the key or input pressed), ``action`` (``depth_near``,
                        ``depth_far``, ``plane_next``, ``plane_prev``, ``zoom``, ``unzoom``,
                        ``answer``, ``pass``), ``box`` ([x, y, w, h], zoom only).

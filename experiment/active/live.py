@@ -202,7 +202,7 @@ class LiveSearch:
         t = self.trial
         if t is None:
             return "pass"
-        return auto_scorer(t, response, self.session.task.targets)[0]
+        return auto_scorer(t, response, self.session.task.targets, self.session.object_infos)[0]
 
     def score(self, response: str, score: str) -> list[dict]:
         """Commit the running trial's answer with the operator's score; clear the screen."""

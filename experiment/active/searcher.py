@@ -75,6 +75,8 @@ class Observation:
     elapsed_s : float
         Time since the trial's onset, seconds.
     zoom_allowed : bool
+    scene : adapter.Scene or None
+        The trial's scene (a session with several scenes, or a new layout every trial).
     """
 
     target: str
@@ -84,6 +86,7 @@ class Observation:
     context: SearchContext
     elapsed_s: float
     zoom_allowed: bool
+    scene: adapter.Scene | None = None
 
 
 @runtime_checkable
@@ -143,22 +146,28 @@ class EdgeRecogniser:
     Parameters
     ----------
     scene : adapter.Scene
-        A synthetic scene (it has the objects' appearances).
+        A scene with known objects: synthetic (it has the objects' appearances) or a recorded
+        light field with a scene description (each target refocused at its plane, in its box).
     grid_px : (rows, cols)
     rng : numpy Generator, int or None
     params : RecogniserParams, optional
     """
 
     def __init__(self, scene, grid_px, *, rng=None, params: RecogniserParams | None = None):
-        if not scene.appearances:
-            raise ValueError(
-                f"scene {scene.name!r} has no object appearances: the simulated recogniser "
-                "needs a synthetic scene"
-            )
-        self.scene = scene
         self.grid_px = tuple(grid_px)
         self.params = params or RecogniserParams()
         self.rng = np.random.default_rng(rng)
+        self.use_scene(scene)
+
+    def use_scene(self, scene) -> None:
+        """Learn the objects of another scene (the next trial's); templates are rebuilt."""
+        if not scene.appearances:
+            raise ValueError(
+                f"scene {scene.name!r} has no object appearances: the simulated recogniser "
+                "needs a synthetic scene or a light field with a scene description "
+                "(each target's name, plane and box)"
+            )
+        self.scene = scene
         self._templates: dict[tuple, tuple[list[str], np.ndarray]] = {}
 
     def _retina(self, grid: np.ndarray) -> np.ndarray:
@@ -173,7 +182,9 @@ class EdgeRecogniser:
         if key not in self._templates:
             names, rows = [], []
             for name, look in self.scene.appearances.items():
-                g = adapter.object_edge_template(look, self.grid_px, zoom_box_xywh=key)
+                g = adapter.object_edge_template(
+                    look, self.grid_px, zoom_box_xywh=key, mask=self.scene.edge_masks.get(name)
+                )
                 r = self._retina(g)
                 n = float(np.sqrt(np.sum(r * r)))
                 names.append(name)
@@ -197,7 +208,7 @@ class EdgeRecogniser:
         are also lit in the view (all its template's cells when none are), or None."""
         names, _ = self.templates(None)
         look = self.scene.appearances[name]
-        tg = adapter.object_edge_template(look, self.grid_px)
+        tg = adapter.object_edge_template(look, self.grid_px, mask=self.scene.edge_masks.get(name))
         both = tg & np.asarray(grid, dtype=bool)
         return _lit_box(both if both.any() else tg, shape_px)
 
@@ -300,6 +311,8 @@ class SimulatedSearcher:
 
     def next_action(self, obs: Observation) -> Action:
         """Look at the view; answer, zoom, un-zoom or move on."""
+        if obs.scene is not None and obs.scene is not self.recogniser.scene:
+            self.recogniser.use_scene(obs.scene)
         look = self._t(self.look_s)
         found, unsure, self._last_r = self.recogniser.judge(obs.view.grid, obs.state.zoom)
         if found is not None and found == obs.target:

@@ -9,6 +9,13 @@ the next one is produced; the answer and its score are one transaction. Opening,
 locking, completing and closing the session in the log is the recognition session's
 (:mod:`experiment.session.lifecycle`).
 
+Scenes: a task may list several scenes. The fixed ones (the paper's scene, recorded light
+fields) are loaded and scanned for planes when the session opens (the plan keeps their sha256
+and planes under ``scenes``); a randomised scene is rebuilt for each trial from the layout and
+texture seed the plan saved, and scanned then. Each ``trial_start`` logs the trial's ``scene``,
+its ``scene_sha256``, ``planes_px``, ``objects_px`` and (randomised scenes) ``layout`` and
+``scene_seed``; a resumed trial must rebuild to the same sha256.
+
 Resume: the trials with an ``answer`` row are done; a trial whose attempt was cut by a crash is
 marked ``attempt_abandoned`` and restarted as attempt + 1 (its old rows stay: the log is
 append-only; analysis uses the answered attempt).
@@ -16,8 +23,10 @@ append-only; analysis uses the answered attempt).
 
 from __future__ import annotations
 
+import hashlib
 import json
 from collections.abc import Callable, Iterator
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -26,7 +35,7 @@ from experiment.active import adapter
 from experiment.active.engine import Renderer, SearchContext, View, ViewerState, apply_action
 from experiment.active.eventlog import ActiveEventLog
 from experiment.active.searcher import Action, Observation, Searcher
-from experiment.active.task import ActiveSearchSpec, ActiveTrial, plan_trials
+from experiment.active.task import ActiveSearchSpec, ActiveTrial, condition_order, plan_trials
 from experiment.clock import Clock, PerfCounterClock
 from experiment.log import ResumeMismatch, TrialLog
 from experiment.protocol import ProtocolError, ProtocolSpec
@@ -60,17 +69,88 @@ SCENE_OBJECTS: dict[str, ObjectInfo] = {
 Scorer = Callable[[ActiveTrial, str], tuple[str, str]]
 
 
-def _object_info(name: str) -> ObjectInfo:
+def _object_info(name: str, objects: dict[str, ObjectInfo] | None = None) -> ObjectInfo:
+    if objects and name in objects:
+        return objects[name]
     return SCENE_OBJECTS.get(name, ObjectInfo(name, name, (), (), "main"))
 
 
 def auto_scorer(
-    trial: ActiveTrial, response: str, targets: tuple[str, ...] = ()
+    trial: ActiveTrial,
+    response: str,
+    targets: tuple[str, ...] = (),
+    objects: dict[str, ObjectInfo] | None = None,
 ) -> tuple[str, str]:
     """Score an answer as the console suggests it
-    (:func:`~experiment.session.scoring.suggest_score`)."""
-    others = [_object_info(t) for t in targets if t != trial.target]
-    return suggest_score(response, _object_info(trial.target), others), "auto"
+    (:func:`~experiment.session.scoring.suggest_score`).
+
+    ``objects`` adds the names, synonyms and uses of a recorded scene's targets (from its
+    description) to :data:`SCENE_OBJECTS`.
+    """
+    others = [_object_info(t, objects) for t in targets if t != trial.target]
+    return suggest_score(response, _object_info(trial.target, objects), others), "auto"
+
+
+class _SceneState:
+    """A loaded scene with what the keys and the renderers of its trials need."""
+
+    def __init__(self, scene: adapter.Scene, info: dict[str, Any], task: ActiveSearchSpec):
+        self.scene = scene
+        self.planes_px = tuple(float(p) for p in info["planes_px"])
+        near, far = info["scan_px"]
+        self.depth_step_px = float(info["depth_step_px"])
+        self.ctx = SearchContext(
+            self.planes_px, float(near), float(far), self.depth_step_px, scene.shape_px,
+            task.zoom_allowed,
+        )
+        self.renderers: dict[str, Renderer] = {}
+
+    def renderer(self, condition: str, grid_px) -> Renderer:
+        if condition not in self.renderers:
+            self.renderers[condition] = Renderer(self.scene, grid_px, condition)
+        return self.renderers[condition]
+
+
+def _scan_info(scene: adapter.Scene, task: ActiveSearchSpec) -> dict[str, Any]:
+    """Scan a scene for its planes: what the plan (or a trial_start) records about it."""
+    ds, planes = adapter.detect_planes(scene, n_planes=task.n_planes)
+    return {
+        "sha256": scene.sha256,
+        "planes_px": list(planes),
+        "depth_step_px": float(task.depth_step_px or scene.depth_step_px()),
+        "scan_px": [float(ds.max()), float(ds.min())],
+        "objects_px": dict(scene.objects),
+    }
+
+
+def _scenes_sha256(shas: dict[str, str]) -> str:
+    """The session's scene hash: the scene's own for one scene, else a hash of all of them."""
+    if len(shas) == 1:
+        return next(iter(shas.values()))
+    text = json.dumps(shas, sort_keys=True, separators=(",", ":"))
+    return hashlib.sha256(text.encode()).hexdigest()
+
+
+def _check_targets(task: ActiveSearchSpec, objects: dict[str, tuple[str, ...] | None]) -> None:
+    """Every target is in some scene, every scene holds some target (one line if not)."""
+    for t in task.targets:
+        if not any(o is None or t in o for o in objects.values()):
+            where = ", ".join(f"{k} ({', '.join(o or ())})" for k, o in objects.items())
+            raise ProtocolError(f"task.targets: {t!r} is not an object of {where}")
+    for k, o in objects.items():
+        if o is not None and not set(o) & set(task.targets):
+            raise ProtocolError(
+                f"task.scene: {k!r} holds none of task.targets (its objects: {', '.join(o)})"
+            )
+
+
+def _subject_index(log: TrialLog, subject: str) -> int:
+    """The subject's position among the subjects of this log (first session first), 0-based."""
+    order: list[str] = []
+    for row in log.sessions():
+        if row["subject"] not in order:
+            order.append(row["subject"])
+    return order.index(subject) if subject in order else len(order)
 
 
 def _grid_hex(grid: np.ndarray) -> str:
@@ -87,39 +167,106 @@ class ActiveSession(lifecycle.LoggedSession):
     protocol : ProtocolSpec
     task : ActiveSearchSpec
     scene : adapter.Scene
+        The running (or next) trial's scene.
     trials : list of ActiveTrial
         The saved plan.
+    plan : dict
+        The ``plan`` event's payload.
     planes_px : tuple of float
-        Detected object planes (nearest first), from the plan.
+        Detected object planes (nearest first) of that scene.
     events : ActiveEventLog
     clock : Clock
     """
 
-    def __init__(self, log, protocol, subject, session_id, seed, scene, plan, clock) -> None:
+    def __init__(self, log, protocol, subject, session_id, seed, scenes, plan, clock) -> None:
         self.log = log
         self.protocol = protocol
         self.task: ActiveSearchSpec = protocol.task
         self.subject = subject
         self.session_id = session_id
         self.seed = seed
-        self.scene = scene
-        self.trials = [ActiveTrial.from_dict(t) for t in plan["trials"]]
-        self.planes_px = tuple(float(p) for p in plan["planes_px"])
-        near, far = plan["scan_px"]
+        first = self.task.scenes[0]
+        self.trials = [
+            t if t.scene else ActiveTrial(t.index, t.target, t.condition, t.repetition, first)
+            for t in (ActiveTrial.from_dict(d) for d in plan["trials"])
+        ]
+        self.plan = plan
         self.events = ActiveEventLog(log, session_id)
         self.clock = clock
-        self._ctx = SearchContext(
-            self.planes_px,
-            float(near),
-            float(far),
-            float(plan["depth_step_px"]),
-            scene.shape_px,
-            self.task.zoom_allowed,
-        )
-        self._renderers: dict[str, Renderer] = {}
+        self._states: dict[tuple, _SceneState] = {}
+        for name, scene in scenes.items():
+            self._states[(name, None)] = _SceneState(scene, self._fixed_info(name), self.task)
+        self._objects: dict[str, ObjectInfo] = {}
+        for scene in scenes.values():
+            self._learn_words(scene)
+        self._shown: _SceneState | None = None
         self._current: tuple[ActiveTrial, int, float] | None = None
         self.state: ViewerState | None = None
         self.view: View | None = None
+
+    def _fixed_info(self, name: str) -> dict[str, Any]:
+        info = self.plan.get("scenes", {}).get(name)
+        if info is None:  # a plan written before several scenes: its one scene at top level
+            info = {k: self.plan[k] for k in ("planes_px", "depth_step_px", "scan_px")}
+        return info
+
+    def _learn_words(self, scene: adapter.Scene) -> None:
+        for name, (syn, uses) in scene.synonyms.items():
+            self._objects[name] = ObjectInfo(name, name, tuple(syn), tuple(uses), "main")
+
+    @property
+    def object_infos(self) -> dict[str, ObjectInfo]:
+        """Names, synonyms and uses of the recorded scenes' targets (for scoring)."""
+        return dict(self._objects)
+
+    def _scene_state(self, trial: ActiveTrial) -> _SceneState:
+        """The trial's scene, loaded (fixed scenes at open; a randomised one rebuilt now)."""
+        if trial.layout is None:
+            return self._states[(trial.scene, None)]
+        key = (trial.scene, trial.scene_seed, json.dumps(trial.layout, sort_keys=True))
+        if key not in self._states:
+            for k in [k for k in self._states if k[1] is not None]:
+                del self._states[k]  # keep one randomised scene in memory
+            scene = adapter.load_scene(
+                trial.scene,
+                shape_px=self.task.scene_shape_px,
+                grid=self.task.scene_grid,
+                seed=int(trial.scene_seed or 0),
+                layout=trial.layout,
+            )
+            self._check_rebuilt(trial, scene)
+            self._states[key] = _SceneState(scene, _scan_info(scene, self.task), self.task)
+        return self._states[key]
+
+    def _check_rebuilt(self, trial: ActiveTrial, scene: adapter.Scene) -> None:
+        """A resumed trial must show the scene its first attempt showed."""
+        for r in self.events.rows():
+            if r["trial"] == trial.index and r["kind"] == "trial_start":
+                logged = r["payload"].get("scene_sha256")
+                if logged is not None and logged != scene.sha256:
+                    raise ResumeMismatch(
+                        f"{self.log.path}: session {self.session_id} trial {trial.index}: the "
+                        f"rebuilt scene {trial.scene} (layout {trial.layout}) has sha256 "
+                        f"{scene.sha256[:12]}..., the logged one {logged[:12]}...; the scene "
+                        "generator changed since the session began"
+                    )
+                return
+
+    def _shown_state(self) -> _SceneState:
+        if self._shown is None:
+            nxt = self.next_trial() or self.trials[-1]
+            self._shown = self._scene_state(nxt)
+        return self._shown
+
+    @property
+    def scene(self) -> adapter.Scene:
+        """The scene of the running (or next) trial."""
+        return self._shown_state().scene
+
+    @property
+    def planes_px(self) -> tuple[float, ...]:
+        """Detected object planes (nearest first) of the running (or next) trial's scene."""
+        return self._shown_state().planes_px
 
     # -- creation and resume ------------------------------------------------------------------
 
@@ -134,8 +281,13 @@ class ActiveSession(lifecycle.LoggedSession):
         clock: Clock | None = None,
         responder: str | None = None,
         new_session: str | None = None,
+        subject_index: int | None = None,
     ) -> ActiveSession:
         """Create an active-search session, or resume the subject's unfinished one.
+
+        ``subject_index`` picks the row of the condition-order Latin square
+        (``counterbalance = "latin_square"``); default: the subject's position among the
+        subjects of this log. It is saved in the plan (``counterbalance``).
 
         A subject whose session is complete is not run again unless ``new_session`` gives the
         reason for a further session (logged as a ``new_session`` event; the same reason again
@@ -149,7 +301,8 @@ class ActiveSession(lifecycle.LoggedSession):
         TrialLogError
             ``new_session`` is given while another unfinished session exists.
         ProtocolError
-            The protocol has no active-search ``[task]``, or a target the scene lacks.
+            The protocol has no active-search ``[task]``, a target no scene holds, a scene
+            with none of the targets, or a scene description with a bad field.
         ResumeMismatch
             The unfinished session used another protocol, scene or seed.
         SessionLocked
@@ -162,35 +315,63 @@ class ActiveSession(lifecycle.LoggedSession):
                 '(needs [task] type = "active_search")'
             )
         lifecycle.check_subject_and_seed(subject, seed)
+        if subject_index is not None and (
+            isinstance(subject_index, bool)
+            or not isinstance(subject_index, int)
+            or subject_index < 0
+        ):
+            raise ValueError(f"subject_index must be an integer >= 0, got {subject_index!r}")
         clock = clock if clock is not None else PerfCounterClock()
-        scene = adapter.load_scene(
-            task.scene,
-            shape_px=task.scene_shape_px,
-            grid=task.scene_grid,
-        )
-        if scene.objects:
-            missing = [t for t in task.targets if t not in scene.objects]
-            if missing:
-                raise ProtocolError(
-                    f"task.targets: {missing[0]!r} is not an object of {task.scene} "
-                    f"(objects: {', '.join(scene.objects)})"
-                )
+        base_dir = None if protocol.source_path is None else Path(protocol.source_path).parent
+        objects = {k: adapter.scene_objects(k, base_dir=base_dir) for k in task.scenes}
+        _check_targets(task, objects)
+        scenes = {
+            k: adapter.load_scene(
+                k, shape_px=task.scene_shape_px, grid=task.scene_grid, base_dir=base_dir
+            )
+            for k in task.scenes
+            if k != adapter.RANDOM_SCENE
+        }
+        shas = {k: v.sha256 for k, v in scenes.items()}
+        if adapter.RANDOM_SCENE in task.scenes:
+            shas[adapter.RANDOM_SCENE] = "layout and textures drawn per trial (see the plan)"
+        scenes_sha = _scenes_sha256(shas)
         existing = lifecycle.session_to_resume(log, subject, new_session)
         if existing is not None:
-            return cls._resume(log, protocol, subject, existing, seed, scene, clock)
+            return cls._resume(log, protocol, subject, existing, seed, scenes, scenes_sha, clock)
         root = int(seed) if seed is not None else int(np.random.SeedSequence().entropy % 2**63)
-        ds, planes = adapter.detect_planes(scene, n_planes=task.n_planes)
-        step = task.depth_step_px or scene.depth_step_px()
-        trials = plan_trials(task, np.random.default_rng(np.random.SeedSequence(root).spawn(1)[0]))
-        plan = {
+        index = _subject_index(log, subject) if subject_index is None else int(subject_index)
+        infos = {k: _scan_info(v, task) for k, v in scenes.items()}
+        trials = plan_trials(
+            task,
+            np.random.default_rng(np.random.SeedSequence(root).spawn(1)[0]),
+            scene_objects=objects,
+            subject_index=index,
+        )
+        plan: dict[str, Any] = {
             "trials": [t.to_dict() for t in trials],
             "task": task.to_dict(),
-            "scene_sha256": scene.sha256,
-            "planes_px": list(planes),
-            "depth_step_px": float(step),
-            "scan_px": [float(ds.max()), float(ds.min())],
-            "objects_px": dict(scene.objects),
+            "scenes": infos,
+            "counterbalance": {
+                "scheme": task.counterbalance,
+                "subject_index": index,
+                "condition_order": list(
+                    condition_order(task, index)
+                    if task.counterbalance == "latin_square"
+                    else task.conditions
+                ),
+            },
         }
+        if len(infos) == 1 and len(task.scenes) == 1:
+            # one fixed scene: its facts at top level too, as plans have always had them
+            (info,) = infos.values()
+            plan.update(
+                scene_sha256=info["sha256"],
+                planes_px=info["planes_px"],
+                depth_step_px=info["depth_step_px"],
+                scan_px=info["scan_px"],
+                objects_px=info["objects_px"],
+            )
         sid = lifecycle.create_session(
             log,
             protocol,
@@ -198,27 +379,28 @@ class ActiveSession(lifecycle.LoggedSession):
             clock,
             seed=root,
             write_plan=lambda sid: ActiveEventLog(log, sid).append("plan", plan, clock.now_s()),
-            open_note=f"active search: {len(trials)} trials",
+            open_note=f"active search: {len(trials)} trials in {len(task.scenes)} scene(s)",
             new_session=new_session,
             display_json=json.dumps(protocol.display.to_dict(), sort_keys=True),
-            stimset_path=task.scene,
-            stimset_manifest_sha256=scene.sha256,
+            stimset_path=", ".join(task.scenes),
+            stimset_manifest_sha256=scenes_sha,
             responder=responder,
         )
-        return cls(log, protocol, subject, sid, root, scene, plan, clock)
+        return cls(log, protocol, subject, sid, root, scenes, plan, clock)
 
     @classmethod
-    def _resume(cls, log, protocol, subject, row, seed, scene, clock) -> ActiveSession:
+    def _resume(cls, log, protocol, subject, row, seed, scenes, scenes_sha, clock) -> ActiveSession:
         sid = int(row["session_id"])
         if row["protocol_sha256"] != protocol.content_sha256():
             raise ResumeMismatch(
                 f"{log.path}: subject {subject} has unfinished session {sid} with protocol "
                 f"{row['protocol_name']!r}; resume it with that protocol, unchanged"
             )
-        if row["stimset_manifest_sha256"] != scene.sha256:
+        if row["stimset_manifest_sha256"] != scenes_sha:
             raise ResumeMismatch(
                 f"{log.path}: session {sid} searched scene {row['stimset_path']} with sha256 "
-                f"{row['stimset_manifest_sha256'][:12]}...; {scene.name} now differs"
+                f"{row['stimset_manifest_sha256'][:12]}...; {', '.join(protocol.task.scenes)} "
+                "now differs"
             )
         stored = lifecycle.stored_seed(log, subject, row, seed)
         events = ActiveEventLog(log, sid)
@@ -248,7 +430,7 @@ class ActiveSession(lifecycle.LoggedSession):
                     )
 
         lifecycle.reopen(log, sid, clock, describe, abandon_cut_attempts)
-        return cls(log, protocol, subject, sid, stored, scene, plan, clock)
+        return cls(log, protocol, subject, sid, stored, scenes, plan, clock)
 
     # -- position -----------------------------------------------------------------------------
 
@@ -266,13 +448,11 @@ class ActiveSession(lifecycle.LoggedSession):
 
     @property
     def context(self) -> SearchContext:
-        """The depth range, planes and step the keys work on."""
-        return self._ctx
+        """The depth range, planes and step the keys work on (the running trial's scene)."""
+        return self._shown_state().ctx
 
     def _renderer(self, condition: str) -> Renderer:
-        if condition not in self._renderers:
-            self._renderers[condition] = Renderer(self.scene, self.task.grid_px, condition)
-        return self._renderers[condition]
+        return self._shown_state().renderer(condition, self.task.grid_px)
 
     def _state_payload(self) -> dict[str, Any]:
         s, v = self.state, self.view
@@ -295,21 +475,29 @@ class ActiveSession(lifecycle.LoggedSession):
         if trial is None:
             raise ValueError(f"session {self.session_id} is finished; no trial to start")
         attempt = self.events.attempts(trial.index)
+        shown = self._scene_state(trial)
+        self._shown = shown
+        ctx = shown.ctx
         onset = self.clock.now_s()
         self._current = (trial, attempt, onset)
-        self.state = ViewerState(self._ctx.near_px, self._ctx.plane_at(self._ctx.near_px))
+        self.state = ViewerState(ctx.near_px, ctx.plane_at(ctx.near_px))
         self.view = self._renderer(trial.condition).render(self.state)
+        start: dict[str, Any] = {
+            "target": trial.target,
+            "condition": trial.condition,
+            "cue": f"find the {trial.target}",
+            "searcher": searcher_name,
+            "scene": trial.scene,
+            "scene_sha256": shown.scene.sha256,
+            "planes_px": list(shown.planes_px),
+            "depth_step_px": shown.depth_step_px,
+            "objects_px": dict(shown.scene.objects),
+        }
+        if trial.layout is not None:
+            start["layout"] = trial.layout
+            start["scene_seed"] = trial.scene_seed
         out = [
-            self._append(
-                "trial_start",
-                {
-                    "target": trial.target,
-                    "condition": trial.condition,
-                    "cue": f"find the {trial.target}",
-                    "searcher": searcher_name,
-                },
-                onset,
-            ),
+            self._append("trial_start", start, onset),
             self._append("state", self._state_payload(), onset),
         ]
         return trial, out
@@ -347,7 +535,7 @@ class ActiveSession(lifecycle.LoggedSession):
             raise ValueError("no trial is running; call start_trial() first")
         if action in ("answer", "pass"):
             raise ValueError("use answer() for answer and pass")
-        new = apply_action(self.state, action, self._ctx, box=box)
+        new = apply_action(self.state, action, self.context, box=box)
         t = self.clock.now_s() if t_s is None else float(t_s)
         payload: dict[str, Any] = {"key": key, "action": action}
         if box is not None:
@@ -382,7 +570,7 @@ class ActiveSession(lifecycle.LoggedSession):
             if scorer is not None:
                 score, rater = scorer(trial, response)
             else:
-                score, rater = auto_scorer(trial, response, self.task.targets)
+                score, rater = auto_scorer(trial, response, self.task.targets, self._objects)
         check_score(score)
         rater = rater or self.protocol.scoring.primary_rater
         now = self.clock.now_s()
@@ -480,9 +668,10 @@ class ActiveSession(lifecycle.LoggedSession):
                     trial.condition,
                     self.state,
                     self.view,
-                    self._ctx,
+                    self.context,
                     self.elapsed_s(),
                     self.task.zoom_allowed,
+                    self.scene,
                 )
                 act: Action = searcher.next_action(obs)
                 if self.elapsed_s() + act.delay_s >= self.task.time_limit_s:

@@ -7,10 +7,18 @@ with a ``[task]`` table needs no ``[[blocks]]``::
 
     [task]
     type = "active_search"
-    scene = "synthetic:three_plane"     # or a light-field file/folder
+    scene = ["synthetic:random_three_plane", "synthetic:three_plane", "scenes/lytro.toml"]
     targets = ["pedestrian", "tree", "building"]
     conditions = ["decluttered", "cluttered"]
+    counterbalance = "latin_square"
     grid_px = [28, 35]
+
+``scene`` is one scene or a list of several; each scene is searched for each listed target it
+holds. ``synthetic:random_three_plane`` puts the objects at new columns and depths in every
+trial (drawn from the session's seed and logged), so a subject cannot learn where they are; a
+``.toml`` scene is a recorded light field with its targets (:mod:`experiment.active.scenefile`).
+With ``counterbalance = "latin_square"`` the conditions run in blocks whose order follows the
+rows of a balanced Latin square across subjects.
 
 Conditions mirror the static study's: ``decluttered`` shows the implant the de-cluttered edges
 of the *confocal image at the current depth* (the active confocal system); ``cluttered`` shows
@@ -43,6 +51,7 @@ from experiment.protocol.fields import (
 __all__ = [
     "TASK_TYPES",
     "ACTIVE_CONDITIONS",
+    "COUNTERBALANCE_SCHEMES",
     "JUNG2015_GRID_PX",
     "ActiveSearchSpec",
     "task_from_table",
@@ -53,6 +62,11 @@ TASK_TYPES: tuple[str, ...] = ("active_search",)
 
 #: Conditions of an active-search trial (see the module docstring).
 ACTIVE_CONDITIONS: tuple[str, ...] = ("decluttered", "cluttered")
+
+#: How condition order varies across subjects: ``none`` (trials of all conditions interleaved,
+#: in ``trial_order``), ``latin_square`` (one block per condition; the block order is the row of
+#: a balanced Latin square given by the subject's index).
+COUNTERBALANCE_SCHEMES: tuple[str, ...] = ("none", "latin_square")
 
 #: Implant grid of the paper's light-field simulation, (rows, cols) = 28x35 = 980 cells.
 #: Source: Jung et al. 2015, Sec. 4.1 and Fig. 13.
@@ -70,10 +84,13 @@ class ActiveSearchSpec(_Spec):
     Parameters
     ----------
     type : {'active_search'}
-    scene : str
-        ``"synthetic:three_plane"`` (Fig. 10 scene) or a light-field file/folder path.
+    scene : str or tuple of str
+        One scene or several: ``"synthetic:three_plane"`` (Fig. 10 scene),
+        ``"synthetic:random_three_plane"`` (its objects at new places in every trial), a scene
+        description (``.toml``: a recorded light field and its targets) or a light-field
+        file/folder path. Paths are read from the protocol's folder.
     targets : tuple of str
-        Objects to find, one trial per target x condition x repetition.
+        Objects to find: one trial per scene x target it holds x condition x repetition.
     conditions : tuple of {'decluttered', 'cluttered'}
     grid_px : (rows, cols)
         Implant grid. Default: the paper's 28x35; with a ``[display] implant`` the implant's
@@ -95,10 +112,12 @@ class ActiveSearchSpec(_Spec):
         plane's neighbours by several pixels; the paper's lens array had 10x10).
     repetitions : int >= 1
     trial_order : {'random', 'listed'}
+    counterbalance : {'none', 'latin_square'}
+        Condition order across subjects (:data:`COUNTERBALANCE_SCHEMES`).
     """
 
     type: str
-    scene: str
+    scene: str | tuple[str, ...]
     targets: tuple[str, ...]
     conditions: tuple[str, ...] = ACTIVE_CONDITIONS
     grid_px: tuple[int, int] = JUNG2015_GRID_PX
@@ -110,11 +129,22 @@ class ActiveSearchSpec(_Spec):
     scene_grid: tuple[int, int] = (7, 7)
     repetitions: int = 1
     trial_order: str = "random"
+    counterbalance: str = "none"
 
     _prefix = "task."
     _checks = {
         "type": partial(_choice, choices=TASK_TYPES),
-        "scene": partial(_need_text, empty="must name a scene or a light-field path"),
+        "scene": lambda v, name: (
+            _need_text(v, name, empty="must name a scene or a light-field path")
+            if not isinstance(v, tuple)
+            else _need_distinct(
+                v,
+                name,
+                noun="a scene",
+                item=partial(_need_text, empty="must name a scene or a light-field path"),
+                expected="a scene or a non-empty list of scenes",
+            )
+        ),
         "targets": partial(_need_distinct, noun="a target", item=_need_str),
         "conditions": partial(
             _need_distinct, noun="a condition", item=partial(_choice, choices=ACTIVE_CONDITIONS)
@@ -128,11 +158,24 @@ class ActiveSearchSpec(_Spec):
         "scene_grid": _pair(1),
         "repetitions": partial(_need_int, minimum=1),
         "trial_order": partial(_choice, choices=("random", "listed")),
+        "counterbalance": partial(_choice, choices=COUNTERBALANCE_SCHEMES),
     }
 
+    @property
+    def scenes(self) -> tuple[str, ...]:
+        """The scenes, as a tuple (one scene or several)."""
+        return (self.scene,) if isinstance(self.scene, str) else tuple(self.scene)
+
     def to_dict(self) -> dict[str, Any]:
-        """Return the ``[task]`` table as plain data (``None`` fields left out, as in TOML)."""
-        return {k: v for k, v in super().to_dict().items() if v is not None}
+        """Return the ``[task]`` table as plain data (``None`` fields left out, as in TOML).
+
+        ``counterbalance = "none"`` is left out too, so a protocol written before that field
+        existed keeps its content hash (and its unfinished sessions can resume).
+        """
+        out = {k: v for k, v in super().to_dict().items() if v is not None}
+        if out.get("counterbalance") == "none":
+            del out["counterbalance"]
+        return out
 
 
 def task_from_table(table: Any) -> ActiveSearchSpec:

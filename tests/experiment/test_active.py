@@ -467,7 +467,7 @@ def test_scene_and_component_errors(tmp_path) -> None:
     from stimuli.errors import InputError
 
     assert set(KEYMAP.values()) <= set(ACTIONS)
-    with pytest.raises(InputError, match=r"scene must be 'synthetic:three_plane' or a path"):
+    with pytest.raises(InputError, match=r"scene must be one of synthetic:three_plane, "):
         adapter.load_scene("synthetic:forest")
     with pytest.raises(InputError, match=r"nowhere.npy: light field not found"):
         adapter.load_scene(str(tmp_path / "nowhere.npy"))
@@ -475,7 +475,7 @@ def test_scene_and_component_errors(tmp_path) -> None:
     np.save(tmp_path / "lf.npy", views)
     plain = adapter.load_scene(str(tmp_path / "lf.npy"))
     assert plain.shape_px == (20, 24) and not plain.objects
-    with pytest.raises(ValueError, match=r"needs a synthetic scene"):
+    with pytest.raises(ValueError, match=r"needs a synthetic scene or a light field with a scene"):
         EdgeRecogniser(plain, (4, 5))
     with pytest.raises(ValueError, match=r"condition must be decluttered or cluttered"):
         Renderer(plain, (4, 5), "photo")
@@ -519,8 +519,10 @@ def test_session_api_refusals(protocol) -> None:
 def test_cli_user_errors_are_one_line(tmp_path) -> None:
     exe = os.path.join(os.path.dirname(sys.executable), "confocal")
     lines = open(load_protocol("active_search").source_path, encoding="utf-8").read()
+    np.save(tmp_path / "lf.npy", np.zeros((3, 3, 20, 24), np.float32))
+    scene_line = next(x for x in lines.splitlines() if x.startswith("scene = "))
     (tmp_path / "rec.toml").write_text(
-        lines.replace('scene = "synthetic:three_plane"', f'scene = "{tmp_path / "lf"}"')
+        lines.replace(scene_line, f'scene = "{tmp_path / "lf.npy"}"')
     )
     for args, msg in [
         (["active_search", "--searcher", "robot"], "--searcher must be one of sim:planes"),
@@ -528,7 +530,7 @@ def test_cli_user_errors_are_one_line(tmp_path) -> None:
         (["active_search", "--searcher", "person"], "stdin and stdout must be a terminal"),
         (["active_search", "--searcher", "person", "--rater", " "], "--rater must not be blank"),
         (["jung2015"], "jung2015: not an active-search protocol"),
-        ([str(tmp_path / "rec.toml")], "the simulated searcher needs a synthetic scene"),
+        ([str(tmp_path / "rec.toml")], "is a light field without a scene description"),
     ]:
         r = subprocess.run(
             [exe, "active", "run", *args, "--data", str(tmp_path / "x.sqlite"), "--subject", "S"],

@@ -361,7 +361,7 @@ def test_active_run_person_opens_window_and_console(x_display, tmp_path) -> None
         pytest.skip("no GLX window for the presenter under this X server")
     assert sent, plain[-2000:]
     assert os.waitstatus_to_exitcode(status) == 0, plain[-2000:]
-    assert "session of S01: 0 of 6 trials answered" in plain
+    assert "session of S01: 0 of 12 trials answered" in plain  # 2 scenes x 3 x 2
     con = sqlite3.connect(data)
     kinds = [k for (k,) in con.execute("SELECT kind FROM events ORDER BY rowid")]
     responder = con.execute("SELECT responder FROM sessions").fetchone()[0]
