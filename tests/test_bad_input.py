@@ -26,23 +26,11 @@ import pytest
 
 from experiment import cli
 from experiment.testing import make_stimulus_set
+from tests.conftest import protocol_toml, run_cli
 
-PROTOCOL = """
-[protocol]
-name = "tiny"
-
-[[blocks]]
-part = "main"
-objects = "main"
-levels = [1, 2]
-conditions = ["cluttered", "decluttered"]
-"""
+PROTOCOL = protocol_toml((1, 2), name="tiny", training=None)
 
 HUGE = "1000000x1000000"  # 10^12 px: refused by the memory check on any machine
-
-
-def main_args(*args) -> list[str]:
-    return [str(a) for a in args]
 
 
 @dataclass(frozen=True)
@@ -57,14 +45,6 @@ class World:
     png: Path
 
 
-def _run(argv: list[str]) -> int:
-    try:
-        cli.main(main_args(*argv))
-    except SystemExit as exc:
-        return int(exc.code or 0)
-    return 0
-
-
 @pytest.fixture(scope="module")
 def world(tmp_path_factory) -> World:
     root = tmp_path_factory.mktemp("study")
@@ -73,18 +53,18 @@ def world(tmp_path_factory) -> World:
     proto.write_text(PROTOCOL)
     db = root / "study.sqlite"
     run = ["session", "run", "--protocol", proto, "--stimuli", stim, "--subject", "S01"]
-    assert _run([*run, "--data", db, "--headless", "--seed", "1"]) == 0
+    assert run_cli([*run, "--data", db, "--headless", "--seed", "1"]) == 0
     from experiment.log import TrialLog
 
     with TrialLog(db) as log:  # some recognised trials, so that an analysis can run
         for r in log.tidy_trials():
             if r["trial_index"] % 3 != 1 if r["level"] == 2 else r["trial_index"] % 3 == 0:
                 log.add_score(r["session"], r["trial_index"], "named", True, r["rater"])
-    assert _run(["session", "export", db, "--out", root / "dataset"]) == 0
+    assert run_cli(["session", "export", db, "--out", root / "dataset"]) == 0
     (csv_path,) = (root / "dataset" / "data").glob("*_data.csv")
     pairs = root / "pairs"
     assert (
-        _run(
+        run_cli(
             [
                 "stimuli",
                 "synth",
@@ -101,7 +81,7 @@ def world(tmp_path_factory) -> World:
         == 0
     )
     lf = root / "lf.npz"
-    assert _run(["lightfield", "synth", "--size", "40x32", "--out", lf]) == 0
+    assert run_cli(["lightfield", "synth", "--size", "40x32", "--out", lf]) == 0
     png = next(stim.rglob("*.png"))
     return World(root, stim, proto, db, csv_path, pairs, lf, png)
 

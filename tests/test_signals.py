@@ -18,21 +18,13 @@ from pathlib import Path
 import pytest
 
 from experiment.testing import make_stimulus_set
+from tests.conftest import protocol_toml
 
 pytestmark = pytest.mark.skipif(sys.platform != "linux", reason="Linux signals and /proc")
 
 ROOT = Path(__file__).resolve().parents[1]
 
-PROTOCOL = """
-[protocol]
-name = "long"
-
-[[blocks]]
-part = "main"
-objects = "main"
-levels = [1, 2]
-conditions = ["cluttered", "decluttered"]
-"""
+PROTOCOL = protocol_toml((1, 2), name="long", training=None)
 
 
 def _start(args: list, cwd: Path) -> subprocess.Popen:
