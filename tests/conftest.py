@@ -1,5 +1,5 @@
 """Shared fixtures and helpers: the real-data folder (``CONFOCAL_DATA``), the repository root, a
-small recognition protocol, the CLI run in-process.
+small recognition protocol, the CLI run in-process, a small scored study.
 
 Import the helpers by name (``from tests.conftest import protocol_toml, run_cli``).
 """
@@ -81,3 +81,23 @@ def run_cli(argv: list) -> int:
     except SystemExit as exc:
         return int(exc.code or 0)
     return 0
+
+
+def make_scored_study(root: Path) -> tuple[Path, Path, Path]:
+    """Write a stimulus set, the main-block-only protocol ``tiny.toml`` and the log of one
+    headless session (S01, seed 1) into ``root``, some trials scored 'named' so that an analysis
+    can run; return ``(stimulus folder, protocol file, log)``."""
+    from experiment.log import TrialLog
+    from experiment.testing import make_stimulus_set
+
+    stim = make_stimulus_set(root / "stim", n_main=3, n_training=1, levels=(1, 2))
+    proto = root / "tiny.toml"
+    proto.write_text(protocol_toml((1, 2), name="tiny", training=None))
+    db = root / "study.sqlite"
+    run = ["session", "run", "--protocol", proto, "--stimuli", stim, "--subject", "S01"]
+    assert run_cli([*run, "--data", db, "--headless", "--seed", "1"]) == 0
+    with TrialLog(db) as log:
+        for r in log.tidy_trials():
+            if r["trial_index"] % 3 != 1 if r["level"] == 2 else r["trial_index"] % 3 == 0:
+                log.add_score(r["session"], r["trial_index"], "named", True, r["rater"])
+    return stim, proto, db

@@ -25,10 +25,7 @@ from pathlib import Path
 import pytest
 
 from experiment import cli
-from experiment.testing import make_stimulus_set
-from tests.conftest import protocol_toml, run_cli
-
-PROTOCOL = protocol_toml((1, 2), name="tiny", training=None)
+from tests.conftest import make_scored_study, run_cli
 
 HUGE = "1000000x1000000"  # 10^12 px: refused by the memory check on any machine
 
@@ -48,18 +45,7 @@ class World:
 @pytest.fixture(scope="module")
 def world(tmp_path_factory) -> World:
     root = tmp_path_factory.mktemp("study")
-    stim = make_stimulus_set(root / "stim", n_main=3, n_training=1, levels=(1, 2))
-    proto = root / "tiny.toml"
-    proto.write_text(PROTOCOL)
-    db = root / "study.sqlite"
-    run = ["session", "run", "--protocol", proto, "--stimuli", stim, "--subject", "S01"]
-    assert run_cli([*run, "--data", db, "--headless", "--seed", "1"]) == 0
-    from experiment.log import TrialLog
-
-    with TrialLog(db) as log:  # some recognised trials, so that an analysis can run
-        for r in log.tidy_trials():
-            if r["trial_index"] % 3 != 1 if r["level"] == 2 else r["trial_index"] % 3 == 0:
-                log.add_score(r["session"], r["trial_index"], "named", True, r["rater"])
+    stim, proto, db = make_scored_study(root)
     assert run_cli(["session", "export", db, "--out", root / "dataset"]) == 0
     (csv_path,) = (root / "dataset" / "data").glob("*_data.csv")
     pairs = root / "pairs"

@@ -34,10 +34,7 @@ from experiment.outputs import (
     read_manifest,
     write_manifest,
 )
-from experiment.testing import make_stimulus_set
-from tests.conftest import protocol_toml, run_cli
-
-PROTOCOL = protocol_toml((1, 2), name="tiny", training=None)
+from tests.conftest import make_scored_study, run_cli
 
 
 @dataclass(frozen=True)
@@ -59,18 +56,7 @@ def world(tmp_path_factory) -> World:
     assert run_cli([*synth, "--out", pairs]) == 0
     lf = root / "lf.npz"
     assert run_cli(["lightfield", "synth", "--size", "40x32", "--out", lf]) == 0
-    stim = make_stimulus_set(root / "stim", n_main=3, n_training=1, levels=(1, 2))
-    proto = root / "tiny.toml"
-    proto.write_text(PROTOCOL)
-    db = root / "study.sqlite"
-    run = ["session", "run", "--protocol", proto, "--stimuli", stim, "--subject", "S01"]
-    assert run_cli([*run, "--data", db, "--headless", "--seed", "1"]) == 0
-    from experiment.log import TrialLog
-
-    with TrialLog(db) as log:  # some recognised trials, so that an analysis can run
-        for r in log.tidy_trials():
-            if r["trial_index"] % 3 != 1 if r["level"] == 2 else r["trial_index"] % 3 == 0:
-                log.add_score(r["session"], r["trial_index"], "named", True, r["rater"])
+    _, proto, db = make_scored_study(root)
     table = root / "table.csv"
     rows = ["level,correct"] + [
         f"{lv},{int((i * 7 + lv) % 6 < lv)}" for lv in range(1, 6) for i in range(8)
