@@ -496,18 +496,11 @@ def require_missing_or_empty(out: str | os.PathLike, *, flag: str = "--out") -> 
 # -- staging leftovers -----------------------------------------------------------------------------
 
 
-def _pid_alive(pid: object) -> bool:
-    if isinstance(pid, bool) or not isinstance(pid, int) or pid <= 0:
-        return False
-    try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
-        return False
-    except PermissionError:
-        return True
-    except OSError:
-        return False
-    return True
+def _pid_alive(pid: int) -> bool:
+    """Whether process ``pid`` (from a marker or a folder name) runs: the session locks' check."""
+    from experiment.log.locks import pid_alive
+
+    return pid > 0 and pid_alive(pid, None)
 
 
 def _marker_pid(folder: Path) -> int | None:

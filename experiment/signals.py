@@ -110,23 +110,11 @@ def _prctl() -> Callable[..., int] | None:
 def die_with_parent(parent_pid: int | None = None, sig: int = signal.SIGKILL) -> bool:
     """Ask the kernel to send ``sig`` to this process when its parent dies (Linux only).
 
-    The same request as :func:`analysis.workers.die_with_parent`, kept here because importing
-    ``analysis`` loads pandas and SciPy, too heavy for a ``preexec_fn`` or the presenter. The
-    kernel tracks the parent *thread*: make children from a thread that lives as long as they
-    should. For a ``preexec_fn``, call :func:`_prctl` once in the parent first.
-
-    Parameters
-    ----------
-    parent_pid : int or None
-        The parent's process id, taken before the child started; when the child's parent is
-        already another process, the child sends ``sig`` to itself.
-    sig : int
-        The signal to receive.
-
-    Returns
-    -------
-    bool
-        True where the request was made (Linux with a C library), False elsewhere.
+    The same request, parameters and return value as :func:`analysis.workers.die_with_parent`,
+    kept here because importing ``analysis`` loads pandas and SciPy, too heavy for a
+    ``preexec_fn`` or the presenter. The kernel tracks the parent *thread*: make children from a
+    thread that lives as long as they should. For a ``preexec_fn``, call :func:`_prctl` once in
+    the parent first.
     """
     prctl = _prctl()
     if prctl is None or prctl(_PR_SET_PDEATHSIG, int(sig), 0, 0, 0) != 0:

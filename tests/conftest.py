@@ -1,7 +1,12 @@
-"""Shared fixtures: the real-data folder (``CONFOCAL_DATA``) and the repository root."""
+"""Shared fixtures and helpers: the real-data folder (``CONFOCAL_DATA``), the repository root, a
+small recognition protocol, the CLI run in-process, a small scored study.
+
+Import the helpers by name (``from tests.conftest import protocol_toml, run_cli``).
+"""
 
 from __future__ import annotations
 
+import json
 import os
 from pathlib import Path
 
@@ -35,3 +40,64 @@ def require_data(data_dir: Path, *parts: str) -> Path:
     if not p.exists():
         pytest.skip(f"real data file {p} not found (set CONFOCAL_DATA)")
     return p
+
+
+def protocol_toml(
+    levels: tuple[int, ...],
+    *,
+    name: str = "small",
+    conditions: tuple[str, ...] = ("cluttered", "decluttered"),
+    training: tuple[int, str] | None = (8, "photo"),
+    settings: str = "",
+    main_settings: str = "",
+) -> str:
+    """Return a recognition protocol: a training block of one trial, then the main block.
+
+    Parameters
+    ----------
+    levels : tuple of int
+        The main block's resolution levels.
+    training : (level, condition) or None
+        The training block's one level and condition; None for no training block.
+    settings, main_settings : str
+        Extra TOML lines for ``[protocol]`` and for the main block.
+    """
+    lines = ["[protocol]", f'name = "{name}"', *settings.splitlines()]
+    if training is not None:
+        level, condition = training
+        lines += ["", "[[blocks]]", 'part = "training"', 'objects = "training"']
+        lines += [f"levels = [{level}]", f'conditions = ["{condition}"]']
+    lines += ["", "[[blocks]]", 'part = "main"', 'objects = "main"', f"levels = {list(levels)}"]
+    lines += [f"conditions = {json.dumps(list(conditions))}", *main_settings.splitlines()]
+    return "\n".join(lines) + "\n"
+
+
+def run_cli(argv: list) -> int:
+    """Run ``confocal ARGV`` in-process (arguments made strings); return its exit status."""
+    from experiment import cli
+
+    try:
+        cli.main([str(a) for a in argv])
+    except SystemExit as exc:
+        return int(exc.code or 0)
+    return 0
+
+
+def make_scored_study(root: Path) -> tuple[Path, Path, Path]:
+    """Write a stimulus set, the main-block-only protocol ``tiny.toml`` and the log of one
+    headless session (S01, seed 1) into ``root``, some trials scored 'named' so that an analysis
+    can run; return ``(stimulus folder, protocol file, log)``."""
+    from experiment.log import TrialLog
+    from experiment.testing import make_stimulus_set
+
+    stim = make_stimulus_set(root / "stim", n_main=3, n_training=1, levels=(1, 2))
+    proto = root / "tiny.toml"
+    proto.write_text(protocol_toml((1, 2), name="tiny", training=None))
+    db = root / "study.sqlite"
+    run = ["session", "run", "--protocol", proto, "--stimuli", stim, "--subject", "S01"]
+    assert run_cli([*run, "--data", db, "--headless", "--seed", "1"]) == 0
+    with TrialLog(db) as log:
+        for r in log.tidy_trials():
+            if r["trial_index"] % 3 != 1 if r["level"] == 2 else r["trial_index"] % 3 == 0:
+                log.add_score(r["session"], r["trial_index"], "named", True, r["rater"])
+    return stim, proto, db

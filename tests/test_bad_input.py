@@ -25,24 +25,9 @@ from pathlib import Path
 import pytest
 
 from experiment import cli
-from experiment.testing import make_stimulus_set
-
-PROTOCOL = """
-[protocol]
-name = "tiny"
-
-[[blocks]]
-part = "main"
-objects = "main"
-levels = [1, 2]
-conditions = ["cluttered", "decluttered"]
-"""
+from tests.conftest import make_scored_study, run_cli
 
 HUGE = "1000000x1000000"  # 10^12 px: refused by the memory check on any machine
-
-
-def main_args(*args) -> list[str]:
-    return [str(a) for a in args]
 
 
 @dataclass(frozen=True)
@@ -57,34 +42,15 @@ class World:
     png: Path
 
 
-def _run(argv: list[str]) -> int:
-    try:
-        cli.main(main_args(*argv))
-    except SystemExit as exc:
-        return int(exc.code or 0)
-    return 0
-
-
 @pytest.fixture(scope="module")
 def world(tmp_path_factory) -> World:
     root = tmp_path_factory.mktemp("study")
-    stim = make_stimulus_set(root / "stim", n_main=3, n_training=1, levels=(1, 2))
-    proto = root / "tiny.toml"
-    proto.write_text(PROTOCOL)
-    db = root / "study.sqlite"
-    run = ["session", "run", "--protocol", proto, "--stimuli", stim, "--subject", "S01"]
-    assert _run([*run, "--data", db, "--headless", "--seed", "1"]) == 0
-    from experiment.log import TrialLog
-
-    with TrialLog(db) as log:  # some recognised trials, so that an analysis can run
-        for r in log.tidy_trials():
-            if r["trial_index"] % 3 != 1 if r["level"] == 2 else r["trial_index"] % 3 == 0:
-                log.add_score(r["session"], r["trial_index"], "named", True, r["rater"])
-    assert _run(["session", "export", db, "--out", root / "dataset"]) == 0
+    stim, proto, db = make_scored_study(root)
+    assert run_cli(["session", "export", db, "--out", root / "dataset"]) == 0
     (csv_path,) = (root / "dataset" / "data").glob("*_data.csv")
     pairs = root / "pairs"
     assert (
-        _run(
+        run_cli(
             [
                 "stimuli",
                 "synth",
@@ -101,7 +67,7 @@ def world(tmp_path_factory) -> World:
         == 0
     )
     lf = root / "lf.npz"
-    assert _run(["lightfield", "synth", "--size", "40x32", "--out", lf]) == 0
+    assert run_cli(["lightfield", "synth", "--size", "40x32", "--out", lf]) == 0
     png = next(stim.rglob("*.png"))
     return World(root, stim, proto, db, csv_path, pairs, lf, png)
 

@@ -18,27 +18,10 @@ from pathlib import Path
 
 import pytest
 
-from experiment import cli
 from experiment.testing import make_stimulus_set
+from tests.conftest import protocol_toml, run_cli
 
-PROTOCOL = """
-[protocol]
-name = "tiny"
-
-[[blocks]]
-part = "main"
-objects = "main"
-levels = [1, 2]
-conditions = ["cluttered", "decluttered"]
-"""
-
-
-def _run(argv) -> int:
-    try:
-        cli.main([str(a) for a in argv])
-    except SystemExit as exc:
-        return int(exc.code or 0)
-    return 0
+PROTOCOL = protocol_toml((1, 2), name="tiny", training=None)
 
 
 @pytest.fixture(scope="module")
@@ -48,11 +31,11 @@ def inputs(tmp_path_factory) -> dict[str, Path]:
     (root / "p.toml").write_text(PROTOCOL)
     db = root / "study.sqlite"
     run = ["session", "run", "--protocol", root / "p.toml", "--stimuli", stim, "--subject", "S1"]
-    assert _run([*run, "--data", db, "--headless", "--seed", "1"]) == 0
-    assert _run(["lightfield", "synth", "--size", "40x32", "--out", root / "lf.npz"]) == 0
+    assert run_cli([*run, "--data", db, "--headless", "--seed", "1"]) == 0
+    assert run_cli(["lightfield", "synth", "--size", "40x32", "--out", root / "lf.npz"]) == 0
     pairs = root / "pairs"
     synth = ["stimuli", "synth", "--objects", "2", "--training", "1", "--size", "120x80"]
-    assert _run([*synth, "--out", pairs]) == 0
+    assert run_cli([*synth, "--out", pairs]) == 0
     return {"db": db, "lf": root / "lf.npz", "pairs": pairs}
 
 
@@ -112,13 +95,13 @@ def test_full_disk_leaves_the_previous_output_or_nothing(
     work.mkdir()
     out = work / "sub" / "out" if before == "absent" else work / "out"
     if before == "earlier output":
-        assert _run([*_commands(inputs, out)[command], *EARLIER[command]]) == 0
+        assert run_cli([*_commands(inputs, out)[command], *EARLIER[command]]) == 0
     snapshot = _tree(work)
     full = _FullDisk(nth)
     monkeypatch.setattr(builtins, "open", full)
     monkeypatch.setattr(io, "open", full)
     capsys.readouterr()
-    code = _run(_commands(inputs, out)[command])
+    code = run_cli(_commands(inputs, out)[command])
     monkeypatch.undo()
     err = capsys.readouterr().err
     if full.count < nth:  # the command writes fewer files than that: nothing to check

@@ -34,26 +34,7 @@ from experiment.outputs import (
     read_manifest,
     write_manifest,
 )
-from experiment.testing import make_stimulus_set
-
-PROTOCOL = """
-[protocol]
-name = "tiny"
-
-[[blocks]]
-part = "main"
-objects = "main"
-levels = [1, 2]
-conditions = ["cluttered", "decluttered"]
-"""
-
-
-def _run(argv: list) -> int:
-    try:
-        cli.main([str(a) for a in argv])
-    except SystemExit as exc:
-        return int(exc.code or 0)
-    return 0
+from tests.conftest import make_scored_study, run_cli
 
 
 @dataclass(frozen=True)
@@ -72,21 +53,10 @@ def world(tmp_path_factory) -> World:
     root = tmp_path_factory.mktemp("inputs")
     pairs = root / "pairs"
     synth = ["stimuli", "synth", "--objects", "1", "--training", "0", "--size", "64x48"]
-    assert _run([*synth, "--out", pairs]) == 0
+    assert run_cli([*synth, "--out", pairs]) == 0
     lf = root / "lf.npz"
-    assert _run(["lightfield", "synth", "--size", "40x32", "--out", lf]) == 0
-    stim = make_stimulus_set(root / "stim", n_main=3, n_training=1, levels=(1, 2))
-    proto = root / "tiny.toml"
-    proto.write_text(PROTOCOL)
-    db = root / "study.sqlite"
-    run = ["session", "run", "--protocol", proto, "--stimuli", stim, "--subject", "S01"]
-    assert _run([*run, "--data", db, "--headless", "--seed", "1"]) == 0
-    from experiment.log import TrialLog
-
-    with TrialLog(db) as log:  # some recognised trials, so that an analysis can run
-        for r in log.tidy_trials():
-            if r["trial_index"] % 3 != 1 if r["level"] == 2 else r["trial_index"] % 3 == 0:
-                log.add_score(r["session"], r["trial_index"], "named", True, r["rater"])
+    assert run_cli(["lightfield", "synth", "--size", "40x32", "--out", lf]) == 0
+    _, proto, db = make_scored_study(root)
     table = root / "table.csv"
     rows = ["level,correct"] + [
         f"{lv},{int((i * 7 + lv) % 6 < lv)}" for lv in range(1, 6) for i in range(8)
@@ -351,14 +321,14 @@ def test_writing_command_never_touches_what_it_did_not_write(
         if cmd.rerun is None:
             pytest.skip(cmd.why)
         out = t / (cmd.out_name if cmd.kind == "file" else "out")
-        assert _run(cmd.argv(world, out)) == 0, capsys.readouterr().err
+        assert run_cli(cmd.argv(world, out)) == 0, capsys.readouterr().err
         if cmd.kind == "folder":
             assert read_manifest(out)["command"] == cmd.name.split(" .")[0].replace(
                 "refocus --stack", "refocus"
             )
         (t / "keep.txt").write_text("beside the output\n")
         before = _hashes(world.root, t)
-        code = _run([*cmd.argv(world, out), *cmd.again])
+        code = run_cli([*cmd.argv(world, out), *cmd.again])
         err = capsys.readouterr().err
         assert code == 0, err
         after = _hashes(world.root, t)
@@ -376,7 +346,7 @@ def test_writing_command_never_touches_what_it_did_not_write(
     before = _hashes(world.root, t)
     # --force never opens a refused folder; for a file it would replace it, so only with inputs
     forced = cmd.again and (cmd.kind == "folder" or case == "the input")
-    code = _run([*cmd.argv(world, out), *cmd.again] if forced else cmd.argv(world, out))
+    code = run_cli([*cmd.argv(world, out), *cmd.again] if forced else cmd.argv(world, out))
     err = capsys.readouterr().err
     assert code == 2, f"exit {code}; stderr: {err}"
     assert "Traceback" not in err, err
@@ -391,10 +361,10 @@ def test_without_force_an_own_output_is_refused_where_the_command_needs_it(
 ):
     monkeypatch.chdir(tmp_path)
     synth = ["stimuli", "synth", "--objects", "1", "--training", "0", "--size", "64x48"]
-    assert _run([*synth, "--out", tmp_path / "p"]) == 0
+    assert run_cli([*synth, "--out", tmp_path / "p"]) == 0
     before = _hashes(tmp_path)
     capsys.readouterr()
-    assert _run([*synth, "--out", tmp_path / "p"]) == 2
+    assert run_cli([*synth, "--out", tmp_path / "p"]) == 2
     assert "use --force to replace it" in capsys.readouterr().err
     assert _hashes(tmp_path) == before
 
@@ -425,14 +395,14 @@ def test_refused_build_leaves_the_earlier_set_in_place(world, tmp_path, monkeypa
     """A different set without --force is refused and the earlier set is renamed back."""
     monkeypatch.chdir(tmp_path)
     build = ["stimuli", "build", world.pairs, "--out", tmp_path / "s"]
-    assert _run([*build, "--working-size", "64x48"]) == 0
+    assert run_cli([*build, "--working-size", "64x48"]) == 0
     before = _hashes(tmp_path)
     capsys.readouterr()
-    assert _run([*build, "--working-size", "64x42"]) == 2
+    assert run_cli([*build, "--working-size", "64x42"]) == 2
     assert "different stimulus set" in capsys.readouterr().err
     assert _hashes(tmp_path) == before
     assert sorted(p.name for p in tmp_path.iterdir()) == ["s"]
-    assert _run([*build, "--working-size", "64x42", "--force"]) == 0
+    assert run_cli([*build, "--working-size", "64x42", "--force"]) == 0
     assert sorted(p.name for p in tmp_path.iterdir()) == ["s"]
 
 
@@ -444,11 +414,11 @@ def test_tune_updates_its_sheet_in_the_pairs_folder_and_keeps_synth_able_to_repl
     pairs = tmp_path / "pairs"
     shutil.copytree(world.pairs, pairs)
     tune = ["stimuli", "tune", pairs, "--working-size", "64x48"]
-    assert _run(tune) == 0
-    assert _run(tune) == 0  # its own default sheet: no --force needed
+    assert run_cli(tune) == 0
+    assert run_cli(tune) == 0  # its own default sheet: no --force needed
     assert "tune_sheet.png" in read_manifest(pairs)["files"]
     synth = ["stimuli", "synth", "--objects", "1", "--training", "0", "--size", "64x48"]
-    assert _run([*synth, "--out", pairs, "--force"]) == 0
+    assert run_cli([*synth, "--out", pairs, "--force"]) == 0
 
 
 # -- the rule itself -----------------------------------------------------------------------------
@@ -597,11 +567,11 @@ def test_next_run_of_a_command_restores_a_killed_runs_output(world, tmp_path, mo
     """End to end: `analyze fit` finds its earlier report aside, restores it, then replaces it."""
     monkeypatch.chdir(tmp_path)
     fit = ["analyze", "fit", world.table, "--x", "level", "--y", "correct", "--no-plots"]
-    assert _run([*fit, "--out", tmp_path / "rep"]) == 0
+    assert run_cli([*fit, "--out", tmp_path / "rep"]) == 0
     aside = tmp_path / ".rep.old-dead"
     os.replace(tmp_path / "rep", aside)
     (aside / STAGING_MARKER).write_text(json.dumps({"pid": _dead_pid()}))
-    assert _run([*fit, "--out", tmp_path / "rep"]) == 0
+    assert run_cli([*fit, "--out", tmp_path / "rep"]) == 0
     assert sorted(p.name for p in tmp_path.iterdir()) == ["rep"]
     assert read_manifest(tmp_path / "rep")["command"] == "analyze fit"
 
@@ -609,7 +579,7 @@ def test_next_run_of_a_command_restores_a_killed_runs_output(world, tmp_path, mo
 def test_manifest_names_the_command_and_its_files_only(world, tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
     out = tmp_path / "ds"
-    assert _run(["session", "export", world.db, "--out", out]) == 0
+    assert run_cli(["session", "export", world.db, "--out", out]) == 0
     m = json.loads((out / MANIFEST_NAME).read_text())
     assert set(m) == {"command", "files"} and m["command"] == "session export"
     assert "participants.tsv" in m["files"] and not any(str(tmp_path) in f for f in m["files"])

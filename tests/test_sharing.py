@@ -17,20 +17,12 @@ import pytest
 
 from experiment import cli
 from stimuli.manifest import read_objects_csv, write_objects_csv
+from tests.conftest import protocol_toml
 
 #: An object name a spreadsheet would run as a live link (CSV injection).
 HOSTILE = '=HYPERLINK("http://evil.example/x","cup")'
 
-PROTOCOL = """
-[protocol]
-name = "tiny"
-
-[[blocks]]
-part = "main"
-objects = "main"
-levels = [7, 8]
-conditions = ["cluttered", "decluttered"]
-"""
+PROTOCOL = protocol_toml((7, 8), name="tiny", training=None)
 
 
 def confocal(*args) -> None:

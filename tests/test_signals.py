@@ -18,21 +18,13 @@ from pathlib import Path
 import pytest
 
 from experiment.testing import make_stimulus_set
+from tests.conftest import protocol_toml
 
 pytestmark = pytest.mark.skipif(sys.platform != "linux", reason="Linux signals and /proc")
 
 ROOT = Path(__file__).resolve().parents[1]
 
-PROTOCOL = """
-[protocol]
-name = "long"
-
-[[blocks]]
-part = "main"
-objects = "main"
-levels = [1, 2]
-conditions = ["cluttered", "decluttered"]
-"""
+PROTOCOL = protocol_toml((1, 2), name="long", training=None)
 
 
 def _start(args: list, cwd: Path) -> subprocess.Popen:
@@ -149,12 +141,13 @@ def test_stop_signal_during_a_build_leaves_no_temporary_folder(tmp_path, sig, pa
     assert list(tmp_path.iterdir()) == [], "temporary folder or partial set left"
 
 
+#: A power simulation long enough to be stopped, on two worker processes.
+POWER_2_WORKERS = ["analyze", "power", "--odds-ratio", "2", "--sims", "100000", "--subjects", "2",
+                   "--processes", "2", "--seed", "1"]  # fmt: skip
+
+
 def test_stop_signal_during_power_ends_the_workers(tmp_path):
-    proc = _start(
-        ["analyze", "power", "--odds-ratio", "2", "--sims", "100000", "--subjects", "2",
-         "--processes", "2", "--seed", "1"],
-        tmp_path,
-    )  # fmt: skip
+    proc = _start(POWER_2_WORKERS, tmp_path)
     _wait_for(lambda: len(_children(proc.pid)) >= 2, proc)
     workers = _children(proc.pid)
     time.sleep(0.5)
@@ -169,11 +162,7 @@ def test_stop_signal_during_power_ends_the_workers(tmp_path):
 
 
 def test_sigkilled_power_takes_its_workers_with_it(tmp_path):
-    proc = _start(
-        ["analyze", "power", "--odds-ratio", "2", "--sims", "100000", "--subjects", "2",
-         "--processes", "2", "--seed", "1"],
-        tmp_path,
-    )  # fmt: skip
+    proc = _start(POWER_2_WORKERS, tmp_path)
     _wait_for(lambda: len(_children(proc.pid)) >= 3, proc)  # two workers and the tracker
     time.sleep(1.0)  # the workers have run their initializer
     workers = _children(proc.pid)

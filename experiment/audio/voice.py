@@ -104,9 +104,8 @@ def voice_onset_s(samples: np.ndarray, samplerate_hz: float) -> float | None:
 
     Parameters
     ----------
-    samples : ndarray of shape (n,), float in [-1, 1]
-        Mono recording.
-    samplerate_hz : float > 0
+    samples, samplerate_hz
+        As in :func:`short_time_level_db`: a mono float recording in [-1, 1], its rate > 0.
 
     Returns
     -------

@@ -24,13 +24,13 @@ from __future__ import annotations
 import dataclasses
 import hashlib
 import math
-import tomllib
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 from experiment.errors import ConfocalError
 from experiment.protocol import PROTOCOLS_DIR, DisplaySpec, ProtocolError
+from experiment.protocol.load import read_toml, shipped_or_path
 
 __all__ = [
     "MONITORS_DIR",
@@ -153,21 +153,13 @@ def load_monitor(name_or_path: str | Path) -> tuple[MonitorProfile, dict[str, An
         One line ``<file>: <what is wrong>``: not found, bad TOML, unknown key, missing or bad
         field.
     """
-    p = Path(name_or_path)
-    if not p.exists() and not p.suffix and (MONITORS_DIR / f"{p.name}.toml").is_file():
-        p = MONITORS_DIR / f"{p.name}.toml"
+    p = shipped_or_path(name_or_path, MONITORS_DIR)
     if not p.is_file():
         names = ", ".join(shipped_monitors()) or "none"
         raise MonitorError(
             f"{name_or_path}: monitor profile not found (a .toml file, or one of: {names})"
         )
-    raw = p.read_bytes()
-    try:
-        data = tomllib.loads(raw.decode("utf-8"))
-    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
-        raise MonitorError(f"{p}: not valid TOML ({exc})") from None
-    except RecursionError:  # tomllib parses nested tables and arrays recursively
-        raise MonitorError(f"{p}: not valid TOML (tables or arrays nested too deeply)") from None
+    raw, data = read_toml(p, MonitorError)
     unknown = sorted(set(data) - {"monitor"})
     if unknown or "monitor" not in data:
         raise MonitorError(

@@ -1,4 +1,5 @@
-"""Shared helpers of the experiment tests: a small study on disk, a small answered log, the CLI.
+"""Shared helpers of the experiment tests: a small study on disk, a small answered log, the CLI,
+a small session for the operator console.
 
 Import the helpers by name (``from tests.experiment.conftest import make_study``); the fixtures
 below are found by pytest.
@@ -6,48 +7,24 @@ below are found by pytest.
 
 from __future__ import annotations
 
-import json
+import csv
+import hashlib
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 
+import numpy as np
 import pytest
+from PIL import Image
 
 from experiment.clock import FakeClock
 from experiment.interfaces import Answer, FlipRecord
 from experiment.log import TrialLog
 from experiment.protocol import load_protocol
 from experiment.session.engine import Session
-from experiment.session.stimset import StimulusSet
+from experiment.session.stimset import MANIFEST_COLUMNS, StimulusSet
 from experiment.testing import make_stimulus_set
-
-
-def protocol_toml(
-    levels: tuple[int, ...],
-    *,
-    name: str = "small",
-    conditions: tuple[str, ...] = ("cluttered", "decluttered"),
-    training: tuple[int, str] | None = (8, "photo"),
-    settings: str = "",
-    main_settings: str = "",
-) -> str:
-    """Return a recognition protocol: a training block of one trial, then the main block.
-
-    Parameters
-    ----------
-    levels : tuple of int
-        The main block's resolution levels.
-    training : (level, condition) or None
-        The training block's one level and condition; None for no training block.
-    settings, main_settings : str
-        Extra TOML lines for ``[protocol]`` and for the main block.
-    """
-    lines = ["[protocol]", f'name = "{name}"', *settings.splitlines()]
-    if training is not None:
-        level, condition = training
-        lines += ["", "[[blocks]]", 'part = "training"', 'objects = "training"']
-        lines += [f"levels = [{level}]", f'conditions = ["{condition}"]']
-    lines += ["", "[[blocks]]", 'part = "main"', 'objects = "main"', f"levels = {list(levels)}"]
-    lines += [f"conditions = {json.dumps(list(conditions))}", *main_settings.splitlines()]
-    return "\n".join(lines) + "\n"
+from tests.conftest import protocol_toml
 
 
 def make_study(
@@ -106,3 +83,74 @@ def session_run_args(stim: Path, proto: Path, db: Path, subject: str = "S01", *e
     """Return the arguments of ``confocal session run`` for a study made by :func:`make_study`."""
     return ["session", "run", "--protocol", proto, "--stimuli", stim, "--subject", subject,
             "--data", db, *extra]  # fmt: skip
+
+
+#: The operator-console tests' protocol: one level, two conditions, the paper's display.
+CONSOLE_PROTOCOL = """
+[protocol]
+name = "mini"
+pass_allowed_after_s = 60.0
+[display]
+screen_width_px = 1280
+screen_height_px = 1024
+screen_width_cm = 37.98
+viewing_distance_cm = 80.0
+image_width_cm = 14.6
+image_height_cm = 9.7
+border_rgb = [0, 0, 255]
+border_width_px = 6
+background_rgb = [0, 0, 0]
+[[blocks]]
+part = "main"
+objects = "main"
+levels = [1]
+conditions = ["cluttered", "decluttered"]
+"""
+
+
+def make_console_stimset(
+    root: Path, shape_px: tuple[int, int] = (8, 12), window_px: int = 40
+) -> Path:
+    """Write two objects x two conditions x level 1 (random binary PNGs of ``shape_px`` rows x
+    cols, compressed at ``window_px``), with manifest and objects; return ``root``."""
+    root.mkdir(parents=True)
+    objs = [("o1", "cup", "mug", "drinking", "main"), ("o2", "stapler", "", "stapling", "main")]
+    with open(root / "objects.csv", "w", newline="") as f:
+        w = csv.writer(f)
+        w.writerow(["object", "name", "synonyms", "uses", "role"])
+        w.writerows(objs)
+    rng = np.random.default_rng(0)
+    rows_px, cols_px = shape_px
+    rows = []
+    for o, *_ in objs:
+        for cond in ("cluttered", "decluttered"):
+            p = root / f"{o}_{cond}_1.png"
+            Image.fromarray((rng.random(shape_px) < 0.3).astype(np.uint8) * 255).save(p)
+            sha = hashlib.sha256(p.read_bytes()).hexdigest()
+            rows.append([o, "main", cond, 1, window_px, cols_px, rows_px, rows_px * cols_px,
+                         p.name, sha])  # fmt: skip
+    with open(root / "manifest.csv", "w", newline="") as f:
+        w = csv.writer(f)
+        w.writerow(MANIFEST_COLUMNS)
+        w.writerows(rows)
+    return root
+
+
+@contextmanager
+def console_session(
+    folder: Path, *, shape_px: tuple[int, int] = (8, 12), window_px: int = 40
+) -> Iterator[tuple[Session, FakeClock, TrialLog]]:
+    """Open S01's session (seed 7, a fake clock at 1000 s) of :data:`CONSOLE_PROTOCOL` on
+    :func:`make_console_stimset` in ``folder``; yield ``(session, clock, log)``, then close them."""
+    stimset = StimulusSet.load(make_console_stimset(folder / "set", shape_px, window_px))
+    (folder / "mini.toml").write_text(CONSOLE_PROTOCOL)
+    clock = FakeClock(1000.0)
+    log = TrialLog(folder / "study.sqlite")
+    session = Session.open(
+        log, load_protocol(folder / "mini.toml"), stimset, "S01", seed=7, clock=clock
+    )
+    try:
+        yield session, clock, log
+    finally:
+        session.close()
+        log.close()

@@ -24,15 +24,11 @@ from experiment.audio.voice import (
     short_time_level_db,
     voice_onset_s,
 )
-from experiment.clock import FakeClock
 from experiment.console import OperatorConsole
 from experiment.console.launch import _open_recorder
-from experiment.log import MIGRATIONS, TrialLog
+from experiment.log import MIGRATIONS
 from experiment.presentation.displays import NullDisplay
-from experiment.protocol import load_protocol
-from experiment.session.engine import Session
-from experiment.session.stimset import StimulusSet
-from tests.experiment.test_console import PROTOCOL, make_stimset
+from tests.experiment.conftest import console_session
 
 sf = pytest.importorskip("soundfile", reason="soundfile (the 'audio' extra) is not installed")
 
@@ -113,16 +109,8 @@ def test_bad_samples_raise() -> None:
 
 @pytest.fixture
 def session(tmp_path):
-    stimset = StimulusSet.load(make_stimset(tmp_path / "set"))
-    (tmp_path / "mini.toml").write_text(PROTOCOL)
-    clock = FakeClock(1000.0)
-    log = TrialLog(tmp_path / "study.sqlite")
-    s = Session.open(
-        log, load_protocol(tmp_path / "mini.toml"), stimset, "S01", seed=7, clock=clock
-    )
-    yield s, clock, log, tmp_path
-    s.close()
-    log.close()
+    with console_session(tmp_path) as (s, clock, log):
+        yield s, clock, log, tmp_path
 
 
 def test_migration_adds_append_only_audio_table(session) -> None:

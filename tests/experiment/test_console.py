@@ -8,89 +8,32 @@ pause/resume and notes; timing data is present for every trial. The presenter-pr
 from __future__ import annotations
 
 import asyncio
-import csv
-import hashlib
 import json
-from pathlib import Path
 
 import numpy as np
 import pytest
-from PIL import Image
 
-from experiment.clock import FakeClock, PerfCounterClock
+from experiment.clock import PerfCounterClock
 from experiment.console import OperatorConsole, preview_text
 from experiment.interfaces import FlipRecord, combine_flips
-from experiment.log import TrialLog
 from experiment.presentation.displays import NullDisplay
-from experiment.protocol import load_protocol
 from experiment.session.engine import Session
-from experiment.session.stimset import MANIFEST_COLUMNS, StimulusSet
-
-PROTOCOL = """
-[protocol]
-name = "mini"
-pass_allowed_after_s = 60.0
-[display]
-screen_width_px = 1280
-screen_height_px = 1024
-screen_width_cm = 37.98
-viewing_distance_cm = 80.0
-image_width_cm = 14.6
-image_height_cm = 9.7
-border_rgb = [0, 0, 255]
-border_width_px = 6
-background_rgb = [0, 0, 0]
-[[blocks]]
-part = "main"
-objects = "main"
-levels = [1]
-conditions = ["cluttered", "decluttered"]
-"""
-
-
-def make_stimset(root: Path) -> Path:
-    """Two objects x two conditions x one level (12x8 binary PNGs), with manifest and objects."""
-    root.mkdir(parents=True)
-    objs = [("o1", "cup", "mug", "drinking", "main"), ("o2", "stapler", "", "stapling", "main")]
-    with open(root / "objects.csv", "w", newline="") as f:
-        w = csv.writer(f)
-        w.writerow(["object", "name", "synonyms", "uses", "role"])
-        w.writerows(objs)
-    rng = np.random.default_rng(0)
-    rows = []
-    for o, *_ in objs:
-        for cond in ("cluttered", "decluttered"):
-            p = root / f"{o}_{cond}_1.png"
-            Image.fromarray((rng.random((8, 12)) < 0.3).astype(np.uint8) * 255).save(p)
-            sha = hashlib.sha256(p.read_bytes()).hexdigest()
-            rows.append([o, "main", cond, 1, 40, 12, 8, 96, p.name, sha])
-    with open(root / "manifest.csv", "w", newline="") as f:
-        w = csv.writer(f)
-        w.writerow(MANIFEST_COLUMNS)
-        w.writerows(rows)
-    return root
+from tests.experiment.conftest import console_session
 
 
 @pytest.fixture
 def mini(tmp_path):
-    stimset = StimulusSet.load(make_stimset(tmp_path / "set"))
-    proto_path = tmp_path / "mini.toml"
-    proto_path.write_text(PROTOCOL)
-    protocol = load_protocol(proto_path)
-    clock = FakeClock(1000.0)
-    log = TrialLog(tmp_path / "study.sqlite")
-    session = Session.open(log, protocol, stimset, "S01", seed=7, clock=clock)
-    yield session, clock, log, tmp_path
-    session.close()
-    log.close()
+    with console_session(tmp_path) as (session, clock, log):
+        yield session, clock, log, tmp_path
 
 
 async def type_text(pilot, text: str) -> None:
     await pilot.press(*("space" if ch == " " else ch for ch in text))
 
 
-def run(coro) -> None:
-    asyncio.run(asyncio.wait_for(coro, timeout=60))
+def run(coro):
+    """Run the coroutine with a 60 s limit; return its value."""
+    return asyncio.run(asyncio.wait_for(coro, timeout=60))
 
 
 def test_scripted_operator_session_logs_every_word_and_score(mini) -> None:
@@ -163,13 +106,7 @@ def test_scripted_operator_session_logs_every_word_and_score(mini) -> None:
             await pilot.press("ctrl+q")
         return suggested
 
-    suggested_box = []
-
-    async def main() -> None:
-        suggested_box.append(await script())
-
-    run(main())
-    (suggested,) = suggested_box
+    suggested = run(script())
 
     rows = {r["trial_index"]: dict(r) for r in log.execute("SELECT * FROM trials")}
     assert {i: r["response"] for i, r in rows.items()} == typed
@@ -226,18 +163,13 @@ def test_quit_mid_trial_then_resume_shows_it_again(mini) -> None:
             await pilot.press("ctrl+q")
             return pending
 
-    box = []
-
-    async def main() -> None:
-        box.append(await script())
-
-    run(main())
+    pending = run(script())
     session.close()
     assert log.answered_count(session.session_id) == 1
     kinds = [e["kind"] for e in log.events(session.session_id)]
     assert "abort" in kinds
     resumed = Session.open(log, session.protocol, session.stimset, "S01", clock=clock)
-    assert resumed.next_trial().index == box[0]
+    assert resumed.next_trial().index == pending
     assert resumed.progress() == (1, 4)
     resumed.close()
 

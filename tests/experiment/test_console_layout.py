@@ -7,80 +7,28 @@ region with the screen size and reads the rendered screen back as text.
 from __future__ import annotations
 
 import asyncio
-import csv
-import hashlib
 import json
 import logging
 import sys
 from pathlib import Path
 
-import numpy as np
 import pytest
-from PIL import Image
 from textual.widgets import Footer
 
-from experiment.clock import FakeClock
 from experiment.console import OperatorConsole, logs_to_file, session_log_path
-from experiment.log import TrialLog
 from experiment.presentation.displays import NullDisplay
 from experiment.presentation.process import PROTOCOL_VERSION, RemoteDisplay
-from experiment.protocol import load_protocol
-from experiment.session.engine import Session
-from experiment.session.stimset import MANIFEST_COLUMNS, StimulusSet
-from tests.experiment.test_console import PROTOCOL
+from tests.experiment.conftest import console_session
 
 #: Stimulus shape (rows, cols): the paper's level 3 (164x109 is 1/3 of 492x327), the aspect of
 #: every level, large enough that a careless preview would push the input line off screen.
 SHAPE_PX = (109, 164)
 
 
-def _stimset(root: Path) -> Path:
-    root.mkdir(parents=True)
-    objs = [("o1", "cup", "mug", "drinking", "main"), ("o2", "stapler", "", "stapling", "main")]
-    with open(root / "objects.csv", "w", newline="") as f:
-        w = csv.writer(f)
-        w.writerow(["object", "name", "synonyms", "uses", "role"])
-        w.writerows(objs)
-    rng = np.random.default_rng(0)
-    rows = []
-    for o, *_ in objs:
-        for cond in ("cluttered", "decluttered"):
-            p = root / f"{o}_{cond}_1.png"
-            Image.fromarray((rng.random(SHAPE_PX) < 0.3).astype(np.uint8) * 255).save(p)
-            sha = hashlib.sha256(p.read_bytes()).hexdigest()
-            rows.append(
-                [
-                    o,
-                    "main",
-                    cond,
-                    1,
-                    3,
-                    SHAPE_PX[1],
-                    SHAPE_PX[0],
-                    SHAPE_PX[0] * SHAPE_PX[1],
-                    p.name,
-                    sha,
-                ]
-            )
-    with open(root / "manifest.csv", "w", newline="") as f:
-        w = csv.writer(f)
-        w.writerow(MANIFEST_COLUMNS)
-        w.writerows(rows)
-    return root
-
-
 @pytest.fixture
 def session(tmp_path):
-    stimset = StimulusSet.load(_stimset(tmp_path / "set"))
-    (tmp_path / "mini.toml").write_text(PROTOCOL)
-    clock = FakeClock(1000.0)
-    log = TrialLog(tmp_path / "study.sqlite")
-    s = Session.open(
-        log, load_protocol(tmp_path / "mini.toml"), stimset, "S01", seed=7, clock=clock
-    )
-    yield s, clock
-    s.close()
-    log.close()
+    with console_session(tmp_path, shape_px=SHAPE_PX, window_px=3) as (s, clock, _):
+        yield s, clock
 
 
 def _inside(region, size) -> bool:

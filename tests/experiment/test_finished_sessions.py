@@ -17,17 +17,9 @@ import pytest
 from experiment import cli
 from experiment.log import TrialLog
 from experiment.testing import make_stimulus_set
+from tests.conftest import protocol_toml
 
-PROTOCOL = """
-[protocol]
-name = "tiny"
-
-[[blocks]]
-part = "main"
-objects = "main"
-levels = [1, 2]
-conditions = ["cluttered", "decluttered"]
-"""
+PROTOCOL = protocol_toml((1, 2), name="tiny", training=None)
 N_TRIALS = 2 * 2 * 2
 
 ACTIVE = """

@@ -9,7 +9,6 @@ import re
 
 import pytest
 
-from experiment import cli
 from experiment.data.monitors import (
     MONITORS_DIR,
     MonitorError,
@@ -24,17 +23,10 @@ from experiment.protocol import DisplaySpec, load_protocol
 from experiment.session.engine import Session
 from experiment.session.stimset import StimulusSet
 from experiment.testing import make_stimulus_set
+from tests.conftest import protocol_toml
+from tests.experiment.conftest import confocal
 
-PROTOCOL = """
-[protocol]
-name = "small"
-
-[[blocks]]
-part = "main"
-objects = "main"
-levels = [1, 8]
-conditions = ["cluttered"]
-"""
+PROTOCOL = protocol_toml((1, 8), conditions=("cluttered",), training=None)
 
 GOOD = """[monitor]
 name = "lab"
@@ -44,13 +36,6 @@ screen_width_px = 1920
 screen_height_px = 1080
 gamma = 2.2
 """
-
-
-def confocal(args, capsys):
-    with pytest.raises(SystemExit) as exc:
-        cli.main([str(a) for a in args])
-    out = capsys.readouterr()
-    return exc.value.code, out.out, out.err
 
 
 def test_shipped_profiles_load_and_are_listed_with_sha256():

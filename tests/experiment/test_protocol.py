@@ -17,17 +17,9 @@ from experiment.protocol import (
     ScoringSpec,
     load_protocol,
 )
+from tests.conftest import protocol_toml
 
-MINIMAL = """
-[protocol]
-name = "mini"
-
-[[blocks]]
-part = "main"
-objects = "main"
-levels = [1, 2]
-conditions = ["cluttered", "decluttered"]
-"""
+MINIMAL = protocol_toml((1, 2), name="mini", training=None)
 
 
 def write(tmp_path, text, name="p.toml"):

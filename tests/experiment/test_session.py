@@ -17,7 +17,7 @@ from experiment.protocol import load_protocol
 from experiment.session.engine import Session
 from experiment.session.stimset import StimulusSet, StimulusSetError
 from experiment.testing import make_stimulus_set
-from tests.experiment.conftest import protocol_toml
+from tests.conftest import protocol_toml
 
 PROTOCOL = protocol_toml(
     (1, 2, 3),

@@ -12,7 +12,8 @@ from experiment.data.psychds import EXPORT_COLUMNS
 from experiment.log import TrialLog
 from experiment.observers import LogisticParams
 from experiment.testing import make_stimulus_set
-from tests.experiment.conftest import confocal, make_study, protocol_toml
+from tests.conftest import protocol_toml
+from tests.experiment.conftest import confocal, make_study
 from tests.experiment.conftest import session_run_args as run_args
 
 PROTOCOL = protocol_toml((1, 2, 8))
