@@ -27,6 +27,7 @@ e                   confocal-extension mode on/off (focus ``extension_px`` in fr
 - / =               extension distance smaller / larger
 v                   temporal averaging of the implant view on/off (video)
 n / p               next / previous video frame
+m                   implant pane: phosphenes, pulse2percept scoreboard, axon map (the viewer)
 ? / h               key help drawn over the view on/off
 q                   quit (the window asks ``y`` to confirm while a session is logging)
 ==================  =========================================================================
@@ -72,6 +73,7 @@ KEY_HELP: tuple[tuple[str, str], ...] = (
     ("o", "obstacle mode: show only the depth range (alert when something enters)"),
     ("e  - =", "confocal extension on/off; its distance smaller / larger"),
     ("v  n p", "video: averaging on/off; next / previous frame"),
+    ("m", "implant pane: phosphenes / pulse2percept scoreboard / axon map"),
     ("? h", "this help on/off"),
     ("q", "quit (then y to confirm while logging)"),
 )
@@ -109,6 +111,9 @@ class ViewerState:
         Temporal averaging of the implant view (video).
     help : bool
         The key help is drawn over the view.
+    percept : {'phosphenes', 'scoreboard', 'axonmap'}
+        What the implant pane draws: the layout's phosphenes or a pulse2percept model's
+        percept (the viewer's ``m`` key; :data:`experiment.viewer.app.PERCEPTS`).
     """
 
     disparity_px: float
@@ -124,6 +129,7 @@ class ViewerState:
     frame: int = 0
     averaging: bool = False
     help: bool = False
+    percept: str = "phosphenes"
 
     def to_dict(self) -> dict[str, Any]:
         """Return the state as JSON-friendly data (for the event log)."""
