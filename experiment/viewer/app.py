@@ -685,9 +685,22 @@ class Viewer:
         Candidates, in order: the detected planes, then up to :data:`PREFETCH_STEPS` arrow
         steps nearer and farther (computed exactly as the state machine steps, so they hit).
         Each call does one piece of work: a refocus, or the automatic threshold of a cached
-        image.
+        image. Without the shaders (the numpy pipeline) the nearest steps come first and go
+        into :meth:`confocal`'s cache.
         """
-        if self.gpu is None or self.state.mode == "obstacle":
+        if self.state.mode == "obstacle":
+            return False
+        if self.gpu is None:
+            m, d = self.model, self.state.disparity_px
+            up = down = d
+            near: list[float] = []
+            for _ in range(PREFETCH_STEPS):
+                up, down = m.clamp(up + m.step_px), m.clamp(down - m.step_px)
+                near += [up, down]
+            for x in [*near, *m.planes_px]:
+                if (self.state.frame, float(x)) not in self._confocal:
+                    self.confocal(x)
+                    return True
             return False
         m, d = self.model, self.state.disparity_px
         up = down = d
@@ -810,6 +823,7 @@ def run_window(
     script: list[dict] | None = None,
     shots_dir: Path | None = None,
     video_fps: float = 0.0,
+    confirm_quit: bool = False,
 ) -> int:
     """Open a moderngl-window (pyglet) window and run the viewer until closed; return frames.
 
@@ -828,6 +842,13 @@ def run_window(
         with ``shots_dir``, the window's framebuffer is saved after each as ``shot_NNN.png``.
     video_fps : float
         Advance video frames at this rate (0: only the n/p keys do).
+    confirm_quit : bool
+        ``q`` asks first (``y`` quits, any other key stays): a session is being logged.
+
+    Notes
+    -----
+    Esc never closes the window (moderngl-window's exit key is switched off, as the
+    presenter does): it un-zooms. Only ``q`` quits.
     """
     try:
         import moderngl_window
@@ -845,6 +866,7 @@ def run_window(
         )
     except Exception as exc:  # noqa: BLE001
         raise ConfocalError(f"cannot open a window (no display?): {exc}") from exc
+    window.exit_key = None  # Esc un-zooms; quitting is the q key's job
     moderngl_window.activate_context(window=window)
     try:
         viewer = viewer_factory(window.ctx)
@@ -856,14 +878,34 @@ def run_window(
     named = {getattr(keys, k): v for k, v in _NAMED_KEYS.items()}
     drag: dict[str, Any] = {}
 
+    asking: dict[str, bool] = {"quit": False}
+
     def on_key(key, action, modifiers):
-        if action == keys.ACTION_PRESS and key in named:
-            viewer.handle("key", {"key": named[key]})
+        if action != keys.ACTION_PRESS or key not in named:
+            return
+        if asking["quit"]:
+            asking["quit"] = False
+            viewer.say("quit cancelled")
+            return
+        viewer.handle("key", {"key": named[key]})
 
     def on_char(char):
+        if asking["quit"]:
+            asking["quit"] = False
+            if char in "yY":
+                viewer.log.append(viewer.clock(), "quit", {"confirmed": True})
+                window.is_closing = True
+            else:
+                viewer.say("quit cancelled")
+            return
         if char == "q":
-            window.is_closing = True
-        elif char in "igaoevnp[]-=123456789":
+            if confirm_quit:
+                asking["quit"] = True
+                viewer.say("quit? y: quit (the log is saved), any other key: stay")
+            else:
+                viewer.log.append(viewer.clock(), "quit", {"confirmed": False})
+                window.is_closing = True
+        elif char in "igaoevnpmh?[]-=123456789":
             viewer.handle("key", {"key": char})
 
     def on_scroll(dx, dy):
@@ -892,7 +934,7 @@ def run_window(
     t0 = time.perf_counter()
     last_video = t0
     n = shot = 0
-    drawn = None
+    drawn = shown = None
     try:
         while not window.is_closing:
             now = time.perf_counter()
@@ -905,14 +947,14 @@ def run_window(
                 ev = pending.pop(0)
                 viewer.handle(ev["kind"], ev["payload"])
                 injected = True
-            if viewer.state == drawn and not injected:
+            if viewer.state == drawn and viewer.message == shown and not injected:
                 # nothing changed: no redraw; refocus the depths the user may go to next
                 # (one per loop, so input stays responsive), then idle
                 if not viewer.prefetch():
                     time.sleep(0.005)
                 window._window.dispatch_events()
             else:
-                drawn = viewer.state
+                drawn, shown = viewer.state, viewer.message
                 viewer.render(window.fbo)
                 if injected and shots_dir is not None:
                     shots_dir.mkdir(parents=True, exist_ok=True)
