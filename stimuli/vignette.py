@@ -8,7 +8,8 @@ box whose border lines are almost free of such pixels, with thresholds taken fro
 
 * *dark*: at most :data:`DARK_FRACTION` of the image's median, in any view (the rim moves
   from view to view, and a refocused image averages all of them);
-* *clipped*: at least :data:`CLIP_FRACTION` of the image's own maximum in the centre view.
+* *clipped*: at least :data:`CLIP_FRACTION` of the image's own maximum in the centre view,
+  when that maximum reaches full scale (a dim image that never reaches it has no clipping).
 
 Border lines (top or bottom row, left or right column) are peeled one at a time, always the one
 with the largest share of such pixels, until no border line has more than
@@ -75,7 +76,7 @@ def vignette_crop(views: np.ndarray) -> tuple[int, int, int, int] | None:
     median = float(np.median(centre))
     top = float(centre.max())
     bad = darkest <= DARK_FRACTION * median
-    if top > 0:
+    if top >= CLIP_FRACTION:  # the sensor's white was reached: its pixels carry no scene
         bad |= centre >= CLIP_FRACTION * top
     rows, cols = bad.shape
     r0, r1, c0, c1 = 0, rows, 0, cols
