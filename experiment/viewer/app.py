@@ -16,7 +16,7 @@ import json
 import logging
 import sys
 import time
-from collections import deque
+from collections import OrderedDict, deque
 from dataclasses import replace
 from pathlib import Path
 from typing import Any
@@ -34,16 +34,20 @@ from experiment.viewer.reference import (
     depth_map,
     effective_levels,
     obstacle_mask,
+    otsu_threshold,
     track_point,
 )
 from experiment.viewer.screen import (
     STATUS_ROWS_PX,
+    FramePainter,
     ScreenLayout,
-    expected_screen,
+    draw_implant,
+    help_image,
+    help_rect,
     screen_layout,
     status_image,
 )
-from experiment.viewer.state import ViewerModel, ViewerState, apply_event
+from experiment.viewer.state import KEY_HELP, ViewerModel, ViewerState, apply_event
 from stimuli.implants import ImplantLayout, load_implant
 from stimuli.lightfield import LightField
 
@@ -52,6 +56,8 @@ __all__ = [
     "COMPUTE_CHOICES",
     "STEPS_PER_RANGE",
     "PREFETCH_STEPS",
+    "REFOCUS_CACHE",
+    "PERCEPTS",
     "LightFieldSource",
     "open_source",
     "Viewer",
@@ -72,6 +78,15 @@ STEPS_PER_RANGE: int = 100
 #: Arrow steps either side of the current depth refocused ahead while the window is idle (ours).
 PREFETCH_STEPS: int = 8
 
+#: Confocal images the numpy pipeline keeps, by (frame, disparity) (ours: 48 Lytro-size images,
+#: 40 MB; scanning back over depths already seen, or to a prefetched one, costs no refocus).
+REFOCUS_CACHE: int = 48
+
+#: What the implant pane can show (the ``m`` key cycles): the layout's own phosphenes, or
+#: pulse2percept's scoreboard or axon-map percept of the same electrodes (the ``p2p`` extra,
+#: retinal layouts only).
+PERCEPTS: tuple[str, ...] = ("phosphenes", "scoreboard", "axonmap")
+
 #: Candidate disparities of the per-pixel depth map, spread over the viewer's depth range
 #: (ours: about two per detected-plane width on the shipped light fields).
 DEPTH_CANDIDATES: int = 48
@@ -88,6 +103,11 @@ class LightFieldSource:
         Keyword arguments for :func:`stimuli.lightfield.load_lightfield`.
     view_crop : (x, y, w, h), optional
         Crop every view first (:meth:`stimuli.lightfield.LightField.cropped`).
+
+    Attributes
+    ----------
+    view_crop : (x, y, w, h) or None
+        The crop applied.
     """
 
     def __init__(
@@ -99,6 +119,7 @@ class LightFieldSource:
     ) -> None:
         self._loader = loader or {}
         self._crop = view_crop
+        self.view_crop = view_crop
         if isinstance(frames, LightField) and view_crop is not None:
             frames = frames.cropped(view_crop)
         if isinstance(frames, LightField):
@@ -130,13 +151,28 @@ class LightFieldSource:
 
 
 def open_source(
-    path: Path, *, view_crop: tuple[int, int, int, int] | None = None, **loader: Any
+    path: Path, *, view_crop: tuple[int, int, int, int] | str | None = None, **loader: Any
 ) -> LightFieldSource:
     """Open a light field (any input ``confocal lightfield`` reads) or a folder of frames.
 
     A folder is a *video* when it holds no view images of its own but two or more light-field
     inputs (sub-folders of views, ``.npy``/``.npz`` files), taken in name order.
+
+    ``view_crop``: a box ``(x, y, w, h)`` cropped from every view, None for none, or ``"auto"``:
+    the box that leaves out the capture's vignette rim and clipped strip, found in the (first)
+    frame's views (:func:`stimuli.vignette.vignette_crop`; none when there is nothing to leave
+    out). The box used is :attr:`LightFieldSource.view_crop`.
     """
+    if isinstance(view_crop, str):
+        if view_crop != "auto":
+            raise ConfocalError(f"view_crop must be a box, None or 'auto', got {view_crop!r}")
+        from stimuli.vignette import vignette_crop
+
+        src = open_source(path, view_crop=None, **loader)
+        box = vignette_crop(src.frame(0).views)
+        if box is None:
+            return src
+        return open_source(path, view_crop=box, **loader)
     from stimuli.lightfield import load_lightfield
 
     path = Path(path)
@@ -270,6 +306,7 @@ class Viewer:
             step_px=(hi - lo) / STEPS_PER_RANGE,
             planes_px=tuple(p.disparity_px for p in scan.peaks if lo <= p.disparity_px <= hi),
             implants=tuple(names),
+            implant_levels=tuple(self.layouts[n].levels for n in names),
             auto_threshold=0.0,
             n_frames=source.n_frames,
             depth_at=self._depth_at,
@@ -287,6 +324,15 @@ class Viewer:
         self._auto_t: dict[tuple, float] = {}
         self._alert = False
         self.frame_ms = 0.0
+        #: one line shown before the status (why a key did nothing, a question); cleared by
+        #: the next input event
+        self.message = ""
+        self._painter = FramePainter()
+        self._confocal: OrderedDict[tuple, np.ndarray] = OrderedDict()
+        self._panes_key: tuple | None = None
+        self._panes = None
+        self._implant_img: OrderedDict[tuple, np.ndarray] = OrderedDict()
+        self._help_img: np.ndarray | None = None
         self.gpu = None
         self._composite = None
         self._pane0_key: tuple | None = None
@@ -311,6 +357,7 @@ class Viewer:
             {
                 "source": lf.source,
                 "shape": list(lf.views.shape),
+                "view_crop": list(source.view_crop) if source.view_crop is not None else None,
                 "planes_px": list(self.model.planes_px),
             },
         )
@@ -348,8 +395,34 @@ class Viewer:
         if s.frame != before.frame:
             s = self._follow(before, s)
         self.state = s
+        if kind in ("key", "wheel", "drag", "click"):
+            self.message = ""
+        if kind == "key" and payload.get("key") == "g" and self.model.is_binary(s.implant):
+            self.say(
+                f"g: {self.layout.label} has on/off phosphenes only (levels = 2 in its layout); "
+                "i switches to an implant with grey levels"
+            )
+        if kind == "key" and payload.get("key") == "m":
+            s = self.state = self._next_percept(s)
         self.log.append(t, "state", s.to_dict())
         return s
+
+    def say(self, text: str) -> None:
+        """Show one line before the status until the next input event (and log it)."""
+        self.message = text
+        self.log.append(self.clock(), "message", {"text": text})
+
+    def _next_percept(self, s: ViewerState) -> ViewerState:
+        from experiment.viewer.p2p import p2p_unavailable
+
+        k = (PERCEPTS.index(s.percept) + 1) % len(PERCEPTS) if s.percept in PERCEPTS else 0
+        want = PERCEPTS[k]
+        if want != "phosphenes":
+            why = p2p_unavailable(self.layout)
+            if why:
+                self.say(f"m: no {want} percept: {why}")
+                return replace(s, percept="phosphenes")
+        return replace(s, percept=want)
 
     def _follow(self, before: ViewerState, s: ViewerState) -> ViewerState:
         prev = self.source.frame(before.frame).centre_view()
@@ -367,7 +440,8 @@ class Viewer:
 
     # -- rendering -----------------------------------------------------------------------------
 
-    def _source_image(self) -> np.ndarray | None:
+    def _source_image(self) -> tuple[np.ndarray, np.ndarray] | None:
+        # obstacle mode: (the masked centre view, the mask as float32); else None
         s = self.state
         if s.mode == "obstacle" and s.obstacle_px is not None:
             mask = obstacle_mask(self.depth(), *s.obstacle_px)
@@ -377,7 +451,8 @@ class Viewer:
                 sys.stderr.flush()
                 self.log.append(self.clock(), "alert", {"fraction": float(mask.mean())})
             self._alert = alert
-            return np.where(mask, self.lf.centre_view(), np.float32(0)).astype(np.float32)
+            masked = np.where(mask, self.lf.centre_view(), np.float32(0)).astype(np.float32)
+            return masked, mask.astype(np.float32)
         self._alert = False
         return None
 
@@ -398,18 +473,28 @@ class Viewer:
             f"levels {effective_levels(s, lay)}",
             f"threshold {t}",
         ]
-        if s.zoom is not None:
-            parts.append(f"zoom {s.zoom[2]}x{s.zoom[3]}")
+        parts.append(
+            f"zoom {s.zoom[2]}x{s.zoom[3]} at {s.zoom[0]},{s.zoom[1]}"
+            if s.zoom is not None
+            else "zoom off"
+        )
         if s.mode == "obstacle" and s.obstacle_px is not None:
-            parts.append(f"OBSTACLE {s.obstacle_px[1]:+.2f}..{s.obstacle_px[0]:+.2f}")
+            parts.append(f"OBSTACLE {s.obstacle_px[1]:+.2f}..{s.obstacle_px[0]:+.2f} px/view")
             if self._alert:
                 parts.append("ALERT")
-        if s.mode == "extension":
-            parts.append(f"extension {s.extension_px:+.2f}")
+        if s.mode == "extension" or s.marker is not None or s.extension_px != 0:
+            on = "extension ON" if s.mode == "extension" else "extension off"
+            mark = f"marker {s.marker[0]},{s.marker[1]}" if s.marker is not None else "no marker"
+            parts.append(f"{on} {s.extension_px:+.2f} px/view, {mark}")
+        if s.averaging:
+            parts.append(f"averaging {len(self._history)}/{AVERAGING_FRAMES} frames")
+        if s.percept != "phosphenes":
+            parts.append(f"percept {s.percept} (pulse2percept)")
         if self.source.n_frames > 1:
             parts.append(f"frame {s.frame + 1}/{self.source.n_frames}")
-        parts.append(f"{self.frame_ms:.1f} ms")
-        return " | ".join(parts)
+        parts.append(f"{self.frame_ms:.1f} ms | ? help")
+        text = " | ".join(parts)
+        return f"{self.message}  || {text}" if self.message else text
 
     def screen(self, zoom_shape: tuple[int, int]) -> ScreenLayout:
         """The screen layout for the current implant and zoom."""
@@ -436,18 +521,82 @@ class Viewer:
         self._hist_frame = s.frame
         return np.mean(np.stack(self._history), axis=0).astype(np.float32)
 
+    def confocal(self, disparity_px: float) -> np.ndarray:
+        """The confocal image of the current frame at a disparity (numpy; cached)."""
+        from stimuli.refocus import refocus
+
+        key = (self.state.frame, float(disparity_px))
+        img = self._confocal.get(key)
+        if img is None:
+            img = refocus(self.lf, float(disparity_px))
+            self._confocal[key] = img
+            while len(self._confocal) > REFOCUS_CACHE:
+                self._confocal.popitem(last=False)
+        else:
+            self._confocal.move_to_end(key)
+        return img
+
+    def _implant_image(self, cells: np.ndarray, shape_px: tuple[int, int]) -> np.ndarray:
+        # The implant pane's picture for these electrode values, remembered by value: a depth
+        # scan on a 60-electrode implant keeps meeting the same few patterns.
+        s, lay = self.state, self.layout
+        key = (cells.tobytes(), cells.shape, shape_px, lay, s.percept)
+        img = self._implant_img.get(key)
+        if img is not None:
+            self._implant_img.move_to_end(key)
+            return img
+        if s.percept == "phosphenes":
+            img = draw_implant(cells, shape_px, lay)
+        else:
+            from experiment.viewer.p2p import p2p_percept
+            from experiment.viewer.screen import nearest_cells
+
+            p = p2p_percept(cells * lay.electrode_gain(), lay, model=s.percept)
+            rows = nearest_cells(shape_px[0], p.shape[0])
+            img = p[np.ix_(rows, nearest_cells(shape_px[1], p.shape[1]))]
+        self._implant_img[key] = img
+        while len(self._implant_img) > 64:
+            self._implant_img.popitem(last=False)
+        return img
+
+    def help_overlay(self) -> np.ndarray | None:
+        """The key help image (uint8) when the state asks for it, else None."""
+        if not self.state.help:
+            return None
+        lines = [f"{k:<18s}{v}" for k, v in KEY_HELP] + ["", "? or h: close this help"]
+        _, _, w, h = help_rect(self.screen_shape_px, len(lines))
+        if self._help_img is None or self._help_img.shape != (h, w):
+            self._help_img = help_image(lines, (h, w))
+        return self._help_img
+
     def render(self, fbo: Any = None) -> np.ndarray | None:
         """Draw the current state: into ``fbo`` on the GPU, or return the CPU frame (uint8)."""
         t0 = time.perf_counter()
         s, lay = self.state, self.layout
         src = self._source_image()
         status = status_image(self.status_text(), (STATUS_ROWS_PX, self.screen_shape_px[1]))
+        overlay = self.help_overlay()
         if self.gpu is None:
-            depth = self.depth() if s.mode == "obstacle" else None
-            p = cpu_panes(self.lf, s, lay, depth=depth)
+            depth_key = s.disparity_px if src is None else ("obstacle", s.obstacle_px)
+            levels = effective_levels(s, lay)
+            key = (s.frame, depth_key, s.zoom, s.threshold, lay.name, levels)
+            if key != self._panes_key:
+                depth = self.depth() if s.mode == "obstacle" else None
+                confocal = self.confocal(s.disparity_px) if src is None else None
+                self._panes = cpu_panes(self.lf, s, lay, depth=depth, confocal=confocal)
+                self._panes_key = key
+            p = self._panes
             cells = self._averaged(p.cells)
-            frame = expected_screen(
-                self.screen(p.source.shape),
+            screen = self.screen(p.source.shape)
+            rect = screen.images[3]
+            keys = (
+                (s.frame, s.zoom, s.marker),
+                (s.frame, depth_key, s.zoom),
+                (s.frame, depth_key, s.zoom, p.threshold),
+                (cells.tobytes(), lay.name, s.percept, p.alert),
+            )
+            frame = self._painter.paint(
+                screen,
                 p.centre,
                 p.source,
                 p.edges,
@@ -456,11 +605,17 @@ class Viewer:
                 zoom=s.zoom,
                 alert=p.alert,
                 status=status,
+                marker=s.marker,
+                overlay=overlay,
+                keys=keys,
+                phosphenes=self._implant_image(cells, (rect[3], rect[2])),
             )
             if fbo is not None and self.ctx is not None:
-                self._draw_frame(frame, fbo)
+                self._draw_frame(frame, fbo, self._painter.dirty)
+                self.frame_ms = (time.perf_counter() - t0) * 1e3
+                return frame[..., :3]  # the painter's own frame: valid until the next render
             self.frame_ms = (time.perf_counter() - t0) * 1e3
-            return frame
+            return frame[..., :3].copy()
         g = self.gpu
         if self._gpu_frame != s.frame:
             g.set_views(self.lf.views)
@@ -468,7 +623,7 @@ class Viewer:
         if src is None:
             g.refocus(s.disparity_px)
         else:
-            g.set_source(src)
+            g.set_source(*src)
         levels = effective_levels(s, lay)
         depth_key = s.disparity_px if src is None else ("obstacle", s.obstacle_px)
         key = (s.frame, depth_key, s.zoom, s.threshold, lay.name, levels, s.averaging)
@@ -480,7 +635,7 @@ class Viewer:
                 if tkey not in self._auto_t:
                     if len(self._auto_t) > 4096:
                         self._auto_t.clear()
-                    self._auto_t[tkey] = _otsu(g.read_magnitude())
+                    self._auto_t[tkey] = otsu_threshold(g.read_magnitude())
                 t = self._auto_t[tkey]
             else:
                 t = float(s.threshold)
@@ -498,17 +653,25 @@ class Viewer:
                 self._composite.release()
             self._composite = self.ctx.simple_framebuffer((cols, rows))
             self._pane0_key = None
-        pane0_key = (s.zoom, s.frame, self.screen_shape_px)
-        full = pane0_key != self._pane0_key
+        pane0_key = (s.zoom, s.frame, s.marker, self.screen_shape_px, overlay is None)
+        full = pane0_key != self._pane0_key or overlay is not None
+        screen = self.screen(zoom_shape)
+        implant_image = None
+        if s.percept != "phosphenes":
+            rect = screen.images[3]
+            implant_image = self._implant_image(g.read_cells(), (rect[3], rect[2]))
         g.draw(
             self._composite,
-            self.screen(zoom_shape),
+            screen,
             lay,
             threshold=t,
             zoom=s.zoom,
             alert=self._alert,
             status=status,
             panes=(True, True, True, True) if full else (False, True, True, True),
+            marker=s.marker,
+            overlay=overlay,
+            implant_image=implant_image,
         )
         self._pane0_key = pane0_key
         self.ctx.copy_framebuffer(fbo, self._composite)
@@ -522,9 +685,22 @@ class Viewer:
         Candidates, in order: the detected planes, then up to :data:`PREFETCH_STEPS` arrow
         steps nearer and farther (computed exactly as the state machine steps, so they hit).
         Each call does one piece of work: a refocus, or the automatic threshold of a cached
-        image.
+        image. Without the shaders (the numpy pipeline) the nearest steps come first and go
+        into :meth:`confocal`'s cache.
         """
-        if self.gpu is None or self.state.mode == "obstacle":
+        if self.state.mode == "obstacle":
+            return False
+        if self.gpu is None:
+            m, d = self.model, self.state.disparity_px
+            up = down = d
+            near: list[float] = []
+            for _ in range(PREFETCH_STEPS):
+                up, down = m.clamp(up + m.step_px), m.clamp(down - m.step_px)
+                near += [up, down]
+            for x in [*near, *m.planes_px]:
+                if (self.state.frame, float(x)) not in self._confocal:
+                    self.confocal(x)
+                    return True
             return False
         m, d = self.model, self.state.disparity_px
         up = down = d
@@ -542,7 +718,7 @@ class Viewer:
             if s.threshold is None and tkey not in self._auto_t:
                 mag = self.gpu.magnitude_at(x, s.zoom)
                 if mag is not None:
-                    self._auto_t[tkey] = _otsu(mag)
+                    self._auto_t[tkey] = otsu_threshold(mag)
                     return True
         return False
 
@@ -580,17 +756,27 @@ class Viewer:
             return None
         return int(((2 * px + 1) * cols) // (2 * w)), int(((2 * py + 1) * rows) // (2 * h))
 
-    def _draw_frame(self, frame: np.ndarray, fbo: Any) -> None:
-        """Copy a CPU frame (rows, cols, 3 uint8, top row first) into ``fbo``."""
-        rows, cols = frame.shape[:2]
-        if self._blit is None or self._blit[0].size != (cols, rows):
+    def _draw_frame(
+        self, frame: np.ndarray, fbo: Any, dirty: list[tuple[int, int, int, int]] | None = None
+    ) -> None:
+        """Copy a CPU frame (rows, cols, 3 or 4 uint8, top row first) into ``fbo``.
+
+        ``dirty``: the rectangles ``(left, top, cols, rows)`` that changed since the last call
+        (only those are uploaded); None uploads the whole frame.
+        """
+        rows, cols, n = frame.shape
+        old = self._blit[0] if self._blit is not None else None
+        if old is None or old.size != (cols, rows) or old.components != n:
             if self._blit is not None:
                 for obj in self._blit[::-1]:
                     obj.release()
-            tex = self.ctx.texture((cols, rows), 3)
+            tex = self.ctx.texture((cols, rows), n)
             self._blit = (tex, self.ctx.framebuffer(color_attachments=[tex]))
+            dirty = None
         tex, src = self._blit
-        tex.write(np.ascontiguousarray(frame[::-1]).tobytes())  # GL rows run bottom-up
+        for left, top, w, h in dirty if dirty is not None else [(0, 0, cols, rows)]:
+            part = np.ascontiguousarray(frame[top : top + h, left : left + w][::-1])
+            tex.write(part, viewport=(left, rows - (top + h), w, h))  # GL rows run bottom-up
         self.ctx.copy_framebuffer(fbo, src)
 
     def close(self) -> None:
@@ -618,15 +804,6 @@ class _quiet_warnings:
         self._w.__exit__(*exc)
 
 
-def _otsu(magnitude: np.ndarray) -> float:
-    # The same rule as stimuli.declutter.auto_threshold, on the GPU's magnitude.
-    from skimage.filters import threshold_otsu
-
-    if magnitude.size == 0 or float(magnitude.max()) == float(magnitude.min()):
-        return 0.0
-    return max(0.0, float(threshold_otsu(magnitude, nbins=256)))
-
-
 _NAMED_KEYS = {
     "UP": "up",
     "DOWN": "down",
@@ -646,6 +823,7 @@ def run_window(
     script: list[dict] | None = None,
     shots_dir: Path | None = None,
     video_fps: float = 0.0,
+    confirm_quit: bool = False,
 ) -> int:
     """Open a moderngl-window (pyglet) window and run the viewer until closed; return frames.
 
@@ -664,6 +842,13 @@ def run_window(
         with ``shots_dir``, the window's framebuffer is saved after each as ``shot_NNN.png``.
     video_fps : float
         Advance video frames at this rate (0: only the n/p keys do).
+    confirm_quit : bool
+        ``q`` asks first (``y`` quits, any other key stays): a session is being logged.
+
+    Notes
+    -----
+    Esc never closes the window (moderngl-window's exit key is switched off, as the
+    presenter does): it un-zooms. Only ``q`` quits.
     """
     try:
         import moderngl_window
@@ -681,6 +866,7 @@ def run_window(
         )
     except Exception as exc:  # noqa: BLE001
         raise ConfocalError(f"cannot open a window (no display?): {exc}") from exc
+    window.exit_key = None  # Esc un-zooms; quitting is the q key's job
     moderngl_window.activate_context(window=window)
     try:
         viewer = viewer_factory(window.ctx)
@@ -692,14 +878,34 @@ def run_window(
     named = {getattr(keys, k): v for k, v in _NAMED_KEYS.items()}
     drag: dict[str, Any] = {}
 
+    asking: dict[str, bool] = {"quit": False}
+
     def on_key(key, action, modifiers):
-        if action == keys.ACTION_PRESS and key in named:
-            viewer.handle("key", {"key": named[key]})
+        if action != keys.ACTION_PRESS or key not in named:
+            return
+        if asking["quit"]:
+            asking["quit"] = False
+            viewer.say("quit cancelled")
+            return
+        viewer.handle("key", {"key": named[key]})
 
     def on_char(char):
+        if asking["quit"]:
+            asking["quit"] = False
+            if char in "yY":
+                viewer.log.append(viewer.clock(), "quit", {"confirmed": True})
+                window.is_closing = True
+            else:
+                viewer.say("quit cancelled")
+            return
         if char == "q":
-            window.is_closing = True
-        elif char in "igaoevnp[]-=123456789":
+            if confirm_quit:
+                asking["quit"] = True
+                viewer.say("quit? y: quit (the log is saved), any other key: stay")
+            else:
+                viewer.log.append(viewer.clock(), "quit", {"confirmed": False})
+                window.is_closing = True
+        elif char in "igaoevnpmh?[]-=123456789":
             viewer.handle("key", {"key": char})
 
     def on_scroll(dx, dy):
@@ -728,7 +934,7 @@ def run_window(
     t0 = time.perf_counter()
     last_video = t0
     n = shot = 0
-    drawn = None
+    drawn = shown = None
     try:
         while not window.is_closing:
             now = time.perf_counter()
@@ -741,14 +947,14 @@ def run_window(
                 ev = pending.pop(0)
                 viewer.handle(ev["kind"], ev["payload"])
                 injected = True
-            if viewer.state == drawn and not injected:
+            if viewer.state == drawn and viewer.message == shown and not injected:
                 # nothing changed: no redraw; refocus the depths the user may go to next
                 # (one per loop, so input stays responsive), then idle
                 if not viewer.prefetch():
                     time.sleep(0.005)
                 window._window.dispatch_events()
             else:
-                drawn = viewer.state
+                drawn, shown = viewer.state, viewer.message
                 viewer.render(window.fbo)
                 if injected and shots_dir is not None:
                     shots_dir.mkdir(parents=True, exist_ok=True)

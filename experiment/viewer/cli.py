@@ -5,7 +5,8 @@ renders one state offscreen (EGL, or ``--cpu`` with numpy only) and exits, so th
 scripts and tests with no display. Options set the first state (``--disparity``, ``--plane``,
 ``--zoom``, ``--implant``, ``--levels``, ``--threshold``, ``--obstacle``, ``--marker``); a
 ``--script`` file of JSON-lines events is then applied through the same handler as keys and
-mouse; ``--log`` appends every event and displayed state to an SQLite file.
+mouse; ``--log`` appends every event and displayed state to an SQLite file. ``--help`` groups
+the options (Input, View, Implant, Modes, Output) and lists the window's keys.
 """
 
 from __future__ import annotations
@@ -50,95 +51,165 @@ def view_command(
     implant: Annotated[
         list[str] | None,
         typer.Option(
-            "--implant", help="Implant name or .toml (repeat: the i key cycles). Default: all."
+            "--implant",
+            help="Implant name or .toml (repeat: the i key cycles). Default: all.",
+            rich_help_panel="Implant",
         ),
     ] = None,
     screenshot: Annotated[
-        Path | None, typer.Option(help="Render one state offscreen to this PNG and exit.")
+        Path | None,
+        typer.Option(
+            help="Render one state offscreen to this PNG and exit.", rich_help_panel="Output"
+        ),
     ] = None,
-    cpu: Annotated[bool, typer.Option("--cpu", help="Render with numpy (no OpenGL).")] = False,
+    cpu: Annotated[
+        bool, typer.Option("--cpu", help="Render with numpy (no OpenGL).", rich_help_panel="View")
+    ] = False,
     compute: Annotated[
         str,
         typer.Option(
             "--compute",
             help="Where refocus, Sobel and compression run: auto (numpy on a software "
             "rasteriser such as llvmpipe, where it is faster; else shaders), gpu or cpu.",
+            rich_help_panel="View",
         ),
     ] = "auto",
-    size: Annotated[str, typer.Option(help="Frame size WIDTHxHEIGHT.")] = "1080x720",
+    size: Annotated[
+        str, typer.Option(help="Frame size WIDTHxHEIGHT.", rich_help_panel="View")
+    ] = "1080x720",
     disparity: Annotated[
         float | None,
         typer.Option(
-            callback=finite_option(), help="Start depth, px per view step (default: nearest plane)."
+            callback=finite_option(),
+            help="Start depth, px per view step (default: nearest plane).",
+            rich_help_panel="View",
         ),
     ] = None,
     plane: Annotated[
-        int | None, typer.Option(min=1, help="Start at detected plane N (1 = nearest).")
+        int | None,
+        typer.Option(
+            min=1, help="Start at detected plane N (1 = nearest).", rich_help_panel="View"
+        ),
     ] = None,
-    zoom: Annotated[str | None, typer.Option(help="Zoom box x,y,w,h (view pixels).")] = None,
-    levels: Annotated[int, typer.Option(help="2: binary edges; 4 or 8: grey levels.")] = 2,
-    threshold: Annotated[str, typer.Option(help="Sobel threshold: auto or a number.")] = "auto",
+    zoom: Annotated[
+        str | None, typer.Option(help="Zoom box x,y,w,h (view pixels).", rich_help_panel="View")
+    ] = None,
+    levels: Annotated[
+        int, typer.Option(help="2: binary edges; 4 or 8: grey levels.", rich_help_panel="View")
+    ] = 2,
+    threshold: Annotated[
+        str, typer.Option(help="Sobel threshold: auto or a number.", rich_help_panel="View")
+    ] = "auto",
     obstacle: Annotated[
-        str | None, typer.Option(help="Obstacle mode: FAR:NEAR disparity range, px per view.")
+        str | None,
+        typer.Option(
+            help="Obstacle mode: FAR:NEAR disparity range, px per view.", rich_help_panel="Modes"
+        ),
     ] = None,
     marker: Annotated[
-        str | None, typer.Option(help="Confocal extension: marked point x,y (view pixels).")
+        str | None,
+        typer.Option(
+            help="Confocal extension: marked point x,y (view pixels).", rich_help_panel="Modes"
+        ),
     ] = None,
     extension: Annotated[
         float,
         typer.Option(
             callback=finite_option(),
             help="Extension: focus this many px/view nearer than the marker.",
+            rich_help_panel="Modes",
         ),
     ] = 0.0,
     track_bright: Annotated[
-        bool, typer.Option(help="Extension: follow the brightest spot as the marker.")
+        bool,
+        typer.Option(
+            help="Extension: follow the brightest spot as the marker.", rich_help_panel="Modes"
+        ),
     ] = False,
-    average: Annotated[bool, typer.Option(help="Temporal averaging of the implant view.")] = False,
+    average: Annotated[
+        bool, typer.Option(help="Temporal averaging of the implant view.", rich_help_panel="Modes")
+    ] = False,
     px_per_deg: Annotated[
         float | None,
         typer.Option(
             callback=finite_option(0.0, lo_open=True),
             help="Draw the implant's field of view at this px/deg.",
+            rich_help_panel="Implant",
         ),
     ] = None,
     planes: Annotated[
-        int, typer.Option(min=3, max=MAX_PLANES, help="Planes of the startup depth scan.")
+        int,
+        typer.Option(
+            min=3, max=MAX_PLANES, help="Planes of the startup depth scan.", rich_help_panel="View"
+        ),
     ] = 100,
     script: Annotated[
-        Path | None, typer.Option(help="JSON-lines events to apply (one per frame in a window).")
+        Path | None,
+        typer.Option(
+            help="JSON-lines events to apply (one per frame in a window).", rich_help_panel="Modes"
+        ),
     ] = None,
     log: Annotated[
-        Path | None, typer.Option(help="Append events and states to this SQLite.")
+        Path | None,
+        typer.Option(help="Append events and states to this SQLite.", rich_help_panel="Output"),
     ] = None,
     shots: Annotated[
-        Path | None, typer.Option(help="Window: save a PNG after each scripted event here.")
+        Path | None,
+        typer.Option(
+            help="Window: save a PNG after each scripted event here.", rich_help_panel="Output"
+        ),
     ] = None,
     seconds: Annotated[
         float | None,
-        typer.Option(callback=finite_option(0.0), help="Window: close after this long."),
+        typer.Option(
+            callback=finite_option(0.0),
+            help="Window: close after this long.",
+            rich_help_panel="View",
+        ),
     ] = None,
     video_fps: Annotated[
         float,
-        typer.Option(callback=finite_option(0.0), help="Video: frames per second (0: keys)."),
+        typer.Option(
+            callback=finite_option(0.0),
+            help="Video: frames per second (0: keys).",
+            rich_help_panel="Modes",
+        ),
     ] = 0.0,
     p2p: Annotated[
         str | None,
         typer.Option(
             help="With --screenshot: also write NAME_p2p.png, the implant view through "
-            "pulse2percept's scoreboard or axonmap model (the p2p extra)."
+            "pulse2percept's scoreboard or axonmap model (the p2p extra).",
+            rich_help_panel="Output",
         ),
     ] = None,
-    pattern: Annotated[str | None, typer.Option(help="View file-name pattern.")] = None,
-    grid_cols: Annotated[int | None, typer.Option(help="Grid columns for {index}.")] = None,
-    pitch: Annotated[int | None, typer.Option(help="Elemental image: lenslet pitch, px.")] = None,
-    border: Annotated[int | None, typer.Option(help="Elemental image: border, px.")] = None,
+    pattern: Annotated[
+        str | None, typer.Option(help="View file-name pattern.", rich_help_panel="Input")
+    ] = None,
+    grid_cols: Annotated[
+        int | None, typer.Option(help="Grid columns for {index}.", rich_help_panel="Input")
+    ] = None,
+    pitch: Annotated[
+        int | None,
+        typer.Option(help="Elemental image: lenslet pitch, px.", rich_help_panel="Input"),
+    ] = None,
+    border: Annotated[
+        int | None, typer.Option(help="Elemental image: border, px.", rich_help_panel="Input")
+    ] = None,
     offset: Annotated[
-        str | None, typer.Option(help="Elemental image: ROW,COL pixels before the first lens.")
+        str | None,
+        typer.Option(
+            help="Elemental image: ROW,COL pixels before the first lens.", rich_help_panel="Input"
+        ),
     ] = None,
     view_crop: Annotated[
-        str | None, typer.Option(help="Crop every view to x,y,w,h first (vignetted corners).")
-    ] = None,
+        str,
+        typer.Option(
+            help="Crop every view first: auto (leave out the capture's dark vignette rim and "
+            "clipped strip, found in the data), none, or x,y,w,h.",
+            rich_help_panel="Input",
+        ),
+    ] = "auto",
 ) -> None:
     """Scan depth, jump to object planes, zoom and see the implant's view, live."""
     from experiment.viewer.app import COMPUTE_CHOICES
@@ -181,7 +252,11 @@ def view_command(
         except ValueError:
             raise ConfocalError(f"--obstacle must be FAR:NEAR, got {obstacle!r}") from None
         obstacle_px = (max(far, near), min(far, near))
-    crop = _ints(view_crop, 4, "--view-crop") if view_crop is not None else None
+    crop: tuple[int, ...] | str | None
+    if view_crop in ("auto", "none"):
+        crop = None if view_crop == "none" else "auto"
+    else:
+        crop = _ints(view_crop, 4, "--view-crop")
     off = _ints(offset, 2, "--offset") if offset is not None else None
     source = open_source(
         lightfield,
@@ -246,6 +321,7 @@ def view_command(
             script=events,
             shots_dir=shots,
             video_fps=video_fps,
+            confirm_quit=log is not None,
         )
         typer.echo(f"{n} frames shown", err=True)
         return
@@ -280,6 +356,13 @@ def view_command(
     typer.echo(line)
 
 
+def _key_epilog() -> str:
+    from experiment.viewer.state import KEY_HELP
+
+    # typer's rich help keeps line breaks only between paragraphs
+    return "Keys in the window:\n\n" + "\n\n".join(f"{k}: {v}" for k, v in KEY_HELP)
+
+
 def register(app: typer.Typer) -> None:
-    """Add ``view`` to the root ``confocal`` app."""
-    app.command("view")(view_command)
+    """Add ``view`` to the root ``confocal`` app (options grouped, keys in the epilog)."""
+    app.command("view", epilog=_key_epilog())(view_command)

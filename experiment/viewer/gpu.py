@@ -43,7 +43,10 @@ from experiment.viewer.screen import (
     ALERT_RGB,
     BACKGROUND_RGB,
     BOX_RGB,
+    MARKER_RGB,
+    STATUS_ROWS_PX,
     ScreenLayout,
+    marker_arm_px,
 )
 from stimuli.implants import ImplantLayout
 
@@ -264,13 +267,22 @@ uniform usampler2D u_text;
 uniform float u_t;
 uniform ivec4 u_box;         // zoom box in source cells (x, y, w, h); w = 0: none
 uniform vec3 u_box_rgb;
+uniform ivec3 u_marker;      // marker x, y in source cells and its arm; arm < 0: none
+uniform vec3 u_marker_rgb;
 uniform int u_phos;          // 1 gaussian, 2 disc
 uniform float u_phos_size;
+uniform vec2 u_rot;          // cos, sin of the array's rotation (counter-clockwise on screen)
 out vec4 f_color;
 
 float phosphene(ivec2 p, ivec2 grid) {
     vec2 pitch = vec2(u_rect.zw) / vec2(grid);
     vec2 pos = vec2(p) + 0.5;
+    if (u_rot.y != 0.0 || u_rot.x != 1.0) {
+        // the point of the upright array that this pixel shows (image rows run downwards)
+        vec2 c = vec2(u_rect.zw) * 0.5;
+        vec2 d = pos - c;
+        pos = c + vec2(d.x * u_rot.x - d.y * u_rot.y, d.x * u_rot.y + d.y * u_rot.x);
+    }
     ivec2 c0 = ivec2(floor(pos / pitch));
     float d_size = u_phos_size * min(pitch.x, pitch.y);
     float sigma = d_size / 2.3548;
@@ -303,6 +315,14 @@ void main() {
         return;
     }
     ivec2 cell = ((2 * p + 1) * u_src_rect.zw) / (2 * u_rect.zw);
+    if (u_marker.z >= 0) {
+        bool on_x = cell.x == u_marker.x && abs(cell.y - u_marker.y) <= u_marker.z;
+        bool on_y = cell.y == u_marker.y && abs(cell.x - u_marker.x) <= u_marker.z;
+        if (on_x || on_y) {
+            f_color = vec4(u_marker_rgb, 1.0);
+            return;
+        }
+    }
     if (u_box.z > 0) {
         bool in_c = cell.x >= u_box.x && cell.x <= u_box.x + u_box.z - 1;
         bool in_r = cell.y >= u_box.y && cell.y <= u_box.y + u_box.w - 1;
@@ -403,6 +423,7 @@ class GpuPipeline:
         self._aux: dict[str, moderngl.Texture] = {}
         self._text: moderngl.Texture | None = None
         self._src = self._confocal
+        self._grey = False
         self._crop = (0, 0, cols, rows)
         self._disparity: float | None = None
         self.set_views(views)
@@ -453,6 +474,7 @@ class GpuPipeline:
     def refocus(self, slope_px_per_view: float) -> None:
         """Shift-and-add the views at one disparity into a confocal texture (cached)."""
         d = float(slope_px_per_view)
+        self._grey = False
         hit = self._cache.get(d)
         if hit is not None:
             self._cache.move_to_end(d)
@@ -514,10 +536,19 @@ class GpuPipeline:
                 break
         return True
 
-    def set_source(self, image: np.ndarray) -> None:
-        """Use an uploaded image (rows, cols, float32) as the source instead of the refocus."""
+    def set_source(self, image: np.ndarray, grey: np.ndarray | None = None) -> None:
+        """Use an uploaded image (rows, cols, float32) as the source instead of the refocus.
+
+        ``grey`` (same shape), when given, is what the grey-level compression averages instead
+        (obstacle mode: the in-range mask).
+        """
         self._upload.write(np.ascontiguousarray(image, dtype=np.float32).tobytes())
         self._src = self._upload
+        if grey is not None:
+            rows, cols = self.shape_px
+            g = self._ensure("grey", (cols, rows))
+            g.write(np.ascontiguousarray(grey, dtype=np.float32).tobytes())
+        self._grey = grey is not None
 
     def _ensure(self, key: str, size: tuple[int, int], dtype: str = "f4") -> moderngl.Texture:
         t = self._aux.get(key)
@@ -612,7 +643,7 @@ class GpuPipeline:
             self._grid_key = key
         p = self._progs["compress"]
         self._mag.use(0)
-        self._src.use(1)
+        (self._aux["grey"] if self._grey else self._src).use(1)
         self._aux["rb"].use(2)
         self._aux["cb"].use(3)
         self._aux["kmin"].use(4)
@@ -646,11 +677,17 @@ class GpuPipeline:
         alert: bool,
         status: np.ndarray,
         panes: tuple[bool, bool, bool, bool] = (True, True, True, True),
+        marker: tuple[int, int] | None = None,
+        overlay: np.ndarray | None = None,
+        implant_image: np.ndarray | None = None,
     ) -> None:
         """Draw the panes and the status line into ``fbo`` (top-left origin).
 
         ``panes`` says which of the four to redraw; the others keep what ``fbo`` holds (the
-        caller's persistent frame). The status line is always redrawn.
+        caller's persistent frame). The status line is always redrawn. ``marker``: a cross on
+        the centre view (view pixels); ``overlay``: the key help (uint8), drawn over the
+        middle; ``implant_image``: a picture (float32 [0, 1], the implant rectangle's size)
+        drawn instead of the phosphenes (a pulse2percept percept).
         """
         ctx = self.ctx
         rows, cols = screen.screen_shape_px
@@ -671,17 +708,23 @@ class GpuPipeline:
         p = self._progs["draw"]
         p["u_screen_rows"].value = rows
         alive = self._ensure("alive", (layout.cols, layout.rows))
-        alive_key = (id(alive), layout.name, layout.shape, layout.seed, layout.dropout)
+        alive_key = (id(alive), layout)
         if getattr(self, "_alive_for", None) != alive_key:
-            alive.write(layout.alive_mask().astype(np.float32).tobytes())
+            alive.write(layout.electrode_gain().astype(np.float32).tobytes())
             self._alive_for = alive_key
         r, c = self.shape_px
         x, y, w, h = self._crop
+        implant = (2, screen.images[3], self._cells, (0, 0, layout.cols, layout.rows), None)
+        if implant_image is not None:
+            ih, iw = implant_image.shape
+            tex = self._ensure("implant_image", (iw, ih))
+            tex.write(np.ascontiguousarray(implant_image, dtype=np.float32).tobytes())
+            implant = (0, screen.images[3], tex, (0, 0, iw, ih), None)
         items = [
             (0, screen.images[0], self._centre, (0, 0, c, r), zoom),
             (0, screen.images[1], self._src, (x, y, w, h), None),
             (1, screen.images[2], self._mag, (0, 0, w, h), None),
-            (2, screen.images[3], self._cells, (0, 0, layout.cols, layout.rows), None),
+            implant,
         ]
         items = [it for it, redraw in zip(items, panes, strict=True) if redraw]
         if alert and panes[3]:
@@ -697,7 +740,14 @@ class GpuPipeline:
         p["u_box_rgb"].value = tuple(v / 255 for v in BOX_RGB)
         p["u_phos"].value = 1 if layout.phosphene_shape == "gaussian" else 2
         p["u_phos_size"].value = float(layout.phosphene_size)
-        for kind, rect, tex, src_rect, box in items:
+        th = math.radians(float(layout.rotation_deg))
+        p["u_rot"].value = (1.0, 0.0) if th == 0 else (math.cos(th), math.sin(th))
+        p["u_marker_rgb"].value = tuple(v / 255 for v in MARKER_RGB)
+        for k, (kind, rect, tex, src_rect, box) in enumerate(items):
+            mark = (-1, -1, -1)
+            if marker is not None and k == 0 and src_rect == (0, 0, c, r):
+                mark = (int(marker[0]), int(marker[1]), marker_arm_px((r, c)))
+            p["u_marker"].value = mark
             p["u_kind"].value = kind
             p["u_rect"].value = rect
             p["u_src_rect"].value = src_rect
@@ -720,6 +770,15 @@ class GpuPipeline:
         p["u_text"].value = 2
         ctx.scissor = gl_box(*screen.status)
         self._vaos["draw"].render(moderngl.TRIANGLES, vertices=3)
+        if overlay is not None:
+            oh, ow = overlay.shape
+            tex = self._ensure("overlay", (ow, oh), "u1")
+            tex.write(np.ascontiguousarray(overlay, dtype=np.uint8).tobytes())
+            rect = ((cols - ow) // 2, (rows - STATUS_ROWS_PX - oh) // 2, ow, oh)
+            p["u_rect"].value = rect
+            tex.use(2)
+            ctx.scissor = gl_box(*rect)
+            self._vaos["draw"].render(moderngl.TRIANGLES, vertices=3)
         ctx.scissor = None
 
     def release(self) -> None:

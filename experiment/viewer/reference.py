@@ -46,6 +46,7 @@ __all__ = [
     "compress_for_implant",
     "track_point",
     "brightest_point",
+    "otsu_threshold",
 ]
 
 #: Compression edge ratio. Source: Jung et al. (2015), Sec. 2.2 (1/13).
@@ -179,14 +180,23 @@ def effective_levels(state: ViewerState, layout: ImplantLayout) -> int:
 
 
 def compress_for_implant(
-    source: np.ndarray, edges: np.ndarray, layout: ImplantLayout, levels: int
+    source: np.ndarray,
+    edges: np.ndarray,
+    layout: ImplantLayout,
+    levels: int,
+    *,
+    grey: np.ndarray | None = None,
 ) -> np.ndarray:
-    """Compress to the implant's grid: binary edges (2 levels) or the grey source (more)."""
+    """Compress to the implant's grid: binary edges (2 levels) or the grey source (more).
+
+    ``grey`` replaces ``source`` for the grey compression (obstacle mode: the share of each
+    electrode's window that lies in the depth range).
+    """
     from stimuli.compress import compress, compress_grey
 
     if levels <= 2:
         return compress(edges, layout.shape, edge_ratio=EDGE_RATIO).astype(np.float32)
-    return compress_grey(source, layout.shape, levels=levels)
+    return compress_grey(source if grey is None else grey, layout.shape, levels=levels)
 
 
 def cpu_panes(
@@ -195,6 +205,7 @@ def cpu_panes(
     layout: ImplantLayout,
     *,
     depth: DepthMap | None = None,
+    confocal: np.ndarray | None = None,
 ) -> Panes:
     """Compute the four panes' images for a state with the CPU pipeline (the reference).
 
@@ -205,33 +216,61 @@ def cpu_panes(
     layout : ImplantLayout
     depth : DepthMap, optional
         Needed in obstacle mode.
+    confocal : ndarray (rows, cols), float32, optional
+        The confocal image at the state's disparity, if already refocused (a cache).
 
     Returns
     -------
     Panes
+
+    Notes
+    -----
+    In obstacle mode with grey levels an electrode's brightness is the share of its window
+    that lies in the obstacle range (its coverage), not the mean luminance of the masked view:
+    the masked view is mostly black, so its window means quantise to 0 and the implant pane
+    would stay dark however close the obstacle came.
     """
-    from stimuli.declutter import auto_threshold, sobel_magnitude
+    from stimuli.declutter import sobel_magnitude
     from stimuli.refocus import refocus
 
     centre = lightfield.centre_view()
     alert = False
+    grey = None
     if state.mode == "obstacle" and state.obstacle_px is not None:
         if depth is None:
             raise ValueError("obstacle mode needs a depth map")
         mask = obstacle_mask(depth, *state.obstacle_px)
         source = np.where(mask, centre, np.float32(0)).astype(np.float32)
+        grey = mask.astype(np.float32)
         alert = bool(mask.mean() > OBSTACLE_ALERT_FRACTION)
+    elif confocal is not None:
+        source = confocal
     else:
         source = refocus(lightfield, state.disparity_px)
     if state.zoom is not None:
         x, y, w, h = state.zoom
         source = np.ascontiguousarray(source[y : y + h, x : x + w])
+        if grey is not None:
+            grey = np.ascontiguousarray(grey[y : y + h, x : x + w])
     mag = sobel_magnitude(source)
-    t = float(state.threshold) if state.threshold is not None else auto_threshold(source)
+    t = float(state.threshold) if state.threshold is not None else otsu_threshold(mag)
     edges = mag > t
     levels = effective_levels(state, layout)
-    cells = compress_for_implant(source, edges, layout, levels)
+    cells = compress_for_implant(source, edges, layout, levels, grey=grey)
     return Panes(centre, source, mag, t, edges, cells, levels, alert)
+
+
+def otsu_threshold(magnitude: np.ndarray) -> float:
+    """Return the automatic threshold of a Sobel magnitude image (>= 0).
+
+    The rule of :func:`stimuli.declutter.auto_threshold` (Otsu, 256 bins) applied to a
+    magnitude already computed, so the viewer runs the Sobel filter once per image.
+    """
+    from skimage.filters import threshold_otsu
+
+    if magnitude.size == 0 or float(magnitude.max()) == float(magnitude.min()):
+        return 0.0
+    return max(0.0, float(threshold_otsu(magnitude, nbins=256)))
 
 
 def brightest_point(image: np.ndarray, *, sigma_px: float = 2.0) -> tuple[int, int]:

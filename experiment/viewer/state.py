@@ -16,9 +16,10 @@ up / right, wheel   depth one step nearer (larger disparity); in obstacle mode: 
 down / left         one step farther
 page_up / page_down previous (nearer) / next (farther) detected plane
 1 .. 9              jump to detected plane 1 .. 9 (nearest first)
-escape              un-zoom
+escape              un-zoom (never quits: the window's own exit key is off)
 i                   next implant
-g                   next grey-level setting (2 = binary de-cluttered edges)
+g                   next grey-level setting (2 = binary de-cluttered edges); nothing on an
+                    implant whose layout is on/off only (the window says why)
 [ / ]               Sobel threshold down / up by a factor 1.25 (from the automatic value)
 a                   automatic (Otsu) threshold
 o                   obstacle mode on/off (range: the current depth to the nearest)
@@ -26,7 +27,12 @@ e                   confocal-extension mode on/off (focus ``extension_px`` in fr
 - / =               extension distance smaller / larger
 v                   temporal averaging of the implant view on/off (video)
 n / p               next / previous video frame
+m                   implant pane: phosphenes, pulse2percept scoreboard, axon map (the viewer)
+? / h               key help drawn over the view on/off
+q                   quit (the window asks ``y`` to confirm while a session is logging)
 ==================  =========================================================================
+
+:data:`KEY_HELP` holds the same table as lines, for the in-window help and ``view --help``.
 """
 
 from __future__ import annotations
@@ -38,6 +44,7 @@ __all__ = [
     "MODES",
     "GREY_LEVELS",
     "THRESHOLD_FACTOR",
+    "KEY_HELP",
     "ViewerState",
     "ViewerModel",
     "apply_event",
@@ -51,6 +58,25 @@ GREY_LEVELS: tuple[int, ...] = (2, 4, 8)
 
 #: Factor of one threshold key press (ours: about 20 presses span a factor of 100).
 THRESHOLD_FACTOR: float = 1.25
+
+
+#: Key bindings as (keys, effect) lines: the in-window help (``?``/``h``) and ``view --help``.
+KEY_HELP: tuple[tuple[str, str], ...] = (
+    ("wheel, up/right", "depth one step nearer (obstacle mode: the range's far edge)"),
+    ("down/left", "depth one step farther"),
+    ("PgUp/PgDn, 1..9", "previous / next detected plane; plane 1..9 (nearest first)"),
+    ("drag, Esc", "zoom to a box on the centre view; Esc un-zooms (never quits)"),
+    ("click", "mark a point (confocal extension focuses in front of it)"),
+    ("i", "next implant"),
+    ("g", "grey levels 2 / 4 / 8 (implants with more than on/off levels)"),
+    ("[ ]  a", "edge threshold down / up; a: automatic"),
+    ("o", "obstacle mode: show only the depth range (alert when something enters)"),
+    ("e  - =", "confocal extension on/off; its distance smaller / larger"),
+    ("v  n p", "video: averaging on/off; next / previous frame"),
+    ("m", "implant pane: phosphenes / pulse2percept scoreboard / axon map"),
+    ("? h", "this help on/off"),
+    ("q", "quit (then y to confirm while logging)"),
+)
 
 
 @dataclass(frozen=True)
@@ -83,6 +109,11 @@ class ViewerState:
         Video frame index (0 for a still light field).
     averaging : bool
         Temporal averaging of the implant view (video).
+    help : bool
+        The key help is drawn over the view.
+    percept : {'phosphenes', 'scoreboard', 'axonmap'}
+        What the implant pane draws: the layout's phosphenes or a pulse2percept model's
+        percept (the viewer's ``m`` key; :data:`experiment.viewer.app.PERCEPTS`).
     """
 
     disparity_px: float
@@ -97,6 +128,8 @@ class ViewerState:
     extension_px: float = 0.0
     frame: int = 0
     averaging: bool = False
+    help: bool = False
+    percept: str = "phosphenes"
 
     def to_dict(self) -> dict[str, Any]:
         """Return the state as JSON-friendly data (for the event log)."""
@@ -136,6 +169,9 @@ class ViewerModel:
         The automatic threshold at the start (base of the ``[``/``]`` keys).
     n_frames : int
         Video frames (1 for a still).
+    implant_levels : tuple of int
+        Brightness levels of each implant in ``implants`` (empty: not known, ``g`` always
+        cycles); ``g`` does nothing on an implant with 2 (on/off only).
     """
 
     shape_px: tuple[int, int]
@@ -145,6 +181,7 @@ class ViewerModel:
     implants: tuple[str, ...] = ("argus2",)
     auto_threshold: float = 0.1
     n_frames: int = 1
+    implant_levels: tuple[int, ...] = ()
     depth_at: Any = field(default=None, compare=False, repr=False)
 
     def clamp(self, d: float) -> float:
@@ -158,6 +195,12 @@ class ViewerModel:
             if abs(p - d) <= 0.1 * self.step_px:
                 return k
         return None
+
+    def is_binary(self, implant: str) -> bool:
+        """Whether ``implant`` shows on/off phosphenes only (its layout has 2 levels)."""
+        if implant not in self.implants or len(self.implant_levels) != len(self.implants):
+            return False
+        return self.implant_levels[self.implants.index(implant)] <= 2
 
     def initial_state(self, implant: str | None = None) -> ViewerState:
         """The first state: the nearest detected plane (or the middle of the range)."""
@@ -263,6 +306,8 @@ def apply_event(
         k = (names.index(s.implant) + 1) % len(names) if s.implant in names else 0
         return replace(s, implant=names[k])
     if key == "g":
+        if model.is_binary(s.implant):
+            return s
         k = (GREY_LEVELS.index(s.levels) + 1) % len(GREY_LEVELS) if s.levels in GREY_LEVELS else 0
         return replace(s, levels=GREY_LEVELS[k])
     if key in ("[", "]"):
@@ -286,6 +331,8 @@ def apply_event(
         return s
     if key == "v":
         return replace(s, averaging=not s.averaging)
+    if key in ("?", "h"):
+        return replace(s, help=not s.help)
     if key in ("n", "p"):
         f = s.frame + (1 if key == "n" else -1)
         return replace(s, frame=max(0, min(model.n_frames - 1, f)))

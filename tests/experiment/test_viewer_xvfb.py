@@ -128,3 +128,89 @@ def test_viewer_window_events_screenshots_and_log(x_display, tmp_path) -> None: 
             assert diff.max() <= 1, f"shot {k}: {int((diff > 1).sum())} pixels differ by > 1"
     finally:
         ref.close()
+
+
+def _states(log_path) -> list[ViewerState]:
+    import sqlite3
+
+    con = sqlite3.connect(f"file:{log_path}?mode=ro", uri=True)
+    try:
+        rows = con.execute(
+            "SELECT payload_json FROM viewer_events WHERE kind = 'state' ORDER BY event_id"
+        ).fetchall()
+    finally:
+        con.close()
+    return [ViewerState.from_dict(json.loads(r[0])) for r in rows]
+
+
+def _wait(pred, what: str, timeout_s: float = 30.0):
+    import time
+
+    end = time.monotonic() + timeout_s
+    while time.monotonic() < end:
+        got = pred()
+        if got:
+            return got
+        time.sleep(0.1)
+    raise AssertionError(f"timed out waiting for {what}")
+
+
+def test_real_keys_esc_unzooms_and_never_closes_the_window(x_display, tmp_path) -> None:  # noqa: F811
+    """Keys typed through the X server: Esc un-zooms and the window stays; q then y quits."""
+    from experiment.viewer.xdriver import XDriver, XDriverError
+
+    lf_path = tmp_path / "scene.npz"
+    code = "import sys; from experiment.cli import main; main(sys.argv[1:])"
+    r = subprocess.run(
+        [sys.executable, "-c", code, "lightfield", "synth", "--kind", "camera",
+         "--size", "160x120", "--out", str(lf_path)],
+        capture_output=True, text=True, timeout=120,
+    )  # fmt: skip
+    assert r.returncode == 0, r.stderr
+    try:
+        drv = XDriver(x_display)
+    except XDriverError as exc:
+        pytest.skip(str(exc))
+    log_path = tmp_path / "events.sqlite"
+    proc = subprocess.Popen(
+        [sys.executable, "-c", code, "view", str(lf_path), "--implant", "argus2",
+         "--zoom", "20,15,90,70", "--log", str(log_path), "--size", "560x400", "--planes", "30"],
+        env={**os.environ, "DISPLAY": x_display},
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+    )  # fmt: skip
+    try:
+        try:
+            win = drv.find("confocal view", timeout_s=90)
+        except XDriverError:
+            proc.kill()
+            err = proc.communicate()[1]
+            if "cannot open a window" in err:
+                pytest.skip(f"no GLX window under {x_display}: {err.strip()}")
+            raise AssertionError(err) from None
+        _wait(lambda: log_path.exists() and _states(log_path), "the first state")
+        assert _states(log_path)[-1].zoom == (20, 15, 90, 70)
+        drv.focus(win)
+        drv.press("Escape")
+        _wait(lambda: _states(log_path)[-1].zoom is None, "Esc to un-zoom")
+        drv.press("h")
+        _wait(lambda: _states(log_path)[-1].help, "h to show the key help")
+        import time
+
+        time.sleep(0.5)
+        assert proc.poll() is None, "the window closed after Esc"
+        drv.press("q")  # logging: asks first
+        time.sleep(1.0)
+        assert proc.poll() is None, "q closed a logging session without asking"
+        drv.press("y")
+        assert proc.wait(timeout=30) == 0, proc.stderr.read()
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+        drv.close()
+    log = ViewerEventLog(log_path)
+    kinds = [e.kind for e in log.events()]
+    assert "quit" in kinds and kinds[-1] == "close"
+    assert log.events(kind="quit")[0].payload == {"confirmed": True}
+    keys = [e.payload["key"] for e in log.events(kind="key")]
+    assert keys == ["escape", "h"]
