@@ -103,8 +103,14 @@ def view_command(
         ),
     ] = None,
     planes: Annotated[
-        int, typer.Option(min=3, max=MAX_PLANES, help="Planes of the startup depth scan.")
-    ] = 100,
+        int,
+        typer.Option(
+            min=3,
+            max=MAX_PLANES,
+            help="Planes of the startup depth scan (at the default, the scan 'stimuli build' "
+            "and 'lightfield scan' use).",
+        ),
+    ] = 200,
     script: Annotated[
         Path | None, typer.Option(help="JSON-lines events to apply (one per frame in a window).")
     ] = None,
