@@ -343,8 +343,7 @@ def _check_mode(declutter_mode: str) -> str:
 
     if declutter_mode not in BUILD_DECLUTTER_MODES:
         raise InputError(
-            f"--declutter must be one of {', '.join(BUILD_DECLUTTER_MODES)}, "
-            f"got {declutter_mode!r}"
+            f"--declutter must be one of {', '.join(BUILD_DECLUTTER_MODES)}, got {declutter_mode!r}"
         )
     return declutter_mode
 
@@ -561,8 +560,7 @@ def scan_command(
             part.write_text(
                 json.dumps(
                     # the light field's file name only: no host path in a file that gets shared
-                    {"source": Path(lf.source).name, "declutter": mode}
-                    | scan.to_dict(),
+                    {"source": Path(lf.source).name, "declutter": mode} | scan.to_dict(),
                     indent=1,
                 )
             )
