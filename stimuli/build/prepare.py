@@ -24,6 +24,8 @@ __all__ = [
     "zoom_crop",
     "aspect_crop_box",
     "content_crop_box",
+    "aspect_pad",
+    "MIN_KEPT_SHARE",
     "to_working_size",
     "prepare_object",
     "colour_photos",
@@ -73,6 +75,12 @@ class ObjectImages:
     declutter : str
         A light-field object's de-cluttering mode (``'sobel'`` or ``'depth'``); ``""`` for
         photos.
+    aspect_pad : (top, bottom, left, right) or None
+        Padding added instead of the aspect crop when no crop keeps :data:`MIN_KEPT_SHARE` of
+        a light-field object's plane content, pixels of the zoomed image.
+    valid : ndarray of shape working_shape_px, bool, or None
+        With padding: the pixels of the image (not of the padding, nor on its border); edges
+        elsewhere are dropped.
     """
 
     info: ObjectInfo
@@ -93,6 +101,8 @@ class ObjectImages:
     plane_choice: object = None
     content_kept: float | None = None
     declutter: str = ""
+    aspect_pad: tuple[int, int, int, int] | None = None
+    valid: np.ndarray | None = None
 
 
 def _cut(image: np.ndarray, box: Box | None) -> np.ndarray:
@@ -212,6 +222,48 @@ def content_crop_box(
     pos = int(best[np.argmin(np.abs(best - start))])
     box = (0, pos, w, h) if axis == 0 else (pos, 0, w, h)
     return box, float(kept[pos]) / total
+
+
+#: A light field's aspect crop must keep at least this share of its plane's content; when no
+#: crop does, the image is padded to the working aspect instead (ours: a crop that loses more
+#: than a fifth of the object loses the object).
+MIN_KEPT_SHARE: float = 0.8
+
+
+def aspect_pad(
+    shape_px: tuple[int, int], working_shape_px: tuple[int, int]
+) -> tuple[tuple[int, int], tuple[int, int]]:
+    """Return the padding ``((top, bottom), (left, right))`` that brings an image to the aspect.
+
+    The counterpart of :func:`aspect_crop_box`: the short side is extended symmetrically (the
+    extra pixel of an odd amount goes to the bottom or right).
+
+    Examples
+    --------
+    >>> aspect_pad((100, 100), (50, 100))
+    ((0, 0), (50, 50))
+    """
+    rows, cols = shape_px
+    wr, wc = working_shape_px
+    new_cols = int(np.floor(rows * wc / wr + 0.5))
+    new_rows = int(np.floor(cols * wr / wc + 0.5))
+    if new_cols > cols:
+        d = new_cols - cols
+        return ((0, 0), (d // 2, d - d // 2))
+    d = max(0, new_rows - rows)
+    return ((d // 2, d - d // 2), (0, 0))
+
+
+def _valid_mask(
+    shape_px: tuple[int, int], pad: tuple[tuple[int, int], tuple[int, int]], working: tuple
+) -> np.ndarray:
+    """Working-size pixels wholly inside the image, one pixel in from the padding (the Sobel
+    kernel's reach)."""
+    from scipy.ndimage import binary_erosion
+
+    ones = np.pad(np.ones(shape_px, np.float32), pad)
+    inside = to_working_size(ones, working) >= 1.0 - 1e-6
+    return binary_erosion(inside, iterations=1, border_value=1)
 
 
 def to_working_size(image: np.ndarray, working_shape_px: tuple[int, int]) -> np.ndarray:
@@ -347,15 +399,20 @@ def prepare_object(src: PairSource, info: ObjectInfo, params: BuildParams) -> Ob
     narrow = zoom_crop(narrow_raw, _scale_crop(crop, wide_full, narrow_raw.shape), where=where)
     box = aspect_crop_box(wide.shape, params.working_shape_px)
     kept = None
+    pad = None
     if pair is not None and pair.choice is not None and pair.choice.content is not None:
         # a light field's crop keeps its plane's content (or region of interest), not the centre
         content = zoom_crop(pair.choice.content, _scale_crop(crop, wide_full, wide_raw.shape))
         box, kept_in_zoom = content_crop_box(content, params.working_shape_px)
+        if kept_in_zoom < MIN_KEPT_SHARE:  # no crop keeps the object: pad to the aspect
+            box, pad, kept_in_zoom = None, aspect_pad(wide.shape, params.working_shape_px), 1.0
         total = int(pair.choice.content.sum())
         kept = kept_in_zoom * int(content.sum()) / total if total else 1.0
     out = []
     for img in (wide, narrow):
         img = _cut(img, box)
+        if pad is not None:
+            img = np.pad(img, pad, mode="constant", constant_values=float(img.mean()))
         if img.shape[0] < params.working_shape_px[0] or img.shape[1] < params.working_shape_px[1]:
             notes.append(
                 f"{src.object}: image {img.shape[1]}x{img.shape[0]} is smaller than the working "
@@ -369,6 +426,8 @@ def prepare_object(src: PairSource, info: ObjectInfo, params: BuildParams) -> Ob
             where=where,
         )
         f = _cut(f, box)
+        if pad is not None:
+            f = np.pad(f, pad)
         focus = to_working_size(f, params.working_shape_px) >= 0.5
         plane = f"{plane},declutter=depth"
     return ObjectImages(
@@ -386,6 +445,8 @@ def prepare_object(src: PairSource, info: ObjectInfo, params: BuildParams) -> Ob
         plane_choice=None if pair is None else pair.choice,
         content_kept=kept,
         declutter="" if pair is None else pair.declutter,
+        aspect_pad=None if pad is None else (pad[0][0], pad[0][1], pad[1][0], pad[1][1]),
+        valid=None if pad is None else _valid_mask(wide.shape, pad, params.working_shape_px),
     )
 
 

@@ -18,7 +18,7 @@ from stimuli.build.implant_views import implants_record
 from stimuli.build.pairs import pairs_record, path_in_pairs
 from stimuli.build.params import BuildParams
 from stimuli.build.plan import BuildPlan
-from stimuli.build.prepare import ObjectImages
+from stimuli.build.prepare import MIN_KEPT_SHARE, ObjectImages
 from stimuli.io import sha256_file
 
 __all__ = [
@@ -70,7 +70,8 @@ class ObjectSummary:
 
     A light-field object also records ``plane`` (:meth:`stimuli.planechoice.PlaneChoice.to_dict`:
     disparity, depth, support, evidence, rule, alternatives), ``content_kept`` (share of the
-    plane's content the crops keep), ``declutter`` (the mode applied) and ``warnings``; these
+    plane's content the crops keep), ``declutter`` (the mode applied), ``warnings`` and, when
+    no aspect crop keeps the plane, ``aspect_pad`` (top, bottom, left, right padding, px); these
     are ``None`` (and absent from the record) for photo pairs.
     """
 
@@ -88,6 +89,7 @@ class ObjectSummary:
     content_kept: float | None = None
     declutter: str | None = None
     warnings: tuple[str, ...] | None = None
+    aspect_pad: tuple[int, int, int, int] | None = None
 
 
 def object_summary(work: ObjectImages) -> ObjectSummary:
@@ -111,6 +113,7 @@ def object_summary(work: ObjectImages) -> ObjectSummary:
         content_kept=work.content_kept,
         declutter=(work.declutter or None) if lf else None,
         warnings=tuple(object_warnings(work)) if lf else None,
+        aspect_pad=work.aspect_pad,
     )
 
 
@@ -128,6 +131,11 @@ def build_notes(works: Sequence[ObjectImages], params: BuildParams) -> tuple[str
     for w in works:
         notes.extend(w.notes)
     for w in works:
+        if w.aspect_pad is not None:
+            notes.append(
+                f"{w.info.object}: no crop to the working aspect keeps {100 * MIN_KEPT_SHARE:.0f} "
+                "% of its plane's content; padded to the aspect instead (no edges in the padding)"
+            )
         if w.content_kept is not None and w.aspect_crop is not None:
             notes.append(
                 f"{w.info.object}: cropped to the working aspect around its plane's content "
@@ -237,9 +245,11 @@ def _summary_dict(s: ObjectSummary) -> dict:
     d = asdict(s)
     for k in ("original_shape_px", "crop", "aspect_crop", "decoded_shape_px"):
         d[k] = None if d[k] is None else list(d[k])
-    for k in ("plane", "content_kept", "declutter", "warnings"):  # light fields only
+    for k in ("plane", "content_kept", "declutter", "warnings", "aspect_pad"):  # light fields
         if d[k] is None:
             del d[k]
+    if "aspect_pad" in d:
+        d["aspect_pad"] = list(d["aspect_pad"])
     if "warnings" in d:
         d["warnings"] = list(d["warnings"])
     return d
