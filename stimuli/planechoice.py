@@ -48,6 +48,7 @@ __all__ = [
     "SUPPORT_SHARE",
     "BORDER_MARGIN",
     "BORDER_SHARE",
+    "NEAR_PEAK_SHARE",
     "PlaneCandidate",
     "PlaneChoice",
     "detect_planes",
@@ -64,6 +65,10 @@ PLANE_RULES: tuple[str, ...] = ("auto", "strongest", "nearest")
 #: in front of a wall that fills the view holds about a tenth of the wall's support, a sliver
 #: of a table edge far less).
 SUPPORT_SHARE: float = 0.05
+
+#: A given plane lies on a detected plane when it is within this share of the scanned range of
+#: that plane's peak (ours: 10 of the 200 default planes); else the choice is marginal.
+NEAR_PEAK_SHARE: float = 0.05
 
 #: Width of the border frame, as a fraction of each side (ours: a sixteenth, about 6 %).
 BORDER_MARGIN: float = 1.0 / 16.0
@@ -382,6 +387,9 @@ def choose_plane(
             if not math.isfinite(d):
                 raise InputError(f"{where}: plane disparity must be finite, got {disparity_px!r}")
         k = _hill_of(d, bounds)
+        span = float(np.ptp(scan.disparities_px))
+        if k is not None and abs(scan.peaks[k].disparity_px - d) > NEAR_PEAK_SHARE * span:
+            k = None
         if k is None:
             marginal = f"the given plane {d:.4g} px/view lies on no detected plane"
             content = np.zeros(lf.shape_px, bool) if best_px is None else _near(best_px, d, scan)

@@ -26,7 +26,7 @@ import pytest
 from PIL import Image
 from scipy.ndimage import binary_dilation
 
-from stimuli.build import build_stimulus_set
+from stimuli.build import BuildParams, build_stimulus_set
 from stimuli.build.prepare import to_working_size
 from stimuli.compress import block_mean
 from stimuli.lfsynth import ground_truth_maps, render_camera_array, three_plane_scene
@@ -37,15 +37,18 @@ from tests.stimuli._lf_truth import TRUTH_CAPTURES, centre_truth
 ON_PLANE_PX = 1.5
 
 
-def _build(tmp_path: Path, lightfield: Path) -> tuple[Path, dict]:
+def _build(tmp_path: Path, lightfield: Path, params: BuildParams | None = None):
+    tmp_path.mkdir(parents=True, exist_ok=True)
     (tmp_path / "pairs.csv").write_text(f"object,lightfield\nobj,{lightfield}\n")
     out = tmp_path / "set"
-    build_stimulus_set(tmp_path / "pairs.csv", out, workers=1)
+    build_stimulus_set(tmp_path / "pairs.csv", out, params=params, workers=1)
     meta = json.loads((out / "stimulus_set.json").read_text())
     return out, meta["objects"][0]
 
 
-def _check_stimulus(out: Path, record: dict, truth: np.ndarray, name: str) -> dict:
+def _check_stimulus(
+    out: Path, record: dict, truth: np.ndarray, name: str, *, check: bool = True
+) -> dict:
     d = record["plane"]["disparity_px"]
     known = np.isfinite(truth)
     with np.errstate(invalid="ignore"):
@@ -74,6 +77,8 @@ def _check_stimulus(out: Path, record: dict, truth: np.ndarray, name: str) -> di
         f"{precision:.2f} of {white.sum()} white, L3 white cells on plane {l3_on}, "
         f"declutter {record['declutter']}"
     )
+    if not check:
+        return {"share": share, "kept": kept, "precision": precision}
     assert share >= 0.05, (name, d, share)
     assert kept >= 0.8, (name, box, kept)
     assert precision >= 0.5, (name, precision)
@@ -103,3 +108,20 @@ def test_built_stimulus_is_right_on_the_simulated_scene(tmp_path, grid):
     truth, _ = ground_truth_maps(layers, lf.geometry, shape)
     out, record = _build(tmp_path, tmp_path / "lf.npz")
     _check_stimulus(out, record, truth.astype(np.float64), f"synthetic {grid}")
+
+
+@pytest.mark.data
+@pytest.mark.parametrize("name", ["middlebury_Baby1", "middlebury_Aloe"])
+def test_view_agreement_beats_sobel_on_a_row_of_views(data_dir, tmp_path, name):
+    """Why 1-D light fields are de-cluttered by view agreement by default: at the same plane
+    the paper's Sobel mode keeps background edges parallel to the baseline, which refocusing
+    cannot blur. Measured L8 precision, Sobel -> default: Baby1 0.50 -> 0.67, Aloe 0.63 ->
+    0.92."""
+    root = require_data(data_dir, "lightfield", name)
+    truth = centre_truth(root)
+    out, rec = _build(tmp_path / "sobel", root, BuildParams(declutter="sobel"))
+    sobel = _check_stimulus(out, rec, truth, f"{name} sobel", check=False)
+    out, rec = _build(tmp_path / "auto", root)
+    assert rec["declutter"] == "depth"
+    auto = _check_stimulus(out, rec, truth, f"{name} default", check=False)
+    assert auto["precision"] >= sobel["precision"] + 0.1

@@ -153,3 +153,23 @@ def test_view_scan_and_build_report_the_same_planes(scene, tmp_path: Path):
     scanned = [p["disparity_px"] for p in scan["peaks"]]
     assert list(viewer.model.planes_px) == scanned == built and len(built) == 2  # disc, wall
     assert f"would use plane01 ({rec['plane']['disparity_px']:.3f}" in res.output
+
+
+@pytest.mark.filterwarnings("ignore:.*agree best at the")
+def test_plane_on_no_object_is_marginal_and_marked(tmp_path: Path):
+    """A plane between the wall and the disc (objects.csv): marginal, with a note, a record
+    and a mark on the contact sheet; the de-cluttered image there is nearly empty."""
+    from PIL import Image
+
+    lf = _scene(grid=(1, 7))
+    np.savez(tmp_path / "lf.npz", views=lf.views)
+    (tmp_path / "pairs.csv").write_text("object,lightfield\nthing,lf.npz\n")
+    (tmp_path / "objects.csv").write_text("object,plane_disparity_px\nthing,1.5\n")
+    r = build_stimulus_set(tmp_path / "pairs.csv", tmp_path / "s", workers=1)
+    rec = json.loads((tmp_path / "s" / "stimulus_set.json").read_text())["objects"][0]
+    assert "lies on no detected plane" in rec["plane"]["marginal"]
+    assert any("marginal plane" in w for w in rec["warnings"]), rec["warnings"]
+    assert any("thing: marginal plane" in n for n in r.notes)
+    sheet = np.asarray(Image.open(tmp_path / "s" / "contact" / "thing.png"))
+    # the warning line: a black band under the title, which a sheet without warnings lacks
+    assert (sheet[14:26] == 0).mean() > 0.5
