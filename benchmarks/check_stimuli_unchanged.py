@@ -63,9 +63,11 @@ BUILD_SETS: dict[str, tuple[str, ...]] = {
     "set_edges_implants": ("--implant", "argus2", "--implant", "alpha_ims"),
     "set_grey": ("--mode", "grey", "--grey-levels", "4"),
     "set_grey_implant": ("--mode", "grey", "--implant", "brainport", "--implant-px", "8"),
+    # 'depth' is refused for photo pairs, so this mixed set asks for 'auto' (depth on 1-D
+    # light fields, Sobel elsewhere); its photo pairs are built exactly as before
     "set_depth": (
         "--declutter",
-        "depth",
+        "auto",
         "--bokeh-guard",
         "--threshold-method",
         "otsu",

@@ -49,6 +49,7 @@ __all__ = [
     "SCAN_SHORT_SIDE_PX",
     "COARSE_SHORT_SIDE_PX",
     "RANGE_REFINE_STEPS",
+    "best_plane_map",
 ]
 
 #: A pixel's views *agree* at its best plane when their aggregated difference from the centre
@@ -513,3 +514,22 @@ def agreement_scan(
         "agreement",
         ns,
     )
+
+
+def best_plane_map(
+    lightfield: LightField, disparities_px: np.ndarray, *, binning: int, workers: int | None = None
+) -> tuple[np.ndarray, np.ndarray]:
+    """Return each (binned) pixel's best plane and whether its views agree there.
+
+    The per-pixel answer of the same sweep :func:`agreement_scan` counts: ``best_index`` into
+    ``disparities_px`` (full-resolution px per view step) and ``agrees`` (the pixel votes).
+    Both are ``(rows // binning, cols // binning)``; the stimulus builder uses them to find
+    where a detected plane's content lies (:mod:`stimuli.planechoice`).
+    """
+    lf = as_lightfield(lightfield).gray()
+    _, views, offsets, centre, null_centre = _scan_inputs(lf, int(binning))
+    ds = np.asarray(disparities_px, dtype=np.float64) / int(binning)
+    best_i, agrees, _, _ = _sweep(
+        views, offsets, centre, null_centre, ds, workers or default_workers()
+    )
+    return best_i, agrees

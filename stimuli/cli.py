@@ -76,10 +76,22 @@ def build_command(
         str,
         typer.Option(
             "--declutter",
-            help="De-cluttering of light-field objects: sobel (the paper's Sobel + threshold) or "
-            "depth (keep only edges where the views agree at the plane). Photo pairs: sobel.",
+            help="De-cluttering of light-field objects: auto (depth for 1-D light fields, whose "
+            "refocusing blurs only along the baseline; else sobel), sobel (the paper's Sobel + "
+            "threshold) or depth (keep only edges where the views agree at the plane; refused "
+            "for photo pairs). Photo pairs: sobel.",
         ),
-    ] = "sobel",
+    ] = "auto",
+    plane: Annotated[
+        str,
+        typer.Option(
+            "--plane",
+            help="Plane of light-field objects without a plane or roi in objects.csv: auto "
+            "(nearest detected plane with a twentieth of the strongest plane's support and "
+            "evidence, not a border band), strongest, nearest, or a disparity in px per view "
+            "step.",
+        ),
+    ] = "auto",
     bokeh_guard: Annotated[
         bool,
         typer.Option(
@@ -166,6 +178,7 @@ def build_command(
         mode=mode,
         grey_levels=grey_levels,
         declutter=declutter,
+        plane=plane,
         bokeh_guard=bokeh_guard,
         allow_resize=allow_resize,
         fast_decode=fast_decode,

@@ -48,6 +48,7 @@ def contact_sheet(
     cell_shape_px: tuple[int, int] = (109, 164),
     column_labels: Sequence[str] | None = None,
     title: str = "",
+    subtitle: str = "",
 ) -> np.ndarray:
     """Lay out images in a labelled grid, each magnified (nearest neighbour) to one cell size.
 
@@ -62,6 +63,8 @@ def contact_sheet(
         Printed above the columns.
     title : str
         Printed at the top.
+    subtitle : str
+        A warning printed under the title, white on black (empty: no line).
 
     Returns
     -------
@@ -83,7 +86,12 @@ def contact_sheet(
         int(ImageDraw.Draw(Image.new("L", (1, 1))).textlength(lbl, font=font)) for lbl, _ in rows
     )
     n_cols = max(len(imgs) for _, imgs in rows)
-    top = _GAP_PX + (_LABEL_PX if title else 0) + (_LABEL_PX if column_labels else 0)
+    top = (
+        _GAP_PX
+        + (_LABEL_PX if title else 0)
+        + (_LABEL_PX if subtitle else 0)
+        + (_LABEL_PX if column_labels else 0)
+    )
     width = label_w + _GAP_PX + n_cols * (cw + _GAP_PX)
     height = top + len(rows) * (ch + _GAP_PX) + _GAP_PX
     sheet = Image.new("L", (width, height), _BACKGROUND)
@@ -91,6 +99,10 @@ def contact_sheet(
     y_text = _GAP_PX // 2
     if title:
         draw.text((_GAP_PX, y_text), title, fill=255, font=font)
+        y_text += _LABEL_PX
+    if subtitle:
+        draw.rectangle((0, y_text - 1, width, y_text + _LABEL_PX - 2), fill=0)
+        draw.text((_GAP_PX, y_text), subtitle, fill=255, font=font)
         y_text += _LABEL_PX
     if column_labels:
         for j, lbl in enumerate(column_labels[:n_cols]):

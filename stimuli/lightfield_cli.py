@@ -37,6 +37,7 @@ from typing import Annotated
 import numpy as np
 import typer
 
+from stimuli.edgegrid import declutter_and_compress
 from stimuli.errors import InputError
 from stimuli.resources import MAX_SEED, check_memory, finite_option
 
@@ -45,7 +46,6 @@ __all__ = [
     "lightfield_app",
     "parse_zoom",
     "parse_grid",
-    "declutter_and_compress",
 ]
 
 
@@ -291,58 +291,23 @@ def _disparities(lf, planes: int, near: float | None, far: float | None, dispari
     return default_disparities(lf, planes)
 
 
-def declutter_and_compress(
-    image: np.ndarray,
-    grid_px: tuple[int, int],
-    *,
-    threshold: str | float = "auto",
-    edge_ratio: float,
-    focus_mask: np.ndarray | None = None,
-) -> tuple[np.ndarray, np.ndarray, float]:
-    """De-clutter a confocal image and compress it to the prosthesis grid.
-
-    Parameters
-    ----------
-    image : ndarray of shape (rows, cols), float32 in [0, 1]
-    grid_px : (rows, cols)
-        Prosthesis grid.
-    threshold : 'auto' or float >= 0
-        Sobel threshold; ``'auto'`` is :func:`stimuli.declutter.auto_threshold` (Otsu).
-    edge_ratio : float in [0, 1)
-        Compression edge ratio (paper: 1/13).
-    focus_mask : ndarray of shape (rows, cols), bool, optional
-        Depth mode: keep only the edges the light field says are in focus
-        (:func:`stimuli.declutter.in_focus_mask`, :func:`stimuli.declutter.declutter_depth`);
-        without it, the paper's Sobel mode.
-
-    Returns
-    -------
-    edges : ndarray of shape (rows, cols), bool
-    grid : ndarray of shape ``grid_px``, bool
-    threshold : float
-        The threshold used.
-    """
-    from stimuli.compress import compress
-    from stimuli.declutter import auto_threshold, declutter, declutter_depth
-
-    t = parse_threshold(threshold)
-    if t is None:
-        t = auto_threshold(image)
-    if focus_mask is None:
-        edges = declutter(image, threshold=t)
-    else:
-        edges = declutter_depth(image, focus_mask, threshold=t)
-    return edges, compress(edges, grid_px, edge_ratio=edge_ratio), t
-
-
 def _check_mode(declutter_mode: str) -> str:
-    from stimuli.declutter import DECLUTTER_MODES
+    from stimuli.build.params import BUILD_DECLUTTER_MODES
 
-    if declutter_mode not in DECLUTTER_MODES:
+    if declutter_mode not in BUILD_DECLUTTER_MODES:
         raise InputError(
-            f"--declutter must be one of {', '.join(DECLUTTER_MODES)}, got {declutter_mode!r}"
+            f"--declutter must be one of {', '.join(BUILD_DECLUTTER_MODES)}, got {declutter_mode!r}"
         )
     return declutter_mode
+
+
+def _resolve_mode(declutter_mode: str, lf) -> str:
+    """``'auto'`` as the stimulus builder resolves it: depth on 1-D light fields, else sobel."""
+    from stimuli.build.lightfield import is_one_dimensional
+
+    if declutter_mode != "auto":
+        return declutter_mode
+    return "depth" if is_one_dimensional(lf.grid) else "sobel"
 
 
 def check_zoom_aspect(box_hw: tuple[int, int], grid_px: tuple[int, int]) -> None:
@@ -366,8 +331,9 @@ _Declutter = Annotated[
     str,
     typer.Option(
         "--declutter",
-        help="De-cluttering: 'sobel' (paper: Sobel + threshold) or 'depth' (Sobel edges kept "
-        "where the views agree at the plane).",
+        help="De-cluttering: 'sobel' (paper: Sobel + threshold), 'depth' (Sobel edges kept "
+        "where the views agree at the plane) or 'auto' (depth on 1-D light fields, else sobel; "
+        "as 'stimuli build').",
     ),
 ]
 
@@ -385,7 +351,10 @@ def _scan_one(
 ) -> list[str]:
     """Scan one capture into ``out`` and return the lines to print (options checked already).
 
-    A module-level function so that worker processes and Dask workers can run it by name.
+    A module-level function so that worker processes and Dask workers can run it by name. With
+    the default range, planes and binning this is the detector ``confocal stimuli build`` and
+    ``confocal view`` use (:func:`stimuli.planechoice.detect_planes`), and the plane the builder
+    would choose is named.
     """
     import warnings
 
@@ -393,7 +362,14 @@ def _scan_one(
 
     from stimuli.declutter import in_focus_mask
     from stimuli.io import atomic_path, save_png, staged_folder
-    from stimuli.planes import auto_binning, find_object_planes, iter_plane_scores, scan_result
+    from stimuli.planechoice import choose_plane, detect_planes
+    from stimuli.planes import (
+        DEFAULT_N_PLANES,
+        auto_binning,
+        find_object_planes,
+        iter_plane_scores,
+        scan_result,
+    )
     from stimuli.refocus import refocus
     from stimuli.scanplot import plot_scores
     from stimuli.tables import write_table
@@ -407,12 +383,18 @@ def _scan_one(
     )
     shape = parse_grid(opts["grid"])
     lf = _load(lightfield, loader)
+    mode = _resolve_mode(declutter_mode, lf)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        ds = _disparities(lf, planes, near, far, disparities)
-        if method == "agreement":
+        defaults = (near, far, disparities, binning, planes)
+        if method == "agreement" and defaults == (None, None, None, None, DEFAULT_N_PLANES):
+            scan = detect_planes(lf)  # the build's and the viewer's detector
+            ds = scan.disparities_px
+        elif method == "agreement":
+            ds = _disparities(lf, planes, near, far, disparities)
             scan = find_object_planes(lf, ds, binning=binning)
         else:
+            ds = _disparities(lf, planes, near, far, disparities)
             b = auto_binning(lf) if binning is None else binning
             scores = np.zeros(len(ds))
             with Progress(transient=True) as bar:
@@ -430,17 +412,23 @@ def _scan_one(
             part.write_text(
                 json.dumps(
                     # the light field's file name only: no host path in a file that gets shared
-                    {"source": Path(lf.source).name, "declutter": declutter_mode} | scan.to_dict(),
+                    {"source": Path(lf.source).name, "declutter": mode} | scan.to_dict(),
                     indent=1,
                 )
             )
         plot_scores(scan, tmp / "scores.png")
-        save_png(lf.centre_view(), tmp / "centre.png")
+        centre = lf.centre_view()
+        save_png(centre, tmp / "centre.png")
         for k, p in enumerate(scan.peaks):
-            img = refocus(lf, p.disparity_px)
-            focus = in_focus_mask(lf, p.disparity_px) if declutter_mode == "depth" else None
+            img = np.clip(refocus(lf, p.disparity_px), 0.0, 1.0).astype(np.float32)
+            focus = in_focus_mask(lf, p.disparity_px) if mode == "depth" else None
             edges, cells, t = declutter_and_compress(
-                img, shape, threshold=threshold, edge_ratio=edge_ratio, focus_mask=focus
+                img,
+                shape,
+                threshold=threshold,
+                edge_ratio=edge_ratio,
+                focus_mask=focus,
+                centre_view=centre,
             )
             stem = f"plane{k + 1:02d}"
             save_png(img, tmp / f"{stem}_confocal.png")
@@ -454,10 +442,20 @@ def _scan_one(
             )
             lines.append(
                 f"{stem}: {where}disparity {p.disparity_px:.3f} px/view, score {p.score:.3f}"
-                f"{extra}, threshold {t:.4g} ({declutter_mode})"
+                f"{extra}, threshold {t:.4g} ({mode})"
             )
     span = f"{float(np.min(ds)):.4g}..{float(np.max(ds)):.4g} px/view"
     lines.append(f"{len(scan.peaks)} object plane(s) in {len(ds)} planes ({span}); wrote {out}")
+    if scan.peaks and method == "agreement":
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            choice = choose_plane(lf, scan=scan)
+        k = next(i for i, p in enumerate(scan.peaks) if p.disparity_px == choice.disparity_px)
+        lines.append(
+            f"stimuli build --plane auto would use plane{k + 1:02d} "
+            f"({choice.disparity_px:.3f} px/view)"
+            + (f"; marginal: {choice.marginal}" if choice.marginal else "")
+        )
     return lines
 
 
@@ -501,8 +499,15 @@ def scan_command(
     fast: Annotated[
         bool, typer.Option("--fast", help="Haar scan: whole-pixel shifts (faster).")
     ] = False,
-    declutter_mode: _Declutter = "sobel",
-    threshold: _Threshold = "auto",
+    declutter_mode: _Declutter = "auto",
+    threshold: Annotated[
+        str,
+        typer.Option(
+            "--threshold",
+            help="Sobel threshold: 'auto' (the stimulus builder's rule: minimum edge retention "
+            "of the centre view and the confocal image) or a number.",
+        ),
+    ] = "auto",
     edge_ratio: _EdgeRatio = 1.0 / 13.0,
     processes: Annotated[
         int | None,
@@ -653,7 +658,8 @@ def refocus_command(
             rs, cs = zoom_box
             check_zoom_aspect((rs.stop - rs.start, cs.stop - cs.start), grid_px)
     img = refocus(lf, d)
-    focus = in_focus_mask(lf, d) if declutter_mode == "depth" and grid_px is not None else None
+    mode = _resolve_mode(declutter_mode, lf)
+    focus = in_focus_mask(lf, d) if mode == "depth" and grid_px is not None else None
     if zoom_box is not None:
         rs, cs = zoom_box
         img = np.ascontiguousarray(img[rs, cs])

@@ -15,6 +15,10 @@ sobel_threshold     Sobel threshold for this object (scale of ``sobel_magnitude`
 crop                zoom box ``x,y,w,h`` in full-resolution pixels of the photo; empty = none
 plane_depth_m       light-field objects: depth of the confocal plane, metres; empty = none
 plane_disparity_px  light-field objects: disparity of the plane, pixels per view step
+roi                 light-field objects: region of interest the plane is taken from, a box
+                    ``x,y,w,h`` in full-resolution pixels of the centre view (before
+                    ``crop``), or a mask image (non-zero = region, centre-view size) relative
+                    to the ``objects.csv`` folder; empty = none. Written only when used.
 ==================  ==========================================================================
 
 ``manifest.csv`` (one row per stimulus)
@@ -83,6 +87,7 @@ OBJECTS_COLUMNS: tuple[str, ...] = (
     "crop",
     "plane_depth_m",
     "plane_disparity_px",
+    "roi",
 )
 
 #: Columns of ``manifest.csv``, in order.
@@ -239,6 +244,9 @@ class ObjectInfo:
         Light-field objects: confocal plane depth, metres.
     plane_disparity_px : float or None
         Light-field objects: plane disparity, pixels per view step.
+    roi : (x, y, w, h) or str or None
+        Light-field objects: region of interest, a box in centre-view pixels or a mask image
+        path (relative to the ``objects.csv`` folder).
     """
 
     object: str
@@ -250,6 +258,7 @@ class ObjectInfo:
     crop: tuple[int, int, int, int] | None = None
     plane_depth_m: float | None = None
     plane_disparity_px: float | None = None
+    roi: tuple[int, int, int, int] | str | None = None
 
     def __post_init__(self) -> None:
         check_object_id(self.object, where="objects.csv: object")
@@ -288,7 +297,7 @@ class ObjectInfo:
             "crop": format_crop(self.crop),
             "plane_depth_m": _fmt(self.plane_depth_m),
             "plane_disparity_px": _fmt(self.plane_disparity_px),
-        }
+        } | ({} if self.roi is None else {"roi": _format_roi(self.roi)})
 
     @classmethod
     def from_row(cls, row: dict[str, str | None], *, where: str) -> ObjectInfo:
@@ -314,7 +323,28 @@ class ObjectInfo:
             plane_disparity_px=_parse_float(
                 row.get("plane_disparity_px"), where=f"{where}: field plane_disparity_px"
             ),
+            roi=_parse_roi(row.get("roi"), where=f"{where}: field roi"),
         )
+
+
+def _parse_roi(text: str | None, *, where: str) -> tuple[int, int, int, int] | str | None:
+    """A box ``x,y,w,h`` (has a comma) or a mask image's path; empty gives ``None``."""
+    if text is None or str(text).strip() == "":
+        return None
+    t = str(text).strip()
+    if "," in t:
+        box = parse_crop(t, where=where)
+        return box
+    if not t.lower().endswith((".png", ".bmp", ".tif", ".tiff")):
+        raise InputError(
+            f"{where}: roi must be a box 'x,y,w,h' (centre-view pixels) or a mask image "
+            f"(.png, .bmp, .tif), got {text!r}"
+        )
+    return t
+
+
+def _format_roi(roi: tuple[int, int, int, int] | str) -> str:
+    return roi if isinstance(roi, str) else format_crop(roi)
 
 
 def _read_csv_rows(path: Path, required: Iterable[str]) -> list[tuple[int, dict[str, str]]]:
@@ -380,8 +410,14 @@ def read_objects_csv(path: str | os.PathLike) -> list[ObjectInfo]:
 
 
 def write_objects_csv(objects: Iterable[ObjectInfo], path: str | os.PathLike) -> Path:
-    """Write ``objects.csv`` with all :data:`OBJECTS_COLUMNS`, atomically; return the path."""
-    return write_table(path, [o.to_row() for o in objects], OBJECTS_COLUMNS)
+    """Write ``objects.csv`` with :data:`OBJECTS_COLUMNS`, atomically; return the path.
+
+    The ``roi`` column is written only when an object has a region of interest, so a set
+    without one keeps the file it had before the column existed.
+    """
+    rows = [o.to_row() for o in objects]
+    cols = OBJECTS_COLUMNS if any("roi" in r for r in rows) else OBJECTS_COLUMNS[:-1]
+    return write_table(path, [{"roi": ""} | r for r in rows], cols)
 
 
 @dataclass(frozen=True)

@@ -228,7 +228,7 @@ class ConfocalPlane:
         The plane, pixels per view step.
     depth_m : float or None
         The plane's depth, metres (None without geometry).
-    chosen_by : {'depth_m', 'disparity_px', 'nearest detected plane'}
+    chosen_by : {"depth_m", "disparity_px", "auto"}
         How the plane was chosen (provenance).
     focus_mask : ndarray of shape (rows, cols), bool, or None
         Where the light field is in focus at the plane (:func:`stimuli.declutter.in_focus_mask`),
@@ -258,11 +258,11 @@ def confocal_plane(
     """Return a light field's centre view and its confocal image at one plane, with the plane.
 
     The confocal image is the shift-and-add refocus at ``depth_m`` (needs a geometry) or at
-    ``disparity_px``; with neither, at the *nearest* object plane found by
-    :func:`find_object_planes` (defaults: range from the data, agreement scan; every plane it
-    reports has support and evidence against a null, so no prominence floor is needed): the
+    ``disparity_px``; with neither, at the plane the stimulus builder picks by default
+    (:func:`stimuli.planechoice.choose_plane`, rule ``'auto'``: the nearest detected plane whose
+    support passes a cut relative to the strongest plane's and that is not a border band): the
     object of interest stands in front of the clutter (Jung et al. 2015, Sec. 4), so the nearest
-    plane is the object's, even when a large background wall scores higher.
+    real plane is the object's, even when a large background wall scores higher.
 
     Parameters
     ----------
@@ -299,10 +299,9 @@ def confocal_plane(
         if not math.isfinite(d):
             raise InputError(f"disparity_px must be finite, got {disparity_px!r}")
     else:
-        scan = find_object_planes(lf)
-        if not scan.peaks:
-            raise InputError(f"{lf.source}: no object plane found in the depth scan")
-        d, how = scan.peaks[0].disparity_px, "nearest detected plane"  # peaks: nearest first
+        from stimuli.planechoice import choose_plane
+
+        d, how = choose_plane(lf, where=str(lf.source)).disparity_px, "auto"
     confocal = np.clip(refocus(lf, d), 0.0, 1.0).astype(np.float32)
     mask = None
     if focus_mask:
@@ -321,7 +320,7 @@ def confocal_pair(
     """Return ``(centre_view, confocal_image)`` of a light field, grey float32 in [0, 1].
 
     The same as :func:`confocal_plane` without the plane: at ``depth_m``, at ``disparity_px``,
-    or at the nearest detected object plane.
+    or at the plane the stimulus builder picks by default.
 
     Returns
     -------

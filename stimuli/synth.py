@@ -62,7 +62,7 @@ OBJECT_WIDTH_DEG: float = 10.0
 BACKGROUND_DEPTHS_M: tuple[float, float] = (1.5, 3.0)
 
 #: Columns of ``objects.csv``: the builder's per-object table, defined in :mod:`stimuli.manifest`.
-OBJECTS_CSV_COLUMNS: tuple[str, ...] = OBJECTS_COLUMNS
+OBJECTS_CSV_COLUMNS: tuple[str, ...] = tuple(c for c in OBJECTS_COLUMNS if c != "roi")
 
 #: Texture margin around the camera image on each side, as a fraction of the image width.
 #: Ours: enough for the parallax of the outermost views of a small-baseline light field.

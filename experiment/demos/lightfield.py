@@ -92,10 +92,10 @@ def run_lightfield_demo(out_dir: str | Path, *, seed: int = 0) -> list[str]:
     from rich.progress import Progress
 
     from stimuli import jung2015
+    from stimuli.edgegrid import declutter_and_compress
     from stimuli.io import atomic_path, save_png
     from stimuli.lfsynth import render_elemental_image, three_plane_scene
     from stimuli.lightfield import LightField, views_from_elemental
-    from stimuli.lightfield_cli import declutter_and_compress
     from stimuli.planes import find_object_planes
     from stimuli.refocus import refocus
     from stimuli.scanplot import plot_scores

@@ -249,7 +249,9 @@ class Viewer:
     px_per_deg : float, optional
         Draw the implant's field of view at this scale (see :func:`screen_layout`).
     n_planes : int
-        Planes of the startup depth scan.
+        Planes of the startup depth scan. At the default the scan is
+        :func:`stimuli.planechoice.detect_planes`, the detector ``confocal stimuli build`` and
+        ``confocal lightfield scan`` use, so the viewer lists the same planes.
     track_bright : bool
         Follow the brightest spot of the centre view as the marker (confocal extension).
     clock : callable, optional
@@ -271,13 +273,14 @@ class Viewer:
         ctx: Any = None,
         event_log: ViewerEventLog | None = None,
         px_per_deg: float | None = None,
-        n_planes: int = 100,
+        n_planes: int = 200,
         track_bright: bool = False,
         clock: Any = None,
         compute: str = "auto",
     ) -> None:
         from stimuli.declutter import auto_threshold
-        from stimuli.planes import auto_binning, default_disparities, find_object_planes
+        from stimuli.planechoice import detect_planes
+        from stimuli.planes import DEFAULT_N_PLANES, find_object_planes
         from stimuli.refocus import refocus
 
         self.source = source
@@ -295,9 +298,12 @@ class Viewer:
         lf = source.frame(0)
         self.lf = lf
         dmax = lf.max_disparity_px()
-        ds = np.clip(default_disparities(lf, n_planes), -dmax, dmax)
         with _quiet_warnings():
-            scan = find_object_planes(lf, ds, binning=auto_binning(lf))
+            if n_planes == DEFAULT_N_PLANES:
+                scan = detect_planes(lf)
+            else:
+                scan = find_object_planes(lf, n_planes=n_planes)
+        ds = np.clip(scan.disparities_px, -dmax, dmax)
         self.scan = scan
         lo, hi = max(float(ds.min()), -dmax), min(float(ds.max()), dmax)
         self.model = ViewerModel(

@@ -140,9 +140,13 @@ def view_command(
     planes: Annotated[
         int,
         typer.Option(
-            min=3, max=MAX_PLANES, help="Planes of the startup depth scan.", rich_help_panel="View"
+            min=3,
+            max=MAX_PLANES,
+            help="Planes of the startup depth scan (at the default, the scan 'stimuli build' "
+            "and 'lightfield scan' use).",
+            rich_help_panel="View",
         ),
-    ] = 100,
+    ] = 200,
     script: Annotated[
         Path | None,
         typer.Option(

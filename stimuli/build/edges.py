@@ -65,6 +65,9 @@ def declutter_object(work: ObjectImages, params: BuildParams) -> ObjectImages:
         work.narrow_edges = declutter(work.narrow, threshold=t)
         if params.bokeh_guard and work.source.lightfield is None:
             work.narrow_edges = bokeh_guard(work.narrow_edges, work.wide_edges)
+    if work.valid is not None:  # a padded light field: no edges in the padding
+        work.wide_edges &= work.valid
+        work.narrow_edges &= work.valid
     return work
 
 

@@ -1,9 +1,22 @@
-"""Light-field objects of a build: the pair of images at the confocal plane.
+"""Light-field objects of a build: the pair of images at the chosen plane, and how it was chosen.
 
-A light-field object gives its pair through :func:`stimuli.planes.confocal_plane`: the centre
-view is the cluttered image and the confocal image (the refocus at the object's plane) the
-de-cluttered one. The plane comes from ``objects.csv`` (``plane_depth_m`` or
-``plane_disparity_px``); without one, the light-field module picks the nearest object plane.
+A light-field object's centre view is the cluttered image and the confocal image (the refocus
+at the object's plane) the de-cluttered one. The plane (:func:`stimuli.planechoice.choose_plane`):
+``objects.csv``'s ``plane_depth_m`` or ``plane_disparity_px``, else the detected plane holding
+most of its ``roi``, else the build's ``--plane`` rule (default ``auto``: the nearest detected
+plane that passes the evidence cuts of :mod:`stimuli.planechoice`). The plane's in-focus
+content travels with the images, so that the aspect crop keeps it.
+
+De-cluttering that knows the geometry
+-------------------------------------
+Refocusing blurs what lies off the plane only along the directions in which the views are
+spread. With a single row (or column) of views an edge parallel to the baseline is as sharp off
+the plane as on it, and Sobel keeps such background edges at every depth. So with
+``declutter='auto'`` (the default) a light field whose views lie along one axis, or mostly
+along one (:func:`is_one_dimensional`), is de-cluttered by view agreement
+(:func:`stimuli.declutter.in_focus_mask`, which compares the centre view with its neighbours
+along the baseline only, and :func:`stimuli.declutter.declutter_depth`): an edge is kept only
+where the views agree at the plane. Other light fields use the paper's Sobel mode.
 """
 
 from __future__ import annotations
@@ -18,9 +31,30 @@ from stimuli.build.params import BuildParams
 from stimuli.io import check_gray
 from stimuli.manifest import ObjectInfo
 
-__all__ = ["ConfocalPairImages", "load_confocal_pair"]
+__all__ = [
+    "ANISOTROPY_RATIO",
+    "ConfocalPairImages",
+    "is_one_dimensional",
+    "load_confocal_pair",
+]
 
 logger = logging.getLogger(__name__)
+
+#: A grid with at least this many times more views along one axis than the other is treated as
+#: 1-D by ``declutter='auto'`` (ours: refocusing then blurs three times more along one axis).
+ANISOTROPY_RATIO: float = 3.0
+
+
+def is_one_dimensional(grid: tuple[int, int]) -> bool:
+    """Return whether a view grid ``(n_u, n_v)`` is 1-D or strongly anisotropic.
+
+    Examples
+    --------
+    >>> is_one_dimensional((1, 7)), is_one_dimensional((3, 9)), is_one_dimensional((7, 7))
+    (True, True, False)
+    """
+    a, b = sorted(int(v) for v in grid)
+    return a == 1 or b >= ANISOTROPY_RATIO * a
 
 
 @dataclass(frozen=True)
@@ -34,15 +68,21 @@ class ConfocalPairImages:
     confocal : ndarray of shape (rows, cols), float32 in [0, 1]
         The confocal image at the plane (the de-cluttered image).
     plane : str
-        The plane, as :meth:`stimuli.planes.ConfocalPlane.describe` gives it (provenance).
+        The plane, as :meth:`stimuli.planechoice.PlaneChoice.describe` gives it (provenance).
     focus : ndarray of shape (rows, cols), bool, or None
         Where the views agree at the plane, in the ``depth`` de-cluttering mode; else ``None``.
+    choice : PlaneChoice or None
+        The plane with its evidence, the rule and the alternatives, and its content mask.
+    declutter : {'sobel', 'depth'}
+        The de-cluttering mode applied.
     """
 
     centre: np.ndarray
     confocal: np.ndarray
     plane: str
     focus: np.ndarray | None
+    choice: object = None
+    declutter: str = "sobel"
 
 
 def load_confocal_pair(
@@ -55,9 +95,10 @@ def load_confocal_pair(
     src : PairSource
         A light-field source (``src.lightfield`` set).
     info : ObjectInfo
-        Its ``objects.csv`` row (the plane, if given).
+        Its ``objects.csv`` row (the plane or the region of interest, if given).
     params : BuildParams
-        ``params.declutter == 'depth'`` also asks for the in-focus mask.
+        ``params.plane`` is the rule without either; ``params.declutter`` (module notes)
+        decides whether the in-focus mask is computed.
 
     Returns
     -------
@@ -66,22 +107,38 @@ def load_confocal_pair(
     Raises
     ------
     InputError
-        If the light field cannot be read or its images are not grey images in [0, 1].
+        If the light field or the roi mask cannot be read, the roi lies outside the view, no
+        plane is found, or its images are not grey images in [0, 1].
     """
-    from stimuli.planes import confocal_plane
+    from stimuli.io import load_gray
+    from stimuli.lfload import as_lightfield
+    from stimuli.planechoice import choose_plane
+    from stimuli.refocus import refocus
 
-    if info.plane_depth_m is None and info.plane_disparity_px is None:
-        logger.info("%s: no plane in objects.csv; light-field module picks it", src.object)
-    extra = {"focus_mask": True} if params.declutter == "depth" else {}
-    plane = confocal_plane(
-        src.lightfield,
-        depth_m=info.plane_depth_m,
+    lf = as_lightfield(src.lightfield).gray()
+    where = f"object {src.object!r} ({src.lightfield})"
+    roi = info.roi
+    if src.roi_mask is not None:
+        roi = load_gray(src.roi_mask) > 0
+    choice = choose_plane(
+        lf,
+        rule=params.plane,
         disparity_px=info.plane_disparity_px,
-        **extra,
+        depth_m=info.plane_depth_m,
+        roi=roi,
+        where=where,
     )
-    where = f"{src.lightfield}: confocal_plane"
-    centre = check_gray(plane.centre_view, f"{where} centre view")
-    confocal = check_gray(plane.confocal_image, f"{where} image")
-    logger.info("%s: confocal image at %s", src.object, plane.describe())
-    focus = getattr(plane, "focus_mask", None)
-    return ConfocalPairImages(centre, confocal, plane.describe(), focus)
+    d = choice.disparity_px
+    mode = params.declutter
+    if mode == "auto":
+        mode = "depth" if is_one_dimensional(lf.grid) else "sobel"
+    focus = None
+    if mode == "depth":
+        from stimuli.declutter import in_focus_mask
+
+        focus = in_focus_mask(lf, d)
+    confocal = np.clip(refocus(lf, d), 0.0, 1.0).astype(np.float32)
+    centre = check_gray(lf.centre_view(), f"{src.lightfield}: centre view")
+    confocal = check_gray(confocal, f"{src.lightfield}: confocal image")
+    logger.info("%s: confocal image at %s (%s)", src.object, choice.describe(), mode)
+    return ConfocalPairImages(centre, confocal, choice.describe(), focus, choice, mode)

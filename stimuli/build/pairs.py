@@ -48,6 +48,8 @@ class PairSource:
         Light-field folder or ``.npz`` file, read by ``stimuli.planes.confocal_pair``.
     crop : (x, y, w, h) or None
         Crop box from the PAIRS CSV (``objects.csv`` wins when both give one).
+    roi_mask : Path or None
+        Mask image of the region of interest (``objects.csv`` field ``roi``, resolved).
     """
 
     object: str
@@ -55,6 +57,7 @@ class PairSource:
     narrow: Path | None = None
     lightfield: Path | None = None
     crop: tuple[int, int, int, int] | None = None
+    roi_mask: Path | None = None
 
     @property
     def kind(self) -> str:
@@ -237,6 +240,10 @@ def read_pairs(pairs: str | os.PathLike) -> PairsInput:
         objects_csv = None
     objects = tuple(infos.get(s.object.lower(), ObjectInfo(s.object)) for s in sources)
     objects = tuple(replace(o, object=s.object) for o, s in zip(objects, sources, strict=True))
+    sources = [
+        replace(s, roi_mask=root / o.roi) if isinstance(o.roi, str) else s
+        for s, o in zip(sources, objects, strict=True)
+    ]
     return PairsInput(root=root, sources=tuple(sources), objects=objects, objects_csv=objects_csv)
 
 

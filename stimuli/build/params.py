@@ -16,6 +16,7 @@ __all__ = [
     "BuildParams",
     "MODES",
     "THRESHOLD_METHODS",
+    "BUILD_DECLUTTER_MODES",
     "parse_working_size",
     "parse_threshold",
     "parse_edge_ratio",
@@ -27,6 +28,12 @@ __all__ = [
 #: photo. On the six real photo pairs in ``dof_pairs/`` Otsu leaves a mean wide-DOF edge fraction
 #: of 0.28, retention 0.068 (paper 0.077); see ``stimuli/retention.py``.
 THRESHOLD_METHODS: tuple[str, ...] = ("retention", *AUTO_THRESHOLD_METHODS)
+
+#: De-cluttering modes of the build: ``'auto'`` (the default, ours) is ``'depth'`` for a light
+#: field whose views lie along one axis (1-D) or mostly along one
+#: (:func:`stimuli.build.lightfield.is_one_dimensional`), ``'sobel'`` otherwise and for photo
+#: pairs; see :mod:`stimuli.build.lightfield`.
+BUILD_DECLUTTER_MODES: tuple[str, ...] = ("auto", *DECLUTTER_MODES)
 
 #: Kinds of stimuli: binary edge images, or grey-level compression of the photos (Fig. 2).
 MODES: tuple[str, ...] = ("edges", "grey")
@@ -128,10 +135,16 @@ class BuildParams:
         Accept pairs whose two photos differ in pixel size (each is resized on its own).
     windows_px : tuple of int
         Compression windows (paper: 1, 2, 3, 5, 7, 13, 18, 40).
-    declutter : {'sobel', 'depth'}
+    declutter : {'auto', 'sobel', 'depth'}
         De-cluttering of light-field objects: the paper's Sobel + threshold, or Sobel edges kept
         where the light field's views agree at the plane (:func:`stimuli.declutter.in_focus_mask`;
-        ours, beyond the paper). Photo pairs always use Sobel.
+        ours, beyond the paper); ``'auto'``: ``'depth'`` for 1-D (or strongly anisotropic)
+        light fields, whose refocusing blurs only along the baseline, else ``'sobel'``. Photo
+        pairs use Sobel (``'depth'`` is refused for them by the build's plan).
+    plane : str
+        Light-field objects without their own plane or region in ``objects.csv``: ``'auto'``
+        (nearest plane passing the evidence cuts of :mod:`stimuli.planechoice`),
+        ``'strongest'``, ``'nearest'``, or a disparity (px per view step) as text.
     bokeh_guard : bool
         Photo pairs: drop narrow-DOF edges with no wide-DOF edge nearby
         (:func:`stimuli.declutter.bokeh_guard`; ours, beyond the paper).
@@ -151,8 +164,9 @@ class BuildParams:
     allow_resize: bool = False
     windows_px: tuple[int, ...] = jung2015.WINDOWS_PX
     fast_decode: bool = False
-    declutter: str = "sobel"
+    declutter: str = "auto"
     bokeh_guard: bool = False
+    plane: str = "auto"
 
     def __post_init__(self) -> None:
         for name in (
@@ -164,6 +178,7 @@ class BuildParams:
             "grey_levels",
             "windows_px",
             "declutter",
+            "plane",
         ):
             getattr(self, f"_check_{name}")()
 
@@ -188,8 +203,16 @@ class BuildParams:
             raise InputError(f"edge_ratio must be None or in [0, 1), got {self.edge_ratio!r}")
 
     def _check_declutter(self) -> None:
-        if self.declutter not in DECLUTTER_MODES:
-            raise InputError(f"declutter must be one of {DECLUTTER_MODES}, got {self.declutter!r}")
+        if self.declutter not in BUILD_DECLUTTER_MODES:
+            raise InputError(
+                f"--declutter must be one of {', '.join(BUILD_DECLUTTER_MODES)}, "
+                f"got {self.declutter!r}"
+            )
+
+    def _check_plane(self) -> None:
+        from stimuli.planechoice import parse_plane_option
+
+        object.__setattr__(self, "plane", parse_plane_option(self.plane))
 
     def _check_mode(self) -> None:
         if self.mode not in MODES:
@@ -212,6 +235,8 @@ class BuildParams:
         d = asdict(self)
         d["working_shape_px"] = list(self.working_shape_px)
         d["windows_px"] = list(self.windows_px)
+        if self.plane == "auto":  # a set built with the default keeps the id it had before
+            del d["plane"]
         return d
 
     @classmethod

@@ -12,7 +12,7 @@ import hashlib
 import json
 import os
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 from stimuli.build.implant_views import IMPLANT_PX_PER_ELECTRODE, check_implants
@@ -105,6 +105,7 @@ def plan_build(
             f"{inp.root}: an object is named 'implants', the folder of the implant views; "
             "rename it or build without --implant"
         )
+    params = _check_light_field_options(params, inp)
     hashes = tuple(source_hashes(s) for s in inp.sources)
     sid = set_id(params, inp, hashes, implants, implant_px_per_electrode)
     _check_out_dir(out_dir, sid, force, None if replaces is None else Path(replaces))
@@ -120,6 +121,30 @@ def plan_build(
         implant_px_per_electrode=implant_px_per_electrode,
         ladder=tuple(level_ladder(params.working_shape_px, params.windows_px)),
     )
+
+
+def _check_light_field_options(params: BuildParams, inp: PairsInput) -> BuildParams:
+    """Refuse light-field options on photo pairs; resolve ``declutter='auto'`` for a set
+    without light fields to the Sobel mode it applies (so its id and record are unchanged)."""
+    photos = [s for s in inp.sources if s.lightfield is None]
+    if params.declutter == "depth" and photos:
+        raise InputError(
+            f"--declutter depth needs light fields, but object {photos[0].object!r} is a photo "
+            "pair (its views cannot be compared); use --declutter auto or sobel"
+        )
+    for s, o in zip(inp.sources, inp.objects, strict=True):
+        if s.lightfield is None and o.roi is not None:
+            raise InputError(
+                f"objects.csv: object {s.object!r}: field roi chooses a light field's plane, "
+                "but the object is a photo pair; leave roi empty"
+            )
+        if s.roi_mask is not None and not s.roi_mask.is_file():
+            raise InputError(
+                f"objects.csv: object {s.object!r}: field roi: mask image {s.roi_mask} not found"
+            )
+    if params.declutter == "auto" and len(photos) == len(inp.sources):
+        params = replace(params, declutter="sobel")
+    return params
 
 
 def set_id(

@@ -12,7 +12,7 @@ from dataclasses import dataclass
 import numpy as np
 from skimage.transform import resize
 
-from stimuli.build.lightfield import load_confocal_pair
+from stimuli.build.lightfield import ConfocalPairImages, load_confocal_pair
 from stimuli.build.pairs import PairSource
 from stimuli.build.params import BuildParams, min_photo_shape_px
 from stimuli.errors import InputError
@@ -23,6 +23,9 @@ __all__ = [
     "ObjectImages",
     "zoom_crop",
     "aspect_crop_box",
+    "content_crop_box",
+    "aspect_pad",
+    "MIN_KEPT_SHARE",
     "to_working_size",
     "prepare_object",
     "colour_photos",
@@ -63,6 +66,21 @@ class ObjectImages:
         A light-field object's confocal plane (provenance); ``""`` for photos.
     focus : ndarray of bool or None
         A light-field object's in-focus mask at the working size (``declutter='depth'``).
+    plane_choice : PlaneChoice or None
+        A light-field object's plane with its evidence and rule
+        (:func:`stimuli.planechoice.choose_plane`).
+    content_kept : float in [0, 1] or None
+        A light-field object's share of the plane's content (or region of interest) that the
+        zoom and aspect crops keep.
+    declutter : str
+        A light-field object's de-cluttering mode (``'sobel'`` or ``'depth'``); ``""`` for
+        photos.
+    aspect_pad : (top, bottom, left, right) or None
+        Padding added instead of the aspect crop when no crop keeps :data:`MIN_KEPT_SHARE` of
+        a light-field object's plane content, pixels of the zoomed image.
+    valid : ndarray of shape working_shape_px, bool, or None
+        With padding: the pixels of the image (not of the padding, nor on its border); edges
+        elsewhere are dropped.
     """
 
     info: ObjectInfo
@@ -80,6 +98,11 @@ class ObjectImages:
     decoded_shape_px: tuple[int, int] | None = None
     plane: str = ""
     focus: np.ndarray | None = None
+    plane_choice: object = None
+    content_kept: float | None = None
+    declutter: str = ""
+    aspect_pad: tuple[int, int, int, int] | None = None
+    valid: np.ndarray | None = None
 
 
 def _cut(image: np.ndarray, box: Box | None) -> np.ndarray:
@@ -157,6 +180,92 @@ def aspect_crop_box(
     return None
 
 
+def content_crop_box(
+    content: np.ndarray, working_shape_px: tuple[int, int]
+) -> tuple[tuple[int, int, int, int] | None, float]:
+    """Return the working-aspect box that keeps most of ``content``, and the share it keeps.
+
+    The box has the size of :func:`aspect_crop_box` (full width or full height) and slides along
+    the trimmed side to the position that keeps the most content pixels; among equally good
+    positions, the one nearest the centred box. Without content, the centred box.
+
+    Parameters
+    ----------
+    content : ndarray of shape (rows, cols), bool
+        What the crop should keep (a plane's in-focus pixels, a region of interest).
+    working_shape_px : (rows, cols)
+
+    Returns
+    -------
+    box : (x, y, w, h) or None
+        ``None`` when the image already has the working aspect.
+    kept : float in [0, 1]
+        Share of the content pixels inside the box (1.0 without content).
+
+    Examples
+    --------
+    >>> m = np.zeros((100, 100), bool); m[80:, 40:60] = True
+    >>> content_crop_box(m, (50, 100))
+    ((0, 50, 100, 50), 1.0)
+    """
+    m = np.asarray(content, dtype=bool)
+    centred = aspect_crop_box(m.shape, working_shape_px)
+    total = int(m.sum())
+    if centred is None or total == 0:
+        return centred, 1.0
+    x, y, w, h = centred
+    axis, size, start = (0, h, y) if w == m.shape[1] else (1, w, x)
+    profile = m.sum(axis=1 - axis).astype(np.int64)
+    cs = np.concatenate([[0], np.cumsum(profile)])
+    kept = cs[size:] - cs[:-size]
+    best = np.flatnonzero(kept == kept.max())
+    pos = int(best[np.argmin(np.abs(best - start))])
+    box = (0, pos, w, h) if axis == 0 else (pos, 0, w, h)
+    return box, float(kept[pos]) / total
+
+
+#: A light field's aspect crop must keep at least this share of its plane's content; when no
+#: crop does, the image is padded to the working aspect instead (ours: a crop that loses more
+#: than a fifth of the object loses the object).
+MIN_KEPT_SHARE: float = 0.8
+
+
+def aspect_pad(
+    shape_px: tuple[int, int], working_shape_px: tuple[int, int]
+) -> tuple[tuple[int, int], tuple[int, int]]:
+    """Return the padding ``((top, bottom), (left, right))`` that brings an image to the aspect.
+
+    The counterpart of :func:`aspect_crop_box`: the short side is extended symmetrically (the
+    extra pixel of an odd amount goes to the bottom or right).
+
+    Examples
+    --------
+    >>> aspect_pad((100, 100), (50, 100))
+    ((0, 0), (50, 50))
+    """
+    rows, cols = shape_px
+    wr, wc = working_shape_px
+    new_cols = int(np.floor(rows * wc / wr + 0.5))
+    new_rows = int(np.floor(cols * wr / wc + 0.5))
+    if new_cols > cols:
+        d = new_cols - cols
+        return ((0, 0), (d // 2, d - d // 2))
+    d = max(0, new_rows - rows)
+    return ((d // 2, d - d // 2), (0, 0))
+
+
+def _valid_mask(
+    shape_px: tuple[int, int], pad: tuple[tuple[int, int], tuple[int, int]], working: tuple
+) -> np.ndarray:
+    """Working-size pixels wholly inside the image, one pixel in from the padding (the Sobel
+    kernel's reach)."""
+    from scipy.ndimage import binary_erosion
+
+    ones = np.pad(np.ones(shape_px, np.float32), pad)
+    inside = to_working_size(ones, working) >= 1.0 - 1e-6
+    return binary_erosion(inside, iterations=1, border_value=1)
+
+
 def to_working_size(image: np.ndarray, working_shape_px: tuple[int, int]) -> np.ndarray:
     """Resize a grey image to the working size with scikit-image's anti-aliased resize.
 
@@ -223,23 +332,16 @@ def _load_photos(
 
 def _load_raw(
     src: PairSource, info: ObjectInfo, params: BuildParams, crop: Box | None
-) -> tuple[np.ndarray, np.ndarray, tuple[int, int], tuple[int, int], str, np.ndarray | None]:
-    """Return ``(wide, narrow, wide_full_px, narrow_full_px, plane, focus)`` (full = on file).
+) -> tuple[np.ndarray, np.ndarray, tuple[int, int], tuple[int, int], ConfocalPairImages | None]:
+    """Return ``(wide, narrow, wide_full_px, narrow_full_px, pair)`` (full = on file).
 
-    ``plane`` describes the confocal plane of a light-field object (provenance), else ``""``;
-    ``focus`` is its in-focus mask in the depth de-cluttering mode, else ``None``.
+    ``pair`` is a light-field object's :class:`ConfocalPairImages` (plane, in-focus mask,
+    plane choice), else ``None``.
     """
     if src.lightfield is None:
-        return (*_load_photos(src, params, crop), "", None)
+        return (*_load_photos(src, params, crop), None)
     pair = load_confocal_pair(src, info, params)
-    return (
-        pair.centre,
-        pair.confocal,
-        pair.centre.shape,
-        pair.confocal.shape,
-        pair.plane,
-        pair.focus,
-    )
+    return pair.centre, pair.confocal, pair.centre.shape, pair.confocal.shape, pair
 
 
 def prepare_object(src: PairSource, info: ObjectInfo, params: BuildParams) -> ObjectImages:
@@ -267,7 +369,9 @@ def prepare_object(src: PairSource, info: ObjectInfo, params: BuildParams) -> Ob
         or a crop box outside the photo.
     """
     crop = info.crop if info.crop is not None else src.crop
-    wide_raw, narrow_raw, wide_full, narrow_full, plane, focus = _load_raw(src, info, params, crop)
+    wide_raw, narrow_raw, wide_full, narrow_full, pair = _load_raw(src, info, params, crop)
+    plane = "" if pair is None else pair.plane
+    focus = None if pair is None else pair.focus
     notes: list[str] = []
     name = src.lightfield if src.lightfield is not None else src.wide
     if tuple(wide_full) != tuple(narrow_full):
@@ -293,9 +397,22 @@ def prepare_object(src: PairSource, info: ObjectInfo, params: BuildParams) -> Ob
         _check_crop_inside(crop, wide_full, where=where)
     wide = zoom_crop(wide_raw, _scale_crop(crop, wide_full, wide_raw.shape), where=where)
     narrow = zoom_crop(narrow_raw, _scale_crop(crop, wide_full, narrow_raw.shape), where=where)
+    box = aspect_crop_box(wide.shape, params.working_shape_px)
+    kept = None
+    pad = None
+    if pair is not None and pair.choice is not None and pair.choice.content is not None:
+        # a light field's crop keeps its plane's content (or region of interest), not the centre
+        content = zoom_crop(pair.choice.content, _scale_crop(crop, wide_full, wide_raw.shape))
+        box, kept_in_zoom = content_crop_box(content, params.working_shape_px)
+        if kept_in_zoom < MIN_KEPT_SHARE:  # no crop keeps the object: pad to the aspect
+            box, pad, kept_in_zoom = None, aspect_pad(wide.shape, params.working_shape_px), 1.0
+        total = int(pair.choice.content.sum())
+        kept = kept_in_zoom * int(content.sum()) / total if total else 1.0
     out = []
     for img in (wide, narrow):
-        img = _cut(img, aspect_crop_box(img.shape, params.working_shape_px))
+        img = _cut(img, box)
+        if pad is not None:
+            img = np.pad(img, pad, mode="constant", constant_values=float(img.mean()))
         if img.shape[0] < params.working_shape_px[0] or img.shape[1] < params.working_shape_px[1]:
             notes.append(
                 f"{src.object}: image {img.shape[1]}x{img.shape[0]} is smaller than the working "
@@ -308,7 +425,9 @@ def prepare_object(src: PairSource, info: ObjectInfo, params: BuildParams) -> Ob
             _scale_crop(crop, wide_full, narrow_raw.shape),
             where=where,
         )
-        f = _cut(f, aspect_crop_box(f.shape, params.working_shape_px))
+        f = _cut(f, box)
+        if pad is not None:
+            f = np.pad(f, pad)
         focus = to_working_size(f, params.working_shape_px) >= 0.5
         plane = f"{plane},declutter=depth"
     return ObjectImages(
@@ -318,11 +437,16 @@ def prepare_object(src: PairSource, info: ObjectInfo, params: BuildParams) -> Ob
         narrow=out[1],
         original_shape_px=tuple(int(v) for v in wide_full),
         crop=crop,
-        aspect_crop=aspect_crop_box(wide.shape, params.working_shape_px),
+        aspect_crop=box,
         notes=notes,
         decoded_shape_px=tuple(int(v) for v in wide_raw.shape),
         plane=plane,
         focus=focus,
+        plane_choice=None if pair is None else pair.choice,
+        content_kept=kept,
+        declutter="" if pair is None else pair.declutter,
+        aspect_pad=None if pad is None else (pad[0][0], pad[0][1], pad[1][0], pad[1][1]),
+        valid=None if pad is None else _valid_mask(wide.shape, pad, params.working_shape_px),
     )
 
 

@@ -18,10 +18,12 @@ from stimuli.build.implant_views import implants_record
 from stimuli.build.pairs import pairs_record, path_in_pairs
 from stimuli.build.params import BuildParams
 from stimuli.build.plan import BuildPlan
-from stimuli.build.prepare import ObjectImages
+from stimuli.build.prepare import MIN_KEPT_SHARE, ObjectImages
 from stimuli.io import sha256_file
 
 __all__ = [
+    "NEARLY_EMPTY_SHARE",
+    "object_warnings",
     "SET_FORMAT",
     "SET_FORMAT_VERSION",
     "ObjectSummary",
@@ -35,9 +37,43 @@ SET_FORMAT = "confocal-stimulus-set"
 SET_FORMAT_VERSION = 1
 
 
+#: A de-cluttered image is *nearly empty* when it holds fewer than this fraction of the edge
+#: pixels of the same object's cluttered image at the same threshold (ours: a tenth; the
+#: reference is the object's own cluttered image, not an absolute count).
+NEARLY_EMPTY_SHARE: float = 0.1
+
+
+def object_warnings(work: ObjectImages) -> list[str]:
+    """Return the warnings about a light-field object's stimulus: marginal plane, nearly empty.
+
+    Empty for photo pairs. Shown as ``note:`` lines, recorded in ``stimulus_set.json`` and
+    marked on the object's contact sheet.
+    """
+    out: list[str] = []
+    choice = work.plane_choice
+    if choice is not None and getattr(choice, "marginal", ""):
+        out.append(f"{work.info.object}: marginal plane ({choice.describe()}): {choice.marginal}")
+    if work.source.lightfield is not None and work.narrow_edges is not None:
+        wide = edge_fraction(work.wide_edges)
+        narrow = edge_fraction(work.narrow_edges)
+        if narrow < NEARLY_EMPTY_SHARE * wide or narrow == 0.0:
+            out.append(
+                f"{work.info.object}: the de-cluttered image is nearly empty ({100 * narrow:.2f} "
+                f"% edge pixels, cluttered {100 * wide:.2f} %); check the plane"
+            )
+    return out
+
+
 @dataclass(frozen=True)
 class ObjectSummary:
-    """What the build did to one object (also recorded in ``stimulus_set.json``)."""
+    """What the build did to one object (also recorded in ``stimulus_set.json``).
+
+    A light-field object also records ``plane`` (:meth:`stimuli.planechoice.PlaneChoice.to_dict`:
+    disparity, depth, support, evidence, rule, alternatives), ``content_kept`` (share of the
+    plane's content the crops keep), ``declutter`` (the mode applied), ``warnings`` and, when
+    no aspect crop keeps the plane, ``aspect_pad`` (top, bottom, left, right padding, px); these
+    are ``None`` (and absent from the record) for photo pairs.
+    """
 
     object: str
     role: str
@@ -49,10 +85,17 @@ class ObjectSummary:
     crop: tuple[int, int, int, int] | None
     aspect_crop: tuple[int, int, int, int] | None
     decoded_shape_px: tuple[int, int] | None = None
+    plane: dict | None = None
+    content_kept: float | None = None
+    declutter: str | None = None
+    warnings: tuple[str, ...] | None = None
+    aspect_pad: tuple[int, int, int, int] | None = None
 
 
 def object_summary(work: ObjectImages) -> ObjectSummary:
     """Return the summary of one built object."""
+    lf = work.source.lightfield is not None
+    choice = work.plane_choice
     return ObjectSummary(
         object=work.info.object,
         role=work.info.role,
@@ -66,13 +109,18 @@ def object_summary(work: ObjectImages) -> ObjectSummary:
         crop=work.crop,
         aspect_crop=work.aspect_crop,
         decoded_shape_px=work.decoded_shape_px,
+        plane=None if choice is None else choice.to_dict(),
+        content_kept=work.content_kept,
+        declutter=(work.declutter or None) if lf else None,
+        warnings=tuple(object_warnings(work)) if lf else None,
+        aspect_pad=work.aspect_pad,
     )
 
 
 def build_notes(works: Sequence[ObjectImages], params: BuildParams) -> tuple[str, ...]:
     """Return what the user should know about a build: centre crops, then each object's notes."""
     notes: list[str] = []
-    cropped = [w for w in works if w.aspect_crop is not None]
+    cropped = [w for w in works if w.aspect_crop is not None and w.content_kept is None]
     if cropped:
         rows, cols = params.working_shape_px
         shapes = sorted({(w.aspect_crop[2], w.aspect_crop[3]) for w in cropped})
@@ -82,6 +130,18 @@ def build_notes(works: Sequence[ObjectImages], params: BuildParams) -> tuple[str
         )
     for w in works:
         notes.extend(w.notes)
+    for w in works:
+        if w.aspect_pad is not None:
+            notes.append(
+                f"{w.info.object}: no crop to the working aspect keeps {100 * MIN_KEPT_SHARE:.0f} "
+                "% of its plane's content; padded to the aspect instead (no edges in the padding)"
+            )
+        if w.content_kept is not None and w.aspect_crop is not None:
+            notes.append(
+                f"{w.info.object}: cropped to the working aspect around its plane's content "
+                f"(kept {100 * w.content_kept:.0f} % of it)"
+            )
+        notes.extend(object_warnings(w))
     return tuple(notes)
 
 
@@ -185,4 +245,11 @@ def _summary_dict(s: ObjectSummary) -> dict:
     d = asdict(s)
     for k in ("original_shape_px", "crop", "aspect_crop", "decoded_shape_px"):
         d[k] = None if d[k] is None else list(d[k])
+    for k in ("plane", "content_kept", "declutter", "warnings", "aspect_pad"):  # light fields
+        if d[k] is None:
+            del d[k]
+    if "aspect_pad" in d:
+        d["aspect_pad"] = list(d["aspect_pad"])
+    if "warnings" in d:
+        d["warnings"] = list(d["warnings"])
     return d

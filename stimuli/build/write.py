@@ -23,7 +23,13 @@ from stimuli.build.parallel import ProgressFn, map_objects
 from stimuli.build.params import BuildParams
 from stimuli.build.plan import BuildPlan
 from stimuli.build.prepare import ObjectImages, colour_photos
-from stimuli.build.provenance import ObjectSummary, build_notes, object_summary, set_record
+from stimuli.build.provenance import (
+    ObjectSummary,
+    build_notes,
+    object_summary,
+    object_warnings,
+    set_record,
+)
 from stimuli.contact import contact_sheet, save_contact_sheet
 from stimuli.errors import InputError
 from stimuli.io import new_staging_folder, save_png, sha256_file, swap_in
@@ -214,12 +220,15 @@ def write_object(
         for level, window, stim in ladder:
             emit(stim, condition, level, window, f"{condition}_L{level}_w{window:02d}.png")
         rows.append((condition, [s for _, _, s in ladder]))
+    warnings = object_warnings(work)
     sheet = contact_sheet(
         rows,
         column_labels=ladder_labels,
-        title=f"{oid}: {work.info.display_name} ({work.info.role}; "
+        title=("WARNING " if warnings else "")
+        + f"{oid}: {work.info.display_name} ({work.info.role}; "
         + ("grey" if grey else f"threshold {work.threshold:.4g}, edge ratio {edge_ratio:.4g}")
         + ")",
+        subtitle="; ".join(w.split(": ", 1)[1] for w in warnings),
     )
     save_contact_sheet(sheet, tmp / "contact" / f"{oid}.png")
     return records

@@ -105,12 +105,14 @@ def test_manifest_round_trip(built, tmp_path: Path) -> None:
 
 
 def test_objects_csv_carried_and_round_trip(built, tmp_path: Path) -> None:
-    """objects.csv is carried into the set with all columns, and round-trips."""
+    """objects.csv is carried into the set with all columns, and round-trips; the ``roi``
+    column (light fields' regions of interest) only when an object has one."""
     _, _, out = built
     objs = read_objects_csv(out / "objects.csv")
     assert objs[0] == ObjectInfo("obj00", "mug", ("cup", "beaker"), ("drinking",))
     assert objs[2].role == "training"
-    assert tuple((out / "objects.csv").read_text().splitlines()[0].split(",")) == OBJECTS_COLUMNS
+    header = tuple((out / "objects.csv").read_text().splitlines()[0].split(","))
+    assert header == OBJECTS_COLUMNS[:-1] and OBJECTS_COLUMNS[-1] == "roi"
     write_objects_csv(objs, tmp_path / "o.csv")
     assert read_objects_csv(tmp_path / "o.csv") == objs
 
@@ -131,7 +133,8 @@ def test_provenance_json(built) -> None:
 
     assert meta["software"]["version"] == __version__
     assert "git_commit" in meta["software"]
-    assert BuildParams.from_dict(meta["parameters"]) == BuildParams()
+    # a set of photo pairs records the mode 'auto' applies to them (and keeps its old id)
+    assert BuildParams.from_dict(meta["parameters"]) == BuildParams(declutter="sobel")
     assert meta["set_id"] == result.set_id
     assert meta["edge_ratio"] == result.edge_ratio
     assert [lv["pixels"] for lv in meta["levels"]] == sorted(jung2015.PIXEL_COUNTS)
@@ -277,16 +280,17 @@ def test_grey_mode_quantizes_the_photos(tmp_path: Path) -> None:
 
 def test_lightfield_object_goes_through_confocal_pair(tmp_path: Path, monkeypatch) -> None:
     """A lightfield column: centre view = cluttered, confocal image = de-cluttered."""
-    import stimuli.planes
+    import stimuli.build.prepare
+    from stimuli.build.lightfield import ConfocalPairImages
 
     wide, narrow, _ = make_pair(1, (200, 300))
     calls = []
 
-    def fake(path, *, depth_m=None, disparity_px=None):
-        calls.append((Path(path).name, depth_m, disparity_px))
-        return stimuli.planes.ConfocalPlane(wide, narrow, 1.5, None, "disparity_px")
+    def fake(src, info, params):
+        calls.append((Path(src.lightfield).name, info.plane_depth_m, info.plane_disparity_px))
+        return ConfocalPairImages(wide, narrow, "disparity=1.5px,disparity_px", None)
 
-    monkeypatch.setattr(stimuli.planes, "confocal_plane", fake)
+    monkeypatch.setattr(stimuli.build.prepare, "load_confocal_pair", fake)
     (tmp_path / "lf.npz").write_bytes(b"not read by the fake")
     (tmp_path / "pairs.csv").write_text("object,lightfield\nbust,lf.npz\n")
     (tmp_path / "objects.csv").write_text("object,plane_disparity_px\nbust,1.5\n")
@@ -485,15 +489,14 @@ def test_synthetic_set_end_to_end(tmp_path: Path) -> None:
 
 def test_lightfield_subfolder_in_a_pairs_folder(tmp_path: Path, monkeypatch) -> None:
     """Folder form: an object folder holding lightfield.npz (or lightfield/) is a light field."""
-    import stimuli.planes
+    import stimuli.build.prepare
+    from stimuli.build.lightfield import ConfocalPairImages
 
     wide, narrow, _ = make_pair(2, (200, 300))
     monkeypatch.setattr(
-        stimuli.planes,
-        "confocal_plane",
-        lambda p, *, depth_m, disparity_px: stimuli.planes.ConfocalPlane(
-            wide, narrow, 0.0, None, "nearest detected plane"
-        ),
+        stimuli.build.prepare,
+        "load_confocal_pair",
+        lambda src, info, params: ConfocalPairImages(wide, narrow, "disparity=0px,auto", None),
     )
     (tmp_path / "p" / "bust").mkdir(parents=True)
     (tmp_path / "p" / "bust" / "lightfield.npz").write_bytes(b"x")

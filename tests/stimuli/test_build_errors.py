@@ -170,7 +170,27 @@ def _bad_mode(tmp_path):
     return [str(_pairs(tmp_path)), "--mode", "colour"], r"mode must be one of \('edges', 'grey'\)"
 
 
+def _depth_on_photo_pairs(tmp_path):
+    return (
+        [str(_pairs(tmp_path)), "--declutter", "depth"],
+        r"--declutter depth needs light fields, but object 'obj00' is a photo pair",
+    )
+
+
+def _bad_plane(tmp_path):
+    return [str(_pairs(tmp_path)), "--plane", "middle"], r"--plane must be one of auto, strongest"
+
+
+def _roi_on_photo_pair(tmp_path):
+    p = _pairs(tmp_path)
+    (p / "objects.csv").write_text("object,roi\nobj00,\"1,2,30,20\"\n")
+    return [str(p)], r"object 'obj00': field roi chooses a light field's plane"
+
+
 CASES = {
+    "depth de-clutter on photo pairs": _depth_on_photo_pairs,
+    "bad --plane": _bad_plane,
+    "roi on a photo pair": _roi_on_photo_pair,
     "missing photo (folder)": _missing_narrow,
     "missing photo (csv)": _missing_in_csv,
     "unreadable image": _garbage,

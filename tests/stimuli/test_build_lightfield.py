@@ -105,7 +105,7 @@ def test_auto_plane_is_the_nearest_detected_plane(built):
     strongest = max(scan.peaks, key=lambda p: p.score)
     assert abs(strongest.disparity_px) < 0.2  # the wall scores higher: the old rule's trap
     plane = confocal_plane(lf)
-    assert plane.chosen_by == "nearest detected plane"
+    assert plane.chosen_by == "auto"
     assert abs(plane.disparity_px - 3.0) < 0.3
     _, auto = confocal_pair(lf)
     _, expect = confocal_pair(lf, disparity_px=plane.disparity_px)
