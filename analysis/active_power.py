@@ -27,7 +27,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterator, Sequence
-from dataclasses import dataclass
+from dataclasses import asdict, dataclass
 from typing import Any
 
 import numpy as np
@@ -192,15 +192,7 @@ class ActivePowerPoint:
 
     def to_dict(self) -> dict[str, Any]:
         """Return a JSON-ready dict."""
-        return {
-            "hazard_ratio": self.hazard_ratio,
-            "n_subjects": self.n_subjects,
-            "n_scenes": self.n_scenes,
-            "n_targets": self.n_targets,
-            "power": self.power,
-            "ci95": list(self.ci95),
-            "n_sims": self.n_sims,
-        }
+        return {**asdict(self), "ci95": list(self.ci95)}
 
     @classmethod
     def from_dict(cls, d: dict[str, Any]) -> ActivePowerPoint:

@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Iterator, Sequence
-from dataclasses import dataclass
+from dataclasses import asdict, dataclass
 from typing import Any, Literal
 
 import numpy as np
@@ -108,15 +108,7 @@ class PowerResult:
             "size": self.size,
             "alpha": self.alpha,
             "target_power": self.target_power,
-            "points": [
-                {
-                    "n_subjects": p.n_subjects,
-                    "power": p.power,
-                    "ci95": list(p.ci95),
-                    "n_sims": p.n_sims,
-                }
-                for p in self.points
-            ],
+            "points": [{**asdict(p), "ci95": list(p.ci95)} for p in self.points],
             "n_required": self.n_required,
         }
 
@@ -383,15 +375,7 @@ class GridPoint:
 
     def to_dict(self) -> dict[str, Any]:
         """Return a JSON-ready dict."""
-        return {
-            "size": self.size,
-            "n_subjects": self.n_subjects,
-            "n_objects": self.n_objects,
-            "n_levels": self.n_levels,
-            "power": self.power,
-            "ci95": list(self.ci95),
-            "n_sims": self.n_sims,
-        }
+        return {**asdict(self), "ci95": list(self.ci95)}
 
 
 def _run_chunk(
