@@ -33,7 +33,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from analysis.power import chunk_tasks, collect_grid, execute_chunks
+from analysis.power import chunk_tasks, collect_grid, execute_chunks, quiet_statsmodels
 from analysis.survival import cox_hazard_ratio
 
 __all__ = [
@@ -212,15 +212,8 @@ def _run_chunk(
     design: ActiveDesign, hazard_ratio: float, alpha: float, seeds: list[np.random.SeedSequence]
 ) -> list[bool]:
     """Simulate and test one chunk of studies, each with its own seed (a picklable task)."""
-    import warnings
-
-    # statsmodels adds "always" filters for its warnings when first imported: import it before
-    # the filters below, or they would be overridden in a fresh worker process.
-    import statsmodels.api  # noqa: F401
-
     out = []
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
+    with quiet_statsmodels():
         for ss in seeds:
             trials = simulate_active_study(design, hazard_ratio, rng=np.random.default_rng(ss))
             out.append(active_study_detects(trials, alpha=alpha))

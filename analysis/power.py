@@ -15,7 +15,9 @@ subject) and tested at level ``alpha``:
 
 from __future__ import annotations
 
+import contextlib
 import math
+import warnings
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import asdict, dataclass
 from typing import Any, Literal
@@ -45,6 +47,7 @@ __all__ = [
     "chunk_tasks",
     "collect_grid",
     "execute_chunks",
+    "quiet_statsmodels",
 ]
 
 Effect = Literal["odds_ratio", "threshold_ratio"]
@@ -378,6 +381,18 @@ class GridPoint:
         return {**asdict(self), "ci95": list(self.ci95)}
 
 
+@contextlib.contextmanager
+def quiet_statsmodels() -> Iterator[None]:
+    """Import statsmodels, then ignore warnings inside the block (a worker's chunk of studies)."""
+    # statsmodels adds "always" filters for its warnings when first imported: import it before
+    # the filters below, or they would be overridden in a fresh worker process.
+    import statsmodels.api  # noqa: F401
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        yield
+
+
 def _run_chunk(
     effect: str,
     size: float,
@@ -388,17 +403,10 @@ def _run_chunk(
     seeds: list[np.random.SeedSequence],
 ) -> list[bool]:
     """Simulate and test one chunk of studies; each study has its own seed (picklable task)."""
-    import warnings
-
-    # statsmodels adds "always" filters for its warnings when first imported: import it before
-    # the filters below, or they would be overridden in a fresh worker process.
-    import statsmodels.api  # noqa: F401
-
     detect = _detect_odds_ratio if effect == "odds_ratio" else _detect_threshold_ratio
     pixels = level_pixels(n_levels)
     out = []
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
+    with quiet_statsmodels():
         for ss in seeds:
             out.append(
                 bool(detect(size, n_subjects, alpha, np.random.default_rng(ss), n_objects, pixels))
