@@ -593,6 +593,8 @@ def add_active_results(
     ActiveSearchResult or None
         None when no file has active-search events (nothing is written).
     """
+    from analysis.report import results_json_text
+
     out = analyze_active(paths)
     if out is None:
         return None
@@ -609,7 +611,7 @@ def add_active_results(
     rj = folder / "results.json"
     data = json.loads(rj.read_text(encoding="utf-8")) if rj.is_file() else {}
     data["active_search"] = result.to_dict()
-    _write_atomic(rj, json.dumps(data, indent=2, allow_nan=False) + "\n")
+    _write_atomic(rj, results_json_text(data))
     md = folder / "report.md"
     head = md.read_text(encoding="utf-8") if md.is_file() else "# Report\n"
     _write_atomic(md, head.rstrip("\n") + "\n\n" + render_active_markdown(result, figure=figure))

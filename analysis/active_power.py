@@ -26,14 +26,14 @@ Cox (1972), J. R. Stat. Soc. B 34:187.
 from __future__ import annotations
 
 import math
-import os
 from collections.abc import Iterator, Sequence
-from dataclasses import dataclass
+from dataclasses import asdict, dataclass
 from typing import Any
 
 import numpy as np
 import pandas as pd
 
+from analysis.power import chunk_tasks, collect_grid, execute_chunks, quiet_statsmodels
 from analysis.survival import cox_hazard_ratio
 
 __all__ = [
@@ -192,15 +192,7 @@ class ActivePowerPoint:
 
     def to_dict(self) -> dict[str, Any]:
         """Return a JSON-ready dict."""
-        return {
-            "hazard_ratio": self.hazard_ratio,
-            "n_subjects": self.n_subjects,
-            "n_scenes": self.n_scenes,
-            "n_targets": self.n_targets,
-            "power": self.power,
-            "ci95": list(self.ci95),
-            "n_sims": self.n_sims,
-        }
+        return {**asdict(self), "ci95": list(self.ci95)}
 
     @classmethod
     def from_dict(cls, d: dict[str, Any]) -> ActivePowerPoint:
@@ -220,46 +212,12 @@ def _run_chunk(
     design: ActiveDesign, hazard_ratio: float, alpha: float, seeds: list[np.random.SeedSequence]
 ) -> list[bool]:
     """Simulate and test one chunk of studies, each with its own seed (a picklable task)."""
-    import warnings
-
-    # statsmodels adds "always" filters for its warnings when first imported: import it before
-    # the filters below, or they would be overridden in a fresh worker process.
-    import statsmodels.api  # noqa: F401
-
     out = []
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
+    with quiet_statsmodels():
         for ss in seeds:
             trials = simulate_active_study(design, hazard_ratio, rng=np.random.default_rng(ss))
             out.append(active_study_detects(trials, alpha=alpha))
     return out
-
-
-def _execute(tasks, processes: int | None, cluster: str | None) -> Iterator[tuple[int, list]]:
-    if cluster:
-        try:
-            from dask.distributed import Client, as_completed
-        except ImportError as exc:
-            raise ImportError(
-                "--cluster needs Dask: install the 'dask' extra (pip install .[dask])"
-            ) from exc
-        with Client(cluster) as client:
-            futs = {client.submit(_run_chunk, *args, pure=False): gi for gi, args in tasks}
-            for fut in as_completed(list(futs)):
-                yield futs[fut], fut.result()
-        return
-    n = processes or len(os.sched_getaffinity(0))
-    if n <= 1 or len(tasks) == 1:
-        for gi, args in tasks:
-            yield gi, _run_chunk(*args)
-        return
-    import multiprocessing as mp
-    from concurrent.futures import ProcessPoolExecutor, as_completed
-
-    with ProcessPoolExecutor(max_workers=n, mp_context=mp.get_context("spawn")) as ex:
-        futs = {ex.submit(_run_chunk, *args): gi for gi, args in tasks}
-        for fut in as_completed(futs):
-            yield futs[fut], fut.result()
 
 
 def active_power_grid(
@@ -338,36 +296,21 @@ def active_power_grid(
         for sc in n_scenes
         for s in n_subjects
     ]
-    roots = np.random.SeedSequence(seed).spawn(len(grid))
-    tasks = []
-    for gi, (hr, design) in enumerate(grid):
-        seeds = roots[gi].spawn(n_sims)
-        for c in range(0, n_sims, CHUNK_SIMS):
-            tasks.append((gi, (design, hr, alpha, seeds[c : c + CHUNK_SIMS])))
+    tasks = chunk_tasks([(design, hr, alpha) for hr, design in grid], n_sims, seed, CHUNK_SIMS)
     from statsmodels.stats.proportion import proportion_confint
 
-    hits = [0] * len(grid)
-    left = [n_sims] * len(grid)
-    done: dict[int, ActivePowerPoint] = {}
-    next_point = 0
-    finished = 0
-    for gi, res in _execute(tasks, processes, cluster):
-        hits[gi] += sum(res)
-        left[gi] -= len(res)
-        finished += len(res)
-        yield finished
-        if left[gi] == 0:
-            hr, d = grid[gi]
-            lo, hi = proportion_confint(hits[gi], n_sims, alpha=0.05, method="beta")
-            done[gi] = ActivePowerPoint(
-                hr,
-                d.n_subjects,
-                d.n_scenes,
-                d.n_targets,
-                hits[gi] / n_sims,
-                (float(lo), float(hi)),
-                n_sims,
-            )
-        while next_point in done:
-            yield done.pop(next_point)
-            next_point += 1
+    def point(gi: int, hits: int) -> ActivePowerPoint:
+        hr, d = grid[gi]
+        lo, hi = proportion_confint(hits, n_sims, alpha=0.05, method="beta")
+        return ActivePowerPoint(
+            hr,
+            d.n_subjects,
+            d.n_scenes,
+            d.n_targets,
+            hits / n_sims,
+            (float(lo), float(hi)),
+            n_sims,
+        )
+
+    results = execute_chunks(_run_chunk, tasks, processes, cluster)
+    yield from collect_grid(results, len(grid), n_sims, point)

@@ -64,6 +64,21 @@ def _finite(lo: float | None = None, hi: float | None = None, *, open_lo=False, 
     return callback
 
 
+#: Options that mean the same in every sub-command, declared once.
+_Out = Annotated[Path, typer.Option("--out", "-o", help="Report folder (replaced atomically).")]
+_Guess = Annotated[
+    float,
+    typer.Option(
+        "--guess", callback=_finite(0.0, 1.0, open_hi=True), help="Guess rate (0.5 for 2AFC)."
+    ),
+]
+
+
+def _seed_option(what: str):
+    """Return the ``--seed`` option of a command whose random draws are ``what``."""
+    return typer.Option("--seed", min=0, max=_MAX_SEED, help=f"Seed of the {what}.")
+
+
 def _available_memory_bytes() -> int:
     try:
         with open("/proc/meminfo", encoding="ascii") as f:
@@ -134,7 +149,7 @@ def run(
             show_default=False,
         ),
     ],
-    out: Annotated[Path, typer.Option("--out", "-o", help="Report folder (replaced atomically).")],
+    out: _Out,
     pc: Annotated[
         float,
         typer.Option(
@@ -146,15 +161,8 @@ def run(
     by: Annotated[
         By, typer.Option("--by", help="Also fit each subject ('none': pooled only).")
     ] = By.subject,
-    guess: Annotated[
-        float,
-        typer.Option(
-            "--guess", callback=_finite(0.0, 1.0, open_hi=True), help="Guess rate (0.5 for 2AFC)."
-        ),
-    ] = 0.0,
-    seed: Annotated[
-        int | None, typer.Option("--seed", min=0, max=_MAX_SEED, help="Seed of the MCMC runs.")
-    ] = None,
+    guess: _Guess = 0.0,
+    seed: Annotated[int | None, _seed_option("MCMC runs")] = None,
     mixed: Annotated[
         bool, typer.Option("--mixed", help="Also fit the mixed logistic model.")
     ] = False,
@@ -298,7 +306,7 @@ def fit(
         Path, typer.Argument(help="CSV table, per trial or aggregated.", show_default=False)
     ],
     x: Annotated[str, typer.Option("--x", help="Stimulus-level column (name or 1-based number).")],
-    out: Annotated[Path, typer.Option("--out", "-o", help="Report folder (replaced atomically).")],
+    out: _Out,
     y: Annotated[
         str | None, typer.Option("--y", help="Per-trial outcome column (1 correct, 0 not).")
     ] = None,
@@ -320,12 +328,7 @@ def fit(
     axis: Annotated[
         str, typer.Option("--axis", help="auto (the sigmoid's own), log or linear.")
     ] = "auto",
-    guess: Annotated[
-        float,
-        typer.Option(
-            "--guess", callback=_finite(0.0, 1.0, open_hi=True), help="Guess rate (0.5 for 2AFC)."
-        ),
-    ] = 0.0,
+    guess: _Guess = 0.0,
     pc: Annotated[
         str, typer.Option("--pc", help="Comma-separated proportions correct of the thresholds.")
     ] = "0.5",
@@ -334,9 +337,7 @@ def fit(
         typer.Option("--overdispersion/--no-overdispersion", help="Beta-binomial posteriors."),
     ] = True,
     plots: Annotated[bool, typer.Option("--plots/--no-plots", help="One plot per group.")] = True,
-    seed: Annotated[
-        int | None, typer.Option("--seed", min=0, max=_MAX_SEED, help="Seed of the sampler.")
-    ] = None,
+    seed: Annotated[int | None, _seed_option("sampler")] = None,
 ) -> None:
     """Fit psychometric functions to any table: thresholds, intervals, goodness of fit, plots."""
     from rich.console import Console
@@ -414,6 +415,40 @@ def _numbers(text: str, option: str, kind: type = float) -> list:
     return vals
 
 
+def _check_power_and_alpha(target: float, alpha: float) -> None:
+    """Refuse a ``--power`` or ``--alpha`` outside (0, 1)."""
+    from analysis.errors import OptionError
+
+    if not (0.0 < target < 1.0):
+        raise OptionError(f"--power must be in (0, 1), got {target!r}")
+    if not (0.0 < alpha < 1.0):
+        raise OptionError(f"--alpha must be in (0, 1), got {alpha!r}")
+
+
+def _run_with_progress(gen, label: str, total: int) -> list:
+    """Drain a power grid (progress counts and points) under a progress bar; return the points."""
+    from rich.console import Console
+    from rich.progress import Progress
+
+    points = []
+    with Progress(console=Console(stderr=True), transient=True) as bar:
+        task = bar.add_task(label, total=total)
+        for item in gen:
+            if isinstance(item, int):
+                bar.update(task, completed=item)
+            else:
+                points.append(item)
+    return points
+
+
+def _needed(row: list, target: float) -> str:
+    """Say the fewest simulated subjects in ``row`` (one design) that reach power ``target``."""
+    need = next((p.n_subjects for p in row if p.power >= target), None)
+    if need is None:
+        return f"no simulated number of subjects reached power {target:g}"
+    return f"subjects needed for power {target:g}: {need}"
+
+
 @analyze_app.command("power")
 def power(
     odds_ratio: Annotated[
@@ -438,9 +473,7 @@ def power(
     target: Annotated[float, typer.Option("--power", help="Power wanted, in (0, 1).")] = 0.8,
     sims: Annotated[int, typer.Option("--sims", help="Simulated studies per grid point.")] = 200,
     alpha: Annotated[float, typer.Option("--alpha", help="Test level.")] = 0.05,
-    seed: Annotated[
-        int | None, typer.Option("--seed", min=0, max=_MAX_SEED, help="Seed of the simulations.")
-    ] = None,
+    seed: Annotated[int | None, _seed_option("simulations")] = None,
     processes: Annotated[
         int | None,
         typer.Option(
@@ -512,9 +545,6 @@ def power(
         raise _OptionError(f"{given[0]} is for active-search power; add --hazard-ratio")
     import math
 
-    from rich.console import Console
-    from rich.progress import Progress
-
     from analysis.errors import OptionError
     from analysis.power import MAX_SIMS, GridPoint, power_grid
 
@@ -525,10 +555,7 @@ def power(
     sizes = _numbers(odds_ratio if odds_ratio is not None else threshold_ratio, option)
     if not all(math.isfinite(v) and v > 0 for v in sizes):
         raise OptionError(f"{option} must be in (0, inf), a finite number; got {sizes!r}")
-    if not (0.0 < target < 1.0):
-        raise OptionError(f"--power must be in (0, 1), got {target!r}")
-    if not (0.0 < alpha < 1.0):
-        raise OptionError(f"--alpha must be in (0, 1), got {alpha!r}")
+    _check_power_and_alpha(target, alpha)
     if not 1 <= sims <= MAX_SIMS:
         raise OptionError(f"--sims must be an integer in [1, {MAX_SIMS}], got {sims!r}")
     ns = sorted(set(_numbers(subjects, "--subjects", int)))
@@ -546,7 +573,6 @@ def power(
             "available; simulate fewer subjects"
         )
     total = len(sizes) * len(ns) * len(nos) * len(nls) * sims
-    points: list[GridPoint] = []
     gen = power_grid(
         effect,
         sizes,
@@ -559,13 +585,7 @@ def power(
         processes=processes,
         cluster=cluster,
     )
-    with Progress(console=Console(stderr=True), transient=True) as bar:
-        task = bar.add_task(f"simulating {effect}", total=total)
-        for item in gen:
-            if isinstance(item, GridPoint):
-                points.append(item)
-            else:
-                bar.update(task, completed=item)
+    points: list[GridPoint] = _run_with_progress(gen, f"simulating {effect}", total)
     typer.echo(f"{effect}, alpha = {alpha:g}, {sims} SIMULATED studies per row, seed {seed}")
     typer.echo(f"{'size':>6} {'levels':>6} {'objects':>7} {'subjects':>8}  power  (95% CI)")
     for p in points:
@@ -577,19 +597,11 @@ def power(
         for nl in nls:
             for no in nos:
                 row = [p for p in points if (p.size, p.n_levels, p.n_objects) == (z, nl, no)]
-                need = next((p.n_subjects for p in row if p.power >= target), None)
-                what = (
-                    f"subjects needed for power {target:g}: {need}"
-                    if need is not None
-                    else f"no simulated number of subjects reached power {target:g}"
-                )
-                typer.echo(f"size {z:g}, {nl} levels, {no} objects: {what}")
+                typer.echo(f"size {z:g}, {nl} levels, {no} objects: {_needed(row, target)}")
 
 
 def _active_power(hazard_ratio, subjects, opts, sims, alpha, target, seed, processes, cluster):
     """Run and print ``analyze power --hazard-ratio``: power of active-search studies."""
-    from rich.console import Console
-    from rich.progress import Progress
 
     from analysis.active_power import ActiveDesign, ActivePowerPoint, active_power_grid
     from analysis.errors import OptionError
@@ -599,10 +611,7 @@ def _active_power(hazard_ratio, subjects, opts, sims, alpha, target, seed, proce
     hrs = _numbers(hazard_ratio, "--hazard-ratio")
     if not all(math.isfinite(v) and v > 0 for v in hrs):
         raise OptionError(f"--hazard-ratio must be in (0, inf), a finite number; got {hrs!r}")
-    if not (0.0 < target < 1.0):
-        raise OptionError(f"--power must be in (0, 1), got {target!r}")
-    if not (0.0 < alpha < 1.0):
-        raise OptionError(f"--alpha must be in (0, 1), got {alpha!r}")
+    _check_power_and_alpha(target, alpha)
     if sims < 1:
         raise OptionError(f"--sims must be >= 1, got {sims!r}")
     ns = sorted(set(_numbers(subjects, "--subjects", int)))
@@ -629,7 +638,6 @@ def _active_power(hazard_ratio, subjects, opts, sims, alpha, target, seed, proce
     except ValueError as exc:
         field = str(exc).split()[0]
         raise OptionError(f"{names.get(field, field)}: {exc}") from None
-    points: list[ActivePowerPoint] = []
     gen = active_power_grid(
         hrs,
         ns,
@@ -641,13 +649,8 @@ def _active_power(hazard_ratio, subjects, opts, sims, alpha, target, seed, proce
         cluster=cluster,
         **fixed,
     )
-    with Progress(console=Console(stderr=True), transient=True) as bar:
-        task = bar.add_task("simulating active search", total=len(hrs) * len(ns) * len(nsc) * sims)
-        for item in gen:
-            if isinstance(item, ActivePowerPoint):
-                points.append(item)
-            else:
-                bar.update(task, completed=item)
+    total = len(hrs) * len(ns) * len(nsc) * sims
+    points: list[ActivePowerPoint] = _run_with_progress(gen, "simulating active search", total)
     typer.echo(
         f"active search, hazard ratio (Cox, stratified by subject, Wald), alpha = {alpha:g}, "
         f"{sims} SIMULATED studies per row, seed {seed}"
@@ -666,13 +669,7 @@ def _active_power(hazard_ratio, subjects, opts, sims, alpha, target, seed, proce
     for hr in hrs:
         for sc in nsc:
             row = [p for p in points if (p.hazard_ratio, p.n_scenes) == (hr, sc)]
-            need = next((p.n_subjects for p in row if p.power >= target), None)
-            what = (
-                f"subjects needed for power {target:g}: {need}"
-                if need is not None
-                else f"no simulated number of subjects reached power {target:g}"
-            )
-            typer.echo(f"hazard ratio {hr:g}, {sc} scenes: {what}")
+            typer.echo(f"hazard ratio {hr:g}, {sc} scenes: {_needed(row, target)}")
 
 
 def register(app: typer.Typer) -> None:

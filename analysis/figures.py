@@ -176,6 +176,12 @@ def plot_recognition(
     return ax
 
 
+def _threshold_bar(ax: Axes, x: float, t: Any, **style: Any) -> None:
+    """Draw threshold ``t``'s median at ``x`` with its 95 % interval as an error bar."""
+    lo, hi = t.ci95
+    ax.errorbar(x, t.median, yerr=[[t.median - lo], [hi - t.median]], **style)
+
+
 def plot_subject_thresholds(
     subject_fits: dict[str, dict[str, WeibullFit]],
     pooled: dict[str, WeibullFit] | None = None,
@@ -233,15 +239,7 @@ def plot_subject_thresholds(
                 drawn.setdefault(key, Line2D([], [], marker=m, ls="", mfc="none", color="0.3"))
                 drawn.setdefault(f"subject {s}", Line2D([], [], marker="o", ls="", color=color))
             elif t.measured:
-                lo, hi = t.ci95
-                ax.errorbar(
-                    j + off,
-                    t.median,
-                    yerr=[[t.median - lo], [hi - t.median]],
-                    fmt="o",
-                    ms=4,
-                    color=color,
-                )
+                _threshold_bar(ax, j + off, t, fmt="o", ms=4, color=color)
                 drawn.setdefault(f"subject {s}", Line2D([], [], marker="o", ls="", color=color))
             else:
                 blo, bhi = t.bracket
@@ -262,17 +260,7 @@ def plot_subject_thresholds(
                 if pop:
                     ax.plot([x, x], pop, color="0.6", lw=6, solid_capstyle="butt", zorder=1)
                     drawn["pooled: population 95 % interval"] = Line2D([], [], color="0.6", lw=6)
-                lo, hi = t.ci95
-                ax.errorbar(
-                    x,
-                    t.median,
-                    yerr=[[t.median - lo], [hi - t.median]],
-                    fmt="D",
-                    ms=6,
-                    color="k",
-                    capsize=3,
-                    zorder=3,
-                )
+                _threshold_bar(ax, x, t, fmt="D", ms=6, color="k", capsize=3, zorder=3)
                 drawn["pooled: median, 95 % CrI"] = Line2D([], [], marker="D", ls="", color="k")
             elif t.status in ("censored_below", "censored_above"):
                 y, m = (t.lowest, "v") if t.status == "censored_below" else (t.highest, "^")
@@ -615,18 +603,7 @@ def plot_time_to_recognition(survival: Any, *, simulated: bool = False) -> Figur
     axs.set_title("per subject", fontsize="small")
     axs.legend(fontsize="x-small", frameon=False, loc="lower right")
     if simulated:
-        fig.text(
-            0.5,
-            0.5,
-            "SIMULATED",
-            ha="center",
-            va="center",
-            rotation=20,
-            fontsize=44,
-            color="tab:red",
-            alpha=0.22,
-            zorder=10,
-        )
+        mark_simulated(fig)
         fig.suptitle("SIMULATED searcher, not a person", color="tab:red", fontsize="small")
     return fig
 

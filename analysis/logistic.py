@@ -18,6 +18,7 @@ from __future__ import annotations
 import logging
 import math
 import warnings
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -254,6 +255,22 @@ def _check_model_data(d: pd.DataFrame) -> None:
 SEPARATION_LOG_OR: float = 15.0
 
 
+def _halve_step(
+    obj: Callable[[np.ndarray], float], b: np.ndarray, step: np.ndarray, cur: float, t_min: float
+) -> tuple[float, float]:
+    """Halve a Newton step from 1 until ``obj`` does not fall below ``cur`` or it is ``t_min``.
+
+    Returns the step fraction ``t`` and ``obj`` at the last point tried.
+    """
+    t = 1.0
+    while t > t_min:
+        new = obj(b + t * step)
+        if new >= cur - 1e-12:
+            break
+        t /= 2
+    return t, new
+
+
 def firth_logit(
     y: np.ndarray, X: np.ndarray, *, max_iter: int = 200, tol: float = 1e-9
 ) -> tuple[np.ndarray, np.ndarray, float]:
@@ -313,12 +330,7 @@ def firth_logit(
         xw = X * np.sqrt(w)[:, None]
         h = np.einsum("ij,jk,ik->i", xw, inv, xw)
         step = inv @ (X.T @ (y - p + h * (0.5 - p)))
-        t = 1.0
-        while t > 1e-6:
-            new = pen_ll(b + t * step)
-            if new >= cur - 1e-12:
-                break
-            t /= 2
+        t, _ = _halve_step(pen_ll, b, step, cur, 1e-6)
         b = b + t * step
         cur = pen_ll(b)
         if np.max(np.abs(t * step)) < tol:
@@ -369,12 +381,7 @@ def _constrained_ll(
         Xf = X[:, free]
         step = np.zeros_like(b)
         step[free] = np.linalg.solve(Xf.T @ (w[:, None] * Xf), Xf.T @ r)
-        t = 1.0
-        while t > 1e-8:
-            new = obj(b + t * step)
-            if new >= cur - 1e-12:
-                break
-            t /= 2
+        t, new = _halve_step(obj, b, step, cur, 1e-8)
         b = b + t * step
         gain, cur = new - cur, new
         if np.max(np.abs(t * step)) < 1e-10 or abs(gain) < 1e-13:

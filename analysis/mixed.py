@@ -207,7 +207,7 @@ def fit_mixed(trials: pd.DataFrame) -> MixedFit:
     Parameters
     ----------
     trials : pandas.DataFrame
-        Tidy trials.
+        Tidy trials (:mod:`analysis.data`), as for :func:`analysis.logistic.fit_logistic`.
 
     Returns
     -------

@@ -280,7 +280,7 @@ def first_recognized(trials: pd.DataFrame) -> dict[str, dict[str, dict[str, floa
     Parameters
     ----------
     trials : pandas.DataFrame
-        Tidy trials.
+        Tidy trials (``subject, object, condition, pixels, recognized`` used).
 
     Returns
     -------

@@ -15,9 +15,11 @@ subject) and tested at level ``alpha``:
 
 from __future__ import annotations
 
+import contextlib
 import math
-from collections.abc import Iterator, Sequence
-from dataclasses import dataclass
+import warnings
+from collections.abc import Callable, Iterator, Sequence
+from dataclasses import asdict, dataclass
 from typing import Any, Literal
 
 import numpy as np
@@ -42,6 +44,10 @@ __all__ = [
     "power_analysis",
     "power_grid",
     "level_pixels",
+    "chunk_tasks",
+    "collect_grid",
+    "execute_chunks",
+    "quiet_statsmodels",
 ]
 
 Effect = Literal["odds_ratio", "threshold_ratio"]
@@ -105,15 +111,7 @@ class PowerResult:
             "size": self.size,
             "alpha": self.alpha,
             "target_power": self.target_power,
-            "points": [
-                {
-                    "n_subjects": p.n_subjects,
-                    "power": p.power,
-                    "ci95": list(p.ci95),
-                    "n_sims": p.n_sims,
-                }
-                for p in self.points
-            ],
+            "points": [{**asdict(p), "ci95": list(p.ci95)} for p in self.points],
             "n_required": self.n_required,
         }
 
@@ -380,15 +378,19 @@ class GridPoint:
 
     def to_dict(self) -> dict[str, Any]:
         """Return a JSON-ready dict."""
-        return {
-            "size": self.size,
-            "n_subjects": self.n_subjects,
-            "n_objects": self.n_objects,
-            "n_levels": self.n_levels,
-            "power": self.power,
-            "ci95": list(self.ci95),
-            "n_sims": self.n_sims,
-        }
+        return {**asdict(self), "ci95": list(self.ci95)}
+
+
+@contextlib.contextmanager
+def quiet_statsmodels() -> Iterator[None]:
+    """Import statsmodels, then ignore warnings inside the block (a worker's chunk of studies)."""
+    # statsmodels adds "always" filters for its warnings when first imported: import it before
+    # the filters below, or they would be overridden in a fresh worker process.
+    import statsmodels.api  # noqa: F401
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        yield
 
 
 def _run_chunk(
@@ -401,17 +403,10 @@ def _run_chunk(
     seeds: list[np.random.SeedSequence],
 ) -> list[bool]:
     """Simulate and test one chunk of studies; each study has its own seed (picklable task)."""
-    import warnings
-
-    # statsmodels adds "always" filters for its warnings when first imported: import it before
-    # the filters below, or they would be overridden in a fresh worker process.
-    import statsmodels.api  # noqa: F401
-
     detect = _detect_odds_ratio if effect == "odds_ratio" else _detect_threshold_ratio
     pixels = level_pixels(n_levels)
     out = []
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
+    with quiet_statsmodels():
         for ss in seeds:
             out.append(
                 bool(detect(size, n_subjects, alpha, np.random.default_rng(ss), n_objects, pixels))
@@ -505,33 +500,122 @@ def power_grid(
         for o in n_objects
         for s in n_subjects
     ]
-    roots = np.random.SeedSequence(seed).spawn(len(grid))
+    tasks = chunk_tasks([(effect, *g, alpha) for g in grid], n_sims, seed, CHUNK_SIMS)
+
+    def point(gi: int, hits: int) -> GridPoint:
+        z, s, o, lv = grid[gi]
+        return GridPoint(z, s, o, lv, hits / n_sims, _clopper_pearson(hits, n_sims), n_sims)
+
+    results = execute_chunks(_run_chunk, tasks, processes, cluster)
+    yield from collect_grid(results, len(grid), n_sims, point)
+
+
+def chunk_tasks(
+    point_args: Sequence[tuple], n_sims: int, seed: int | None, chunk_sims: int
+) -> list[tuple[int, tuple]]:
+    """Split each grid point's ``n_sims`` studies into tasks of at most ``chunk_sims`` seeds.
+
+    Every study's seed is spawned from ``seed`` by its position in the grid
+    (``SeedSequence(seed).spawn`` per grid point, then per study), so a study's result does not
+    depend on which task, worker or order ran it.
+
+    Parameters
+    ----------
+    point_args : sequence of tuple
+        Per grid point, the arguments of the chunk function before its list of seeds.
+    n_sims : int
+        Studies per grid point.
+    seed : int or None
+        Root seed.
+    chunk_sims : int
+        Most studies per task.
+
+    Returns
+    -------
+    list of (int, tuple)
+        ``(grid index, chunk function arguments)``, the seeds last.
+    """
+    roots = np.random.SeedSequence(seed).spawn(len(point_args))
     tasks = []
-    for gi, (z, s, o, lv) in enumerate(grid):
+    for gi, args in enumerate(point_args):
         seeds = roots[gi].spawn(n_sims)
-        for c in range(0, n_sims, CHUNK_SIMS):
-            tasks.append((gi, (effect, z, s, o, lv, alpha, seeds[c : c + CHUNK_SIMS])))
-    hits = [0] * len(grid)
-    left = [n_sims] * len(grid)
-    done_points: dict[int, GridPoint] = {}
+        for c in range(0, n_sims, chunk_sims):
+            tasks.append((gi, (*args, seeds[c : c + chunk_sims])))
+    return tasks
+
+
+def collect_grid(
+    results: Iterator[tuple[int, list[bool]]],
+    n_points: int,
+    n_sims: int,
+    make_point: Callable[[int, int], Any],
+) -> Iterator[Any]:
+    """Count finished studies per grid point; yield progress and the points in grid order.
+
+    Parameters
+    ----------
+    results : iterator of (int, list of bool)
+        Per finished task, its grid index and whether each of its studies detected the effect
+        (from :func:`execute_chunks`, in any order).
+    n_points, n_sims : int
+        Grid points, and studies per grid point.
+    make_point : callable
+        ``make_point(grid_index, hits)`` builds a finished grid point's result.
+
+    Yields
+    ------
+    int or point
+        The number of studies finished so far, and each grid point when all its studies are in,
+        in grid order.
+    """
+    hits = [0] * n_points
+    left = [n_sims] * n_points
+    done_points: dict[int, Any] = {}
     next_point = 0
     finished = 0
-    for gi, res in _execute(tasks, processes, cluster):
+    for gi, res in results:
         hits[gi] += sum(res)
         left[gi] -= len(res)
         finished += len(res)
         yield finished
         if left[gi] == 0:
-            z, s, o, lv = grid[gi]
-            done_points[gi] = GridPoint(
-                z, s, o, lv, hits[gi] / n_sims, _clopper_pearson(hits[gi], n_sims), n_sims
-            )
+            done_points[gi] = make_point(gi, hits[gi])
         while next_point in done_points:
             yield done_points.pop(next_point)
             next_point += 1
 
 
-def _execute(tasks, processes: int | None, cluster: str | None) -> Iterator[tuple[int, list]]:
+def execute_chunks(
+    run_chunk: Callable[..., list[bool]],
+    tasks: Sequence[tuple[int, tuple]],
+    processes: int | None,
+    cluster: str | None,
+) -> Iterator[tuple[int, list[bool]]]:
+    """Run ``run_chunk(*args)`` for every ``(grid index, args)`` task; yield results as they end.
+
+    Parameters
+    ----------
+    run_chunk : callable
+        A module-level (picklable) function simulating and testing one chunk of studies.
+    tasks : sequence of (int, tuple)
+        From :func:`chunk_tasks`.
+    processes : int or None
+        Local worker processes (None: one per CPU; 1: run here).
+    cluster : str or None
+        Address of a running Dask scheduler; needs the ``dask`` extra. Overrides ``processes``.
+
+    Yields
+    ------
+    (int, list of bool)
+        A task's grid index and its chunk's result, in the order the tasks finish.
+
+    Raises
+    ------
+    ImportError
+        ``cluster`` given without Dask installed.
+    OptionError
+        ``cluster`` not reachable within :data:`CLUSTER_CONNECT_TIMEOUT_S`.
+    """
     if cluster:
         try:
             from dask.distributed import Client, as_completed
@@ -549,7 +633,7 @@ def _execute(tasks, processes: int | None, cluster: str | None) -> Iterator[tupl
                 f"{CLUSTER_CONNECT_TIMEOUT_S:g} s ({exc}); start it or check the address"
             ) from None
         with client:
-            futs = {client.submit(_run_chunk, *args, pure=False): gi for gi, args in tasks}
+            futs = {client.submit(run_chunk, *args, pure=False): gi for gi, args in tasks}
             for fut in as_completed(list(futs)):
                 yield futs[fut], fut.result()
         return
@@ -558,7 +642,7 @@ def _execute(tasks, processes: int | None, cluster: str | None) -> Iterator[tupl
     n = processes or len(os.sched_getaffinity(0))
     if n <= 1 or len(tasks) == 1:
         for gi, args in tasks:
-            yield gi, _run_chunk(*args)
+            yield gi, run_chunk(*args)
         return
     import multiprocessing as mp
     from concurrent.futures import ProcessPoolExecutor, as_completed
@@ -575,7 +659,7 @@ def _execute(tasks, processes: int | None, cluster: str | None) -> Iterator[tupl
         initargs=(os.getpid(),),
     )
     try:
-        futs = {ex.submit(_run_chunk, *args): gi for gi, args in tasks}
+        futs = {ex.submit(run_chunk, *args): gi for gi, args in tasks}
         for fut in as_completed(futs):
             yield futs[fut], fut.result()
     finally:

@@ -25,7 +25,6 @@ option      column meaning
 
 from __future__ import annotations
 
-import json
 import math
 import re
 import warnings
@@ -603,14 +602,12 @@ def write_fit_report(result: TableFit, out_dir: str | Path, *, plots: bool = Tru
     -------
     Path
     """
-    from analysis.report import atomic_folder
+    from analysis.report import atomic_folder, results_json_text
 
     r = result.results_json()
     names = [_plot_name(i, g.label) for i, g in enumerate(result.groups)] if plots else []
     with atomic_folder(out_dir) as tmp:
-        with open(tmp / "results.json", "w", encoding="utf-8") as fh:
-            json.dump(_strict(r), fh, indent=2, allow_nan=False)
-            fh.write("\n")
+        (tmp / "results.json").write_text(results_json_text(_strict(r)), encoding="utf-8")
         (tmp / "report.md").write_text(render_fit_markdown(r, names), encoding="utf-8")
         if plots:
             from analysis.figures import plot_recognition

@@ -33,6 +33,7 @@ __all__ = [
     "write_report",
     "threshold_text",
     "atomic_folder",
+    "results_json_text",
     "FIGURE_NAMES",
     "p_text",
     "deviance_text",
@@ -399,6 +400,11 @@ def render_markdown(
     return "\n".join(lines) + "\n"
 
 
+def results_json_text(data: dict[str, Any]) -> str:
+    """Return ``data`` as a report's ``results.json`` text: strict JSON (no NaN), indented."""
+    return json.dumps(data, indent=2, allow_nan=False) + "\n"
+
+
 def _folder_mode() -> int:
     """Return the mode ``mkdir`` would give a new folder under the user's umask."""
     mask = os.umask(0o022)
@@ -424,9 +430,7 @@ def write_report(result: AnalysisResult, out_dir: str | Path, *, figures: bool =
     """
     with atomic_folder(out_dir) as tmp:
         r = result.results_json()
-        with open(tmp / "results.json", "w", encoding="utf-8") as fh:
-            json.dump(r, fh, indent=2, allow_nan=False)
-            fh.write("\n")
+        (tmp / "results.json").write_text(results_json_text(r), encoding="utf-8")
         (tmp / "report.md").write_text(
             render_markdown(result, figures=figures, results=r), encoding="utf-8"
         )

@@ -32,7 +32,7 @@ from __future__ import annotations
 import math
 import warnings
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import asdict, dataclass, field
 from typing import Any
 
 import numpy as np
@@ -137,23 +137,8 @@ class KaplanMeierSummary:
         return np.concatenate([[1.0], np.asarray(self.survival, float)])[idx]
 
     def to_dict(self) -> dict[str, Any]:
-        """Return a JSON-ready dict."""
-        return {
-            "label": self.label,
-            "n_trials": self.n_trials,
-            "n_recognized": self.n_recognized,
-            "n_censored": self.n_censored,
-            "median_s": self.median_s,
-            "median_ci95_s": list(self.median_ci95_s),
-            "recognition_rate": self.recognition_rate,
-            "recognition_rate_ci95": list(self.recognition_rate_ci95),
-            "time_s": list(self.time_s),
-            "survival": list(self.survival),
-            "survival_ci95_low": list(self.survival_ci95_low),
-            "survival_ci95_high": list(self.survival_ci95_high),
-            "censored_s": list(self.censored_s),
-            "longest_s": self.longest_s,
-        }
+        """Return a JSON-ready dict: every field, tuples as lists."""
+        return {k: list(v) if isinstance(v, tuple) else v for k, v in asdict(self).items()}
 
     @classmethod
     def from_dict(cls, d: dict[str, Any]) -> KaplanMeierSummary:

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import asdict, dataclass
 from typing import Any
 
 import numpy as np
@@ -45,12 +45,7 @@ class MLEstimate:
 
     def to_dict(self) -> dict[str, float]:
         """Return a JSON-ready dict."""
-        return {
-            "alpha": self.alpha,
-            "beta": self.beta,
-            "lapse": self.lapse,
-            "log_likelihood": self.log_likelihood,
-        }
+        return asdict(self)
 
     @classmethod
     def from_dict(cls, d: dict[str, Any]) -> MLEstimate:

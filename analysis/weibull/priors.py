@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import math
 import warnings
-from dataclasses import dataclass
+from dataclasses import asdict, dataclass
 from typing import Any
 
 import numpy as np
@@ -123,16 +123,8 @@ class PsychometricPrior:
         return np.where(inside, lp, -np.inf)
 
     def to_dict(self) -> dict[str, Any]:
-        """Return a JSON-ready dict."""
-        return {
-            "loc_range": list(self.loc_range),
-            "log_beta_range": list(self.log_beta_range),
-            "lapse_a": self.lapse_a,
-            "lapse_b": self.lapse_b,
-            "lapse_max": self.lapse_max,
-            "eta_a": self.eta_a,
-            "eta_b": self.eta_b,
-        }
+        """Return a JSON-ready dict: every field, ranges as lists."""
+        return {k: list(v) if isinstance(v, tuple) else v for k, v in asdict(self).items()}
 
     @classmethod
     def from_dict(cls, d: dict[str, Any]) -> PsychometricPrior:

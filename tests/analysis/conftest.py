@@ -39,3 +39,30 @@ def small_result(small_csv):
         warnings.simplefilter("ignore")
         steps = list(analyze(read_trials([small_csv]), AnalysisOptions(seed=3)))
     return steps[-1].result
+
+
+def active_session(log, subject="S01"):
+    """Create an ``active_search`` session in trial log ``log``; return its id."""
+    return log.create_session(
+        subject=subject,
+        protocol_name="active_search",
+        protocol_sha256="p",
+        protocol_json="{}",
+        display_json="{}",
+        stimset_path="synthetic:three_plane",
+        stimset_manifest_sha256="s",
+        seed="1",
+        primary_rater="operator",
+    )
+
+
+def lab_and_pilot_csv(trials, folder, human_columns, sim_columns):
+    """Write the first subject's trials to ``lab.csv`` and the rest to ``pilot.csv`` in ``folder``.
+
+    Each file gets its columns set as given (``{column: value}``); returns both paths.
+    """
+    first = trials["subject"] == trials["subject"].iloc[0]
+    a, b = folder / "lab.csv", folder / "pilot.csv"
+    trials[first].assign(**human_columns).to_csv(a, index=False)
+    trials[~first].assign(**sim_columns).to_csv(b, index=False)
+    return a, b

@@ -21,19 +21,7 @@ from analysis.active import (
 )
 from analysis.errors import DataError
 
-
-def _session(log, subject):
-    return log.create_session(
-        subject=subject,
-        protocol_name="active_search",
-        protocol_sha256="p",
-        protocol_json="{}",
-        display_json="{}",
-        stimset_path="synthetic:three_plane",
-        stimset_manifest_sha256="s",
-        seed="1",
-        primary_rater="operator",
-    )
+from .conftest import active_session
 
 
 def _state(depth, zoom=None, plane=None):
@@ -48,6 +36,12 @@ def _state(depth, zoom=None, plane=None):
     }
 
 
+def _score(score, recognized, t, *, rater="operator", primary=True):
+    """A ``score`` event row for ``add``: the rater's verdict at ``t`` seconds."""
+    payload = {"score": score, "recognized": recognized, "rater": rater, "primary": primary}
+    return ("score", payload, t)
+
+
 @pytest.fixture()
 def db(tmp_path):
     """A hand-made log: 1 session, 3 trials; trial 1 crashed once and was resumed."""
@@ -56,7 +50,7 @@ def db(tmp_path):
 
     path = tmp_path / "hand.sqlite"
     log = TrialLog(path)
-    ev = ActiveEventLog(log, _session(log, "S07"))
+    ev = ActiveEventLog(log, active_session(log, "S07"))
     ev.append(
         "plan",
         {"trials": [], "objects_px": {"tree": 3.0, "pedestrian": 12.0}, "depth_step_px": 0.5},
@@ -90,11 +84,7 @@ def db(tmp_path):
             ("state", _state(3.2), 6.5),
             ("key", {"key": "Enter", "action": "answer"}, 7.5),
             ("answer", {"response": "tree", "rt_s": 6.5, "state": _state(3.2)}, 7.5),
-            (
-                "score",
-                {"score": "named", "recognized": True, "rater": "operator", "primary": True},
-                7.5,
-            ),
+            _score("named", True, 7.5),
         ],
     )
     # trial 1, decluttered, pedestrian: attempt 0 cut by a crash, attempt 1 passes after 4 s
@@ -118,11 +108,7 @@ def db(tmp_path):
             ("state", _state(10.0), 20.0),
             ("key", {"key": "Escape", "action": "pass"}, 24.0),
             ("answer", {"response": "", "rt_s": 4.0, "state": _state(10.0)}, 24.0),
-            (
-                "score",
-                {"score": "pass", "recognized": False, "rater": "operator", "primary": True},
-                24.0,
-            ),
+            _score("pass", False, 24.0),
         ],
     )
     # trial 2, cluttered, tree: named after 3 s, then re-scored by operator as 'use' and by
@@ -136,21 +122,9 @@ def db(tmp_path):
             ("state", _state(10.0), 30.0),
             ("key", {"key": "Enter", "action": "answer"}, 33.0),
             ("answer", {"response": "a tree", "rt_s": 3.0, "state": _state(10.0)}, 33.0),
-            (
-                "score",
-                {"score": "named", "recognized": True, "rater": "operator", "primary": True},
-                33.0,
-            ),
-            (
-                "score",
-                {"score": "use", "recognized": True, "rater": "operator", "primary": True},
-                40.0,
-            ),
-            (
-                "score",
-                {"score": "wrong", "recognized": False, "rater": "B", "primary": False},
-                41.0,
-            ),
+            _score("named", True, 33.0),
+            _score("use", True, 40.0),
+            _score("wrong", False, 41.0, rater="B", primary=False),
         ],
     )
     log.close()
@@ -252,14 +226,14 @@ def test_inconsistent_logs_are_refused(tmp_path) -> None:
 
     path = tmp_path / "bad.sqlite"
     log = TrialLog(path)
-    ev = ActiveEventLog(log, _session(log, "S01"))
+    ev = ActiveEventLog(log, active_session(log, "S01"))
     ev.append("answer", {"response": "x", "rt_s": 1.0, "state": _state(1.0)}, 1.0, trial=0)
     log.close()
     with pytest.raises(DataError, match=r"trial 0: answer without trial_start"):
         analyze_active([path])
     path2 = tmp_path / "bad2.sqlite"
     log = TrialLog(path2)
-    ev = ActiveEventLog(log, _session(log, "S01"))
+    ev = ActiveEventLog(log, active_session(log, "S01"))
     ev.append("trial_start", {"target": "tree", "condition": "cluttered"}, 0.0, trial=0)
     ev.append("answer", {"response": "x", "rt_s": 1.0, "state": _state(1.0)}, 1.0, trial=0)
     log.close()

@@ -29,6 +29,8 @@ from analysis.survival import (
     recognition_model,
 )
 
+from .conftest import active_session
+
 
 def _table(rows) -> pd.DataFrame:
     """Trial table from (subject, condition, rt_s, recognized) rows, other columns filled."""
@@ -265,18 +267,7 @@ def _active_log(path):
     from experiment.log import TrialLog
 
     log = TrialLog(path)
-    sid = log.create_session(
-        subject="S01",
-        protocol_name="active_search",
-        protocol_sha256="p",
-        protocol_json="{}",
-        display_json="{}",
-        stimset_path="synthetic:three_plane",
-        stimset_manifest_sha256="s",
-        seed="1",
-        primary_rater="operator",
-    )
-    ev = ActiveEventLog(log, sid)
+    ev = ActiveEventLog(log, active_session(log))
     state = {"depth_px": 3.0, "plane": 0, "zoom": None}
     for trial, (cond, rec, t1) in enumerate(
         [("decluttered", True, 4.0), ("cluttered", False, 9.0)]
@@ -376,23 +367,8 @@ def test_cli_active_power_prints_a_table_and_refuses_bad_options(capsys) -> None
     from experiment import cli
 
     with pytest.raises(SystemExit) as exc:
-        cli.main(
-            [
-                "analyze",
-                "power",
-                "--active",
-                "--hazard-ratio",
-                "4",
-                "--subjects",
-                "3",
-                "--sims",
-                "20",
-                "--seed",
-                "1",
-                "--processes",
-                "1",
-            ]
-        )
+        argv = "analyze power --active --hazard-ratio 4 --subjects 3 --sims 20 --seed 1"
+        cli.main([*argv.split(), "--processes", "1"])
     assert exc.value.code in (0, None)
     out = capsys.readouterr().out
     assert "active search, hazard ratio" in out and "SIMULATED" in out

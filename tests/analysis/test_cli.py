@@ -121,20 +121,7 @@ def test_bad_data_exits_2_with_one_line(tmp_path, capsys, text, needle):
 
 def test_power_command(capsys):
     with pytest.raises(SystemExit) as exc:
-        main(
-            [
-                "analyze",
-                "power",
-                "--odds-ratio",
-                "20",
-                "--subjects",
-                "2",
-                "--sims",
-                "4",
-                "--seed",
-                "1",
-            ]
-        )
+        main("analyze power --odds-ratio 20 --subjects 2 --sims 4 --seed 1".split())
     assert exc.value.code in (0, None)
     out = capsys.readouterr().out
     assert "subjects needed for power 0.8: 2" in out

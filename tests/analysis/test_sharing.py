@@ -8,19 +8,14 @@ from analysis.data import read_trials
 from analysis.errors import DataError
 from analysis.tables import escape_frame
 
+from .conftest import lab_and_pilot_csv
+
 
 @pytest.fixture()
 def human_and_sim(tmp_path, small_trials):
     """Two files with no simulated/observer columns; only the rater says who answered."""
-    first = small_trials["subject"].iloc[0]
-    human = small_trials[small_trials["subject"] == first].copy()
-    sim = small_trials[small_trials["subject"] != first].copy()
-    human["rater"], sim["rater"] = "console", "sim:logistic"
-    sim["session"] = 4
-    a, b = tmp_path / "lab.csv", tmp_path / "pilot.csv"
-    human.to_csv(a, index=False)
-    sim.to_csv(b, index=False)
-    return a, b
+    human = {"rater": "console"}
+    return lab_and_pilot_csv(small_trials, tmp_path, human, {"rater": "sim:logistic", "session": 4})
 
 
 def test_rater_marks_simulated_rows_when_the_columns_were_dropped(human_and_sim):

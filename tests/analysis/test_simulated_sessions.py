@@ -13,18 +13,15 @@ from analysis.errors import DataError
 from analysis.pipeline import AnalysisResult
 from analysis.report import render_markdown
 
+from .conftest import lab_and_pilot_csv
+
 
 @pytest.fixture()
 def two_files(tmp_path, small_trials):
     """S1 labelled human (simulated = 0) and S2 labelled simulated, in two CSV files."""
-    human = small_trials[small_trials["subject"] == small_trials["subject"].iloc[0]].copy()
-    sim = small_trials[small_trials["subject"] != human["subject"].iloc[0]].copy()
-    human["simulated"], human["observer"] = 0, "human"
-    sim["simulated"], sim["observer"], sim["session"] = 1, "logistic", 7
-    a, b = tmp_path / "lab.csv", tmp_path / "pilot.csv"
-    human.to_csv(a, index=False)
-    sim.to_csv(b, index=False)
-    return a, b
+    human = {"simulated": 0, "observer": "human"}
+    sim = {"simulated": 1, "observer": "logistic", "session": 7}
+    return lab_and_pilot_csv(small_trials, tmp_path, human, sim)
 
 
 def test_mixed_files_refused_unless_asked(two_files):
