@@ -44,9 +44,10 @@ import numpy as np
 from typer.testing import CliRunner
 
 from stimuli.cli import stimuli_app
+from stimuli.confocal import confocal_plane
 from stimuli.lightfield import load_lightfield
 from stimuli.lightfield_cli import lightfield_app
-from stimuli.planes import confocal_plane, estimate_disparity_range, find_object_planes
+from stimuli.planes import estimate_disparity_range, find_object_planes
 from stimuli.synth import write_pairs
 
 #: Photo size of the PAIRS set, (rows, cols): small enough for a shared 2-core machine, large

@@ -300,9 +300,7 @@ def _support_curves(best_i, agrees, nbest_i, nagrees, n_planes: int, sigma_plane
     return raw, smooth, nsmooth, ends
 
 
-def _occupied_span(
-    ds: np.ndarray, best_i, agrees, nbest_i, nagrees
-) -> tuple[float, float] | None:
+def _occupied_span(ds: np.ndarray, best_i, agrees, nbest_i, nagrees) -> tuple[float, float] | None:
     """The disparities (of ``ds``) holding the scene: where more pixels agree than by chance.
 
     The histogram of the agreeing pixels' best planes is smoothed by one plane and compared
@@ -374,9 +372,10 @@ def estimate_disparity_range(
     dmax = min(centre.shape) / (2.0 * m)
     ds = np.arange(-dmax, dmax + step / 2, step)
     sweep = _sweep(views, offsets, centre, null_centre, ds, n)
-    if int(np.count_nonzero(sweep[1])) < MIN_EDGE_PIXELS or (
-        span := _occupied_span(ds * b, *sweep)
-    ) is None:
+    if (
+        int(np.count_nonzero(sweep[1])) < MIN_EDGE_PIXELS
+        or (span := _occupied_span(ds * b, *sweep)) is None
+    ):
         raise InputError(
             f"{lf.source}: the views agree at no plane in [-{dmax * b:.3g}, {dmax * b:.3g}] px "
             "per view step (a flat scene, or not a light field); give the disparities to scan"

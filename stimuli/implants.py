@@ -320,7 +320,6 @@ class ImplantLayout:
         kw = {k: v for k, v in data.items() if k != "name"}
         return cls(name=name, **kw)
 
-
     def with_(self, **changes: Any) -> ImplantLayout:
         """Return a copy with some fields changed (checked again)."""
         return ImplantLayout.from_dict({**self.to_dict(), **changes})

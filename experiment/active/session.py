@@ -100,7 +100,11 @@ class _SceneState:
         near, far = info["scan_px"]
         self.depth_step_px = float(info["depth_step_px"])
         self.ctx = SearchContext(
-            self.planes_px, float(near), float(far), self.depth_step_px, scene.shape_px,
+            self.planes_px,
+            float(near),
+            float(far),
+            self.depth_step_px,
+            scene.shape_px,
             task.zoom_allowed,
         )
         self.renderers: dict[str, Renderer] = {}

@@ -382,16 +382,20 @@ def expected_screen(
     overlay : ndarray (h, w), uint8, optional
         The key help (:func:`help_image`), drawn over the middle of the frame.
     """
-    return FramePainter().paint(
-        screen,
-        centre,
-        source,
-        edges,
-        cells,
-        layout,
-        zoom=zoom,
-        alert=alert,
-        status=status,
-        marker=marker,
-        overlay=overlay,
-    )[..., :3].copy()
+    return (
+        FramePainter()
+        .paint(
+            screen,
+            centre,
+            source,
+            edges,
+            cells,
+            layout,
+            zoom=zoom,
+            alert=alert,
+            status=status,
+            marker=marker,
+            overlay=overlay,
+        )[..., :3]
+        .copy()
+    )

@@ -4,7 +4,7 @@ The pipeline, per object
 ------------------------
 1. Read the wide-DOF ("conventional") and narrow-DOF ("confocal") photos with
    :func:`stimuli.io.load_gray` (luminance, float32 in [0, 1], EXIF orientation applied). A
-   light-field object gives the pair through ``stimuli.planes.confocal_pair`` instead: its
+   light-field object gives the pair through ``stimuli.confocal.confocal_pair`` instead: its
    centre view is the cluttered image and the confocal image the de-cluttered one.
 2. Zoom (optional, paper Sec. 4.1, Fig. 14): the ``crop`` box ``x,y,w,h`` of ``objects.csv`` is
    cut out at full resolution before anything else.

@@ -45,7 +45,7 @@ class PairSource:
     wide, narrow : Path or None
         Wide-DOF and narrow-DOF photos (both set, or both ``None`` for a light field).
     lightfield : Path or None
-        Light-field folder or ``.npz`` file, read by ``stimuli.planes.confocal_pair``.
+        Light-field folder or ``.npz`` file, read by ``stimuli.confocal.confocal_pair``.
     crop : (x, y, w, h) or None
         Crop box from the PAIRS CSV (``objects.csv`` wins when both give one).
     roi_mask : Path or None

@@ -29,6 +29,7 @@ from tests.experiment.conftest import confocal, make_study, session_run_args
 #: Psych-DS 1.x schema, objects/files/Datafile: fileRegex.
 FILE_REGEX = re.compile(r"([a-z]+-[a-zA-Z0-9]+)(_[a-z]+-[a-zA-Z0-9]+)*_data\.csv")
 
+
 def check_psychds(root: Path) -> list[str]:
     """Return the Psych-DS 1.x rule violations of dataset folder ``root`` (empty: valid)."""
     errors = []

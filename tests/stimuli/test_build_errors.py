@@ -183,7 +183,7 @@ def _bad_plane(tmp_path):
 
 def _roi_on_photo_pair(tmp_path):
     p = _pairs(tmp_path)
-    (p / "objects.csv").write_text("object,roi\nobj00,\"1,2,30,20\"\n")
+    (p / "objects.csv").write_text('object,roi\nobj00,"1,2,30,20"\n')
     return [str(p)], r"object 'obj00': field roi chooses a light field's plane"
 
 

@@ -17,10 +17,10 @@ from PIL import Image
 from scipy import ndimage
 
 from stimuli.build import build_stimulus_set
+from stimuli.confocal import confocal_pair
 from stimuli.errors import InputError
 from stimuli.io import sha256_file
 from stimuli.manifest import read_manifest
-from stimuli.planes import confocal_pair
 
 
 def _write_lightfield(path: Path, d_near: float = 3.0, shape=(200, 300), grid=(5, 5)) -> Path:
@@ -94,8 +94,9 @@ def test_auto_plane_is_the_nearest_detected_plane(built):
     object's plane ... or the nearest detected plane"): the disc at disparity 3 in front of the
     striped wall at 0, even though the wall's stripes outscore the disc. The manifest records
     the plane it used (H15)."""
+    from stimuli.confocal import confocal_plane
     from stimuli.lightfield import load_lightfield
-    from stimuli.planes import confocal_plane, find_object_planes
+    from stimuli.planes import find_object_planes
 
     root, lf, _ = built
     field = load_lightfield(lf)

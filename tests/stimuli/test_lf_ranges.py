@@ -73,4 +73,3 @@ def test_range_brackets_the_hci_3x3_light_field(data_dir):
 )
 def test_peak_rule_has_hysteresis(height, prominence, null, kept):
     assert agreementscan._is_plane_peak(height, prominence, null) is kept
-

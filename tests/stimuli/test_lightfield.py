@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 from PIL import Image
 
+from stimuli.confocal import confocal_pair
 from stimuli.errors import InputError
 from stimuli.lightfield import (
     Geometry,
@@ -19,7 +20,6 @@ from stimuli.lightfield import (
     views_from_elemental,
     write_pfm,
 )
-from stimuli.planes import confocal_pair
 
 
 def _views(n_u=3, n_v=3, rows=12, cols=16, seed=0):
