@@ -42,8 +42,9 @@ from pathlib import Path
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
-from experiment.viewer.app import LightFieldSource, Viewer  # noqa: E402
+from experiment.viewer.app import Viewer  # noqa: E402
 from experiment.viewer.gpu import create_headless_context  # noqa: E402
+from experiment.viewer.source import LightFieldSource  # noqa: E402
 
 __all__ = ["fps", "key_fps", "busy_cores", "window_fps", "main"]
 

@@ -6,13 +6,13 @@ and the event log. :meth:`Viewer.handle` takes one input event, logs it, applies
 tracked marker, focus in confocal-extension mode) and logs the resulting state.
 :meth:`Viewer.render` draws the current state into a frame: on the GPU
 (:class:`~experiment.viewer.gpu.GpuPipeline`) or, without GL, with the CPU reference
-(:func:`~experiment.viewer.screen.expected_screen`). The window (:func:`run_window`) only turns
-moderngl-window callbacks into :meth:`Viewer.handle` calls.
+(:func:`~experiment.viewer.screen.expected_screen`). The window
+(:func:`~experiment.viewer.window.run_window`) only turns moderngl-window callbacks into
+:meth:`Viewer.handle` calls.
 """
 
 from __future__ import annotations
 
-import json
 import logging
 import sys
 import time
@@ -47,9 +47,9 @@ from experiment.viewer.screen import (
     screen_layout,
     status_image,
 )
+from experiment.viewer.source import LightFieldSource
 from experiment.viewer.state import KEY_HELP, ViewerModel, ViewerState, apply_event
 from stimuli.implants import ImplantLayout, load_implant
-from stimuli.lightfield import LightField
 
 __all__ = [
     "AVERAGING_FRAMES",
@@ -58,12 +58,8 @@ __all__ = [
     "PREFETCH_STEPS",
     "REFOCUS_CACHE",
     "PERCEPTS",
-    "LightFieldSource",
-    "open_source",
     "Viewer",
     "is_software_renderer",
-    "read_script",
-    "run_window",
 ]
 
 log = logging.getLogger(__name__)
@@ -92,136 +88,21 @@ PERCEPTS: tuple[str, ...] = ("phosphenes", "scoreboard", "axonmap")
 DEPTH_CANDIDATES: int = 48
 
 
-class LightFieldSource:
-    """A still light field or a video of light-field frames (loaded one at a time).
-
-    Parameters
-    ----------
-    frames : list of Path, or a LightField
-        Frame inputs in order, or one loaded still.
-    loader : dict
-        Keyword arguments for :func:`stimuli.lightfield.load_lightfield`.
-    view_crop : (x, y, w, h), optional
-        Crop every view first (:meth:`stimuli.lightfield.LightField.cropped`).
-
-    Attributes
-    ----------
-    view_crop : (x, y, w, h) or None
-        The crop applied.
-    """
-
-    def __init__(
-        self,
-        frames: list[Path] | LightField,
-        loader: dict | None = None,
-        *,
-        view_crop: tuple[int, int, int, int] | None = None,
-    ) -> None:
-        self._loader = loader or {}
-        self._crop = view_crop
-        self.view_crop = view_crop
-        if isinstance(frames, LightField) and view_crop is not None:
-            frames = frames.cropped(view_crop)
-        if isinstance(frames, LightField):
-            self._paths: list[Path] = []
-            self._cache = {0: frames.gray()}
-        else:
-            self._paths = list(frames)
-            self._cache = {}
-        self.n_frames = max(1, len(self._paths))
-
-    def frame(self, k: int) -> LightField:
-        """Return frame ``k`` as a grey light field (the previous frame stays cached)."""
-        if k not in self._cache:
-            from stimuli.lightfield import load_lightfield
-
-            lf = load_lightfield(self._paths[k], **self._loader).gray()
-            if self._crop is not None:
-                lf = lf.cropped(self._crop)
-            first = self._cache.get(0)
-            if first is not None and lf.views.shape != first.views.shape:
-                raise ConfocalError(
-                    f"{self._paths[k]}: frame shape {lf.views.shape} differs from the first "
-                    f"frame's {first.views.shape}"
-                )
-            keep = {0, k - 1}
-            self._cache = {i: v for i, v in self._cache.items() if i in keep}
-            self._cache[k] = lf
-        return self._cache[k]
-
-
-def open_source(
-    path: Path, *, view_crop: tuple[int, int, int, int] | str | None = None, **loader: Any
-) -> LightFieldSource:
-    """Open a light field (any input ``confocal lightfield`` reads) or a folder of frames.
-
-    A folder is a *video* when it holds no view images of its own but two or more light-field
-    inputs (sub-folders of views, ``.npy``/``.npz`` files), taken in name order.
-
-    ``view_crop``: a box ``(x, y, w, h)`` cropped from every view, None for none, or ``"auto"``:
-    the box that leaves out the capture's vignette rim and clipped strip, found in the (first)
-    frame's views (:func:`stimuli.vignette.vignette_crop`; none when there is nothing to leave
-    out). The box used is :attr:`LightFieldSource.view_crop`.
-    """
-    if isinstance(view_crop, str):
-        if view_crop != "auto":
-            raise ConfocalError(f"view_crop must be a box, None or 'auto', got {view_crop!r}")
-        from stimuli.vignette import vignette_crop
-
-        src = open_source(path, view_crop=None, **loader)
-        box = vignette_crop(src.frame(0).views)
-        if box is None:
-            return src
-        return open_source(path, view_crop=box, **loader)
-    from stimuli.lightfield import load_lightfield
-
-    path = Path(path)
-    if not path.exists():
-        raise ConfocalError(f"{path}: light field not found")
-    if path.is_dir():
-        images = [
-            p for p in path.iterdir() if p.suffix.lower() in (".png", ".jpg", ".jpeg", ".tif")
-        ]
-        frames = sorted(
-            p for p in path.iterdir() if p.is_dir() or p.suffix.lower() in (".npy", ".npz")
-        )
-        if not images and len(frames) >= 2:
-            src = LightFieldSource(frames, loader, view_crop=view_crop)
-            src.frame(0)
-            return src
-    return LightFieldSource(load_lightfield(path, **loader), view_crop=view_crop)
-
-
-def read_script(path: Path) -> list[dict]:
-    """Read a scripted-event file: JSON lines ``{"kind": ..., "payload": {...}}``.
-
-    Raises
-    ------
-    ConfocalError
-        Unreadable file, or a line that is not such an object (named by line number).
-    """
-    out = []
-    try:
-        text = Path(path).read_text(encoding="utf-8")
-    except OSError as exc:
-        raise ConfocalError(f"{path}: cannot read the event script ({exc.strerror})") from None
-    for n, line in enumerate(text.splitlines(), 1):
-        if not line.strip():
-            continue
-        try:
-            ev = json.loads(line)
-        except json.JSONDecodeError:
-            raise ConfocalError(f"{path}:{n}: not JSON: {line[:40]!r}") from None
-        if not isinstance(ev, dict) or not isinstance(ev.get("kind"), str):
-            raise ConfocalError(f"{path}:{n}: expected {{'kind': ..., 'payload': {{...}}}}")
-        if not isinstance(ev.get("payload", {}), dict):
-            raise ConfocalError(f"{path}:{n}: payload must be an object")
-        out.append({"kind": ev["kind"], "payload": ev.get("payload", {})})
-    return out
-
-
 #: Where the viewer's image pipeline runs (see :class:`Viewer`).
 COMPUTE_CHOICES: tuple[str, ...] = ("auto", "gpu", "cpu")
+
+
+class _quiet_warnings:
+    def __enter__(self):
+        import warnings
+
+        self._w = warnings.catch_warnings()
+        self._w.__enter__()
+        warnings.simplefilter("ignore", UserWarning)
+
+    def __exit__(self, *exc):
+        self._w.__exit__(*exc)
+
 
 _SOFTWARE_RENDERERS = ("llvmpipe", "softpipe", "swrast", "software rasterizer")
 
@@ -796,190 +677,3 @@ class Viewer:
             self._composite.release()
         self.log.append(self.clock(), "close", {})
         self.log.close()
-
-
-class _quiet_warnings:
-    def __enter__(self):
-        import warnings
-
-        self._w = warnings.catch_warnings()
-        self._w.__enter__()
-        warnings.simplefilter("ignore", UserWarning)
-
-    def __exit__(self, *exc):
-        self._w.__exit__(*exc)
-
-
-_NAMED_KEYS = {
-    "UP": "up",
-    "DOWN": "down",
-    "LEFT": "left",
-    "RIGHT": "right",
-    "PAGE_UP": "page_up",
-    "PAGE_DOWN": "page_down",
-    "ESCAPE": "escape",
-}
-
-
-def run_window(
-    viewer_factory: Any,
-    *,
-    size_px: tuple[int, int] = (720, 1080),
-    seconds: float | None = None,
-    script: list[dict] | None = None,
-    shots_dir: Path | None = None,
-    video_fps: float = 0.0,
-    confirm_quit: bool = False,
-) -> int:
-    """Open a moderngl-window (pyglet) window and run the viewer until closed; return frames.
-
-    A frame is drawn when the state changes (input, script, video); otherwise the loop only
-    dispatches window events.
-
-    Parameters
-    ----------
-    viewer_factory : callable(ctx) -> Viewer
-    size_px : (rows, cols)
-        Window size.
-    seconds : float, optional
-        Close after this long.
-    script : list of events, optional
-        Injected one per frame through :meth:`Viewer.handle` (the same path as real input);
-        with ``shots_dir``, the window's framebuffer is saved after each as ``shot_NNN.png``.
-    video_fps : float
-        Advance video frames at this rate (0: only the n/p keys do).
-    confirm_quit : bool
-        ``q`` asks first (``y`` quits, any other key stays): a session is being logged.
-
-    Notes
-    -----
-    Esc never closes the window (moderngl-window's exit key is switched off, as the
-    presenter does): it un-zooms. Only ``q`` quits.
-    """
-    try:
-        import moderngl_window
-    except Exception as exc:  # noqa: BLE001 - pyglet raises on import without a display
-        raise ConfocalError(f"cannot open a window (no display?): {exc}") from exc
-    try:
-        window_cls = moderngl_window.get_local_window_cls("pyglet")
-        rows, cols = size_px
-        window = window_cls(
-            title="confocal view",
-            size=(cols, rows),
-            resizable=False,
-            vsync=False,
-            gl_version=(3, 3),
-        )
-    except Exception as exc:  # noqa: BLE001
-        raise ConfocalError(f"cannot open a window (no display?): {exc}") from exc
-    window.exit_key = None  # Esc un-zooms; quitting is the q key's job
-    moderngl_window.activate_context(window=window)
-    try:
-        viewer = viewer_factory(window.ctx)
-    except BaseException:
-        window.close()
-        raise
-    viewer.screen_shape_px = (window.buffer_height, window.buffer_width)
-    keys = window.keys
-    named = {getattr(keys, k): v for k, v in _NAMED_KEYS.items()}
-    drag: dict[str, Any] = {}
-
-    asking: dict[str, bool] = {"quit": False}
-
-    def on_key(key, action, modifiers):
-        if action != keys.ACTION_PRESS or key not in named:
-            return
-        if asking["quit"]:
-            asking["quit"] = False
-            viewer.say("quit cancelled")
-            return
-        viewer.handle("key", {"key": named[key]})
-
-    def on_char(char):
-        if asking["quit"]:
-            asking["quit"] = False
-            if char in "yY":
-                viewer.log.append(viewer.clock(), "quit", {"confirmed": True})
-                window.is_closing = True
-            else:
-                viewer.say("quit cancelled")
-            return
-        if char == "q":
-            if confirm_quit:
-                asking["quit"] = True
-                viewer.say("quit? y: quit (the log is saved), any other key: stay")
-            else:
-                viewer.log.append(viewer.clock(), "quit", {"confirmed": False})
-                window.is_closing = True
-        elif char in "igaoevnpmh?[]-=123456789":
-            viewer.handle("key", {"key": char})
-
-    def on_scroll(dx, dy):
-        if dy:
-            viewer.handle("wheel", {"dy": 1 if dy > 0 else -1})
-
-    def on_press(x, y, button):
-        drag["start"] = viewer.view_pixel(x, y)
-
-    def on_release(x, y, button):
-        start, end = drag.pop("start", None), viewer.view_pixel(x, y)
-        if start is None or end is None:
-            return
-        if abs(end[0] - start[0]) < 3 and abs(end[1] - start[1]) < 3:
-            viewer.handle("click", {"x": end[0], "y": end[1]})
-        else:
-            box = [start[0], start[1], end[0] - start[0], end[1] - start[1]]
-            viewer.handle("drag", {"box": box})
-
-    window.key_event_func = on_key
-    window.unicode_char_entered_func = on_char
-    window.mouse_scroll_event_func = on_scroll
-    window.mouse_press_event_func = on_press
-    window.mouse_release_event_func = on_release
-    pending = list(script or [])
-    t0 = time.perf_counter()
-    last_video = t0
-    n = shot = 0
-    drawn = shown = None
-    try:
-        while not window.is_closing:
-            now = time.perf_counter()
-            if video_fps > 0 and viewer.source.n_frames > 1 and now - last_video >= 1 / video_fps:
-                nxt = (viewer.state.frame + 1) % viewer.source.n_frames
-                viewer.handle("frame", {"frame": nxt})
-                last_video = now
-            injected = False
-            if pending:
-                ev = pending.pop(0)
-                viewer.handle(ev["kind"], ev["payload"])
-                injected = True
-            if viewer.state == drawn and viewer.message == shown and not injected:
-                # nothing changed: no redraw; refocus the depths the user may go to next
-                # (one per loop, so input stays responsive), then idle
-                if not viewer.prefetch():
-                    time.sleep(0.005)
-                window._window.dispatch_events()
-            else:
-                drawn, shown = viewer.state, viewer.message
-                viewer.render(window.fbo)
-                if injected and shots_dir is not None:
-                    shots_dir.mkdir(parents=True, exist_ok=True)
-                    _window_shot(window, shots_dir / f"shot_{shot:03d}.png")
-                    shot += 1
-                window.swap_buffers()
-                n += 1
-            if seconds is not None and time.perf_counter() - t0 >= seconds and not pending:
-                break
-    finally:
-        viewer.close()
-        window.close()
-    return n
-
-
-def _window_shot(window: Any, path: Path) -> None:
-    # the back buffer just drawn, read before the swap (its contents are undefined after)
-    from PIL import Image
-
-    rows, cols = window.buffer_height, window.buffer_width
-    raw = window.fbo.read(components=3)
-    Image.fromarray(np.frombuffer(raw, np.uint8).reshape(rows, cols, 3)[::-1]).save(path)

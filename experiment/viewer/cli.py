@@ -222,8 +222,9 @@ def view_command(
         raise ConfocalError(
             f"--compute must be one of {', '.join(COMPUTE_CHOICES)}, got {compute!r}"
         )
-    from experiment.viewer.app import Viewer, open_source, read_script
+    from experiment.viewer.app import Viewer
     from experiment.viewer.events import ViewerEventLog
+    from experiment.viewer.source import open_source, read_script
     from experiment.viewer.state import GREY_LEVELS
     from stimuli.build import parse_threshold
     from stimuli.implants import implant_names, load_implant
@@ -316,7 +317,7 @@ def view_command(
         return v
 
     if screenshot is None:
-        from experiment.viewer.app import run_window
+        from experiment.viewer.window import run_window
 
         n = run_window(
             make,

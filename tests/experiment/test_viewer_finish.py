@@ -39,7 +39,7 @@ MODEL = ViewerModel(
 @pytest.fixture(scope="module")
 def scene():
     """The simulated three-plane scene as a small grey camera array (and its source)."""
-    from experiment.viewer.app import LightFieldSource
+    from experiment.viewer.source import LightFieldSource
     from stimuli.lfsynth import render_camera_array, three_plane_scene
 
     shape = (72, 96)
@@ -231,7 +231,7 @@ LYTRO = (
 @pytest.mark.data
 @pytest.mark.skipif(not LYTRO.is_dir(), reason=f"no {LYTRO}")
 def test_default_view_of_the_lytro_capture_leaves_out_its_rim_and_sky() -> None:
-    from experiment.viewer.app import open_source
+    from experiment.viewer.source import open_source
 
     src = open_source(LYTRO, view_crop="auto")
     x, y, w, h = src.view_crop

@@ -233,7 +233,8 @@ def test_lytro_light_field_gpu_equals_cpu(ctx, data_dir) -> None:
 
 
 def test_prefetch_fills_the_cache_without_changing_the_shown_image(ctx, scene) -> None:
-    from experiment.viewer.app import LightFieldSource, Viewer
+    from experiment.viewer.app import Viewer
+    from experiment.viewer.source import LightFieldSource
 
     v = Viewer(
         LightFieldSource(scene),
@@ -271,7 +272,8 @@ def test_prefetch_fills_the_cache_without_changing_the_shown_image(ctx, scene) -
 def test_numpy_pipeline_drawn_into_the_gl_framebuffer(ctx, scene) -> None:
     """``compute='cpu'`` with a context (the default on llvmpipe): the numpy frame is copied into
     the framebuffer unchanged, and ``auto`` picks it exactly on a software rasteriser."""
-    from experiment.viewer.app import LightFieldSource, Viewer, is_software_renderer
+    from experiment.viewer.app import Viewer, is_software_renderer
+    from experiment.viewer.source import LightFieldSource
 
     src = LightFieldSource(scene)
     v = Viewer(src, ["argus2"], screen_shape_px=(240, 320), ctx=ctx, n_planes=30, compute="cpu")

@@ -370,8 +370,9 @@ def video_dir(tmp_path_factory):
 
 
 def test_video_folder_plays_frames_tracks_marker_and_averages(video_dir) -> None:
-    from experiment.viewer.app import Viewer, open_source
+    from experiment.viewer.app import Viewer
     from experiment.viewer.reference import cpu_panes
+    from experiment.viewer.source import open_source
 
     src = open_source(video_dir)
     assert src.n_frames == 3
@@ -396,7 +397,8 @@ def test_video_folder_plays_frames_tracks_marker_and_averages(video_dir) -> None
 
 
 def test_extension_mode_focuses_in_front_of_the_clicked_object(video_dir) -> None:
-    from experiment.viewer.app import Viewer, open_source
+    from experiment.viewer.app import Viewer
+    from experiment.viewer.source import open_source
 
     v = Viewer(
         open_source(video_dir / "frame_00.npz"), ["argus2"], screen_shape_px=(240, 320), n_planes=30
@@ -416,8 +418,9 @@ def test_extension_mode_focuses_in_front_of_the_clicked_object(video_dir) -> Non
 def test_obstacle_alert_is_visible_audible_and_logged(video_dir, capfd) -> None:
     from dataclasses import replace
 
-    from experiment.viewer.app import Viewer, open_source
+    from experiment.viewer.app import Viewer
     from experiment.viewer.screen import ALERT_RGB
+    from experiment.viewer.source import open_source
 
     v = Viewer(
         open_source(video_dir / "frame_00.npz"), ["argus2"], screen_shape_px=(240, 320), n_planes=30
@@ -442,8 +445,9 @@ def test_obstacle_alert_is_visible_audible_and_logged(video_dir, capfd) -> None:
 
 
 def test_brightest_point_and_screen_to_view_mapping(video_dir) -> None:
-    from experiment.viewer.app import Viewer, open_source
+    from experiment.viewer.app import Viewer
     from experiment.viewer.reference import brightest_point
+    from experiment.viewer.source import open_source
 
     img = np.zeros((50, 80), np.float32)
     img[30:33, 60:63] = 1.0

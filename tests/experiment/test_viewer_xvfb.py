@@ -23,9 +23,10 @@ pytestmark = pytest.mark.gl
 
 pytest.importorskip("moderngl_window", reason="moderngl-window not importable")
 
-from experiment.viewer.app import Viewer, open_source  # noqa: E402
+from experiment.viewer.app import Viewer  # noqa: E402
 from experiment.viewer.events import ViewerEventLog  # noqa: E402
 from experiment.viewer.screen import STATUS_ROWS_PX  # noqa: E402
+from experiment.viewer.source import open_source  # noqa: E402
 from experiment.viewer.state import ViewerState  # noqa: E402
 from tests.experiment.test_window_xvfb import x_display  # noqa: E402, F401
 

@@ -135,7 +135,8 @@ def test_view_scan_and_build_report_the_same_planes(scene, tmp_path: Path):
     build's alternatives are the same planes."""
     from typer.testing import CliRunner
 
-    from experiment.viewer.app import LightFieldSource, Viewer
+    from experiment.viewer.app import Viewer
+    from experiment.viewer.source import LightFieldSource
     from stimuli.lightfield_cli import lightfield_app
 
     lf = scene[0]
