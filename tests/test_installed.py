@@ -57,13 +57,15 @@ def installed(tmp_path_factory) -> tuple[Path, dict[str, str], Path]:
     env_dir = base / "venv"
     venv.EnvBuilder(with_pip=True, system_site_packages=False).create(env_dir)
     bindir = env_dir / "bin"
+    # without PYTHONPATH: a checkout on it (with its .egg-info) would look installed to pip
+    env = {k: v for k, v in os.environ.items() if not k.startswith(("PYTHON", "VIRTUAL_ENV"))}
     r = subprocess.run(
         [str(bindir / "python"), "-m", "pip", "install", "-q", str(wheel)],
         capture_output=True,
         text=True,
+        env=env,
     )
     assert r.returncode == 0, r.stderr[-2000:]
-    env = {k: v for k, v in os.environ.items() if not k.startswith(("PYTHON", "VIRTUAL_ENV"))}
     env["PATH"] = f"{bindir}{os.pathsep}{env.get('PATH', '')}"
     env["MPLBACKEND"] = "Agg"
     env["PYTHONNOUSERSITE"] = "1"

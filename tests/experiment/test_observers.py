@@ -36,10 +36,12 @@ def trial(obj="obj01", condition="cluttered", pixels=8695, level=5):
 
 
 def test_registry_has_both_observers(small_set):
-    assert set(OBSERVERS) >= {"logistic", "model"}
+    assert set(OBSERVERS) >= {"calibrated", "exemplar", "logistic", "model"}
     assert isinstance(make_observer("logistic", small_set, "S1", rng=0), LogisticObserver)
     assert isinstance(make_observer("model", small_set, "S1", rng=0), TemplateObserver)
-    with pytest.raises(ValueError, match="observer must be one of exemplar, logistic, model"):
+    with pytest.raises(
+        ValueError, match="observer must be one of calibrated, exemplar, logistic, model"
+    ):
         make_observer("oracle", small_set, "S1")
     with pytest.raises(ValueError, match="unknown parameter 'slope' for observer 'logistic'"):
         make_observer("logistic", small_set, "S1", slope=3)

@@ -106,7 +106,10 @@ def test_status_shows_what_is_left(study, capsys):
         ("no_stimuli", r"nowhere: stimulus set folder not found"),
         ("bad_manifest", r"manifest\.csv: missing column 'sha256'"),
         ("observer_without_headless", r"--observer needs --headless"),
-        ("unknown_observer", r"--observer must be one of exemplar, logistic, model, got 'oracle'"),
+        (
+            "unknown_observer",
+            r"--observer must be one of calibrated, exemplar, logistic, model, got 'oracle'",
+        ),
         ("resume_other_seed", r"unfinished session 2 with seed 11, not 12"),
         ("bad_observer_param", r"--observer-param: unknown parameter 'lapsy' for observer"),
         ("observer_param_syntax", r"--observer-param must be KEY=VALUE, got 'lapse'"),

@@ -123,7 +123,7 @@ def _duplicate_ids(tmp_path):
 
 def _threshold_not_a_number(tmp_path):
     return [str(_pairs(tmp_path)), "--threshold", "high"], (
-        r"--threshold must be 'auto' or a number >= 0, got 'high'"
+        r"--threshold must be 'auto' or a number in \[0, 1\].*, got 'high'"
     )
 
 
@@ -322,7 +322,10 @@ def _csv(tmp_path: Path, name: str, text: str | bytes) -> Path:
     ("call", "match"),
     [
         (lambda: parse_working_size("0x5"), r"--working-size must be WIDTHxHEIGHT"),
-        (lambda: parse_threshold("-1"), r"--threshold must be 'auto' or a number >= 0, got '-1'"),
+        (
+            lambda: parse_threshold("-1"),
+            r"--threshold must be 'auto' or a number in \[0, 1\].*got '-1'",
+        ),
         (lambda: parse_threshold([1]), r"--threshold must be 'auto' or a number"),
         (lambda: parse_edge_ratio("x"), r"--edge-ratio must be 'auto' or a number in \[0, 1\)"),
         (lambda: BuildParams(working_shape_px=(0, 5)), r"working_shape_px must be"),

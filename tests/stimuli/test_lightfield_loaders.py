@@ -310,7 +310,7 @@ def test_remaining_loader_and_option_errors(tmp_path, capsys):
     with pytest.raises(InputError, match="radius_px must be"):
         bokeh_guard(np.zeros((4, 4), bool), np.zeros((4, 4), bool), radius_px=-1)
     for opt, bad, msg in (
-        ("--declutter", "canny", "--declutter must be one of sobel, depth"),
+        ("--declutter", "canny", "--declutter must be one of auto, sobel, depth"),
         ("--method", "sift", "--method must be one of agreement, haar"),
     ):
         code, out = _code(
