@@ -1,6 +1,6 @@
-"""Benchmark: ``confocal demo`` end to end (issues 7, 13). Goal: under 30 s on 2 cores.
+"""Benchmark: ``confocal demo`` end to end. Goal: under 30 s on 2 cores.
 
-Runs the whole demo (synthesise 23 photo pairs, and the exemplar observer's 23 exemplars in a
+Runs the whole demo (synthesise 23 photo pairs, and the observer's 23 exemplars in a
 second process; build the stimulus set; 6 simulated subjects through the session engine;
 analysis with figures) and reports each stage's wall time, and the CPU time of this process and
 its children (on a busy shared machine the wall time is inflated by other work; the CPU time
@@ -8,7 +8,7 @@ is not). Because machines are noisy, it also reports the total as a ratio to a b
 in the same process right after: decoding every PNG the demo wrote once
 (``PIL.Image.open(...).load()``), the least work any pipeline over these files could do.
 
-Run: ``python benchmarks/bench_demo.py [--subjects 6] [--repeat 1] [--observer exemplar]``.
+Run: ``python benchmarks/bench_demo.py [--subjects 6] [--repeat 1] [--observer calibrated]``.
 """
 
 from __future__ import annotations
@@ -53,7 +53,7 @@ def main(argv: list[str] | None = None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--subjects", type=int, default=6)
     ap.add_argument("--repeat", type=int, default=1)
-    ap.add_argument("--observer", default="exemplar")
+    ap.add_argument("--observer", default="calibrated")
     args = ap.parse_args(argv)
     totals, bases = [], []
     for k in range(args.repeat):

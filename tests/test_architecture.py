@@ -220,7 +220,7 @@ def test_modules_are_small() -> None:
 def test_no_history_in_names() -> None:
     """Code, tests, protocols and docs say what a thing does, not which ticket asked for it."""
     root = Path(__file__).resolve().parents[1]
-    pattern = re.compile(r"\bissue[ _#-]?\d+", re.IGNORECASE)
+    pattern = re.compile(r"\bissues?[ _#-]?\d+", re.IGNORECASE)
     files = [root / "README.md", *root.glob("docs/*.md")]
     for folder in (*PACKAGES, "tests", "benchmarks", "protocols"):
         files += [p for p in (root / folder).rglob("*") if p.suffix in {".py", ".toml", ".md"}]
