@@ -66,6 +66,39 @@ class ViewerEventLogError(ConfocalError):
     """The event log cannot be opened or written, or an event is malformed."""
 
 
+def _check_ours(path: Path) -> None:
+    """Refuse, reading only, a file that is neither new, a viewer log nor a confocal trial log.
+
+    ``--log`` appends tables to an existing file, so another program's SQLite file (or any other
+    file) must be refused before anything is written to it, leaving it byte-identical.
+    """
+    from experiment.log import TrialLogError, identify_log_file
+
+    try:
+        if identify_log_file(path) in ("new", "trial log"):
+            return
+    except TrialLogError as exc:
+        refusal = str(exc)
+    else:  # pragma: no cover - identify_log_file returns or raises
+        refusal = f"{path}: not a confocal log"
+    try:  # a viewer log of an earlier run holds only the viewer's own tables
+        uri = f"{path.resolve().as_uri()}?mode=ro"
+        if not Path(f"{path}-wal").exists():  # no writer has it open: read the file as it is
+            uri += "&immutable=1"
+        con = sqlite3.connect(uri, uri=True)
+        try:
+            tables = {
+                r[0] for r in con.execute("SELECT name FROM sqlite_master WHERE type='table'")
+            }
+        finally:
+            con.close()
+    except sqlite3.DatabaseError:
+        tables = set()
+    if tables and tables <= {"viewer_events", "viewer_events_schema", "sqlite_sequence"}:
+        return
+    raise ViewerEventLogError(refusal)
+
+
 @dataclass(frozen=True)
 class ViewerEvent:
     """One logged event, as read back from the table.
@@ -147,6 +180,7 @@ class ViewerEventLog:
                 parent = Path(self.path).resolve().parent
                 if not parent.is_dir():
                     raise ViewerEventLogError(f"{self.path}: folder {parent} does not exist")
+                _check_ours(Path(self.path))
             try:
                 self._con = sqlite3.connect(self.path, isolation_level=None, timeout=10.0)
                 if self.path != ":memory:":
