@@ -38,6 +38,8 @@ _HOME = {
     "write_report": "analysis.report",
 }
 
+__all__ = list(_HOME)
+
 
 def __getattr__(name: str) -> Any:
     """Import the module that holds ``name`` on first use (PEP 562)."""
@@ -52,21 +54,3 @@ def __dir__() -> list[str]:
     return sorted(set(globals()) | set(_HOME))
 
 
-__all__ = [
-    "DataError",
-    "TrialTable",
-    "read_trials",
-    "WeibullFit",
-    "fit_weibull",
-    "fit_counts",
-    "threshold_at",
-    "FitSpec",
-    "fit_table",
-    "LogisticFit",
-    "OddsRatioTable",
-    "fit_logistic",
-    "AnalysisOptions",
-    "AnalysisResult",
-    "analyze",
-    "write_report",
-]

@@ -16,8 +16,6 @@ try:
 except PackageNotFoundError:  # running from a source tree that was not installed
     __version__ = "0+unknown"
 
-__all__ = ["compress", "compress_grey", "grid_shape", "InputError", "load_gray", "save_png"]
-
 #: Where each public name lives.
 _HOME = {
     "compress": "stimuli.compress",
@@ -27,6 +25,8 @@ _HOME = {
     "load_gray": "stimuli.io",
     "save_png": "stimuli.io",
 }
+
+__all__ = list(_HOME)
 
 
 def __getattr__(name: str) -> Any:

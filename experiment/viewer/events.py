@@ -75,12 +75,10 @@ def _check_ours(path: Path) -> None:
     from experiment.log import TrialLogError, identify_log_file
 
     try:
-        if identify_log_file(path) in ("new", "trial log"):
-            return
+        identify_log_file(path)  # "new" or "trial log", or it raises
+        return
     except TrialLogError as exc:
         refusal = str(exc)
-    else:  # pragma: no cover - identify_log_file returns or raises
-        refusal = f"{path}: not a confocal log"
     try:  # a viewer log of an earlier run holds only the viewer's own tables
         uri = f"{path.resolve().as_uri()}?mode=ro"
         if not Path(f"{path}-wal").exists():  # no writer has it open: read the file as it is
