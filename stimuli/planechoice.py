@@ -85,14 +85,10 @@ class PlaneCandidate:
 
     Parameters
     ----------
-    disparity_px : float
-        Pixels per view step.
-    depth_m : float or None
-        Metres, with a geometry.
-    support : float
-        Fraction of the scan's pixels agreeing on the plane's hill (:class:`Plane`).
-    evidence : float
-        The peak's prominence over the null's largest (:class:`Plane`).
+    disparity_px, depth_m, support, evidence
+        Those of the detected :class:`~stimuli.planescan.Plane`: pixels per view step, metres
+        (with a geometry), the fraction of the scan's pixels agreeing on the plane's hill, the
+        peak's prominence over the null's largest.
     border_share : float in [0, 1]
         Fraction of the plane's content within the border frame.
     roi_share : float in [0, 1] or None

@@ -49,6 +49,18 @@ def _scene(grid=(5, 5)) -> LightField:
     return LightField(views)
 
 
+def _build_one(tmp_path: Path, lf: LightField, objects_csv: str | None = None, *, out="s", **kw):
+    """Build a set of one object, ``thing``, from ``lf`` into ``tmp_path / out`` (``objects_csv``:
+    the objects.csv text); return the build's result and the object's stimulus_set.json record."""
+    out = tmp_path / out
+    np.savez(tmp_path / "lf.npz", views=lf.views)
+    (tmp_path / "pairs.csv").write_text("object,lightfield\nthing,lf.npz\n")
+    if objects_csv is not None:
+        (tmp_path / "objects.csv").write_text(objects_csv)
+    r = build_stimulus_set(tmp_path / "pairs.csv", out, workers=1, **kw)
+    return r, json.loads((out / "stimulus_set.json").read_text())["objects"][0]
+
+
 @pytest.fixture(scope="module")
 def scene():
     from stimuli.planes import find_object_planes
@@ -111,11 +123,7 @@ def test_crop_keeps_content_the_centre_crop_cuts():
 @pytest.mark.filterwarnings("ignore:.*agree best at the")
 def test_build_records_plane_crop_and_declutter(tmp_path: Path):
     lf = _scene(grid=(1, 7))
-    np.savez(tmp_path / "lf.npz", views=lf.views)
-    (tmp_path / "pairs.csv").write_text("object,lightfield\nthing,lf.npz\n")
-    (tmp_path / "objects.csv").write_text('object,roi\nthing,"300,220,40,40"\n')
-    r = build_stimulus_set(tmp_path / "pairs.csv", tmp_path / "s", workers=1)
-    rec = json.loads((tmp_path / "s" / "stimulus_set.json").read_text())["objects"][0]
+    r, rec = _build_one(tmp_path, lf, 'object,roi\nthing,"300,220,40,40"\n')
     assert rec["plane"]["rule"] == "roi" and abs(rec["plane"]["disparity_px"] - 3.0) < 0.3
     assert rec["declutter"] == "depth"  # a row of views: view agreement by default
     assert rec["content_kept"] == 1.0 and rec["plane"]["alternatives"]
@@ -123,8 +131,7 @@ def test_build_records_plane_crop_and_declutter(tmp_path: Path):
     assert any("around its plane's content" in n for n in r.notes)
     params = BuildParams(plane="strongest", declutter="sobel")
     (tmp_path / "objects.csv").unlink()
-    build_stimulus_set(tmp_path / "pairs.csv", tmp_path / "t", params=params, workers=1)
-    rec = json.loads((tmp_path / "t" / "stimulus_set.json").read_text())["objects"][0]
+    _, rec = _build_one(tmp_path, lf, out="t", params=params)
     assert rec["plane"]["rule"] == "strongest" and abs(rec["plane"]["disparity_px"]) < 0.3
     assert rec["declutter"] == "sobel"
 
@@ -140,16 +147,13 @@ def test_view_scan_and_build_report_the_same_planes(scene, tmp_path: Path):
     from stimuli.lightfield_cli import lightfield_app
 
     lf = scene[0]
-    np.savez(tmp_path / "lf.npz", views=lf.views)
+    _, rec = _build_one(tmp_path, lf)
     viewer = Viewer(LightFieldSource(lf), ["argus2"], screen_shape_px=(120, 160))
     res = CliRunner().invoke(
         lightfield_app, ["scan", str(tmp_path / "lf.npz"), "-o", str(tmp_path / "scan")]
     )
     assert res.exit_code == 0, res.output
     scan = json.loads((tmp_path / "scan" / "scan.json").read_text())
-    (tmp_path / "pairs.csv").write_text("object,lightfield\nthing,lf.npz\n")
-    build_stimulus_set(tmp_path / "pairs.csv", tmp_path / "s", workers=1)
-    rec = json.loads((tmp_path / "s" / "stimulus_set.json").read_text())["objects"][0]
     built = [a["disparity_px"] for a in rec["plane"]["alternatives"]]
     scanned = [p["disparity_px"] for p in scan["peaks"]]
     assert list(viewer.model.planes_px) == scanned == built and len(built) == 2  # disc, wall
@@ -162,12 +166,7 @@ def test_plane_on_no_object_is_marginal_and_marked(tmp_path: Path):
     and a mark on the contact sheet; the de-cluttered image there is nearly empty."""
     from PIL import Image
 
-    lf = _scene(grid=(1, 7))
-    np.savez(tmp_path / "lf.npz", views=lf.views)
-    (tmp_path / "pairs.csv").write_text("object,lightfield\nthing,lf.npz\n")
-    (tmp_path / "objects.csv").write_text("object,plane_disparity_px\nthing,1.5\n")
-    r = build_stimulus_set(tmp_path / "pairs.csv", tmp_path / "s", workers=1)
-    rec = json.loads((tmp_path / "s" / "stimulus_set.json").read_text())["objects"][0]
+    r, rec = _build_one(tmp_path, _scene(grid=(1, 7)), "object,plane_disparity_px\nthing,1.5\n")
     assert "lies on no detected plane" in rec["plane"]["marginal"]
     assert any("marginal plane" in w for w in rec["warnings"]), rec["warnings"]
     assert any("thing: marginal plane" in n for n in r.notes)
