@@ -39,14 +39,9 @@ PPF = {
     "logistic": lambda f: math.log(f / (1 - f)),
     "normal": special.ndtri,
 }
-SHAPE = {
-    "weibull": ("gumbel", "log"),
-    "loglogistic": ("logistic", "log"),
-    "lognormal": ("normal", "log"),
-    "gumbel": ("gumbel", "linear"),
-    "logistic": ("logistic", "linear"),
-    "normal": ("normal", "linear"),
-}
+# Sigmoid -> (shape, axis): a linear sigmoid is its own shape; these are the shapes on log x.
+LOG_AXIS_SHAPE = {"weibull": "gumbel", "loglogistic": "logistic", "lognormal": "normal"}
+SHAPE = {s: (s, "linear") for s in CDF} | {n: (s, "log") for n, s in LOG_AXIS_SHAPE.items()}
 
 # (file, arguments): one command per shared data set, as a user would type it.
 CASES = [
