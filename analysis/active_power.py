@@ -225,16 +225,12 @@ def active_power_grid(
     n_subjects: Sequence[int],
     *,
     n_scenes: Sequence[int] = (2,),
-    n_targets: int = 3,
-    time_limit_s: float = 60.0,
-    median_time_s: float = 20.0,
-    weibull_shape: float = 1.0,
-    frailty_sd: float = 0.5,
     n_sims: int = 200,
     alpha: float = 0.05,
     seed: int | None = None,
     processes: int | None = None,
     cluster: str | None = None,
+    **design: Any,
 ) -> Iterator[ActivePowerPoint | int]:
     """Estimate the power of the hazard-ratio test over hazard ratios, subjects and scenes.
 
@@ -244,8 +240,6 @@ def active_power_grid(
         Hazard ratios to simulate (finite, > 0).
     n_subjects, n_scenes : sequence of int
         Designs to try (each >= 1).
-    n_targets, time_limit_s, median_time_s, weibull_shape, frailty_sd
-        As :class:`ActiveDesign`.
     n_sims : int
         Studies per grid point (>= 1).
     alpha : float
@@ -256,6 +250,9 @@ def active_power_grid(
         Local worker processes (None: one per CPU; 1: run here).
     cluster : str or None
         Address of a running Dask scheduler; needs the ``dask`` extra. Overrides ``processes``.
+    **design
+        ``n_targets``, ``time_limit_s``, ``median_time_s``, ``weibull_shape``, ``frailty_sd``:
+        as :class:`ActiveDesign` (its defaults when omitted).
 
     Yields
     ------
@@ -280,18 +277,7 @@ def active_power_grid(
         if not vals or min(vals) < 1:
             raise ValueError(f"numbers of {name} must be integers >= 1, got {list(vals)!r}")
     grid = [
-        (
-            float(hr),
-            ActiveDesign(
-                int(s),
-                int(sc),
-                n_targets,
-                time_limit_s,
-                median_time_s,
-                weibull_shape,
-                frailty_sd,
-            ),
-        )
+        (float(hr), ActiveDesign(int(s), int(sc), **design))
         for hr in hazard_ratios
         for sc in n_scenes
         for s in n_subjects
