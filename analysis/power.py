@@ -60,8 +60,16 @@ SIM_LAPSE: float = 0.05
 SIM_SUBJECT_LOG10_SD: float = 0.15
 
 
+class _PowerEstimate:
+    """The JSON form shared by the power records, each with its power's ``ci95``."""
+
+    def to_dict(self) -> dict[str, Any]:
+        """Return a JSON-ready dict."""
+        return {**asdict(self), "ci95": list(self.ci95)}
+
+
 @dataclass(frozen=True)
-class PowerPoint:
+class PowerPoint(_PowerEstimate):
     """Estimated power at one number of subjects.
 
     Parameters
@@ -78,6 +86,11 @@ class PowerPoint:
     power: float
     ci95: tuple[float, float]
     n_sims: int
+
+    @classmethod
+    def from_dict(cls, d: dict[str, Any]) -> PowerPoint:
+        """Inverse of :meth:`to_dict`."""
+        return cls(int(d["n_subjects"]), float(d["power"]), tuple(d["ci95"]), int(d["n_sims"]))
 
 
 @dataclass(frozen=True)
@@ -111,24 +124,20 @@ class PowerResult:
             "size": self.size,
             "alpha": self.alpha,
             "target_power": self.target_power,
-            "points": [{**asdict(p), "ci95": list(p.ci95)} for p in self.points],
+            "points": [p.to_dict() for p in self.points],
             "n_required": self.n_required,
         }
 
     @classmethod
     def from_dict(cls, d: dict[str, Any]) -> PowerResult:
         """Rebuild from :meth:`to_dict` output."""
+        points = tuple(PowerPoint.from_dict(p) for p in d["points"])
         return cls(
             effect=str(d["effect"]),
             size=float(d["size"]),
             alpha=float(d["alpha"]),
             target_power=float(d["target_power"]),
-            points=tuple(
-                PowerPoint(
-                    int(p["n_subjects"]), float(p["power"]), tuple(p["ci95"]), int(p["n_sims"])
-                )
-                for p in d["points"]
-            ),
+            points=points,
             n_required=None if d["n_required"] is None else int(d["n_required"]),
         )
 
@@ -353,7 +362,7 @@ def level_pixels(n_levels: int) -> tuple[float, ...]:
 
 
 @dataclass(frozen=True)
-class GridPoint:
+class GridPoint(_PowerEstimate):
     """Power at one design and effect size.
 
     Parameters
@@ -375,10 +384,6 @@ class GridPoint:
     power: float
     ci95: tuple[float, float]
     n_sims: int
-
-    def to_dict(self) -> dict[str, Any]:
-        """Return a JSON-ready dict."""
-        return {**asdict(self), "ci95": list(self.ci95)}
 
 
 @contextlib.contextmanager
