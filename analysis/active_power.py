@@ -27,13 +27,19 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterator, Sequence
-from dataclasses import asdict, dataclass
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 import pandas as pd
 
-from analysis.power import chunk_tasks, collect_grid, execute_chunks, quiet_statsmodels
+from analysis.power import (
+    _PowerEstimate,
+    chunk_tasks,
+    collect_grid,
+    execute_chunks,
+    quiet_statsmodels,
+)
 from analysis.survival import cox_hazard_ratio
 
 __all__ = [
@@ -168,7 +174,7 @@ def active_study_detects(trials: pd.DataFrame, *, alpha: float = 0.05) -> bool:
 
 
 @dataclass(frozen=True)
-class ActivePowerPoint:
+class ActivePowerPoint(_PowerEstimate):
     """Power at one active-search design and hazard ratio.
 
     Parameters
@@ -189,10 +195,6 @@ class ActivePowerPoint:
     power: float
     ci95: tuple[float, float]
     n_sims: int
-
-    def to_dict(self) -> dict[str, Any]:
-        """Return a JSON-ready dict."""
-        return {**asdict(self), "ci95": list(self.ci95)}
 
     @classmethod
     def from_dict(cls, d: dict[str, Any]) -> ActivePowerPoint:
@@ -225,18 +227,16 @@ def active_power_grid(
     n_subjects: Sequence[int],
     *,
     n_scenes: Sequence[int] = (2,),
-    n_targets: int = 3,
-    time_limit_s: float = 60.0,
-    median_time_s: float = 20.0,
-    weibull_shape: float = 1.0,
-    frailty_sd: float = 0.5,
     n_sims: int = 200,
     alpha: float = 0.05,
     seed: int | None = None,
     processes: int | None = None,
     cluster: str | None = None,
+    **design: Any,
 ) -> Iterator[ActivePowerPoint | int]:
     """Estimate the power of the hazard-ratio test over hazard ratios, subjects and scenes.
+
+    Like :func:`analysis.power.power_grid` (seeds, workers and errors alike), for active search.
 
     Parameters
     ----------
@@ -244,31 +244,17 @@ def active_power_grid(
         Hazard ratios to simulate (finite, > 0).
     n_subjects, n_scenes : sequence of int
         Designs to try (each >= 1).
-    n_targets, time_limit_s, median_time_s, weibull_shape, frailty_sd
-        As :class:`ActiveDesign`.
-    n_sims : int
-        Studies per grid point (>= 1).
-    alpha : float
-        Test level in (0, 1).
-    seed : int or None
-        Root seed (None: fresh entropy; give one to reproduce).
-    processes : int or None
-        Local worker processes (None: one per CPU; 1: run here).
-    cluster : str or None
-        Address of a running Dask scheduler; needs the ``dask`` extra. Overrides ``processes``.
+    n_sims, alpha, seed, processes, cluster
+        As for :func:`analysis.power.power_grid` (any ``n_sims`` >= 1).
+    **design
+        ``n_targets``, ``time_limit_s``, ``median_time_s``, ``weibull_shape``, ``frailty_sd``:
+        as :class:`ActiveDesign` (its defaults when omitted).
 
     Yields
     ------
     int or ActivePowerPoint
         The number of studies finished so far (progress), and each grid point when all its
         studies are in, in grid order (hazard ratio, then scenes, then subjects).
-
-    Raises
-    ------
-    ValueError
-        Bad arguments.
-    ImportError
-        ``cluster`` given without Dask installed.
     """
     if not hazard_ratios or not all(math.isfinite(v) and v > 0 for v in hazard_ratios):
         raise ValueError(f"hazard ratios must be finite and > 0, got {list(hazard_ratios)!r}")
@@ -280,23 +266,12 @@ def active_power_grid(
         if not vals or min(vals) < 1:
             raise ValueError(f"numbers of {name} must be integers >= 1, got {list(vals)!r}")
     grid = [
-        (
-            float(hr),
-            ActiveDesign(
-                int(s),
-                int(sc),
-                n_targets,
-                time_limit_s,
-                median_time_s,
-                weibull_shape,
-                frailty_sd,
-            ),
-        )
+        (float(hr), ActiveDesign(int(s), int(sc), **design))
         for hr in hazard_ratios
         for sc in n_scenes
         for s in n_subjects
     ]
-    tasks = chunk_tasks([(design, hr, alpha) for hr, design in grid], n_sims, seed, CHUNK_SIMS)
+    tasks = chunk_tasks([(d, hr, alpha) for hr, d in grid], n_sims, seed, CHUNK_SIMS)
     from statsmodels.stats.proportion import proportion_confint
 
     def point(gi: int, hits: int) -> ActivePowerPoint:

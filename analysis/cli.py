@@ -600,6 +600,16 @@ def power(
                 typer.echo(f"size {z:g}, {nl} levels, {no} objects: {_needed(row, target)}")
 
 
+#: The active-search design's fields that ``power --active`` options set, and each one's option.
+_ACTIVE_DESIGN_OPTIONS = {
+    "n_targets": "--targets",
+    "time_limit_s": "--time-limit",
+    "median_time_s": "--median-time",
+    "weibull_shape": "--weibull-shape",
+    "frailty_sd": "--frailty-sd",
+}
+
+
 def _active_power(hazard_ratio, subjects, opts, sims, alpha, target, seed, processes, cluster):
     """Run and print ``analyze power --hazard-ratio``: power of active-search studies."""
 
@@ -619,25 +629,13 @@ def _active_power(hazard_ratio, subjects, opts, sims, alpha, target, seed, proce
     for opt, vals in (("--subjects", ns), ("--scenes", nsc)):
         if min(vals) < 1:
             raise OptionError(f"{opt} must be integers >= 1, got {vals!r}")
-    fixed = {
-        "n_targets": opts["--targets"] if opts["--targets"] is not None else 3,
-        "time_limit_s": opts["--time-limit"] if opts["--time-limit"] is not None else 60.0,
-        "median_time_s": opts["--median-time"] if opts["--median-time"] is not None else 20.0,
-        "weibull_shape": opts["--weibull-shape"] if opts["--weibull-shape"] is not None else 1.0,
-        "frailty_sd": opts["--frailty-sd"] if opts["--frailty-sd"] is not None else 0.5,
-    }
-    names = dict(
-        zip(
-            fixed,
-            ("--targets", "--time-limit", "--median-time", "--weibull-shape", "--frailty-sd"),
-            strict=True,
-        )
-    )
+    given = {f: opts[o] for f, o in _ACTIVE_DESIGN_OPTIONS.items() if opts[o] is not None}
     try:
-        ActiveDesign(1, 1, **fixed)
+        design = ActiveDesign(1, 1, **given)  # checks the options; the defaults are its own
     except ValueError as exc:
         field = str(exc).split()[0]
-        raise OptionError(f"{names.get(field, field)}: {exc}") from None
+        raise OptionError(f"{_ACTIVE_DESIGN_OPTIONS.get(field, field)}: {exc}") from None
+    fixed = {f: getattr(design, f) for f in _ACTIVE_DESIGN_OPTIONS}
     gen = active_power_grid(
         hrs,
         ns,

@@ -112,6 +112,8 @@ def plot_recognition(
 ) -> Axes:
     """Plot recognition rate vs pixels per condition: data, fitted curve, 95 % band, thresholds.
 
+    The paper's Fig. 8 (Jung et al. 2015).
+
     Parameters
     ----------
     fits : dict of str to WeibullFit
@@ -126,10 +128,6 @@ def plot_recognition(
     Returns
     -------
     matplotlib.axes.Axes
-
-    References
-    ----------
-    Jung et al. 2015, Fig. 8.
     """
     from analysis.weibull import is_log_axis
 
@@ -192,11 +190,11 @@ def plot_subject_thresholds(
 ) -> Axes:
     """Plot each subject's threshold per condition and the pooled one with its intervals (log axis).
 
-    A measured threshold is a point with its 95 % credible interval; a censored one an open
-    triangle at the tested limit; an unidentified one a bar spanning the tested levels that
-    bracket it (no point). The pooled threshold is a black diamond with its 95 % credible
-    interval (these subjects and objects) and, when given, a wider grey bar for its population
-    interval. The legend lists only what is drawn.
+    The paper's Fig. 9 (Jung et al. 2015). A measured threshold is a point with its 95 % credible
+    interval; a censored one an open triangle at the tested limit; an unidentified one a bar
+    spanning the tested levels that bracket it (no point). The pooled threshold is a black diamond
+    with its 95 % credible interval (these subjects and objects) and, when given, a wider grey bar
+    for its population interval. The legend lists only what is drawn.
 
     Parameters
     ----------
@@ -209,14 +207,11 @@ def plot_subject_thresholds(
     population_ci : dict, optional
         ``AnalysisResult.population_ci``: condition -> ``{"0.5": [low, high]}``.
     ax : matplotlib Axes, optional
+        Drawn into when given; a new 6.8 x 3.8 inch figure otherwise.
 
     Returns
     -------
     matplotlib.axes.Axes
-
-    References
-    ----------
-    Jung et al. 2015, Fig. 9.
     """
     from matplotlib.lines import Line2D
 
@@ -305,6 +300,8 @@ def plot_subject_curves(
 ) -> Figure:
     """Plot every subject's fitted curves and data in a grid of panels.
 
+    The paper's Fig. S2 (Jung et al. 2015).
+
     Parameters
     ----------
     subject_fits : dict
@@ -316,10 +313,6 @@ def plot_subject_curves(
     Returns
     -------
     matplotlib.figure.Figure
-
-    References
-    ----------
-    Jung et al. 2015, Fig. S2.
     """
     n = max(1, len(subject_fits))
     cols = min(3, n)
@@ -342,6 +335,7 @@ def plot_subject_curves(
 def plot_object_difficulty(logistic: LogisticFit, *, ax: Axes | None = None) -> Axes:
     """Plot object difficulty: log odds ratio of *not* recognising each object vs object 1.
 
+    The paper's Fig. S3 (Jung et al. 2015; difficulty as the log odds ratio of failure).
     Positive = harder than the reference object. Error bars are 95 % profile-likelihood intervals
     (Wald intervals when the fit has none).
 
@@ -349,14 +343,11 @@ def plot_object_difficulty(logistic: LogisticFit, *, ax: Axes | None = None) -> 
     ----------
     logistic : LogisticFit
     ax : matplotlib Axes, optional
+        Drawn into when given; otherwise a new figure, taller for long object names.
 
     Returns
     -------
     matplotlib.axes.Axes
-
-    References
-    ----------
-    Jung et al. 2015, Fig. S3 (difficulty as the log odds ratio of failure).
     """
     rows = [r for r in logistic.odds_ratios.rows if r[0].startswith("object:")]
     names = [logistic.reference_object] + [r[0].split(":", 1)[1] for r in rows]

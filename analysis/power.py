@@ -23,6 +23,7 @@ from dataclasses import asdict, dataclass
 from typing import Any, Literal
 
 import numpy as np
+import pandas as pd
 from scipy import optimize, stats
 
 from analysis.jung2015 import PIXEL_COUNTS, THRESHOLD_P50_PX
@@ -60,8 +61,16 @@ SIM_LAPSE: float = 0.05
 SIM_SUBJECT_LOG10_SD: float = 0.15
 
 
+class _PowerEstimate:
+    """The JSON form shared by the power records, each with its power's ``ci95``."""
+
+    def to_dict(self) -> dict[str, Any]:
+        """Return a JSON-ready dict."""
+        return {**asdict(self), "ci95": list(self.ci95)}
+
+
 @dataclass(frozen=True)
-class PowerPoint:
+class PowerPoint(_PowerEstimate):
     """Estimated power at one number of subjects.
 
     Parameters
@@ -78,6 +87,11 @@ class PowerPoint:
     power: float
     ci95: tuple[float, float]
     n_sims: int
+
+    @classmethod
+    def from_dict(cls, d: dict[str, Any]) -> PowerPoint:
+        """Inverse of :meth:`to_dict`."""
+        return cls(int(d["n_subjects"]), float(d["power"]), tuple(d["ci95"]), int(d["n_sims"]))
 
 
 @dataclass(frozen=True)
@@ -111,24 +125,20 @@ class PowerResult:
             "size": self.size,
             "alpha": self.alpha,
             "target_power": self.target_power,
-            "points": [{**asdict(p), "ci95": list(p.ci95)} for p in self.points],
+            "points": [p.to_dict() for p in self.points],
             "n_required": self.n_required,
         }
 
     @classmethod
     def from_dict(cls, d: dict[str, Any]) -> PowerResult:
         """Rebuild from :meth:`to_dict` output."""
+        points = tuple(PowerPoint.from_dict(p) for p in d["points"])
         return cls(
             effect=str(d["effect"]),
             size=float(d["size"]),
             alpha=float(d["alpha"]),
             target_power=float(d["target_power"]),
-            points=tuple(
-                PowerPoint(
-                    int(p["n_subjects"]), float(p["power"]), tuple(p["ci95"]), int(p["n_sims"])
-                )
-                for p in d["points"]
-            ),
+            points=points,
             n_required=None if d["n_required"] is None else int(d["n_required"]),
         )
 
@@ -139,7 +149,8 @@ def _clopper_pearson(k: int, n: int) -> tuple[float, float]:
     return lo, hi
 
 
-def _detect_odds_ratio(
+def _detect(
+    effect: str,
     size: float,
     n_subjects: int,
     alpha: float,
@@ -147,15 +158,26 @@ def _detect_odds_ratio(
     n_objects: int = 20,
     pixels: tuple[float, ...] = PIXEL_COUNTS,
 ) -> bool:
+    """Simulate one study of ``effect`` at ``size`` and return whether its test detects it."""
+    design = {"n_subjects": n_subjects, "n_objects": n_objects, "pixels": pixels}
+    if effect == "odds_ratio":
+        d = simulate_logistic_trials(LogisticObserver(background_or=size), **design, rng=rng)
+        return _odds_ratio_detected(d, alpha)
+    t_d = THRESHOLD_P50_PX["decluttered"]
+    # alpha_px from the 50 % threshold: x50 = a * (-ln(1 - 0.5 / (1 - l))) ** (1 / b)
+    scale = (-math.log(1 - 0.5 / (1 - SIM_LAPSE))) ** (1 / SIM_BETA)
+    obs = {
+        "cluttered": WeibullObserver(size * t_d / scale, SIM_BETA, SIM_LAPSE),
+        "decluttered": WeibullObserver(t_d / scale, SIM_BETA, SIM_LAPSE),
+    }
+    d = simulate_weibull_trials(obs, **design, subject_log10_sd=SIM_SUBJECT_LOG10_SD, rng=rng)
+    return _threshold_ratio_detected(d, alpha)
+
+
+def _odds_ratio_detected(d: pd.DataFrame, alpha: float) -> bool:
+    """Return whether the fixed-effects logistic model finds the background odds ratio > 1."""
     import statsmodels.api as sm
 
-    d = simulate_logistic_trials(
-        LogisticObserver(background_or=size),
-        n_subjects=n_subjects,
-        n_objects=n_objects,
-        pixels=pixels,
-        rng=rng,
-    )
     y = d["recognized"].to_numpy()
     if y.min() == y.max():
         return False
@@ -188,29 +210,8 @@ def _nll_joint(theta, xs, ks, ns, shared_loc: bool) -> float:
     return -total
 
 
-def _detect_threshold_ratio(
-    size: float,
-    n_subjects: int,
-    alpha: float,
-    rng,
-    n_objects: int = 20,
-    pixels: tuple[float, ...] = PIXEL_COUNTS,
-) -> bool:
-    t_d = THRESHOLD_P50_PX["decluttered"]
-    # alpha_px from the 50 % threshold: x50 = a * (-ln(1 - 0.5 / (1 - l))) ** (1 / b)
-    scale = (-math.log(1 - 0.5 / (1 - SIM_LAPSE))) ** (1 / SIM_BETA)
-    obs = {
-        "cluttered": WeibullObserver(size * t_d / scale, SIM_BETA, SIM_LAPSE),
-        "decluttered": WeibullObserver(t_d / scale, SIM_BETA, SIM_LAPSE),
-    }
-    d = simulate_weibull_trials(
-        obs,
-        n_subjects=n_subjects,
-        n_objects=n_objects,
-        pixels=pixels,
-        subject_log10_sd=SIM_SUBJECT_LOG10_SD,
-        rng=rng,
-    )
+def _threshold_ratio_detected(d: pd.DataFrame, alpha: float) -> bool:
+    """Return whether the likelihood-ratio test finds a lower de-cluttered threshold."""
     xs, ks, ns = [], [], []
     for c in ("cluttered", "decluttered"):
         g = d[d["condition"] == c].groupby("pixels")["recognized"].agg(["sum", "size"])
@@ -278,11 +279,10 @@ def iter_power(
             f"n_subjects must be a non-empty list of integers >= 1, got {n_subjects!r}"
         )
     rng = np.random.default_rng(rng)
-    detect = _detect_odds_ratio if effect == "odds_ratio" else _detect_threshold_ratio
     for n in n_subjects:
         hits = 0
         for _ in range(n_sims):
-            hits += detect(size, int(n), alpha, rng)
+            hits += _detect(effect, size, int(n), alpha, rng)
             yield None
         yield PowerPoint(int(n), hits / n_sims, _clopper_pearson(hits, n_sims), n_sims)
 
@@ -353,7 +353,7 @@ def level_pixels(n_levels: int) -> tuple[float, ...]:
 
 
 @dataclass(frozen=True)
-class GridPoint:
+class GridPoint(_PowerEstimate):
     """Power at one design and effect size.
 
     Parameters
@@ -375,10 +375,6 @@ class GridPoint:
     power: float
     ci95: tuple[float, float]
     n_sims: int
-
-    def to_dict(self) -> dict[str, Any]:
-        """Return a JSON-ready dict."""
-        return {**asdict(self), "ci95": list(self.ci95)}
 
 
 @contextlib.contextmanager
@@ -403,14 +399,12 @@ def _run_chunk(
     seeds: list[np.random.SeedSequence],
 ) -> list[bool]:
     """Simulate and test one chunk of studies; each study has its own seed (picklable task)."""
-    detect = _detect_odds_ratio if effect == "odds_ratio" else _detect_threshold_ratio
     pixels = level_pixels(n_levels)
     out = []
     with quiet_statsmodels():
         for ss in seeds:
-            out.append(
-                bool(detect(size, n_subjects, alpha, np.random.default_rng(ss), n_objects, pixels))
-            )
+            rng = np.random.default_rng(ss)
+            out.append(bool(_detect(effect, size, n_subjects, alpha, rng, n_objects, pixels)))
     return out
 
 

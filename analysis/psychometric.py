@@ -589,25 +589,17 @@ def _plot_name(i: int, label: str) -> str:
 def write_fit_report(result: TableFit, out_dir: str | Path, *, plots: bool = True) -> Path:
     """Write ``results.json``, ``report.md`` and one plot per group to ``out_dir``, atomically.
 
-    Parameters
-    ----------
-    result : TableFit
-    out_dir : str or Path
-        Report folder; replaced if it exists.
-    plots : bool
-        Draw a PNG (300 dpi) per group: data with 95 % binomial intervals, the fitted curve with
-        its 95 % band, and the measured thresholds.
-
-    Returns
-    -------
-    Path
+    Like :func:`analysis.report.write_report` (the folder is replaced if it exists, and returned
+    resolved), for a :class:`TableFit`; ``plots`` draws a PNG (300 dpi) per group: data with
+    95 % binomial intervals, the fitted curve with its 95 % band, and the measured thresholds.
     """
+    from analysis.pipeline import _clean
     from analysis.report import atomic_folder, results_json_text
 
     r = result.results_json()
     names = [_plot_name(i, g.label) for i, g in enumerate(result.groups)] if plots else []
     with atomic_folder(out_dir) as tmp:
-        (tmp / "results.json").write_text(results_json_text(_strict(r)), encoding="utf-8")
+        (tmp / "results.json").write_text(results_json_text(_clean(r)), encoding="utf-8")
         (tmp / "report.md").write_text(render_fit_markdown(r, names), encoding="utf-8")
         if plots:
             from analysis.figures import plot_recognition
@@ -623,15 +615,3 @@ def write_fit_report(result: TableFit, out_dir: str | Path, *, plots: bool = Tru
                     mark_simulated(ax.figure)
                 ax.figure.savefig(tmp / name, dpi=300, bbox_inches="tight", pad_inches=0.04)
     return Path(out_dir).resolve()
-
-
-def _strict(v: Any) -> Any:
-    if isinstance(v, dict):
-        return {str(k): _strict(x) for k, x in v.items()}
-    if isinstance(v, list | tuple):
-        return [_strict(x) for x in v]
-    if isinstance(v, np.generic):
-        v = v.item()
-    if isinstance(v, float) and not math.isfinite(v):
-        return None
-    return v

@@ -32,7 +32,7 @@ from __future__ import annotations
 import math
 import warnings
 from collections.abc import Sequence
-from dataclasses import asdict, dataclass, field
+from dataclasses import MISSING, asdict, dataclass, field, fields
 from typing import Any
 
 import numpy as np
@@ -82,6 +82,43 @@ def _pair(v: Sequence[Any] | None) -> tuple[float | None, float | None]:
     if v is None:
         return (None, None)
     return (_fnum(v[0]), _fnum(v[1]))
+
+
+def _floats(v: Sequence[Any]) -> tuple[float, ...]:
+    return tuple(float(x) for x in v)
+
+
+#: How a result's ``from_dict`` reads a field, by the field's annotation.
+_READ_FIELD = {
+    "str": str,
+    "int": int,
+    "float": float,
+    "float | None": _fnum,
+    "tuple[float | None, float | None]": _pair,
+    "tuple[float, float]": _floats,
+    "tuple[float, ...]": _floats,
+}
+
+
+def _to_dict(result: Any, **keys: str) -> dict[str, Any]:
+    """Return a result's fields as a JSON-ready dict, tuples as lists; ``keys`` renames fields."""
+    return {
+        keys.get(k, k): list(v) if isinstance(v, tuple) else v for k, v in asdict(result).items()
+    }
+
+
+def _from_dict(cls: type, d: dict[str, Any], **keys: str) -> Any:
+    """Return ``cls`` read back from its ``to_dict`` form (``keys`` as for :func:`_to_dict`).
+
+    Each field is converted by its annotation (:data:`_READ_FIELD`); a field with a default may
+    be missing from ``d``.
+    """
+    values = {}
+    for f in fields(cls):
+        key = keys.get(f.name, f.name)
+        if key in d or f.default is MISSING:
+            values[f.name] = _READ_FIELD[f.type](d[key])
+    return cls(**values)
 
 
 @dataclass(frozen=True)
@@ -138,27 +175,12 @@ class KaplanMeierSummary:
 
     def to_dict(self) -> dict[str, Any]:
         """Return a JSON-ready dict: every field, tuples as lists."""
-        return {k: list(v) if isinstance(v, tuple) else v for k, v in asdict(self).items()}
+        return _to_dict(self)
 
     @classmethod
     def from_dict(cls, d: dict[str, Any]) -> KaplanMeierSummary:
         """Inverse of :meth:`to_dict`."""
-        return cls(
-            label=str(d["label"]),
-            n_trials=int(d["n_trials"]),
-            n_recognized=int(d["n_recognized"]),
-            n_censored=int(d["n_censored"]),
-            median_s=_fnum(d["median_s"]),
-            median_ci95_s=_pair(d["median_ci95_s"]),
-            recognition_rate=float(d["recognition_rate"]),
-            recognition_rate_ci95=tuple(float(v) for v in d["recognition_rate_ci95"]),
-            time_s=tuple(float(v) for v in d.get("time_s", ())),
-            survival=tuple(float(v) for v in d.get("survival", ())),
-            survival_ci95_low=tuple(float(v) for v in d.get("survival_ci95_low", ())),
-            survival_ci95_high=tuple(float(v) for v in d.get("survival_ci95_high", ())),
-            censored_s=tuple(float(v) for v in d.get("censored_s", ())),
-            longest_s=float(d.get("longest_s", 0.0)),
-        )
+        return _from_dict(cls, d)
 
 
 def _check_times(time_s: Any, recognized: Any) -> tuple[np.ndarray, np.ndarray]:
@@ -287,35 +309,13 @@ class HazardRatio:
         return self.hazard_ratio is not None
 
     def to_dict(self) -> dict[str, Any]:
-        """Return the ``comparison`` entry of ``results.json``."""
-        return {
-            "condition": self.condition,
-            "reference": self.reference,
-            "hazard_ratio": self.hazard_ratio,
-            "hazard_ratio_ci95": list(self.ci95),
-            "p": self.p,
-            "method": self.method,
-            "n_trials": self.n_trials,
-            "n_recognized": self.n_recognized,
-            "n_subjects": self.n_subjects,
-            "note": self.note,
-        }
+        """Return the ``comparison`` entry of ``results.json`` (ci95 as ``hazard_ratio_ci95``)."""
+        return _to_dict(self, ci95="hazard_ratio_ci95")
 
     @classmethod
     def from_dict(cls, d: dict[str, Any]) -> HazardRatio:
         """Inverse of :meth:`to_dict`."""
-        return cls(
-            condition=str(d["condition"]),
-            reference=str(d["reference"]),
-            hazard_ratio=_fnum(d["hazard_ratio"]),
-            ci95=_pair(d["hazard_ratio_ci95"]),
-            p=_fnum(d["p"]),
-            method=str(d["method"]),
-            n_trials=int(d["n_trials"]),
-            n_recognized=int(d["n_recognized"]),
-            n_subjects=int(d["n_subjects"]),
-            note=str(d.get("note", "")),
-        )
+        return _from_dict(cls, d, ci95="hazard_ratio_ci95")
 
 
 def cox_hazard_ratio(
@@ -449,15 +449,7 @@ class RecognitionModel:
     @classmethod
     def from_dict(cls, d: dict[str, Any]) -> RecognitionModel:
         """Inverse of :meth:`to_dict`."""
-        return cls(
-            method=str(d["method"]),
-            condition=str(d["condition"]),
-            reference=str(d["reference"]),
-            odds_ratio=_fnum(d["odds_ratio"]),
-            ci95=_pair(d["odds_ratio_ci95"]),
-            subject_sd=_fnum(d["subject_sd"]),
-            note=str(d.get("note", "")),
-        )
+        return _from_dict(cls, d, ci95="odds_ratio_ci95")
 
 
 _MODEL_METHOD = (

@@ -33,24 +33,13 @@ from typing import Any
 
 import numpy as np
 
+from analysis import weibull
 from analysis.cluster import cluster_threshold_ci
 from analysis.data import read_trials
 from analysis.pipeline import AnalysisOptions, analyze
 from analysis.power import power_analysis
 from analysis.psychometric import FitSpec, fit_table
 from analysis.simulate import WeibullObserver, simulate_weibull_trials
-from analysis.weibull import (
-    SIGMOIDS,
-    WeibullFit,
-    aggregate,
-    default_prior,
-    fit_counts,
-    fit_mle,
-    fit_weibull,
-    psychometric,
-    sample_posterior,
-    threshold_at,
-)
 
 __all__ = ["collect", "compare"]
 
@@ -88,7 +77,7 @@ def _digest(a: np.ndarray) -> str:
     return f"{a.shape} sha256:{hashlib.sha256(a.tobytes()).hexdigest()}"
 
 
-def _fit(fit: WeibullFit, pc: float = 0.75) -> dict[str, Any]:
+def _fit(fit: weibull.WeibullFit, pc: float = 0.75) -> dict[str, Any]:
     d = fit.to_dict()
     d["samples"] = _digest(fit.samples)
     d["summary"] = fit.summary(pc)
@@ -113,41 +102,41 @@ def collect(seed: int = 11) -> dict[str, Any]:
     k, n = np.array(K), np.array(N)
 
     # The model: curve, thresholds, aggregation, default priors, ML fits on every sigmoid.
-    for sigmoid in SIGMOIDS:
+    for sigmoid in weibull.SIGMOIDS:
         xs = x if sigmoid in ("weibull", "loglogistic", "lognormal") else np.log10(x)
-        out[f"psychometric/{sigmoid}"] = psychometric(xs, xs[3], 1.7, 0.05, sigmoid=sigmoid)
-        out[f"threshold_at/{sigmoid}"] = threshold_at(
+        out[f"psychometric/{sigmoid}"] = weibull.psychometric(xs, xs[3], 1.7, 0.05, sigmoid=sigmoid)
+        out[f"threshold_at/{sigmoid}"] = weibull.threshold_at(
             0.6, [xs[2], xs[4]], [1.2, 3.0], [0.0, 0.1], guess=0.1, sigmoid=sigmoid
         )
-        prior = default_prior(xs, guess=0.1, sigmoid=sigmoid, lapse_a=1.5, lapse_b=12.0)
+        prior = weibull.default_prior(xs, guess=0.1, sigmoid=sigmoid, lapse_a=1.5, lapse_b=12.0)
         out[f"default_prior/{sigmoid}"] = prior.to_dict()
         out[f"prior_log_prob/{sigmoid}"] = prior.log_prob(
             np.array([[np.mean(prior.loc_range), np.mean(prior.log_beta_range), 0.03, 0.1]])
         )
-        out[f"fit_mle/{sigmoid}"] = fit_mle(xs, k, n, guess=0.1, sigmoid=sigmoid).to_dict()
+        out[f"fit_mle/{sigmoid}"] = weibull.fit_mle(xs, k, n, guess=0.1, sigmoid=sigmoid).to_dict()
     trials_x = np.repeat(x, 3)
     trials_c = (np.arange(len(trials_x)) % 3 < np.repeat([0, 0, 1, 1, 2, 2, 3, 3], 3)).astype(int)
-    out["aggregate"] = aggregate(trials_x, trials_c)
+    out["aggregate"] = weibull.aggregate(trials_x, trials_c)
 
     # Posteriors through the public fitting functions (the batch sampler behind them).
-    fit, w = _warned(fit_counts, x, k, n, label="counts", rng=seed)
+    fit, w = _warned(weibull.fit_counts, x, k, n, label="counts", rng=seed)
     out["fit_counts/weibull"] = {**_fit(fit), "warnings": w}
-    fit = fit_counts(x, k, n, overdispersion=True, label="od", rng=seed + 1)
+    fit = weibull.fit_counts(x, k, n, overdispersion=True, label="od", rng=seed + 1)
     out["fit_counts/weibull_overdispersion"] = {
         **_fit(fit),
         "goodness_of_fit_seed3": fit.goodness_of_fit(n_draws=500, rng=3),
     }
-    fit = fit_counts(np.log10(x), k, n, sigmoid="logistic", guess=0.05, rng=seed + 2)
+    fit = weibull.fit_counts(np.log10(x), k, n, sigmoid="logistic", guess=0.05, rng=seed + 2)
     out["fit_counts/logistic"] = _fit(fit)
-    fit, w = _warned(fit_weibull, trials_x, trials_c, label="few trials", rng=seed + 3)
+    fit, w = _warned(weibull.fit_weibull, trials_x, trials_c, label="few trials", rng=seed + 3)
     out["fit_weibull/few_trials"] = {**_fit(fit), "warnings": w}
-    fit, w = _warned(fit_counts, x[:2], n[:2], n[:2], label="all correct", rng=seed + 4)
+    fit, w = _warned(weibull.fit_counts, x[:2], n[:2], n[:2], label="all correct", rng=seed + 4)
     out["fit_counts/all_correct"] = {**_fit(fit), "warnings": w}
-    out["fit_weibull/round_trip"] = _fit(WeibullFit.from_dict(fit.to_dict()))
+    out["fit_weibull/round_trip"] = _fit(weibull.WeibullFit.from_dict(fit.to_dict()))
 
     # emcee posterior, chunk by chunk.
     steps = []
-    for prog in sample_posterior(x, k, n, overdispersion=True, max_steps=1_000, rng=seed):
+    for prog in weibull.sample_posterior(x, k, n, overdispersion=True, max_steps=1_000, rng=seed):
         chain = prog.sampler.get_chain()
         steps.append([prog.n_steps, prog.tau_max, prog.converged, _digest(chain)])
     out["sample_posterior"] = steps

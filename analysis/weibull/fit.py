@@ -26,9 +26,34 @@ __all__ = ["fit_weibull", "fit_counts"]
 logger = logging.getLogger(__name__)
 
 
-def fit_weibull(
-    x: Any,
-    correct: Any,
+def fit_weibull(x: Any, correct: Any, **options: Any) -> WeibullFit:
+    """Fit a psychometric function to trials: MLE, then an emcee posterior until converged.
+
+    Like :func:`fit_counts` (same options, result, errors and warnings), for one row per trial:
+    the trials are counted per level (:func:`aggregate`) and fitted.
+
+    Parameters
+    ----------
+    x : array_like of shape (n_trials,)
+        Stimulus level per trial (pixels for the Jung 2015 data; > 0 for log-axis sigmoids).
+    correct : array_like of shape (n_trials,)
+        1 = correct/recognised, 0 = not, per trial.
+    **options
+        ``guess``, ``sigmoid``, ``prior``, ``label``, ``overdispersion``, ``n_walkers``,
+        ``max_steps``, ``rng``: as for :func:`fit_counts`.
+
+    References
+    ----------
+    Jung et al. 2015, Sec. 3.2.2 (Weibull fits not forced to 100 %); Wichmann & Hill 2001.
+    """
+    levels, k, n = aggregate(x, correct)
+    return fit_counts(levels, k, n, **options)
+
+
+def fit_counts(
+    levels: Any,
+    k: Any,
+    n: Any,
     *,
     guess: float = 0.0,
     sigmoid: Sigmoid = "weibull",
@@ -39,14 +64,16 @@ def fit_weibull(
     max_steps: int = MAX_STEPS,
     rng: np.random.Generator | int | None = None,
 ) -> WeibullFit:
-    """Fit a psychometric function to trials: MLE, then an emcee posterior until converged.
+    """Fit a psychometric function to aggregated counts: MLE, then an emcee posterior.
+
+    The posterior is sampled until converged (see :mod:`analysis.weibull.posterior`).
 
     Parameters
     ----------
-    x : array_like of shape (n_trials,)
-        Stimulus level per trial (pixels for the Jung 2015 data; > 0 for log-axis sigmoids).
-    correct : array_like of shape (n_trials,)
-        1 = correct/recognised, 0 = not, per trial.
+    levels : array_like of shape (n_levels,)
+        Stimulus levels (repeated levels are merged).
+    k, n : array_like of shape (n_levels,)
+        Number correct and number of trials at each level (0 <= k <= n, n > 0).
     guess : float
         Guess rate in [0, 1) (0 for free recognition, 0.5 for 2AFC).
     sigmoid : str
@@ -71,66 +98,13 @@ def fit_weibull(
     Raises
     ------
     ValueError
-        Bad arguments (mismatched lengths, non-positive x for a log axis, bad guess rate).
+        Bad counts or arguments (mismatched lengths, non-positive levels for a log axis, bad
+        guess rate).
 
     Warns
     -----
     FitWarning
         All or no trials correct, or fewer than 5 trials at most levels.
-
-    References
-    ----------
-    Jung et al. 2015, Sec. 3.2.2 (Weibull fits not forced to 100 %); Wichmann & Hill 2001.
-    """
-    levels, k, n = aggregate(x, correct)
-    return fit_counts(
-        levels,
-        k,
-        n,
-        guess=guess,
-        sigmoid=sigmoid,
-        prior=prior,
-        label=label,
-        overdispersion=overdispersion,
-        n_walkers=n_walkers,
-        max_steps=max_steps,
-        rng=rng,
-    )
-
-
-def fit_counts(
-    levels: Any,
-    k: Any,
-    n: Any,
-    *,
-    guess: float = 0.0,
-    sigmoid: Sigmoid = "weibull",
-    prior: PsychometricPrior | None = None,
-    label: str = "",
-    overdispersion: bool = False,
-    n_walkers: int = N_WALKERS,
-    max_steps: int = MAX_STEPS,
-    rng: np.random.Generator | int | None = None,
-) -> WeibullFit:
-    """Fit a psychometric function to aggregated counts (see :func:`fit_weibull`).
-
-    Parameters
-    ----------
-    levels : array_like of shape (n_levels,)
-        Stimulus levels (repeated levels are merged).
-    k, n : array_like of shape (n_levels,)
-        Number correct and number of trials at each level (0 <= k <= n, n > 0).
-    guess, sigmoid, prior, label, overdispersion, n_walkers, max_steps, rng
-        As for :func:`fit_weibull`.
-
-    Returns
-    -------
-    WeibullFit
-
-    Raises
-    ------
-    ValueError
-        Bad counts or arguments.
     """
     _check_sigmoid(sigmoid)
     _check_guess(guess)

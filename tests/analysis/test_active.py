@@ -42,6 +42,18 @@ def _score(score, recognized, t, *, rater="operator", primary=True):
     return ("score", payload, t)
 
 
+def _answered_at_once(start, t0, rt_s, *, key, action, response, score, recognized):
+    """``add`` rows of a trial answered from its first view (depth 10) ``rt_s`` after ``t0``."""
+    t = t0 + rt_s
+    return [
+        ("trial_start", start, t0),
+        ("state", _state(10.0), t0),
+        ("key", {"key": key, "action": action}, t),
+        ("answer", {"response": response, "rt_s": rt_s, "state": _state(10.0)}, t),
+        _score(score, recognized, t),
+    ]
+
+
 @pytest.fixture()
 def db(tmp_path):
     """A hand-made log: 1 session, 3 trials; trial 1 crashed once and was resumed."""
@@ -100,33 +112,14 @@ def db(tmp_path):
         ],
     )
     add(1, 0, [("attempt_abandoned", {"reason": "session resumed"}, 20.0)])
-    add(
-        1,
-        1,
-        [
-            ("trial_start", ped, 20.0),
-            ("state", _state(10.0), 20.0),
-            ("key", {"key": "Escape", "action": "pass"}, 24.0),
-            ("answer", {"response": "", "rt_s": 4.0, "state": _state(10.0)}, 24.0),
-            _score("pass", False, 24.0),
-        ],
-    )
+    passed = {"key": "Escape", "action": "pass", "response": "", "score": "pass"}
+    add(1, 1, _answered_at_once(ped, 20.0, 4.0, **passed, recognized=False))
     # trial 2, cluttered, tree: named after 3 s, then re-scored by operator as 'use' and by
     # a second rater (not primary) as 'wrong'
     clut = {**start, "condition": "cluttered"}
-    add(
-        2,
-        0,
-        [
-            ("trial_start", clut, 30.0),
-            ("state", _state(10.0), 30.0),
-            ("key", {"key": "Enter", "action": "answer"}, 33.0),
-            ("answer", {"response": "a tree", "rt_s": 3.0, "state": _state(10.0)}, 33.0),
-            _score("named", True, 33.0),
-            _score("use", True, 40.0),
-            _score("wrong", False, 41.0, rater="B", primary=False),
-        ],
-    )
+    named = {"key": "Enter", "action": "answer", "response": "a tree", "score": "named"}
+    add(2, 0, _answered_at_once(clut, 30.0, 3.0, **named, recognized=True))
+    add(2, 0, [_score("use", True, 40.0), _score("wrong", False, 41.0, rater="B", primary=False)])
     log.close()
     return path
 

@@ -39,14 +39,9 @@ PPF = {
     "logistic": lambda f: math.log(f / (1 - f)),
     "normal": special.ndtri,
 }
-SHAPE = {
-    "weibull": ("gumbel", "log"),
-    "loglogistic": ("logistic", "log"),
-    "lognormal": ("normal", "log"),
-    "gumbel": ("gumbel", "linear"),
-    "logistic": ("logistic", "linear"),
-    "normal": ("normal", "linear"),
-}
+# Sigmoid -> (shape, axis): a linear sigmoid is its own shape; these are the shapes on log x.
+LOG_AXIS_SHAPE = {"weibull": "gumbel", "loglogistic": "logistic", "lognormal": "normal"}
+SHAPE = {s: (s, "linear") for s in CDF} | {n: (s, "log") for n, s in LOG_AXIS_SHAPE.items()}
 
 # (file, arguments): one command per shared data set, as a user would type it.
 CASES = [
@@ -245,39 +240,22 @@ def test_every_data_set_reports_statuses_not_bare_numbers(fitted):
 def test_fit_command_bad_input_is_one_line(tmp_path, capsys):
     p = tmp_path / "t.csv"
     p.write_text("level,c\n1,1\n2,0\n")
+    q = tmp_path / "z.csv"  # a level 0, which a log-axis sigmoid cannot take
+    q.write_text("x,y\n0,0\n1,1\n2,1\n")
     cases = [
-        (["--x", "lvl", "--y", "c"], "--x column 'lvl' not found (columns: level, c)"),
-        (["--x", "level", "--y", "c", "--k", "c"], "give either --y, or --k with --n"),
-        (["--x", "level", "--k", "c"], "give either --y, or --k with --n"),
-        (["--x", "level", "--y", "c", "--pc", "1.5"], "--pc values must be in"),
-        (["--x", "level", "--y", "c", "--sigmoid", "probit"], "--sigmoid must be auto or one of"),
+        (p, ["--x", "lvl", "--y", "c"], "--x column 'lvl' not found (columns: level, c)"),
+        (p, ["--x", "level", "--y", "c", "--k", "c"], "give either --y, or --k with --n"),
+        (p, ["--x", "level", "--k", "c"], "give either --y, or --k with --n"),
+        (p, ["--x", "level", "--y", "c", "--pc", "1.5"], "--pc values must be in"),
+        (p, ["--x", "level", "--y", "c", "--sigmoid", "probit"], "--sigmoid must be auto or"),
+        (q, ["--x", "x", "--y", "y", "--sigmoid", "weibull"], "levels <= 0"),
     ]
-    for args, needle in cases:
+    for table, args, needle in cases:
         with pytest.raises(SystemExit) as exc:
-            main(["analyze", "fit", str(p), *args, "--out", str(tmp_path / "r")])
+            main(["analyze", "fit", str(table), *args, "--out", str(tmp_path / "r")])
         assert exc.value.code == 2
         err = capsys.readouterr().err.strip()
         assert needle in err and "\n" not in err, err
-    q = tmp_path / "z.csv"
-    q.write_text("x,y\n0,0\n1,1\n2,1\n")
-    with pytest.raises(SystemExit) as exc:
-        main(
-            [
-                "analyze",
-                "fit",
-                str(q),
-                "--x",
-                "x",
-                "--y",
-                "y",
-                "--sigmoid",
-                "weibull",
-                "--out",
-                str(tmp_path / "r"),
-            ]
-        )
-    assert exc.value.code == 2
-    assert "levels <= 0" in capsys.readouterr().err
     assert not (tmp_path / "r").exists()
 
 
