@@ -102,18 +102,13 @@ def run_command(
         )
     check_new_session_reason(new_session)
     if searcher == "person":
+        screen_options = {
+            "screen": screen,
+            "fullscreen": fullscreen,
+            "skip_timing_check": skip_timing_check,
+        }
         _run_person(
-            spec,
-            data,
-            subject,
-            seed,
-            screen,
-            fullscreen,
-            presenter,
-            skip_timing_check,
-            rater,
-            new_session,
-            subject_index,
+            spec, data, subject, seed, presenter, screen_options, rater, new_session, subject_index
         )
         return
     _run_simulated(protocol, spec, data, subject, searcher, seed, new_session, subject_index)
@@ -133,18 +128,10 @@ def subject_phosphenes(spec) -> dict | None:
 
 
 def _run_person(
-    spec,
-    data,
-    subject,
-    seed,
-    screen,
-    fullscreen,
-    presenter,
-    skip_timing_check,
-    rater,
-    new_session,
-    subject_index=None,
+    spec, data, subject, seed, presenter, screen_options, rater, new_session, subject_index=None
 ) -> None:
+    """Run SUBJECT's session with a person searching; ``screen_options`` are the subject's
+    window's ``screen``, ``fullscreen`` and ``skip_timing_check``."""
     import json
     import sys
 
@@ -186,9 +173,7 @@ def _run_person(
                     display = RemoteDisplay(
                         geometry,
                         mode="window" if presenter == "process" else "offscreen",
-                        screen=screen,
-                        fullscreen=fullscreen,
-                        skip_timing_check=skip_timing_check,
+                        **screen_options,
                         inputs=True,
                         stderr_path=session_log_path(session),
                         phosphenes=subject_phosphenes(spec),
@@ -202,7 +187,7 @@ def _run_person(
                 info = getattr(display, "info", None) or {"presenter": presenter}
                 info = json.dumps(info, sort_keys=True, default=str)
                 log.add_event(session.session_id, "display", info, session.clock.now_s())
-                if skip_timing_check:
+                if screen_options["skip_timing_check"]:
                     log.add_event(
                         session.session_id,
                         "timing_check",

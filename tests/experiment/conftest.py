@@ -9,6 +9,8 @@ from __future__ import annotations
 
 import csv
 import hashlib
+import subprocess
+import sys
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
@@ -77,6 +79,21 @@ def confocal(args: list, capsys: pytest.CaptureFixture[str]) -> tuple[int, str, 
         cli.main([str(a) for a in args])
     out = capsys.readouterr()
     return exc.value.code, out.out, out.err
+
+
+def confocal_process(*args: object, timeout: float = 300, **run: object):
+    """Run ``confocal ARGS`` in a new Python process; return its ``CompletedProcess`` (text).
+
+    Extra keywords (``env``) go to :func:`subprocess.run`.
+    """
+    code = "import sys; from experiment.cli import main; main(sys.argv[1:])"
+    return subprocess.run(
+        [sys.executable, "-c", code, *map(str, args)],
+        capture_output=True,
+        text=True,
+        timeout=timeout,
+        **run,  # type: ignore[arg-type]
+    )
 
 
 def session_run_args(stim: Path, proto: Path, db: Path, subject: str = "S01", *extra) -> list:

@@ -28,6 +28,7 @@ from experiment.viewer.events import ViewerEventLog  # noqa: E402
 from experiment.viewer.screen import STATUS_ROWS_PX  # noqa: E402
 from experiment.viewer.source import open_source  # noqa: E402
 from experiment.viewer.state import ViewerState  # noqa: E402
+from tests.experiment.conftest import confocal_process  # noqa: E402
 from tests.experiment.test_window_xvfb import x_display  # noqa: E402, F401
 
 SIZE = (400, 560)  # rows, cols: small so that llvmpipe draws quickly
@@ -45,24 +46,10 @@ EVENTS = [
 def test_viewer_window_events_screenshots_and_log(x_display, tmp_path) -> None:  # noqa: F811
     lf_path = tmp_path / "scene.npz"
     code = "import sys; from experiment.cli import main; main(sys.argv[1:])"
-    r = subprocess.run(
-        [
-            sys.executable,
-            "-c",
-            code,
-            "lightfield",
-            "synth",
-            "--kind",
-            "camera",
-            "--size",
-            "160x120",
-            "--out",
-            str(lf_path),
-        ],
-        capture_output=True,
-        text=True,
+    r = confocal_process(
+        "lightfield", "synth", "--kind", "camera", "--size", "160x120", "--out", lf_path,
         timeout=120,
-    )
+    )  # fmt: skip
     assert r.returncode == 0, r.stderr
     script = tmp_path / "events.jsonl"
     script.write_text("".join(json.dumps(e) + "\n" for e in EVENTS))
@@ -162,10 +149,9 @@ def test_real_keys_esc_unzooms_and_never_closes_the_window(x_display, tmp_path) 
 
     lf_path = tmp_path / "scene.npz"
     code = "import sys; from experiment.cli import main; main(sys.argv[1:])"
-    r = subprocess.run(
-        [sys.executable, "-c", code, "lightfield", "synth", "--kind", "camera",
-         "--size", "160x120", "--out", str(lf_path)],
-        capture_output=True, text=True, timeout=120,
+    r = confocal_process(
+        "lightfield", "synth", "--kind", "camera", "--size", "160x120", "--out", lf_path,
+        timeout=120,
     )  # fmt: skip
     assert r.returncode == 0, r.stderr
     try:
