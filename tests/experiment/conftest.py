@@ -102,6 +102,19 @@ def session_run_args(stim: Path, proto: Path, db: Path, subject: str = "S01", *e
             "--data", db, *extra]  # fmt: skip
 
 
+def headless_run_args(stim: Path, proto: Path, db: Path, subject: str, *extra) -> list:
+    """Like :func:`session_run_args`, for a headless run (a simulated observer) with seed 2."""
+    return session_run_args(stim, proto, db, subject, "--headless", "--seed", "2", *extra)
+
+
+def run_and_export(study: tuple[Path, Path, Path], out: Path, capsys) -> None:
+    """Run S01's headless session of ``study`` (:func:`make_study`'s paths), then export the
+    log to the psych-DS folder ``out``; both must succeed."""
+    stim, proto, db = study
+    assert confocal(headless_run_args(stim, proto, db, "S01"), capsys)[0] == 0
+    assert confocal(["session", "export", db, "--out", out], capsys)[0] == 0
+
+
 #: The operator-console tests' protocol: one level, two conditions, the paper's display.
 CONSOLE_PROTOCOL = """
 [protocol]
