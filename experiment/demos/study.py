@@ -560,16 +560,7 @@ def _observer_line(demo: DemoResult) -> str:
 
 
 def simulated_section(demo: DemoResult) -> str:
-    """Return the report's "Simulated observers" section (Markdown): who, and the paper beside.
-
-    Parameters
-    ----------
-    demo : DemoResult
-
-    Returns
-    -------
-    str
-    """
+    """Return the report's "Simulated observers" section (Markdown): who, and the paper beside."""
     sim = _simulated_numbers(demo.results)
     lines = [
         "",

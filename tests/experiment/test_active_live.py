@@ -237,9 +237,8 @@ def test_analysis_reports_a_person_as_not_simulated(tmp_path) -> None:
 
     path = tmp_path / "person.sqlite"
     clock = FakeClock(0.0)
-    spec = listed_protocol()
     with TrialLog(path) as log:
-        s, search = person_search(log, spec, clock, seed=1)
+        s, search = person_search(log, listed_protocol(), clock, seed=1)
         for words in ("a pedestrian", "a tree"):
             search.cue()
             search.begin()
