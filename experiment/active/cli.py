@@ -14,6 +14,7 @@ box: :mod:`experiment.active.scenefile`).
 
 from __future__ import annotations
 
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Annotated
 
@@ -102,18 +103,13 @@ def run_command(
         )
     check_new_session_reason(new_session)
     if searcher == "person":
+        screen_options = {
+            "screen": screen,
+            "fullscreen": fullscreen,
+            "skip_timing_check": skip_timing_check,
+        }
         _run_person(
-            spec,
-            data,
-            subject,
-            seed,
-            screen,
-            fullscreen,
-            presenter,
-            skip_timing_check,
-            rater,
-            new_session,
-            subject_index,
+            spec, data, subject, seed, presenter, screen_options, rater, new_session, subject_index
         )
         return
     _run_simulated(protocol, spec, data, subject, searcher, seed, new_session, subject_index)
@@ -132,27 +128,41 @@ def subject_phosphenes(spec) -> dict | None:
     return asdict(phosphene_spec(layout))
 
 
+@contextmanager
+def _open_session(data, spec, subject, seed, new_session, subject_index, **open_options):
+    """Open (or resume) SUBJECT's active-search session in the trial log DATA; yield the log and
+    the session, both closed on exit. ``open_options``: the searcher's ``responder`` and
+    ``clock``."""
+    from experiment.active.session import ActiveSession
+    from experiment.log import TrialLog
+
+    with TrialLog(data) as log:
+        session = ActiveSession.open(
+            log,
+            spec,
+            subject,
+            seed=seed,
+            new_session=new_session,
+            subject_index=subject_index,
+            **open_options,
+        )
+        try:
+            yield log, session
+        finally:
+            session.close()
+
+
 def _run_person(
-    spec,
-    data,
-    subject,
-    seed,
-    screen,
-    fullscreen,
-    presenter,
-    skip_timing_check,
-    rater,
-    new_session,
-    subject_index=None,
+    spec, data, subject, seed, presenter, screen_options, rater, new_session, subject_index=None
 ) -> None:
+    """Run SUBJECT's session with a person searching; ``screen_options`` are the subject's
+    window's ``screen``, ``fullscreen`` and ``skip_timing_check``."""
     import json
     import sys
 
     from experiment.active.live import LiveSearch
-    from experiment.active.session import ActiveSession
     from experiment.console import logs_to_file, session_log_path
     from experiment.console.active import run_active_console
-    from experiment.log import TrialLog
     from experiment.presentation.presenter import ScreenGeometry
     from experiment.presentation.process import PresenterDied, RemoteDisplay
 
@@ -166,58 +176,42 @@ def _run_person(
     geometry = ScreenGeometry.from_display_spec(spec.display)
     if run_options.report_if_complete(data, subject, new_session):
         return
-    with TrialLog(data) as log:
-        session = ActiveSession.open(
-            log,
-            spec,
-            subject,
-            seed=seed,
-            responder="person",
-            new_session=new_session,
-            subject_index=subject_index,
-        )
+    with _open_session(
+        data, spec, subject, seed, new_session, subject_index, responder="person"
+    ) as (log, session):
         try:
-            try:
-                if presenter == "none":
-                    from experiment.presentation.displays import NullDisplay
+            if presenter == "none":
+                from experiment.presentation.displays import NullDisplay
 
-                    display = NullDisplay(session.clock)
-                else:
-                    display = RemoteDisplay(
-                        geometry,
-                        mode="window" if presenter == "process" else "offscreen",
-                        screen=screen,
-                        fullscreen=fullscreen,
-                        skip_timing_check=skip_timing_check,
-                        inputs=True,
-                        stderr_path=session_log_path(session),
-                        phosphenes=subject_phosphenes(spec),
-                    )
-            except PresenterDied as exc:
-                log.add_event(
-                    session.session_id, "presenter_failed", str(exc), session.clock.now_s()
+                display = NullDisplay(session.clock)
+            else:
+                display = RemoteDisplay(
+                    geometry,
+                    mode="window" if presenter == "process" else "offscreen",
+                    **screen_options,
+                    inputs=True,
+                    stderr_path=session_log_path(session),
+                    phosphenes=subject_phosphenes(spec),
                 )
-                raise ConfocalError(str(exc)) from None
-            try:
-                info = getattr(display, "info", None) or {"presenter": presenter}
-                info = json.dumps(info, sort_keys=True, default=str)
-                log.add_event(session.session_id, "display", info, session.clock.now_s())
-                if skip_timing_check:
-                    log.add_event(
-                        session.session_id,
-                        "timing_check",
-                        "skipped by the operator (--skip-timing-check)",
-                        session.clock.now_s(),
-                    )
-                live = LiveSearch(session, display, rater=rater)
-                with logs_to_file(
-                    session_log_path(session), prefix=f"session {session.session_id}"
-                ):
-                    done, total = run_active_console(live)
-            finally:
-                display.close()
+        except PresenterDied as exc:
+            log.add_event(session.session_id, "presenter_failed", str(exc), session.clock.now_s())
+            raise ConfocalError(str(exc)) from None
+        try:
+            info = getattr(display, "info", None) or {"presenter": presenter}
+            info = json.dumps(info, sort_keys=True, default=str)
+            log.add_event(session.session_id, "display", info, session.clock.now_s())
+            if screen_options["skip_timing_check"]:
+                log.add_event(
+                    session.session_id,
+                    "timing_check",
+                    "skipped by the operator (--skip-timing-check)",
+                    session.clock.now_s(),
+                )
+            live = LiveSearch(session, display, rater=rater)
+            with logs_to_file(session_log_path(session), prefix=f"session {session.session_id}"):
+                done, total = run_active_console(live)
         finally:
-            session.close()
+            display.close()
     typer.echo(f"session of {subject}: {done} of {total} trials answered; log: {data}")
 
 
@@ -228,9 +222,7 @@ def _run_simulated(
 
     from experiment.active.adapter import scene_objects
     from experiment.active.searcher import EdgeRecogniser, SimulatedSearcher
-    from experiment.active.session import ActiveSession
     from experiment.clock import FakeClock
-    from experiment.log import TrialLog
 
     base = None if spec.source_path is None else Path(spec.source_path).parent
     for name in spec.task.scenes:
@@ -242,30 +234,19 @@ def _run_simulated(
             )
     if run_options.report_if_complete(data, subject, new_session):
         return
-    with TrialLog(data) as log:
-        session = ActiveSession.open(
-            log,
-            spec,
-            subject,
-            seed=seed,
-            clock=FakeClock(),
-            responder=searcher,
-            new_session=new_session,
-            subject_index=subject_index,
-        )
-        try:
-            rec = EdgeRecogniser(session.scene, spec.task.grid_px, rng=session.seed)
-            sim = SimulatedSearcher(rec, searcher.split(":", 1)[1], rng=session.seed)
-            for ev in session.iter_run(sim):
-                if ev["kind"] == "answer":
-                    p = ev["payload"]
-                    typer.echo(
-                        f"trial {ev['trial']}: answered {p['response'] or '(pass)'!r} after "
-                        f"{p['rt_s']:.1f} s (simulated)"
-                    )
-            done, total = session.progress()
-        finally:
-            session.close()
+    with _open_session(
+        data, spec, subject, seed, new_session, subject_index, clock=FakeClock(), responder=searcher
+    ) as (_, session):
+        rec = EdgeRecogniser(session.scene, spec.task.grid_px, rng=session.seed)
+        sim = SimulatedSearcher(rec, searcher.split(":", 1)[1], rng=session.seed)
+        for ev in session.iter_run(sim):
+            if ev["kind"] == "answer":
+                p = ev["payload"]
+                typer.echo(
+                    f"trial {ev['trial']}: answered {p['response'] or '(pass)'!r} after "
+                    f"{p['rt_s']:.1f} s (simulated)"
+                )
+        done, total = session.progress()
     typer.echo(f"session of {subject}: {done} of {total} trials answered; log: {data}")
 
 

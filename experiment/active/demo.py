@@ -153,8 +153,7 @@ def run_active_demo(
     Parameters
     ----------
     out_dir : str or Path
-        Folder to write: a new or empty one (a non-empty folder is refused, never replaced;
-        ``confocal demo --force`` replaces a folder an earlier demo wrote).
+        Folder to write, as for :func:`experiment.demos.lightfield.run_lightfield_demo`.
     seed : int >= 0
         Seed of the searcher (its times and its model observer's noise).
     shape_px : (rows, cols), optional

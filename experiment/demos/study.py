@@ -501,16 +501,18 @@ def _distance(sim: float | None, paper: float) -> str:
     return f"{(r - 1) * 100:+.0f} %" if 0.25 <= r <= 2 else f"{r:.2g}x the paper's"
 
 
+def _knowledge_source(knowledge: dict[str, Any], rendering: str) -> str:
+    """Where an observer's knowledge came from: ``rendering`` formatted with the seed of the
+    synthesis that made it, or a held-out stimulus set."""
+    seed = (knowledge.get("synth") or {}).get("seed")
+    return "a held-out stimulus set" if seed is None else rendering.format(seed=seed)
+
+
 def _calibrated_line(demo: DemoResult, first: dict[str, Any]) -> str:
     """One sentence: the calibrated observer, its calibration and its distance to the paper."""
     p = first.get("params", {})
     k = first.get("knowledge", {})
-    synth = k.get("synth") or {}
-    source = (
-        f"another rendering (seed {synth['seed']})"
-        if synth.get("seed") is not None
-        else "a held-out stimulus set"
-    )
+    source = _knowledge_source(k, "another rendering (seed {seed})")
     sim = _simulated_numbers(demo.results)
 
     def px(key: str) -> str:
@@ -540,12 +542,7 @@ def _observer_line(demo: DemoResult) -> str:
         k = first.get("knowledge", {})
         crit = [o["criterion"] for o in demo.observers if o.get("criterion") is not None]
         p = first.get("params", {})
-        synth = k.get("synth") or {}
-        source = (
-            f"another rendering synthesised with seed {synth['seed']}"
-            if synth.get("seed") is not None
-            else "a held-out stimulus set"
-        )
+        source = _knowledge_source(k, "another rendering synthesised with seed {seed}")
         return (
             f"simulated observer: exemplar ({first.get('model')}); knowledge: "
             f"{len(k.get('categories', []))} categories from {len(k.get('exemplars', []))} "
@@ -563,16 +560,7 @@ def _observer_line(demo: DemoResult) -> str:
 
 
 def simulated_section(demo: DemoResult) -> str:
-    """Return the report's "Simulated observers" section (Markdown): who, and the paper beside.
-
-    Parameters
-    ----------
-    demo : DemoResult
-
-    Returns
-    -------
-    str
-    """
+    """Return the report's "Simulated observers" section (Markdown): who, and the paper beside."""
     sim = _simulated_numbers(demo.results)
     lines = [
         "",

@@ -9,6 +9,8 @@ from __future__ import annotations
 
 import csv
 import hashlib
+import subprocess
+import sys
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
@@ -79,10 +81,38 @@ def confocal(args: list, capsys: pytest.CaptureFixture[str]) -> tuple[int, str, 
     return exc.value.code, out.out, out.err
 
 
+def confocal_process(*args: object, timeout: float = 300, **run: object):
+    """Run ``confocal ARGS`` in a new Python process; return its ``CompletedProcess`` (text).
+
+    Extra keywords (``env``) go to :func:`subprocess.run`.
+    """
+    code = "import sys; from experiment.cli import main; main(sys.argv[1:])"
+    return subprocess.run(
+        [sys.executable, "-c", code, *map(str, args)],
+        capture_output=True,
+        text=True,
+        timeout=timeout,
+        **run,  # type: ignore[arg-type]
+    )
+
+
 def session_run_args(stim: Path, proto: Path, db: Path, subject: str = "S01", *extra) -> list:
     """Return the arguments of ``confocal session run`` for a study made by :func:`make_study`."""
     return ["session", "run", "--protocol", proto, "--stimuli", stim, "--subject", subject,
             "--data", db, *extra]  # fmt: skip
+
+
+def headless_run_args(stim: Path, proto: Path, db: Path, subject: str, *extra) -> list:
+    """Like :func:`session_run_args`, for a headless run (a simulated observer) with seed 2."""
+    return session_run_args(stim, proto, db, subject, "--headless", "--seed", "2", *extra)
+
+
+def run_and_export(study: tuple[Path, Path, Path], out: Path, capsys) -> None:
+    """Run S01's headless session of ``study`` (:func:`make_study`'s paths), then export the
+    log to the psych-DS folder ``out``; both must succeed."""
+    stim, proto, db = study
+    assert confocal(headless_run_args(stim, proto, db, "S01"), capsys)[0] == 0
+    assert confocal(["session", "export", db, "--out", out], capsys)[0] == 0
 
 
 #: The operator-console tests' protocol: one level, two conditions, the paper's display.

@@ -25,6 +25,7 @@ from experiment.clock import FakeClock
 from experiment.log import ResumeMismatch, TrialLog, TrialLogError
 from experiment.protocol import ProtocolError, ProtocolSpec, load_protocol
 from experiment.protocol.task import ActiveSearchSpec, task_from_table
+from tests.analysis.conftest import active_session
 
 #: A small scene keeps every test in seconds (the shipped protocol uses the paper's 308x385).
 SMALL = {
@@ -193,17 +194,7 @@ def test_zoom_and_its_errors() -> None:
 
 def test_event_log_is_append_only_and_checks_input(tmp_path) -> None:
     log = TrialLog(tmp_path / "e.sqlite")
-    sid = log.create_session(
-        subject="S",
-        protocol_name="p",
-        protocol_sha256="x",
-        protocol_json="{}",
-        display_json="{}",
-        stimset_path="s",
-        stimset_manifest_sha256="y",
-        seed="1",
-        primary_rater="operator",
-    )
+    sid = active_session(log, "S")
     ev = ActiveEventLog(log, sid)
     assert ev.append("key", {"key": "Up", "action": "depth_near"}, 1.5, trial=0) == 0
     assert ev.append("state", {"depth_px": 1.0}, 1.5, trial=0) == 1

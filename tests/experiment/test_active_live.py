@@ -42,11 +42,22 @@ def unpack(hexbits: str, grid_px) -> np.ndarray:
     return bits.reshape(grid_px).astype(bool)
 
 
+def listed_protocol(**fields):
+    """The small active-search protocol, de-cluttered only, its trials in the listed order."""
+    return small_protocol(conditions=["decluttered"], trial_order="listed", **fields)
+
+
+def person_search(log, spec, clock, **open_options) -> tuple[ActiveSession, LiveSearch]:
+    """Open S01's session with a person searching on the headless twin: (session, search)."""
+    session = ActiveSession.open(log, spec, "S01", clock=clock, responder="person", **open_options)
+    return session, LiveSearch(session, NullDisplay(clock))
+
+
 @pytest.fixture()
 def live():
     clock = FakeClock(100.0)
     log = TrialLog(":memory:")
-    spec = small_protocol(conditions=["decluttered"], trial_order="listed", time_limit_s=30.0)
+    spec = listed_protocol(time_limit_s=30.0)
     session = ActiveSession.open(log, spec, "S01", seed=3, clock=clock, responder="person")
     display = NullDisplay(clock)
     yield LiveSearch(session, display, rater="op1"), clock, display
@@ -226,10 +237,8 @@ def test_analysis_reports_a_person_as_not_simulated(tmp_path) -> None:
 
     path = tmp_path / "person.sqlite"
     clock = FakeClock(0.0)
-    spec = small_protocol(conditions=["decluttered"], trial_order="listed")
     with TrialLog(path) as log:
-        s = ActiveSession.open(log, spec, "S01", seed=1, clock=clock, responder="person")
-        search = LiveSearch(s, NullDisplay(clock))
+        s, search = person_search(log, listed_protocol(), clock, seed=1)
         for words in ("a pedestrian", "a tree"):
             search.cue()
             search.begin()
@@ -251,10 +260,9 @@ def test_analysis_reports_a_person_as_not_simulated(tmp_path) -> None:
 def test_quitting_mid_search_restarts_that_trial_on_resume(tmp_path) -> None:
     path = tmp_path / "resume.sqlite"
     clock = FakeClock(0.0)
-    spec = small_protocol(conditions=["decluttered"], trial_order="listed")
+    spec = listed_protocol()
     with TrialLog(path) as log:
-        s = ActiveSession.open(log, spec, "S01", seed=4, clock=clock, responder="person")
-        live = LiveSearch(s, NullDisplay(clock))
+        s, live = person_search(log, spec, clock, seed=4)
         live.cue()
         live.begin()
         clock.advance(1.0)
@@ -262,8 +270,7 @@ def test_quitting_mid_search_restarts_that_trial_on_resume(tmp_path) -> None:
         assert len(live.pump()) == 2
         s.close()  # Ctrl+Q with the search on screen, unscored
     with TrialLog(path) as log:
-        s = ActiveSession.open(log, spec, "S01", clock=clock, responder="person")
-        live = LiveSearch(s, NullDisplay(clock))
+        s, live = person_search(log, spec, clock)
         assert live.cue().index == 0  # the same trial again
         live.begin()
         clock.advance(2.0)
@@ -315,8 +322,7 @@ def test_a_search_through_argus_ii_logs_its_grid_and_draws_its_phosphenes(tmp_pa
     spec = load_protocol(_implant_protocol(tmp_path))
     clock = FakeClock(0.0)
     with TrialLog(":memory:") as log:
-        s = ActiveSession.open(log, spec, "S01", seed=1, clock=clock, responder="person")
-        live = LiveSearch(s, NullDisplay(clock))
+        s, live = person_search(log, spec, clock, seed=1)
         live.cue()
         live.begin()
         live.display.post_input({"key": "PageDown"})

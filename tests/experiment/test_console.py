@@ -31,6 +31,14 @@ async def type_text(pilot, text: str) -> None:
     await pilot.press(*("space" if ch == " " else ch for ch in text))
 
 
+async def score_first_trial(pilot, words: str, score_key: str) -> None:
+    """Start the main part, type WORDS for trial 1, score them with SCORE_KEY, show trial 2."""
+    await pilot.press("enter", "enter")
+    await type_text(pilot, words)
+    await pilot.press(score_key)
+    await pilot.press("enter")
+
+
 def run(coro):
     """Run the coroutine with a 60 s limit; return its value."""
     return asyncio.run(asyncio.wait_for(coro, timeout=60))
@@ -154,10 +162,7 @@ def test_quit_mid_trial_then_resume_shows_it_again(mini) -> None:
 
     async def script() -> None:
         async with app.run_test() as pilot:
-            await pilot.press("enter", "enter")
-            await type_text(pilot, "cup")
-            await pilot.press("f1")
-            await pilot.press("enter")
+            await score_first_trial(pilot, "cup", "f1")
             pending = app.trial.index
             await type_text(pilot, "half typed")
             await pilot.press("ctrl+q")
@@ -181,10 +186,7 @@ def test_undo_only_until_next_trial(mini) -> None:
 
     async def script() -> None:
         async with app.run_test() as pilot:
-            await pilot.press("enter", "enter")
-            await type_text(pilot, "cup")
-            await pilot.press("f4")
-            await pilot.press("enter")
+            await score_first_trial(pilot, "cup", "f4")
             await pilot.press("ctrl+z")
             assert app.state == "trial"
             await pilot.press("ctrl+q")

@@ -18,16 +18,17 @@ from experiment.data.psychds import (
     parse_dates,
 )
 from experiment.log import TrialLog
-from tests.experiment.conftest import confocal, make_study, session_run_args
+from tests.experiment.conftest import (
+    confocal,
+    headless_run_args,
+    make_study,
+    run_and_export,
+)
 
 
 @pytest.fixture()
 def study(tmp_path):
     return make_study(tmp_path, (1, 8), n_main=2, training=None)
-
-
-def run(stim, proto, db, subject, *extra):
-    return session_run_args(stim, proto, db, subject, "--headless", "--seed", "2", *extra)
 
 
 def read(path, delimiter=","):
@@ -55,7 +56,9 @@ def read(path, delimiter=","):
 )
 def test_identifying_participant_fields_are_refused_at_session_run(study, capsys, text):
     stim, proto, db = study
-    code, _, err = confocal(run(stim, proto, db, "S01", "--participant", text), capsys)
+    code, _, err = confocal(
+        headless_run_args(stim, proto, db, "S01", "--participant", text), capsys
+    )
     assert code == 2 and len(err.strip().splitlines()) == 1, err
     assert text.split("=")[0] in err and "--allow-identifying" in err
     assert not db.exists(), "nothing written"
@@ -72,7 +75,7 @@ def test_documented_fields_are_not_identifying(text):
 def test_identifying_fields_stay_in_the_log_unless_asked(study, tmp_path, capsys):
     stim, proto, db = study
     meta = "age=31,email=ann@example.org,dob=1970-01-02,favourite=tea"
-    code, _, err = confocal(run(stim, proto, db, "S01", "--participant", meta,
+    code, _, err = confocal(headless_run_args(stim, proto, db, "S01", "--participant", meta,
                                 "--allow-identifying"), capsys)  # fmt: skip
     assert code == 0, err
     with TrialLog(db, readonly=True) as log:
@@ -100,7 +103,7 @@ def test_identifying_fields_stay_in_the_log_unless_asked(study, tmp_path, capsys
 
 def test_export_has_no_wall_clock_time(study, tmp_path, capsys):
     stim, proto, db = study
-    assert confocal(run(stim, proto, db, "S01"), capsys)[0] == 0
+    assert confocal(headless_run_args(stim, proto, db, "S01"), capsys)[0] == 0
     with TrialLog(db, readonly=True) as log:
         started = log.sessions()[0]["started_at"]
         stamps = [r[0] for r in log.execute("SELECT recorded_at FROM trials")]
@@ -134,7 +137,7 @@ def test_bad_dates_rule(study, tmp_path, capsys, text):
     with pytest.raises(ParticipantError, match="--dates must be day, shift:N"):
         parse_dates(text)
     stim, proto, db = study
-    assert confocal(run(stim, proto, db, "S01"), capsys)[0] == 0
+    assert confocal(headless_run_args(stim, proto, db, "S01"), capsys)[0] == 0
     code, _, err = confocal(["session", "export", db, "--out", tmp_path / "o", "--dates", text],
                             capsys)  # fmt: skip
     assert code == 2 and "--dates" in err and not (tmp_path / "o").exists()
@@ -142,19 +145,20 @@ def test_bad_dates_rule(study, tmp_path, capsys, text):
 
 def test_colliding_subject_codes_are_refused_at_run(study, capsys):
     stim, proto, db = study
-    assert confocal(run(stim, proto, db, "S_01"), capsys)[0] == 0
+    assert confocal(headless_run_args(stim, proto, db, "S_01"), capsys)[0] == 0
     before = db.read_bytes()
     for other in ("S-01", "S01", "s01"):
-        code, _, err = confocal(run(stim, proto, db, other), capsys)
+        code, _, err = confocal(headless_run_args(stim, proto, db, other), capsys)
         assert code == 2 and len(err.strip().splitlines()) == 1, err
         assert "'S_01'" in err and f"'{other}'" in err and "subject-" in err
     assert db.read_bytes() == before
-    assert confocal(run(stim, proto, db, "S_01"), capsys)[0] == 0, "the same code is fine"
+    code = confocal(headless_run_args(stim, proto, db, "S_01"), capsys)[0]
+    assert code == 0, "the same code is fine"
 
 
 def test_colliding_subject_codes_are_refused_at_export(study, tmp_path, capsys):
     stim, proto, db = study
-    assert confocal(run(stim, proto, db, "S_01"), capsys)[0] == 0
+    assert confocal(headless_run_args(stim, proto, db, "S_01"), capsys)[0] == 0
     import sqlite3
 
     con = sqlite3.connect(db)  # a second code, as in a log written before run refused it
@@ -176,11 +180,10 @@ def test_colliding_subject_codes_are_refused_at_export(study, tmp_path, capsys):
 
 def test_collision_with_a_subject_already_in_the_dataset(study, tmp_path, capsys):
     stim, proto, db = study
-    assert confocal(run(stim, proto, db, "S01"), capsys)[0] == 0
     out = tmp_path / "dataset"
-    assert confocal(["session", "export", db, "--out", out], capsys)[0] == 0
+    run_and_export(study, out, capsys)
     db2 = tmp_path / "site2.sqlite"
-    assert confocal(run(stim, proto, db2, "S-01"), capsys)[0] == 0
+    assert confocal(headless_run_args(stim, proto, db2, "S-01"), capsys)[0] == 0
     before = {p: p.read_bytes() for p in out.rglob("*") if p.is_file()}
     code, _, err = confocal(["session", "export", db2, "--out", out], capsys)
     assert code == 2 and "'S01'" in err and "'S-01'" in err
@@ -197,7 +200,7 @@ def test_collision_check():
 
 def test_participants_tsv_is_formula_safe(study, tmp_path, capsys):
     stim, proto, db = study
-    code, _, err = confocal(run(stim, proto, db, "S01", "--participant",
+    code, _, err = confocal(headless_run_args(stim, proto, db, "S01", "--participant",
                                 "group=+cmd|calc,site=-A"), capsys)  # fmt: skip
     assert code == 0, err
     out = tmp_path / "dataset"

@@ -24,7 +24,12 @@ from experiment.data.psychds import (
     parse_participant,
 )
 from experiment.log import TrialLog
-from tests.experiment.conftest import confocal, make_study, session_run_args
+from tests.experiment.conftest import (
+    confocal,
+    headless_run_args,
+    make_study,
+    run_and_export,
+)
 
 #: Psych-DS 1.x schema, objects/files/Datafile: fileRegex.
 FILE_REGEX = re.compile(r"([a-z]+-[a-zA-Z0-9]+)(_[a-z]+-[a-zA-Z0-9]+)*_data\.csv")
@@ -101,15 +106,11 @@ def study(tmp_path):
     return make_study(tmp_path, (1, 8), n_main=2)
 
 
-def run(stim, proto, db, subject, *extra):
-    return session_run_args(stim, proto, db, subject, "--headless", "--seed", "2", *extra)
-
-
 def test_export_is_a_valid_psychds_dataset(study, tmp_path, capsys):
     stim, proto, db = study
-    assert confocal(run(stim, proto, db, "S-01", "--participant", "age=31,sex=F,consent=C7"),
-                    capsys)[0] == 0  # fmt: skip
-    assert confocal(run(stim, proto, db, "S02"), capsys)[0] == 0
+    args = headless_run_args(stim, proto, db, "S-01", "--participant", "age=31,sex=F,consent=C7")
+    assert confocal(args, capsys)[0] == 0
+    assert confocal(headless_run_args(stim, proto, db, "S02"), capsys)[0] == 0
     out = tmp_path / "dataset"
     code, stdout, err = confocal(["session", "export", db, "--out", out, "--study", "pilot-1"],
                                  capsys)  # fmt: skip
@@ -144,9 +145,8 @@ def test_export_is_a_valid_psychds_dataset(study, tmp_path, capsys):
 
 def test_reexport_merges_instead_of_overwriting(study, tmp_path, capsys):
     stim, proto, db = study
-    assert confocal(run(stim, proto, db, "S01"), capsys)[0] == 0
     out = tmp_path / "dataset"
-    assert confocal(["session", "export", db, "--out", out], capsys)[0] == 0
+    run_and_export(study, out, capsys)
     desc_path = out / "dataset_description.json"
     desc = json.loads(desc_path.read_text())
     created = desc["dateCreated"]
@@ -157,7 +157,7 @@ def test_reexport_merges_instead_of_overwriting(study, tmp_path, capsys):
     desc_path.write_text(json.dumps(desc))
     # a second site's log exported into the same folder
     db2 = tmp_path / "site2.sqlite"
-    assert confocal(run(stim, proto, db2, "S09"), capsys)[0] == 0
+    assert confocal(headless_run_args(stim, proto, db2, "S09"), capsys)[0] == 0
     assert confocal(["session", "export", db2, "--out", out], capsys)[0] == 0
     again = json.loads(desc_path.read_text())
     assert again["name"] == "Our lab's replication" and again["author"] == desc["author"]
@@ -188,7 +188,9 @@ def test_bad_participant_metadata(study, capsys, text, match):
     with pytest.raises(ParticipantError, match=match):
         parse_participant(text)
     stim, proto, db = study
-    code, _, err = confocal(run(stim, proto, db, "S01", "--participant", text), capsys)
+    code, _, err = confocal(
+        headless_run_args(stim, proto, db, "S01", "--participant", text), capsys
+    )
     assert code == 2 and len(err.strip().splitlines()) == 1
     assert not db.exists(), "nothing written"
 
@@ -204,7 +206,7 @@ def test_names():
 
 def test_export_refuses_a_file_as_folder(study, tmp_path, capsys):
     stim, proto, db = study
-    assert confocal(run(stim, proto, db, "S01"), capsys)[0] == 0
+    assert confocal(headless_run_args(stim, proto, db, "S01"), capsys)[0] == 0
     target = tmp_path / "x.csv"
     target.write_text("keep")
     code, _, err = confocal(["session", "export", db, "--out", target], capsys)

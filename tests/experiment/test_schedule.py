@@ -233,38 +233,31 @@ level_order = "random"
     assert len(orders) > 1
 
 
-def test_level_missing_from_stimulus_set(tmp_path, paper_set):
-    spec = write(
-        tmp_path,
-        """
-[[blocks]]
-part = "main"
-objects = "main"
-levels = [1, 9]
-conditions = ["cluttered"]
-""",
-    )
-    with pytest.raises(ProtocolError, match=r"blocks\[0\]\.levels: level 9 is not in stimulus set"):
-        build_schedule(spec, paper_set, rng=0)
-
-
 @pytest.mark.parametrize(
-    ("objects", "conditions", "match"),
+    ("objects", "levels", "conditions", "match"),
     [
-        ('["obj01", "teacup"]', '["cluttered"]', r"object 'teacup' is not in stimulus set"),
-        ('"practice"', '["cluttered"]', r"no objects with role 'practice'"),
-        ('"main"', '["photo"]', r"no image for object 'obj01', condition 'photo', level 1"),
+        ('"main"', "[1, 9]", '["cluttered"]', r"blocks\[0\]\.levels: level 9 is not in stimulus"),
+        ('["obj01", "teacup"]', "[1]", '["cluttered"]', r"object 'teacup' is not in stimulus set"),
+        ('"practice"', "[1]", '["cluttered"]', r"no objects with role 'practice'"),
+        ('"main"', "[1]", '["photo"]', r"no image for object 'obj01', condition 'photo', level 1"),
     ],
-    ids=["object_missing", "role_without_objects", "image_missing_for_a_combination"],
+    ids=[
+        "level_missing",
+        "object_missing",
+        "role_without_objects",
+        "image_missing_for_a_combination",
+    ],
 )
-def test_stimuli_the_protocol_needs_are_missing(tmp_path, paper_set, objects, conditions, match):
+def test_stimuli_the_protocol_needs_are_missing(
+    tmp_path, paper_set, objects, levels, conditions, match
+):
     spec = write(
         tmp_path,
         f"""
 [[blocks]]
 part = "main"
 objects = {objects}
-levels = [1]
+levels = {levels}
 conditions = {conditions}
 """,
     )

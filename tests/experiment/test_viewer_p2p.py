@@ -10,6 +10,7 @@ import pytest
 from experiment.errors import ConfocalError
 from experiment.viewer.p2p import p2p_percept
 from stimuli.implants import load_implant
+from tests.experiment.conftest import confocal_process
 
 
 def test_missing_extra_names_the_install_command(monkeypatch) -> None:
@@ -52,58 +53,18 @@ def test_single_electrode_lands_where_it_is_on_the_grid(model, tmp_path, monkeyp
 
 def test_view_command_writes_the_p2p_still(tmp_path) -> None:
     pytest.importorskip("pulse2percept", reason="the p2p extra is not installed")
-    import subprocess
-
     from PIL import Image
 
-    code = "import sys; from experiment.cli import main; main(sys.argv[1:])"
     lf = tmp_path / "scene.npz"
-    r = subprocess.run(
-        [
-            sys.executable,
-            "-c",
-            code,
-            "lightfield",
-            "synth",
-            "--kind",
-            "camera",
-            "--size",
-            "128x96",
-            "--out",
-            str(lf),
-        ],
-        capture_output=True,
-        text=True,
-    )
+    r = confocal_process("lightfield", "synth", "--kind", "camera", "--size", "128x96", "--out", lf)
     assert r.returncode == 0, r.stderr
     shot = tmp_path / "v.png"
-    r = subprocess.run(
-        [
-            sys.executable,
-            "-c",
-            code,
-            "view",
-            str(lf),
-            "--cpu",
-            "--implant",
-            "argus2",
-            "--p2p",
-            "scoreboard",
-            "--screenshot",
-            str(shot),
-            "--planes",
-            "30",
-        ],
-        capture_output=True,
-        text=True,
-        timeout=300,
-    )
+    r = confocal_process(
+        "view", lf, "--cpu", "--implant", "argus2", "--p2p", "scoreboard",
+        "--screenshot", shot, "--planes", "30",
+    )  # fmt: skip
     assert r.returncode == 0, r.stderr
     still = np.asarray(Image.open(tmp_path / "v_p2p.png"))
     assert still.ndim == 2 and still.max() == 255
-    r = subprocess.run(
-        [sys.executable, "-c", code, "view", str(lf), "--p2p", "scoreboard"],
-        capture_output=True,
-        text=True,
-    )
+    r = confocal_process("view", lf, "--p2p", "scoreboard")
     assert r.returncode == 2 and "--p2p needs --screenshot" in r.stderr

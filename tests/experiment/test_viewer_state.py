@@ -6,8 +6,6 @@ All GL-free except the CLI screenshot test, which uses ``--cpu``.
 from __future__ import annotations
 
 import math
-import subprocess
-import sys
 
 import numpy as np
 import pytest
@@ -22,6 +20,7 @@ from stimuli.implants import (
     load_implant,
     render_phosphenes,
 )
+from tests.experiment.conftest import confocal_process
 
 MODEL = ViewerModel(
     shape_px=(100, 150),
@@ -241,17 +240,12 @@ def test_depth_at_falls_back_to_the_image_median() -> None:
 # -- command line ----------------------------------------------------------------------------
 
 
-def _confocal(*args):
-    code = "import sys; from experiment.cli import main; main(sys.argv[1:])"
-    return subprocess.run(
-        [sys.executable, "-c", code, *args], capture_output=True, text=True, timeout=300
-    )
-
-
 @pytest.fixture(scope="module")
 def small_lf(tmp_path_factory):
     out = tmp_path_factory.mktemp("lf") / "scene.npz"
-    r = _confocal("lightfield", "synth", "--kind", "camera", "--size", "128x96", "--out", str(out))
+    r = confocal_process(
+        "lightfield", "synth", "--kind", "camera", "--size", "128x96", "--out", out
+    )
     assert r.returncode == 0, r.stderr
     return out
 
@@ -324,7 +318,7 @@ def test_present_implant_draws_one_phosphene_per_lit_electrode(tmp_path) -> None
     stim = tmp_path / "edges.png"
     Image.fromarray(edges.astype(np.uint8) * 255).save(stim)
     shot = tmp_path / "shot.png"
-    r = _confocal(
+    r = confocal_process(
         "present", "--stimulus", str(stim), "--implant", "argus2", "--screenshot", str(shot)
     )
     if r.returncode != 0 and "OpenGL" in r.stderr:
@@ -335,7 +329,7 @@ def test_present_implant_draws_one_phosphene_per_lit_electrode(tmp_path) -> None
     frame = np.asarray(Image.open(shot).convert("RGB")).astype(int)
     white = (frame[..., 0] > 128) & (frame[..., 2] > 128) & (frame[..., 1] > 128)
     assert 0 < lit == label(white)[1]
-    r = _confocal(
+    r = confocal_process(
         "present",
         "--stimulus",
         str(stim),
