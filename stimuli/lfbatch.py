@@ -10,6 +10,7 @@ optional ``dask`` extra and is imported only then).
 from __future__ import annotations
 
 import os
+import warnings
 from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
 from typing import Any
@@ -107,6 +108,19 @@ def check_pool_options(processes: int | None, cluster: str | None) -> None:
             ) from None
 
 
+def _call_keeping_warnings(fn: Callable[..., Any], *args: Any) -> tuple[Any, list[tuple]]:
+    """Run ``fn(*args)`` in a worker; return its result and the warnings it raised."""
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")  # the caller's filters decide when they are re-raised
+        result = fn(*args)
+    return result, [(str(w.message), w.category, w.filename, w.lineno) for w in caught]
+
+
+def _reraise_warnings(caught: list[tuple]) -> None:
+    for message, category, filename, lineno in caught:
+        warnings.warn_explicit(message, category, filename, lineno)
+
+
 class CapturePool:
     """Where per-capture work runs: here, in local worker processes, or on a Dask cluster.
 
@@ -173,8 +187,10 @@ class CapturePool:
     def imap(self, fn: Callable[..., Any], tasks: Sequence[tuple]) -> Iterator[tuple[int, Any]]:
         """Yield ``(index, fn(*tasks[index]))`` as each task finishes (the caller owns the loop).
 
-        ``fn`` must be a module-level function (it is sent to the workers by name). The first
-        exception raised by a task propagates; the tasks not yet started are cancelled and
+        ``fn`` must be a module-level function (it is sent to the workers by name). Warnings a
+        task raises in a worker are raised again here as its result arrives (so the command
+        line shows them as it does for work done here). The first exception raised by a task
+        propagates; the tasks not yet started are cancelled and
         those running are waited for first, so that nothing the caller cleans up is written
         to afterwards (local processes; a Dask task already running cannot be stopped).
         """
@@ -185,10 +201,15 @@ class CapturePool:
         if self._client is not None:
             from dask.distributed import as_completed, wait
 
-            futs = {self._client.submit(fn, *args, pure=False): i for i, args in enumerate(tasks)}
+            futs = {
+                self._client.submit(_call_keeping_warnings, fn, *args, pure=False): i
+                for i, args in enumerate(tasks)
+            }
             try:
                 for fut in as_completed(list(futs)):
-                    yield futs[fut], fut.result()
+                    result, caught = fut.result()
+                    _reraise_warnings(caught)
+                    yield futs[fut], result
             except BaseException:
                 self._client.cancel(list(futs))
                 wait(list(futs))
@@ -197,10 +218,15 @@ class CapturePool:
         from concurrent.futures import as_completed as done_first
         from concurrent.futures import wait as wait_all
 
-        pending = {self._executor.submit(fn, *args): i for i, args in enumerate(tasks)}
+        pending = {
+            self._executor.submit(_call_keeping_warnings, fn, *args): i
+            for i, args in enumerate(tasks)
+        }
         try:
             for fut in done_first(pending):
-                yield pending[fut], fut.result()
+                result, caught = fut.result()
+                _reraise_warnings(caught)
+                yield pending[fut], result
         except BaseException:
             for fut in pending:
                 fut.cancel()

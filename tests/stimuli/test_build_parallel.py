@@ -12,6 +12,7 @@ import errno
 import hashlib
 import json
 import sys
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -20,6 +21,7 @@ import pytest
 from experiment.cli import main
 from stimuli.build import BuildParams, build_stimulus_set
 from stimuli.errors import InputError
+from stimuli.lfbatch import run_per_capture
 from stimuli.lfsynth import render_camera_array, three_plane_scene
 from tests.stimuli._build_fixtures import make_pair, write_png
 
@@ -134,6 +136,18 @@ def test_a_full_disk_while_workers_run_removes_the_partial_set(pairs, tmp_path, 
     with pytest.raises(InputError, match="the disk is full"):
         build_stimulus_set(pairs, out, params=_SMALL_PARAMS, processes=2)
     assert saved and not out.exists() and _no_staging_left(tmp_path)
+
+
+def _odd_square(x: int) -> int:
+    warnings.warn(f"capture {x}: an object may lie beyond the scanned range", stacklevel=1)
+    return x * x
+
+
+def test_a_warning_in_a_worker_is_raised_here():
+    with pytest.warns(UserWarning) as caught:
+        got = dict(run_per_capture(_odd_square, [(2,), (3,)], processes=2))
+    assert got == {0: 4, 1: 9}
+    assert sorted(str(w.message)[:9] for w in caught) == ["capture 2", "capture 3"]
 
 
 @pytest.mark.parametrize(
