@@ -1,8 +1,10 @@
 """Writing a stimulus set: stimulus PNGs, contact sheets, implant views, manifest, set record.
 
 The set is written into a staging folder beside the output folder and renamed onto it at the
-end (:func:`stimuli.io.swap_in`: only onto a missing or empty folder, never deleting anything),
-so the output folder is untouched by any error; a full disk ends with a one-line message.
+end (:func:`stimuli.io.staged_folder`: only onto a missing or empty folder, never deleting
+anything), so the output folder is untouched by any error; a full disk ends with a one-line
+message. With worker processes or a Dask cluster, each object is compressed and drawn there
+(:func:`render_object`, in memory) and its PNGs are written here as it comes back.
 """
 
 from __future__ import annotations
