@@ -153,8 +153,8 @@ def build_command(
         typer.Option(
             "--processes",
             help="Local worker processes for the per-object work (reading, plane choice, "
-            "refocus, de-cluttering, compression) [default: 1, in this process]. The set is "
-            "the same, byte for byte, apart from its build time.",
+            "refocus, de-cluttering, compression); default 1: in this process, on threads. The "
+            "set is the same, byte for byte, apart from its build time.",
             show_default=False,
         ),
     ] = None,
