@@ -10,6 +10,7 @@ optional ``dask`` extra and is imported only then).
 from __future__ import annotations
 
 import os
+import warnings
 from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
 from typing import Any
@@ -17,7 +18,13 @@ from typing import Any
 from stimuli.errors import InputError
 from stimuli.lfload import _IMAGE_SUFFIXES
 
-__all__ = ["is_capture_folder", "discover_captures", "run_per_capture"]
+__all__ = [
+    "is_capture_folder",
+    "discover_captures",
+    "check_pool_options",
+    "CapturePool",
+    "run_per_capture",
+]
 
 _ARRAY_SUFFIXES = {".npz", ".npy"}
 
@@ -74,6 +81,159 @@ def discover_captures(folder: str | os.PathLike) -> list[Path]:
     return out
 
 
+def check_pool_options(processes: int | None, cluster: str | None) -> None:
+    """Refuse bad ``--processes`` / ``--cluster`` options before any work is done.
+
+    Raises
+    ------
+    InputError
+        ``processes`` < 1, both given, or ``cluster`` given without Dask installed (the
+        optional ``dask`` extra).
+    """
+    if processes is not None and (isinstance(processes, bool) or processes < 1):
+        raise InputError(f"--processes must be >= 1, got {processes}")
+    if cluster is not None and processes is not None:
+        raise InputError(
+            f"--processes {processes} and --cluster {cluster} exclude each other: give one "
+            "(local worker processes, or the workers of a Dask scheduler)"
+        )
+    if cluster is not None:
+        if not str(cluster).strip():
+            raise InputError("--cluster must be a Dask scheduler address, got ''")
+        try:
+            import dask.distributed  # noqa: F401
+        except ImportError:
+            raise InputError(
+                "--cluster needs Dask: install the 'dask' extra (pip install .[dask])"
+            ) from None
+
+
+def _call_keeping_warnings(fn: Callable[..., Any], *args: Any) -> tuple[Any, list[tuple]]:
+    """Run ``fn(*args)`` in a worker; return its result and the warnings it raised."""
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")  # the caller's filters decide when they are re-raised
+        result = fn(*args)
+    return result, [(str(w.message), w.category, w.filename, w.lineno) for w in caught]
+
+
+def _reraise_warnings(caught: list[tuple]) -> None:
+    for message, category, filename, lineno in caught:
+        warnings.warn_explicit(message, category, filename, lineno)
+
+
+class CapturePool:
+    """Where per-capture work runs: here, in local worker processes, or on a Dask cluster.
+
+    A context manager: the workers (or the scheduler connection) live from ``__enter__`` to
+    ``__exit__``, so several rounds of work (:meth:`imap`) share them.
+
+    Parameters
+    ----------
+    processes : int, optional
+        Local worker processes (None: one per CPU; 1: run here), at most ``max_tasks``.
+    cluster : str, optional
+        Address of a running Dask scheduler (then ``processes`` must be None).
+    max_tasks : int, optional
+        The most tasks one round will have (no more processes are started).
+
+    Raises
+    ------
+    InputError
+        As :func:`check_pool_options`.
+    """
+
+    def __init__(
+        self,
+        processes: int | None = None,
+        cluster: str | None = None,
+        *,
+        max_tasks: int | None = None,
+    ) -> None:
+        check_pool_options(processes, cluster)
+        self.cluster = cluster
+        n = processes or len(os.sched_getaffinity(0))
+        #: Worker processes (1: the calling process runs every task); 0 with a cluster.
+        self.processes = 0 if cluster else max(1, min(n, max_tasks or n))
+        self._client: Any = None
+        self._executor: Any = None
+
+    def __enter__(self) -> CapturePool:
+        if self.cluster:
+            from dask.distributed import Client
+
+            self._client = Client(self.cluster)
+        elif self.processes > 1:
+            import multiprocessing as mp
+            from concurrent.futures import ProcessPoolExecutor
+
+            self._executor = ProcessPoolExecutor(
+                max_workers=self.processes, mp_context=mp.get_context("spawn")
+            )
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        if self._client is not None:
+            self._client.close()
+            self._client = None
+        if self._executor is not None:
+            self._executor.shutdown(wait=True, cancel_futures=True)
+            self._executor = None
+
+    @property
+    def is_local(self) -> bool:
+        """Whether tasks run in this process (one process, no cluster)."""
+        return self._client is None and self._executor is None
+
+    def imap(self, fn: Callable[..., Any], tasks: Sequence[tuple]) -> Iterator[tuple[int, Any]]:
+        """Yield ``(index, fn(*tasks[index]))`` as each task finishes (the caller owns the loop).
+
+        ``fn`` must be a module-level function (it is sent to the workers by name). Warnings a
+        task raises in a worker are raised again here as its result arrives (so the command
+        line shows them as it does for work done here). The first exception raised by a task
+        propagates; the tasks not yet started are cancelled and
+        those running are waited for first, so that nothing the caller cleans up is written
+        to afterwards (local processes; a Dask task already running cannot be stopped).
+        """
+        if self.is_local:
+            for i, args in enumerate(tasks):
+                yield i, fn(*args)
+            return
+        if self._client is not None:
+            from dask.distributed import as_completed, wait
+
+            futs = {
+                self._client.submit(_call_keeping_warnings, fn, *args, pure=False): i
+                for i, args in enumerate(tasks)
+            }
+            try:
+                for fut in as_completed(list(futs)):
+                    result, caught = fut.result()
+                    _reraise_warnings(caught)
+                    yield futs[fut], result
+            except BaseException:
+                self._client.cancel(list(futs))
+                wait(list(futs))
+                raise
+            return
+        from concurrent.futures import as_completed as done_first
+        from concurrent.futures import wait as wait_all
+
+        pending = {
+            self._executor.submit(_call_keeping_warnings, fn, *args): i
+            for i, args in enumerate(tasks)
+        }
+        try:
+            for fut in done_first(pending):
+                result, caught = fut.result()
+                _reraise_warnings(caught)
+                yield pending[fut], result
+        except BaseException:
+            for fut in pending:
+                fut.cancel()
+            wait_all(list(pending))
+            raise
+
+
 def run_per_capture(
     fn: Callable[..., Any],
     tasks: Sequence[tuple],
@@ -82,6 +242,8 @@ def run_per_capture(
     cluster: str | None = None,
 ) -> Iterator[tuple[int, Any]]:
     """Yield ``(index, fn(*tasks[index]))`` as each task finishes (the caller owns the loop).
+
+    One round of work on a :class:`CapturePool` of its own.
 
     Parameters
     ----------
@@ -92,36 +254,12 @@ def run_per_capture(
     processes : int, optional
         Local worker processes (None: one per CPU, at most one per task; 1: run here).
     cluster : str, optional
-        Address of a running Dask scheduler; overrides ``processes``.
+        Address of a running Dask scheduler (then ``processes`` must be None).
 
     Raises
     ------
     InputError
-        ``cluster`` given without Dask installed, or ``processes`` < 1.
+        ``cluster`` given without Dask installed or with ``processes``, or ``processes`` < 1.
     """
-    if cluster:
-        try:
-            from dask.distributed import Client, as_completed
-        except ImportError:
-            raise InputError(
-                "--cluster needs Dask: install the 'dask' extra (pip install .[dask])"
-            ) from None
-        with Client(cluster) as client:
-            futs = {client.submit(fn, *args, pure=False): i for i, args in enumerate(tasks)}
-            for fut in as_completed(list(futs)):
-                yield futs[fut], fut.result()
-        return
-    if processes is not None and processes < 1:
-        raise InputError(f"--processes must be >= 1, got {processes}")
-    n = min(processes or len(os.sched_getaffinity(0)), len(tasks))
-    if n <= 1:
-        for i, args in enumerate(tasks):
-            yield i, fn(*args)
-        return
-    import multiprocessing as mp
-    from concurrent.futures import ProcessPoolExecutor, as_completed
-
-    with ProcessPoolExecutor(max_workers=n, mp_context=mp.get_context("spawn")) as ex:
-        futs = {ex.submit(fn, *args): i for i, args in enumerate(tasks)}
-        for fut in as_completed(futs):
-            yield futs[fut], fut.result()
+    with CapturePool(processes, cluster, max_tasks=len(tasks)) as pool:
+        yield from pool.imap(fn, tasks)

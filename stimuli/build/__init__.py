@@ -42,7 +42,8 @@ The modules, one per step
 ``implant_views``  the stimuli as implants show them (step 7)
 ``write``          the PNGs, contact sheets, ``manifest.csv``, through a staging folder
 ``provenance``     object summaries, notes and ``stimulus_set.json``
-``parallel``       one step over every object on a thread pool, with progress
+``parallel``       one step over every object on a thread pool or on worker processes (or a
+                   Dask cluster: :class:`stimuli.lfbatch.CapturePool`), with progress
 """
 
 from __future__ import annotations
@@ -53,12 +54,13 @@ import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from stimuli.build.edges import declutter_object, edge_fraction, set_edge_ratio
 from stimuli.build.implant_views import IMPLANT_PX_PER_ELECTRODE
 from stimuli.build.levels import edge_ladder, grey_ladder
 from stimuli.build.pairs import PairsInput, PairSource, read_pairs
-from stimuli.build.parallel import ProgressFn, map_objects
+from stimuli.build.parallel import ProgressFn, map_objects, map_on_pool
 from stimuli.build.params import (
     THRESHOLD_METHODS,
     BuildParams,
@@ -67,7 +69,7 @@ from stimuli.build.params import (
     parse_threshold,
     parse_working_size,
 )
-from stimuli.build.plan import plan_build
+from stimuli.build.plan import BuildPlan, plan_build
 from stimuli.build.prepare import (
     ObjectImages,
     aspect_crop_box,
@@ -79,6 +81,9 @@ from stimuli.build.provenance import ObjectSummary
 from stimuli.build.write import write_stimulus_set
 from stimuli.implants import ImplantLayout
 from stimuli.manifest import ObjectInfo
+
+if TYPE_CHECKING:
+    from stimuli.lfbatch import CapturePool
 
 __all__ = [
     "BuildParams",
@@ -155,6 +160,8 @@ def build_stimulus_set(
     progress: ProgressFn | None = None,
     implants: Sequence[ImplantLayout] = (),
     implant_px_per_electrode: int = IMPLANT_PX_PER_ELECTRODE,
+    processes: int | None = 1,
+    cluster: str | None = None,
 ) -> BuildResult:
     """Build a stimulus set from photo pairs (or light fields) into ``out_dir``.
 
@@ -187,6 +194,16 @@ def build_stimulus_set(
         ``implants`` in ``stimulus_set.json``.
     implant_px_per_electrode : int in [1, 256]
         Side of each electrode's cell in the phosphene PNGs, px.
+    processes : int >= 1 or None
+        Worker processes for the per-object work (reading, plane choice, refocus,
+        de-cluttering, compression and contact sheets; None: one per CPU). 1 (the default)
+        runs it here on ``workers`` threads. The set written is the same, byte for byte,
+        apart from its build time; ``manifest.csv`` and ``stimulus_set.json`` are assembled
+        here, in object order.
+    cluster : str, optional
+        Address of a running Dask scheduler that runs the per-object work instead (the
+        optional ``dask`` extra; its workers must see the PAIRS input at the same paths).
+        Give ``processes=None`` with it.
 
     Returns
     -------
@@ -198,6 +215,8 @@ def build_stimulus_set(
         Bad input (missing or unreadable photo, empty folder, duplicate ids, crop outside the
         image, photos of different sizes without ``allow_resize``), an ``out_dir`` that is a
         file or a non-empty folder, or ``replaces`` holding a different set without ``force``.
+        Also ``processes`` < 1, both ``processes`` and ``cluster``, or ``cluster`` without Dask
+        (checked before anything is read).
     ImplantError
         Two implant layouts share a name, or a grid is finer than the working size (checked
         before anything is read or written).
@@ -206,7 +225,12 @@ def build_stimulus_set(
     ----------
     Jung et al. (2015), Sec. 2.2 (de-cluttering, compression) and Sec. 3.1 (stimuli).
     """
+    from stimuli.lfbatch import check_pool_options
+
     t0 = time.perf_counter()
+    if cluster is not None and processes == 1:
+        processes = None  # the default: the cluster's workers instead of this process
+    check_pool_options(processes, cluster)
     plan = plan_build(
         pairs,
         out_dir,
@@ -217,16 +241,30 @@ def build_stimulus_set(
         implants=implants,
         implant_px_per_electrode=implant_px_per_electrode,
     )
-    works = map_objects(
-        lambda item: _read_object(*item, plan.params),
-        list(zip(plan.inp.sources, plan.inp.objects, strict=True)),
-        plan.workers,
-        progress,
-        "read",
-    )
+    tasks = [(s, o, plan.params) for s, o in zip(plan.inp.sources, plan.inp.objects, strict=True)]
+    if processes == 1:
+        return _build(plan, tasks, progress, None, t0)
+    from stimuli.lfbatch import CapturePool
+
+    with CapturePool(processes, cluster, max_tasks=len(tasks)) as pool:
+        return _build(plan, tasks, progress, pool, t0)
+
+
+def _build(
+    plan: BuildPlan,
+    tasks: list[tuple[PairSource, ObjectInfo, BuildParams]],
+    progress: ProgressFn | None,
+    pool: CapturePool | None,
+    t0: float,
+) -> BuildResult:
+    """Read and de-clutter every object, then write the set (on ``pool``, else on threads)."""
+    if pool is None or pool.is_local:
+        works = map_objects(lambda t: _read_object(*t), tasks, plan.workers, progress, "read")
+    else:
+        works = map_on_pool(pool, _read_object, tasks, progress, "read")
     t_read = time.perf_counter()
     ratio = set_edge_ratio(works, plan.params)
-    written = write_stimulus_set(plan, works, ratio, progress)
+    written = write_stimulus_set(plan, works, ratio, progress, pool)
     t_end = time.perf_counter()
     for n in written.notes:
         logger.info("%s", n)

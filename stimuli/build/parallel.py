@@ -1,13 +1,18 @@
-"""Run one step over every object on a thread pool, reporting progress (build and tune)."""
+"""Run one step over every object, on a thread pool or on worker processes / a Dask cluster
+(:class:`stimuli.lfbatch.CapturePool`), reporting progress (build and tune)."""
 
 from __future__ import annotations
 
 import os
 from collections.abc import Callable, Sequence
 from concurrent.futures import ThreadPoolExecutor
-from typing import TypeVar
+from contextlib import closing
+from typing import TYPE_CHECKING, Any, TypeVar
 
-__all__ = ["ProgressFn", "thread_count", "map_objects"]
+if TYPE_CHECKING:
+    from stimuli.lfbatch import CapturePool
+
+__all__ = ["ProgressFn", "thread_count", "map_objects", "map_on_pool"]
 
 #: ``progress(stage, done, total)``: called with 0 done before the first object, then after each.
 ProgressFn = Callable[[str, int, int], None]
@@ -75,4 +80,50 @@ def map_objects(
             # cleanup of the temporary folder waits only for the ones being written.
             ex.shutdown(wait=True, cancel_futures=True)
             raise
+    return results
+
+
+def map_on_pool(
+    pool: CapturePool,
+    fn: Callable[..., Any],
+    tasks: Sequence[tuple],
+    progress: ProgressFn | None,
+    stage: str,
+    *,
+    then: Callable[[int, Any], _Out] | None = None,
+) -> list:
+    """Run ``fn(*task)`` for every task on ``pool`` and return the results in task order.
+
+    Parameters
+    ----------
+    pool : CapturePool
+        Where the tasks run (``fn`` must be a module-level function).
+    fn : callable
+        One object's step.
+    tasks : sequence of tuple
+        Each object's arguments, in object order.
+    progress : callable(stage, done, total), optional
+        Told ``(stage, 0, n)`` first, then ``(stage, k, n)`` as the k-th object finishes (in
+        whatever order they finish).
+    stage : str
+        Name of the step, passed to ``progress``.
+    then : callable(index, result), optional
+        Run here, in this process, on each result as it comes back (e.g. writing its files);
+        its return value is kept instead of the result.
+
+    Returns
+    -------
+    list
+        One entry per task, in task order; the first exception raised propagates.
+    """
+    total = len(tasks)
+    if progress:
+        progress(stage, 0, total)
+    results: list = [None] * total
+    # closing: a failure here (in ``then``) stops the pool's other tasks before it propagates
+    with closing(pool.imap(fn, tasks)) as finished:
+        for done, (i, result) in enumerate(finished, start=1):
+            results[i] = then(i, result) if then is not None else result
+            if progress:
+                progress(stage, done, total)
     return results

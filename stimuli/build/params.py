@@ -111,6 +111,17 @@ def parse_edge_ratio(text: str | float | None) -> float | None:
     return _parse_auto_or_number(text, "--edge-ratio", "a number in [0, 1)", lambda v: 0 <= v < 1)
 
 
+def _check_choice(
+    value: object, choices: tuple[str, ...], name: str, shown: str | None = None
+) -> None:
+    """Refuse a value outside ``choices``, naming the field and the choices (``shown``, else
+    the tuple as Python writes it)."""
+    if value not in choices:
+        raise InputError(
+            f"{name} must be one of {choices if shown is None else shown}, got {value!r}"
+        )
+
+
 @dataclass(frozen=True)
 class BuildParams:
     """Parameters of a stimulus-set build (every field is recorded in ``stimulus_set.json``).
@@ -192,22 +203,16 @@ class BuildParams:
             raise InputError(f"threshold must be None or a number >= 0, got {self.threshold!r}")
 
     def _check_threshold_method(self) -> None:
-        if self.threshold_method not in THRESHOLD_METHODS:
-            raise InputError(
-                f"threshold_method must be one of {THRESHOLD_METHODS}, "
-                f"got {self.threshold_method!r}"
-            )
+        _check_choice(self.threshold_method, THRESHOLD_METHODS, "threshold_method")
 
     def _check_edge_ratio(self) -> None:
         if self.edge_ratio is not None and not (0.0 <= self.edge_ratio < 1.0):
             raise InputError(f"edge_ratio must be None or in [0, 1), got {self.edge_ratio!r}")
 
     def _check_declutter(self) -> None:
-        if self.declutter not in BUILD_DECLUTTER_MODES:
-            raise InputError(
-                f"--declutter must be one of {', '.join(BUILD_DECLUTTER_MODES)}, "
-                f"got {self.declutter!r}"
-            )
+        _check_choice(
+            self.declutter, BUILD_DECLUTTER_MODES, "--declutter", ", ".join(BUILD_DECLUTTER_MODES)
+        )
 
     def _check_plane(self) -> None:
         from stimuli.planechoice import parse_plane_option
@@ -215,8 +220,7 @@ class BuildParams:
         object.__setattr__(self, "plane", parse_plane_option(self.plane))
 
     def _check_mode(self) -> None:
-        if self.mode not in MODES:
-            raise InputError(f"mode must be one of {MODES}, got {self.mode!r}")
+        _check_choice(self.mode, MODES, "mode")
 
     def _check_grey_levels(self) -> None:
         g = self.grey_levels

@@ -1,17 +1,18 @@
 """Writing a stimulus set: stimulus PNGs, contact sheets, implant views, manifest, set record.
 
 The set is written into a staging folder beside the output folder and renamed onto it at the
-end (:func:`stimuli.io.swap_in`: only onto a missing or empty folder, never deleting anything),
-so the output folder is untouched by any error; a full disk ends with a one-line message.
+end (:func:`stimuli.io.staged_folder`: only onto a missing or empty folder, never deleting
+anything), so the output folder is untouched by any error; a full disk ends with a one-line
+message. With worker processes or a Dask cluster, each object is compressed and drawn there
+(:func:`render_object`, in memory) and its PNGs are written here as it comes back.
 """
 
 from __future__ import annotations
 
-import errno
 import json
-import shutil
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -19,7 +20,7 @@ from stimuli.build.edges import SetEdgeRatio
 from stimuli.build.implant_views import write_implant_views
 from stimuli.build.levels import edge_ladder, grey_ladder, level_labels
 from stimuli.build.pairs import path_in_pairs
-from stimuli.build.parallel import ProgressFn, map_objects
+from stimuli.build.parallel import ProgressFn, map_objects, map_on_pool
 from stimuli.build.params import BuildParams
 from stimuli.build.plan import BuildPlan
 from stimuli.build.prepare import ObjectImages, colour_photos
@@ -31,11 +32,13 @@ from stimuli.build.provenance import (
     set_record,
 )
 from stimuli.contact import contact_sheet, save_contact_sheet
-from stimuli.errors import InputError
-from stimuli.io import new_staging_folder, save_png, sha256_file, swap_in
+from stimuli.io import save_png, sha256_file, staged_folder
 from stimuli.manifest import StimulusRecord, format_crop, write_manifest, write_objects_csv
 
-__all__ = ["WrittenSet", "write_stimulus_set", "write_object"]
+if TYPE_CHECKING:
+    from stimuli.lfbatch import CapturePool
+
+__all__ = ["WrittenSet", "RenderedObject", "write_stimulus_set", "render_object", "write_object"]
 
 
 @dataclass(frozen=True)
@@ -64,6 +67,7 @@ def write_stimulus_set(
     works: list[ObjectImages],
     ratio: SetEdgeRatio,
     progress: ProgressFn | None = None,
+    pool: CapturePool | None = None,
 ) -> WrittenSet:
     """Write the whole set into ``plan.out_dir``, through a staging folder renamed at the end.
 
@@ -76,6 +80,10 @@ def write_stimulus_set(
     progress : callable(stage, done, total), optional
         Called as objects are written (``'write'``) and their implant views drawn
         (``'implants'``).
+    pool : CapturePool, optional
+        Worker processes or a Dask cluster that compress each object and draw its contact
+        sheet (:func:`render_object`, in memory); this process writes the PNGs as each object
+        comes back. Without one, ``plan.workers`` threads do both.
 
     Returns
     -------
@@ -88,19 +96,35 @@ def write_stimulus_set(
     """
     out_dir, edge_ratio = plan.out_dir, ratio.edge_ratio
     labels = level_labels(plan.ladder)
-    tmp = None
-    try:
-        tmp = new_staging_folder(out_dir)  # its marker is the set's first write
+    with staged_folder(out_dir, what="the stimulus set") as tmp:
         (tmp / "contact").mkdir()
-        per_object = map_objects(
-            lambda wh: write_object(
-                wh[0], tmp, plan.params, edge_ratio, plan.inp.root, wh[1], labels
-            ),
-            list(zip(works, plan.hashes, strict=True)),
-            plan.workers,
-            progress,
-            "write",
-        )
+        if pool is None or pool.is_local:
+            per_object = map_objects(
+                lambda wh: write_object(
+                    wh[0], tmp, plan.params, edge_ratio, plan.inp.root, wh[1], labels
+                ),
+                list(zip(works, plan.hashes, strict=True)),
+                plan.workers,
+                progress,
+                "write",
+            )
+        else:
+            per_object = map_on_pool(
+                pool,
+                render_object,
+                [(w, plan.params, edge_ratio, labels) for w in works],
+                progress,
+                "write",
+                then=lambda i, rendered: _save_rendered(
+                    rendered,
+                    works[i],
+                    tmp,
+                    plan.params,
+                    edge_ratio,
+                    plan.inp.root,
+                    plan.hashes[i],
+                ),
+            )
         records = [r for recs in per_object for r in recs]
         views: list[dict] = []
         if plan.implants:
@@ -121,19 +145,74 @@ def write_stimulus_set(
         notes = build_notes(works, plan.params)
         meta = set_record(plan, ratio, summaries, notes, len(records), tmp / "manifest.csv", views)
         (tmp / "stimulus_set.json").write_text(json.dumps(meta, indent=2) + "\n", "utf-8")
-        swap_in(tmp, out_dir)
-    except BaseException as exc:
-        if tmp is not None:
-            shutil.rmtree(tmp, ignore_errors=True)
-        if isinstance(exc, OSError) and exc.errno in (errno.ENOSPC, errno.EDQUOT):
-            raise InputError(
-                f"{out_dir}: the disk is full ({exc.strerror or exc}) while writing the stimulus "
-                f"set; the partial set was removed and {out_dir} was left as it was"
-            ) from None
-        raise
     return WrittenSet(
         n_stimuli=len(records), objects=summaries, notes=notes, n_implant_views=len(views)
     )
+
+
+@dataclass(frozen=True)
+class RenderedObject:
+    """One object's stimuli and contact sheet, in memory (:func:`render_object`).
+
+    Parameters
+    ----------
+    stimuli : tuple of (condition, level, window_px, file name, image)
+        In the order they are listed in ``manifest.csv``; images bool (edges) or float32 in
+        [0, 1] (photos, grey mode; colour photos ``(rows, cols, 3)``).
+    sheet : ndarray of uint8
+        The object's contact sheet (``contact/<object>.png``).
+    """
+
+    stimuli: tuple[tuple[str, int, int, str, np.ndarray], ...]
+    sheet: np.ndarray
+
+
+def render_object(
+    work: ObjectImages,
+    params: BuildParams,
+    edge_ratio: float | None,
+    ladder_labels: list[str],
+) -> RenderedObject:
+    """Compress one object at every level and draw its contact sheet, in memory.
+
+    Writes nothing (it may run in a worker process or on a Dask cluster); the photo of the
+    object, and a training object's colour photos (read from its sources), come first, then
+    each condition at every level, ``<condition>_L<level>_w<window>.png``.
+    """
+    oid = work.info.object
+    grey = params.mode == "grey"
+    n_levels = len(params.windows_px)
+    out: list[tuple[str, int, int, str, np.ndarray]] = [
+        ("photo", n_levels, 1, "photo.png", work.wide)
+    ]
+    if work.info.role == "training":
+        colour_wide, colour_confocal = colour_photos(work, params)
+        out.append(("colour_wide", n_levels, 1, "colour_wide.png", colour_wide))
+        out.append(("colour_confocal", n_levels, 1, "colour_confocal.png", colour_confocal))
+    rows = []
+    for condition, img, edges in (
+        ("cluttered", work.wide, work.wide_edges),
+        ("decluttered", work.narrow, work.narrow_edges),
+    ):
+        if grey:
+            ladder = grey_ladder(img, levels=params.grey_levels, windows_px=params.windows_px)
+        else:
+            ladder = edge_ladder(edges, edge_ratio=edge_ratio, windows_px=params.windows_px)
+        for level, window, stim in ladder:
+            name = f"{condition}_L{level}_w{window:02d}.png"
+            out.append((condition, level, window, name, stim))
+        rows.append((condition, [s for _, _, s in ladder]))
+    warnings = object_warnings(work)
+    sheet = contact_sheet(
+        rows,
+        column_labels=ladder_labels,
+        title=("WARNING " if warnings else "")
+        + f"{oid}: {work.info.display_name} ({work.info.role}; "
+        + ("grey" if grey else f"threshold {work.threshold:.4g}, edge ratio {edge_ratio:.4g}")
+        + ")",
+        subtitle="; ".join(w.split(": ", 1)[1] for w in warnings),
+    )
+    return RenderedObject(tuple(out), sheet)
 
 
 def write_object(
@@ -148,8 +227,23 @@ def write_object(
     """Write one object's stimuli and contact sheet into the staging folder; return its rows.
 
     ``tmp/<object>/``: ``photo.png`` (and the colour photos of a training object), then each
-    condition at every level, ``<condition>_L<level>_w<window>.png``; ``tmp/contact/<object>.png``.
+    condition at every level, ``<condition>_L<level>_w<window>.png``; ``tmp/contact/<object>.png``
+    (:func:`render_object`, then written here).
     """
+    rendered = render_object(work, params, edge_ratio, ladder_labels)
+    return _save_rendered(rendered, work, tmp, params, edge_ratio, root, hashes)
+
+
+def _save_rendered(
+    rendered: RenderedObject,
+    work: ObjectImages,
+    tmp: Path,
+    params: BuildParams,
+    edge_ratio: float | None,
+    root: Path,
+    hashes: dict[str, str],
+) -> list[StimulusRecord]:
+    """Write a rendered object's PNGs into the staging folder; return its ``manifest.csv`` rows."""
     oid = work.info.object
     folder = tmp / oid
     folder.mkdir()
@@ -182,8 +276,7 @@ def write_object(
         threshold_source="" if grey else work.threshold_source,
     )
     records = []
-
-    def emit(img: np.ndarray, condition: str, level: int, window: int, name: str) -> None:
+    for condition, level, window, name, img in rendered.stimuli:
         path = save_png(img, folder / name)
         h, w = img.shape[:2]
         records.append(
@@ -201,36 +294,7 @@ def write_object(
                 **common,
             )
         )
-
-    n_levels = len(params.windows_px)
-    emit(work.wide, "photo", n_levels, 1, "photo.png")
-    if work.info.role == "training":
-        colour_wide, colour_confocal = colour_photos(work, params)
-        emit(colour_wide, "colour_wide", n_levels, 1, "colour_wide.png")
-        emit(colour_confocal, "colour_confocal", n_levels, 1, "colour_confocal.png")
-    rows = []
-    for condition, img, edges in (
-        ("cluttered", work.wide, work.wide_edges),
-        ("decluttered", work.narrow, work.narrow_edges),
-    ):
-        if grey:
-            ladder = grey_ladder(img, levels=params.grey_levels, windows_px=params.windows_px)
-        else:
-            ladder = edge_ladder(edges, edge_ratio=edge_ratio, windows_px=params.windows_px)
-        for level, window, stim in ladder:
-            emit(stim, condition, level, window, f"{condition}_L{level}_w{window:02d}.png")
-        rows.append((condition, [s for _, _, s in ladder]))
-    warnings = object_warnings(work)
-    sheet = contact_sheet(
-        rows,
-        column_labels=ladder_labels,
-        title=("WARNING " if warnings else "")
-        + f"{oid}: {work.info.display_name} ({work.info.role}; "
-        + ("grey" if grey else f"threshold {work.threshold:.4g}, edge ratio {edge_ratio:.4g}")
-        + ")",
-        subtitle="; ".join(w.split(": ", 1)[1] for w in warnings),
-    )
-    save_contact_sheet(sheet, tmp / "contact" / f"{oid}.png")
+    save_contact_sheet(rendered.sheet, tmp / "contact" / f"{oid}.png")
     return records
 
 
