@@ -36,12 +36,27 @@ __all__ = [
     "firth_logit",
     "profile_interval",
     "SEPARATION_LOG_OR",
+    "DEFAULT_INTERVAL",
+    "ODDS_RATIO_QUESTION",
     "predict_from_odds_ratio",
 ]
 
 logger = logging.getLogger(__name__)
 
 _COLUMNS = ("term", "odds_ratio", "ci95_low", "ci95_high", "p_value")
+
+#: The default 95 % odds-ratio interval: profile penalised likelihood around Firth's estimate
+#: (Heinze & Schemper 2002). In simulated studies of the paper's design the ML log odds ratios
+#: are biased away from 0 (per log10 pixels by a few percent, a sizeable fraction of a standard
+#: error), so the ML Wald and profile intervals cover less than 95 %; Firth's estimate removes
+#: that bias (benchmarks/validate_or_coverage.py).
+DEFAULT_INTERVAL: str = "firth_profile"
+#: Terms whose odds ratios the report states (their Firth profile intervals are computed also
+#: when ML exists; object dummies keep their ML profile intervals, for Fig. S3).
+_REPORTED_TERMS: tuple[str, ...] = ("background", "log10_pixels")
+#: The question the fixed-effects odds ratios answer: subjects and objects are in the model as
+#: they were tested (objects as dummies, subjects pooled), not drawn from a population.
+ODDS_RATIO_QUESTION: str = "these subjects and objects"
 
 
 @dataclass(frozen=True)
@@ -122,6 +137,12 @@ class LogisticFit:
     profile_ci95 : dict of str to (float, float)
         95 % profile-likelihood interval of each term's odds ratio (:func:`profile_interval`;
         ``inf`` where the profile never reaches the cutoff, as for a separated term).
+    firth_params : dict of str to float
+        Firth's penalised estimates (log odds), whatever ``method`` is: they remove the
+        first-order small-sample bias of the ML log odds ratios (Firth 1993).
+    firth_profile_ci95 : dict of str to (float, float)
+        95 % profile penalised-likelihood interval of each term's odds ratio around Firth's
+        estimate (Heinze & Schemper 2002): the :data:`DEFAULT_INTERVAL`.
     """
 
     odds_ratios: OddsRatioTable
@@ -138,6 +159,8 @@ class LogisticFit:
     method: str = "ml"
     separated: tuple[str, ...] = field(default_factory=tuple)
     profile_ci95: dict[str, tuple[float, float]] = field(default_factory=dict)
+    firth_params: dict[str, float] = field(default_factory=dict)
+    firth_profile_ci95: dict[str, tuple[float, float]] = field(default_factory=dict)
 
     def has(self, term: str) -> bool:
         """Return True when ``term`` was estimated."""
@@ -155,6 +178,36 @@ class LogisticFit:
         """Return how many object dummies have p < ``alpha``."""
         return sum(1 for r in self.odds_ratios.rows if r[0].startswith("object:") and r[4] < alpha)
 
+    def intervals(self, term: str) -> dict[str, Any]:
+        """Return the odds ratio of ``term`` with each of its 95 % intervals, by name.
+
+        ``{"interval": name of the default, "or": the default's estimate, "ci95": the default
+        interval, "question": the question it answers, "ml_or": the ML odds ratio (the paper's),
+        "wald", "profile", "firth_or", "firth_profile"}``; what the fit does not have is left
+        out, an unbounded interval end is None (JSON).
+        """
+        o = self.odds_ratios[term]
+        out: dict[str, Any] = {}
+        if self.method == "ml":
+            out["ml_or"] = o["or"]
+            out["wald"] = list(o["ci95"])
+            if term in self.profile_ci95:
+                out["profile"] = [_finite(v) for v in self.profile_ci95[term]]
+        if term in self.firth_profile_ci95 and term in self.firth_params:
+            out["firth_or"] = math.exp(self.firth_params[term])
+            out["firth_profile"] = [_finite(v) for v in self.firth_profile_ci95[term]]
+            name, est, ci = DEFAULT_INTERVAL, out["firth_or"], out["firth_profile"]
+        else:  # no Firth interval: the ML profile, else Wald
+            name = "profile" if "profile" in out else "wald"
+            est, ci = o["or"], out.get(name, list(o["ci95"]))
+        return {
+            "interval": name,
+            "or": est,
+            "ci95": ci,
+            "question": ODDS_RATIO_QUESTION,
+            **out,
+        }
+
     def to_dict(self) -> dict[str, Any]:
         """Return a JSON-ready dict (``odds_ratios`` and ``classification`` as in results.json)."""
         return {
@@ -171,6 +224,10 @@ class LogisticFit:
             "separated": list(self.separated),
             "profile_ci95": {
                 t: [_finite(v[0]), _finite(v[1])] for t, v in self.profile_ci95.items()
+            },
+            "firth_params": dict(self.firth_params),
+            "firth_profile_ci95": {
+                t: [_finite(v[0]), _finite(v[1])] for t, v in self.firth_profile_ci95.items()
             },
         }
 
@@ -192,14 +249,18 @@ class LogisticFit:
             warnings=tuple(d.get("warnings", ())),
             method=str(d.get("method", "ml")),
             separated=tuple(d.get("separated", ())),
-            profile_ci95={
-                t: (
-                    0.0 if v[0] is None else float(v[0]),
-                    math.inf if v[1] is None else float(v[1]),
-                )
-                for t, v in d.get("profile_ci95", {}).items()
-            },
+            profile_ci95=_intervals_from_json(d.get("profile_ci95", {})),
+            firth_params={k: float(v) for k, v in d.get("firth_params", {}).items()},
+            firth_profile_ci95=_intervals_from_json(d.get("firth_profile_ci95", {})),
         )
+
+
+def _intervals_from_json(d: dict[str, Any]) -> dict[str, tuple[float, float]]:
+    """Odds-ratio intervals from JSON, where an unbounded end is None."""
+    return {
+        t: (0.0 if v[0] is None else float(v[0]), math.inf if v[1] is None else float(v[1]))
+        for t, v in d.items()
+    }
 
 
 def _finite(v: float) -> float | None:
@@ -272,7 +333,12 @@ def _halve_step(
 
 
 def firth_logit(
-    y: np.ndarray, X: np.ndarray, *, max_iter: int = 200, tol: float = 1e-9
+    y: np.ndarray,
+    X: np.ndarray,
+    *,
+    max_iter: int = 200,
+    tol: float = 1e-9,
+    weights: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray, float]:
     """Fit a logistic regression by Firth's penalised likelihood.
 
@@ -289,6 +355,9 @@ def firth_logit(
         Newton iterations.
     tol : float
         Convergence tolerance on the largest coefficient change.
+    weights : ndarray of shape (n,), optional
+        Trials per row (binomial rows: ``y`` is then the proportion recognised); the fit equals
+        the fit of the trials one by one.
 
     Returns
     -------
@@ -311,35 +380,36 @@ def firth_logit(
 
     y = np.asarray(y, float)
     X = np.asarray(X, float)
+    n = np.ones(len(y)) if weights is None else np.asarray(weights, float)
 
     def pen_ll(b: np.ndarray) -> float:
         eta = X @ b
         p = special.expit(eta)
-        w = p * (1 - p)
+        w = n * p * (1 - p)
         sign, logdet = np.linalg.slogdet(X.T @ (w[:, None] * X))
-        ll = float(np.sum(y * eta - np.logaddexp(0, eta)))
+        ll = float(np.sum(n * (y * eta - np.logaddexp(0, eta))))
         return ll + 0.5 * logdet if sign > 0 else -np.inf
 
     b = np.zeros(X.shape[1])
     cur = pen_ll(b)
     for _ in range(max_iter):
         p = special.expit(X @ b)
-        w = p * (1 - p)
+        w = n * p * (1 - p)
         info = X.T @ (w[:, None] * X)
         inv = np.linalg.inv(info)
         xw = X * np.sqrt(w)[:, None]
         h = np.einsum("ij,jk,ik->i", xw, inv, xw)
-        step = inv @ (X.T @ (y - p + h * (0.5 - p)))
+        step = inv @ (X.T @ (n * (y - p) + h * (0.5 - p)))
         t, _ = _halve_step(pen_ll, b, step, cur, 1e-6)
         b = b + t * step
         cur = pen_ll(b)
         if np.max(np.abs(t * step)) < tol:
             break
     p = special.expit(X @ b)
-    w = p * (1 - p)
+    w = n * p * (1 - p)
     cov = np.linalg.inv(X.T @ (w[:, None] * X))
     eta = X @ b
-    return b, np.sqrt(np.diag(cov)), float(np.sum(y * eta - np.logaddexp(0, eta)))
+    return b, np.sqrt(np.diag(cov)), float(np.sum(n * (y * eta - np.logaddexp(0, eta))))
 
 
 #: Chi-squared(1) 95 % quantile: a 95 % profile interval is where the deviance rises by this.
@@ -347,7 +417,13 @@ _CHI2_1_95: float = 3.841458820694124
 
 
 def _constrained_ll(
-    y: np.ndarray, X: np.ndarray, j: int, bj: float, start: np.ndarray, penalized: bool
+    y: np.ndarray,
+    X: np.ndarray,
+    j: int,
+    bj: float,
+    start: np.ndarray,
+    penalized: bool,
+    n: np.ndarray | None = None,
 ) -> tuple[float, np.ndarray]:
     """Maximise the (Firth-penalised if ``penalized``) log-likelihood with ``b[j] = bj`` fixed.
 
@@ -357,12 +433,13 @@ def _constrained_ll(
     from scipy import special
 
     free = np.arange(X.shape[1]) != j
+    n = np.ones(len(y)) if n is None else n
 
     def obj(b: np.ndarray) -> float:
         eta = X @ b
-        ll = float(np.sum(y * eta - np.logaddexp(0, eta)))
+        ll = float(np.sum(n * (y * eta - np.logaddexp(0, eta))))
         if penalized:
-            w = special.expit(eta) * (1 - special.expit(eta))
+            w = n * special.expit(eta) * (1 - special.expit(eta))
             sign, logdet = np.linalg.slogdet(X.T @ (w[:, None] * X))
             ll = ll + 0.5 * logdet if sign > 0 else -math.inf
         return ll
@@ -372,8 +449,8 @@ def _constrained_ll(
     cur = obj(b)
     for _ in range(100):
         p = special.expit(X @ b)
-        w = p * (1 - p)
-        r = y - p
+        w = n * p * (1 - p)
+        r = n * (y - p)
         if penalized:
             inv = np.linalg.inv(X.T @ (w[:, None] * X))
             xw = X * np.sqrt(w)[:, None]
@@ -397,6 +474,7 @@ def profile_interval(
     params: np.ndarray | None = None,
     bse: np.ndarray | None = None,
     penalized: bool = False,
+    weights: np.ndarray | None = None,
 ) -> tuple[float, float]:
     """Return the 95 % profile-likelihood interval of coefficient ``j`` (log-odds units).
 
@@ -418,6 +496,9 @@ def profile_interval(
         The (penalised) estimate and its standard errors, when already known.
     penalized : bool
         Profile Firth's penalised log-likelihood.
+    weights : ndarray of shape (n,), optional
+        Trials per row (binomial rows: ``y`` is then the proportion recognised), as
+        :func:`firth_logit`.
 
     Returns
     -------
@@ -440,20 +521,28 @@ def profile_interval(
     X = np.asarray(X, float)
     if not (0 <= j < X.shape[1]):
         raise ValueError(f"j must be a column of X in [0, {X.shape[1]}), got {j!r}")
+    n = None if weights is None else np.asarray(weights, float)
     if params is None or bse is None:
         if penalized:
-            params, bse, _ = firth_logit(y, X)
+            params, bse, _ = firth_logit(y, X, weights=n)
+        elif n is not None:
+            import statsmodels.api as sm
+
+            res = sm.GLM(y, X, family=sm.families.Binomial(), var_weights=n).fit(
+                tol=1e-12, maxiter=200
+            )
+            params, bse = np.asarray(res.params), np.asarray(res.bse)
         else:
             import statsmodels.api as sm
 
             res = sm.Logit(y, X).fit(method="newton", tol=1e-12, maxiter=200, disp=False)
             params, bse = np.asarray(res.params), np.asarray(res.bse)
     params = np.asarray(params, float)
-    l_max, _ = _constrained_ll(y, X, j, float(params[j]), params, penalized)
+    l_max, _ = _constrained_ll(y, X, j, float(params[j]), params, penalized, n)
     se = float(bse[j]) if np.isfinite(bse[j]) and bse[j] > 0 else 1.0
 
     def excess(bj: float) -> float:
-        return 2.0 * (l_max - _constrained_ll(y, X, j, bj, params, penalized)[0]) - _CHI2_1_95
+        return 2.0 * (l_max - _constrained_ll(y, X, j, bj, params, penalized, n)[0]) - _CHI2_1_95
 
     ends = []
     for sign in (-1.0, 1.0):
@@ -630,19 +719,19 @@ def fit_logistic(
                     float(2 * stats.norm.sf(abs(z))),
                 )
             )
-    profile: dict[str, tuple[float, float]] = {}
     y_all = d["recognized"].to_numpy(float)
-    for j, name in enumerate(names):
-        if name == "Intercept" or name.startswith("C(subject"):
-            continue
+    profile = _profiles(y_all, X, names, params, bse, penalized=method == "firth")
+    if method == "firth":
+        f_params, f_profile = params, profile
+    else:
         try:
-            lo_b, hi_b = profile_interval(
-                y_all, X, j, params=params, bse=bse, penalized=method == "firth"
+            f_params, f_bse, _ = firth_logit(y_all, X)
+            f_profile = _profiles(
+                y_all, X, names, f_params, f_bse, penalized=True, only=_REPORTED_TERMS
             )
-        except (np.linalg.LinAlgError, ValueError, ArithmeticError):
-            continue
-        with np.errstate(over="ignore"):
-            profile[_term_name(name)] = (float(np.exp(lo_b)), float(np.exp(hi_b)))
+        except np.linalg.LinAlgError:
+            f_params, f_profile = None, {}
+            notes.append("Firth's penalised fit failed: ML intervals only")
     notes = list(dict.fromkeys(notes))
     for n in notes:
         logger.warning("logistic model: %s", n)
@@ -666,7 +755,41 @@ def fit_logistic(
         method=method,
         separated=tuple(separated),
         profile_ci95=profile,
+        firth_params={}
+        if f_params is None
+        else {_term_name(k): float(v) for k, v in zip(names, f_params, strict=True)},
+        firth_profile_ci95=f_profile,
     )
+
+
+def _profiles(
+    y: np.ndarray,
+    X: np.ndarray,
+    names: list[str],
+    params: np.ndarray,
+    bse: np.ndarray,
+    *,
+    penalized: bool,
+    only: tuple[str, ...] | None = None,
+) -> dict[str, tuple[float, float]]:
+    """Return the 95 % profile (penalised if ``penalized``) interval of each term's odds ratio.
+
+    Subject dummies are skipped (never reported), and with ``only`` every term not in it; a term
+    whose profile fails is left out.
+    """
+    out: dict[str, tuple[float, float]] = {}
+    for j, name in enumerate(names):
+        if name == "Intercept" or name.startswith("C(subject"):
+            continue
+        if only is not None and name not in only:
+            continue
+        try:
+            lo_b, hi_b = profile_interval(y, X, j, params=params, bse=bse, penalized=penalized)
+        except (np.linalg.LinAlgError, ValueError, ArithmeticError):
+            continue
+        with np.errstate(over="ignore"):
+            out[_term_name(name)] = (float(np.exp(lo_b)), float(np.exp(hi_b)))
+    return out
 
 
 def predict_from_odds_ratio(p_ref: float, odds_ratio: float) -> float:
