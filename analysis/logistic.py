@@ -208,6 +208,10 @@ class LogisticFit:
             **out,
         }
 
+    def reported_intervals(self) -> dict[str, dict[str, Any]]:
+        """Return :meth:`intervals` of the odds ratios the report states (results.json)."""
+        return {t: self.intervals(t) for t in _REPORTED_TERMS if self.has(t)}
+
     def to_dict(self) -> dict[str, Any]:
         """Return a JSON-ready dict (``odds_ratios`` and ``classification`` as in results.json)."""
         return {

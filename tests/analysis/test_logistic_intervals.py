@@ -116,3 +116,64 @@ def test_binomial_rows_give_the_fit_and_intervals_of_single_trials():
             profile_interval(y, X, 1, penalized=pen),
             atol=1e-7,
         )
+
+
+@pytest.fixture(scope="module")
+def sim_fit():
+    import warnings
+
+    from analysis.logistic import fit_logistic
+    from analysis.simulate import simulate_logistic_trials
+
+    trials = simulate_logistic_trials(rng=7)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return trials, fit_logistic(trials)
+
+
+def test_default_interval_is_firth_profile_beside_ml_wald_and_profile(sim_fit):
+    """The default is recomputed from a hand-built design matrix, with ML and Wald beside it."""
+    trials, fit = sim_fit
+    obj = trials["object"].astype(int).to_numpy()
+    others = sorted(set(obj) - {1})
+    X = np.column_stack(
+        [np.ones(len(trials)), (trials["condition"] == "decluttered").to_numpy(float)]
+        + [(obj == o).astype(float) for o in others]
+        + [np.log10(trials["pixels"].to_numpy(float))]
+    )
+    y = trials["recognized"].to_numpy(float)
+    est, _, _ = firth_logit(y, X)
+    for term, j in (("background", 1), ("log10_pixels", X.shape[1] - 1)):
+        iv = fit.intervals(term)
+        assert iv["interval"] == "firth_profile"
+        assert iv["question"] == "these subjects and objects"
+        assert iv["or"] == pytest.approx(math.exp(est[j]), rel=1e-6)
+        lo, hi = profile_interval(y, X, j, penalized=True)
+        assert iv["ci95"] == pytest.approx([math.exp(lo), math.exp(hi)], rel=1e-6)
+        assert iv["ml_or"] == fit.odds_ratios[term]["or"]
+        assert iv["wald"] == fit.odds_ratios[term]["ci95"]
+        assert "profile" in iv
+        # Firth's estimate is pulled towards OR 1 from ML's
+        assert abs(math.log(iv["or"])) < abs(math.log(iv["ml_or"]))
+
+
+def test_firth_intervals_survive_the_round_trip(sim_fit):
+    from analysis.logistic import LogisticFit
+
+    _, fit = sim_fit
+    back = LogisticFit.from_dict(fit.to_dict())
+    assert back.reported_intervals() == fit.reported_intervals()
+    assert set(back.reported_intervals()) == {"background", "log10_pixels"}
+
+
+def test_report_and_results_json_give_the_default_interval_first_and_name_it(small_result):
+    from analysis.report import OR_INTERVALS_NOTE, render_markdown
+
+    iv = small_result.results_json()["logistic"]["intervals"]["background"]
+    assert iv["interval"] == "firth_profile" and iv["ci95"] == iv["firth_profile"]
+    text = render_markdown(small_result, figures=False)
+    default = f"{iv['firth_profile'][0]:.3g}-{iv['firth_profile'][1]:.3g}"
+    wald = f"{iv['wald'][0]:.3g}-{iv['wald'][1]:.3g} Wald"
+    assert f"95 % CI {default} Firth profile penalised likelihood" in text
+    assert text.index(default) < text.index(wald)
+    assert OR_INTERVALS_NOTE in text
