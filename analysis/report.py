@@ -176,7 +176,8 @@ def _or_text(
             ci += f"; ML {intervals['ml_or']:.3g}, 95 % CI {_or_ends(intervals['wald'])} Wald"
             if "profile" in intervals:
                 ci += f", {_or_ends(intervals['profile'])} profile likelihood"
-        base = f"{intervals['or']:.3g} ({ci}; ML Wald {p_text(o['p'])}; for {QUESTION_SAMPLE})"
+        wald = "ML Wald" if "ml_or" in intervals else "Wald"
+        base = f"{intervals['or']:.3g} ({ci}; {wald} {p_text(o['p'])}; for {QUESTION_SAMPLE})"
         if term in separated:
             return f"{base}; separated in these data (the ML odds ratio is infinite)"
         return base

@@ -177,3 +177,21 @@ def test_report_and_results_json_give_the_default_interval_first_and_name_it(sma
     assert f"95 % CI {default} Firth profile penalised likelihood" in text
     assert text.index(default) < text.index(wald)
     assert OR_INTERVALS_NOTE in text
+
+
+def test_separated_data_have_only_firth_intervals(sim_fit):
+    """No ML estimate exists: the default is Firth's, and no ML Wald or profile is claimed."""
+    import warnings
+
+    from analysis.logistic import fit_logistic
+
+    t = sim_fit[0].copy()
+    t.loc[t["condition"] == "cluttered", "recognized"] = 0
+    t.loc[t["condition"] == "decluttered", "recognized"] = 1
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        f = fit_logistic(t)
+    iv = f.intervals("background")
+    assert f.method == "firth" and iv["interval"] == "firth_profile"
+    assert "wald" not in iv and "ml_or" not in iv
+    assert iv["ci95"][0] > 1.0 and (iv["ci95"][1] is None or iv["ci95"][1] > iv["or"])
