@@ -171,6 +171,7 @@ class AnalysisResult:
                 "method": self.logistic.method,
                 "separated": list(self.logistic.separated),
                 "profile_ci95": self.logistic.to_dict()["profile_ci95"],
+                "intervals": self.logistic.reported_intervals(),
                 "warnings": list(self.logistic.warnings),
             },
             "predictions": self.predictions(),
