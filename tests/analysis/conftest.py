@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import warnings
 
+import numpy as np
 import pytest
 
 from analysis.simulate import WeibullObserver, simulate_weibull_trials
@@ -66,3 +67,19 @@ def lab_and_pilot_csv(trials, folder, human_columns, sim_columns):
     trials[first].assign(**human_columns).to_csv(a, index=False)
     trials[~first].assign(**sim_columns).to_csv(b, index=False)
     return a, b
+
+
+def hand_design_matrix(trials):
+    """Return the logistic model's design matrix and responses, built by hand (not by patsy).
+
+    Columns: intercept, de-cluttered indicator, one indicator per object other than object "1",
+    log10(pixels).
+    """
+    obj = trials["object"].astype(int).to_numpy()
+    others = sorted(set(obj) - {1})
+    X = np.column_stack(
+        [np.ones(len(trials)), (trials["condition"] == "decluttered").to_numpy(float)]
+        + [(obj == o).astype(float) for o in others]
+        + [np.log10(trials["pixels"].to_numpy(float))]
+    )
+    return X, trials["recognized"].to_numpy(float)

@@ -19,6 +19,7 @@ from analysis.logistic import (
 )
 from analysis.mixed import MixedFit, fit_mixed, laplace_glmm
 from analysis.simulate import LogisticObserver, simulate_logistic_trials
+from tests.analysis.conftest import hand_design_matrix
 
 
 @pytest.fixture(scope="module")
@@ -37,14 +38,7 @@ def independent_fit(trials):
     Columns: intercept, de-cluttered indicator, one indicator per object other than object "1",
     log10(pixels). Returns (coefficients by term name, Wald standard errors, predictions).
     """
-    obj = trials["object"].astype(int).to_numpy()
-    others = sorted(set(obj) - {1})
-    X = np.column_stack(
-        [np.ones(len(trials)), (trials["condition"] == "decluttered").to_numpy(float)]
-        + [(obj == o).astype(float) for o in others]
-        + [np.log10(trials["pixels"].to_numpy(float))]
-    )
-    y = trials["recognized"].to_numpy(float)
+    X, y = hand_design_matrix(trials)
 
     def nll(b):
         eta = X @ b
@@ -66,6 +60,7 @@ def independent_fit(trials):
         options={"gtol": 1e-12},
     )
     se = np.sqrt(np.diag(np.linalg.inv(hess(r.x))))
+    others = sorted(set(trials["object"].astype(int)) - {1})
     names = ["Intercept", "background"] + [f"object:{o}" for o in others] + ["log10_pixels"]
     return (
         dict(zip(names, r.x, strict=True)),

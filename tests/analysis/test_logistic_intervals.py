@@ -10,6 +10,7 @@ import pytest
 from scipy import optimize, special, stats
 
 from analysis.logistic import firth_logit, profile_interval
+from tests.analysis.conftest import hand_design_matrix
 
 
 def _penalised_ll(b, X, y):
@@ -134,14 +135,7 @@ def sim_fit():
 def test_default_interval_is_firth_profile_beside_ml_wald_and_profile(sim_fit):
     """The default is recomputed from a hand-built design matrix, with ML and Wald beside it."""
     trials, fit = sim_fit
-    obj = trials["object"].astype(int).to_numpy()
-    others = sorted(set(obj) - {1})
-    X = np.column_stack(
-        [np.ones(len(trials)), (trials["condition"] == "decluttered").to_numpy(float)]
-        + [(obj == o).astype(float) for o in others]
-        + [np.log10(trials["pixels"].to_numpy(float))]
-    )
-    y = trials["recognized"].to_numpy(float)
+    X, y = hand_design_matrix(trials)
     est, _, _ = firth_logit(y, X)
     for term, j in (("background", 1), ("log10_pixels", X.shape[1] - 1)):
         iv = fit.intervals(term)
