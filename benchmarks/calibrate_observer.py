@@ -34,24 +34,34 @@ __all__ = ["main", "build_sets"]
 #: Grids searched. Ours: blur 0.05-0.3 deg brackets normal acuity (~1 arcmin) to a blurred
 #: view; noise and criterion in normalised units span no-answer to always-answer.
 BLUR_GRID_DEG = (0.05, 0.1, 0.2)
-NOISE_GRID = (0.1, 0.25, 0.5, 0.75, 1.0)
+
+#: Seeds of the calibration test sets; each one's knowledge is the next seeds' renderings.
+#: Ours: spaced by 10 so that no set's knowledge is another set's test, and none is a demo
+#: seed (0-3 by default); four sets so that the fit suits the stimuli in general, not one set.
+CALIBRATION_SEEDS = (100, 110, 120, 130)
+NOISE_GRID = (0.05, 0.1, 0.25, 0.5, 0.75, 1.0)
 
 
-def build_sets(work: Path, seeds: list[int]) -> list[tuple[Path, Path]]:
-    """Synthesise and build each calibration test set (seed s) and its knowledge set (s + 1)."""
-    from experiment.demos.study import make_knowledge_set
+def build_sets(work: Path, seeds: list[int]) -> list[tuple[Path, list[Path]]]:
+    """Synthesise and build each calibration test set (seed s) and its knowledge: the
+    renderings with seeds s + 1 .. s + KNOWLEDGE_RENDERINGS, pooled (as the demo's)."""
+    from experiment.demos.study import KNOWLEDGE_RENDERINGS, make_knowledge_set
     from stimuli.build import build_stimulus_set
     from stimuli.synth import write_pairs
 
     out = []
     for s in seeds:
         root = work / f"cal{s}"
-        test, knowledge = root / "test", root / "knowledge"
+        test = root / "test"
         if not (test / "manifest.csv").exists():
             write_pairs(root / "pairs", n_objects=20, n_training=3, seed=s)
             build_stimulus_set(root / "pairs", test, workers=1)
-        if not (knowledge / "manifest.csv").exists():
-            make_knowledge_set(root / "kpairs", knowledge, s + 1)
+        knowledge = []
+        for ks in range(s + 1, s + 1 + KNOWLEDGE_RENDERINGS):
+            k = root / f"knowledge{ks}"
+            if not (k / "manifest.csv").exists():
+                make_knowledge_set(root / f"kpairs{ks}", k, ks)
+            knowledge.append(k)
         out.append((test, knowledge))
     return out
 
@@ -69,7 +79,7 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--work", type=Path, default=None, help="Folder for the calibration sets.")
     ap.add_argument("--out", type=Path, default=CALIBRATION_FILE)
-    ap.add_argument("--seeds", type=int, nargs="+", default=[100, 102, 104])
+    ap.add_argument("--seeds", type=int, nargs="+", default=list(CALIBRATION_SEEDS))
     ap.add_argument("--repeats", type=int, default=30)
     args = ap.parse_args(argv)
     work = args.work or Path(tempfile.mkdtemp(prefix="confocal-calibration-"))

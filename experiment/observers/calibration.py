@@ -68,6 +68,7 @@ __all__ = [
     "CalibratedObserver",
     "normalized_responses",
     "cluttered_responses",
+    "stimulus_responses",
     "calibrate",
     "read_calibration",
 ]
@@ -204,20 +205,32 @@ class CalibratedObserver(ExemplarObserver):
 
 
 def cluttered_responses(
-    test: str | Path, knowledge: str | Path, params: ExemplarParams
+    test: str | Path, knowledge: str | Path | list, params: ExemplarParams
 ) -> dict[str, np.ndarray]:
     """Return the noise-free normalised responses to a set's cluttered main stimuli.
 
-    Reads only the records whose condition is ``cluttered`` (and the knowledge set).
+    Reads only the records whose condition is ``cluttered`` (and the knowledge set); see
+    :func:`stimulus_responses`, which the calibration calls with ``cluttered`` only.
+    """
+    return stimulus_responses(test, knowledge, params, "cluttered")
+
+
+def stimulus_responses(
+    test: str | Path, knowledge: str | Path | list, params: ExemplarParams, condition: str
+) -> dict[str, np.ndarray]:
+    """Return the noise-free normalised responses to a set's main stimuli of one condition.
+
+    Reads only the records whose condition is ``condition`` (and the knowledge set).
 
     Parameters
     ----------
     test : str or Path
         Calibration stimulus set (not a demo's test set).
-    knowledge : str or Path
-        Its knowledge set (other renderings of the same kinds).
+    knowledge : str, Path or list of them
+        Its knowledge set (other renderings of the same kinds); a list is pooled.
     params : ExemplarParams
         Front end (``blur_deg`` etc.); ``knowledge`` is replaced by the argument.
+    condition : {'cluttered', 'decluttered'}
 
     Returns
     -------
@@ -233,12 +246,14 @@ def cluttered_responses(
         main stimulus is in ``test``.
     """
     ts = StimulusSet.load(test)
-    p = replace(params, knowledge=str(knowledge))
+    many = isinstance(knowledge, (list, tuple))
+    folders = [str(f) for f in knowledge] if many else [str(knowledge)]
+    p = replace(params, knowledge=tuple(folders))
     k = load_knowledge(p)
     keys = [normalize(c) for c in k.categories]
     px, known, correct, unknown = [], [], [], []
     for rec in ts.records:
-        if rec.condition != "cluttered" or ts.objects[rec.object].role != "main":
+        if rec.condition != condition or ts.objects[rec.object].role != "main":
             continue
         name = normalize(ts.objects[rec.object].name)
         if name not in keys:
@@ -251,7 +266,7 @@ def cluttered_responses(
         correct.append(i)
         unknown.append(normalized_responses(np.delete(s, i)))
     if not px:
-        raise ValueError(f"stimulus set {test} has no cluttered main stimuli to calibrate on")
+        raise ValueError(f"stimulus set {test} has no {condition} main stimuli")
     return {
         "pixels": np.asarray(px, dtype=float),
         "known": np.vstack(known),
@@ -296,15 +311,17 @@ def calibrate(
     For each grid point, every cluttered main stimulus is answered ``repeats`` times (common
     random numbers across the grid); the criterion is raised to the open-set floor (the
     ``open_set_quantile`` of the unknown-kind margins at that noise) where it is below it; the
-    loss is the mean squared difference between the expected recognition at each pixel count
-    and the paper's cluttered curve there (the Weibull with 50 % at ``target_x50_px`` and slope
-    ``target_beta``). The best point's recognition is then fitted with an ML Weibull (guess 0,
-    lapse free) to report its threshold and slope.
+    loss is, averaged over the sets, each set's mean squared difference between its expected
+    recognition at each pixel count and the paper's cluttered curve there (the Weibull with
+    50 % at ``target_x50_px`` and slope ``target_beta``), so the fit suits the stimuli in
+    general rather than one set. The best point's recognition is then fitted with an ML
+    Weibull (guess 0, lapse free) to report its threshold and slope.
 
     Parameters
     ----------
-    sets : list of (test folder, knowledge folder)
-        Calibration stimulus sets and their knowledge sets. Only cluttered records are read.
+    sets : list of (test folder, knowledge folder or list of folders)
+        Calibration stimulus sets and their knowledge sets (a list is pooled). Only cluttered
+        records are read.
     blur_grid_deg, noise_grid, criterion_grid : tuple of float
         Values tried (degrees; normalised units; normalised units).
     lapse : float in [0, 0.5)
@@ -325,9 +342,11 @@ def calibrate(
     -------
     dict
         ``fitted`` (blur_deg, noise_sd, criterion, lapse), ``cluttered_rate`` (expected
-        recognition per pixel count), ``predicted_cluttered`` (ML Weibull x50_px, beta,
-        weibull_lapse), ``open_set`` (floor, quantile, unknown kinds named), ``target``,
-        ``loss``, ``grid`` (the values tried), ``sets`` (folders and manifest sha256).
+        recognition per pixel count, all sets; ``cluttered_rate_per_set`` per set),
+        ``predicted_cluttered`` (ML Weibull x50_px, beta, weibull_lapse), ``open_set``
+        (floor, quantile, unknown kinds named), ``target``,
+        ``loss``, ``grid`` (the values tried), ``sets`` (folders, manifest sha256 and each set's
+        own cluttered ML threshold ``cluttered_x50_px``).
 
     Raises
     ------
@@ -344,11 +363,14 @@ def calibrate(
         raise ValueError(f"repeats must be >= 1, got {repeats!r}")
     gen = np.random.default_rng(rng)
     if base is None:
-        base = ExemplarParams(knowledge=str(sets[0][1]))
+        k0 = sets[0][1]
+        base = ExemplarParams(knowledge=[str(f) for f in k0] if isinstance(k0, (list, tuple))
+                              else str(k0))  # fmt: skip
     best: dict[str, Any] | None = None
     for blur in blur_grid_deg:
         p = replace(base, blur_deg=float(blur))
         parts = [cluttered_responses(t, k, p) for t, k in sets]
+        set_of = np.concatenate([np.full(len(d["pixels"]), i) for i, d in enumerate(parts)])
         px = np.concatenate([d["pixels"] for d in parts])
         z = np.vstack([d["known"] for d in parts])
         correct = np.concatenate([d["correct"] for d in parts])
@@ -367,7 +389,13 @@ def calibrate(
                 c = max(float(crit), floor)
                 hit = (right & (margin > c)).mean(axis=1) * (1.0 - lapse)
                 rate = np.array([hit[px == lv].mean() for lv in levels])
-                loss = float(np.mean((rate - target) ** 2))
+                per_set = [
+                    np.array([hit[(px == lv) & (set_of == i)].mean() for lv in levels])
+                    for i in range(len(parts))
+                ]
+                # the mean over sets of each set's misfit: parameters that suit one set's
+                # stimuli and miss another's lose to ones that suit the stimuli in general
+                loss = float(np.mean([np.mean((r - target) ** 2) for r in per_set]))
                 if best is None or loss < best["loss"] - 1e-12:
                     best = {
                         "loss": loss,
@@ -380,6 +408,9 @@ def calibrate(
                         "cluttered_rate": {
                             f"{lv:.0f}": float(r) for lv, r in zip(levels, rate, strict=True)
                         },
+                        "cluttered_rate_per_set": [
+                            [round(float(v), 4) for v in r] for r in per_set
+                        ],
                         "_counts": (levels, rate * n_per_level, n_per_level),
                         "open_set": {
                             "floor": floor,
@@ -389,6 +420,12 @@ def calibrate(
                     }
     if best is None:
         raise ValueError("no grid point gave a finite cluttered threshold; widen the grids")
+    levels_b, _, n_b = best["_counts"]
+    n_set = n_b / len(sets)
+    best["_per_set_x50"] = [
+        _weibull_x50_beta(levels_b, np.asarray(r) * n_set, n_set)[0]
+        for r in best["cluttered_rate_per_set"]
+    ]
     x50, beta, wl = _weibull_x50_beta(*best.pop("_counts"))
     best["predicted_cluttered"] = {"x50_px": x50, "beta": beta, "weibull_lapse": wl}
     best["target"] = {"x50_px": target_x50_px, "beta": target_beta}
@@ -401,9 +438,11 @@ def calibrate(
     best["sets"] = [
         {
             "test": Path(t).name,
-            "knowledge": Path(k).name,
+            "knowledge": [Path(f).name for f in (k if isinstance(k, (list, tuple)) else [k])],
             "test_manifest_sha256": StimulusSet.load(t).manifest_sha256,
         }  # fmt: skip
         for t, k in sets
     ]
+    for entry, part in zip(best["sets"], best.pop("_per_set_x50"), strict=True):
+        entry["cluttered_x50_px"] = part
     return best
