@@ -29,7 +29,6 @@ import argparse
 import json
 import math
 import sys
-from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -123,17 +122,22 @@ def main(argv: list[str] | None = None) -> int:
     seeds = {}
     for d in args.demos:
         info = json.loads((d / "demo.json").read_text())
-        seeds[info["seed"]] = (d / "stimuli", d / "knowledge" / "stimuli", info["knowledge_seed"])
+        ks = info.get("knowledge_seeds") or [info["knowledge_seed"]]
+        if (d / "knowledge" / "stimuli").is_dir():  # one rendering
+            know = [d / "knowledge" / "stimuli"]
+        else:
+            know = [d / "knowledge" / f"seed{k}" / "stimuli" for k in ks]
+        seeds[info["seed"]] = (d / "stimuli", know, tuple(ks))
     pairs = []
     for s, (test, know, ks) in seeds.items():
         if args.knowledge:
             pairs.append((s, "+".join(p.name for p in args.knowledge), test, args.knowledge))
             continue
-        pairs.append((s, ks, test, [know]))
+        pairs.append((s, list(ks), test, know))
         if args.cross:
             for _, know2, ks2 in seeds.values():
-                if ks2 not in (s, ks):
-                    pairs.append((s, ks2, test, [know2]))
+                if s not in ks2 and ks2 != ks:
+                    pairs.append((s, list(ks2), test, know2))
     out: dict = {"params": {k: getattr(params, k) for k in ("blur_deg", "noise_sd",
                                                              "criterion", "lapse")},
                  "subjects": args.subjects, "pairings": []}  # fmt: skip
@@ -141,7 +145,7 @@ def main(argv: list[str] | None = None) -> int:
     for s, ks, test, know in pairs:
         row: dict = {"test_seed": s, "knowledge_seed": ks}
         for cond in ("cluttered", "decluttered"):
-            d = stimulus_responses(test, know, replace(params, knowledge=str(know[0])), cond)
+            d = stimulus_responses(test, know, params, cond)
             p, pu = expected_rates(d, params)
             px = d["pixels"]
             levels = np.unique(px)
