@@ -549,6 +549,12 @@ def _calibrated_line(demo: DemoResult, first: dict[str, Any]) -> str:
         return f"{_fmt_px(sim[key])} px ({_distance(sim[key], PAPER_RESULTS[key])})"
 
     ratio = sim["threshold_ratio"]
+    passed = (first.get("calibration") or {}).get("unknown_kinds_passed")
+    open_set = (
+        ""
+        if passed is None
+        else f' and says "don\'t know" to {float(passed):.0%} of images of kinds it does not know'
+    )
     return (
         "simulated observer: calibrated (HOG exemplar matcher knowing "
         f"{len(k.get('categories', []))} kinds from {source}, with a person's limits: blur "
@@ -556,7 +562,7 @@ def _calibrated_line(demo: DemoResult, first: dict[str, Any]) -> str:
         f"{float(p.get('criterion') or 0):.2f}, lapse {p.get('lapse')}; fitted to the paper's "
         f"cluttered condition only) gives cluttered {px('x50_cluttered_px')} and, as a "
         f"prediction, de-cluttered {px('x50_decluttered_px')} against the paper's 8,695 and "
-        f"3,532 px, ratio {'n/a' if ratio is None else f'{ratio:.2f}'} against 2.46"
+        f"3,532 px, ratio {'n/a' if ratio is None else f'{ratio:.2f}'} against 2.46{open_set}"
     )
 
 

@@ -111,7 +111,8 @@ def read_calibration(path: str | Path = CALIBRATION_FILE) -> dict[str, Any]:
     return d
 
 
-_FITTED: dict[str, float] = read_calibration()["fitted"]
+_CALIBRATION: dict[str, Any] = read_calibration()
+_FITTED: dict[str, float] = _CALIBRATION["fitted"]
 
 
 @dataclass(frozen=True)
@@ -186,12 +187,18 @@ class CalibratedObserver(ExemplarObserver):
         super()._prepare()
         if self.params.criterion is not None:
             fitted = {k: getattr(self.params, k) for k in ("blur_deg", "noise_sd", "criterion")}
+            from_file = fitted == {k: _FITTED[k] for k in fitted}
             self.calibration = {
                 "method": "fitted to the paper's cluttered condition only"
-                if fitted == {k: _FITTED[k] for k in fitted}
+                if from_file
                 else "given (differs from the calibration file)",
                 "file": CALIBRATION_FILE.name,
             }
+            named = (_CALIBRATION.get("open_set") or {}).get("unknown_kinds_named")
+            if from_file and named is not None:
+                # share of calibration images of a kind the observer did not know that it
+                # passed ("don't know") instead of naming the nearest known kind
+                self.calibration["unknown_kinds_passed"] = round(1.0 - float(named), 4)
 
     def _decide(self, s: np.ndarray) -> tuple[int, float]:
         """Normalise, add internal noise; return (best category, margin over the second)."""

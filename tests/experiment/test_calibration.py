@@ -194,3 +194,15 @@ def test_calibration_loss_is_the_mean_of_each_sets_misfit(small_pair, second_kno
     pooled = np.array(list(r["cluttered_rate"].values()))
     assert abs(r["loss"] - np.mean((pooled - target) ** 2)) > 1e-6
     assert all("cluttered_x50_px" in s for s in r["sets"])
+
+
+def test_calibrated_observer_logs_its_open_set_rate_from_the_calibration(small_pair):
+    """With the fitted values, the observer logs the share of unknown-kind images it passed in
+    calibration; with other values it claims none."""
+    test, knowledge = small_pair
+    ts = StimulusSet.load(test)
+    named = read_calibration()["open_set"]["unknown_kinds_named"]
+    obs = make_observer("calibrated", ts, "S1", rng=0, knowledge=str(knowledge))
+    assert obs.describe()["calibration"]["unknown_kinds_passed"] == round(1 - named, 4)
+    other = make_observer("calibrated", ts, "S1", rng=0, knowledge=str(knowledge), noise_sd=0.0)
+    assert "unknown_kinds_passed" not in other.describe()["calibration"]

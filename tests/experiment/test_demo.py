@@ -112,6 +112,12 @@ def test_calibrated_observer_says_in_one_sentence_what_it_is_and_how_far_from_th
     k = {**demo.observers[0]["knowledge"], "synth": {"seed": [6, 7, 8]}}
     demo.observers = [{**demo.observers[0], "knowledge": k}]
     assert "from 3 other renderings (seeds 6, 7, 8)" in summary_lines(demo)[1]
+    assert "don't know" not in summary_lines(demo)[1]  # no open-set rate logged: none claimed
+    # the open-set rate from the calibration, as logged by the observer
+    demo.observers = [{**demo.observers[0], "calibration": {"unknown_kinds_passed": 0.91}}]
+    assert summary_lines(demo)[1].endswith(
+        'against 2.46 and says "don\'t know" to 91% of images of kinds it does not know'
+    )
 
 
 def test_logistic_observer_is_named_as_the_papers_model(tmp_path):
