@@ -23,6 +23,7 @@ from pathlib import Path
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
+from experiment.demos.study import KNOWLEDGE_RENDERINGS  # noqa: E402
 from experiment.observers.calibration import (  # noqa: E402
     CALIBRATION_FILE,
     PAPER_CLUTTERED_ONSET_PX,
@@ -33,7 +34,10 @@ __all__ = ["main", "build_sets"]
 
 #: Grids searched. Ours: blur 0.05-0.3 deg brackets normal acuity (~1 arcmin) to a blurred
 #: view; noise and criterion in normalised units span no-answer to always-answer.
-BLUR_GRID_DEG = (0.05, 0.1, 0.2)
+BLUR_GRID_DEG = (0.05, 0.1, 0.2, 0.3)
+#: HOG cell sides tried, degrees. Ours: the scale of the shape parts the observer compares;
+#: 0.4-0.6 deg is ~17-26 cells across a 10 deg object.
+CELL_GRID_DEG = (0.4, 0.6)
 
 #: Seeds of the calibration test sets; each one's knowledge is the next seeds' renderings.
 #: Ours: spaced by 10 so that no set's knowledge is another set's test, and none is a demo
@@ -86,22 +90,25 @@ def main(argv: list[str] | None = None) -> int:
     t0 = time.perf_counter()
     sets = build_sets(work, args.seeds)
     t1 = time.perf_counter()
-    result = calibrate(sets, blur_grid_deg=BLUR_GRID_DEG, noise_grid=NOISE_GRID,
-                       repeats=args.repeats, rng=0)  # fmt: skip
+    result = calibrate(sets, blur_grid_deg=BLUR_GRID_DEG, cell_grid_deg=CELL_GRID_DEG,
+                       noise_grid=NOISE_GRID, repeats=args.repeats, rng=0)  # fmt: skip
     t2 = time.perf_counter()
     result["how"] = (
         "Fitted by benchmarks/calibrate_observer.py to the paper's cluttered condition only "
         f"(Jung et al. 2015, Sec. 3.2.2: 50 % threshold 8,695 px; Weibull slope from the same "
         f"curve's 10 % point at the ~{PAPER_CLUTTERED_ONSET_PX:,.0f} px where recognition "
-        "'rises from'): grid search over blur, internal noise and criterion; each grid point's "
-        "expected recognition of the cluttered main stimuli of the calibration sets (synthetic "
-        f"seeds {args.seeds}, knowledge seeds {[s + 1 for s in args.seeds]}; {args.repeats} "
-        "noise draws per stimulus) is compared level by level with the paper's cluttered "
-        "Weibull curve and the point with the least squared difference is kept; the criterion "
-        "is never below the open-set floor (90 % of unknown-kind trials passed). No "
-        "de-cluttered stimulus is read."
+        "'rises from'): grid search over blur, HOG cell size, internal noise and criterion; each "
+        "grid point's expected recognition of the cluttered main stimuli of each calibration "
+        f"set (synthetic seeds {args.seeds}, each knowing the {KNOWLEDGE_RENDERINGS} renderings "
+        f"with the next seeds, pooled; {args.repeats} noise draws per stimulus) is compared "
+        "level by level with the paper's cluttered Weibull curve, and the point with the least "
+        "squared difference averaged over the sets is kept; the criterion is never below the "
+        "open-set floor (90 % of unknown-kind trials passed). No de-cluttered stimulus is read."
     )
-    result["seeds"] = {"test": args.seeds, "knowledge": [s + 1 for s in args.seeds]}
+    result["seeds"] = {
+        "test": args.seeds,
+        "knowledge": [list(range(s + 1, s + 1 + KNOWLEDGE_RENDERINGS)) for s in args.seeds],
+    }
     result["git_commit"] = _git_commit()
     text = json.dumps(result, indent=2) + "\n"
     tmp = args.out.with_name(f".{args.out.name}.tmp")

@@ -4,8 +4,11 @@ condition.
 What is added to :mod:`experiment.observers.exemplar`
 ------------------------------------------------------
 The front end (the image at the display's size, acuity blur, HOG features) and the knowledge
-(other renderings of the same kinds, never a test stimulus) are the exemplar observer's. The
-decision stage is a person's:
+(other renderings of the same kinds, never a test stimulus) are the exemplar observer's; the
+demo gives it several renderings of each kind, pooled (``KNOWLEDGE_RENDERINGS`` in
+:mod:`experiment.demos.study`), since a person knows many mugs and one rendering per kind
+made the cluttered threshold depend on which rendering it was. The decision stage is a
+person's:
 
 1. **Response normalisation.** The category similarities of one image are divided by their
    spread across categories (z-scored): a cluttered image correlates less with *every* category
@@ -23,11 +26,13 @@ decision stage is a person's:
 
 Calibration (:func:`calibrate`)
 -------------------------------
-``noise_sd`` and ``criterion`` (and ``blur_deg`` from a short list) are fitted to the paper's
-**cluttered** condition only: a Weibull (guess 0, lapse free; as the paper's Psychtoolbox fits)
-through the paper's cluttered 50 % threshold and slope is compared with the observer's expected
-recognition of the calibration sets' cluttered stimuli at each level, and the parameters with
-the least squared difference are kept. The calibration reads only records whose
+``noise_sd`` and ``criterion`` (and ``blur_deg`` and the HOG ``cell_deg`` from short lists)
+are fitted to the paper's **cluttered** condition only: a Weibull (guess 0, lapse free; as the
+paper's Psychtoolbox fits) through the paper's cluttered 50 % threshold and slope is compared
+with the observer's expected recognition of each calibration set's cluttered stimuli at each
+level, and the parameters with the least squared difference, averaged over the sets, are kept
+(several sets, so that the values suit the stimuli in general rather than one draw of 20
+objects). The calibration reads only records whose
 condition is ``cluttered`` (plus the knowledge sets); a test checks that removing every
 de-cluttered file leaves the fitted values unchanged. The de-cluttered threshold the observer
 then gives is a prediction. ``benchmarks/calibrate_observer.py`` re-runs the calibration and
@@ -121,8 +126,8 @@ class CalibratedParams(ExemplarParams):
 
     As :class:`~experiment.observers.exemplar.ExemplarParams`, except that ``noise_sd`` and
     ``criterion`` are in normalised units (similarities divided by their SD across
-    categories), and ``blur_deg``, ``noise_sd`` and ``criterion`` default to the values in
-    :data:`CALIBRATION_FILE` (fitted to the paper's cluttered condition).
+    categories), and ``blur_deg``, ``cell_deg``, ``noise_sd`` and ``criterion`` default to the
+    values in :data:`CALIBRATION_FILE` (fitted to the paper's cluttered condition).
 
     Parameters
     ----------
@@ -132,6 +137,7 @@ class CalibratedParams(ExemplarParams):
     """
 
     blur_deg: float = _FITTED["blur_deg"]
+    cell_deg: float = _FITTED.get("cell_deg", ExemplarParams.cell_deg)
     noise_sd: float = _FITTED["noise_sd"]
     criterion: float | None = _FITTED["criterion"]
     lapse: float = 0.02
@@ -186,7 +192,8 @@ class CalibratedObserver(ExemplarObserver):
     def _prepare(self) -> None:
         super()._prepare()
         if self.params.criterion is not None:
-            fitted = {k: getattr(self.params, k) for k in ("blur_deg", "noise_sd", "criterion")}
+            keys = ("blur_deg", "cell_deg", "noise_sd", "criterion")
+            fitted = {k: getattr(self.params, k) for k in keys if k in _FITTED}
             from_file = fitted == {k: _FITTED[k] for k in fitted}
             self.calibration = {
                 "method": "fitted to the paper's cluttered condition only"
@@ -303,6 +310,7 @@ def calibrate(
     sets: list[tuple[str | Path, str | Path]],
     *,
     blur_grid_deg: tuple[float, ...] = (0.1,),
+    cell_grid_deg: tuple[float, ...] = (0.6,),
     noise_grid: tuple[float, ...] = (0.25, 0.5, 0.75, 1.0, 1.5),
     criterion_grid: tuple[float, ...] = tuple(np.round(np.arange(0.0, 5.01, 0.1), 2)),
     lapse: float = 0.02,
@@ -329,8 +337,9 @@ def calibrate(
     sets : list of (test folder, knowledge folder or list of folders)
         Calibration stimulus sets and their knowledge sets (a list is pooled). Only cluttered
         records are read.
-    blur_grid_deg, noise_grid, criterion_grid : tuple of float
-        Values tried (degrees; normalised units; normalised units).
+    blur_grid_deg, cell_grid_deg, noise_grid, criterion_grid : tuple of float
+        Values tried (degrees; degrees, the HOG cell side; normalised units; normalised
+        units).
     lapse : float in [0, 0.5)
         The observer's lapse rate (not fitted).
     open_set_quantile : float in (0, 1)
@@ -348,7 +357,7 @@ def calibrate(
     Returns
     -------
     dict
-        ``fitted`` (blur_deg, noise_sd, criterion, lapse), ``cluttered_rate`` (expected
+        ``fitted`` (blur_deg, cell_deg, noise_sd, criterion, lapse), ``cluttered_rate`` (expected
         recognition per pixel count, all sets; ``cluttered_rate_per_set`` per set),
         ``predicted_cluttered`` (ML Weibull x50_px, beta, weibull_lapse), ``open_set``
         (floor, quantile, unknown kinds named), ``target``,
@@ -374,8 +383,8 @@ def calibrate(
         base = ExemplarParams(knowledge=[str(f) for f in k0] if isinstance(k0, (list, tuple))
                               else str(k0))  # fmt: skip
     best: dict[str, Any] | None = None
-    for blur in blur_grid_deg:
-        p = replace(base, blur_deg=float(blur))
+    for cell, blur in ((c, b) for c in cell_grid_deg for b in blur_grid_deg):
+        p = replace(base, blur_deg=float(blur), cell_deg=float(cell))
         parts = [cluttered_responses(t, k, p) for t, k in sets]
         set_of = np.concatenate([np.full(len(d["pixels"]), i) for i, d in enumerate(parts)])
         px = np.concatenate([d["pixels"] for d in parts])
@@ -408,6 +417,7 @@ def calibrate(
                         "loss": loss,
                         "fitted": {
                             "blur_deg": float(blur),
+                            "cell_deg": float(cell),
                             "noise_sd": float(sd),
                             "criterion": round(c, 6),
                             "lapse": lapse,
@@ -438,6 +448,7 @@ def calibrate(
     best["target"] = {"x50_px": target_x50_px, "beta": target_beta}
     best["grid"] = {
         "blur_deg": list(blur_grid_deg),
+        "cell_deg": list(cell_grid_deg),
         "noise_sd": list(noise_grid),
         "criterion": [float(c) for c in criterion_grid],
         "repeats": int(repeats),
