@@ -73,6 +73,7 @@ __all__ = [
     "CalibratedObserver",
     "normalized_responses",
     "cluttered_responses",
+    "crossing_px",
     "stimulus_responses",
     "calibrate",
     "read_calibration",
@@ -296,6 +297,41 @@ def _margins(z: np.ndarray, noise: np.ndarray, sd: float) -> tuple[np.ndarray, n
     return np.argmax(noisy, axis=-1), part[..., 0] - part[..., 1]
 
 
+def crossing_px(levels_px: np.ndarray, rate: np.ndarray, p: float) -> float:
+    """Return where a recognition curve first reaches ``p``, pixels (log-linear interpolation).
+
+    Parameters
+    ----------
+    levels_px : ndarray of shape (n,)
+        Ascending pixel counts.
+    rate : ndarray of shape (n,)
+        Recognition rate at each.
+    p : float
+        The rate to reach.
+
+    Returns
+    -------
+    float
+        Half the lowest level when the rate starts at or above ``p``; twice the highest when
+        it never reaches it (finite, so a loss can rank such curves).
+
+    Examples
+    --------
+    >>> crossing_px(np.array([100.0, 10000.0]), np.array([0.0, 1.0]), 0.5)
+    1000.0
+    """
+    x = np.log(np.asarray(levels_px, dtype=float))
+    r = np.asarray(rate, dtype=float)
+    above = np.nonzero(r >= p)[0]
+    if not above.size:
+        return float(2.0 * np.exp(x[-1]))
+    i = int(above[0])
+    if i == 0:
+        return float(0.5 * np.exp(x[0]))
+    f = (p - r[i - 1]) / (r[i] - r[i - 1])
+    return float(np.exp(x[i - 1] + f * (x[i] - x[i - 1])))
+
+
 def _weibull_x50_beta(px: np.ndarray, k: np.ndarray, n: np.ndarray) -> tuple[float, float, float]:
     """ML Weibull (guess 0, lapse free) through counts: (x50 px, beta, lapse)."""
     from analysis.weibull.mle import fit_mle
@@ -326,11 +362,13 @@ def calibrate(
     For each grid point, every cluttered main stimulus is answered ``repeats`` times (common
     random numbers across the grid); the criterion is raised to the open-set floor (the
     ``open_set_quantile`` of the unknown-kind margins at that noise) where it is below it; the
-    loss is, averaged over the sets, each set's mean squared difference between its expected
-    recognition at each pixel count and the paper's cluttered curve there (the Weibull with
-    50 % at ``target_x50_px`` and slope ``target_beta``), so the fit suits the stimuli in
-    general rather than one set. The best point's recognition is then fitted with an ML
-    Weibull (guess 0, lapse free) to report its threshold and slope.
+    loss is, averaged over the sets, each set's squared log ratio of its 50 % point to
+    ``target_x50_px`` plus that of its 10 % point to the paper's curve's (the Weibull with 50 %
+    at ``target_x50_px`` and slope ``target_beta``): threshold and slope, each set's expected
+    recognition curve read by :func:`crossing_px`. Averaging over sets makes the fit suit the
+    stimuli in general rather than one set. ``curve_misfit`` records the mean squared
+    difference from the paper's curve level by level. The best point's recognition is then
+    fitted with an ML Weibull (guess 0, lapse free) to report its threshold and slope.
 
     Parameters
     ----------
@@ -396,6 +434,8 @@ def calibrate(
         levels = np.unique(px)
         n_per_level = np.array([(px == lv).sum() for lv in levels], float) * int(repeats)
         target = 1.0 - np.exp(-math.log(2.0) * (levels / target_x50_px) ** target_beta)
+        # the paper's curve's 10 % point: with the 50 % point it fixes the slope
+        target_x10 = target_x50_px * (math.log(1 / 0.9) / math.log(2.0)) ** (1 / target_beta)
         for sd in noise_grid:
             choice, margin = _margins(z, noise, float(sd))
             _, margin_u = _margins(zu, noise_u, float(sd))
@@ -409,12 +449,21 @@ def calibrate(
                     np.array([hit[(px == lv) & (set_of == i)].mean() for lv in levels])
                     for i in range(len(parts))
                 ]
-                # the mean over sets of each set's misfit: parameters that suit one set's
-                # stimuli and miss another's lose to ones that suit the stimuli in general
-                loss = float(np.mean([np.mean((r - target) ** 2) for r in per_set]))
+                # each set's misfit in threshold and slope: the squared log ratios of its
+                # 50 % and 10 % points to the paper's; averaged over the sets, so parameters
+                # that suit one set's stimuli and miss another's lose to ones that suit the
+                # stimuli in general
+                loss = float(np.mean([
+                    math.log(crossing_px(levels, r, 0.5) / target_x50_px) ** 2
+                    + math.log(crossing_px(levels, r, 0.1) / target_x10) ** 2
+                    for r in per_set
+                ]))  # fmt: skip
                 if best is None or loss < best["loss"] - 1e-12:
                     best = {
                         "loss": loss,
+                        "curve_misfit": float(
+                            np.mean([np.mean((r - target) ** 2) for r in per_set])
+                        ),
                         "fitted": {
                             "blur_deg": float(blur),
                             "cell_deg": float(cell),

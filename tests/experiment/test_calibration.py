@@ -16,6 +16,7 @@ from experiment.observers.calibration import (
     CALIBRATION_FILE,
     PAPER_CLUTTERED_BETA,
     calibrate,
+    crossing_px,
     normalized_responses,
     read_calibration,
 )
@@ -178,22 +179,39 @@ def test_pooled_knowledge_calibration_never_reads_decluttered_stimuli(
 
 
 def test_calibration_loss_is_the_mean_of_each_sets_misfit(small_pair, second_knowledge):
-    """Two sets: the loss is the mean over sets of each one's squared misfit to the paper's
-    curve, not the misfit of their pooled rate (which would let one set's excess hide another's
-    shortfall)."""
+    """Two sets: the loss is the mean over sets of each one's misfit in threshold and slope
+    (squared log ratios of its 50 % and 10 % points to the paper's), not the misfit of their
+    pooled rate (which would let one set's excess hide another's shortfall)."""
     test, k1 = small_pair
     # a low criterion, so that the sets' rates differ from 0 and from each other
     grids = {**GRIDS, "criterion_grid": (0.0,), "open_set_quantile": 0.01}
     r = calibrate([(test, k1), (test, second_knowledge)], **grids, rng=1)
     assert r["cluttered_rate_per_set"][0] != r["cluttered_rate_per_set"][1]
     levels = np.array([float(x) for x in r["cluttered_rate"]])
-    target = 1 - np.exp(-math.log(2) * (levels / 8695.0) ** PAPER_CLUTTERED_BETA)
-    per_set = [np.mean((np.array(row) - target) ** 2) for row in r["cluttered_rate_per_set"]]
+    x10 = 8695.0 * (math.log(1 / 0.9) / math.log(2)) ** (1 / PAPER_CLUTTERED_BETA)
+    assert x10 == pytest.approx(3100.0, rel=1e-9)  # the paper's "rises from ~3,100 px"
+
+    def misfit(rate):
+        return (
+            math.log(crossing_px(levels, rate, 0.5) / 8695.0) ** 2
+            + math.log(crossing_px(levels, rate, 0.1) / x10) ** 2
+        )
+
+    per_set = [misfit(np.array(row)) for row in r["cluttered_rate_per_set"]]
     assert len(per_set) == 2 and len(r["sets"]) == 2
-    assert r["loss"] == pytest.approx(np.mean(per_set), abs=1e-6)
+    assert r["loss"] == pytest.approx(np.mean(per_set), rel=1e-3)
     pooled = np.array(list(r["cluttered_rate"].values()))
-    assert abs(r["loss"] - np.mean((pooled - target) ** 2)) > 1e-6
+    assert abs(r["loss"] - misfit(pooled)) > 1e-3
     assert all("cluttered_x50_px" in s for s in r["sets"])
+
+
+def test_crossing_px_reads_a_curve_in_log_pixels():
+    lv = np.array([100.0, 1000.0, 10000.0])
+    assert crossing_px(lv, np.array([0.0, 0.4, 0.8]), 0.6) == pytest.approx(10**3.5)
+    assert crossing_px(lv, np.array([0.6, 0.7, 0.8]), 0.5) == pytest.approx(50.0)  # starts above
+    assert crossing_px(lv, np.array([0.0, 0.2, 0.45]), 0.5) == pytest.approx(2e4)  # never
+    # the first crossing counts, also when the curve falls back below
+    assert crossing_px(lv, np.array([0.0, 0.5, 0.4]), 0.5) == pytest.approx(1000.0)
 
 
 def test_calibrated_observer_logs_its_open_set_rate_from_the_calibration(small_pair):
