@@ -90,8 +90,18 @@ def main(argv: list[str] | None = None) -> int:
     t0 = time.perf_counter()
     sets = build_sets(work, args.seeds)
     t1 = time.perf_counter()
-    result = calibrate(sets, blur_grid_deg=BLUR_GRID_DEG, cell_grid_deg=CELL_GRID_DEG,
-                       noise_grid=NOISE_GRID, repeats=args.repeats, rng=0)  # fmt: skip
+    grids = {"blur_grid_deg": BLUR_GRID_DEG, "cell_grid_deg": CELL_GRID_DEG,
+             "noise_grid": NOISE_GRID, "repeats": args.repeats, "rng": 0}  # fmt: skip
+    result = calibrate(sets, **grids, objective="curve")
+    # The other objective, recorded for comparison (not used): matching only the 50 % and
+    # 10 % points moves the 50 % point onto the model's ceiling plateau (see "how").
+    points = calibrate(sets, **grids, objective="points")
+    result["points_objective"] = {
+        k: points[k] for k in ("fitted", "predicted_cluttered", "open_set", "loss")
+    }
+    result["points_objective"]["sets_cluttered_x50_px"] = [
+        s["cluttered_x50_px"] for s in points["sets"]
+    ]
     t2 = time.perf_counter()
     result["how"] = (
         "Fitted by benchmarks/calibrate_observer.py to the paper's cluttered condition only "
@@ -103,7 +113,14 @@ def main(argv: list[str] | None = None) -> int:
         f"with the next seeds, pooled; {args.repeats} noise draws per stimulus) is compared "
         "level by level with the paper's cluttered Weibull curve, and the point with the least "
         "squared difference averaged over the sets is kept; the criterion is never below the "
-        "open-set floor (90 % of unknown-kind trials passed). No de-cluttered stimulus is read."
+        "open-set floor (90 % of unknown-kind trials passed). No de-cluttered stimulus is read. "
+        "The loss compares the whole curve (objective 'curve'): the observer's cluttered "
+        "recognition levels off near 0.6-0.7 (the open-set criterion passes known objects whose "
+        "best match does not stand out more than an unknown kind's), so it cannot have both "
+        "the paper's ceiling and its 50 % point; the least-squares compromise puts its 50 % "
+        "point below the paper's. Matching the 50 % and 10 % points only ('points_objective') "
+        "reaches the 50 % point but puts it on the plateau, where each set's threshold moves "
+        "with its stimuli (sets_cluttered_x50_px)."
     )
     result["seeds"] = {
         "test": args.seeds,

@@ -355,20 +355,23 @@ def calibrate(
     target_x50_px: float = PAPER_CLUTTERED_X50_PX,
     target_beta: float = PAPER_CLUTTERED_BETA,
     base: ExemplarParams | None = None,
+    objective: str = "curve",
     rng: np.random.Generator | int | None = 0,
 ) -> dict[str, Any]:
     """Fit blur, internal noise and criterion to the cluttered condition's threshold and slope.
 
     For each grid point, every cluttered main stimulus is answered ``repeats`` times (common
     random numbers across the grid); the criterion is raised to the open-set floor (the
-    ``open_set_quantile`` of the unknown-kind margins at that noise) where it is below it; the
-    loss is, averaged over the sets, each set's squared log ratio of its 50 % point to
-    ``target_x50_px`` plus that of its 10 % point to the paper's curve's (the Weibull with 50 %
-    at ``target_x50_px`` and slope ``target_beta``): threshold and slope, each set's expected
-    recognition curve read by :func:`crossing_px`. Averaging over sets makes the fit suit the
-    stimuli in general rather than one set. ``curve_misfit`` records the mean squared
-    difference from the paper's curve level by level. The best point's recognition is then
-    fitted with an ML Weibull (guess 0, lapse free) to report its threshold and slope.
+    ``open_set_quantile`` of the unknown-kind margins at that noise) where it is below it. The
+    loss is each set's misfit to the paper's cluttered curve (the Weibull with 50 % at
+    ``target_x50_px`` and slope ``target_beta``), averaged over the sets so that the fit suits
+    the stimuli in general rather than one set. ``objective='curve'``: the mean squared
+    difference of the expected recognition from that curve, level by level (the whole curve,
+    ceiling included). ``objective='points'``: the squared log ratio of the set's 50 % point
+    to ``target_x50_px`` plus that of its 10 % point to the curve's (threshold and slope
+    only; each set's curve read by :func:`crossing_px`). Both misfits are returned. The best
+    point's recognition is then fitted with an ML Weibull (guess 0, lapse free) to report its
+    threshold and slope.
 
     Parameters
     ----------
@@ -390,6 +393,8 @@ def calibrate(
         The cluttered threshold and Weibull slope to match.
     base : ExemplarParams, optional
         Front end other than blur (display geometry); ExemplarParams defaults when None.
+    objective : {'curve', 'points'}
+        What the loss compares (see above).
     rng : numpy.random.Generator, int or None
 
     Returns
@@ -399,7 +404,8 @@ def calibrate(
         recognition per pixel count, all sets; ``cluttered_rate_per_set`` per set),
         ``predicted_cluttered`` (ML Weibull x50_px, beta, weibull_lapse), ``open_set``
         (floor, quantile, unknown kinds named), ``target``,
-        ``loss``, ``grid`` (the values tried), ``sets`` (folders, manifest sha256 and each set's
+        ``loss`` (with ``objective``, ``curve_misfit``, ``points_misfit``), ``grid`` (the
+        values tried), ``sets`` (folders, manifest sha256 and each set's
         own cluttered ML threshold ``cluttered_x50_px``).
 
     Raises
@@ -415,6 +421,8 @@ def calibrate(
         raise ValueError(f"lapse must be in [0, 0.5), got {lapse!r}")
     if int(repeats) < 1:
         raise ValueError(f"repeats must be >= 1, got {repeats!r}")
+    if objective not in ("curve", "points"):
+        raise ValueError(f"objective must be 'curve' or 'points', got {objective!r}")
     gen = np.random.default_rng(rng)
     if base is None:
         k0 = sets[0][1]
@@ -449,21 +457,21 @@ def calibrate(
                     np.array([hit[(px == lv) & (set_of == i)].mean() for lv in levels])
                     for i in range(len(parts))
                 ]
-                # each set's misfit in threshold and slope: the squared log ratios of its
-                # 50 % and 10 % points to the paper's; averaged over the sets, so parameters
-                # that suit one set's stimuli and miss another's lose to ones that suit the
-                # stimuli in general
-                loss = float(np.mean([
+                # each set's misfit, averaged over the sets, so parameters that suit one set's
+                # stimuli and miss another's lose to ones that suit the stimuli in general
+                curve_misfit = float(np.mean([np.mean((r - target) ** 2) for r in per_set]))
+                point_misfit = float(np.mean([
                     math.log(crossing_px(levels, r, 0.5) / target_x50_px) ** 2
                     + math.log(crossing_px(levels, r, 0.1) / target_x10) ** 2
                     for r in per_set
                 ]))  # fmt: skip
+                loss = curve_misfit if objective == "curve" else point_misfit
                 if best is None or loss < best["loss"] - 1e-12:
                     best = {
                         "loss": loss,
-                        "curve_misfit": float(
-                            np.mean([np.mean((r - target) ** 2) for r in per_set])
-                        ),
+                        "objective": objective,
+                        "curve_misfit": curve_misfit,
+                        "points_misfit": point_misfit,
                         "fitted": {
                             "blur_deg": float(blur),
                             "cell_deg": float(cell),

@@ -178,31 +178,37 @@ def test_pooled_knowledge_calibration_never_reads_decluttered_stimuli(
         assert again[key] == full[key], key
 
 
-def test_calibration_loss_is_the_mean_of_each_sets_misfit(small_pair, second_knowledge):
-    """Two sets: the loss is the mean over sets of each one's misfit in threshold and slope
-    (squared log ratios of its 50 % and 10 % points to the paper's), not the misfit of their
-    pooled rate (which would let one set's excess hide another's shortfall)."""
+@pytest.mark.parametrize("objective", ["curve", "points"])
+def test_calibration_loss_is_the_mean_of_each_sets_misfit(small_pair, second_knowledge, objective):
+    """Two sets: the loss is the mean over sets of each one's misfit (to the paper's curve level
+    by level, or in its 50 % and 10 % points), not the misfit of their pooled rate (which would
+    let one set's excess hide another's shortfall)."""
     test, k1 = small_pair
     # a low criterion, so that the sets' rates differ from 0 and from each other
     grids = {**GRIDS, "criterion_grid": (0.0,), "open_set_quantile": 0.01}
-    r = calibrate([(test, k1), (test, second_knowledge)], **grids, rng=1)
+    r = calibrate([(test, k1), (test, second_knowledge)], **grids, objective=objective, rng=1)
     assert r["cluttered_rate_per_set"][0] != r["cluttered_rate_per_set"][1]
     levels = np.array([float(x) for x in r["cluttered_rate"]])
     x10 = 8695.0 * (math.log(1 / 0.9) / math.log(2)) ** (1 / PAPER_CLUTTERED_BETA)
     assert x10 == pytest.approx(3100.0, rel=1e-9)  # the paper's "rises from ~3,100 px"
+    target = 1 - np.exp(-math.log(2) * (levels / 8695.0) ** PAPER_CLUTTERED_BETA)
 
     def misfit(rate):
+        if objective == "curve":
+            return np.mean((rate - target) ** 2)
         return (
             math.log(crossing_px(levels, rate, 0.5) / 8695.0) ** 2
             + math.log(crossing_px(levels, rate, 0.1) / x10) ** 2
         )
 
     per_set = [misfit(np.array(row)) for row in r["cluttered_rate_per_set"]]
-    assert len(per_set) == 2 and len(r["sets"]) == 2
+    assert len(per_set) == 2 and len(r["sets"]) == 2 and r["objective"] == objective
     assert r["loss"] == pytest.approx(np.mean(per_set), rel=1e-3)
     pooled = np.array(list(r["cluttered_rate"].values()))
-    assert abs(r["loss"] - misfit(pooled)) > 1e-3
+    assert abs(r["loss"] - misfit(pooled)) > 1e-3 * r["loss"]
     assert all("cluttered_x50_px" in s for s in r["sets"])
+    with pytest.raises(ValueError, match="objective must be 'curve' or 'points', got 'x'"):
+        calibrate([(test, k1)], objective="x")
 
 
 def test_crossing_px_reads_a_curve_in_log_pixels():
