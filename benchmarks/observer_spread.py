@@ -138,7 +138,7 @@ def main(argv: list[str] | None = None) -> int:
             for _, know2, ks2 in seeds.values():
                 if s not in ks2 and ks2 != ks:
                     pairs.append((s, list(ks2), test, know2))
-    out: dict = {"params": {k: getattr(params, k) for k in ("blur_deg", "noise_sd",
+    out: dict = {"params": {k: getattr(params, k) for k in ("blur_deg", "cell_deg", "noise_sd",
                                                              "criterion", "lapse")},
                  "subjects": args.subjects, "pairings": []}  # fmt: skip
     by_cond: dict[str, list[float]] = {"cluttered": [], "decluttered": []}
