@@ -1,11 +1,12 @@
 """Benchmark: ``confocal demo`` end to end. Goal: under 30 s on 2 cores.
 
-Runs the whole demo (synthesise 23 photo pairs, and the observer's 23 exemplars in a
-second process; build the stimulus set; 6 simulated subjects through the session engine;
-analysis with figures) and reports each stage's wall time, and the CPU time of this process and
-its children (on a busy shared machine the wall time is inflated by other work; the CPU time
-is not). Because machines are noisy, it also reports the total as a ratio to a baseline measured
-in the same process right after: decoding every PNG the demo wrote once
+Runs the whole demo (synthesise 23 photo pairs, and the observer's exemplars -- three
+renderings of the 23 kinds for the calibrated observer -- in a second process; build the
+stimulus set; 6 simulated subjects through the session engine; analysis with figures) and
+reports each stage's wall time, and the CPU time of this process and its children (on a busy
+shared machine the wall time is inflated by other work; the CPU time is not). Because machines
+are noisy, it also reports the total as a ratio to a baseline measured in the same process
+right after: decoding every PNG the demo wrote once
 (``PIL.Image.open(...).load()``), the least work any pipeline over these files could do.
 
 Run: ``python benchmarks/bench_demo.py [--subjects 6] [--repeat 1] [--observer calibrated]``.

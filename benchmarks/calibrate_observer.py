@@ -23,6 +23,7 @@ from pathlib import Path
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
+from experiment.demos.study import KNOWLEDGE_RENDERINGS  # noqa: E402
 from experiment.observers.calibration import (  # noqa: E402
     CALIBRATION_FILE,
     PAPER_CLUTTERED_ONSET_PX,
@@ -33,25 +34,38 @@ __all__ = ["main", "build_sets"]
 
 #: Grids searched. Ours: blur 0.05-0.3 deg brackets normal acuity (~1 arcmin) to a blurred
 #: view; noise and criterion in normalised units span no-answer to always-answer.
-BLUR_GRID_DEG = (0.05, 0.1, 0.2)
-NOISE_GRID = (0.1, 0.25, 0.5, 0.75, 1.0)
+BLUR_GRID_DEG = (0.05, 0.1, 0.2, 0.3)
+#: HOG cell sides tried, degrees. Ours: the scale of the shape parts the observer compares;
+#: 0.4-0.6 deg is ~17-26 cells across a 10 deg object.
+CELL_GRID_DEG = (0.4, 0.6)
+
+#: Seeds of the calibration test sets; each one's knowledge is the next seeds' renderings.
+#: Ours: spaced by 10 so that no set's knowledge is another set's test, and none is a demo
+#: seed (0-3 by default); four sets so that the fit suits the stimuli in general, not one set.
+CALIBRATION_SEEDS = (100, 110, 120, 130)
+NOISE_GRID = (0.05, 0.1, 0.25, 0.5, 0.75, 1.0)
 
 
-def build_sets(work: Path, seeds: list[int]) -> list[tuple[Path, Path]]:
-    """Synthesise and build each calibration test set (seed s) and its knowledge set (s + 1)."""
-    from experiment.demos.study import make_knowledge_set
+def build_sets(work: Path, seeds: list[int]) -> list[tuple[Path, list[Path]]]:
+    """Synthesise and build each calibration test set (seed s) and its knowledge: the
+    renderings with seeds s + 1 .. s + KNOWLEDGE_RENDERINGS, pooled (as the demo's)."""
+    from experiment.demos.study import KNOWLEDGE_RENDERINGS, make_knowledge_set
     from stimuli.build import build_stimulus_set
     from stimuli.synth import write_pairs
 
     out = []
     for s in seeds:
         root = work / f"cal{s}"
-        test, knowledge = root / "test", root / "knowledge"
+        test = root / "test"
         if not (test / "manifest.csv").exists():
             write_pairs(root / "pairs", n_objects=20, n_training=3, seed=s)
             build_stimulus_set(root / "pairs", test, workers=1)
-        if not (knowledge / "manifest.csv").exists():
-            make_knowledge_set(root / "kpairs", knowledge, s + 1)
+        knowledge = []
+        for ks in range(s + 1, s + 1 + KNOWLEDGE_RENDERINGS):
+            k = root / f"knowledge{ks}"
+            if not (k / "manifest.csv").exists():
+                make_knowledge_set(root / f"kpairs{ks}", k, ks)
+            knowledge.append(k)
         out.append((test, knowledge))
     return out
 
@@ -69,29 +83,49 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--work", type=Path, default=None, help="Folder for the calibration sets.")
     ap.add_argument("--out", type=Path, default=CALIBRATION_FILE)
-    ap.add_argument("--seeds", type=int, nargs="+", default=[100, 102, 104])
+    ap.add_argument("--seeds", type=int, nargs="+", default=list(CALIBRATION_SEEDS))
     ap.add_argument("--repeats", type=int, default=30)
     args = ap.parse_args(argv)
     work = args.work or Path(tempfile.mkdtemp(prefix="confocal-calibration-"))
     t0 = time.perf_counter()
     sets = build_sets(work, args.seeds)
     t1 = time.perf_counter()
-    result = calibrate(sets, blur_grid_deg=BLUR_GRID_DEG, noise_grid=NOISE_GRID,
-                       repeats=args.repeats, rng=0)  # fmt: skip
+    grids = {"blur_grid_deg": BLUR_GRID_DEG, "cell_grid_deg": CELL_GRID_DEG,
+             "noise_grid": NOISE_GRID, "repeats": args.repeats, "rng": 0}  # fmt: skip
+    result = calibrate(sets, **grids, objective="curve")
+    # The other objective, recorded for comparison (not used): matching only the 50 % and
+    # 10 % points moves the 50 % point onto the model's ceiling plateau (see "how").
+    points = calibrate(sets, **grids, objective="points")
+    result["points_objective"] = {
+        k: points[k] for k in ("fitted", "predicted_cluttered", "open_set", "loss")
+    }
+    result["points_objective"]["sets_cluttered_x50_px"] = [
+        s["cluttered_x50_px"] for s in points["sets"]
+    ]
     t2 = time.perf_counter()
     result["how"] = (
         "Fitted by benchmarks/calibrate_observer.py to the paper's cluttered condition only "
         f"(Jung et al. 2015, Sec. 3.2.2: 50 % threshold 8,695 px; Weibull slope from the same "
         f"curve's 10 % point at the ~{PAPER_CLUTTERED_ONSET_PX:,.0f} px where recognition "
-        "'rises from'): grid search over blur, internal noise and criterion; each grid point's "
-        "expected recognition of the cluttered main stimuli of the calibration sets (synthetic "
-        f"seeds {args.seeds}, knowledge seeds {[s + 1 for s in args.seeds]}; {args.repeats} "
-        "noise draws per stimulus) is compared level by level with the paper's cluttered "
-        "Weibull curve and the point with the least squared difference is kept; the criterion "
-        "is never below the open-set floor (90 % of unknown-kind trials passed). No "
-        "de-cluttered stimulus is read."
+        "'rises from'): grid search over blur, HOG cell size, internal noise and criterion; each "
+        "grid point's expected recognition of the cluttered main stimuli of each calibration "
+        f"set (synthetic seeds {args.seeds}, each knowing the {KNOWLEDGE_RENDERINGS} renderings "
+        f"with the next seeds, pooled; {args.repeats} noise draws per stimulus) is compared "
+        "level by level with the paper's cluttered Weibull curve, and the point with the least "
+        "squared difference averaged over the sets is kept; the criterion is never below the "
+        "open-set floor (90 % of unknown-kind trials passed). No de-cluttered stimulus is read. "
+        "The loss compares the whole curve (objective 'curve'): the observer's cluttered "
+        "recognition levels off near 0.6-0.7 (the open-set criterion passes known objects whose "
+        "best match does not stand out more than an unknown kind's), so it cannot have both "
+        "the paper's ceiling and its 50 % point; the least-squares compromise puts its 50 % "
+        "point below the paper's. Matching the 50 % and 10 % points only ('points_objective') "
+        "reaches the 50 % point but puts it on the plateau, where each set's threshold moves "
+        "with its stimuli (sets_cluttered_x50_px)."
     )
-    result["seeds"] = {"test": args.seeds, "knowledge": [s + 1 for s in args.seeds]}
+    result["seeds"] = {
+        "test": args.seeds,
+        "knowledge": [list(range(s + 1, s + 1 + KNOWLEDGE_RENDERINGS)) for s in args.seeds],
+    }
     result["git_commit"] = _git_commit()
     text = json.dumps(result, indent=2) + "\n"
     tmp = args.out.with_name(f".{args.out.name}.tmp")

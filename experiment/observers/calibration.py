@@ -4,8 +4,11 @@ condition.
 What is added to :mod:`experiment.observers.exemplar`
 ------------------------------------------------------
 The front end (the image at the display's size, acuity blur, HOG features) and the knowledge
-(other renderings of the same kinds, never a test stimulus) are the exemplar observer's. The
-decision stage is a person's:
+(other renderings of the same kinds, never a test stimulus) are the exemplar observer's; the
+demo gives it several renderings of each kind, pooled (``KNOWLEDGE_RENDERINGS`` in
+:mod:`experiment.demos.study`), since a person knows many mugs and one rendering per kind
+made the cluttered threshold depend on which rendering it was. The decision stage is a
+person's:
 
 1. **Response normalisation.** The category similarities of one image are divided by their
    spread across categories (z-scored): a cluttered image correlates less with *every* category
@@ -23,11 +26,13 @@ decision stage is a person's:
 
 Calibration (:func:`calibrate`)
 -------------------------------
-``noise_sd`` and ``criterion`` (and ``blur_deg`` from a short list) are fitted to the paper's
-**cluttered** condition only: a Weibull (guess 0, lapse free; as the paper's Psychtoolbox fits)
-through the paper's cluttered 50 % threshold and slope is compared with the observer's expected
-recognition of the calibration sets' cluttered stimuli at each level, and the parameters with
-the least squared difference are kept. The calibration reads only records whose
+``noise_sd`` and ``criterion`` (and ``blur_deg`` and the HOG ``cell_deg`` from short lists)
+are fitted to the paper's **cluttered** condition only: a Weibull (guess 0, lapse free; as the
+paper's Psychtoolbox fits) through the paper's cluttered 50 % threshold and slope is compared
+with the observer's expected recognition of each calibration set's cluttered stimuli at each
+level, and the parameters with the least squared difference, averaged over the sets, are kept
+(several sets, so that the values suit the stimuli in general rather than one draw of 20
+objects). The calibration reads only records whose
 condition is ``cluttered`` (plus the knowledge sets); a test checks that removing every
 de-cluttered file leaves the fitted values unchanged. The de-cluttered threshold the observer
 then gives is a prediction. ``benchmarks/calibrate_observer.py`` re-runs the calibration and
@@ -68,6 +73,8 @@ __all__ = [
     "CalibratedObserver",
     "normalized_responses",
     "cluttered_responses",
+    "crossing_px",
+    "stimulus_responses",
     "calibrate",
     "read_calibration",
 ]
@@ -110,7 +117,8 @@ def read_calibration(path: str | Path = CALIBRATION_FILE) -> dict[str, Any]:
     return d
 
 
-_FITTED: dict[str, float] = read_calibration()["fitted"]
+_CALIBRATION: dict[str, Any] = read_calibration()
+_FITTED: dict[str, float] = _CALIBRATION["fitted"]
 
 
 @dataclass(frozen=True)
@@ -119,8 +127,8 @@ class CalibratedParams(ExemplarParams):
 
     As :class:`~experiment.observers.exemplar.ExemplarParams`, except that ``noise_sd`` and
     ``criterion`` are in normalised units (similarities divided by their SD across
-    categories), and ``blur_deg``, ``noise_sd`` and ``criterion`` default to the values in
-    :data:`CALIBRATION_FILE` (fitted to the paper's cluttered condition).
+    categories), and ``blur_deg``, ``cell_deg``, ``noise_sd`` and ``criterion`` default to the
+    values in :data:`CALIBRATION_FILE` (fitted to the paper's cluttered condition).
 
     Parameters
     ----------
@@ -130,6 +138,7 @@ class CalibratedParams(ExemplarParams):
     """
 
     blur_deg: float = _FITTED["blur_deg"]
+    cell_deg: float = _FITTED.get("cell_deg", ExemplarParams.cell_deg)
     noise_sd: float = _FITTED["noise_sd"]
     criterion: float | None = _FITTED["criterion"]
     lapse: float = 0.02
@@ -184,13 +193,20 @@ class CalibratedObserver(ExemplarObserver):
     def _prepare(self) -> None:
         super()._prepare()
         if self.params.criterion is not None:
-            fitted = {k: getattr(self.params, k) for k in ("blur_deg", "noise_sd", "criterion")}
+            keys = ("blur_deg", "cell_deg", "noise_sd", "criterion")
+            fitted = {k: getattr(self.params, k) for k in keys if k in _FITTED}
+            from_file = fitted == {k: _FITTED[k] for k in fitted}
             self.calibration = {
                 "method": "fitted to the paper's cluttered condition only"
-                if fitted == {k: _FITTED[k] for k in fitted}
+                if from_file
                 else "given (differs from the calibration file)",
                 "file": CALIBRATION_FILE.name,
             }
+            named = (_CALIBRATION.get("open_set") or {}).get("unknown_kinds_named")
+            if from_file and named is not None:
+                # share of calibration images of a kind the observer did not know that it
+                # passed ("don't know") instead of naming the nearest known kind
+                self.calibration["unknown_kinds_passed"] = round(1.0 - float(named), 4)
 
     def _decide(self, s: np.ndarray) -> tuple[int, float]:
         """Normalise, add internal noise; return (best category, margin over the second)."""
@@ -204,20 +220,32 @@ class CalibratedObserver(ExemplarObserver):
 
 
 def cluttered_responses(
-    test: str | Path, knowledge: str | Path, params: ExemplarParams
+    test: str | Path, knowledge: str | Path | list, params: ExemplarParams
 ) -> dict[str, np.ndarray]:
     """Return the noise-free normalised responses to a set's cluttered main stimuli.
 
-    Reads only the records whose condition is ``cluttered`` (and the knowledge set).
+    Reads only the records whose condition is ``cluttered`` (and the knowledge set); see
+    :func:`stimulus_responses`, which the calibration calls with ``cluttered`` only.
+    """
+    return stimulus_responses(test, knowledge, params, "cluttered")
+
+
+def stimulus_responses(
+    test: str | Path, knowledge: str | Path | list, params: ExemplarParams, condition: str
+) -> dict[str, np.ndarray]:
+    """Return the noise-free normalised responses to a set's main stimuli of one condition.
+
+    Reads only the records whose condition is ``condition`` (and the knowledge set).
 
     Parameters
     ----------
     test : str or Path
         Calibration stimulus set (not a demo's test set).
-    knowledge : str or Path
-        Its knowledge set (other renderings of the same kinds).
+    knowledge : str, Path or list of them
+        Its knowledge set (other renderings of the same kinds); a list is pooled.
     params : ExemplarParams
         Front end (``blur_deg`` etc.); ``knowledge`` is replaced by the argument.
+    condition : {'cluttered', 'decluttered'}
 
     Returns
     -------
@@ -233,12 +261,14 @@ def cluttered_responses(
         main stimulus is in ``test``.
     """
     ts = StimulusSet.load(test)
-    p = replace(params, knowledge=str(knowledge))
+    many = isinstance(knowledge, (list, tuple))
+    folders = [str(f) for f in knowledge] if many else [str(knowledge)]
+    p = replace(params, knowledge=tuple(folders))
     k = load_knowledge(p)
     keys = [normalize(c) for c in k.categories]
     px, known, correct, unknown = [], [], [], []
     for rec in ts.records:
-        if rec.condition != "cluttered" or ts.objects[rec.object].role != "main":
+        if rec.condition != condition or ts.objects[rec.object].role != "main":
             continue
         name = normalize(ts.objects[rec.object].name)
         if name not in keys:
@@ -251,7 +281,7 @@ def cluttered_responses(
         correct.append(i)
         unknown.append(normalized_responses(np.delete(s, i)))
     if not px:
-        raise ValueError(f"stimulus set {test} has no cluttered main stimuli to calibrate on")
+        raise ValueError(f"stimulus set {test} has no {condition} main stimuli")
     return {
         "pixels": np.asarray(px, dtype=float),
         "known": np.vstack(known),
@@ -265,6 +295,41 @@ def _margins(z: np.ndarray, noise: np.ndarray, sd: float) -> tuple[np.ndarray, n
     noisy = z[:, None, :] + sd * noise
     part = -np.partition(-noisy, 1, axis=-1)[..., :2]
     return np.argmax(noisy, axis=-1), part[..., 0] - part[..., 1]
+
+
+def crossing_px(levels_px: np.ndarray, rate: np.ndarray, p: float) -> float:
+    """Return where a recognition curve first reaches ``p``, pixels (log-linear interpolation).
+
+    Parameters
+    ----------
+    levels_px : ndarray of shape (n,)
+        Ascending pixel counts.
+    rate : ndarray of shape (n,)
+        Recognition rate at each.
+    p : float
+        The rate to reach.
+
+    Returns
+    -------
+    float
+        Half the lowest level when the rate starts at or above ``p``; twice the highest when
+        it never reaches it (finite, so a loss can rank such curves).
+
+    Examples
+    --------
+    >>> crossing_px(np.array([100.0, 10000.0]), np.array([0.0, 1.0]), 0.5)
+    1000.0
+    """
+    x = np.log(np.asarray(levels_px, dtype=float))
+    r = np.asarray(rate, dtype=float)
+    above = np.nonzero(r >= p)[0]
+    if not above.size:
+        return float(2.0 * np.exp(x[-1]))
+    i = int(above[0])
+    if i == 0:
+        return float(0.5 * np.exp(x[0]))
+    f = (p - r[i - 1]) / (r[i] - r[i - 1])
+    return float(np.exp(x[i - 1] + f * (x[i] - x[i - 1])))
 
 
 def _weibull_x50_beta(px: np.ndarray, k: np.ndarray, n: np.ndarray) -> tuple[float, float, float]:
@@ -281,6 +346,7 @@ def calibrate(
     sets: list[tuple[str | Path, str | Path]],
     *,
     blur_grid_deg: tuple[float, ...] = (0.1,),
+    cell_grid_deg: tuple[float, ...] = (0.6,),
     noise_grid: tuple[float, ...] = (0.25, 0.5, 0.75, 1.0, 1.5),
     criterion_grid: tuple[float, ...] = tuple(np.round(np.arange(0.0, 5.01, 0.1), 2)),
     lapse: float = 0.02,
@@ -289,24 +355,32 @@ def calibrate(
     target_x50_px: float = PAPER_CLUTTERED_X50_PX,
     target_beta: float = PAPER_CLUTTERED_BETA,
     base: ExemplarParams | None = None,
+    objective: str = "curve",
     rng: np.random.Generator | int | None = 0,
 ) -> dict[str, Any]:
     """Fit blur, internal noise and criterion to the cluttered condition's threshold and slope.
 
     For each grid point, every cluttered main stimulus is answered ``repeats`` times (common
     random numbers across the grid); the criterion is raised to the open-set floor (the
-    ``open_set_quantile`` of the unknown-kind margins at that noise) where it is below it; the
-    loss is the mean squared difference between the expected recognition at each pixel count
-    and the paper's cluttered curve there (the Weibull with 50 % at ``target_x50_px`` and slope
-    ``target_beta``). The best point's recognition is then fitted with an ML Weibull (guess 0,
-    lapse free) to report its threshold and slope.
+    ``open_set_quantile`` of the unknown-kind margins at that noise) where it is below it. The
+    loss is each set's misfit to the paper's cluttered curve (the Weibull with 50 % at
+    ``target_x50_px`` and slope ``target_beta``), averaged over the sets so that the fit suits
+    the stimuli in general rather than one set. ``objective='curve'``: the mean squared
+    difference of the expected recognition from that curve, level by level (the whole curve,
+    ceiling included). ``objective='points'``: the squared log ratio of the set's 50 % point
+    to ``target_x50_px`` plus that of its 10 % point to the curve's (threshold and slope
+    only; each set's curve read by :func:`crossing_px`). Both misfits are returned. The best
+    point's recognition is then fitted with an ML Weibull (guess 0, lapse free) to report its
+    threshold and slope.
 
     Parameters
     ----------
-    sets : list of (test folder, knowledge folder)
-        Calibration stimulus sets and their knowledge sets. Only cluttered records are read.
-    blur_grid_deg, noise_grid, criterion_grid : tuple of float
-        Values tried (degrees; normalised units; normalised units).
+    sets : list of (test folder, knowledge folder or list of folders)
+        Calibration stimulus sets and their knowledge sets (a list is pooled). Only cluttered
+        records are read.
+    blur_grid_deg, cell_grid_deg, noise_grid, criterion_grid : tuple of float
+        Values tried (degrees; degrees, the HOG cell side; normalised units; normalised
+        units).
     lapse : float in [0, 0.5)
         The observer's lapse rate (not fitted).
     open_set_quantile : float in (0, 1)
@@ -319,15 +393,20 @@ def calibrate(
         The cluttered threshold and Weibull slope to match.
     base : ExemplarParams, optional
         Front end other than blur (display geometry); ExemplarParams defaults when None.
+    objective : {'curve', 'points'}
+        What the loss compares (see above).
     rng : numpy.random.Generator, int or None
 
     Returns
     -------
     dict
-        ``fitted`` (blur_deg, noise_sd, criterion, lapse), ``cluttered_rate`` (expected
-        recognition per pixel count), ``predicted_cluttered`` (ML Weibull x50_px, beta,
-        weibull_lapse), ``open_set`` (floor, quantile, unknown kinds named), ``target``,
-        ``loss``, ``grid`` (the values tried), ``sets`` (folders and manifest sha256).
+        ``fitted`` (blur_deg, cell_deg, noise_sd, criterion, lapse), ``cluttered_rate`` (expected
+        recognition per pixel count, all sets; ``cluttered_rate_per_set`` per set),
+        ``predicted_cluttered`` (ML Weibull x50_px, beta, weibull_lapse), ``open_set``
+        (floor, quantile, unknown kinds named), ``target``,
+        ``loss`` (with ``objective``, ``curve_misfit``, ``points_misfit``), ``grid`` (the
+        values tried), ``sets`` (folders, manifest sha256 and each set's
+        own cluttered ML threshold ``cluttered_x50_px``).
 
     Raises
     ------
@@ -342,13 +421,18 @@ def calibrate(
         raise ValueError(f"lapse must be in [0, 0.5), got {lapse!r}")
     if int(repeats) < 1:
         raise ValueError(f"repeats must be >= 1, got {repeats!r}")
+    if objective not in ("curve", "points"):
+        raise ValueError(f"objective must be 'curve' or 'points', got {objective!r}")
     gen = np.random.default_rng(rng)
     if base is None:
-        base = ExemplarParams(knowledge=str(sets[0][1]))
+        k0 = sets[0][1]
+        base = ExemplarParams(knowledge=[str(f) for f in k0] if isinstance(k0, (list, tuple))
+                              else str(k0))  # fmt: skip
     best: dict[str, Any] | None = None
-    for blur in blur_grid_deg:
-        p = replace(base, blur_deg=float(blur))
+    for cell, blur in ((c, b) for c in cell_grid_deg for b in blur_grid_deg):
+        p = replace(base, blur_deg=float(blur), cell_deg=float(cell))
         parts = [cluttered_responses(t, k, p) for t, k in sets]
+        set_of = np.concatenate([np.full(len(d["pixels"]), i) for i, d in enumerate(parts)])
         px = np.concatenate([d["pixels"] for d in parts])
         z = np.vstack([d["known"] for d in parts])
         correct = np.concatenate([d["correct"] for d in parts])
@@ -358,6 +442,8 @@ def calibrate(
         levels = np.unique(px)
         n_per_level = np.array([(px == lv).sum() for lv in levels], float) * int(repeats)
         target = 1.0 - np.exp(-math.log(2.0) * (levels / target_x50_px) ** target_beta)
+        # the paper's curve's 10 % point: with the 50 % point it fixes the slope
+        target_x10 = target_x50_px * (math.log(1 / 0.9) / math.log(2.0)) ** (1 / target_beta)
         for sd in noise_grid:
             choice, margin = _margins(z, noise, float(sd))
             _, margin_u = _margins(zu, noise_u, float(sd))
@@ -367,12 +453,28 @@ def calibrate(
                 c = max(float(crit), floor)
                 hit = (right & (margin > c)).mean(axis=1) * (1.0 - lapse)
                 rate = np.array([hit[px == lv].mean() for lv in levels])
-                loss = float(np.mean((rate - target) ** 2))
+                per_set = [
+                    np.array([hit[(px == lv) & (set_of == i)].mean() for lv in levels])
+                    for i in range(len(parts))
+                ]
+                # each set's misfit, averaged over the sets, so parameters that suit one set's
+                # stimuli and miss another's lose to ones that suit the stimuli in general
+                curve_misfit = float(np.mean([np.mean((r - target) ** 2) for r in per_set]))
+                point_misfit = float(np.mean([
+                    math.log(crossing_px(levels, r, 0.5) / target_x50_px) ** 2
+                    + math.log(crossing_px(levels, r, 0.1) / target_x10) ** 2
+                    for r in per_set
+                ]))  # fmt: skip
+                loss = curve_misfit if objective == "curve" else point_misfit
                 if best is None or loss < best["loss"] - 1e-12:
                     best = {
                         "loss": loss,
+                        "objective": objective,
+                        "curve_misfit": curve_misfit,
+                        "points_misfit": point_misfit,
                         "fitted": {
                             "blur_deg": float(blur),
+                            "cell_deg": float(cell),
                             "noise_sd": float(sd),
                             "criterion": round(c, 6),
                             "lapse": lapse,
@@ -380,6 +482,9 @@ def calibrate(
                         "cluttered_rate": {
                             f"{lv:.0f}": float(r) for lv, r in zip(levels, rate, strict=True)
                         },
+                        "cluttered_rate_per_set": [
+                            [round(float(v), 4) for v in r] for r in per_set
+                        ],
                         "_counts": (levels, rate * n_per_level, n_per_level),
                         "open_set": {
                             "floor": floor,
@@ -389,11 +494,18 @@ def calibrate(
                     }
     if best is None:
         raise ValueError("no grid point gave a finite cluttered threshold; widen the grids")
+    levels_b, _, n_b = best["_counts"]
+    n_set = n_b / len(sets)
+    best["_per_set_x50"] = [
+        _weibull_x50_beta(levels_b, np.asarray(r) * n_set, n_set)[0]
+        for r in best["cluttered_rate_per_set"]
+    ]
     x50, beta, wl = _weibull_x50_beta(*best.pop("_counts"))
     best["predicted_cluttered"] = {"x50_px": x50, "beta": beta, "weibull_lapse": wl}
     best["target"] = {"x50_px": target_x50_px, "beta": target_beta}
     best["grid"] = {
         "blur_deg": list(blur_grid_deg),
+        "cell_deg": list(cell_grid_deg),
         "noise_sd": list(noise_grid),
         "criterion": [float(c) for c in criterion_grid],
         "repeats": int(repeats),
@@ -401,9 +513,11 @@ def calibrate(
     best["sets"] = [
         {
             "test": Path(t).name,
-            "knowledge": Path(k).name,
+            "knowledge": [Path(f).name for f in (k if isinstance(k, (list, tuple)) else [k])],
             "test_manifest_sha256": StimulusSet.load(t).manifest_sha256,
         }  # fmt: skip
         for t, k in sets
     ]
+    for entry, part in zip(best["sets"], best.pop("_per_set_x50"), strict=True):
+        entry["cluttered_x50_px"] = part
     return best

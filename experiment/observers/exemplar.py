@@ -78,7 +78,7 @@ from __future__ import annotations
 import hashlib
 import json
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -233,10 +233,11 @@ class ExemplarParams:
 
     Parameters
     ----------
-    knowledge : str
+    knowledge : str or tuple of str
         Folder of the knowledge set: a stimulus set of *other* exemplars of the categories (for
         the synthetic study, ``confocal stimuli synth`` with another seed, then ``stimuli
-        build``). Required.
+        build``). Several folders are pooled: each kind is then remembered from several
+        renderings (pose, size, style), as a person knows many mugs. Required.
     exemplar_level : int >= 1 or None
         Level of the exemplar images remembered. None: the knowledge set's highest level (full
         resolution; what a person remembers of an object is not a compressed picture).
@@ -280,7 +281,7 @@ class ExemplarParams:
         Median response time, seconds.
     """
 
-    knowledge: str | None = None
+    knowledge: str | tuple[str, ...] | None = None
     exemplar_level: int | None = None
     exemplar_condition: str = "decluttered"
     mirror: bool = True
@@ -301,10 +302,20 @@ class ExemplarParams:
     median_rt_s: float = 4.0
 
     def __post_init__(self) -> None:
-        if self.knowledge is None or not str(self.knowledge).strip():
+        k = self.knowledge
+        if isinstance(k, (list, tuple)):
+            folders = tuple(str(f) for f in k)
+            if len(folders) == 1:
+                folders = folders[0]
+            object.__setattr__(self, "knowledge", folders)
+            k = folders
+        if k is None or not all(str(f).strip() for f in (k if isinstance(k, tuple) else [k])) or (
+            isinstance(k, tuple) and not k
+        ):
             raise ValueError(
                 "knowledge must be the folder of a stimulus set of other exemplars of the "
-                "categories (e.g. stimuli synth with another seed, then stimuli build), got None"
+                "categories (e.g. stimuli synth with another seed, then stimuli build), or a "
+                f"list of such folders, got {k!r}"
             )
         check_limits(
             self,
@@ -486,6 +497,10 @@ def load_knowledge(params: ExemplarParams) -> Knowledge:
         The folder is not a stimulus set, an exemplar image is missing or changed, or it has no
         image at ``exemplar_level`` / ``exemplar_condition``.
     """
+    if isinstance(params.knowledge, tuple):
+        return _pooled_knowledge(
+            [load_knowledge(replace(params, knowledge=f)) for f in params.knowledge]
+        )
     ks = StimulusSet.load(params.knowledge)
     level = max(ks.levels()) if params.exemplar_level is None else int(params.exemplar_level)
     key = (
@@ -533,6 +548,37 @@ def load_knowledge(params: ExemplarParams) -> Knowledge:
     )
     _KNOWLEDGE_CACHE[key] = k
     return k
+
+
+def _pooled_knowledge(parts: list[Knowledge]) -> Knowledge:
+    """One knowledge of several sets: categories merged by normalised name, rows stacked."""
+    categories: list[str] = []
+    keys: list[str] = []
+    cats = []
+    for k in parts:
+        for c in k.categories:
+            if normalize(c) not in keys:
+                categories.append(c)
+                keys.append(normalize(c))
+        remap = np.array([keys.index(normalize(c)) for c in k.categories], dtype=int)
+        cats.append(remap[k.category_of_row])
+    synths = [k.synth for k in parts]
+    return Knowledge(
+        categories=tuple(categories),
+        features=np.vstack([k.features for k in parts]),
+        category_of_row=np.concatenate(cats),
+        root=";".join(k.root for k in parts),
+        manifest_sha256=hashlib.sha256(
+            "|".join(k.manifest_sha256 for k in parts).encode()
+        ).hexdigest(),
+        sources=tuple(src for k in parts for src in k.sources),
+        info={"pooled": [k.info for k in parts]},
+        synth=(
+            {"seed": [s.get("seed") for s in synths], "parts": synths}
+            if all(isinstance(s, dict) for s in synths)
+            else None
+        ),
+    )
 
 
 class ExemplarObserver(SimulatedObserver):

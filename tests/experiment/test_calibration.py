@@ -16,9 +16,11 @@ from experiment.observers.calibration import (
     CALIBRATION_FILE,
     PAPER_CLUTTERED_BETA,
     calibrate,
+    crossing_px,
     normalized_responses,
     read_calibration,
 )
+from experiment.observers.exemplar import ExemplarParams, load_knowledge
 from experiment.session.stimset import StimulusSet
 from experiment.testing import make_stimulus_set
 
@@ -130,3 +132,101 @@ def test_calibrated_observer_passes_on_a_kind_it_does_not_know(small_pair):
     d = obs.describe()
     assert d["observer"] == "calibrated"
     assert d["calibration"]["method"] == "given (differs from the calibration file)"
+
+
+@pytest.fixture(scope="module")
+def second_knowledge(tmp_path_factory):
+    """A second rendering of the small set's kinds (another draw), for pooled knowledge."""
+    root = tmp_path_factory.mktemp("k2")
+    return make_stimulus_set(root / "k2", n_main=4, n_training=1, levels=(8,), rng=5)
+
+
+def test_pooled_knowledge_remembers_every_rendering_of_a_kind_once(small_pair, second_knowledge):
+    """Two renderings pooled: the kinds are merged by name, the exemplar rows are stacked, so a
+    kind's similarity is its best exemplar over both renderings."""
+    _, k1 = small_pair
+    one = load_knowledge(ExemplarParams(knowledge=str(k1)))
+    other = load_knowledge(ExemplarParams(knowledge=str(second_knowledge)))
+    pooled = load_knowledge(ExemplarParams(knowledge=[str(k1), str(second_knowledge)]))
+    assert pooled.categories == one.categories and len(set(pooled.categories)) == 5
+    assert pooled.features.shape[0] == one.features.shape[0] + other.features.shape[0]
+    f = other.features[0]
+    assert np.allclose(
+        pooled.similarities(f), np.maximum(one.similarities(f), other.similarities(f))
+    )
+    # a list of one folder is that folder
+    assert ExemplarParams(knowledge=[str(k1)]).knowledge == str(k1)
+    with pytest.raises(ValueError, match="knowledge must be the folder .* or a list"):
+        ExemplarParams(knowledge=[])
+
+
+def test_pooled_knowledge_calibration_never_reads_decluttered_stimuli(
+    small_pair, second_knowledge, tmp_path
+):
+    """With pooled knowledge (the demo's), deleting every de-cluttered test image still leaves
+    the fit identical."""
+    test, k1 = small_pair
+    sets = [(test, [k1, second_knowledge])]
+    full = calibrate(sets, **GRIDS, rng=1)
+    stripped = tmp_path / "test"
+    shutil.copytree(test, stripped)
+    for r in StimulusSet.load(stripped).records:
+        if r.condition == "decluttered":
+            (stripped / r.path).unlink()
+    again = calibrate([(stripped, [k1, second_knowledge])], **GRIDS, rng=1)
+    for key in ("fitted", "cluttered_rate", "cluttered_rate_per_set", "open_set", "loss"):
+        assert again[key] == full[key], key
+
+
+@pytest.mark.parametrize("objective", ["curve", "points"])
+def test_calibration_loss_is_the_mean_of_each_sets_misfit(small_pair, second_knowledge, objective):
+    """Two sets: the loss is the mean over sets of each one's misfit (to the paper's curve level
+    by level, or in its 50 % and 10 % points), not the misfit of their pooled rate (which would
+    let one set's excess hide another's shortfall)."""
+    test, k1 = small_pair
+    # a low criterion, so that the sets' rates differ from 0 and from each other
+    grids = {**GRIDS, "criterion_grid": (0.0,), "open_set_quantile": 0.01}
+    r = calibrate([(test, k1), (test, second_knowledge)], **grids, objective=objective, rng=1)
+    assert r["cluttered_rate_per_set"][0] != r["cluttered_rate_per_set"][1]
+    levels = np.array([float(x) for x in r["cluttered_rate"]])
+    x10 = 8695.0 * (math.log(1 / 0.9) / math.log(2)) ** (1 / PAPER_CLUTTERED_BETA)
+    assert x10 == pytest.approx(3100.0, rel=1e-9)  # the paper's "rises from ~3,100 px"
+    target = 1 - np.exp(-math.log(2) * (levels / 8695.0) ** PAPER_CLUTTERED_BETA)
+
+    def misfit(rate):
+        if objective == "curve":
+            return np.mean((rate - target) ** 2)
+        return (
+            math.log(crossing_px(levels, rate, 0.5) / 8695.0) ** 2
+            + math.log(crossing_px(levels, rate, 0.1) / x10) ** 2
+        )
+
+    per_set = [misfit(np.array(row)) for row in r["cluttered_rate_per_set"]]
+    assert len(per_set) == 2 and len(r["sets"]) == 2 and r["objective"] == objective
+    assert r["loss"] == pytest.approx(np.mean(per_set), rel=1e-3)
+    pooled = np.array(list(r["cluttered_rate"].values()))
+    assert abs(r["loss"] - misfit(pooled)) > 1e-3 * r["loss"]
+    assert all("cluttered_x50_px" in s for s in r["sets"])
+    with pytest.raises(ValueError, match="objective must be 'curve' or 'points', got 'x'"):
+        calibrate([(test, k1)], objective="x")
+
+
+def test_crossing_px_reads_a_curve_in_log_pixels():
+    lv = np.array([100.0, 1000.0, 10000.0])
+    assert crossing_px(lv, np.array([0.0, 0.4, 0.8]), 0.6) == pytest.approx(10**3.5)
+    assert crossing_px(lv, np.array([0.6, 0.7, 0.8]), 0.5) == pytest.approx(50.0)  # starts above
+    assert crossing_px(lv, np.array([0.0, 0.2, 0.45]), 0.5) == pytest.approx(2e4)  # never
+    # the first crossing counts, also when the curve falls back below
+    assert crossing_px(lv, np.array([0.0, 0.5, 0.4]), 0.5) == pytest.approx(1000.0)
+
+
+def test_calibrated_observer_logs_its_open_set_rate_from_the_calibration(small_pair):
+    """With the fitted values, the observer logs the share of unknown-kind images it passed in
+    calibration; with other values it claims none."""
+    test, knowledge = small_pair
+    ts = StimulusSet.load(test)
+    named = read_calibration()["open_set"]["unknown_kinds_named"]
+    obs = make_observer("calibrated", ts, "S1", rng=0, knowledge=str(knowledge))
+    assert obs.describe()["calibration"]["unknown_kinds_passed"] == round(1 - named, 4)
+    other = make_observer("calibrated", ts, "S1", rng=0, knowledge=str(knowledge), noise_sd=0.0)
+    assert "unknown_kinds_passed" not in other.describe()["calibration"]

@@ -108,6 +108,16 @@ def test_calibrated_observer_says_in_one_sentence_what_it_is_and_how_far_from_th
     assert "ratio 3.84 against 2.46" in line
     assert "\n" not in line and "WARNING" not in "\n".join(summary_lines(demo))
     assert line + "." in simulated_section(demo)
+    # knowledge pooled from several renderings: the sentence names them all
+    k = {**demo.observers[0]["knowledge"], "synth": {"seed": [6, 7, 8]}}
+    demo.observers = [{**demo.observers[0], "knowledge": k}]
+    assert "from 3 other renderings (seeds 6, 7, 8)" in summary_lines(demo)[1]
+    assert "don't know" not in summary_lines(demo)[1]  # no open-set rate logged: none claimed
+    # the open-set rate from the calibration, as logged by the observer
+    demo.observers = [{**demo.observers[0], "calibration": {"unknown_kinds_passed": 0.91}}]
+    assert summary_lines(demo)[1].endswith(
+        'against 2.46 and says "don\'t know" to 91% of images of kinds it does not know'
+    )
 
 
 def test_logistic_observer_is_named_as_the_papers_model(tmp_path):
@@ -142,6 +152,16 @@ def test_knowledge_seed_must_differ_from_the_seed(tmp_path, capsys):
     assert exc.value.code == 2 and "--knowledge-seed" in err and len(err.strip().splitlines()) == 1
 
 
+def test_no_pooled_knowledge_rendering_may_be_the_test_seed(tmp_path):
+    """The calibrated observer knows renderings --knowledge-seed .. + 2: seed 3 is among 1-3."""
+    with pytest.raises(ConfocalError, match=r"3 rendering\(s\) .* other than --seed \(3\), got 1"):
+        run_demo(tmp_path / "d", seed=3, knowledge_seed=1, show_progress=False)
+    assert not (tmp_path / "d").exists()
+    # the uncalibrated exemplar observer knows one rendering: seed 1 is not 3
+    with pytest.raises(ConfocalError, match=r"1 rendering\(s\) .* other than --seed \(2\), got 2"):
+        run_demo(tmp_path / "e", seed=2, knowledge_seed=2, observer="exemplar", show_progress=False)
+
+
 @pytest.mark.slow
 def test_demo_logs_and_reports_its_simulated_observers(tmp_path):
     """Two simulated subjects end to end: each session's observer is in the trial log, none of
@@ -160,14 +180,16 @@ def test_demo_logs_and_reports_its_simulated_observers(tmp_path):
         con.close()
     assert n == 2 * 320 and responders == {"sim:calibrated"}
     assert labels == {(1, "calibrated")}  # the sessions table labels them simulated
-    assert all(p["knowledge"] == str(demo.paths["knowledge"]) for p in params)
+    # the calibrated observer knows three renderings of each kind (seeds 1, 2, 3), pooled
+    folders = [str(demo.paths["knowledge"] / f"seed{k}" / "stimuli") for k in (1, 2, 3)]
+    assert all(p["knowledge"] == folders for p in params)
     assert [sid for sid, _ in events] == [1, 2]
     manifest = (demo.paths["stimuli"] / "manifest.csv").read_text()
     for _, note in events:
         d = json.loads(note)
         assert d["observer"] == "calibrated" and d["simulated"] is True
-        assert d["params"]["knowledge"] == str(demo.paths["knowledge"])
-        assert d["knowledge"]["synth"]["seed"] == 1
+        assert d["params"]["knowledge"] == folders
+        assert d["knowledge"]["synth"]["seed"] == [1, 2, 3]
         assert len(d["knowledge"]["categories"]) == 23
         for e in d["knowledge"]["exemplars"]:
             assert e["file_sha256"] not in manifest
@@ -175,6 +197,7 @@ def test_demo_logs_and_reports_its_simulated_observers(tmp_path):
     assert "## Simulated observers" in report and "8,695 px" in report
     summary = json.loads((demo.out_dir / "demo.json").read_text())
     assert summary["simulated"] is True and summary["knowledge_seed"] == 1
+    assert summary["knowledge_seeds"] == [1, 2, 3]
     assert summary["observers"][0]["observer"] == "calibrated"
 
 
