@@ -23,14 +23,13 @@ from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 from scipy.ndimage import gaussian_filter1d, uniform_filter1d
-from scipy.signal import find_peaks
 
 from stimuli import jung2015
 from stimuli.errors import InputError
 from stimuli.haarscan import MIN_EDGE_PIXELS
 from stimuli.lfload import as_lightfield
 from stimuli.lfviews import LightField
-from stimuli.planescan import Plane, PlaneScan
+from stimuli.planescan import Plane, PlaneScan, find_peaks
 from stimuli.refocus import _one_blas_thread, _saxpy, default_workers
 
 __all__ = [
