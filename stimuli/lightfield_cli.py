@@ -462,9 +462,10 @@ def _scan_one(
             save_png(img, tmp / f"{stem}_confocal.png")
             save_png(edges, tmp / f"{stem}_edges.png")
             save_png(cells, tmp / f"{stem}_grid.png")
-        from stimuli.scanplot import plot_scores  # matplotlib: after the answer is out
+        if opts.get("plot", True):
+            from stimuli.scanplot import plot_scores  # matplotlib: after the answer is out
 
-        plot_scores(scan, tmp / "scores.png")
+            plot_scores(scan, tmp / "scores.png")
     span = f"{float(np.min(ds)):.4g}..{float(np.max(ds)):.4g} px/view"
     lines.append(f"{len(scan.peaks)} object plane(s) in {len(ds)} planes ({span}); wrote {out}")
     return lines
@@ -534,6 +535,13 @@ def scan_command(
             help="Folder of captures: Dask scheduler address (needs the 'dask' extra).",
         ),
     ] = None,
+    plot: Annotated[
+        bool,
+        typer.Option(
+            "--plot/--no-plot",
+            help="Draw scores.png (matplotlib, after the answer is printed; --no-plot skips it).",
+        ),
+    ] = True,
     *,
     loader: _LoaderOptions,
 ) -> None:
@@ -568,6 +576,7 @@ def scan_command(
         "declutter_mode": declutter_mode,
         "threshold": threshold,
         "edge_ratio": edge_ratio,
+        "plot": plot,
     }
     if processes is not None and processes < 1:
         raise InputError(f"--processes must be >= 1, got {processes}")
