@@ -105,3 +105,27 @@ def test_sweep_of_the_transposed_light_field_is_transposed():
     (b, a, _, _), (bt, at, _, _) = out
     assert np.mean(a == at.T) > 0.99
     assert np.mean(b[a & at.T] == bt.T[a & at.T]) > 0.99
+
+
+def test_plane_choice_reuses_the_scans_sweep_and_never_a_stale_one(monkeypatch):
+    import stimuli.agreementscan as ag
+    from stimuli.planes import find_object_planes
+
+    rng = np.random.default_rng(13)
+    views = _shifted_grid(rng.random((64, 90)), (5, 5), 2)
+    calls = []
+    real = ag._sweep
+    monkeypatch.setattr(ag, "_sweep", lambda *a: calls.append(1) or real(*a))
+    ds = np.linspace(-1.0, 4.0, 41)
+    scan = find_object_planes(views, ds, binning=1)
+    n = len(calls)
+    best_i, agrees = ag.best_plane_map(views, ds, binning=1)
+    assert len(calls) == n  # the same views and planes: no second sweep
+    best_i[:] = 0  # the caller's copy: the stored result is untouched
+    again, _ = ag.best_plane_map(views, ds, binning=1)
+    assert len(calls) == n and np.mean(again[agrees] == 24) > 0.95
+    other = views.copy()
+    other[2, 2, 10:20, 10:20] = 0.0  # changed views must be swept again
+    ag.best_plane_map(other, ds, binning=1)
+    assert len(calls) == n + 1
+    assert [round(p.disparity_px) for p in scan.peaks] == [2]
