@@ -44,11 +44,20 @@ import warnings
 
 import numpy as np
 
+from stimuli.agreementscan import _LAST_SWEEP
 from stimuli.compress import compress, grid_shape
 from stimuli.declutter import auto_threshold, declutter, declutter_depth, in_focus_mask
 from stimuli.lfsynth import render_camera_array, three_plane_scene
-from stimuli.planes import find_object_planes
+from stimuli.planes import find_object_planes as _find_object_planes
 from stimuli.refocus import default_workers, refocus
+
+
+def find_object_planes(*args, **kwargs):
+    """The scan as a first call makes it: without the last sweep kept for the plane choice
+    (which would make every repeat after the first a look-up)."""
+    _LAST_SWEEP.clear()
+    return _find_object_planes(*args, **kwargs)
+
 
 SHAPE = (327, 492)
 GRID = (9, 9)
