@@ -274,8 +274,8 @@ def _sweep(
     return out[0], out[1], out[2], out[3]
 
 
-#: The last sweep of :func:`agreement_scan` or :func:`best_plane_map`: ``{"key": digest of its
-#: inputs, "out": its read-only result}``. A plane scan followed by the plane choice (every
+#: The last sweep of :func:`agreement_scan` or :func:`best_plane_map`: ``{"last": (digest of
+#: its inputs, its read-only result)}``. A plane scan followed by the plane choice (every
 #: ``lightfield scan``, ``stimuli build`` and ``view``) sweeps the same views at the same planes
 #: twice; the second time is a look-up.
 _LAST_SWEEP: dict = {}
@@ -296,13 +296,13 @@ def _sweep_once(views, offsets, centre, null_centre, ds, workers: int):
         h.update(a.view(np.uint8).reshape(-1))
     h.update(repr((list(offsets), int(workers))).encode())
     key = h.digest()
-    hit = _LAST_SWEEP.get("key") == key
-    out = _LAST_SWEEP["out"] if hit else _sweep(views, offsets, centre, null_centre, ds, workers)
-    if not hit:
-        for a in out:
-            a.setflags(write=False)
-        _LAST_SWEEP.clear()
-        _LAST_SWEEP.update(key=key, out=out)
+    last = _LAST_SWEEP.get("last")  # one (key, result) pair: safe when threads scan at once
+    if last is not None and last[0] == key:
+        return last[1]
+    out = _sweep(views, offsets, centre, null_centre, ds, workers)
+    for a in out:
+        a.setflags(write=False)
+    _LAST_SWEEP["last"] = (key, out)
     return out
 
 
