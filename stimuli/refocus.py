@@ -19,8 +19,12 @@ How it is fast
 * A linear-interpolation shift by ``s = n + f`` is ``(1 - f) I(x - n) + f I(x - n - 1)``: two
   weighted adds of integer-shifted *slices* (views, no copies), done for all ``u`` of one ``v`` at
   once, in ``float32``, into preallocated buffers.
-* Threads split the work (numpy releases the GIL): the first pass by blocks of ``u``, the second
-  by blocks of columns.
+* Grey float32 views take BLAS ``saxpy`` taps (:func:`_refocus_views_flat`): the output is made
+  in blocks of rows, both passes per block, so a block's partial images stay in cache and each
+  view is read from memory once; threads split the rows evenly on every grid (a 3x3 grid's
+  three view columns would not split evenly over two threads).
+* Otherwise (colour, other dtypes) threads split the work (numpy releases the GIL): the first
+  pass by blocks of ``u``, the second by blocks of columns.
 * The weight ``W`` is separable too: ``W(y, x) = w_rows(y) w_cols(x)``.
 
 References
