@@ -205,6 +205,23 @@ def _read_raw(path: Path) -> np.ndarray:
     return _pil_to_array(_open(path))
 
 
+def _on_threads(fn, items: list) -> list:
+    """``[fn(x) for x in items]`` on up to 8 threads (the CPUs this process may use); PIL and
+    numpy release the GIL while they decode and convert views."""
+    n = min(len(items), len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else 1)
+    if n < 2:
+        return [fn(x) for x in items]
+    from concurrent.futures import ThreadPoolExecutor
+
+    with ThreadPoolExecutor(min(n, 8)) as ex:
+        return list(ex.map(fn, items))
+
+
+def _read_all(paths: list[Path]) -> list[np.ndarray]:
+    """:func:`_read_raw` of every path, in order, decoded on threads."""
+    return _on_threads(_read_raw, paths)
+
+
 def _scale_raw(
     raws: list[np.ndarray], names: list[str], bit_depth: int | None, where: Path
 ) -> tuple[float, int | None]:
@@ -236,7 +253,8 @@ def _scale_raw(
 
 def _to_views(raw: np.ndarray, scale: float, background: float) -> np.ndarray:
     """Scale a raw view to [0, 1] RGB, compositing an alpha channel over ``background``."""
-    a = raw.astype(np.float32) / np.float32(scale)
+    a = raw.astype(np.float32)
+    a /= np.float32(scale)
     if a.ndim == 2:
         a = a[..., None]
     if a.shape[2] in (2, 4):
@@ -244,7 +262,8 @@ def _to_views(raw: np.ndarray, scale: float, background: float) -> np.ndarray:
         a = a[..., :-1] * alpha + np.float32(background) * (1.0 - alpha)
     if a.shape[2] == 1:
         a = np.repeat(a, 3, axis=2)
-    return np.clip(a[..., :3], 0.0, 1.0).astype(np.float32)
+    a = a[..., :3]
+    return np.clip(a, 0.0, 1.0, out=a).astype(np.float32, copy=False)
 
 
 def _load_folder(
@@ -266,7 +285,7 @@ def _load_folder(
         raise InputError(f"{folder}: missing views: no file name matches {hint}; give --pattern")
     rows, cols = _check_grid(found, folder)
     items = sorted(found.items())
-    raws = [_read_raw(f) for _, f in items]
+    raws = _read_all([f for _, f in items])
     first = raws[0].shape[:2]
     for (_, f), r in zip(items, raws, strict=True):
         if r.shape[:2] != first:
@@ -277,10 +296,18 @@ def _load_folder(
     scale, bits = _scale_raw(raws, [f.name for _, f in items], bit_depth, folder)
     has_alpha = any(r.ndim == 3 and r.shape[2] in (2, 4) for r in raws)
     out = np.empty((len(rows), len(cols), *first, 3), dtype=np.float32)
-    for ((r, c), _), raw in zip(items, raws, strict=True):
+
+    def convert(item) -> None:
+        ((r, c), _), raw = item
         out[r - rows[0], c - cols[0]] = _to_views(raw, scale, background)
+
+    _on_threads(convert, list(zip(items, raws, strict=True)))
     if gray:
-        out = np.clip(np.tensordot(out, _LUMA_WEIGHTS, axes=([4], [0])), 0, 1).astype(np.float32)
+        # One product over the whole light field: BLAS rounds a per-view product differently
+        # for some view sizes (measured), and the grey views must not depend on how they were
+        # read.
+        out = np.tensordot(out, _LUMA_WEIGHTS, axes=([4], [0]))
+        out = np.clip(out, 0, 1, out=out).astype(np.float32, copy=False)
     meta: dict = {}
     if bits is not None:
         meta["bit_depth"] = bits

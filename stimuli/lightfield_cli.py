@@ -348,17 +348,18 @@ def _scan_one(
     out: Path,
     opts: dict,
     loader: _LoaderOptions,
+    emit: Callable[[str], None] | None = None,
 ) -> list[str]:
     """Scan one capture into ``out`` and return the lines to print (options checked already).
 
     A module-level function so that worker processes and Dask workers can run it by name. With
     the default range, planes and binning this is the detector ``confocal stimuli build`` and
     ``confocal view`` use (:func:`stimuli.planechoice.detect_planes`), and the plane the builder
-    would choose is named.
+    would choose is named. With ``emit``, the answer (warnings, planes, the builder's plane) is
+    passed to it line by line as soon as it is known, *before* the folder is written (the score
+    plot needs matplotlib, which is imported only then), and only the closing line is returned.
     """
     import warnings
-
-    from rich.progress import Progress
 
     from stimuli.declutter import in_focus_mask
     from stimuli.io import atomic_path, save_png, staged_folder
@@ -371,7 +372,6 @@ def _scan_one(
         scan_result,
     )
     from stimuli.refocus import refocus
-    from stimuli.scanplot import plot_scores
     from stimuli.tables import write_table
 
     planes, near, far, disparities = opts["planes"], opts["near"], opts["far"], opts["disparities"]
@@ -394,6 +394,8 @@ def _scan_one(
             ds = _disparities(lf, planes, near, far, disparities)
             scan = find_object_planes(lf, ds, binning=binning)
         else:
+            from rich.progress import Progress
+
             ds = _disparities(lf, planes, near, far, disparities)
             b = auto_binning(lf) if binning is None else binning
             scores = np.zeros(len(ds))
@@ -404,6 +406,45 @@ def _scan_one(
                     bar.advance(task)
             scan = scan_result(lf, ds, scores, binning=b)
     lines = [f"warning: {w.message}" for w in caught]
+    centre = lf.centre_view()
+    images = []
+    for k, p in enumerate(scan.peaks):
+        img = np.clip(refocus(lf, p.disparity_px), 0.0, 1.0).astype(np.float32)
+        focus = in_focus_mask(lf, p.disparity_px) if mode == "depth" else None
+        edges, cells, t = declutter_and_compress(
+            img,
+            shape,
+            threshold=threshold,
+            edge_ratio=edge_ratio,
+            focus_mask=focus,
+            centre_view=centre,
+        )
+        stem = f"plane{k + 1:02d}"
+        images.append((stem, img, edges, cells))
+        where = f"{p.depth_m:.3g} m, " if p.depth_m is not None else ""
+        extra = (
+            f", support {p.support:.3f}, evidence {p.evidence:.3g}"
+            if math.isfinite(p.support)
+            else ""
+        )
+        lines.append(
+            f"{stem}: {where}disparity {p.disparity_px:.3f} px/view, score {p.score:.3f}"
+            f"{extra}, threshold {t:.4g} ({mode})"
+        )
+    if scan.peaks and method == "agreement":
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            choice = choose_plane(lf, scan=scan)
+        k = next(i for i, p in enumerate(scan.peaks) if p.disparity_px == choice.disparity_px)
+        lines.append(
+            f"stimuli build --plane auto would use plane{k + 1:02d} "
+            f"({choice.disparity_px:.3f} px/view)"
+            + (f"; marginal: {choice.marginal}" if choice.marginal else "")
+        )
+    if emit is not None:
+        for line in lines:
+            emit(line)
+        lines = []
     # Written whole or not at all: a full disk or a stop leaves --out as it was.
     with staged_folder(out, what="the scan") as tmp:
         rows = scan.rows()
@@ -416,46 +457,17 @@ def _scan_one(
                     indent=1,
                 )
             )
-        plot_scores(scan, tmp / "scores.png")
-        centre = lf.centre_view()
         save_png(centre, tmp / "centre.png")
-        for k, p in enumerate(scan.peaks):
-            img = np.clip(refocus(lf, p.disparity_px), 0.0, 1.0).astype(np.float32)
-            focus = in_focus_mask(lf, p.disparity_px) if mode == "depth" else None
-            edges, cells, t = declutter_and_compress(
-                img,
-                shape,
-                threshold=threshold,
-                edge_ratio=edge_ratio,
-                focus_mask=focus,
-                centre_view=centre,
-            )
-            stem = f"plane{k + 1:02d}"
+        for stem, img, edges, cells in images:
             save_png(img, tmp / f"{stem}_confocal.png")
             save_png(edges, tmp / f"{stem}_edges.png")
             save_png(cells, tmp / f"{stem}_grid.png")
-            where = f"{p.depth_m:.3g} m, " if p.depth_m is not None else ""
-            extra = (
-                f", support {p.support:.3f}, evidence {p.evidence:.3g}"
-                if math.isfinite(p.support)
-                else ""
-            )
-            lines.append(
-                f"{stem}: {where}disparity {p.disparity_px:.3f} px/view, score {p.score:.3f}"
-                f"{extra}, threshold {t:.4g} ({mode})"
-            )
+        if opts.get("plot", True):
+            from stimuli.scanplot import plot_scores  # matplotlib: after the answer is out
+
+            plot_scores(scan, tmp / "scores.png")
     span = f"{float(np.min(ds)):.4g}..{float(np.max(ds)):.4g} px/view"
     lines.append(f"{len(scan.peaks)} object plane(s) in {len(ds)} planes ({span}); wrote {out}")
-    if scan.peaks and method == "agreement":
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            choice = choose_plane(lf, scan=scan)
-        k = next(i for i, p in enumerate(scan.peaks) if p.disparity_px == choice.disparity_px)
-        lines.append(
-            f"stimuli build --plane auto would use plane{k + 1:02d} "
-            f"({choice.disparity_px:.3f} px/view)"
-            + (f"; marginal: {choice.marginal}" if choice.marginal else "")
-        )
     return lines
 
 
@@ -523,6 +535,13 @@ def scan_command(
             help="Folder of captures: Dask scheduler address (needs the 'dask' extra).",
         ),
     ] = None,
+    plot: Annotated[
+        bool,
+        typer.Option(
+            "--plot/--no-plot",
+            help="Draw scores.png (matplotlib, after the answer is printed; --no-plot skips it).",
+        ),
+    ] = True,
     *,
     loader: _LoaderOptions,
 ) -> None:
@@ -557,12 +576,17 @@ def scan_command(
         "declutter_mode": declutter_mode,
         "threshold": threshold,
         "edge_ratio": edge_ratio,
+        "plot": plot,
     }
     if processes is not None and processes < 1:
         raise InputError(f"--processes must be >= 1, got {processes}")
     if not is_capture_folder(lightfield):
-        for line in _scan_one(lightfield, out, opts, loader):
+
+        def emit(line: str) -> None:
             typer.echo(line, err=line.startswith("warning: "))
+
+        for line in _scan_one(lightfield, out, opts, loader, emit):
+            emit(line)
         return
     captures = discover_captures(lightfield)
     names = [c.stem if c.is_file() else c.name for c in captures]

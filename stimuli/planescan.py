@@ -1,7 +1,8 @@
 """Results of a depth-plane scan (:class:`Plane`, :class:`PlaneScan`) and peak detection.
 
 Object planes are the local maxima of the score over the scan. A local maximum counts when its
-*prominence* (``scipy.signal.find_peaks``: its height above the higher of the two minima that
+*prominence* (as ``scipy.signal.find_peaks`` defines it; :func:`find_peaks` here gives the same
+answer without importing ``scipy.signal``: its height above the higher of the two minima that
 separate it from higher ground on either side) is at least :data:`MIN_PROMINENCE_FRACTION` of
 the score's range over the scan (ours). Maxima at the two ends of the scan are not peaks: a
 score still rising at the end of the range says the object lies beyond it. The score often has
@@ -15,7 +16,6 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.signal import find_peaks, peak_prominences
 
 from stimuli import jung2015
 from stimuli.errors import InputError
@@ -25,6 +25,8 @@ __all__ = [
     "Plane",
     "PlaneScan",
     "score_peaks",
+    "find_peaks",
+    "peak_prominences",
     "scan_result",
     "MIN_PROMINENCE_FRACTION",
     "DEFAULT_BINNING",
@@ -206,6 +208,60 @@ class PlaneScan:
             method=str(data.get("method", "haar")),
             null_scores=None if ns is None else np.asarray(ns, dtype=np.float64),
         )
+
+
+def _local_maxima(x: np.ndarray) -> np.ndarray:
+    """Interior local maxima of ``x``; a flat top counts once, at its middle (left of two)."""
+    peaks = []
+    i, i_max = 1, x.size - 1
+    while i < i_max:
+        if x[i - 1] < x[i]:
+            ahead = i + 1
+            while ahead < i_max and x[ahead] == x[i]:
+                ahead += 1
+            if x[ahead] < x[i]:
+                peaks.append((i + ahead - 1) // 2)
+                i = ahead
+        i += 1
+    return np.asarray(peaks, dtype=np.intp)
+
+
+def peak_prominences(x: np.ndarray, peaks: np.ndarray) -> tuple[np.ndarray]:
+    """Return ``(prominences,)`` of the samples ``peaks`` of the curve ``x``.
+
+    A peak's prominence is its height above the higher of the lowest points between it and
+    higher ground on either side (or the curve's end): the definition and the arithmetic of
+    ``scipy.signal.peak_prominences`` with no window, written here so that a plane scan does
+    not import ``scipy.signal`` (half a second of a command's start-up).
+    """
+    x = np.asarray(x, dtype=np.float64)
+    n = x.size
+    out = np.empty(len(peaks), dtype=np.float64)
+    for k, p in enumerate(int(v) for v in peaks):
+        top = x[p]
+        i, left = p, top
+        while i >= 0 and x[i] <= top:
+            left = min(left, x[i])
+            i -= 1
+        i, right = p, top
+        while i < n and x[i] <= top:
+            right = min(right, x[i])
+            i += 1
+        out[k] = top - max(left, right)
+    return (out,)
+
+
+def find_peaks(x: np.ndarray, *, prominence: float = 0.0) -> tuple[np.ndarray, dict]:
+    """Return the interior local maxima of ``x`` whose prominence is at least ``prominence``.
+
+    The same answer as ``scipy.signal.find_peaks(x, prominence=prominence)``: indices (flat tops
+    at their middle) and ``{"prominences": ...}`` (:func:`peak_prominences`).
+    """
+    x = np.asarray(x, dtype=np.float64)
+    idx = _local_maxima(x)
+    prom = peak_prominences(x, idx)[0]
+    keep = prom >= prominence
+    return idx[keep], {"prominences": prom[keep]}
 
 
 def score_peaks(

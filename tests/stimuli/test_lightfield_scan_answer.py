@@ -1,0 +1,74 @@
+"""``confocal lightfield scan`` prints its answer before it writes, and draws no plot on request."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+
+import pytest
+
+from experiment.cli import main
+from stimuli.lightfield_cli import _LoaderOptions, _scan_one
+
+
+@pytest.fixture(scope="module")
+def sim_png(tmp_path_factory):
+    out = tmp_path_factory.mktemp("lfanswer") / "sim.png"
+    try:
+        main(["lightfield", "synth", "--out", str(out), "--size", "96x77"])
+    except SystemExit as exc:
+        assert exc.code in (0, None)
+    return out
+
+
+def _opts(**kw):
+    return {
+        "planes": 40,
+        "near": 0.5,
+        "far": 12.0,
+        "disparities": None,
+        "grid": "19x15",
+        "method": "agreement",
+        "binning": 1,
+        "fast": False,
+        "declutter_mode": "auto",
+        "threshold": "auto",
+        "edge_ratio": 1 / 13,
+    } | kw
+
+
+def test_answer_is_emitted_before_the_folder_is_written(sim_png, tmp_path):
+    out = tmp_path / "scan"
+    seen = []
+
+    def emit(line):
+        seen.append((line, out.exists()))
+
+    closing = _scan_one(sim_png, out, _opts(), _LoaderOptions(), emit)
+    planes = [line for line, _ in seen if line.startswith("plane")]
+    assert planes, seen
+    assert not any(written for _, written in seen)  # every answer line came before the folder
+    assert len(closing) == 1 and closing[0].startswith(f"{len(planes)} object plane(s)")
+    assert (out / "scores.png").exists() and (out / "planes.csv").exists()
+
+
+def test_without_emit_every_line_is_returned(sim_png, tmp_path):
+    lines = _scan_one(sim_png, tmp_path / "scan", _opts(), _LoaderOptions())
+    assert lines[0].startswith("plane01") and "object plane(s)" in lines[-1]
+
+
+def test_no_plot_skips_the_figure_and_matplotlib(sim_png, tmp_path):
+    out = tmp_path / "scan"
+    code = (
+        "import sys\n"
+        "from experiment.cli import main\n"
+        "try:\n"
+        f"    main(['lightfield', 'scan', {str(sim_png)!r}, '--out', {str(out)!r}, '--planes',"
+        " '40', '--near', '0.5', '--far', '12', '--binning', '1', '--no-plot'])\n"
+        "except SystemExit as exc:\n"
+        "    assert exc.code in (0, None), exc.code\n"
+        "print('matplotlib' in sys.modules)\n"
+    )
+    res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert res.stdout.strip().splitlines()[-1] == "False"
+    assert (out / "planes.csv").exists() and not (out / "scores.png").exists()
