@@ -47,6 +47,8 @@ __all__ = [
     "SMOOTH_SHIFT_PX",
     "SCAN_SHORT_SIDE_PX",
     "COARSE_SHORT_SIDE_PX",
+    "SCAN_BUDGET_PX",
+    "scan_downsample",
     "RANGE_REFINE_STEPS",
     "best_plane_map",
 ]
@@ -101,6 +103,15 @@ SCAN_SHORT_SIDE_PX: int = 100
 COARSE_SHORT_SIDE_PX: int = 64
 
 
+#: Large views are scanned downsampled (ours): when the views binned by :func:`scan_binning`
+#: still hold more than this many pixels, every binning of the scan (the range stages and the
+#: sweep) is multiplied by the smallest integer that brings them under it
+#: (:func:`scan_downsample`). 256 x 256 keeps a 200-plane scan of a 3x3 grid of 1024 x 1024
+#: views near 0.3 s; captures up to the 1024 x 1024 views of a 9x9 grid (binned 4, 256 x 256)
+#: and every smaller one are scanned exactly as before.
+SCAN_BUDGET_PX: int = 256 * 256
+
+
 #: The coarse range is refined by a finer sweep when it spans fewer than this many coarse steps
 #: (ours: then a coarse step, which the range is widened by, is a sizeable part of the scene).
 RANGE_REFINE_STEPS: int = 20
@@ -110,6 +121,21 @@ def scan_binning(lightfield: LightField) -> int:
     """Return the view binning of the agreement scan (:data:`SCAN_SHORT_SIDE_PX`)."""
     m = _max_offset(lightfield)
     return int(max(1, min(max(m, 2), min(lightfield.shape_px) // SCAN_SHORT_SIDE_PX)))
+
+
+def scan_downsample(lightfield: LightField, binning: int | None = None) -> int:
+    """Return the factor by which the agreement scan downsamples large views (1: not at all).
+
+    The smallest integer ``f >= 1`` such that the views binned by ``binning * f`` (``binning``
+    defaults to :func:`scan_binning`) hold at most :data:`SCAN_BUDGET_PX` pixels. Views that
+    fit the budget at the scan's binning give 1, so small captures are scanned unchanged.
+    """
+    b = scan_binning(lightfield) if binning is None else int(binning)
+    rows, cols = lightfield.shape_px
+    f = 1
+    while (rows // (b * f)) * (cols // (b * f)) > SCAN_BUDGET_PX:
+        f += 1
+    return f
 
 
 def _max_offset(lf: LightField) -> int:
@@ -397,6 +423,7 @@ def estimate_disparity_range(
        view (so small grids, whose coarse steps are whole pixels per view step, are bracketed
        to a fraction of a pixel).
 
+    Large views (:func:`scan_downsample` ``f > 1``) are binned ``f`` times more in both stages.
     Each stage keeps the disparities where more pixels agree than against a non-coincident
     reference (runs holding at least half of :data:`MIN_SUPPORT`); the range is the fine span
     widened by one fine step on each side, and clipped to the geometry's ``near_m``/``far_m``
@@ -415,7 +442,8 @@ def estimate_disparity_range(
     lf = as_lightfield(lightfield).gray()
     n = workers or default_workers()
     m = _max_offset(lf)
-    b = max(1, min(min(lf.shape_px) // COARSE_SHORT_SIDE_PX, 4 * m))
+    f = scan_downsample(lf)
+    b = f * max(1, min(min(lf.shape_px) // COARSE_SHORT_SIDE_PX, 4 * m))
     _, views, offsets, centre, null_centre = _scan_inputs(lf, b)
     step = 0.5 / m  # binned px per view step
     dmax = min(centre.shape) / (2.0 * m)
@@ -431,7 +459,7 @@ def estimate_disparity_range(
         )
     lo, hi = span[0] - 2 * step * b, span[1] + 2 * step * b
     fine_step = step * b  # full-resolution px per view step of the coarse stage, for the margin
-    b2 = min(scan_binning(lf), b)
+    b2 = min(scan_binning(lf) * f, b)
     step2 = 0.25 / m * b2  # full-resolution px per view step
     # Refine only where the coarse steps are coarse for the span found (small grids, whose
     # coarse step is whole pixels per view step); the fine sweep holds at most 64 planes.
@@ -479,16 +507,21 @@ def agreement_scan(
     *,
     binning: int,
     workers: int,
+    downsample: int = 1,
 ) -> PlaneScan:
     """Scan the planes ``ds`` (full-resolution px per view step) by view agreement, with a null.
 
-    Called by :func:`stimuli.planes.find_object_planes` (which checks the arguments); warns
-    (stacklevel for that caller's caller) when many pixels agree best at either end.
+    The views are binned by ``binning * downsample`` and the planes' shifts divided by it
+    (sub-pixel shifts); the support curve is smoothed as at ``binning`` (:data:`SMOOTH_SHIFT_PX`
+    of a ``binning`` pixel), so downsampled views keep the same planes apart. Called by
+    :func:`stimuli.planes.find_object_planes` (which checks the arguments); warns (stacklevel
+    for that caller's caller) when many pixels agree best at either end.
     """
-    small, views, offsets, centre, null_centre = _scan_inputs(lf, binning)
+    total = binning * downsample
+    small, views, offsets, centre, null_centre = _scan_inputs(lf, total)
     m = _max_offset(small)
     best_i, agrees, nbest_i, nagrees = _sweep_once(
-        views, offsets, centre, null_centre, ds / binning, workers
+        views, offsets, centre, null_centre, ds / total, workers
     )
     spacing = float(np.median(np.abs(np.diff(ds)))) / binning  # binned px per view step
     sigma = max(1.0, SMOOTH_SHIFT_PX / (m * spacing)) if spacing > 0 else 1.0
@@ -555,12 +588,13 @@ def agreement_scan(
         depths,
         s,
         tuple(peaks),
-        binning,
+        total,
         jung2015.HAAR_EDGE_FRACTION,
         MIN_EVIDENCE * null_prom,
         0.0,
         "agreement",
         ns,
+        downsample,
     )
 
 

@@ -26,6 +26,7 @@ from stimuli.agreementscan import (
     MIN_CONTRAST,
     MIN_EVIDENCE,
     MIN_SUPPORT,
+    SCAN_BUDGET_PX,
     SCAN_SHORT_SIDE_PX,
     SHOULDER_FRACTION,
     SHOULDER_FRACTION_STRONG,
@@ -34,6 +35,7 @@ from stimuli.agreementscan import (
     agreement_scan,
     estimate_disparity_range,
     scan_binning,
+    scan_downsample,
 )
 from stimuli.errors import InputError
 from stimuli.haarscan import (
@@ -75,6 +77,8 @@ __all__ = [
     "MIN_EDGE_PIXELS",
     "auto_binning",
     "scan_binning",
+    "scan_downsample",
+    "SCAN_BUDGET_PX",
     "estimate_disparity_range",
     "AGREEMENT_RATIO",
     "COST_WINDOW_PX",
@@ -126,6 +130,7 @@ def find_object_planes(
     presmooth_px: float = DEFAULT_PRESMOOTH_PX,
     nearest_shifts: bool = False,
     workers: int | None = None,
+    downsample: int | None = None,
 ) -> PlaneScan:
     """Scan planes and return the score versus depth and the detected object planes.
 
@@ -156,6 +161,13 @@ def find_object_planes(
     fraction, min_prominence_fraction, presmooth_px, nearest_shifts
         Haar scan only (see :func:`iter_plane_scores` and :func:`score_peaks`).
     workers : int, optional
+    downsample : int >= 1, optional
+        Agreement scan: large views are binned this many times more than ``binning`` (sub-pixel
+        shifts divided by it; planes still reported in full-resolution px per view step, the
+        support curve smoothed as at ``binning``). Default :func:`scan_downsample` (the
+        smallest factor that brings the binned views under :data:`SCAN_BUDGET_PX` pixels, 1
+        for small views) when ``binning`` is not given, else 1. Recorded in
+        ``PlaneScan.downsample``.
 
     Returns
     -------
@@ -187,7 +199,13 @@ def find_object_planes(
         b = scan_binning(lf) if binning is None else binning
         if isinstance(b, bool) or not isinstance(b, (int, np.integer)) or b < 1:
             raise InputError(f"binning must be an integer >= 1, got {binning!r}")
-        return agreement_scan(lf, ds, binning=int(b), workers=n)
+        if downsample is None:
+            f = scan_downsample(lf, int(b)) if binning is None else 1
+        else:
+            f = downsample
+        if isinstance(f, bool) or not isinstance(f, (int, np.integer)) or f < 1:
+            raise InputError(f"downsample must be an integer >= 1, got {downsample!r}")
+        return agreement_scan(lf, ds, binning=int(b), workers=n, downsample=int(f))
     b = DEFAULT_BINNING if binning is None else binning
     scores = np.zeros(ds.size)
     for i, _, s in iter_plane_scores(

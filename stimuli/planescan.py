@@ -111,6 +111,10 @@ class PlaneScan:
     method : {'agreement', 'haar'}
     null_scores : ndarray of shape (n_planes,) or None
         The agreement scan's support curve on non-coincident data (the null).
+    downsample : int
+        Agreement scan: the factor by which large views were binned beyond the scan's usual
+        binning (``binning`` includes it; :func:`stimuli.agreementscan.scan_downsample`); 1 when
+        the views were not downsampled.
     """
 
     disparities_px: np.ndarray
@@ -123,6 +127,7 @@ class PlaneScan:
     presmooth_px: float = DEFAULT_PRESMOOTH_PX
     method: str = "haar"
     null_scores: np.ndarray | None = None
+    downsample: int = 1
 
     def rows(self) -> list[dict]:
         """Return one dict per scanned plane, for ``planes.csv``.
@@ -181,6 +186,7 @@ class PlaneScan:
             "fraction": self.fraction,
             "min_prominence": self.min_prominence,
             "presmooth_px": self.presmooth_px,
+            "downsample": self.downsample,
         }
 
     @classmethod
@@ -207,6 +213,7 @@ class PlaneScan:
             presmooth_px=float(data.get("presmooth_px", DEFAULT_PRESMOOTH_PX)),
             method=str(data.get("method", "haar")),
             null_scores=None if ns is None else np.asarray(ns, dtype=np.float64),
+            downsample=int(data.get("downsample", 1)),
         )
 
 
