@@ -106,10 +106,11 @@ COARSE_SHORT_SIDE_PX: int = 64
 #: Large views are scanned downsampled (ours): when the views binned by :func:`scan_binning`
 #: still hold more than this many pixels, every binning of the scan (the range stages and the
 #: sweep) is multiplied by the smallest integer that brings them under it
-#: (:func:`scan_downsample`). 256 x 256 keeps a 200-plane scan of a 3x3 grid of 1024 x 1024
-#: views near 0.3 s; captures up to the 1024 x 1024 views of a 9x9 grid (binned 4, 256 x 256)
-#: and every smaller one are scanned exactly as before.
-SCAN_BUDGET_PX: int = 256 * 256
+#: (:func:`scan_downsample`). 320 x 320 bounds a 200-plane sweep of a 3x3 grid (four views)
+#: near half a second on two cores, and leaves every capture up to 640 x 640 views on a 3x3 grid
+#: (binned 2), or 1280 x 1280 on a 9x9 (binned 4), scanned exactly as before; a 3x3 grid of
+#: 1024 x 1024 views is scanned at 256 x 256 (binned 4 instead of 2).
+SCAN_BUDGET_PX: int = 320 * 320
 
 
 #: The coarse range is refined by a finer sweep when it spans fewer than this many coarse steps
