@@ -18,7 +18,9 @@ buffers to it), in MB. Times are the best of ``--repeat`` runs.
 ``--layouts`` adds the same figures per grid layout (9x9, 7x7, 3x3 of 1024x1024 views, 1x7),
 as *medians* over ``--repeat`` runs with ratios to the floor measured in the same process:
 refocus (goal <= 1.5x the floor), refocus + de-clutter + compress (goal <= 2x), and the
-200-plane scan with detection (goals < 0.1 s on the 9x9, < 0.5 s on the 1024x1024 3x3).
+200-plane scan with detection (goals < 0.1 s on the 9x9, < 0.5 s on the 1024x1024 3x3), with
+the factor ``f`` by which the scan downsampled the views (``stimuli.planes.scan_downsample``: 2
+on the 1024x1024 3x3, 1 elsewhere) and the planes it found.
 Each ratio is given twice, on the same bytes:
 
 * *cold*: before every timed call (floor and work alike) a 64 MB buffer is read, which evicts
@@ -166,9 +168,9 @@ def _one_layout(grid, shape, baseline, repeat) -> dict:
         row["scan_s"] = _median(
             lambda: find_object_planes(lf, n_planes=N_PLANES), max(3, repeat // 2)
         )
-        row["scan_planes_px"] = [
-            round(p.disparity_px, 4) for p in find_object_planes(lf, n_planes=N_PLANES).peaks
-        ]
+        scan = find_object_planes(lf, n_planes=N_PLANES)
+        row["scan_planes_px"] = [round(p.disparity_px, 4) for p in scan.peaks]
+        row["scan_downsample"] = scan.downsample
     row["load_average"] = os.getloadavg()[0]
     return row
 
@@ -182,7 +184,7 @@ def per_layout(repeat: int) -> dict:
     )
     print(
         f"{'':18s} {'':>5s} {'(cold)':>9s} {'(cold)':>10s} {'(cold)':>8s} {'(hot)':>10s} "
-        f"{'(hot)':>8s}"
+        f"{'(hot)':>8s} {'':>7s} {'':>5s} {'f':>2s}  planes px/view"
     )
     for grid, shape, baseline in LAYOUTS:
         name = f"{grid[0]}x{grid[1]} of {shape[1]}x{shape[0]}"
@@ -191,7 +193,8 @@ def per_layout(repeat: int) -> dict:
             f"{name:18s} {row['light_field_mb']:5.0f} {row['floor_ms_cold']:9.2f} "
             f"{row['refocus_x_floor_cold']:10.2f} {row['pipeline_x_floor_cold']:8.2f} "
             f"{row['refocus_x_floor_hot']:10.2f} {row['pipeline_x_floor_hot']:8.2f} "
-            f"{row['scan_s']:7.3f} {row['load_average']:5.1f}",
+            f"{row['scan_s']:7.3f} {row['load_average']:5.1f} {row['scan_downsample']:2d}  "
+            f"{row['scan_planes_px']}",
             flush=True,
         )
     return out
