@@ -405,14 +405,7 @@ def _scan_one(
                     scores[i] = sc
                     bar.advance(task)
             scan = scan_result(lf, ds, scores, binning=b)
-    lines = [f"warning: {w.message}" for w in caught]
-    if scan.downsample > 1:
-        from stimuli.planes import SCAN_BUDGET_PX
-
-        lines.append(
-            f"large views: scanned downsampled {scan.downsample}x (binned {scan.binning}, at most "
-            f"{SCAN_BUDGET_PX} px per view); planes in full-resolution px/view"
-        )
+    lines = [f"warning: {w.message}" for w in caught] + scan.notes()
     centre = lf.centre_view()
     images = []
     for k, p in enumerate(scan.peaks):

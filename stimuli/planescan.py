@@ -163,6 +163,16 @@ class PlaneScan:
             )
         return out
 
+    def notes(self) -> list[str]:
+        """Return the lines a command prints about how the scan ran: the downsampling of large
+        views (:attr:`downsample` > 1), or nothing."""
+        if self.downsample <= 1:
+            return []
+        return [
+            f"large views: scanned downsampled {self.downsample}x (binned {self.binning}); "
+            "planes in full-resolution px/view"
+        ]
+
     def to_dict(self) -> dict:
         """Return a JSON-friendly dict."""
 

@@ -74,7 +74,7 @@ def test_small_capture_answers_are_those_of_the_plain_scan():
         warnings.simplefilter("ignore")
         scan = find_object_planes(lf, ds)
         plain = find_object_planes(lf, ds, binning=scan_binning(lf))
-    assert scan.downsample == 1 and scan.binning == scan_binning(lf)
+    assert scan.downsample == 1 and scan.binning == scan_binning(lf) and scan.notes() == []
     assert scan.peaks == plain.peaks
     np.testing.assert_array_equal(scan.scores, plain.scores)
 
@@ -98,6 +98,9 @@ def test_the_factor_is_recorded_and_the_plane_choice_uses_the_same_sweep(large):
     assert record["downsample"] == 2 and record["binning"] == 4
     again = PlaneScan.from_dict(record)
     assert again.downsample == 2 and again.peaks == scan.peaks
+    assert scan.notes() == [
+        "large views: scanned downsampled 2x (binned 4); planes in full-resolution px/view"
+    ]
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         choice = choose_plane(lf, scan=scan)
