@@ -186,7 +186,7 @@ def normalized_responses(similarities: np.ndarray) -> np.ndarray:
 
     Examples
     --------
-    >>> normalized_responses(np.array([0.1, 0.2, 0.3])).round(3).tolist()
+    >>> (normalized_responses(np.array([0.1, 0.2, 0.3])).round(3) + 0.0).tolist()
     [-1.225, 0.0, 1.225]
     """
     s = np.asarray(similarities, dtype=float)
@@ -385,7 +385,7 @@ def crossing_px(levels_px: np.ndarray, rate: np.ndarray, p: float) -> float:
 
     Examples
     --------
-    >>> crossing_px(np.array([100.0, 10000.0]), np.array([0.0, 1.0]), 0.5)
+    >>> round(crossing_px(np.array([100.0, 10000.0]), np.array([0.0, 1.0]), 0.5), 6)
     1000.0
     """
     x = np.log(np.asarray(levels_px, dtype=float))
