@@ -67,10 +67,10 @@ def expected_rates(
         noisy = z[:, None, :] + sd * gen.standard_normal((z.shape[0], repeats, z.shape[1]))
         return decision_variable(noisy, params.decision)
 
-    choice, margin = decide(d["known"])
-    p = ((choice == d["correct"][:, None]) & (margin > crit)).mean(axis=1) * (1 - lapse)
-    _, margin_u = decide(d["unknown"])
-    pu = (margin_u > crit).mean(axis=1) * (1 - lapse)
+    choice, v = decide(d["known"])
+    p = ((choice == d["correct"][:, None]) & (v > crit)).mean(axis=1) * (1 - lapse)
+    _, v_u = decide(d["unknown"])
+    pu = (v_u > crit).mean(axis=1) * (1 - lapse)
     return p, pu
 
 
