@@ -40,6 +40,7 @@ from experiment.observers.calibration import (  # noqa: E402
     PAPER_CLUTTERED_BETA,
     PAPER_CLUTTERED_X50_PX,
     CalibratedParams,
+    decision_variable,
     stimulus_responses,
 )
 
@@ -64,13 +65,12 @@ def expected_rates(
 
     def decide(z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         noisy = z[:, None, :] + sd * gen.standard_normal((z.shape[0], repeats, z.shape[1]))
-        part = -np.partition(-noisy, 1, axis=-1)[..., :2]
-        return np.argmax(noisy, axis=-1), part[..., 0] - part[..., 1]
+        return decision_variable(noisy, params.decision)
 
-    choice, margin = decide(d["known"])
-    p = ((choice == d["correct"][:, None]) & (margin > crit)).mean(axis=1) * (1 - lapse)
-    _, margin_u = decide(d["unknown"])
-    pu = (margin_u > crit).mean(axis=1) * (1 - lapse)
+    choice, v = decide(d["known"])
+    p = ((choice == d["correct"][:, None]) & (v > crit)).mean(axis=1) * (1 - lapse)
+    _, v_u = decide(d["unknown"])
+    pu = (v_u > crit).mean(axis=1) * (1 - lapse)
     return p, pu
 
 
@@ -112,12 +112,17 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--blur", type=float, default=None)
     ap.add_argument("--noise", type=float, default=None)
     ap.add_argument("--criterion", type=float, default=None)
+    ap.add_argument("--decision", choices=("margin", "standout"), default=None)
+    ap.add_argument("--samples-per-deg", type=float, default=None)
+    ap.add_argument("--cell", type=float, default=None)
     ap.add_argument("--knowledge", type=Path, nargs="*", default=None,
                     help="Knowledge sets to use for every test set (pooled).")  # fmt: skip
     args = ap.parse_args(argv)
     gen = np.random.default_rng(0)
     over = {k: v for k, v in (("blur_deg", args.blur), ("noise_sd", args.noise),
-                              ("criterion", args.criterion)) if v is not None}  # fmt: skip
+                              ("criterion", args.criterion), ("decision", args.decision),
+                              ("samples_per_deg", args.samples_per_deg),
+                              ("cell_deg", args.cell)) if v is not None}  # fmt: skip
     params = CalibratedParams(knowledge="unused", **over)
     seeds = {}
     for d in args.demos:
@@ -138,8 +143,9 @@ def main(argv: list[str] | None = None) -> int:
             for _, know2, ks2 in seeds.values():
                 if s not in ks2 and ks2 != ks:
                     pairs.append((s, list(ks2), test, know2))
-    out: dict = {"params": {k: getattr(params, k) for k in ("blur_deg", "cell_deg", "noise_sd",
-                                                             "criterion", "lapse")},
+    out: dict = {"params": {k: getattr(params, k) for k in ("samples_per_deg", "blur_deg",
+                                                             "cell_deg", "noise_sd", "criterion",
+                                                             "decision", "lapse")},
                  "subjects": args.subjects, "pairings": []}  # fmt: skip
     by_cond: dict[str, list[float]] = {"cluttered": [], "decluttered": []}
     for s, ks, test, know in pairs:

@@ -557,10 +557,13 @@ def _calibrated_line(demo: DemoResult, first: dict[str, Any]) -> str:
         if passed is None
         else f' and says "don\'t know" to {float(passed):.0%} of images of kinds it does not know'
     )
+    spd = p.get("samples_per_deg")
+    sampling = "" if spd is None else f"retinal sampling {float(spd):g}/deg, "
     return (
         "simulated observer: calibrated (HOG exemplar matcher knowing "
-        f"{len(k.get('categories', []))} kinds from {source}, with a person's limits: blur "
-        f"{p.get('blur_deg')} deg, internal noise SD {p.get('noise_sd')}, open-set criterion "
+        f"{len(k.get('categories', []))} kinds from {source}, with a person's limits: "
+        f"{sampling}blur {p.get('blur_deg')} deg, internal noise SD {p.get('noise_sd')}, "
+        "open-set criterion "
         f"{float(p.get('criterion') or 0):.2f}, lapse {p.get('lapse')}; fitted to the paper's "
         f"cluttered condition only) gives cluttered {px('x50_cluttered_px')} and, as a "
         f"prediction, de-cluttered {px('x50_decluttered_px')} against the paper's 8,695 and "

@@ -17,6 +17,7 @@ from experiment.observers.calibration import (
     PAPER_CLUTTERED_BETA,
     calibrate,
     crossing_px,
+    decision_variable,
     normalized_responses,
     read_calibration,
 )
@@ -85,8 +86,8 @@ def test_paper_cluttered_slope_is_the_weibull_through_both_paper_numbers():
 def test_calibration_file_is_the_default_and_says_how_it_was_obtained():
     d = read_calibration()
     p = CalibratedParams(knowledge="k")
-    for key in ("blur_deg", "noise_sd", "criterion"):
-        assert getattr(p, key) == d["fitted"][key]
+    for key in ("samples_per_deg", "decision", "blur_deg", "cell_deg", "noise_sd", "criterion"):
+        assert getattr(p, key) == d["fitted"][key], key
     assert "cluttered condition only" in d["how"] and "No de-cluttered stimulus" in d["how"]
     assert d["open_set"]["floor"] <= d["fitted"]["criterion"]
     assert CALIBRATION_FILE.name == "jung2015_calibration.json"
@@ -113,25 +114,61 @@ def test_normalized_responses_are_scale_free():
     assert normalized_responses(np.full(3, 0.2)).tolist() == [0.0, 0.0, 0.0]
 
 
-def test_calibrated_observer_passes_on_a_kind_it_does_not_know(small_pair):
-    """The same image of a known kind is named once the observer knows its kind, and passed
-    when the knowledge's best match is two kinds in a near tie (margin below the criterion)."""
+@pytest.mark.parametrize("decision", ["margin", "standout"])
+def test_calibrated_observer_passes_when_no_kind_stands_out(small_pair, decision):
+    """Two kinds tied for best above three alike: passed under either decision variable (the
+    margin is 0; the best stands only 1.2 SD above the mean match); one kind far above the
+    rest: named."""
     test, knowledge = small_pair
     ts = StimulusSet.load(test)
     obs = make_observer("calibrated", ts, "S1", rng=0, knowledge=str(knowledge), noise_sd=0.0,
-                        lapse=0.0)  # fmt: skip
+                        lapse=0.0, criterion=1.5, decision=decision)  # fmt: skip
     assert isinstance(obs, CalibratedObserver) and obs.name == "calibrated"
-    # a response vector with two kinds tied for best: margin 0 <= criterion, a pass
-    tied = np.array([0.5, 0.5] + [0.1] * (len(obs.knowledge.categories) - 2))
-    best, margin = obs._decide(tied)
-    assert margin == pytest.approx(0.0) and margin <= obs.criterion
-    # one kind far above the rest: named
-    alone = np.array([0.9] + [0.1] * (len(obs.knowledge.categories) - 1))
-    best, margin = obs._decide(alone)
-    assert best == 0 and margin > obs.criterion
+    assert len(obs.knowledge.categories) == 5
+    tied = np.array([0.5, 0.5, 0.1, 0.1, 0.1])
+    best, v = obs._decide(tied)
+    assert v <= obs.criterion
+    alone = np.array([0.9, 0.1, 0.1, 0.1, 0.1])
+    best, v = obs._decide(alone)
+    assert best == 0 and v > obs.criterion
     d = obs.describe()
-    assert d["observer"] == "calibrated"
+    assert d["observer"] == "calibrated" and d["params"]["decision"] == decision
     assert d["calibration"]["method"] == "given (differs from the calibration file)"
+
+
+def test_standout_names_a_clear_match_that_a_near_kind_would_veto():
+    """A mug and a cup both far above 21 other kinds: the margin (best minus second) is tiny,
+    so the margin rule passes on a clear match; the standout (best above the spread of all
+    matches) names it, as for a lone match."""
+    near = normalized_responses(np.array([0.9, 0.85] + [0.1] * 21))
+    best, margin = decision_variable(near[None], "margin")
+    _, standout = decision_variable(near[None], "standout")
+    assert best[0] == 0 and margin[0] < 0.3 and standout[0] > 3.0
+    lone = normalized_responses(np.array([0.9] + [0.1] * 22))
+    assert decision_variable(lone[None], "standout")[1][0] > 3.0
+    # no kind stands out: every match alike but one a little higher
+    flat = normalized_responses(np.linspace(0.1, 0.2, 23))
+    assert decision_variable(flat[None], "standout")[1][0] < 2.0
+    with pytest.raises(ValueError, match="decision must be one of margin, standout, got 'x'"):
+        decision_variable(near[None], "x")
+    with pytest.raises(ValueError, match="decision must be one of margin, standout, got 'x'"):
+        CalibratedParams(knowledge="k", decision="x")
+
+
+def test_calibration_records_its_decision_variable_and_front_end(small_pair):
+    """The fit is made with the decision variable and retinal sampling asked for, and the
+    result says which; the open-set floor is that variable's quantile on unknown kinds."""
+    grids = {**GRIDS, "noise_grid": (0.25,)}
+    m = calibrate([small_pair], **grids, decision="margin", samples_per_deg=8.0, rng=1)
+    s = calibrate([small_pair], **grids, decision="standout", samples_per_deg=8.0, rng=1)
+    assert m["fitted"]["decision"] == "margin" and s["fitted"]["decision"] == "standout"
+    assert m["fitted"]["samples_per_deg"] == s["fitted"]["samples_per_deg"] == 8.0
+    assert s["open_set"]["floor"] != m["open_set"]["floor"]
+    assert s["open_set"]["floor"] <= s["fitted"]["criterion"]
+    with pytest.raises(ValueError, match="decision must be one of margin, standout, got 'x'"):
+        calibrate([small_pair], decision="x")
+    with pytest.raises(ValueError, match="samples_per_deg must be > 0, got 0"):
+        calibrate([small_pair], samples_per_deg=0)
 
 
 @pytest.fixture(scope="module")

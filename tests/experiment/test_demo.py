@@ -118,6 +118,9 @@ def test_calibrated_observer_says_in_one_sentence_what_it_is_and_how_far_from_th
     assert summary_lines(demo)[1].endswith(
         'against 2.46 and says "don\'t know" to 91% of images of kinds it does not know'
     )
+    assert "sampling" not in line  # not logged: not claimed
+    demo.observers = [{**demo.observers[0], "params": {**p, "samples_per_deg": 30.0}}]
+    assert "limits: retinal sampling 30/deg, blur 0.05 deg" in summary_lines(demo)[1]
 
 
 def test_logistic_observer_is_named_as_the_papers_model(tmp_path):
