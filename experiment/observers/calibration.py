@@ -197,10 +197,7 @@ class CalibratedParams(ExemplarParams):
     def __post_init__(self) -> None:
         super().__post_init__()
         check_limits(self, {"noise_sd": ">= 0"})
-        if self.decision not in DECISIONS:
-            raise ValueError(
-                f"decision must be one of {', '.join(DECISIONS)}, got {self.decision!r}"
-            )
+        _check_decision(self.decision)
 
 
 def normalized_responses(similarities: np.ndarray) -> np.ndarray:
@@ -218,6 +215,12 @@ def normalized_responses(similarities: np.ndarray) -> np.ndarray:
     s = np.asarray(similarities, dtype=float)
     sd = s.std(axis=-1, keepdims=True)
     return (s - s.mean(axis=-1, keepdims=True)) / np.where(sd > 1e-12, sd, np.inf)
+
+
+def _check_decision(decision: str) -> None:
+    """Refuse a decision variable other than those of :data:`DECISIONS`."""
+    if decision not in DECISIONS:
+        raise ValueError(f"decision must be one of {', '.join(DECISIONS)}, got {decision!r}")
 
 
 def decision_variable(noisy: np.ndarray, decision: str) -> tuple[np.ndarray, np.ndarray]:
@@ -247,8 +250,7 @@ def decision_variable(noisy: np.ndarray, decision: str) -> tuple[np.ndarray, np.
     >>> float(decision_variable(np.array([[0.0, 2.0, 1.5]]), "standout")[1][0])
     2.0
     """
-    if decision not in DECISIONS:
-        raise ValueError(f"decision must be one of {', '.join(DECISIONS)}, got {decision!r}")
+    _check_decision(decision)
     a = np.asarray(noisy, dtype=float)
     best = np.argmax(a, axis=-1)
     if a.shape[-1] < 2:
@@ -384,7 +386,7 @@ def stimulus_responses(
     }
 
 
-def _margins(
+def _noisy_decisions(
     z: np.ndarray, noise: np.ndarray, sd: float, decision: str = "margin"
 ) -> tuple[np.ndarray, np.ndarray]:
     """Best category and decision variable of ``z + sd * noise``; z (n, c), noise (n, r, c)."""
@@ -525,8 +527,7 @@ def calibrate(
         raise ValueError(f"repeats must be >= 1, got {repeats!r}")
     if objective not in ("curve", "points"):
         raise ValueError(f"objective must be 'curve' or 'points', got {objective!r}")
-    if decision not in DECISIONS:
-        raise ValueError(f"decision must be one of {', '.join(DECISIONS)}, got {decision!r}")
+    _check_decision(decision)
     if samples_per_deg is not None and not samples_per_deg > 0:
         raise ValueError(f"samples_per_deg must be > 0, got {samples_per_deg!r}")
     gen = np.random.default_rng(rng)
@@ -553,8 +554,8 @@ def calibrate(
         # the paper's curve's 10 % point: with the 50 % point it fixes the slope
         target_x10 = target_x50_px * (math.log(1 / 0.9) / math.log(2.0)) ** (1 / target_beta)
         for sd in noise_grid:
-            choice, margin = _margins(z, noise, float(sd), decision)
-            _, margin_u = _margins(zu, noise_u, float(sd), decision)
+            choice, margin = _noisy_decisions(z, noise, float(sd), decision)
+            _, margin_u = _noisy_decisions(zu, noise_u, float(sd), decision)
             floor = float(np.quantile(margin_u, open_set_quantile))
             right = choice == correct[:, None]
             for crit in criterion_grid:
