@@ -38,7 +38,7 @@ from stimuli.manifest import StimulusRecord, format_crop, write_manifest, write_
 if TYPE_CHECKING:
     from stimuli.lfbatch import CapturePool
 
-__all__ = ["WrittenSet", "RenderedObject", "write_stimulus_set", "render_object", "write_object"]
+__all__ = ["WrittenSet", "RenderedObject", "write_stimulus_set", "render_object"]
 
 
 @dataclass(frozen=True)
@@ -98,33 +98,23 @@ def write_stimulus_set(
     labels = level_labels(plan.ladder)
     with staged_folder(out_dir, what="the stimulus set") as tmp:
         (tmp / "contact").mkdir()
+        tasks = [(w, plan.params, edge_ratio, labels) for w in works]
+
+        def save(i: int, rendered: RenderedObject) -> list[StimulusRecord]:
+            return _save_rendered(
+                rendered, works[i], tmp, plan.params, edge_ratio, plan.inp.root, plan.hashes[i]
+            )
+
         if pool is None or pool.is_local:
             per_object = map_objects(
-                lambda wh: write_object(
-                    wh[0], tmp, plan.params, edge_ratio, plan.inp.root, wh[1], labels
-                ),
-                list(zip(works, plan.hashes, strict=True)),
+                lambda i: save(i, render_object(*tasks[i])),
+                range(len(works)),
                 plan.workers,
                 progress,
                 "write",
             )
         else:
-            per_object = map_on_pool(
-                pool,
-                render_object,
-                [(w, plan.params, edge_ratio, labels) for w in works],
-                progress,
-                "write",
-                then=lambda i, rendered: _save_rendered(
-                    rendered,
-                    works[i],
-                    tmp,
-                    plan.params,
-                    edge_ratio,
-                    plan.inp.root,
-                    plan.hashes[i],
-                ),
-            )
+            per_object = map_on_pool(pool, render_object, tasks, progress, "write", then=save)
         records = [r for recs in per_object for r in recs]
         views: list[dict] = []
         if plan.implants:
@@ -215,25 +205,6 @@ def render_object(
     return RenderedObject(tuple(out), sheet)
 
 
-def write_object(
-    work: ObjectImages,
-    tmp: Path,
-    params: BuildParams,
-    edge_ratio: float | None,
-    root: Path,
-    hashes: dict[str, str],
-    ladder_labels: list[str],
-) -> list[StimulusRecord]:
-    """Write one object's stimuli and contact sheet into the staging folder; return its rows.
-
-    ``tmp/<object>/``: ``photo.png`` (and the colour photos of a training object), then each
-    condition at every level, ``<condition>_L<level>_w<window>.png``; ``tmp/contact/<object>.png``
-    (:func:`render_object`, then written here).
-    """
-    rendered = render_object(work, params, edge_ratio, ladder_labels)
-    return _save_rendered(rendered, work, tmp, params, edge_ratio, root, hashes)
-
-
 def _save_rendered(
     rendered: RenderedObject,
     work: ObjectImages,
@@ -243,7 +214,10 @@ def _save_rendered(
     root: Path,
     hashes: dict[str, str],
 ) -> list[StimulusRecord]:
-    """Write a rendered object's PNGs into the staging folder; return its ``manifest.csv`` rows."""
+    """Write a rendered object into the staging folder; return its ``manifest.csv`` rows.
+
+    Its stimuli go to ``tmp/<object>/`` and its contact sheet to ``tmp/contact/<object>.png``.
+    """
     oid = work.info.object
     folder = tmp / oid
     folder.mkdir()
