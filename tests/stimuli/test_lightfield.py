@@ -28,11 +28,13 @@ def _views(n_u=3, n_v=3, rows=12, cols=16, seed=0):
 
 
 def _write_views(folder, views, name="{u}_{v}"):
+    """Write 8-bit PNG views; ``name`` is a format string of ``u, v`` or a function of them."""
     folder.mkdir(parents=True, exist_ok=True)
     for u in range(views.shape[0]):
         for v in range(views.shape[1]):
             a = np.round(views[u, v] * 255).astype(np.uint8)
-            Image.fromarray(a).save(folder / (name.format(u=u, v=v) + ".png"))
+            stem = name(u, v) if callable(name) else name.format(u=u, v=v)
+            Image.fromarray(a).save(folder / (stem + ".png"))
 
 
 def _u8(views):
@@ -162,16 +164,19 @@ def test_load_folder_row_col_with_toml(tmp_path):
     assert lf.geometry.focal_length_px == 400.0
 
 
-def test_load_folder_absolute_indices_are_made_relative(tmp_path):
-    """Lytro/EPINET style: rows and columns 02..04 become 0..2."""
+@pytest.mark.parametrize(
+    "name",
+    [
+        # Lytro/EPINET style: rows and columns 02..04 become 0..2
+        pytest.param(lambda u, v: f"2067_{u + 2:02d}_{v + 2:02d}", id="absolute-row-col"),
+        # HCI: the 3x3 views at the centre of a 9x9 grid of numbered cameras
+        pytest.param(lambda u, v: f"input_Cam{9 * (u + 3) + (v + 3):03d}", id="hci-camera-number"),
+    ],
+)
+def test_load_folder_numbering_is_made_relative(tmp_path, name):
     v = _views(3, 3)
-    folder = tmp_path / "lf"
-    folder.mkdir()
-    for u in range(3):
-        for w in range(3):
-            a = np.round(v[u, w] * 255).astype(np.uint8)
-            Image.fromarray(a).save(folder / f"2067_{u + 2:02d}_{w + 2:02d}.png")
-    lf = load_lightfield(folder, gray=True)
+    _write_views(tmp_path / "lf", v, name)
+    lf = load_lightfield(tmp_path / "lf", gray=True)
     np.testing.assert_allclose(lf.views, _u8(v), atol=1e-5)
 
 
@@ -180,18 +185,6 @@ def test_load_one_row_of_views(tmp_path):
     _write_views(tmp_path / "row", v, "view{v}")
     lf = load_lightfield(tmp_path / "row", gray=True)
     assert lf.grid == (1, 5)
-    np.testing.assert_allclose(lf.views, _u8(v), atol=1e-5)
-
-
-def test_load_hci_camera_numbers(tmp_path):
-    v = _views(3, 3)
-    folder = tmp_path / "hci"
-    folder.mkdir()
-    for u in range(3):
-        for w in range(3):
-            a = np.round(v[u, w] * 255).astype(np.uint8)
-            Image.fromarray(a).save(folder / f"input_Cam{9 * (u + 3) + (w + 3):03d}.png")
-    lf = load_lightfield(folder, gray=True)
     np.testing.assert_allclose(lf.views, _u8(v), atol=1e-5)
 
 

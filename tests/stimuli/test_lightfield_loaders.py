@@ -28,6 +28,12 @@ def _code(args, capsys):
     return 0, capsys.readouterr()
 
 
+def _refocus_at_zero(lightfield, out, *options, capsys):
+    """Run ``confocal lightfield refocus LIGHTFIELD --disparity 0 OPTIONS --out OUT``."""
+    args = ["lightfield", "refocus", str(lightfield), "--disparity", "0", *options]
+    return _code([*args, "--out", str(out)], capsys)
+
+
 def _grid(n_u=2, n_v=3, rows=24, cols=32, seed=0):
     return np.random.default_rng(seed).integers(0, 256, (n_u, n_v, rows, cols), dtype=np.uint8)
 
@@ -48,19 +54,8 @@ def test_pattern_format_widths(tmp_path, capsys):
     lf = load_lightfield(tmp_path, pattern="{row:02d}{col:02d}.png")
     assert lf.grid == (2, 3)
     np.testing.assert_allclose(lf.gray().views, g / 255.0, atol=1e-6)
-    code, out = _code(
-        [
-            "lightfield",
-            "refocus",
-            str(tmp_path),
-            "--pattern",
-            "{row:02d}{col:02d}",
-            "--disparity",
-            "0",
-            "--out",
-            str(_outside(tmp_path) / "r.png"),
-        ],
-        capsys,
+    code, out = _refocus_at_zero(
+        tmp_path, _outside(tmp_path) / "r.png", "--pattern", "{row:02d}{col:02d}", capsys=capsys
     )
     assert code == 0, out.err
     with pytest.raises(InputError, match=r"field \{row:x\} must be an integer format"):
@@ -106,19 +101,8 @@ def test_alpha_is_composited_over_the_background(tmp_path, capsys):
     np.testing.assert_allclose(lf.views[0, 1, 0, 0], 0.5, atol=1e-6)
     np.testing.assert_allclose(lf.views[0, 1, 10, 15], 0.0, atol=1e-6)
     assert lf.meta["alpha_background"] == 0.5
-    code, _ = _code(
-        [
-            "lightfield",
-            "refocus",
-            str(tmp_path),
-            "--disparity",
-            "0",
-            "--background",
-            "0.25",
-            "--out",
-            str(_outside(tmp_path) / "r.png"),
-        ],
-        capsys,
+    code, _ = _refocus_at_zero(
+        tmp_path, _outside(tmp_path) / "r.png", "--background", "0.25", capsys=capsys
     )
     assert code == 0
     assert np.asarray(Image.open(_outside(tmp_path) / "r.png"))[0, 0] == round(0.25 * 255)
@@ -137,61 +121,21 @@ def test_sixteen_bit_data_scaled_by_its_bit_depth(tmp_path, capsys):
     np.testing.assert_allclose(lf.views, raw / 4095.0, atol=1e-6)
     lf16 = load_lightfield(tmp_path, gray=True, bit_depth=16)
     np.testing.assert_allclose(lf16.views, raw / 65535.0, atol=1e-6)
-    code, out = _code(
-        [
-            "lightfield",
-            "refocus",
-            str(tmp_path),
-            "--disparity",
-            "0",
-            "--bit-depth",
-            "10",
-            "--out",
-            str(_outside(tmp_path) / "r.png"),
-        ],
-        capsys,
+    code, out = _refocus_at_zero(
+        tmp_path, _outside(tmp_path) / "r.png", "--bit-depth", "10", capsys=capsys
     )
     assert code == 2 and "view0.png: value 4095 does not fit --bit-depth 10" in out.err
 
 
 def test_zoom_box_aspect_refused_with_a_fitting_grid(tmp_path, capsys):
     views = _grid(1, 3, 120, 160).astype(np.float32) / 255.0
-    np.save(tmp_path / "lf.npy", views)
-    code, out = _code(
-        [
-            "lightfield",
-            "refocus",
-            str(tmp_path / "lf.npy"),
-            "--disparity",
-            "0",
-            "--zoom",
-            "10,10,40,100",
-            "--grid",
-            "38x25",
-            "--out",
-            str(tmp_path / "r.png"),
-        ],
-        capsys,
-    )
+    source, png, zoom = tmp_path / "lf.npy", tmp_path / "r.png", ("--zoom", "10,10,40,100")
+    np.save(source, views)
+    code, out = _refocus_at_zero(source, png, *zoom, "--grid", "38x25", capsys=capsys)
     assert code == 2
     assert "--zoom box 40x100 px" in out.err and "use --grid 10x25" in out.err
-    assert not (tmp_path / "r.png").exists()
-    code, out = _code(
-        [
-            "lightfield",
-            "refocus",
-            str(tmp_path / "lf.npy"),
-            "--disparity",
-            "0",
-            "--zoom",
-            "10,10,40,100",
-            "--grid",
-            "10x25",
-            "--out",
-            str(tmp_path / "r.png"),
-        ],
-        capsys,
-    )
+    assert not png.exists()
+    code, out = _refocus_at_zero(source, png, *zoom, "--grid", "10x25", capsys=capsys)
     assert code == 0, out.err
     assert np.asarray(Image.open(tmp_path / "r_grid.png")).shape == (25, 10)
 
