@@ -8,8 +8,9 @@ Two scans (``find_object_planes(..., method=...)``):
   (:mod:`stimuli.haarscan`).
 
 Both return a :class:`~stimuli.planescan.PlaneScan` (:mod:`stimuli.planescan`: the result types
-and the peak detection). :func:`confocal_plane` picks the plane a stimulus is built at. Every
-public name of those modules is importable from here.
+and the peak detection). :func:`confocal_plane` picks the plane a stimulus is built at. The
+scans' functions and result types are importable from here; the agreement scan's tuning
+constants stay in :mod:`stimuli.agreementscan`.
 """
 
 from __future__ import annotations
@@ -20,18 +21,6 @@ import numpy as np
 
 from stimuli import jung2015
 from stimuli.agreementscan import (
-    AGREEMENT_RATIO,
-    COARSE_SHORT_SIDE_PX,
-    COST_WINDOW_PX,
-    MIN_CONTRAST,
-    MIN_EVIDENCE,
-    MIN_SUPPORT,
-    SCAN_BUDGET_PX,
-    SCAN_SHORT_SIDE_PX,
-    SHOULDER_FRACTION,
-    SHOULDER_FRACTION_STRONG,
-    SMOOTH_SHIFT_PX,
-    STRONG_EVIDENCE,
     agreement_scan,
     estimate_disparity_range,
     scan_binning,
@@ -78,19 +67,7 @@ __all__ = [
     "auto_binning",
     "scan_binning",
     "scan_downsample",
-    "SCAN_BUDGET_PX",
     "estimate_disparity_range",
-    "AGREEMENT_RATIO",
-    "COST_WINDOW_PX",
-    "MIN_CONTRAST",
-    "MIN_SUPPORT",
-    "MIN_EVIDENCE",
-    "SHOULDER_FRACTION",
-    "SHOULDER_FRACTION_STRONG",
-    "STRONG_EVIDENCE",
-    "SMOOTH_SHIFT_PX",
-    "SCAN_SHORT_SIDE_PX",
-    "COARSE_SHORT_SIDE_PX",
     "SCAN_METHODS",
 ]
 
@@ -134,14 +111,15 @@ def find_object_planes(
 ) -> PlaneScan:
     """Scan planes and return the score versus depth and the detected object planes.
 
-    ``method='agreement'`` (default, ours): a plane sweep of view agreement. At each plane the
-    views on the centre row and column are shifted onto the centre view and their absolute
-    differences summed over a :data:`COST_WINDOW_PX` box; each pixel's best plane counts when
-    its views agree there (:data:`AGREEMENT_RATIO`). The score is the smoothed fraction of
-    pixels per plane (the support curve). The same sweep against the centre view turned by
-    180 degrees (non-coincident data) is the null: a peak is a plane only when its prominence
-    is :data:`MIN_EVIDENCE` times the null's largest, it holds :data:`MIN_SUPPORT` of the
-    pixels, and it is not a shoulder of a higher hill (:data:`SHOULDER_FRACTION`).
+    ``method='agreement'`` (default, ours): a plane sweep of view agreement, tuned by the
+    constants of :mod:`stimuli.agreementscan`. At each plane the views on the centre row and
+    column are shifted onto the centre view and their absolute differences summed over a
+    ``COST_WINDOW_PX`` box; each pixel's best plane counts when its views agree there
+    (``AGREEMENT_RATIO``). The score is the smoothed fraction of pixels per plane (the support
+    curve). The same sweep against the centre view turned by 180 degrees (non-coincident data)
+    is the null: a peak is a plane only when its prominence is ``MIN_EVIDENCE`` times the
+    null's largest, it holds ``MIN_SUPPORT`` of the pixels, and it is not a shoulder of a
+    higher hill (``SHOULDER_FRACTION``).
 
     ``method='haar'``: the paper's overlap score of Haar edges with the centre view's (module
     notes), peaks by :func:`score_peaks`, with no null.
@@ -165,9 +143,9 @@ def find_object_planes(
         Agreement scan: large views are binned this many times more than ``binning`` (sub-pixel
         shifts divided by it; planes still reported in full-resolution px per view step, the
         support curve smoothed as at ``binning``). Default :func:`scan_downsample` (the
-        smallest factor that brings the binned views under :data:`SCAN_BUDGET_PX` pixels, 1
-        for small views) when ``binning`` is not given, else 1. Recorded in
-        ``PlaneScan.downsample``.
+        smallest factor that brings the binned views under
+        :data:`~stimuli.agreementscan.SCAN_BUDGET_PX` pixels, 1 for small views) when
+        ``binning`` is not given, else 1. Recorded in ``PlaneScan.downsample``.
 
     Returns
     -------
