@@ -12,6 +12,7 @@ from PIL import Image
 from experiment.cli import main
 from stimuli.lightfield import load_lightfield
 from stimuli.lightfield_cli import parse_grid, parse_zoom
+from stimuli.planes import PlaneScan
 
 
 def _ok(args):
@@ -96,17 +97,9 @@ def test_scan_writes_planes_csv_plot_and_plane_images(sim_png, tmp_path, capsys)
     with open(out / "planes.csv") as f:
         rows = list(csv.DictReader(f))
     assert len(rows) == 40
-    assert set(rows[0]) == {
-        "index",
-        "depth_m",
-        "disparity_px",
-        "score",
-        "null_score",
-        "peak",
-        "support",
-        "prominence",
-        "evidence",
-    }
+    # planes.csv holds the scan's rows (PlaneScan.rows, whose columns test_planes pins)
+    scan = PlaneScan.from_dict(json.loads((out / "scan.json").read_text()))
+    assert rows == [{k: str(v) for k, v in r.items()} for r in scan.rows()]
     assert float(rows[0]["depth_m"]) == pytest.approx(0.5)
     n_peaks = sum(int(r["peak"]) for r in rows)
     assert n_peaks >= 1 and f"{n_peaks} object plane(s) in 40 planes" in text
