@@ -65,6 +65,15 @@ lightfield_app = typer.Typer(
 _LightFieldPath = Annotated[
     Path, typer.Argument(help="Folder of views, .npy/.npz, or elemental image.")
 ]
+#: The depth range of ``scan`` and of ``refocus --stack``.
+_Near = Annotated[
+    float | None,
+    typer.Option("--near", callback=finite_option(0.0, lo_open=True), help="Nearest depth, m."),
+]
+_Far = Annotated[
+    float | None,
+    typer.Option("--far", callback=finite_option(0.0, lo_open=True), help="Farthest depth, m."),
+]
 _Threshold = Annotated[
     str, typer.Option("--threshold", help="Sobel threshold: 'auto' (Otsu) or a number.")
 ]
@@ -479,14 +488,8 @@ def scan_command(
     planes: Annotated[
         int, typer.Option("--planes", min=3, help="Number of planes (paper: 200).")
     ] = 200,
-    near: Annotated[
-        float | None,
-        typer.Option("--near", callback=finite_option(0.0, lo_open=True), help="Nearest depth, m."),
-    ] = None,
-    far: Annotated[
-        float | None,
-        typer.Option("--far", callback=finite_option(0.0, lo_open=True), help="Farthest depth, m."),
-    ] = None,
+    near: _Near = None,
+    far: _Far = None,
     disparities: Annotated[
         str | None,
         typer.Option(
@@ -615,20 +618,17 @@ def refocus_command(
             "--disparity", callback=finite_option(), help="Plane disparity, px per view step."
         ),
     ] = None,
-    stack: Annotated[bool, typer.Option("--stack", help="Write a focal stack into --out.")] = False,
+    stack: Annotated[
+        bool,
+        typer.Option(
+            "--stack",
+            help="Write a focal stack into --out: --planes planes from --near to --far, or over "
+            "--disparities.",
+        ),
+    ] = False,
     planes: Annotated[int, typer.Option("--planes", min=3, help="Planes in the stack.")] = 20,
-    near: Annotated[
-        float | None,
-        typer.Option(
-            "--near", callback=finite_option(0.0, lo_open=True), help="Stack: nearest depth, m."
-        ),
-    ] = None,
-    far: Annotated[
-        float | None,
-        typer.Option(
-            "--far", callback=finite_option(0.0, lo_open=True), help="Stack: farthest depth, m."
-        ),
-    ] = None,
+    near: _Near = None,
+    far: _Far = None,
     disparities: Annotated[
         str | None, typer.Option("--disparities", help="Stack: FROM:TO, px per view step.")
     ] = None,
