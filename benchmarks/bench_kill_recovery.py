@@ -40,12 +40,12 @@ def main(argv: list[str] | None = None) -> int:
         default=None,
         help="keep the logs here (default: a temporary folder in /dev/shm, removed after)",
     )
-    args = ap.parse_args(argv)
+    options = vars(ap.parse_args(argv))  # run_kill_recovery's keyword arguments, and workdir
+    workdir = options.pop("workdir")
     warnings.simplefilter("ignore", UserWarning)  # the small synthetic scene's depth warning
     from experiment.kill_recovery import run_kill_recovery
 
     tmp = None
-    workdir = args.workdir
     if workdir is None:
         # tmpfs: a SIGKILL keeps the page cache, so fsync is not what is tested (a power cut
         # would be), and on a disk the fsyncs would take most of the time
@@ -54,20 +54,12 @@ def main(argv: list[str] | None = None) -> int:
         workdir = Path(tmp)
     try:
         report = run_kill_recovery(
-            workdir,
-            kills=args.kills,
-            workers=args.workers,
-            seed=args.seed,
-            active_share=args.active_share,
-            progress=lambda line: print(line, flush=True),
+            workdir, **options, progress=lambda line: print(line, flush=True)
         )
     finally:
         if tmp is not None:
             shutil.rmtree(tmp, ignore_errors=True)
-    print(
-        f"kill test: --kills {args.kills} --workers {args.workers} --seed {args.seed} "
-        f"--active-share {args.active_share}"
-    )
+    print("kill test:", *(f"--{name.replace('_', '-')} {v}" for name, v in options.items()))
     for line in report.lines():
         print(line)
     return 0 if report.ok else 1
