@@ -225,28 +225,11 @@ def _fmt(v: object) -> str:
 
 @dataclass(frozen=True)
 class ObjectInfo:
-    """One row of ``objects.csv`` (see the module docstring for the columns).
+    """One row of ``objects.csv``, parsed and checked.
 
-    Parameters
-    ----------
-    object : str
-        Object id.
-    name : str
-        Display name; empty means "use the id".
-    synonyms, uses : tuple of str
-        Accepted names and accepted uses.
-    role : {'main', 'training'}
-    sobel_threshold : float >= 0 or None
-        Per-object Sobel threshold; ``None`` = global or automatic.
-    crop : (x, y, w, h) or None
-        Zoom box in full-resolution pixels.
-    plane_depth_m : float > 0 or None
-        Light-field objects: confocal plane depth, metres.
-    plane_disparity_px : float or None
-        Light-field objects: plane disparity, pixels per view step.
-    roi : (x, y, w, h) or str or None
-        Light-field objects: region of interest, a box in centre-view pixels or a mask image
-        path (relative to the ``objects.csv`` folder).
+    Each field is the column of the same name in the module docstring's table; an empty cell
+    takes the field's default. ``synonyms`` and ``uses`` are tuples, ``crop`` and a box ``roi``
+    are ``(x, y, w, h)`` tuples, and a mask ``roi`` is its path as written.
     """
 
     object: str
