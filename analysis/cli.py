@@ -79,17 +79,6 @@ def _seed_option(what: str):
     return typer.Option("--seed", min=0, max=_MAX_SEED, help=f"Seed of the {what}.")
 
 
-def _available_memory_bytes() -> int:
-    try:
-        with open("/proc/meminfo", encoding="ascii") as f:
-            for line in f:
-                if line.startswith("MemAvailable:"):
-                    return int(line.split()[1]) * 1024
-    except (OSError, ValueError, IndexError):
-        pass
-    return 1 << 62
-
-
 def _disk_full(exc: OSError, out: Path) -> DataError:
     return DataError(
         f"--out {out}: the disk is full ({exc.strerror or exc}) while writing the report; the "
@@ -545,6 +534,8 @@ def power(
         raise _OptionError(f"{given[0]} is for active-search power; add --hazard-ratio")
     import math
 
+    import psutil
+
     from analysis.errors import OptionError
     from analysis.power import MAX_SIMS, GridPoint, power_grid
 
@@ -565,7 +556,7 @@ def power(
         if min(vals) < low:
             raise OptionError(f"{opt} must be integers >= {low}, got {vals!r}")
     need = ns[-1] * nos[-1] * nls[-1] * 2 * _POWER_BYTES_PER_TRIAL
-    avail = _available_memory_bytes()
+    avail = psutil.virtual_memory().available
     if need > avail:
         raise OptionError(
             f"--subjects {ns[-1]} (with {nos[-1]} objects, {nls[-1]} levels) needs about "
