@@ -79,6 +79,11 @@ def _seed_option(what: str):
     return typer.Option("--seed", min=0, max=_MAX_SEED, help=f"Seed of the {what}.")
 
 
+def _active_option(name: str, what: str):
+    """Return an option of ``power`` that only active-search studies use, saying ``what`` it is."""
+    return typer.Option(name, help=f"Active search: {what}")
+
+
 def _disk_full(exc: OSError, out: Path) -> DataError:
     return DataError(
         f"--out {out}: the disk is full ({exc.strerror or exc}) while writing the report; the "
@@ -480,29 +485,21 @@ def power(
         bool, typer.Option("--active", help="Plan an active-search study (needs --hazard-ratio).")
     ] = False,
     hazard_ratio: Annotated[
-        str | None,
-        typer.Option("--hazard-ratio", help="Active search: hazard ratio(s) of recognition."),
+        str | None, _active_option("--hazard-ratio", "hazard ratio(s) of recognition.")
     ] = None,
-    scenes: Annotated[
-        str | None, typer.Option("--scenes", help="Active search: numbers of scenes (2).")
-    ] = None,
-    targets: Annotated[
-        int | None, typer.Option("--targets", help="Active search: targets per scene (3).")
-    ] = None,
+    scenes: Annotated[str | None, _active_option("--scenes", "numbers of scenes (2).")] = None,
+    targets: Annotated[int | None, _active_option("--targets", "targets per scene (3).")] = None,
     time_limit: Annotated[
-        float | None, typer.Option("--time-limit", help="Active search: trial limit, s (60).")
+        float | None, _active_option("--time-limit", "trial limit, s (60).")
     ] = None,
     median_time: Annotated[
-        float | None,
-        typer.Option("--median-time", help="Active search: cluttered median time, s (20)."),
+        float | None, _active_option("--median-time", "cluttered median time, s (20).")
     ] = None,
     weibull_shape: Annotated[
-        float | None,
-        typer.Option("--weibull-shape", help="Active search: Weibull shape (1: exponential)."),
+        float | None, _active_option("--weibull-shape", "Weibull shape (1: exponential).")
     ] = None,
     frailty_sd: Annotated[
-        float | None,
-        typer.Option("--frailty-sd", help="Active search: subject log-hazard SD (0.5)."),
+        float | None, _active_option("--frailty-sd", "subject log-hazard SD (0.5).")
     ] = None,
 ) -> None:
     """Estimate power over effect sizes, subjects, objects and levels (simulated studies).
