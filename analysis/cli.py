@@ -79,15 +79,9 @@ def _seed_option(what: str):
     return typer.Option("--seed", min=0, max=_MAX_SEED, help=f"Seed of the {what}.")
 
 
-def _available_memory_bytes() -> int:
-    try:
-        with open("/proc/meminfo", encoding="ascii") as f:
-            for line in f:
-                if line.startswith("MemAvailable:"):
-                    return int(line.split()[1]) * 1024
-    except (OSError, ValueError, IndexError):
-        pass
-    return 1 << 62
+def _active_option(name: str, what: str):
+    """Return an option of ``power`` that only active-search studies use, saying ``what`` it is."""
+    return typer.Option(name, help=f"Active search: {what}")
 
 
 def _disk_full(exc: OSError, out: Path) -> DataError:
@@ -491,29 +485,21 @@ def power(
         bool, typer.Option("--active", help="Plan an active-search study (needs --hazard-ratio).")
     ] = False,
     hazard_ratio: Annotated[
-        str | None,
-        typer.Option("--hazard-ratio", help="Active search: hazard ratio(s) of recognition."),
+        str | None, _active_option("--hazard-ratio", "hazard ratio(s) of recognition.")
     ] = None,
-    scenes: Annotated[
-        str | None, typer.Option("--scenes", help="Active search: numbers of scenes (2).")
-    ] = None,
-    targets: Annotated[
-        int | None, typer.Option("--targets", help="Active search: targets per scene (3).")
-    ] = None,
+    scenes: Annotated[str | None, _active_option("--scenes", "numbers of scenes (2).")] = None,
+    targets: Annotated[int | None, _active_option("--targets", "targets per scene (3).")] = None,
     time_limit: Annotated[
-        float | None, typer.Option("--time-limit", help="Active search: trial limit, s (60).")
+        float | None, _active_option("--time-limit", "trial limit, s (60).")
     ] = None,
     median_time: Annotated[
-        float | None,
-        typer.Option("--median-time", help="Active search: cluttered median time, s (20)."),
+        float | None, _active_option("--median-time", "cluttered median time, s (20).")
     ] = None,
     weibull_shape: Annotated[
-        float | None,
-        typer.Option("--weibull-shape", help="Active search: Weibull shape (1: exponential)."),
+        float | None, _active_option("--weibull-shape", "Weibull shape (1: exponential).")
     ] = None,
     frailty_sd: Annotated[
-        float | None,
-        typer.Option("--frailty-sd", help="Active search: subject log-hazard SD (0.5)."),
+        float | None, _active_option("--frailty-sd", "subject log-hazard SD (0.5).")
     ] = None,
 ) -> None:
     """Estimate power over effect sizes, subjects, objects and levels (simulated studies).
@@ -545,6 +531,8 @@ def power(
         raise _OptionError(f"{given[0]} is for active-search power; add --hazard-ratio")
     import math
 
+    import psutil
+
     from analysis.errors import OptionError
     from analysis.power import MAX_SIMS, GridPoint, power_grid
 
@@ -565,7 +553,7 @@ def power(
         if min(vals) < low:
             raise OptionError(f"{opt} must be integers >= {low}, got {vals!r}")
     need = ns[-1] * nos[-1] * nls[-1] * 2 * _POWER_BYTES_PER_TRIAL
-    avail = _available_memory_bytes()
+    avail = psutil.virtual_memory().available
     if need > avail:
         raise OptionError(
             f"--subjects {ns[-1]} (with {nos[-1]} objects, {nls[-1]} levels) needs about "

@@ -255,18 +255,9 @@ def _clean(v: Any) -> Any:
 
 @dataclass(frozen=True)
 class AnalysisStep:
-    """Progress of :func:`analyze`.
+    """Progress of :func:`analyze`: ``done`` of ``total`` steps, ``label`` the one just finished.
 
-    Parameters
-    ----------
-    done : int
-        Steps finished.
-    total : int
-        Steps in all.
-    label : str
-        What was just finished.
-    result : AnalysisResult or None
-        Set on the last step only.
+    ``result`` is set on the last step only.
     """
 
     done: int

@@ -7,36 +7,21 @@ does not load numpy and Pillow.
 
 from __future__ import annotations
 
-import importlib
 from importlib.metadata import PackageNotFoundError, version
-from typing import Any
+
+import lazy_loader
 
 try:
     __version__ = version("active-confocal")
 except PackageNotFoundError:  # running from a source tree that was not installed
     __version__ = "0+unknown"
 
-#: Where each public name lives.
-_HOME = {
-    "compress": "stimuli.compress",
-    "compress_grey": "stimuli.compress",
-    "grid_shape": "stimuli.compress",
-    "InputError": "stimuli.errors",
-    "load_gray": "stimuli.io",
-    "save_png": "stimuli.io",
-}
-
-__all__ = list(_HOME)
-
-
-def __getattr__(name: str) -> Any:
-    """Import the module that holds ``name`` on first use (PEP 562)."""
-    if name not in _HOME:
-        raise AttributeError(f"module 'stimuli' has no attribute {name!r}")
-    value = getattr(importlib.import_module(_HOME[name]), name)
-    globals()[name] = value
-    return value
-
-
-def __dir__() -> list[str]:
-    return sorted(set(globals()) | set(_HOME))
+#: Where each public name lives (``lazy_loader``, as scikit-image does).
+__getattr__, __dir__, __all__ = lazy_loader.attach(
+    __name__,
+    submod_attrs={
+        "compress": ["compress", "compress_grey", "grid_shape"],
+        "errors": ["InputError"],
+        "io": ["load_gray", "save_png"],
+    },
+)

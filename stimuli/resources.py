@@ -8,7 +8,6 @@ killed by the kernel with no message.
 from __future__ import annotations
 
 import math
-import os
 
 from stimuli.errors import InputError
 
@@ -38,19 +37,11 @@ __all__ = [
 def available_memory_bytes() -> int:
     """Return the memory the system can give a new allocation now, bytes (``MemAvailable``).
 
-    Falls back to free physical pages (``os.sysconf``) where ``/proc/meminfo`` is missing.
+    Read by ``psutil`` (imported here, not with the module, to keep ``--help`` fast).
     """
-    try:
-        with open("/proc/meminfo", encoding="ascii") as f:
-            for line in f:
-                if line.startswith("MemAvailable:"):
-                    return int(line.split()[1]) * 1024
-    except (OSError, ValueError, IndexError):
-        pass
-    try:
-        return int(os.sysconf("SC_AVPHYS_PAGES")) * int(os.sysconf("SC_PAGE_SIZE"))
-    except (OSError, ValueError, AttributeError):  # pragma: no cover - non-POSIX
-        return 1 << 62
+    import psutil
+
+    return int(psutil.virtual_memory().available)
 
 
 def format_bytes(n: float) -> str:

@@ -16,7 +16,6 @@ import os
 import shutil
 import subprocess
 import sys
-from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -36,6 +35,9 @@ from experiment.outputs import (
 )
 from tests.conftest import make_scored_study, run_cli
 
+#: The cheapest PAIRS folder: one object, no training object, small photos.
+SYNTH = "stimuli synth --objects 1 --training 0 --size 64x48"
+
 
 @dataclass(frozen=True)
 class World:
@@ -52,8 +54,7 @@ class World:
 def world(tmp_path_factory) -> World:
     root = tmp_path_factory.mktemp("inputs")
     pairs = root / "pairs"
-    synth = ["stimuli", "synth", "--objects", "1", "--training", "0", "--size", "64x48"]
-    assert run_cli([*synth, "--out", pairs]) == 0
+    assert run_cli([*SYNTH.split(), "--out", pairs]) == 0
     lf = root / "lf.npz"
     assert run_cli(["lightfield", "synth", "--size", "40x32", "--out", lf]) == 0
     _, proto, db = make_scored_study(root)
@@ -70,16 +71,20 @@ def world(tmp_path_factory) -> World:
 
 @dataclass(frozen=True)
 class Cmd:
-    """A writing command at its cheapest: ``argv(world, out)`` and what its input is."""
+    """A writing command at its cheapest: its command line and what its input is."""
 
     name: str  # the manifest's command name
     kind: str  # 'folder' or 'file'
-    argv: Callable[[World, Path], list]
-    input: Callable[[World], Path] | None = None
+    line: str  # after 'confocal'; {out} and the World's fields ({db}, {lf}, ...) are filled in
+    input: str | None = None  # the World field it reads
     again: tuple[str, ...] = ()  # the flag a second run into its own output needs
     out_name: str = "out"  # a file output's name (its suffix matters)
     rerun: str | None = "ok"  # None: cannot run here (why in `why`)
     why: str = ""
+
+    def argv(self, w: World, out: Path | str) -> list[str]:
+        """Return the command's arguments for the inputs of ``w`` and the output ``out``."""
+        return [word.format(out=out, **vars(w)) for word in self.line.split()]
 
 
 def _tiny_demo(monkeypatch) -> None:
@@ -99,138 +104,73 @@ def _tiny_demo(monkeypatch) -> None:
 
 
 CMDS: list[Cmd] = [
-    Cmd(
-        "analyze run",
-        "folder",
-        lambda w, o: ["analyze", w.db, "--out", o, "--no-figures", "--seed", "1"],
-        lambda w: w.db,
-    ),
+    Cmd("analyze run", "folder", "analyze {db} --out {out} --no-figures --seed 1", "db"),
     Cmd(
         "analyze fit",
         "folder",
-        lambda w, o: [
-            "analyze",
-            "fit",
-            w.table,
-            "--x",
-            "level",
-            "--y",
-            "correct",
-            "--out",
-            o,
-            "--no-plots",
-        ],
-        lambda w: w.table,
+        "analyze fit {table} --x level --y correct --out {out} --no-plots",
+        "table",
     ),
     Cmd(
-        "stimuli build",
-        "folder",
-        lambda w, o: ["stimuli", "build", w.pairs, "--out", o, "--working-size", "64x48"],
-        lambda w: w.pairs,
+        "stimuli build", "folder", "stimuli build {pairs} --out {out} --working-size 64x48", "pairs"
     ),
-    Cmd(
-        "stimuli synth",
-        "folder",
-        lambda w, o: [
-            "stimuli",
-            "synth",
-            "--objects",
-            "1",
-            "--training",
-            "0",
-            "--size",
-            "64x48",
-            "--out",
-            o,
-        ],
-        again=("--force",),
-    ),
+    Cmd("stimuli synth", "folder", f"{SYNTH} --out {{out}}", again=("--force",)),
     Cmd(
         "stimuli tune",
         "file",
-        lambda w, o: [
-            "stimuli",
-            "tune",
-            w.pairs,
-            "--sheet",
-            o,
-            "--working-size",
-            "64x48",
-            "--dry-run",
-        ],
-        lambda w: w.pairs,
+        "stimuli tune {pairs} --sheet {out} --working-size 64x48 --dry-run",
+        "pairs",
         again=("--force",),
         out_name="sheet.png",
     ),
-    Cmd(
-        "lightfield scan",
-        "folder",
-        lambda w, o: ["lightfield", "scan", w.lf, "--out", o, "--planes", "4"],
-        lambda w: w.lf,
-    ),
+    Cmd("lightfield scan", "folder", "lightfield scan {lf} --out {out} --planes 4", "lf"),
     Cmd(
         "lightfield refocus --stack",
         "folder",
-        lambda w, o: ["lightfield", "refocus", w.lf, "--stack", "--planes", "3", "--out", o],
-        lambda w: w.lf,
+        "lightfield refocus {lf} --stack --planes 3 --out {out}",
+        "lf",
     ),
     Cmd(
         "lightfield refocus",
         "file",
-        lambda w, o: ["lightfield", "refocus", w.lf, "--disparity", "0", "--out", o],
-        lambda w: w.lf,
+        "lightfield refocus {lf} --disparity 0 --out {out}",
+        "lf",
         again=("--force",),
         out_name="img.png",
     ),
-    Cmd(
-        "lightfield synth",
-        "folder",
-        lambda w, o: ["lightfield", "synth", "--size", "40x32", "--out", o],
-    ),
+    Cmd("lightfield synth", "folder", "lightfield synth --size 40x32 --out {out}"),
     Cmd(
         "lightfield synth .npz",
         "file",
-        lambda w, o: ["lightfield", "synth", "--size", "40x32", "--out", o],
+        "lightfield synth --size 40x32 --out {out}",
         again=("--force",),
         out_name="lf2.npz",
     ),
-    Cmd(
-        "session export",
-        "folder",
-        lambda w, o: ["session", "export", w.db, "--out", o],
-        lambda w: w.db,
-    ),
-    Cmd("demo", "folder", lambda w, o: ["demo", "--out", o], again=("--force",)),
-    Cmd(
-        "demo --lightfield",
-        "folder",
-        lambda w, o: ["demo", "--lightfield", "--out", o],
-        again=("--force",),
-    ),
-    Cmd(
-        "demo --active", "folder", lambda w, o: ["demo", "--active", "--out", o], again=("--force",)
-    ),
+    Cmd("session export", "folder", "session export {db} --out {out}", "db"),
+    Cmd("demo", "folder", "demo --out {out}", again=("--force",)),
+    Cmd("demo --lightfield", "folder", "demo --lightfield --out {out}", again=("--force",)),
+    Cmd("demo --active", "folder", "demo --active --out {out}", again=("--force",)),
     Cmd(
         "view --screenshot",
         "file",
-        lambda w, o: ["view", w.lf, "--cpu", "--planes", "4", "--screenshot", o],
-        lambda w: w.lf,
+        "view {lf} --cpu --planes 4 --screenshot {out}",
+        "lf",
         again=("--force",),
         out_name="shot.png",
     ),
     Cmd(
         "view --shots",
         "folder",
-        lambda w, o: ["view", w.lf, "--cpu", "--shots", o],
-        lambda w: w.lf,
+        "view {lf} --cpu --shots {out}",
+        "lf",
         rerun=None,
         why="--shots saves frames of a window; none in CI",
     ),
     Cmd(
         "present --screenshot",
         "file",
-        lambda w, o: ["present", "--stimulus", w.stim_png, "--screenshot", o],
-        lambda w: w.stim_png,
+        "present --stimulus {stim_png} --screenshot {out}",
+        "stim_png",
         again=("--force",),
         out_name="shot.png",
     ),
@@ -259,7 +199,7 @@ def _hashes(*tops: Path) -> dict[str, str]:
 
 def _case_out(cmd: Cmd, case: str, w: World, t: Path) -> tuple[Path | str, Path | None]:
     """Return (the --out to give, the folder to run in) for ``case``; skip what cannot apply."""
-    inp = cmd.input(w) if cmd.input else None
+    inp = getattr(w, cmd.input) if cmd.input else None
     if case in ("the input", "parent of the input", "inside the input") and inp is None:
         pytest.skip(f"{cmd.name} reads no input")
     if case == "user file":
@@ -360,11 +300,10 @@ def test_without_force_an_own_output_is_refused_where_the_command_needs_it(
     world, tmp_path, monkeypatch, capsys
 ):
     monkeypatch.chdir(tmp_path)
-    synth = ["stimuli", "synth", "--objects", "1", "--training", "0", "--size", "64x48"]
-    assert run_cli([*synth, "--out", tmp_path / "p"]) == 0
+    assert run_cli([*SYNTH.split(), "--out", tmp_path / "p"]) == 0
     before = _hashes(tmp_path)
     capsys.readouterr()
-    assert run_cli([*synth, "--out", tmp_path / "p"]) == 2
+    assert run_cli([*SYNTH.split(), "--out", tmp_path / "p"]) == 2
     assert "use --force to replace it" in capsys.readouterr().err
     assert _hashes(tmp_path) == before
 
@@ -417,8 +356,7 @@ def test_tune_updates_its_sheet_in_the_pairs_folder_and_keeps_synth_able_to_repl
     assert run_cli(tune) == 0
     assert run_cli(tune) == 0  # its own default sheet: no --force needed
     assert "tune_sheet.png" in read_manifest(pairs)["files"]
-    synth = ["stimuli", "synth", "--objects", "1", "--training", "0", "--size", "64x48"]
-    assert run_cli([*synth, "--out", pairs, "--force"]) == 0
+    assert run_cli([*SYNTH.split(), "--out", pairs, "--force"]) == 0
 
 
 # -- the rule itself -----------------------------------------------------------------------------

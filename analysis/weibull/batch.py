@@ -77,18 +77,10 @@ class FitJob:
 
 @dataclass(frozen=True)
 class BatchProgress:
-    """State of :func:`sample_batch` after a chunk of steps.
+    """State of :func:`sample_batch` after a chunk of steps: ``n_done`` of ``n_fits`` fits done.
 
-    Parameters
-    ----------
-    n_steps : int
-        Steps taken by the fits still running.
-    n_done : int
-        Fits finished (converged or out of steps).
-    n_fits : int
-        Fits in the batch.
-    fits : list of WeibullFit or None
-        Set on the last yield only, in job order.
+    A fit is done when converged or out of steps; the others have taken ``n_steps`` steps.
+    ``fits`` is set on the last yield only, in job order.
     """
 
     n_steps: int

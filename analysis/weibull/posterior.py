@@ -83,16 +83,9 @@ class _LogPosterior:
 class SamplerProgress:
     """State of a running posterior sampler, yielded after each chunk of steps.
 
-    Parameters
-    ----------
-    n_steps : int
-        Steps taken so far (per walker).
-    tau_max : float
-        Largest integrated autocorrelation time over the parameters, steps.
-    converged : bool
-        True when ``n_steps >= 50 * tau_max``.
-    sampler : emcee.EnsembleSampler
-        The sampler itself (chain access).
+    ``n_steps`` steps per walker so far; ``tau_max`` the largest integrated autocorrelation time
+    over the parameters, steps; ``converged`` once ``n_steps >= 50 * tau_max``; ``sampler`` the
+    ``emcee.EnsembleSampler`` itself (chain access).
     """
 
     n_steps: int
