@@ -37,7 +37,6 @@ integral-imaging reconstruction as confocal imaging).
 
 from __future__ import annotations
 
-import contextlib
 import math
 from collections.abc import Iterator, Sequence
 from concurrent.futures import ThreadPoolExecutor
@@ -48,31 +47,6 @@ from stimuli.errors import InputError
 from stimuli.lfload import as_lightfield
 from stimuli.lightfield import LightField
 from stimuli.rowthreads import default_workers, run_on_row_strips
-
-try:  # BLAS y += a x: one pass instead of numpy's two (scipy is a core dependency)
-    from scipy.linalg.blas import saxpy as _saxpy
-except ImportError:  # pragma: no cover - scipy without BLAS wrappers
-    _saxpy = None
-
-_BLAS = {}
-
-
-def _one_blas_thread():
-    """Context: BLAS runs single-threaded inside (our own threads split the work).
-
-    OpenBLAS would otherwise split each ``saxpy`` over its own threads, which then spin after
-    the call and slow whatever runs next (measured: a 3 ms Sobel pass took 17 ms after one).
-    """
-    if "ctl" not in _BLAS:
-        try:
-            from threadpoolctl import ThreadpoolController
-
-            _BLAS["ctl"] = ThreadpoolController()
-        except ImportError:  # pragma: no cover - declared dependency
-            _BLAS["ctl"] = None
-    ctl = _BLAS["ctl"]
-    return contextlib.nullcontext() if ctl is None else ctl.limit(limits=1, user_api="blas")
-
 
 __all__ = ["refocus", "focal_stack", "iter_focal_stack", "centre_view", "default_workers"]
 
