@@ -42,7 +42,6 @@ __all__ = [
 logger = logging.getLogger(__name__)
 
 
-
 @dataclass(frozen=True)
 class ConfocalPairImages:
     """A light-field object's two images and its plane.
