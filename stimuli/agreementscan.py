@@ -22,6 +22,7 @@ import warnings
 from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
+from scipy.linalg.blas import saxpy as _saxpy  # y += a x: one pass instead of two
 from scipy.ndimage import gaussian_filter1d, uniform_filter1d
 
 from stimuli import jung2015
@@ -30,7 +31,8 @@ from stimuli.haarscan import MIN_EDGE_PIXELS
 from stimuli.lfload import as_lightfield
 from stimuli.lfviews import LightField
 from stimuli.planescan import Plane, PlaneScan, find_peaks
-from stimuli.refocus import _one_blas_thread, _saxpy, default_workers
+from stimuli.rowthreads import default_workers
+from stimuli.rowthreads import one_blas_thread as _one_blas_thread
 
 __all__ = [
     "scan_binning",

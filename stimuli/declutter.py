@@ -30,7 +30,7 @@ exchange frequency. J. Histochem. Cytochem. 25(7), 741-753.
 from __future__ import annotations
 
 import numpy as np
-from skimage.filters import sobel, threshold_otsu, threshold_triangle
+from skimage.filters import threshold_otsu, threshold_triangle
 
 from stimuli.errors import InputError
 from stimuli.io import check_gray
@@ -64,33 +64,35 @@ def sobel_magnitude(image: np.ndarray) -> np.ndarray:
 
     Parameters
     ----------
-    image : ndarray of shape (rows, cols), float32 in [0, 1]
+    image : ndarray of shape (rows, cols), float in [0, 1] or bool
 
     Returns
     -------
     ndarray of shape (rows, cols), float32 >= 0
         ``sqrt((Gx**2 + Gy**2) / 2)`` as scikit-image defines it (so a unit step gives about
-        0.7 at the edge).
+        0.7 at the edge), equal to ``skimage.filters.sobel`` of the float32 image to the bit.
+        One compiled pass (:func:`stimuli.kernels.sobel_rows`) on strips of rows in threads;
+        the same pass checks that every value is in [0, 1].
+
+    Raises
+    ------
+    InputError
+        If the image is not 2-D, not float or bool, or has values outside [0, 1] (or NaN).
     """
-    img = check_gray(image)
-    rows = img.shape[0]
-    n = min(_sobel_workers(), rows // _STRIP_MIN_ROWS)
-    if img.size < _THREAD_MIN_PIXELS or n < 2:
-        return sobel(img).astype(np.float32)
-    # Strips of rows on threads (scipy.ndimage releases the GIL), each with one row of its
-    # neighbours: the 3x3 kernel then sees the same pixels as on the whole image, so the
-    # result is the same to the bit; the image's own border rows keep skimage's reflection.
-    from concurrent.futures import ThreadPoolExecutor
+    from stimuli.kernels import sobel_rows
+    from stimuli.rowthreads import default_workers, run_on_row_strips
 
+    a = np.asarray(image)
+    if a.ndim != 2 or not (a.dtype == bool or np.issubdtype(a.dtype, np.floating)):
+        check_gray(a)  # raises, naming what is wrong
+    img = np.ascontiguousarray(a, dtype=np.float32)
     out = np.empty(img.shape, dtype=np.float32)
-    edges = np.linspace(0, rows, n + 1).astype(int)
-
-    def strip(r0: int, r1: int) -> None:
-        a, b = max(0, r0 - 1), min(rows, r1 + 1)
-        out[r0:r1] = sobel(img[a:b])[r0 - a : r0 - a + (r1 - r0)]
-
-    with ThreadPoolExecutor(n) as ex:
-        list(ex.map(strip, edges[:-1], edges[1:]))
+    rows = img.shape[0]
+    n = 1 if img.size < _THREAD_MIN_PIXELS else min(default_workers(), rows // _STRIP_MIN_ROWS)
+    if rows and img.shape[1]:
+        outside = sum(run_on_row_strips(lambda r0, r1: sobel_rows(img, out, r0, r1), rows, n))
+        if outside:
+            check_gray(a)  # raises with the range or the NaN
     return out
 
 
@@ -100,12 +102,6 @@ _THREAD_MIN_PIXELS = 1 << 18
 
 #: Sobel strips are at least this many rows high (ours).
 _STRIP_MIN_ROWS = 64
-
-
-def _sobel_workers() -> int:
-    from stimuli.refocus import default_workers
-
-    return default_workers()
 
 
 def declutter(image: np.ndarray, *, threshold: float) -> np.ndarray:

@@ -422,11 +422,11 @@ def render_phosphenes(
         v.shape, (rows, cols), shape, float(size), float(rotation_deg) % 360.0
     )
     if geo[0] == "separable":
-        from stimuli.refocus import _one_blas_thread
+        from stimuli.rowthreads import one_blas_thread
 
         # OpenBLAS threads cost more than they save on these thin products (measured: 20 ms
         # instead of 3 ms for a 523x931 Argus II drawing on two busy cores)
-        with _one_blas_thread():
+        with one_blas_thread():
             total = (geo[1] @ v) @ geo[2]
     else:
         total = (geo[1] @ v.ravel()).reshape(rows, cols)

@@ -14,7 +14,24 @@ import numpy as np
 from stimuli.errors import InputError
 from stimuli.io import _LUMA_WEIGHTS
 
-__all__ = ["Geometry", "LightField"]
+__all__ = ["Geometry", "LightField", "ANISOTROPY_RATIO", "is_one_dimensional"]
+
+
+#: A grid with at least this many times more views along one axis than the other is treated as
+#: 1-D by ``declutter='auto'`` (ours: refocusing then blurs three times more along one axis).
+ANISOTROPY_RATIO: float = 3.0
+
+
+def is_one_dimensional(grid: tuple[int, int]) -> bool:
+    """Return whether a view grid ``(n_u, n_v)`` is 1-D or strongly anisotropic.
+
+    Examples
+    --------
+    >>> is_one_dimensional((1, 7)), is_one_dimensional((3, 9)), is_one_dimensional((7, 7))
+    (True, True, False)
+    """
+    a, b = sorted(int(v) for v in grid)
+    return a == 1 or b >= ANISOTROPY_RATIO * a
 
 
 @dataclass(frozen=True)

@@ -312,7 +312,7 @@ def _check_mode(declutter_mode: str) -> str:
 
 def _resolve_mode(declutter_mode: str, lf) -> str:
     """``'auto'`` as the stimulus builder resolves it: depth on 1-D light fields, else sobel."""
-    from stimuli.build.lightfield import is_one_dimensional
+    from stimuli.lfviews import is_one_dimensional
 
     if declutter_mode != "auto":
         return declutter_mode
@@ -414,7 +414,25 @@ def _scan_one(
                     scores[i] = sc
                     bar.advance(task)
             scan = scan_result(lf, ds, scores, binning=b)
-    lines = [f"warning: {w.message}" for w in caught] + scan.notes()
+    lines: list[str] = []
+    say = lines.append if emit is None else emit  # the answer goes out as soon as it is known
+    for line in [f"warning: {w.message}" for w in caught] + scan.notes():
+        say(line)
+    for k, p in enumerate(scan.peaks):  # no refocusing needed for the answer
+        where = f"{p.depth_m:.3g} m, " if p.depth_m is not None else ""
+        evidence = f", support {p.support:.3f}, evidence {p.evidence:.3g}"
+        say(
+            f"plane{k + 1:02d}: {where}disparity {p.disparity_px:.3f} px/view, "
+            f"score {p.score:.3f}{evidence if math.isfinite(p.support) else ''}"
+        )
+    if scan.peaks and method == "agreement":
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            choice = choose_plane(lf, scan=scan)
+        k = next(i for i, p in enumerate(scan.peaks) if p.disparity_px == choice.disparity_px)
+        use = f"plane{k + 1:02d} ({choice.disparity_px:.3f} px/view)"
+        marginal = f"; marginal: {choice.marginal}" if choice.marginal else ""
+        say(f"stimuli build --plane auto would use {use}{marginal}")
     centre = lf.centre_view()
     images = []
     for k, p in enumerate(scan.peaks):
@@ -428,32 +446,8 @@ def _scan_one(
             focus_mask=focus,
             centre_view=centre,
         )
-        stem = f"plane{k + 1:02d}"
-        images.append((stem, img, edges, cells))
-        where = f"{p.depth_m:.3g} m, " if p.depth_m is not None else ""
-        extra = (
-            f", support {p.support:.3f}, evidence {p.evidence:.3g}"
-            if math.isfinite(p.support)
-            else ""
-        )
-        lines.append(
-            f"{stem}: {where}disparity {p.disparity_px:.3f} px/view, score {p.score:.3f}"
-            f"{extra}, threshold {t:.4g} ({mode})"
-        )
-    if scan.peaks and method == "agreement":
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            choice = choose_plane(lf, scan=scan)
-        k = next(i for i, p in enumerate(scan.peaks) if p.disparity_px == choice.disparity_px)
-        lines.append(
-            f"stimuli build --plane auto would use plane{k + 1:02d} "
-            f"({choice.disparity_px:.3f} px/view)"
-            + (f"; marginal: {choice.marginal}" if choice.marginal else "")
-        )
-    if emit is not None:
-        for line in lines:
-            emit(line)
-        lines = []
+        images.append((f"plane{k + 1:02d}", img, edges, cells))
+        say(f"plane{k + 1:02d} edges: threshold {t:.4g} ({mode})")
     # Written whole or not at all: a full disk or a stop leaves --out as it was.
     with staged_folder(out, what="the scan") as tmp:
         rows = scan.rows()

@@ -19,12 +19,13 @@ How it is fast
 * A linear-interpolation shift by ``s = n + f`` is ``(1 - f) I(x - n) + f I(x - n - 1)``: two
   weighted adds of integer-shifted *slices* (views, no copies), done for all ``u`` of one ``v`` at
   once, in ``float32``, into preallocated buffers.
-* Grey float32 views take BLAS ``saxpy`` taps (:func:`_refocus_views_flat`): the output is made
-  in blocks of rows, both passes per block, so a block's partial images stay in cache and each
-  view is read from memory once; threads split the rows evenly on every grid (a 3x3 grid's
-  three view columns would not split evenly over two threads).
-* Otherwise (colour, other dtypes) threads split the work (numpy releases the GIL): the first
-  pass by blocks of ``u``, the second by blocks of columns.
+* Grey float32 views take a compiled kernel (:func:`stimuli.kernels.shift_add_rows`, numba):
+  one pass per output row reads the two source rows of every view while they are in the
+  cache, so each view is read from memory once and the sum, the normalisation and the clipping
+  happen in one go; threads split the rows evenly on every grid (a 3x3 grid's three view columns
+  would not split evenly over two threads), and an axis with one view costs no pass.
+* Otherwise (colour, other dtypes) the numpy-slice path: threads split the work (numpy releases
+  the GIL), the first pass by blocks of ``u``, the second by blocks of columns.
 * The weight ``W`` is separable too: ``W(y, x) = w_rows(y) w_cols(x)``.
 
 References
@@ -36,9 +37,7 @@ integral-imaging reconstruction as confocal imaging).
 
 from __future__ import annotations
 
-import contextlib
 import math
-import os
 from collections.abc import Iterator, Sequence
 from concurrent.futures import ThreadPoolExecutor
 
@@ -47,31 +46,7 @@ import numpy as np
 from stimuli.errors import InputError
 from stimuli.lfload import as_lightfield
 from stimuli.lightfield import LightField
-
-try:  # BLAS y += a x: one pass instead of numpy's two (scipy is a core dependency)
-    from scipy.linalg.blas import saxpy as _saxpy
-except ImportError:  # pragma: no cover - scipy without BLAS wrappers
-    _saxpy = None
-
-_BLAS = {}
-
-
-def _one_blas_thread():
-    """Context: BLAS runs single-threaded inside (our own threads split the work).
-
-    OpenBLAS would otherwise split each ``saxpy`` over its own threads, which then spin after
-    the call and slow whatever runs next (measured: a 3 ms Sobel pass took 17 ms after one).
-    """
-    if "ctl" not in _BLAS:
-        try:
-            from threadpoolctl import ThreadpoolController
-
-            _BLAS["ctl"] = ThreadpoolController()
-        except ImportError:  # pragma: no cover - declared dependency
-            _BLAS["ctl"] = None
-    ctl = _BLAS["ctl"]
-    return contextlib.nullcontext() if ctl is None else ctl.limit(limits=1, user_api="blas")
-
+from stimuli.rowthreads import default_workers, run_on_row_strips
 
 __all__ = ["refocus", "focal_stack", "iter_focal_stack", "centre_view", "default_workers"]
 
@@ -79,22 +54,12 @@ __all__ = ["refocus", "focal_stack", "iter_focal_stack", "centre_view", "default
 #: numpy call overhead dominates small views, cache misses large ones).
 _BLOCK_MAX_PIXELS = 1 << 16
 
-#: Partial images of one block of output rows take up to about this many bytes (ours, measured:
-#: a block stays in the L2/L3 cache while the views stream through it once; smaller blocks
-#: cost more BLAS calls).
-_BLOCK_BYTES = 1 << 22
-
 #: Below this many pixels per pass the threads cost more than they save (ours, measured roughly).
 _THREAD_MIN_PIXELS = 1 << 20
 
-
-def default_workers() -> int:
-    """Return the number of threads used by default: the CPUs available to this process, <= 8."""
-    try:
-        n = len(os.sched_getaffinity(0))
-    except AttributeError:  # not on Linux
-        n = os.cpu_count() or 1
-    return max(1, min(8, n))
+#: Grey float32 views take the compiled kernel (:mod:`stimuli.kernels`); the numpy-slice path
+#: serves colour and other dtypes, and the tests compare the two.
+_COMPILED = True
 
 
 def _int_slices(length: int, m: int) -> tuple[slice, slice] | None:
@@ -163,121 +128,58 @@ def _check_disparity(lf: LightField, disparity_px: float) -> float:
     return d
 
 
-def _saxpy_cols(dst: np.ndarray, src: np.ndarray, m: int, w: float) -> None:
-    """``dst[:, x] += w * src[:, x - m]`` where ``0 <= x - m < cols`` (C-contiguous 2-D float32).
+def _tap_arrays(shifts: Sequence[float]) -> tuple[np.ndarray, ...]:
+    """Per view: the first tap's integer shift, its weight and the next tap's weight.
 
-    One BLAS ``saxpy`` over the flattened images (a whole-column shift is an offset there),
-    then the ``|m|`` columns that wrapped round from the neighbouring row are taken off again:
-    one pass over the image instead of numpy's three (multiply, add, store).
+    A linear-interpolation shift by ``n + f`` has taps ``(n, 1 - f)`` and ``(n + 1, f)``
+    (:func:`_shift_weights`); a whole shift has one tap, the other weight is 0.
     """
-    rows, cols = dst.shape
-    if abs(m) >= cols or rows == 0:
-        return
-    size = rows * cols
-    k = abs(m)
-    z = _saxpy(
-        src.reshape(-1),
-        dst.reshape(-1),
-        n=size - k,
-        a=w,
-        offx=0 if m >= 0 else k,
-        offy=k if m >= 0 else 0,
-    )
-    if z is not None and not np.shares_memory(z, dst):  # the wrapper copied: never in place
-        raise RuntimeError("saxpy did not work in place")
-    if k and rows > 1:
-        if m > 0:
-            dst[1:, :k] -= np.float32(w) * src[:-1, cols - k :]
-        else:
-            dst[:-1, cols - k :] -= np.float32(w) * src[1:, :k]
+    m = np.zeros(len(shifts), dtype=np.int64)
+    w0 = np.zeros(len(shifts), dtype=np.float32)
+    w1 = np.zeros(len(shifts), dtype=np.float32)
+    for i, s in enumerate(shifts):
+        taps = _shift_weights(s)
+        m[i], w0[i] = taps[0]
+        if len(taps) == 2:
+            w1[i] = taps[1][1]
+    return m, w0, w1
 
 
-def _refocus_views_flat(
+def _inverse_weights(length: int, shifts: Sequence[float]) -> np.ndarray:
+    """One over the number of contributing views along one axis (0 where none contributes)."""
+    w = _weights_1d(length, shifts)
+    inv = np.zeros_like(w)
+    np.divide(1.0, w, out=inv, where=w > 1e-9)
+    return inv.astype(np.float32)
+
+
+def _refocus_compiled(
     views: np.ndarray,
     row_shifts: Sequence[float],
     col_shifts: Sequence[float],
     workers: int,
     result: np.ndarray,
-) -> None:
-    """Shift-and-add of grey, C-contiguous float32 views into ``result`` (unnormalised).
+) -> np.ndarray:
+    """Shift-and-add of grey, C-contiguous float32 views into ``result``, normalised and clipped.
 
-    The output is made in blocks of rows, each block whole before the next: for each view
-    column ``v``, the block's rows of the views are added with their *row* shifts (a shift by
-    whole rows is an offset in the flattened image, so each tap is one BLAS ``saxpy``,
-    ``y += a x``, one pass); then the ``n_v`` partial blocks are added with their column shifts
-    (:func:`_saxpy_cols`, one pass per tap as well). A block's partial images stay in cache,
-    every view is read from memory once, and the threads split the rows evenly whatever the
-    grid. An axis with one view is not passed over: a single grid row's views are the partial
-    images themselves, and a single grid column's row pass writes the result.
+    One compiled pass per output row (:func:`stimuli.kernels.shift_add_rows`): for each row the
+    two source rows of every view are read while they are in the cache, so every view is read
+    from memory once, and an axis with one view costs nothing. Threads split the rows evenly.
     """
+    from stimuli.kernels import shift_add_rows
+
     n_u, n_v, rows, cols = views.shape
-    taps = [[(m, w) for m, w in _shift_weights(row_shifts[u]) if abs(m) < rows] for u in range(n_u)]
-    col_taps = [_shift_weights(col_shifts[v]) for v in range(n_v)]
-    no_row_pass = n_u == 1 and taps[0] == [(0, 1.0)]
-    no_col_pass = n_v == 1 and list(col_taps[0]) == [(0, 1.0)]
-    n_threads = max(1, min(workers, rows))
-    if n_u * n_v * rows * cols < _THREAD_MIN_PIXELS:
-        n_threads = 1
-    block = max(8, min(rows, _BLOCK_BYTES // max(1, 4 * n_v * cols)))
+    row_taps = _tap_arrays(row_shifts)
+    col_taps = _tap_arrays(col_shifts)
+    inv_rows = _inverse_weights(rows, row_shifts)
+    inv_cols = _inverse_weights(cols, col_shifts)
 
     def run(r0: int, r1: int) -> None:
-        out = result[r0:r1]
-        out[...] = 0.0
-        if no_row_pass:  # one grid row: its views are the partial images
-            for v in range(n_v):
-                for m, w in col_taps[v]:
-                    _saxpy_cols(out, views[0, v, r0:r1], m, w)
-            return
-        if no_col_pass:  # one grid column: the row pass writes the result
-            _row_block(views.reshape(n_u, 1, rows * cols), taps, result, r0, r1)
-            return
-        part = np.empty((n_v, min(block, r1 - r0), cols), dtype=np.float32)
-        for b0 in range(r0, r1, block):
-            b1 = min(r1, b0 + block)
-            p = part[:, : b1 - b0]
-            p[...] = 0.0
-            for v in range(n_v):
-                pv = p[v]
-                for u in range(n_u):
-                    src = views[u, v]
-                    for m, w in taps[u]:
-                        # block rows r take source rows r - m, valid where 0 <= r - m < rows
-                        a, b = max(b0, m), min(b1, rows + m)
-                        if a < b:
-                            _saxpy(
-                                src[a - m : b - m].reshape(-1),
-                                pv[a - b0 : b - b0].reshape(-1),
-                                n=(b - a) * cols,
-                                a=w,
-                            )
-                for m, w in col_taps[v]:
-                    _saxpy_cols(out[b0 - r0 : b1 - r0], pv, m, w)
+        shift_add_rows(views, *row_taps, *col_taps, inv_rows, inv_cols, result, r0, r1)
 
-    if n_threads == 1:
-        run(0, rows)
-        return
-    rb = np.linspace(0, rows, n_threads + 1).astype(int)
-    with ThreadPoolExecutor(n_threads) as ex:
-        list(ex.map(run, rb[:-1], rb[1:]))
-
-
-def _row_block(flat, taps, result, r0: int, r1: int) -> None:
-    """Row pass of a single view column for output rows ``r0:r1`` (threads split by rows)."""
-    n_u = flat.shape[0]
-    rows, cols = result.shape
-    out = result[r0:r1]
-    for u in range(n_u):
-        src = flat[u, 0].reshape(rows, cols)
-        for m, w in taps[u]:
-            # out rows r take src rows r - m, valid where 0 <= r - m < rows
-            a, b = max(r0, m), min(r1, rows + m)
-            if a < b:
-                _saxpy(
-                    src[a - m : b - m].reshape(-1),
-                    out[a - r0 : b - r0].reshape(-1),
-                    n=(b - a) * cols,
-                    a=w,
-                )
+    small = n_u * n_v * rows * cols < _THREAD_MIN_PIXELS
+    run_on_row_strips(run, rows, 1 if small else workers)
+    return result
 
 
 def _refocus_views(
@@ -300,10 +202,8 @@ def _refocus_views(
         col_shifts = [float(math.floor(s + 0.5)) for s in col_shifts]
 
     result = out if out is not None else np.empty((rows, cols, *extra), dtype=np.float32)
-    if _saxpy is not None and not extra and views.dtype == np.float32 and views.flags.c_contiguous:
-        with _one_blas_thread():
-            _refocus_views_flat(views, row_shifts, col_shifts, workers, result)
-        return _normalise(result, rows, cols, row_shifts, col_shifts, extra)
+    if _COMPILED and not extra and views.dtype == np.float32 and views.flags.c_contiguous:
+        return _refocus_compiled(views, row_shifts, col_shifts, workers, result)
     partial = np.zeros((n_u, rows, cols, *extra), dtype=np.float32)
     scratch = np.empty_like(partial)
     n_threads = max(1, min(workers, n_u))
@@ -347,13 +247,8 @@ def _normalise(result, rows, cols, row_shifts, col_shifts, extra):
     The weight is separable, ``W(y, x) = w_rows(y) w_cols(x)``, so its inverse is applied as a
     row factor and a column factor (0 where no view contributes).
     """
-    inv = []
-    for n, shifts in ((rows, row_shifts), (cols, col_shifts)):
-        w = _weights_1d(n, shifts)
-        i = np.zeros_like(w)
-        np.divide(1.0, w, out=i, where=w > 1e-9)
-        inv.append(i.astype(np.float32))
-    r, c = inv
+    r = _inverse_weights(rows, row_shifts)
+    c = _inverse_weights(cols, col_shifts)
     if extra:
         result *= r[:, None, None]
         result *= c[None, :, None]

@@ -29,6 +29,7 @@ import numpy as np
 from stimuli.build.pairs import PairSource
 from stimuli.build.params import BuildParams
 from stimuli.io import check_gray
+from stimuli.lfviews import ANISOTROPY_RATIO, is_one_dimensional
 from stimuli.manifest import ObjectInfo
 
 __all__ = [
@@ -39,22 +40,6 @@ __all__ = [
 ]
 
 logger = logging.getLogger(__name__)
-
-#: A grid with at least this many times more views along one axis than the other is treated as
-#: 1-D by ``declutter='auto'`` (ours: refocusing then blurs three times more along one axis).
-ANISOTROPY_RATIO: float = 3.0
-
-
-def is_one_dimensional(grid: tuple[int, int]) -> bool:
-    """Return whether a view grid ``(n_u, n_v)`` is 1-D or strongly anisotropic.
-
-    Examples
-    --------
-    >>> is_one_dimensional((1, 7)), is_one_dimensional((3, 9)), is_one_dimensional((7, 7))
-    (True, True, False)
-    """
-    a, b = sorted(int(v) for v in grid)
-    return a == 1 or b >= ANISOTROPY_RATIO * a
 
 
 @dataclass(frozen=True)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 import subprocess
 import sys
 
@@ -45,9 +46,11 @@ def test_answer_is_emitted_before_the_folder_is_written(sim_png, tmp_path):
         seen.append((line, out.exists()))
 
     closing = _scan_one(sim_png, out, _opts(), _LoaderOptions(), emit)
-    planes = [line for line, _ in seen if line.startswith("plane")]
+    planes = [line for line, _ in seen if re.match(r"plane\d\d: ", line)]
     assert planes, seen
     assert not any(written for _, written in seen)  # every answer line came before the folder
+    first_edges = next(i for i, (line, _) in enumerate(seen) if " edges: threshold " in line)
+    assert all(not line.startswith("plane") or " edges: " in line for line, _ in seen[first_edges:])
     assert len(closing) == 1 and closing[0].startswith(f"{len(planes)} object plane(s)")
     assert (out / "scores.png").exists() and (out / "planes.csv").exists()
 

@@ -1,0 +1,211 @@
+"""Compiled loops for the pixel work that numpy would do in several passes.
+
+Each kernel makes one pass over its input, row by row, so that a light field is read from memory
+once and an image's rows stay in the cache while they are used (numba, ``nogil``: the callers
+split the rows over threads). They are compiled on first use and the machine code is cached on
+disk (``cache=True``), so only the first run on a machine pays for the compilation.
+
+* :func:`shift_add_rows`: shift-and-add refocusing (:mod:`stimuli.refocus`) with linear
+  interpolation, normalisation and clipping, for a range of output rows;
+* :func:`sobel_rows`: the Sobel magnitude exactly as ``skimage.filters.sobel`` computes it for a
+  float32 image (each directional sum in float64, rounded to float32, then squared, summed and
+  divided in float32), for a range of rows;
+* :func:`count_blocks`: the number of True pixels in each window of a grid (exact integers).
+
+Importing this module imports numba (about 0.3 s), so the modules that use it import it inside
+the functions that need it.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+__all__ = ["shift_add_rows", "sobel_rows", "count_blocks"]
+
+
+@njit(nogil=True, cache=True)
+def _add_shifted(acc, src, m, w):  # pragma: no cover - compiled
+    """``acc[x] += w * src[x - m]`` wherever ``0 <= x - m < len(src)``."""
+    cols = acc.shape[0]
+    lo = max(0, m)
+    hi = min(cols, cols + m)
+    if hi <= lo:
+        return
+    dst = acc[lo:hi]
+    from_ = src[lo - m : hi - m]
+    for i in range(hi - lo):  # indices from 0 up: no negative-index check, so it vectorises
+        dst[i] += w * from_[i]
+
+
+@njit(nogil=True, cache=True)
+def _add_two_taps(acc, src, m, wa, wb):  # pragma: no cover - compiled
+    """``acc[x] += wa * src[x - m] + wb * src[x - m - 1]``, each term where its index is valid."""
+    cols = acc.shape[0]
+    lo = max(0, m + 1)  # both taps valid on lo:hi
+    hi = min(cols, cols + m)
+    if hi <= lo:
+        _add_shifted(acc, src, m, wa)
+        _add_shifted(acc, src, m + 1, wb)
+        return
+    dst = acc[lo:hi]
+    a = src[lo - m : hi - m]
+    b = src[lo - m - 1 : hi - m - 1]
+    for i in range(hi - lo):
+        dst[i] += wa * a[i] + wb * b[i]
+    if 0 <= m:  # x = m (< hi): only the first tap is inside, at src[0]
+        acc[m] += wa * src[0]
+    else:  # x = cols + m (= hi): only the second tap is inside, at src[cols - 1]
+        acc[cols + m] += wb * src[cols - 1]
+
+
+@njit(nogil=True, cache=True)
+def _add_four_taps(acc, a, b, m, waa, wab, wba, wbb):  # pragma: no cover - compiled
+    """``acc[x] += waa a[x-m] + wab a[x-m-1] + wba b[x-m] + wbb b[x-m-1]`` (valid terms only).
+
+    The bilinear interpolation of two source rows ``a`` and ``b`` in one pass over ``acc``.
+    """
+    cols = acc.shape[0]
+    lo = max(0, m + 1)
+    hi = min(cols, cols + m)
+    if hi <= lo:
+        _add_shifted(acc, a, m, waa)
+        _add_shifted(acc, a, m + 1, wab)
+        _add_shifted(acc, b, m, wba)
+        _add_shifted(acc, b, m + 1, wbb)
+        return
+    dst = acc[lo:hi]
+    a0 = a[lo - m : hi - m]
+    a1 = a[lo - m - 1 : hi - m - 1]
+    b0 = b[lo - m : hi - m]
+    b1 = b[lo - m - 1 : hi - m - 1]
+    for i in range(hi - lo):
+        dst[i] += waa * a0[i] + wab * a1[i] + wba * b0[i] + wbb * b1[i]
+    if 0 <= m:
+        acc[m] += waa * a[0] + wba * b[0]
+    else:
+        acc[cols + m] += wab * a[cols - 1] + wbb * b[cols - 1]
+
+
+@njit(nogil=True, cache=True)
+def shift_add_rows(
+    views, row_m, row_w0, row_w1, col_m, col_w0, col_w1, inv_rows, inv_cols, out, r0, r1
+):  # pragma: no cover - compiled
+    """Refocused rows ``r0:r1`` of ``out`` from grey float32 ``views`` (n_u, n_v, rows, cols).
+
+    View ``(u, v)`` is shifted by ``row_m[u] + s`` rows and ``col_m[v] + t`` columns with linear
+    interpolation: its row ``y - row_m[u]`` takes weight ``row_w0[u]`` and row
+    ``y - row_m[u] - 1`` weight ``row_w1[u]`` (likewise for columns); samples outside a view are
+    left out. The sum is multiplied by ``inv_rows[y] * inv_cols[x]`` (one over the number of
+    contributing views) and clipped to [0, 1].
+    """
+    n_u, n_v, rows, cols = views.shape
+    acc = np.empty(cols, dtype=np.float32)
+    for y in range(r0, r1):
+        acc[:] = 0.0
+        for u in range(n_u):
+            ya = y - row_m[u]
+            yb = ya - 1
+            wa = row_w0[u] if 0 <= ya < rows else np.float32(0.0)
+            wb = row_w1[u] if 0 <= yb < rows else np.float32(0.0)
+            if wa == 0.0 and wb == 0.0:
+                continue
+            for v in range(n_v):
+                ga = col_w0[v]
+                gb = col_w1[v]
+                m = col_m[v]
+                if wa != 0.0 and wb != 0.0:  # two source rows: one pass over four taps
+                    a = views[u, v, ya]
+                    b = views[u, v, yb]
+                    _add_four_taps(acc, a, b, m, wa * ga, wa * gb, wb * ga, wb * gb)
+                    continue
+                src = views[u, v, ya] if wb == 0.0 else views[u, v, yb]
+                w = wa if wb == 0.0 else wb
+                if gb == 0.0:
+                    _add_shifted(acc, src, m, w * ga)
+                elif ga == 0.0:
+                    _add_shifted(acc, src, m + 1, w * gb)
+                else:
+                    _add_two_taps(acc, src, m, w * ga, w * gb)
+        r = inv_rows[y]
+        for x in range(cols):
+            value = acc[x] * r * inv_cols[x]
+            out[y, x] = min(max(value, np.float32(0.0)), np.float32(1.0))
+
+
+@njit(nogil=True, cache=True)
+def _sobel_pixel(up, mid, down, xl, x, xr):  # pragma: no cover - compiled
+    """The Sobel magnitude at column ``x`` of ``mid`` (neighbour columns ``xl``, ``xr``)."""
+    gy = (
+        0.25 * np.float64(up[xl])
+        + 0.5 * np.float64(up[x])
+        + 0.25 * np.float64(up[xr])
+        - 0.25 * np.float64(down[xl])
+        - 0.5 * np.float64(down[x])
+        - 0.25 * np.float64(down[xr])
+    )
+    gx = (
+        0.25 * np.float64(up[xl])
+        + 0.5 * np.float64(mid[xl])
+        + 0.25 * np.float64(down[xl])
+        - 0.25 * np.float64(up[xr])
+        - 0.5 * np.float64(mid[xr])
+        - 0.25 * np.float64(down[xr])
+    )
+    fy = np.float32(gy)
+    fx = np.float32(gx)
+    return np.float32(np.sqrt(fy * fy + fx * fx)) / np.float32(np.sqrt(np.float32(2.0)))
+
+
+@njit(nogil=True, cache=True)
+def sobel_rows(img, out, r0, r1):  # pragma: no cover - compiled
+    """Sobel magnitude of rows ``r0:r1`` of a float32 image into ``out``; count bad values.
+
+    ``sqrt(Gy**2 + Gx**2) / sqrt(2)`` with ``Gy = [1, 0, -1]`` across rows times ``[1, 2, 1] / 4``
+    along them (and ``Gx`` the transpose), the image reflected at its borders (``d c b a | a b
+    c d``): scikit-image's ``sobel`` term for term, each weighted sum taken in float64 and
+    rounded to float32 as ``scipy.ndimage.convolve`` does (the six products are exact in
+    float64, so the order of the sum does not matter).
+
+    Returns the number of pixels of rows ``r0:r1`` outside [0, 1] or NaN (the input check, in the
+    same pass).
+    """
+    rows, cols = img.shape
+    outside = 0
+    for y in range(r0, r1):
+        up = img[y - 1] if y > 0 else img[0]
+        mid = img[y]
+        down = img[y + 1] if y < rows - 1 else img[rows - 1]
+        o = out[y]
+        for x in range(cols):
+            if not (0.0 <= mid[x] <= 1.0):
+                outside += 1
+        o[0] = _sobel_pixel(up, mid, down, 0, 0, min(1, cols - 1))
+        if cols > 1:
+            o[cols - 1] = _sobel_pixel(up, mid, down, cols - 2, cols - 1, cols - 1)
+        for i in range(cols - 2):  # interior columns, indices from 0 up so that it vectorises
+            o[i + 1] = _sobel_pixel(up, mid, down, i, i + 1, i + 2)
+    return outside
+
+
+@njit(nogil=True, cache=True)
+def count_blocks(edges, row_bounds, col_bounds, counts):  # pragma: no cover - compiled
+    """Add the True pixels of ``edges`` (uint8 0/1) in each grid window to ``counts`` (int64).
+
+    Window ``(i, j)`` covers rows ``row_bounds[i]:row_bounds[i + 1]`` and columns
+    ``col_bounds[j]:col_bounds[j + 1]``.
+    """
+    n_r = row_bounds.shape[0] - 1
+    n_c = col_bounds.shape[0] - 1
+    line = np.zeros(edges.shape[1], dtype=np.int64)
+    for i in range(n_r):
+        line[:] = 0
+        for y in range(row_bounds[i], row_bounds[i + 1]):
+            row = edges[y]
+            for x in range(edges.shape[1]):
+                line[x] += row[x]
+        for j in range(n_c):
+            s = 0
+            for x in range(col_bounds[j], col_bounds[j + 1]):
+                s += line[x]
+            counts[i, j] += s
