@@ -134,24 +134,16 @@ def shift_add_rows(
 
 
 @njit(nogil=True, cache=True)
+def _smooth(a, b, c):  # pragma: no cover - compiled
+    """``(a + 2 b + c) / 4`` in float64 (the products are exact)."""
+    return 0.25 * np.float64(a) + 0.5 * np.float64(b) + 0.25 * np.float64(c)
+
+
+@njit(nogil=True, cache=True)
 def _sobel_pixel(up, mid, down, xl, x, xr):  # pragma: no cover - compiled
     """The Sobel magnitude at column ``x`` of ``mid`` (neighbour columns ``xl``, ``xr``)."""
-    gy = (
-        0.25 * np.float64(up[xl])
-        + 0.5 * np.float64(up[x])
-        + 0.25 * np.float64(up[xr])
-        - 0.25 * np.float64(down[xl])
-        - 0.5 * np.float64(down[x])
-        - 0.25 * np.float64(down[xr])
-    )
-    gx = (
-        0.25 * np.float64(up[xl])
-        + 0.5 * np.float64(mid[xl])
-        + 0.25 * np.float64(down[xl])
-        - 0.25 * np.float64(up[xr])
-        - 0.5 * np.float64(mid[xr])
-        - 0.25 * np.float64(down[xr])
-    )
+    gy = _smooth(up[xl], up[x], up[xr]) - _smooth(down[xl], down[x], down[xr])
+    gx = _smooth(up[xl], mid[xl], down[xl]) - _smooth(up[xr], mid[xr], down[xr])
     fy = np.float32(gy)
     fx = np.float32(gx)
     return np.float32(np.sqrt(fy * fy + fx * fx)) / np.float32(np.sqrt(np.float32(2.0)))

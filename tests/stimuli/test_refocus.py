@@ -132,15 +132,3 @@ def test_disparity_outside_the_light_field_raises():
     views = np.zeros((3, 3, 10, 10), np.float32)
     with pytest.raises(InputError, match="outside the light field's range"):
         refocus(views, 12.0)
-
-
-@pytest.mark.parametrize("d", [0.0, 1.0, 2.37, -1.6, 7.9])
-def test_compiled_path_matches_the_slice_path(d, monkeypatch):
-    """The compiled kernel and the numpy-slice path are two implementations of one sum."""
-    import stimuli.refocus as rf
-
-    views = np.random.default_rng(4).random((5, 7, 40, 60)).astype(np.float32)
-    fast = rf._refocus_views(views, d, 2)
-    monkeypatch.setattr(rf, "_COMPILED", False)
-    slow = rf._refocus_views(views, d, 2)
-    np.testing.assert_allclose(fast, slow, atol=5e-7)
