@@ -30,7 +30,6 @@ exchange frequency. J. Histochem. Cytochem. 25(7), 741-753.
 from __future__ import annotations
 
 import numpy as np
-from skimage.filters import threshold_otsu, threshold_triangle
 
 from stimuli.errors import InputError
 from stimuli.io import check_gray
@@ -173,8 +172,12 @@ def auto_threshold(image: np.ndarray, *, method: str = "otsu") -> float:
     if mag.size == 0 or float(mag.max()) == float(mag.min()):
         return 0.0
     if method == "otsu":
+        from skimage.filters import threshold_otsu  # heavy: imported when used
+
         t = threshold_otsu(mag, nbins=_N_BINS)
     else:
+        from skimage.filters import threshold_triangle
+
         t = threshold_triangle(mag, nbins=_N_BINS)
     return max(0.0, float(t))
 
