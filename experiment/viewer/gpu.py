@@ -38,6 +38,7 @@ import moderngl
 import numpy as np
 
 from experiment.errors import ConfocalError
+from experiment.presentation.drawing import VERTEX_SHADER
 from experiment.viewer.screen import (
     ALERT_BORDER_PX,
     ALERT_RGB,
@@ -54,7 +55,6 @@ from experiment.viewer.shaders import (
     PASS1_SHADER,
     PASS2_SHADER,
     SOBEL_SHADER,
-    VERT_SHADER,
 )
 from stimuli.implants import ImplantLayout
 
@@ -189,7 +189,7 @@ class GpuPipeline:
         self.grid = (n_u, n_v)
         self.shape_px = (rows, cols)
         self._progs = {
-            name: ctx.program(vertex_shader=VERT_SHADER, fragment_shader=src)
+            name: ctx.program(vertex_shader=VERTEX_SHADER, fragment_shader=src)
             for name, src in (
                 ("pass1", PASS1_SHADER),
                 ("pass2", PASS2_SHADER),
