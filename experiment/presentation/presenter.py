@@ -43,14 +43,7 @@ from experiment.presentation.frame import (
     expected_frame,
     stimulus_rect_px,
 )
-from experiment.presentation.geometry import (
-    PAPER_BORDER_RGB,
-    PAPER_IMAGE_SIZE_CM,
-    PAPER_SCREEN_SHAPE_PX,
-    PAPER_SCREEN_WIDTH_CM,
-    PAPER_VIEWING_DISTANCE_CM,
-    ScreenGeometry,
-)
+from experiment.presentation.geometry import ScreenGeometry
 from experiment.presentation.timing import (
     StimulusTiming,
     TimingCheckFailed,
@@ -61,11 +54,6 @@ from experiment.presentation.timing import (
 from experiment.presentation.window import INPUT_KEYS, bind_subject_input, open_window
 
 __all__ = [
-    "PAPER_SCREEN_SHAPE_PX",
-    "PAPER_VIEWING_DISTANCE_CM",
-    "PAPER_IMAGE_SIZE_CM",
-    "PAPER_SCREEN_WIDTH_CM",
-    "PAPER_BORDER_RGB",
     "INPUT_KEYS",
     "ScreenGeometry",
     "PhospheneSpec",
