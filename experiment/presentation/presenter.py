@@ -24,7 +24,7 @@ import moderngl
 import numpy as np
 
 from experiment.clock import Clock, PerfCounterClock
-from experiment.interfaces import FlipRecord
+from experiment.interfaces import ClosesOnExit, FlipRecord
 from experiment.presentation.drawing import (
     FIXATION_HALF_DEG,
     FIXATION_THICKNESS_PX,
@@ -69,7 +69,7 @@ __all__ = [
 logger = logging.getLogger(__name__)
 
 
-class Presenter:
+class Presenter(ClosesOnExit):
     """The subject's screen drawn with moderngl; implements :class:`experiment.interfaces.Display`.
 
     Use :meth:`offscreen` (EGL, no window; the test twin and ``--screenshot``) or :meth:`windowed`
@@ -436,9 +436,3 @@ class Presenter:
             self._fbo.release()
         if self.window is None or self.ctx.screen is None:
             self.ctx.release()
-
-    def __enter__(self) -> Presenter:
-        return self
-
-    def __exit__(self, *exc: object) -> None:
-        self.close()
