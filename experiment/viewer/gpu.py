@@ -32,7 +32,6 @@ from __future__ import annotations
 
 import math
 from collections import OrderedDict
-from dataclasses import dataclass
 
 import moderngl
 import numpy as np
@@ -65,7 +64,6 @@ __all__ = [
     "MAX_GRID",
     "CACHE_BYTES",
     "GpuError",
-    "GpuResult",
     "GpuPipeline",
     "min_on_counts",
     "create_headless_context",
@@ -113,25 +111,6 @@ def min_on_counts(areas: np.ndarray, edge_ratio: float) -> np.ndarray:
         ok = (n / a).astype(np.float32) > r
         out[areas == a] = float(np.argmax(ok)) if ok.any() else float(a + 1)
     return out
-
-
-@dataclass(frozen=True)
-class GpuResult:
-    """What one :meth:`GpuPipeline.compute` produced (the images stay on the GPU).
-
-    Attributes
-    ----------
-    threshold : float
-        Sobel threshold used.
-    levels : int
-        Levels of the implant view.
-    zoom_shape_px : (rows, cols)
-        Size of the (zoomed) source image.
-    """
-
-    threshold: float
-    levels: int
-    zoom_shape_px: tuple[int, int]
 
 
 class GpuPipeline:
