@@ -9,11 +9,11 @@ the test twins are a headless display and scripted or simulated responders
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Protocol, runtime_checkable
+from typing import Protocol, Self, runtime_checkable
 
 import numpy as np
 
-__all__ = ["FlipRecord", "Answer", "Display", "Responder", "combine_flips"]
+__all__ = ["FlipRecord", "Answer", "Display", "Responder", "ClosesOnExit", "combine_flips"]
 
 
 @dataclass(frozen=True)
@@ -109,3 +109,18 @@ class Responder(Protocol):
         """Return the answer to ``trial`` (a :class:`~experiment.session.schedule.Trial`) shown as
         ``image``."""
         ...
+
+
+class ClosesOnExit:
+    """Base of a class that holds a resource: ``with obj:`` gives ``obj`` and calls
+    :meth:`close` on leaving, whether or not an exception is raised."""
+
+    def close(self) -> None:
+        """Release the resource (each subclass says which)."""
+        raise NotImplementedError
+
+    def __enter__(self) -> Self:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()

@@ -66,6 +66,7 @@ __all__ = [
     "CONDITIONS",
     "ROLES",
     "ObjectInfo",
+    "ManifestEntry",
     "StimulusRecord",
     "parse_crop",
     "format_crop",
@@ -404,8 +405,12 @@ def write_objects_csv(objects: Iterable[ObjectInfo], path: str | os.PathLike) ->
 
 
 @dataclass(frozen=True)
-class StimulusRecord:
-    """One row of ``manifest.csv`` (see the module docstring for the columns)."""
+class ManifestEntry:
+    """The first ten columns of a ``manifest.csv`` row: which image, and its file.
+
+    A stimulus set made by hand or by another tool needs only these; the experiment reads them
+    (see the module docstring for the columns).
+    """
 
     object: str
     role: str
@@ -417,6 +422,12 @@ class StimulusRecord:
     pixels: int
     path: str
     sha256: str
+
+
+@dataclass(frozen=True)
+class StimulusRecord(ManifestEntry):
+    """One row of ``manifest.csv`` (see the module docstring for the columns)."""
+
     sobel_threshold: float | None
     edge_ratio: float | None
     source: str

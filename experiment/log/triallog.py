@@ -25,7 +25,7 @@ from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
-from experiment.interfaces import Answer, FlipRecord
+from experiment.interfaces import Answer, ClosesOnExit, FlipRecord
 from experiment.log import locks, schema
 from experiment.log.errors import TrialLogError
 from experiment.log.faults import fault_point
@@ -38,7 +38,7 @@ from experiment.session.schedule import Schedule, Trial
 __all__ = ["TrialLog"]
 
 
-class TrialLog(LogQueries):
+class TrialLog(ClosesOnExit, LogQueries):
     """An open trial log (SQLite file, or ``":memory:"`` as the test twin).
 
     Parameters
@@ -454,9 +454,3 @@ class TrialLog(LogQueries):
                 pass  # the lock row stays and is detected as stale by the next run
         self._con.close()
         self._con = None  # type: ignore[assignment]
-
-    def __enter__(self) -> TrialLog:
-        return self
-
-    def __exit__(self, *exc: object) -> None:
-        self.close()

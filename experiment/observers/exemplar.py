@@ -86,6 +86,7 @@ import numpy as np
 
 from experiment.interfaces import Answer
 from experiment.observers.base import SimulatedObserver, check_limits, response_time_s
+from experiment.presentation.geometry import PAPER_IMAGE_SIZE_CM, PAPER_VIEWING_DISTANCE_CM
 from experiment.session.scoring import normalize
 from experiment.session.stimset import StimulusSet
 
@@ -99,11 +100,6 @@ __all__ = [
     "hog_features",
     "image_sha256",
 ]
-
-#: Size of the image on screen and viewing distance, cm. Source: Jung et al. 2015, Sec. 3.1
-#: (14.6 x 9.7 cm at 80 cm); the demo passes the protocol's own display values.
-JUNG2015_IMAGE_CM: tuple[float, float] = (14.6, 9.7)
-JUNG2015_VIEWING_DISTANCE_CM: float = 80.0
 
 #: Most images whose noise-free similarities are cached (a demo has ~400 distinct images).
 _CACHE_MAX = 20_000
@@ -285,9 +281,9 @@ class ExemplarParams:
     exemplar_level: int | None = None
     exemplar_condition: str = "decluttered"
     mirror: bool = True
-    image_width_cm: float = JUNG2015_IMAGE_CM[0]
-    image_height_cm: float = JUNG2015_IMAGE_CM[1]
-    viewing_distance_cm: float = JUNG2015_VIEWING_DISTANCE_CM
+    image_width_cm: float = PAPER_IMAGE_SIZE_CM[1]
+    image_height_cm: float = PAPER_IMAGE_SIZE_CM[0]
+    viewing_distance_cm: float = PAPER_VIEWING_DISTANCE_CM
     samples_per_deg: float = 10.0
     blur_deg: float = 0.1
     cell_deg: float = 0.6
@@ -309,8 +305,10 @@ class ExemplarParams:
                 folders = folders[0]
             object.__setattr__(self, "knowledge", folders)
             k = folders
-        if k is None or not all(str(f).strip() for f in (k if isinstance(k, tuple) else [k])) or (
-            isinstance(k, tuple) and not k
+        if (
+            k is None
+            or not all(str(f).strip() for f in (k if isinstance(k, tuple) else [k]))
+            or (isinstance(k, tuple) and not k)
         ):
             raise ValueError(
                 "knowledge must be the folder of a stimulus set of other exemplars of the "

@@ -31,6 +31,7 @@ __all__ = [
     "FIXATION_THICKNESS_PX",
     "VERTEX_SHADER",
     "FRAGMENT_SHADER",
+    "PHOSPHENE_GLSL",
     "MODE_STIMULUS",
     "MODE_BLANK",
     "MODE_TEXT",
@@ -54,9 +55,39 @@ void main() {
 }
 """
 
+#: GLSL function ``phosphene_sum(pos, pitch, grid)``: at ``pos`` (pixels inside the image
+#: rectangle, top-left origin) the sum of the 3x3 nearest phosphenes' profiles, capped at 1, on a
+#: ``grid`` (cols, rows) of cells ``pitch`` pixels apart. The shader that includes it declares
+#: ``u_phos`` (1 gaussian, 2 disc) and ``u_phos_size`` (disc diameter or Gaussian FWHM as a
+#: fraction of the pitch) and defines ``float cell_value(ivec2 cell)`` before it. The presenter
+#: and the viewer both draw phosphenes with it; its numpy twin is
+#: :func:`stimuli.implants.render_phosphenes`.
+PHOSPHENE_GLSL = """
+float phosphene_sum(vec2 pos, vec2 pitch, ivec2 grid) {
+    ivec2 c0 = ivec2(floor(pos / pitch));
+    float d_size = u_phos_size * min(pitch.x, pitch.y);
+    float sigma = d_size / 2.3548;
+    float total = 0.0;
+    for (int dy = -1; dy <= 1; dy++) {
+        for (int dx = -1; dx <= 1; dx++) {
+            ivec2 c = c0 + ivec2(dx, dy);
+            if (c.x < 0 || c.y < 0 || c.x >= grid.x || c.y >= grid.y) continue;
+            float v = cell_value(c);
+            if (v == 0.0) continue;  // adds exactly 0: skipping it only saves an exp
+            vec2 d = pos - (vec2(c) + 0.5) * pitch;
+            float r2 = d.y * d.y + d.x * d.x;
+            if (u_phos == 1) total += v * exp(-r2 / (2.0 * sigma * sigma));
+            else if (r2 <= 0.25 * d_size * d_size) total += v;
+        }
+    }
+    return min(total, 1.0);
+}
+"""
+
 #: Draws every pixel of the stimulus, blank or text screen (``u_mode``). Integer pixel coordinates
 #: with the origin at the top-left, so that rows match numpy's.
-FRAGMENT_SHADER = """
+FRAGMENT_SHADER = (
+    """
 #version 330
 uniform int u_mode;          // 0 stimulus, 1 blank (+fixation), 2 text
 uniform ivec2 u_screen;      // (cols, rows)
@@ -83,27 +114,12 @@ vec3 lum_to_rgb(float v) {
     return mix(u_bg, u_fg, pow(clamp(v, 0.0, 1.0), u_inv_gamma));
 }
 
-float phosphene(ivec2 p) {
-    // p: pixel inside the image rect. Sum of the 3x3 neighbouring phosphenes' profiles.
-    vec2 pitch = vec2(u_rect.zw) / vec2(u_grid);
-    vec2 pos = vec2(p) + 0.5;
-    ivec2 c0 = ivec2(floor(pos / pitch));
-    float d_size = u_phos_size * min(pitch.x, pitch.y);
-    float sigma = d_size / 2.3548;
-    float total = 0.0;
-    for (int dy = -1; dy <= 1; dy++) {
-        for (int dx = -1; dx <= 1; dx++) {
-            ivec2 c = c0 + ivec2(dx, dy);
-            if (c.x < 0 || c.y < 0 || c.x >= u_grid.x || c.y >= u_grid.y) continue;
-            float v = texelFetch(u_stim, c, 0).r;
-            vec2 d = pos - (vec2(c) + 0.5) * pitch;
-            float r2 = dot(d, d);
-            if (u_phos == 1) total += v * exp(-r2 / (2.0 * sigma * sigma));
-            else if (r2 <= 0.25 * d_size * d_size) total += v;
-        }
-    }
-    return min(total, 1.0);
+float cell_value(ivec2 c) {
+    return texelFetch(u_stim, c, 0).r;
 }
+"""
+    + PHOSPHENE_GLSL
+    + """
 
 void main() {
     ivec2 q = ivec2(gl_FragCoord.xy);
@@ -141,7 +157,7 @@ void main() {
     }
     float v;
     if (u_phos > 0) {
-        v = phosphene(p);
+        v = phosphene_sum(vec2(p) + 0.5, vec2(u_rect.zw) / vec2(u_grid), u_grid);
     } else {
         ivec2 cell = ((2 * p + 1) * u_grid) / (2 * u_rect.zw);
         v = texelFetch(u_stim, cell, 0).r;
@@ -149,6 +165,7 @@ void main() {
     f_color = vec4(lum_to_rgb(v), 1.0);
 }
 """
+)
 
 
 def text_image(text: str, screen_shape_px: tuple[int, int], font_px: int) -> Any:

@@ -24,7 +24,7 @@ import moderngl
 import numpy as np
 
 from experiment.clock import Clock, PerfCounterClock
-from experiment.interfaces import FlipRecord
+from experiment.interfaces import ClosesOnExit, FlipRecord
 from experiment.presentation.drawing import (
     FIXATION_HALF_DEG,
     FIXATION_THICKNESS_PX,
@@ -43,14 +43,7 @@ from experiment.presentation.frame import (
     expected_frame,
     stimulus_rect_px,
 )
-from experiment.presentation.geometry import (
-    PAPER_BORDER_RGB,
-    PAPER_IMAGE_SIZE_CM,
-    PAPER_SCREEN_SHAPE_PX,
-    PAPER_SCREEN_WIDTH_CM,
-    PAPER_VIEWING_DISTANCE_CM,
-    ScreenGeometry,
-)
+from experiment.presentation.geometry import ScreenGeometry
 from experiment.presentation.timing import (
     StimulusTiming,
     TimingCheckFailed,
@@ -61,11 +54,6 @@ from experiment.presentation.timing import (
 from experiment.presentation.window import INPUT_KEYS, bind_subject_input, open_window
 
 __all__ = [
-    "PAPER_SCREEN_SHAPE_PX",
-    "PAPER_VIEWING_DISTANCE_CM",
-    "PAPER_IMAGE_SIZE_CM",
-    "PAPER_SCREEN_WIDTH_CM",
-    "PAPER_BORDER_RGB",
     "INPUT_KEYS",
     "ScreenGeometry",
     "PhospheneSpec",
@@ -81,7 +69,7 @@ __all__ = [
 logger = logging.getLogger(__name__)
 
 
-class Presenter:
+class Presenter(ClosesOnExit):
     """The subject's screen drawn with moderngl; implements :class:`experiment.interfaces.Display`.
 
     Use :meth:`offscreen` (EGL, no window; the test twin and ``--screenshot``) or :meth:`windowed`
@@ -448,9 +436,3 @@ class Presenter:
             self._fbo.release()
         if self.window is None or self.ctx.screen is None:
             self.ctx.release()
-
-    def __enter__(self) -> Presenter:
-        return self
-
-    def __exit__(self, *exc: object) -> None:
-        self.close()

@@ -8,6 +8,12 @@ from functools import partial
 from pathlib import Path
 from typing import Any
 
+from experiment.presentation.geometry import (
+    PAPER_BORDER_RGB,
+    PAPER_IMAGE_SIZE_CM,
+    PAPER_SCREEN_SHAPE_PX,
+    PAPER_VIEWING_DISTANCE_CM,
+)
 from experiment.protocol.fields import (
     ProtocolError,
     _from_table,
@@ -68,16 +74,16 @@ class DisplaySpec(_Spec):
         that resolved the file itself may pass it).
     """
 
-    screen_width_px: int = 1280
-    screen_height_px: int = 1024
+    screen_width_px: int = PAPER_SCREEN_SHAPE_PX[1]
+    screen_height_px: int = PAPER_SCREEN_SHAPE_PX[0]
     #: Inferred, not stated in the paper: 14.6 cm for the 492 px image means 0.2967 mm per
     #: pixel if it was shown pixel for pixel, so 1280 px span 37.98 cm, the visible width of a
     #: 21-inch CRT. Measure your own monitor.
     screen_width_cm: float = 37.98
-    viewing_distance_cm: float = 80.0
-    image_width_cm: float = 14.6
-    image_height_cm: float = 9.7
-    border_rgb: tuple[int, int, int] = (0, 0, 255)
+    viewing_distance_cm: float = PAPER_VIEWING_DISTANCE_CM
+    image_width_cm: float = PAPER_IMAGE_SIZE_CM[1]
+    image_height_cm: float = PAPER_IMAGE_SIZE_CM[0]
+    border_rgb: tuple[int, int, int] = PAPER_BORDER_RGB
     border_width_px: int = 6
     background_rgb: tuple[int, int, int] = (0, 0, 0)
     gamma: float = 1.0

@@ -30,11 +30,12 @@ import socket
 import subprocess
 from collections.abc import Callable
 from pathlib import Path
-from typing import Any, Self
+from typing import Any
 
 import numpy as np
 
 from experiment.clock import Clock
+from experiment.interfaces import ClosesOnExit
 from experiment.log import ResumeMismatch, SessionComplete, TrialLog, TrialLogError
 from experiment.protocol import ProtocolSpec
 
@@ -235,7 +236,7 @@ def reopen(
     return stale
 
 
-class LoggedSession:
+class LoggedSession(ClosesOnExit):
     """What every session does with its row in the trial log: events, completion, closing.
 
     A subclass sets ``log``, ``session_id`` and ``clock`` and defines :meth:`progress`.
@@ -270,9 +271,3 @@ class LoggedSession:
         finally:
             self.log.release_lock(self.session_id)
             self._closed = True
-
-    def __enter__(self) -> Self:
-        return self
-
-    def __exit__(self, *exc: object) -> None:
-        self.close()

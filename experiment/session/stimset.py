@@ -28,18 +28,17 @@ import csv
 import hashlib
 import json
 from collections.abc import Iterable
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 from pathlib import Path
 
 import numpy as np
 
 from experiment.errors import ConfocalError
-from stimuli.manifest import MANIFEST_COLUMNS as _BUILDER_MANIFEST_COLUMNS
+from stimuli.manifest import ManifestEntry
 from stimuli.tables import unescape_row
 
 __all__ = [
     "StimulusSetError",
-    "StimulusRecord",
     "ObjectInfo",
     "StimulusSet",
     "PHOTO_CONDITIONS",
@@ -67,31 +66,15 @@ def decode_stimulus(path: str | Path, condition: str) -> np.ndarray:
     return img if condition in PHOTO_CONDITIONS else img >= 0.5
 
 
-#: Columns the engine requires in ``manifest.csv``: the builder's first ten (the rest are the
-#: builder's provenance, which the engine carries but does not need, so stimulus sets made by
-#: hand or by other tools need only these).
-MANIFEST_COLUMNS: tuple[str, ...] = _BUILDER_MANIFEST_COLUMNS[:10]
+#: Columns the engine requires in ``manifest.csv``: those of :class:`ManifestEntry`, the builder's
+#: first ten (the rest are the builder's provenance, which the engine carries but does not need,
+#: so stimulus sets made by hand or by other tools need only these).
+MANIFEST_COLUMNS: tuple[str, ...] = tuple(f.name for f in fields(ManifestEntry))
 OBJECT_COLUMNS = ("object", "name", "synonyms", "uses", "role")
 
 
 class StimulusSetError(ConfocalError):
     """A stimulus set is missing, malformed or does not match its manifest."""
-
-
-@dataclass(frozen=True)
-class StimulusRecord:
-    """One row of ``manifest.csv`` (see the module docstring for units)."""
-
-    object: str
-    role: str
-    condition: str
-    level: int
-    window: int
-    width: int
-    height: int
-    pixels: int
-    path: str
-    sha256: str
 
 
 @dataclass(frozen=True)
@@ -141,7 +124,7 @@ class StimulusSet:
     def __init__(
         self,
         root: Path,
-        records: tuple[StimulusRecord, ...],
+        records: tuple[ManifestEntry, ...],
         objects: dict[str, ObjectInfo],
         manifest_sha256: str,
         info: dict,
@@ -171,7 +154,7 @@ class StimulusSet:
         records = []
         for i, row in enumerate(rows, start=2):
             try:
-                rec = StimulusRecord(
+                rec = ManifestEntry(
                     object=row["object"].strip(),
                     role=row["role"].strip(),
                     condition=row["condition"].strip(),
@@ -232,7 +215,7 @@ class StimulusSet:
         """Return the levels present in the manifest, ascending."""
         return tuple(sorted({r.level for r in self.records}))
 
-    def get(self, object_id: str, condition: str, level: int) -> StimulusRecord:
+    def get(self, object_id: str, condition: str, level: int) -> ManifestEntry:
         """Return the record of one image.
 
         Raises
@@ -248,7 +231,7 @@ class StimulusSet:
                 f"condition {condition!r}, level {level}"
             ) from None
 
-    def verify(self, records: Iterable[StimulusRecord] | None = None) -> int:
+    def verify(self, records: Iterable[ManifestEntry] | None = None) -> int:
         """Check every file's SHA-256 against the manifest; return how many were checked.
 
         Raises
@@ -270,6 +253,6 @@ class StimulusSet:
             n += 1
         return n
 
-    def load_image(self, record: StimulusRecord) -> np.ndarray:
+    def load_image(self, record: ManifestEntry) -> np.ndarray:
         """Return the image (see :func:`decode_stimulus`)."""
         return decode_stimulus(self.root / record.path, record.condition)

@@ -12,6 +12,7 @@ the options (Input, View, Implant, Modes, Output) and lists the window's keys.
 from __future__ import annotations
 
 from dataclasses import replace
+from functools import partial
 from pathlib import Path
 from typing import Annotated
 
@@ -43,6 +44,14 @@ def _size(text: str) -> tuple[int, int]:
     return h, w
 
 
+# the option groups of ``confocal view --help``
+_input_option = partial(typer.Option, rich_help_panel="Input")
+_view_option = partial(typer.Option, rich_help_panel="View")
+_implant_option = partial(typer.Option, rich_help_panel="Implant")
+_modes_option = partial(typer.Option, rich_help_panel="Modes")
+_output_option = partial(typer.Option, rich_help_panel="Output")
+
+
 def view_command(
     lightfield: Annotated[
         Path,
@@ -50,168 +59,104 @@ def view_command(
     ],
     implant: Annotated[
         list[str] | None,
-        typer.Option(
-            "--implant",
-            help="Implant name or .toml (repeat: the i key cycles). Default: all.",
-            rich_help_panel="Implant",
+        _implant_option(
+            "--implant", help="Implant name or .toml (repeat: the i key cycles). Default: all."
         ),
     ] = None,
     screenshot: Annotated[
-        Path | None,
-        typer.Option(
-            help="Render one state offscreen to this PNG and exit.", rich_help_panel="Output"
-        ),
+        Path | None, _output_option(help="Render one state offscreen to this PNG and exit.")
     ] = None,
-    cpu: Annotated[
-        bool, typer.Option("--cpu", help="Render with numpy (no OpenGL).", rich_help_panel="View")
-    ] = False,
+    cpu: Annotated[bool, _view_option("--cpu", help="Render with numpy (no OpenGL).")] = False,
     compute: Annotated[
         str,
-        typer.Option(
+        _view_option(
             "--compute",
             help="Where refocus, Sobel and compression run: auto (numpy on a software "
             "rasteriser such as llvmpipe, where it is faster; else shaders), gpu or cpu.",
-            rich_help_panel="View",
         ),
     ] = "auto",
-    size: Annotated[
-        str, typer.Option(help="Frame size WIDTHxHEIGHT.", rich_help_panel="View")
-    ] = "1080x720",
+    size: Annotated[str, _view_option(help="Frame size WIDTHxHEIGHT.")] = "1080x720",
     disparity: Annotated[
         float | None,
-        typer.Option(
-            callback=finite_option(),
-            help="Start depth, px per view step (default: nearest plane).",
-            rich_help_panel="View",
+        _view_option(
+            callback=finite_option(), help="Start depth, px per view step (default: nearest plane)."
         ),
     ] = None,
     plane: Annotated[
-        int | None,
-        typer.Option(
-            min=1, help="Start at detected plane N (1 = nearest).", rich_help_panel="View"
-        ),
+        int | None, _view_option(min=1, help="Start at detected plane N (1 = nearest).")
     ] = None,
-    zoom: Annotated[
-        str | None, typer.Option(help="Zoom box x,y,w,h (view pixels).", rich_help_panel="View")
-    ] = None,
-    levels: Annotated[
-        int, typer.Option(help="2: binary edges; 4 or 8: grey levels.", rich_help_panel="View")
-    ] = 2,
-    threshold: Annotated[
-        str, typer.Option(help="Sobel threshold: auto or a number.", rich_help_panel="View")
-    ] = "auto",
+    zoom: Annotated[str | None, _view_option(help="Zoom box x,y,w,h (view pixels).")] = None,
+    levels: Annotated[int, _view_option(help="2: binary edges; 4 or 8: grey levels.")] = 2,
+    threshold: Annotated[str, _view_option(help="Sobel threshold: auto or a number.")] = "auto",
     obstacle: Annotated[
-        str | None,
-        typer.Option(
-            help="Obstacle mode: FAR:NEAR disparity range, px per view.", rich_help_panel="Modes"
-        ),
+        str | None, _modes_option(help="Obstacle mode: FAR:NEAR disparity range, px per view.")
     ] = None,
     marker: Annotated[
-        str | None,
-        typer.Option(
-            help="Confocal extension: marked point x,y (view pixels).", rich_help_panel="Modes"
-        ),
+        str | None, _modes_option(help="Confocal extension: marked point x,y (view pixels).")
     ] = None,
     extension: Annotated[
         float,
-        typer.Option(
+        _modes_option(
             callback=finite_option(),
             help="Extension: focus this many px/view nearer than the marker.",
-            rich_help_panel="Modes",
         ),
     ] = 0.0,
     track_bright: Annotated[
-        bool,
-        typer.Option(
-            help="Extension: follow the brightest spot as the marker.", rich_help_panel="Modes"
-        ),
+        bool, _modes_option(help="Extension: follow the brightest spot as the marker.")
     ] = False,
-    average: Annotated[
-        bool, typer.Option(help="Temporal averaging of the implant view.", rich_help_panel="Modes")
-    ] = False,
+    average: Annotated[bool, _modes_option(help="Temporal averaging of the implant view.")] = False,
     px_per_deg: Annotated[
         float | None,
-        typer.Option(
+        _implant_option(
             callback=finite_option(0.0, lo_open=True),
             help="Draw the implant's field of view at this px/deg.",
-            rich_help_panel="Implant",
         ),
     ] = None,
     planes: Annotated[
         int,
-        typer.Option(
+        _view_option(
             min=3,
             max=MAX_PLANES,
             help="Planes of the startup depth scan (at the default, the scan 'stimuli build' "
             "and 'lightfield scan' use).",
-            rich_help_panel="View",
         ),
     ] = 200,
     script: Annotated[
-        Path | None,
-        typer.Option(
-            help="JSON-lines events to apply (one per frame in a window).", rich_help_panel="Modes"
-        ),
+        Path | None, _modes_option(help="JSON-lines events to apply (one per frame in a window).")
     ] = None,
     log: Annotated[
-        Path | None,
-        typer.Option(help="Append events and states to this SQLite.", rich_help_panel="Output"),
+        Path | None, _output_option(help="Append events and states to this SQLite.")
     ] = None,
     shots: Annotated[
-        Path | None,
-        typer.Option(
-            help="Window: save a PNG after each scripted event here.", rich_help_panel="Output"
-        ),
+        Path | None, _output_option(help="Window: save a PNG after each scripted event here.")
     ] = None,
     seconds: Annotated[
         float | None,
-        typer.Option(
-            callback=finite_option(0.0),
-            help="Window: close after this long.",
-            rich_help_panel="View",
-        ),
+        _view_option(callback=finite_option(0.0), help="Window: close after this long."),
     ] = None,
     video_fps: Annotated[
         float,
-        typer.Option(
-            callback=finite_option(0.0),
-            help="Video: frames per second (0: keys).",
-            rich_help_panel="Modes",
-        ),
+        _modes_option(callback=finite_option(0.0), help="Video: frames per second (0: keys)."),
     ] = 0.0,
     p2p: Annotated[
         str | None,
-        typer.Option(
+        _output_option(
             help="With --screenshot: also write NAME_p2p.png, the implant view through "
-            "pulse2percept's scoreboard or axonmap model (the p2p extra).",
-            rich_help_panel="Output",
+            "pulse2percept's scoreboard or axonmap model (the p2p extra)."
         ),
     ] = None,
-    pattern: Annotated[
-        str | None, typer.Option(help="View file-name pattern.", rich_help_panel="Input")
-    ] = None,
-    grid_cols: Annotated[
-        int | None, typer.Option(help="Grid columns for {index}.", rich_help_panel="Input")
-    ] = None,
-    pitch: Annotated[
-        int | None,
-        typer.Option(help="Elemental image: lenslet pitch, px.", rich_help_panel="Input"),
-    ] = None,
-    border: Annotated[
-        int | None, typer.Option(help="Elemental image: border, px.", rich_help_panel="Input")
-    ] = None,
+    pattern: Annotated[str | None, _input_option(help="View file-name pattern.")] = None,
+    grid_cols: Annotated[int | None, _input_option(help="Grid columns for {index}.")] = None,
+    pitch: Annotated[int | None, _input_option(help="Elemental image: lenslet pitch, px.")] = None,
+    border: Annotated[int | None, _input_option(help="Elemental image: border, px.")] = None,
     offset: Annotated[
-        str | None,
-        typer.Option(
-            help="Elemental image: ROW,COL pixels before the first lens.", rich_help_panel="Input"
-        ),
+        str | None, _input_option(help="Elemental image: ROW,COL pixels before the first lens.")
     ] = None,
     view_crop: Annotated[
         str,
-        typer.Option(
+        _input_option(
             help="Crop every view first: auto (leave out the capture's dark vignette rim and "
-            "clipped strip, found in the data), none, or x,y,w,h.",
-            rich_help_panel="Input",
+            "clipped strip, found in the data), none, or x,y,w,h."
         ),
     ] = "auto",
 ) -> None:

@@ -34,6 +34,7 @@ from pathlib import Path
 from typing import Any
 
 from experiment.errors import ConfocalError
+from experiment.interfaces import ClosesOnExit
 
 __all__ = ["SCHEMA_VERSION", "ViewerEvent", "ViewerEventLogError", "ViewerEventLog"]
 
@@ -136,7 +137,7 @@ def _json_default(obj: Any) -> Any:
     raise TypeError(f"not JSON-serialisable: {type(obj).__name__}")
 
 
-class ViewerEventLog:
+class ViewerEventLog(ClosesOnExit):
     """An append-only SQLite table of viewer events (input events and displayed states).
 
     Parameters
@@ -292,12 +293,6 @@ class ViewerEventLog:
         if self._owned and getattr(self, "_con", None) is not None:
             self._con.close()
             self._con = None  # type: ignore[assignment]
-
-    def __enter__(self) -> ViewerEventLog:
-        return self
-
-    def __exit__(self, *exc: object) -> None:
-        self.close()
 
 
 def _utc_now() -> str:

@@ -32,12 +32,12 @@ from __future__ import annotations
 
 import math
 from collections import OrderedDict
-from dataclasses import dataclass
 
 import moderngl
 import numpy as np
 
 from experiment.errors import ConfocalError
+from experiment.presentation.drawing import VERTEX_SHADER
 from experiment.viewer.screen import (
     ALERT_BORDER_PX,
     ALERT_RGB,
@@ -54,18 +54,17 @@ from experiment.viewer.shaders import (
     PASS1_SHADER,
     PASS2_SHADER,
     SOBEL_SHADER,
-    VERT_SHADER,
 )
 from stimuli.implants import ImplantLayout
+
+# the CPU refocus's own interpolation rule, so that both add the same shifted views
+from stimuli.refocus import _shift_weights, _weights_1d
 
 __all__ = [
     "MAX_GRID",
     "CACHE_BYTES",
     "GpuError",
-    "GpuResult",
     "GpuPipeline",
-    "shift_pairs",
-    "weights_1d",
     "min_on_counts",
     "create_headless_context",
 ]
@@ -98,35 +97,6 @@ def create_headless_context() -> moderngl.Context:
             raise GpuError(f"no headless OpenGL 3.3 context: {exc}") from exc
 
 
-def shift_pairs(shift_px: float) -> tuple[tuple[int, float], ...]:
-    """Integer shifts and weights of a linear-interpolation shift (the CPU's rule).
-
-    ``(n, 1 - f), (n + 1, f)`` with ``n = floor(s)``, ``f = s - n``; a fraction within 1e-6 of
-    0 or 1 snaps to one whole-pixel shift of weight 1.
-    """
-    n = math.floor(shift_px)
-    f = shift_px - n
-    if f < 1e-6:
-        return ((n, 1.0),)
-    if f > 1.0 - 1e-6:
-        return ((n + 1, 1.0),)
-    return ((n, 1.0 - f), (n + 1, f))
-
-
-def weights_1d(length: int, shifts: list[float]) -> np.ndarray:
-    """Sum of the interpolation weights landing on each pixel of one axis (float64)."""
-    w = np.zeros(length, dtype=np.float64)
-    for s in shifts:
-        for m, a in shift_pairs(s):
-            if m >= length or -m >= length:
-                continue
-            if m >= 0:
-                w[m:length] += a
-            else:
-                w[0 : length + m] += a
-    return w
-
-
 def min_on_counts(areas: np.ndarray, edge_ratio: float) -> np.ndarray:
     """Smallest edge count per window whose fraction exceeds ``edge_ratio`` (CPU rounding).
 
@@ -141,25 +111,6 @@ def min_on_counts(areas: np.ndarray, edge_ratio: float) -> np.ndarray:
         ok = (n / a).astype(np.float32) > r
         out[areas == a] = float(np.argmax(ok)) if ok.any() else float(a + 1)
     return out
-
-
-@dataclass(frozen=True)
-class GpuResult:
-    """What one :meth:`GpuPipeline.compute` produced (the images stay on the GPU).
-
-    Attributes
-    ----------
-    threshold : float
-        Sobel threshold used.
-    levels : int
-        Levels of the implant view.
-    zoom_shape_px : (rows, cols)
-        Size of the (zoomed) source image.
-    """
-
-    threshold: float
-    levels: int
-    zoom_shape_px: tuple[int, int]
 
 
 class GpuPipeline:
@@ -189,7 +140,7 @@ class GpuPipeline:
         self.grid = (n_u, n_v)
         self.shape_px = (rows, cols)
         self._progs = {
-            name: ctx.program(vertex_shader=VERT_SHADER, fragment_shader=src)
+            name: ctx.program(vertex_shader=VERTEX_SHADER, fragment_shader=src)
             for name, src in (
                 ("pass1", PASS1_SHADER),
                 ("pass2", PASS2_SHADER),
@@ -268,7 +219,7 @@ class GpuPipeline:
         m = np.zeros((MAX_GRID, 2), np.int32)
         w = np.zeros((MAX_GRID, 2), np.float32)
         for k, s in enumerate(shifts):
-            pairs = shift_pairs(s)
+            pairs = _shift_weights(s)
             m[k, 0], w[k, 0] = pairs[0]
             if len(pairs) == 2:
                 m[k, 1], w[k, 1] = pairs[1]
@@ -298,7 +249,7 @@ class GpuPipeline:
         rows, cols = self.shape_px
         row_shifts = [d * (u - n_u // 2) for u in range(n_u)]
         col_shifts = [d * (v - n_v // 2) for v in range(n_v)]
-        w = np.outer(weights_1d(rows, row_shifts), weights_1d(cols, col_shifts))
+        w = np.outer(_weights_1d(rows, row_shifts), _weights_1d(cols, col_shifts))
         inv = np.zeros_like(w)
         np.divide(1.0, w, out=inv, where=w > 1e-9)
         self._inv.write(inv.astype(np.float32).tobytes())

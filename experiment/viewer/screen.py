@@ -22,6 +22,7 @@ into an 8-bit image that both the GPU and this reference use as is.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -259,9 +260,32 @@ class FramePainter:
     ) -> np.ndarray:
         """Draw a state's panes into the frame; return it (RGBA, valid until the next call).
 
-        The arguments are :func:`expected_screen`'s; ``keys``: one hashable per pane (centre,
-        confocal, edges, implant), or None to redraw all; ``phosphenes``: the implant image
-        already drawn at its rectangle's size (a cache), else it is drawn here.
+        Parameters
+        ----------
+        screen : ScreenLayout
+        centre : ndarray (rows, cols), float32 in [0, 1]
+        source : ndarray (h, w), float32 in [0, 1]
+            Confocal (or obstacle-masked) image, zoomed.
+        edges : ndarray (h, w), bool
+        cells : ndarray (implant rows, cols), float32 in [0, 1]
+            Electrode values (dropout, brightness variation and rotation are applied here, from
+            ``layout``).
+        layout : ImplantLayout
+        zoom : (x, y, w, h) or None
+            Outlined on the centre view.
+        alert : bool
+            Draw the red alert frame around the implant image.
+        status : ndarray (STATUS_ROWS_PX, cols), uint8
+            The status line (:func:`status_image`).
+        marker : (x, y) or None
+            The marked point (confocal extension), a cross on the centre view in view pixels.
+        overlay : ndarray (h, w), uint8, optional
+            The key help (:func:`help_image`), drawn over the middle of the frame.
+        keys : tuple or None
+            One hashable per pane (centre, confocal, edges, implant), or None to redraw all.
+        phosphenes : ndarray or None
+            The implant image already drawn at its rectangle's size (a cache), else it is
+            drawn here.
         """
         rows, cols = screen.screen_shape_px
         full = (
@@ -344,58 +368,10 @@ def draw_implant(cells: np.ndarray, shape_px: tuple[int, int], layout: ImplantLa
     )
 
 
-def expected_screen(
-    screen: ScreenLayout,
-    centre: np.ndarray,
-    source: np.ndarray,
-    edges: np.ndarray,
-    cells: np.ndarray,
-    layout: ImplantLayout,
-    *,
-    zoom: tuple[int, int, int, int] | None,
-    alert: bool,
-    status: np.ndarray,
-    marker: tuple[int, int] | None = None,
-    overlay: np.ndarray | None = None,
-) -> np.ndarray:
+def expected_screen(*panes: Any, **options: Any) -> np.ndarray:
     """Return the (rows, cols, 3) uint8 screen the GPU renderer should draw (numpy reference).
 
-    Parameters
-    ----------
-    screen : ScreenLayout
-    centre : ndarray (rows, cols), float32 in [0, 1]
-    source : ndarray (h, w), float32 in [0, 1]
-        Confocal (or obstacle-masked) image, zoomed.
-    edges : ndarray (h, w), bool
-    cells : ndarray (implant rows, cols), float32 in [0, 1]
-        Electrode values (dropout, brightness variation and rotation are applied here, from
-        ``layout``).
-    layout : ImplantLayout
-    zoom : (x, y, w, h) or None
-        Outlined on the centre view.
-    alert : bool
-        Draw the red alert frame around the implant image.
-    status : ndarray (STATUS_ROWS_PX, cols), uint8
-        The status line (:func:`status_image`).
-    marker : (x, y) or None
-        The marked point (confocal extension), a cross on the centre view in view pixels.
-    overlay : ndarray (h, w), uint8, optional
-        The key help (:func:`help_image`), drawn over the middle of the frame.
+    Takes :meth:`FramePainter.paint`'s arguments (``keys`` and ``phosphenes`` make no
+    difference to a fresh painter) and returns its frame's RGB.
     """
-    return (
-        FramePainter()
-        .paint(
-            screen,
-            centre,
-            source,
-            edges,
-            cells,
-            layout,
-            zoom=zoom,
-            alert=alert,
-            status=status,
-            marker=marker,
-            overlay=overlay,
-        )[..., :3]
-        .copy()
-    )
+    return FramePainter().paint(*panes, **options)[..., :3].copy()

@@ -1,27 +1,23 @@
 """GLSL sources of the viewer's GPU pipeline: refocus passes, Sobel, compression, the frame.
 
+The vertex shader and the phosphene profile are the presenter's
+(:mod:`experiment.presentation.drawing`).
+
 Each shader computes what :mod:`experiment.viewer.reference` computes with numpy; the tests
 compare the two pixel by pixel.
 """
 
 from __future__ import annotations
 
+from experiment.presentation.drawing import PHOSPHENE_GLSL
+
 __all__ = [
-    "VERT_SHADER",
     "PASS1_SHADER",
     "PASS2_SHADER",
     "SOBEL_SHADER",
     "COMPRESS_SHADER",
     "DRAW_SHADER",
 ]
-
-VERT_SHADER = """
-#version 330
-void main() {
-    vec2 p = vec2((gl_VertexID == 1) ? 3.0 : -1.0, (gl_VertexID == 2) ? 3.0 : -1.0);
-    gl_Position = vec4(p, 0.0, 1.0);
-}
-"""
 
 PASS1_SHADER = """
 #version 330
@@ -135,7 +131,8 @@ void main() {
 }
 """
 
-DRAW_SHADER = """
+DRAW_SHADER = (
+    """
 #version 330
 uniform int u_kind;          // 0 grey, 1 edges (mag > t), 2 phosphenes, 3 text
 uniform int u_screen_rows;
@@ -154,6 +151,12 @@ uniform float u_phos_size;
 uniform vec2 u_rot;          // cos, sin of the array's rotation (counter-clockwise on screen)
 out vec4 f_color;
 
+float cell_value(ivec2 c) {
+    return texelFetch(u_tex, c, 0).r * texelFetch(u_alive, c, 0).r;
+}
+"""
+    + PHOSPHENE_GLSL
+    + """
 float phosphene(ivec2 p, ivec2 grid) {
     vec2 pitch = vec2(u_rect.zw) / vec2(grid);
     vec2 pos = vec2(p) + 0.5;
@@ -163,23 +166,7 @@ float phosphene(ivec2 p, ivec2 grid) {
         vec2 d = pos - c;
         pos = c + vec2(d.x * u_rot.x - d.y * u_rot.y, d.x * u_rot.y + d.y * u_rot.x);
     }
-    ivec2 c0 = ivec2(floor(pos / pitch));
-    float d_size = u_phos_size * min(pitch.x, pitch.y);
-    float sigma = d_size / 2.3548;
-    float total = 0.0;
-    for (int dy = -1; dy <= 1; dy++) {
-        for (int dx = -1; dx <= 1; dx++) {
-            ivec2 c = c0 + ivec2(dx, dy);
-            if (c.x < 0 || c.y < 0 || c.x >= grid.x || c.y >= grid.y) continue;
-            float v = texelFetch(u_tex, c, 0).r * texelFetch(u_alive, c, 0).r;
-            if (v == 0.0) continue;  // adds exactly 0: skipping it only saves an exp
-            vec2 d = pos - (vec2(c) + 0.5) * pitch;
-            float r2 = d.y * d.y + d.x * d.x;
-            if (u_phos == 1) total += v * exp(-r2 / (2.0 * sigma * sigma));
-            else if (r2 <= 0.25 * d_size * d_size) total += v;
-        }
-    }
-    return min(total, 1.0);
+    return phosphene_sum(pos, pitch, grid);
 }
 
 void main() {
@@ -218,3 +205,4 @@ void main() {
     f_color = vec4(vec3(clamp(v, 0.0, 1.0)), 1.0);
 }
 """
+)

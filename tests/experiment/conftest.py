@@ -96,6 +96,18 @@ def confocal_process(*args: object, timeout: float = 300, **run: object):
     )
 
 
+def viewer_model(**fields: object):
+    """Return a small ``ViewerModel``: a 100x150 view, disparities -5..15 px in 0.2 px steps."""
+    from experiment.viewer.state import ViewerModel
+
+    return ViewerModel(
+        shape_px=(100, 150),
+        disparity_range_px=(-5.0, 15.0),
+        step_px=0.2,
+        **fields,  # type: ignore[arg-type]
+    )
+
+
 def session_run_args(stim: Path, proto: Path, db: Path, subject: str = "S01", *extra) -> list:
     """Return the arguments of ``confocal session run`` for a study made by :func:`make_study`."""
     return ["session", "run", "--protocol", proto, "--stimuli", stim, "--subject", subject,

@@ -20,8 +20,8 @@ presenter = pytest.importorskip(
 )
 
 from experiment.clock import FakeClock  # noqa: E402
+from experiment.presentation.geometry import PAPER_BORDER_RGB  # noqa: E402
 from experiment.presentation.presenter import (  # noqa: E402
-    PAPER_BORDER_RGB,
     PhospheneSpec,
     Presenter,
     PresenterError,

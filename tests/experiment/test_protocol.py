@@ -22,6 +22,21 @@ from tests.conftest import protocol_toml
 MINIMAL = protocol_toml((1, 2), name="mini", training=None)
 
 
+def in_display(line: str) -> tuple[str, str]:
+    """An edit of :data:`MINIMAL` that adds a ``[display]`` table holding ``line``."""
+    return "[[blocks]]", f"[display]\n{line}\n[[blocks]]"
+
+
+def in_scoring(line: str) -> tuple[str, str]:
+    """An edit of :data:`MINIMAL` that adds a ``[scoring]`` table holding ``line``."""
+    return "[[blocks]]", f"[scoring]\n{line}\n[[blocks]]"
+
+
+def in_block(line: str) -> tuple[str, str]:
+    """An edit of :data:`MINIMAL` that adds ``line`` to its main block."""
+    return 'part = "main"', f'part = "main"\n{line}'
+
+
 def write(tmp_path, text, name="p.toml"):
     p = tmp_path / name
     p.write_text(text)
@@ -97,14 +112,8 @@ def test_defaults_fill_display_and_scoring(tmp_path):
             r"p\.toml: unknown key 'colour' in \[protocol\]",
         ),
         (("[protocol]", "extra = 1\n[protocol]"), r"unknown key 'extra' at top level"),
-        (
-            ('part = "main"', 'part = "main"\nlevel = [1]'),
-            r"unknown key 'level' in \[blocks\[0\]\]",
-        ),
-        (
-            ("[[blocks]]", "[display]\nscreen_widht_px = 3\n[[blocks]]"),
-            r"unknown key 'screen_widht_px' in \[display\]",
-        ),
+        (in_block("level = [1]"), r"unknown key 'level' in \[blocks\[0\]\]"),
+        (in_display("screen_widht_px = 3"), r"unknown key 'screen_widht_px' in \[display\]"),
         (("levels = [1, 2]", 'levels = [1, "2"]'), r"levels\[\] must be int, got str"),
         (("levels = [1, 2]", "levels = [1, 1]"), r"levels lists a level twice"),
         (("levels = [1, 2]", "levels = [0]"), r"levels must be >= 1, got 0"),
@@ -118,20 +127,14 @@ def test_defaults_fill_display_and_scoring(tmp_path):
             ('conditions = ["cluttered", "decluttered"]', 'conditions = ["photo", "photo"]'),
             r"lists a condition twice",
         ),
-        (('part = "main"', 'part = "main"\ngroup_by = "subject"'), r"group_by must be one of"),
-        (('part = "main"', 'part = "main"\nlevel_order = "up"'), r"level_order must be one of"),
-        (
-            ('part = "main"', 'part = "main"\ncondition_order = "up"'),
-            r"condition_order must be one of",
-        ),
-        (('part = "main"', 'part = "main"\ntrial_order = "up"'), r"trial_order must be one of"),
-        (('part = "main"', 'part = "main"\nblock_order = "up"'), r"block_order must be one of"),
-        (('part = "main"', 'part = "main"\nrepetitions = 0'), r"repetitions must be >= 1, got 0"),
-        (('part = "main"', 'part = "main"\nrepetitions = 1.5'), r"repetitions must be int"),
-        (
-            ('part = "main"', 'part = "main"\nbreak_every_blocks = -1'),
-            r"break_every_blocks must be >= 0",
-        ),
+        (in_block('group_by = "subject"'), r"group_by must be one of"),
+        (in_block('level_order = "up"'), r"level_order must be one of"),
+        (in_block('condition_order = "up"'), r"condition_order must be one of"),
+        (in_block('trial_order = "up"'), r"trial_order must be one of"),
+        (in_block('block_order = "up"'), r"block_order must be one of"),
+        (in_block("repetitions = 0"), r"repetitions must be >= 1, got 0"),
+        (in_block("repetitions = 1.5"), r"repetitions must be int"),
+        (in_block("break_every_blocks = -1"), r"break_every_blocks must be >= 0"),
         (('objects = "main"', "objects = []"), r"objects must be a role name or a list of ids"),
         (('objects = "main"', 'objects = ""'), r"objects must be a role name"),
         (('objects = "main"', 'objects = ["a", "a"]'), r"objects lists an object twice"),
@@ -148,67 +151,26 @@ def test_defaults_fill_display_and_scoring(tmp_path):
         (('name = "mini"', 'name = "m"\nfeedback = 1'), r"protocol.feedback must be bool"),
         (('[protocol]\nname = "mini"', ""), r"missing table \[protocol\]"),
         (('part = "main"', 'part = "training"'), r"at least one entry with part = 'main'"),
-        (
-            ("[[blocks]]", "[display]\nscreen_width_px = 0\n[[blocks]]"),
-            r"display.screen_width_px must be >= 1",
-        ),
-        (
-            ("[[blocks]]", "[display]\nscreen_height_px = 1.5\n[[blocks]]"),
-            r"display.screen_height_px must be int",
-        ),
-        (
-            ("[[blocks]]", "[display]\nviewing_distance_cm = 0\n[[blocks]]"),
-            r"viewing_distance_cm must be a positive number",
-        ),
-        (
-            ("[[blocks]]", "[display]\nimage_width_cm = 99\n[[blocks]]"),
-            r"image_width_cm must be <= screen_width_cm",
-        ),
-        (
-            ("[[blocks]]", "[display]\nimage_height_cm = -2\n[[blocks]]"),
-            r"image_height_cm must be a positive number",
-        ),
-        (
-            ("[[blocks]]", '[display]\nscreen_width_cm = "40"\n[[blocks]]'),
-            r"screen_width_cm must be int or float",
-        ),
-        (
-            ("[[blocks]]", "[display]\nborder_rgb = [0, 0, 256]\n[[blocks]]"),
-            r"border_rgb must be 3 integers",
-        ),
-        (
-            ("[[blocks]]", "[display]\nbackground_rgb = [0, 0]\n[[blocks]]"),
-            r"background_rgb must be 3 integers",
-        ),
-        (
-            ("[[blocks]]", "[display]\nborder_width_px = -1\n[[blocks]]"),
-            r"border_width_px must be >= 0",
-        ),
+        (in_display("screen_width_px = 0"), r"display.screen_width_px must be >= 1"),
+        (in_display("screen_height_px = 1.5"), r"display.screen_height_px must be int"),
+        (in_display("viewing_distance_cm = 0"), r"viewing_distance_cm must be a positive number"),
+        (in_display("image_width_cm = 99"), r"image_width_cm must be <= screen_width_cm"),
+        (in_display("image_height_cm = -2"), r"image_height_cm must be a positive number"),
+        (in_display('screen_width_cm = "40"'), r"screen_width_cm must be int or float"),
+        (in_display("border_rgb = [0, 0, 256]"), r"border_rgb must be 3 integers"),
+        (in_display("background_rgb = [0, 0]"), r"background_rgb must be 3 integers"),
+        (in_display("border_width_px = -1"), r"border_width_px must be >= 0"),
         (("[protocol]", "display = 3\n[protocol]"), r"\[display\] must be a table"),
+        (in_scoring("recognized = { named = true }"), r"scoring.recognized is missing score 'use'"),
+        (in_scoring("recognized = { named = true, guessed = true }"), r"unknown score 'guessed'"),
         (
-            ("[[blocks]]", "[scoring]\nrecognized = { named = true }\n[[blocks]]"),
-            r"scoring.recognized is missing score 'use'",
-        ),
-        (
-            ("[[blocks]]", "[scoring]\nrecognized = { named = true, guessed = true }\n[[blocks]]"),
-            r"unknown score 'guessed'",
-        ),
-        (
-            (
-                "[[blocks]]",
-                "[scoring]\nrecognized = { named = 1, use = true, shape = false, wrong = false, "
-                "pass = false }\n[[blocks]]",
+            in_scoring(
+                "recognized = { named = 1, use = true, shape = false, wrong = false, pass = false }"
             ),
             r"scoring.recognized.named must be true or false",
         ),
-        (
-            ("[[blocks]]", "[scoring]\nrecognized = 3\n[[blocks]]"),
-            r"scoring.recognized must be a table",
-        ),
-        (
-            ("[[blocks]]", '[scoring]\nprimary_rater = " "\n[[blocks]]'),
-            r"primary_rater must not be empty",
-        ),
+        (in_scoring("recognized = 3"), r"scoring.recognized must be a table"),
+        (in_scoring('primary_rater = " "'), r"primary_rater must not be empty"),
     ],
 )
 def test_bad_protocol_names_the_field(tmp_path, edit, match):

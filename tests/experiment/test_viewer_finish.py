@@ -22,18 +22,12 @@ from experiment.viewer.screen import (
     screen_layout,
     status_image,
 )
-from experiment.viewer.state import KEY_HELP, ViewerModel, apply_event
+from experiment.viewer.state import KEY_HELP, apply_event
 from stimuli.implants import ImplantError, ImplantLayout, load_implant, render_phosphenes
 from stimuli.vignette import vignette_crop
+from tests.experiment.conftest import viewer_model
 
-MODEL = ViewerModel(
-    shape_px=(100, 150),
-    disparity_range_px=(-5.0, 15.0),
-    step_px=0.2,
-    planes_px=(12.0, 3.0),
-    implants=("argus2", "brainport"),
-    implant_levels=(2, 4),
-)
+MODEL = viewer_model(planes_px=(12.0, 3.0), implants=("argus2", "brainport"), implant_levels=(2, 4))
 
 
 @pytest.fixture(scope="module")

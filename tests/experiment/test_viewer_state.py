@@ -20,15 +20,10 @@ from stimuli.implants import (
     load_implant,
     render_phosphenes,
 )
-from tests.experiment.conftest import confocal_process
+from tests.experiment.conftest import confocal_process, viewer_model
 
-MODEL = ViewerModel(
-    shape_px=(100, 150),
-    disparity_range_px=(-5.0, 15.0),
-    step_px=0.2,
-    planes_px=(12.0, 3.0, 1.0),
-    implants=("argus2", "alpha_ims", "brainport"),
-    auto_threshold=0.08,
+MODEL = viewer_model(
+    planes_px=(12.0, 3.0, 1.0), implants=("argus2", "alpha_ims", "brainport"), auto_threshold=0.08
 )
 
 
