@@ -48,7 +48,15 @@ from stimuli.lfload import as_lightfield
 from stimuli.lightfield import LightField
 from stimuli.rowthreads import default_workers, run_on_row_strips
 
-__all__ = ["refocus", "focal_stack", "iter_focal_stack", "centre_view", "default_workers"]
+__all__ = [
+    "refocus",
+    "focal_stack",
+    "iter_focal_stack",
+    "centre_view",
+    "default_workers",
+    "shift_weights",
+    "overlap_weights",
+]
 
 #: Views up to this many pixels are processed a whole view column at a time (ours, measured:
 #: numpy call overhead dominates small views, cache misses large ones).
@@ -71,8 +79,19 @@ def _int_slices(length: int, m: int) -> tuple[slice, slice] | None:
     return slice(0, length + m), slice(-m, length)
 
 
-def _shift_weights(shift_px: float) -> tuple[tuple[int, float], ...]:
-    """Integer shifts and weights of a linear-interpolation shift by ``shift_px``."""
+def shift_weights(shift_px: float) -> tuple[tuple[int, float], ...]:
+    """Integer shifts and weights of a linear-interpolation shift by ``shift_px``.
+
+    ``((n, 1 - f),  (n + 1, f))`` for ``shift_px = n + f``; one pair ``(m, 1.0)`` for a
+    whole shift (within 1e-6 px).
+
+    Examples
+    --------
+    >>> shift_weights(2.25)
+    ((2, 0.75), (3, 0.25))
+    >>> shift_weights(-1.0)
+    ((-1, 1.0),)
+    """
     n = math.floor(shift_px)
     f = shift_px - n
     if f < 1e-6:
@@ -85,7 +104,7 @@ def _shift_weights(shift_px: float) -> tuple[tuple[int, float], ...]:
 def _accumulate(dst: np.ndarray, src: np.ndarray, shift_px: float, axis: int, tmp: np.ndarray):
     """``dst += src`` shifted by ``shift_px`` along ``axis`` (linear interpolation, zero fill)."""
     length = src.shape[axis]
-    for m, w in _shift_weights(shift_px):
+    for m, w in shift_weights(shift_px):
         sl = _int_slices(length, m)
         if sl is None:
             continue
@@ -101,11 +120,16 @@ def _accumulate(dst: np.ndarray, src: np.ndarray, shift_px: float, axis: int, tm
             np.add(dst[d_idx], t, out=dst[d_idx])
 
 
-def _weights_1d(length: int, shifts: Sequence[float]) -> np.ndarray:
+def overlap_weights(length: int, shifts: Sequence[float]) -> np.ndarray:
+    """How many views (interpolation weights summed) fall on each position along one axis.
+
+    The refocused image's normaliser along that axis: views shifted by ``shifts`` px, each
+    sampled by :func:`shift_weights`, over ``length`` positions (float64; 0 where none falls).
+    """
     w = np.zeros(length, dtype=np.float64)
     ones = np.ones(length, dtype=np.float64)
     for s in shifts:
-        for m, a in _shift_weights(s):
+        for m, a in shift_weights(s):
             sl = _int_slices(length, m)
             if sl is not None:
                 w[sl[0]] += a * ones[sl[1]]
@@ -132,13 +156,13 @@ def _tap_arrays(shifts: Sequence[float]) -> tuple[np.ndarray, ...]:
     """Per view: the first tap's integer shift, its weight and the next tap's weight.
 
     A linear-interpolation shift by ``n + f`` has taps ``(n, 1 - f)`` and ``(n + 1, f)``
-    (:func:`_shift_weights`); a whole shift has one tap, the other weight is 0.
+    (:func:`shift_weights`); a whole shift has one tap, the other weight is 0.
     """
     m = np.zeros(len(shifts), dtype=np.int64)
     w0 = np.zeros(len(shifts), dtype=np.float32)
     w1 = np.zeros(len(shifts), dtype=np.float32)
     for i, s in enumerate(shifts):
-        taps = _shift_weights(s)
+        taps = shift_weights(s)
         m[i], w0[i] = taps[0]
         if len(taps) == 2:
             w1[i] = taps[1][1]
@@ -147,7 +171,7 @@ def _tap_arrays(shifts: Sequence[float]) -> tuple[np.ndarray, ...]:
 
 def _inverse_weights(length: int, shifts: Sequence[float]) -> np.ndarray:
     """One over the number of contributing views along one axis (0 where none contributes)."""
-    w = _weights_1d(length, shifts)
+    w = overlap_weights(length, shifts)
     inv = np.zeros_like(w)
     np.divide(1.0, w, out=inv, where=w > 1e-9)
     return inv.astype(np.float32)

@@ -58,7 +58,7 @@ from experiment.viewer.shaders import (
 from stimuli.implants import ImplantLayout
 
 # the CPU refocus's own interpolation rule, so that both add the same shifted views
-from stimuli.refocus import _shift_weights, _weights_1d
+from stimuli.refocus import overlap_weights, shift_weights
 
 __all__ = [
     "MAX_GRID",
@@ -219,7 +219,7 @@ class GpuPipeline:
         m = np.zeros((MAX_GRID, 2), np.int32)
         w = np.zeros((MAX_GRID, 2), np.float32)
         for k, s in enumerate(shifts):
-            pairs = _shift_weights(s)
+            pairs = shift_weights(s)
             m[k, 0], w[k, 0] = pairs[0]
             if len(pairs) == 2:
                 m[k, 1], w[k, 1] = pairs[1]
@@ -249,7 +249,7 @@ class GpuPipeline:
         rows, cols = self.shape_px
         row_shifts = [d * (u - n_u // 2) for u in range(n_u)]
         col_shifts = [d * (v - n_v // 2) for v in range(n_v)]
-        w = np.outer(_weights_1d(rows, row_shifts), _weights_1d(cols, col_shifts))
+        w = np.outer(overlap_weights(rows, row_shifts), overlap_weights(cols, col_shifts))
         inv = np.zeros_like(w)
         np.divide(1.0, w, out=inv, where=w > 1e-9)
         self._inv.write(inv.astype(np.float32).tobytes())
