@@ -19,7 +19,6 @@ from __future__ import annotations
 import itertools
 import math
 import warnings
-from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 from scipy.linalg.blas import saxpy as _saxpy  # y += a x: one pass instead of two
@@ -31,7 +30,7 @@ from stimuli.haarscan import MIN_EDGE_PIXELS
 from stimuli.lfload import as_lightfield
 from stimuli.lfviews import LightField
 from stimuli.planescan import Plane, PlaneScan, find_peaks
-from stimuli.rowthreads import default_workers
+from stimuli.rowthreads import default_workers, run_on_threads
 from stimuli.rowthreads import one_blas_thread as _one_blas_thread
 
 __all__ = [
@@ -274,11 +273,7 @@ def _sweep(
     n_threads = max(1, min(workers, len(ds)))
     parts = np.array_split(np.arange(len(ds)), n_threads)
     with _one_blas_thread():
-        if n_threads == 1:
-            results = [run(parts[0])]
-        else:
-            with ThreadPoolExecutor(n_threads) as ex:
-                results = list(ex.map(run, parts))
+        results = run_on_threads(run, parts)
     out = []
     for j in (0, 1):
         best, best_i, total = (np.array(results[0][q][j]) for q in range(3))

@@ -21,7 +21,12 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-__all__ = ["shift_add_rows", "sobel_rows", "count_blocks"]
+__all__ = ["shift_add_rows", "sobel_rows", "count_blocks", "ROW_BLOCK"]
+
+#: Output rows made together by :func:`shift_add_rows` (ours, measured on 2 cores: each view's
+#: rows for the block are read as one run, which the prefetcher follows, and the block's sums,
+#: 16 rows of float32, stay in the L1/L2 cache).
+ROW_BLOCK = 16
 
 
 @njit(nogil=True, cache=True)
@@ -100,50 +105,46 @@ def shift_add_rows(
     contributing views) and clipped to [0, 1].
     """
     n_u, n_v, rows, cols = views.shape
-    acc = np.empty(cols, dtype=np.float32)
-    for y in range(r0, r1):
-        acc[:] = 0.0
+    block = np.empty((ROW_BLOCK, cols), dtype=np.float32)
+    for y0 in range(r0, r1, ROW_BLOCK):
+        n = min(ROW_BLOCK, r1 - y0)
+        block[:n] = 0.0
         for u in range(n_u):
-            ya = y - row_m[u]
-            yb = ya - 1
-            wa = row_w0[u] if 0 <= ya < rows else np.float32(0.0)
-            wb = row_w1[u] if 0 <= yb < rows else np.float32(0.0)
-            if wa == 0.0 and wb == 0.0:
-                continue
-            for v in range(n_v):
+            for v in range(n_v):  # one view at a time: its rows stream through in order
                 ga = col_w0[v]
                 gb = col_w1[v]
                 m = col_m[v]
-                if wa != 0.0 and wb != 0.0:  # two source rows: one pass over four taps
-                    a = views[u, v, ya]
-                    b = views[u, v, yb]
-                    _add_four_taps(acc, a, b, m, wa * ga, wa * gb, wb * ga, wb * gb)
-                    continue
-                src = views[u, v, ya] if wb == 0.0 else views[u, v, yb]
-                w = wa if wb == 0.0 else wb
-                if gb == 0.0:
-                    _add_shifted(acc, src, m, w * ga)
-                elif ga == 0.0:
-                    _add_shifted(acc, src, m + 1, w * gb)
-                else:
-                    _add_two_taps(acc, src, m, w * ga, w * gb)
-        r = inv_rows[y]
-        for x in range(cols):
-            value = acc[x] * r * inv_cols[x]
-            out[y, x] = min(max(value, np.float32(0.0)), np.float32(1.0))
+                for i in range(n):
+                    ya = y0 + i - row_m[u]
+                    yb = ya - 1
+                    wa = row_w0[u] if 0 <= ya < rows else np.float32(0.0)
+                    wb = row_w1[u] if 0 <= yb < rows else np.float32(0.0)
+                    acc = block[i]
+                    if wa != 0.0 and wb != 0.0:  # two source rows: one pass over four taps
+                        a = views[u, v, ya]
+                        b = views[u, v, yb]
+                        _add_four_taps(acc, a, b, m, wa * ga, wa * gb, wb * ga, wb * gb)
+                    elif wa != 0.0 or wb != 0.0:
+                        src = views[u, v, ya] if wb == 0.0 else views[u, v, yb]
+                        w = wa if wb == 0.0 else wb
+                        if gb == 0.0:
+                            _add_shifted(acc, src, m, w * ga)
+                        elif ga == 0.0:
+                            _add_shifted(acc, src, m + 1, w * gb)
+                        else:
+                            _add_two_taps(acc, src, m, w * ga, w * gb)
+        for i in range(n):
+            r = inv_rows[y0 + i]
+            acc = block[i]
+            o = out[y0 + i]
+            for x in range(cols):
+                value = acc[x] * r * inv_cols[x]
+                o[x] = min(max(value, np.float32(0.0)), np.float32(1.0))
 
 
 @njit(nogil=True, cache=True)
-def _smooth(a, b, c):  # pragma: no cover - compiled
-    """``(a + 2 b + c) / 4`` in float64 (the products are exact)."""
-    return 0.25 * np.float64(a) + 0.5 * np.float64(b) + 0.25 * np.float64(c)
-
-
-@njit(nogil=True, cache=True)
-def _sobel_pixel(up, mid, down, xl, x, xr):  # pragma: no cover - compiled
-    """The Sobel magnitude at column ``x`` of ``mid`` (neighbour columns ``xl``, ``xr``)."""
-    gy = _smooth(up[xl], up[x], up[xr]) - _smooth(down[xl], down[x], down[xr])
-    gx = _smooth(up[xl], mid[xl], down[xl]) - _smooth(up[xr], mid[xr], down[xr])
+def _magnitude(gy, gx):  # pragma: no cover - compiled
+    """``sqrt(gy**2 + gx**2) / sqrt(2)`` from float64 sums rounded to float32, as skimage."""
     fy = np.float32(gy)
     fx = np.float32(gx)
     return np.float32(np.sqrt(fy * fy + fx * fx)) / np.float32(np.sqrt(np.float32(2.0)))
@@ -155,28 +156,47 @@ def sobel_rows(img, out, r0, r1):  # pragma: no cover - compiled
 
     ``sqrt(Gy**2 + Gx**2) / sqrt(2)`` with ``Gy = [1, 0, -1]`` across rows times ``[1, 2, 1] / 4``
     along them (and ``Gx`` the transpose), the image reflected at its borders (``d c b a | a b
-    c d``): scikit-image's ``sobel`` term for term, each weighted sum taken in float64 and
-    rounded to float32 as ``scipy.ndimage.convolve`` does (the six products are exact in
-    float64, so the order of the sum does not matter).
+    c d``): scikit-image's ``sobel`` term for term. Each directional sum is taken in float64,
+    where the products of float32 values by 1/4 and 1/2 and their sums are exact, and rounded to
+    float32 as ``scipy.ndimage.convolve`` does, so the order of the terms does not matter. Per
+    row, the column sums ``up + 2 mid + down`` and differences ``up - down`` are formed first,
+    then combined along the row: two passes that vectorise instead of one with nine loads.
 
     Returns the number of pixels of rows ``r0:r1`` outside [0, 1] or NaN (the input check, in the
     same pass).
     """
     rows, cols = img.shape
+    smooth = np.empty(cols, dtype=np.float64)  # (up + 2 mid + down) / 4: Gx's vertical part
+    diff = np.empty(cols, dtype=np.float64)  # up - down: Gy's vertical part
     outside = 0
     for y in range(r0, r1):
         up = img[y - 1] if y > 0 else img[0]
         mid = img[y]
         down = img[y + 1] if y < rows - 1 else img[rows - 1]
-        o = out[y]
         for x in range(cols):
-            if not (0.0 <= mid[x] <= 1.0):
-                outside += 1
-        o[0] = _sobel_pixel(up, mid, down, 0, 0, min(1, cols - 1))
-        if cols > 1:
-            o[cols - 1] = _sobel_pixel(up, mid, down, cols - 2, cols - 1, cols - 1)
-        for i in range(cols - 2):  # interior columns, indices from 0 up so that it vectorises
-            o[i + 1] = _sobel_pixel(up, mid, down, i, i + 1, i + 2)
+            value = mid[x]
+            outside += not (0.0 <= value <= 1.0)
+            smooth[x] = (
+                0.25 * np.float64(up[x]) + 0.5 * np.float64(value) + 0.25 * np.float64(down[x])
+            )
+            diff[x] = np.float64(up[x]) - np.float64(down[x])
+        o = out[y]
+        if cols == 1:
+            o[0] = _magnitude(diff[0], 0.0)
+            continue
+        o[0] = _magnitude(0.75 * diff[0] + 0.25 * diff[1], smooth[0] - smooth[1])
+        last = cols - 1
+        o[last] = _magnitude(
+            0.25 * diff[last - 1] + 0.75 * diff[last], smooth[last - 1] - smooth[last]
+        )
+        left = smooth[: cols - 2]
+        right = smooth[2:]
+        d0 = diff[: cols - 2]
+        d1 = diff[1 : cols - 1]
+        d2 = diff[2:]
+        inner = o[1:last]
+        for i in range(cols - 2):  # indices from 0 up, so that it vectorises
+            inner[i] = _magnitude(0.25 * d0[i] + 0.5 * d1[i] + 0.25 * d2[i], left[i] - right[i])
     return outside
 
 

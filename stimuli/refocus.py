@@ -127,12 +127,11 @@ def overlap_weights(length: int, shifts: Sequence[float]) -> np.ndarray:
     sampled by :func:`shift_weights`, over ``length`` positions (float64; 0 where none falls).
     """
     w = np.zeros(length, dtype=np.float64)
-    ones = np.ones(length, dtype=np.float64)
     for s in shifts:
         for m, a in shift_weights(s):
             sl = _int_slices(length, m)
             if sl is not None:
-                w[sl[0]] += a * ones[sl[1]]
+                w[sl[0]] += a
     return w
 
 

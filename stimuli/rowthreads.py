@@ -10,12 +10,16 @@ from __future__ import annotations
 import contextlib
 import os
 import threading
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from concurrent.futures import ThreadPoolExecutor
+from typing import TypeVar
 
 import numpy as np
 
-__all__ = ["default_workers", "run_on_row_strips", "one_blas_thread"]
+__all__ = ["default_workers", "run_on_row_strips", "run_on_threads", "one_blas_thread"]
+
+T = TypeVar("T")
+R = TypeVar("R")
 
 _POOLS: dict[int, ThreadPoolExecutor] = {}
 _BLAS: dict = {}
@@ -48,7 +52,20 @@ def run_on_row_strips(work: Callable[[int, int], object], rows: int, n_threads: 
     if n == 1:
         return [work(0, rows)]
     bounds = np.linspace(0, rows, n + 1).astype(int)
-    return list(_pool(n).map(work, bounds[:-1], bounds[1:]))
+    return run_on_threads(lambda ab: work(*ab), list(zip(bounds[:-1], bounds[1:], strict=True)))
+
+
+def run_on_threads(work: Callable[[T], R], parts: Sequence[T]) -> list[R]:
+    """Return ``[work(p) for p in parts]``, the parts run at once on the pool's threads.
+
+    The calling thread takes the last part itself (one hand-over fewer to wait for); the
+    results come in the order of ``parts``. ``work`` must not itself call this function.
+    """
+    if len(parts) <= 1:
+        return [work(p) for p in parts]
+    others = [_pool(len(parts) - 1).submit(work, p) for p in parts[:-1]]
+    last = work(parts[-1])
+    return [f.result() for f in others] + [last]
 
 
 def one_blas_thread():
