@@ -21,17 +21,14 @@ import math
 import warnings
 
 import numpy as np
-from scipy.linalg.blas import saxpy as _saxpy  # y += a x: one pass instead of two
-from scipy.ndimage import gaussian_filter1d, uniform_filter1d
 
 from stimuli import jung2015
 from stimuli.errors import InputError
 from stimuli.haarscan import MIN_EDGE_PIXELS
 from stimuli.lfload import as_lightfield
 from stimuli.lfviews import LightField
-from stimuli.planescan import Plane, PlaneScan, find_peaks
+from stimuli.planescan import Plane, PlaneScan, find_peaks, gaussian_smooth
 from stimuli.rowthreads import default_workers, run_on_threads
-from stimuli.rowthreads import one_blas_thread as _one_blas_thread
 
 __all__ = [
     "scan_binning",
@@ -177,103 +174,47 @@ def _sweep(
     Returns ``(best_index, agrees, null_best_index, null_agrees)``; the null uses
     ``null_centre`` as the reference.
 
-    How it is fast: every view is shifted along one axis only (centre row and column), and all
-    the differences are taken in the *transposed* layout (columns, rows), where the first box
-    filter of the cost (along the original columns) runs along contiguous memory; the cost is
-    transposed once per plane for the second box filter (along the original rows). A view that
-    shifts along columns is stored transposed and padded along that axis, so a shift by
-    ``n + f`` pixels is a contiguous block copy plus one BLAS ``saxpy`` of the precomputed
-    pixel differences (linear interpolation ``I(x - n) + f (I(x - n - 1) - I(x - n))``); a view
-    that shifts along rows is stored transposed and padded along its rows (the last axis), where
-    the shift is an offset in the flattened array: the same copy and ``saxpy``, with each row of
-    the result ``2 pad`` samples wider than used. Every sum is formed from the same numbers in
-    the same order as in the plain layout, so the answer is the same to the bit.
+    How it is fast: every view is shifted along one axis only (centre row and column), and each
+    thread sweeps its share of the planes in one compiled call
+    (:func:`stimuli.kernels.agreement_sweep`): per plane, the interpolated views' differences
+    from both references, the box filter and the running best, without a pass of its own for
+    each step. The views that shift along columns are padded once by repeating their end
+    columns, so that a shift is an offset into the padded row.
     """
+    from stimuli.kernels import COST_BOX_PX, agreement_sweep
+
+    if COST_BOX_PX != COST_WINDOW_PX:  # pragma: no cover - the two constants are one value
+        raise RuntimeError("COST_WINDOW_PX must equal stimuli.kernels.COST_BOX_PX")
     rows, cols = centre.shape
     m = max(max(abs(a), abs(b)) for a, b in offsets)
     pad = int(math.ceil(float(np.abs(ds).max()) * m)) + 2
-    groups: dict[int, list] = {0: [], 1: []}
-    for img, (du, dv) in zip(views, offsets, strict=True):
-        axis = 0 if du else 1
-        a = np.ascontiguousarray(img.T, dtype=np.float32)  # (cols, rows)
-        if axis == 0:  # shifts along rows: the last axis of the transposed view
-            p = np.pad(a, ((0, 0), (pad, pad)), mode="edge")
-            g = np.zeros_like(p)  # g[:, j] = p[:, j - 1] - p[:, j]: the interpolation increment
-            np.subtract(p[:, :-1], p[:, 1:], out=g[:, 1:])
-        else:  # shifts along columns: the first axis of the transposed view
-            p = np.pad(a, ((pad, pad), (0, 0)), mode="edge")
-            g = np.zeros_like(p)  # g[j] = p[j - 1] - p[j]: the linear-interpolation increment
-            np.subtract(p[:-1], p[1:], out=g[1:])
-        groups[axis].append((p, g.reshape(-1), du or dv))
-    refs = (np.ascontiguousarray(centre.T), np.ascontiguousarray(null_centre.T))
+    row_group = [(img, du) for img, (du, dv) in zip(views, offsets, strict=True) if du]
+    col_group = [(img, dv) for img, (du, dv) in zip(views, offsets, strict=True) if not du]
+    row_views = np.zeros((len(row_group), rows, cols), np.float32)
+    col_views = np.zeros((len(col_group), rows, cols + 2 * pad), np.float32)
+    for j, (img, _) in enumerate(row_group):
+        row_views[j] = img
+    for j, (img, _) in enumerate(col_group):
+        col_views[j] = np.pad(np.asarray(img, np.float32), ((0, 0), (pad, pad)), mode="edge")
+    row_steps = np.array([off for _, off in row_group], np.float64)
+    col_steps = np.array([off for _, off in col_group], np.float64)
+    refs = np.ascontiguousarray(np.stack([centre, null_centre]), dtype=np.float32)
+    planes = np.ascontiguousarray(ds, dtype=np.float64)
 
     def run(idx: np.ndarray):
-        # Index 0 of the stacked buffers is the scan against the centre view, 1 the null.
         best = np.full((2, rows, cols), np.inf, np.float32)
         best_i = np.zeros((2, rows, cols), np.int32)
         total = np.zeros((2, rows, cols), np.float32)
-        cost = np.empty((2, rows, cols), np.float32)
-        agg = np.empty_like(cost)
-        cost_t = np.empty((2, cols, rows), np.float32)  # transposed layout
-        agg_t = np.empty_like(cost_t)
-        mask = np.empty((2, rows, cols), bool)
-        width = rows + 2 * pad  # padded row length of a row-shifted view (transposed)
-        bufs = {}
-        for axis, items in groups.items():
-            if items:
-                shape = (len(items), cols, rows)
-                bufs[axis] = (
-                    np.empty((len(items), cols, width) if axis == 0 else shape, np.float32),
-                    np.empty(shape, np.float32),
-                    np.empty(shape[1:], np.float32),
-                )
-        for k in idx:
-            d = float(ds[k])
-            first = True
-            for axis, items in groups.items():
-                if not items:
-                    continue
-                shifted, diff, part = bufs[axis]
-                for j, (p, gflat, off) in enumerate(items):
-                    s = d * off  # sample the view at x - s
-                    n = math.floor(s)
-                    f = float(s - n)
-                    if axis == 0:  # an offset of pad - n along the flattened padded rows
-                        size = (cols - 1) * width + rows
-                        o = pad - n
-                        dst = shifted[j].reshape(-1)
-                        np.copyto(dst[:size], p.reshape(-1)[o : o + size])
-                    else:  # a block of whole (padded) rows
-                        size = cols * rows
-                        o = (pad - n) * rows
-                        dst = shifted[j].reshape(-1)
-                        np.copyto(shifted[j], p[pad - n : pad - n + cols])
-                    if f > 0.0:
-                        _saxpy(gflat, dst, n=size, a=f, offx=o)
-                used = shifted[:, :, :rows] if axis == 0 else shifted
-                for r in (0, 1):
-                    np.subtract(used, refs[r], out=diff)
-                    np.abs(diff, out=diff)
-                    np.sum(diff, axis=0, out=part)
-                    if first:
-                        np.copyto(cost_t[r], part)
-                    else:
-                        cost_t[r] += part
-                first = False
-            # The box filter along the original columns is along the transposed rows.
-            uniform_filter1d(cost_t, COST_WINDOW_PX, axis=2, output=agg_t, mode="nearest")
-            np.copyto(agg, agg_t.transpose(0, 2, 1))
-            uniform_filter1d(agg, COST_WINDOW_PX, axis=2, output=cost, mode="nearest")
-            total += cost
-            np.less(cost, best, out=mask)
-            np.copyto(best, cost, where=mask)
-            np.copyto(best_i, np.int32(k), where=mask)
+        if idx.size:
+            agreement_sweep(
+                row_views, row_steps, col_views, col_steps, pad, refs,
+                planes[idx[0] : idx[-1] + 1], int(idx[0]), best, best_i, total,
+            )  # fmt: skip
         return best, best_i, total
 
     n_threads = max(1, min(workers, len(ds)))
     parts = np.array_split(np.arange(len(ds)), n_threads)
-    with _one_blas_thread():
-        results = run_on_threads(run, parts)
+    results = run_on_threads(run, parts)
     out = []
     for j in (0, 1):
         best, best_i, total = (np.array(results[0][q][j]) for q in range(3))
@@ -368,8 +309,8 @@ def _support_curves(best_i, agrees, nbest_i, nagrees, n_planes: int, sigma_plane
     # pixels do not vote; the caller warns when there are many.
     ends = (float(raw[0]), float(raw[-1]))
     raw[0] = raw[-1] = null[0] = null[-1] = 0.0
-    smooth = gaussian_filter1d(raw, sigma_planes, mode="nearest")
-    nsmooth = gaussian_filter1d(null, sigma_planes, mode="nearest")
+    smooth = gaussian_smooth(raw, sigma_planes, mode="nearest")
+    nsmooth = gaussian_smooth(null, sigma_planes, mode="nearest")
     return raw, smooth, nsmooth, ends
 
 
@@ -388,8 +329,8 @@ def _occupied_span(ds: np.ndarray, best_i, agrees, nbest_i, nagrees) -> tuple[fl
     nh = np.bincount(nbest_i[nagrees], minlength=len(ds)).astype(np.float64) / n_px
     ends = (float(h[0]), float(h[-1]))
     h[0] = h[-1] = nh[0] = nh[-1] = 0.0
-    hs = gaussian_filter1d(h, 1.0, mode="constant")
-    level = MIN_EVIDENCE * max(float(gaussian_filter1d(nh, 1.0, mode="constant").max()), 1.0 / n_px)
+    hs = gaussian_smooth(h, 1.0, mode="constant")
+    level = MIN_EVIDENCE * max(float(gaussian_smooth(nh, 1.0, mode="constant").max()), 1.0 / n_px)
     idx = np.flatnonzero(hs > level)
     runs = np.split(idx, np.flatnonzero(np.diff(idx) > 1) + 1) if idx.size else []
     runs = [r for r in runs if h[r[0] : r[-1] + 1].sum() >= 0.5 * MIN_SUPPORT]

@@ -10,7 +10,9 @@ disk (``cache=True``), so only the first run on a machine pays for the compilati
 * :func:`sobel_rows`: the Sobel magnitude exactly as ``skimage.filters.sobel`` computes it for a
   float32 image (each directional sum in float64, rounded to float32, then squared, summed and
   divided in float32), for a range of rows;
-* :func:`count_blocks`: the number of True pixels in each window of a grid (exact integers).
+* :func:`count_blocks`: the number of True pixels in each window of a grid (exact integers);
+* :func:`agreement_sweep`: the agreement scan's plane sweep (:mod:`stimuli.agreementscan`),
+  every plane's view differences, box filter and running best in one call.
 
 Importing this module imports numba (about 0.3 s), so the modules that use it import it inside
 the functions that need it.
@@ -21,12 +23,24 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-__all__ = ["shift_add_rows", "sobel_rows", "count_blocks", "ROW_BLOCK"]
+__all__ = [
+    "shift_add_rows",
+    "sobel_rows",
+    "count_blocks",
+    "agreement_sweep",
+    "ROW_BLOCK",
+    "COST_BOX_PX",
+]
 
 #: Output rows made together by :func:`shift_add_rows` (ours, measured on 2 cores: each view's
 #: rows for the block are read as one run, which the prefetcher follows, and the block's sums,
 #: 16 rows of float32, stay in the L1/L2 cache).
 ROW_BLOCK = 16
+
+#: Side of the box over which :func:`agreement_sweep` averages view differences, pixels of the
+#: binned views (ours: the usual stereo matching window;
+#: ``stimuli.agreementscan.COST_WINDOW_PX`` is this value).
+COST_BOX_PX = 5
 
 
 @njit(nogil=True, cache=True)
@@ -221,3 +235,124 @@ def count_blocks(edges, row_bounds, col_bounds, counts):  # pragma: no cover - c
             for x in range(col_bounds[j], col_bounds[j + 1]):
                 s += line[x]
             counts[i, j] += s
+
+
+@njit(nogil=True, cache=True)
+def _accumulate_differences(a, b, f, ref0, ref1, cost0, cost1):  # pragma: no cover - compiled
+    """``cost_r += |a + f (b - a) - ref_r|`` for both references (one row)."""
+    for x in range(a.shape[0]):
+        v = a[x] + f * (b[x] - a[x])
+        cost0[x] += abs(v - ref0[x])
+        cost1[x] += abs(v - ref1[x])
+
+
+@njit(nogil=True, cache=True)
+def _box5_row(src, dst):  # pragma: no cover - compiled
+    """``dst[x] = sum of src[x - 2 .. x + 2]``, the row's end samples repeated beyond it."""
+    cols = src.shape[0]
+    last = cols - 1
+    for x in range(min(2, cols)):
+        dst[x] = (
+            src[max(x - 2, 0)]
+            + src[max(x - 1, 0)]
+            + src[x]
+            + src[min(x + 1, last)]
+            + src[min(x + 2, last)]
+        )
+    for x in range(max(cols - 2, 2), cols):
+        dst[x] = (
+            src[max(x - 2, 0)]
+            + src[max(x - 1, 0)]
+            + src[x]
+            + src[min(x + 1, last)]
+            + src[min(x + 2, last)]
+        )
+    if cols > 4:
+        d = dst[2 : cols - 2]
+        s0 = src[: cols - 4]
+        s1 = src[1 : cols - 3]
+        s2 = src[2 : cols - 2]
+        s3 = src[3 : cols - 1]
+        s4 = src[4:]
+        for i in range(cols - 4):  # indices from 0 up, so that it vectorises
+            d[i] = s0[i] + s1[i] + s2[i] + s3[i] + s4[i]
+
+
+@njit(nogil=True, cache=True)
+def agreement_sweep(
+    row_views, row_steps, col_views, col_steps, pad, refs, planes, first, best, best_i, total
+):  # pragma: no cover - compiled
+    """The agreement scan's plane sweep over ``planes`` (binned px per view step), in one pass.
+
+    ``row_views`` (a, rows, cols) are the views that shift along rows (``row_steps`` view steps
+    from the centre), ``col_views`` (b, rows, cols + 2 pad) those that shift along columns,
+    padded by repeating their end columns. At plane ``d`` a view is sampled at ``x - d step``
+    by linear interpolation (its end rows or columns repeated beyond it), and the cost of a
+    pixel against each of the two references ``refs`` (2, rows, cols) is the sum over views of
+    the absolute differences, then the mean over a :data:`COST_BOX_PX` square box (the image's
+    end rows and columns repeated). ``total`` (2, rows, cols) adds every plane's cost; ``best``
+    and ``best_i`` keep the smallest cost and the index (``first`` + position in ``planes``) of
+    the first plane that reached it.
+    """
+    rows = refs.shape[1]
+    cols = refs.shape[2]
+    cost = np.empty((2, rows, cols), dtype=np.float32)
+    tmp = np.empty((rows, cols), dtype=np.float32)
+    line = np.empty(cols, dtype=np.float32)
+    scale = np.float32(1.0 / (COST_BOX_PX * COST_BOX_PX))
+    for k in range(planes.shape[0]):
+        d = planes[k]
+        cost[:] = 0.0
+        for j in range(row_views.shape[0]):
+            s = d * row_steps[j]
+            n = int(np.floor(s))
+            f = np.float32(s - n)
+            for y in range(rows):
+                ya = min(max(y - n, 0), rows - 1)
+                yb = min(max(y - n - 1, 0), rows - 1)
+                _accumulate_differences(
+                    row_views[j, ya],
+                    row_views[j, yb],
+                    f,
+                    refs[0, y],
+                    refs[1, y],
+                    cost[0, y],
+                    cost[1, y],
+                )
+        for j in range(col_views.shape[0]):
+            s = d * col_steps[j]
+            n = int(np.floor(s))
+            f = np.float32(s - n)
+            for y in range(rows):
+                padded = col_views[j, y]
+                _accumulate_differences(
+                    padded[pad - n : pad - n + cols],
+                    padded[pad - n - 1 : pad - n - 1 + cols],
+                    f,
+                    refs[0, y],
+                    refs[1, y],
+                    cost[0, y],
+                    cost[1, y],
+                )
+        for r in range(2):
+            c = cost[r]
+            for y in range(rows):  # the box along the rows ...
+                t = tmp[y]
+                c0 = c[max(y - 2, 0)]
+                c1 = c[max(y - 1, 0)]
+                c2 = c[y]
+                c3 = c[min(y + 1, rows - 1)]
+                c4 = c[min(y + 2, rows - 1)]
+                for x in range(cols):
+                    t[x] = c0[x] + c1[x] + c2[x] + c3[x] + c4[x]
+            for y in range(rows):  # ... then along the columns, and the running best
+                _box5_row(tmp[y], line)
+                tot = total[r, y]
+                b = best[r, y]
+                bi = best_i[r, y]
+                for x in range(cols):
+                    v = line[x] * scale
+                    tot[x] += v
+                    if v < b[x]:
+                        b[x] = v
+                        bi[x] = first + k
