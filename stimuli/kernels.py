@@ -79,34 +79,6 @@ def _add_two_taps(acc, src, m, wa, wb):  # pragma: no cover - compiled
 
 
 @njit(nogil=True, cache=True)
-def _add_four_taps(acc, a, b, m, waa, wab, wba, wbb):  # pragma: no cover - compiled
-    """``acc[x] += waa a[x-m] + wab a[x-m-1] + wba b[x-m] + wbb b[x-m-1]`` (valid terms only).
-
-    The bilinear interpolation of two source rows ``a`` and ``b`` in one pass over ``acc``.
-    """
-    cols = acc.shape[0]
-    lo = max(0, m + 1)
-    hi = min(cols, cols + m)
-    if hi <= lo:
-        _add_shifted(acc, a, m, waa)
-        _add_shifted(acc, a, m + 1, wab)
-        _add_shifted(acc, b, m, wba)
-        _add_shifted(acc, b, m + 1, wbb)
-        return
-    dst = acc[lo:hi]
-    a0 = a[lo - m : hi - m]
-    a1 = a[lo - m - 1 : hi - m - 1]
-    b0 = b[lo - m : hi - m]
-    b1 = b[lo - m - 1 : hi - m - 1]
-    for i in range(hi - lo):
-        dst[i] += waa * a0[i] + wab * a1[i] + wba * b0[i] + wbb * b1[i]
-    if 0 <= m:
-        acc[m] += waa * a[0] + wba * b[0]
-    else:
-        acc[cols + m] += wab * a[cols - 1] + wbb * b[cols - 1]
-
-
-@njit(nogil=True, cache=True)
 def shift_add_rows(
     views, row_m, row_w0, row_w1, col_m, col_w0, col_w1, inv_rows, inv_cols, out, r0, r1
 ):  # pragma: no cover - compiled
@@ -134,10 +106,9 @@ def shift_add_rows(
                     wa = row_w0[u] if 0 <= ya < rows else np.float32(0.0)
                     wb = row_w1[u] if 0 <= yb < rows else np.float32(0.0)
                     acc = block[i]
-                    if wa != 0.0 and wb != 0.0:  # two source rows: one pass over four taps
-                        a = views[u, v, ya]
-                        b = views[u, v, yb]
-                        _add_four_taps(acc, a, b, m, wa * ga, wa * gb, wb * ga, wb * gb)
+                    if wa != 0.0 and wb != 0.0:  # two source rows, each with both column taps
+                        _add_two_taps(acc, views[u, v, ya], m, wa * ga, wa * gb)
+                        _add_two_taps(acc, views[u, v, yb], m, wb * ga, wb * gb)
                     elif wa != 0.0 or wb != 0.0:
                         src = views[u, v, ya] if wb == 0.0 else views[u, v, yb]
                         w = wa if wb == 0.0 else wb
@@ -251,22 +222,15 @@ def _box5_row(src, dst):  # pragma: no cover - compiled
     """``dst[x] = sum of src[x - 2 .. x + 2]``, the row's end samples repeated beyond it."""
     cols = src.shape[0]
     last = cols - 1
-    for x in range(min(2, cols)):
-        dst[x] = (
-            src[max(x - 2, 0)]
-            + src[max(x - 1, 0)]
-            + src[x]
-            + src[min(x + 1, last)]
-            + src[min(x + 2, last)]
-        )
-    for x in range(max(cols - 2, 2), cols):
-        dst[x] = (
-            src[max(x - 2, 0)]
-            + src[max(x - 1, 0)]
-            + src[x]
-            + src[min(x + 1, last)]
-            + src[min(x + 2, last)]
-        )
+    for x in (0, 1, cols - 2, cols - 1):  # the ends (assigned twice on short rows: harmless)
+        if 0 <= x < cols:
+            dst[x] = (
+                src[max(x - 2, 0)]
+                + src[max(x - 1, 0)]
+                + src[x]
+                + src[min(x + 1, last)]
+                + src[min(x + 2, last)]
+            )
     if cols > 4:
         d = dst[2 : cols - 2]
         s0 = src[: cols - 4]
