@@ -1,9 +1,9 @@
 """Compiled loops for the pixel work that numpy would do in several passes.
 
-Each kernel makes one pass over its input, row by row, so that a light field is read from memory
-once and an image's rows stay in the cache while they are used (numba, ``nogil``: the callers
-split the rows over threads). They are compiled on first use and the machine code is cached on
-disk (``cache=True``), so only the first run on a machine pays for the compilation.
+Each kernel makes one pass over its input, so that a light field is read from memory once and
+an image's rows stay in the cache while they are used (numba, ``nogil``: the callers split the
+rows, or the planes, over threads). They are compiled on first use and the machine code is
+cached on disk (``cache=True``), so only the first run on a machine pays for the compilation.
 
 * :func:`shift_add_rows`: shift-and-add refocusing (:mod:`stimuli.refocus`) with linear
   interpolation, normalisation and clipping, for a range of output rows;
@@ -88,7 +88,8 @@ def shift_add_rows(
     interpolation: its row ``y - row_m[u]`` takes weight ``row_w0[u]`` and row
     ``y - row_m[u] - 1`` weight ``row_w1[u]`` (likewise for columns); samples outside a view are
     left out. The sum is multiplied by ``inv_rows[y] * inv_cols[x]`` (one over the number of
-    contributing views) and clipped to [0, 1].
+    contributing views) and clipped to [0, 1]. The rows are made :data:`ROW_BLOCK` at a time,
+    each view's rows for the block read in one run.
     """
     n_u, n_v, rows, cols = views.shape
     block = np.empty((ROW_BLOCK, cols), dtype=np.float32)

@@ -13,20 +13,20 @@ do not overlap") instead of darkening towards the edges.
 
 How it is fast
 --------------
-* The shift is separable: first, for every grid row ``u``, sum the views over ``v`` with column
-  shifts ``d dv``; then sum those ``n_u`` partial images with row shifts ``d du``. The second
-  pass touches ``n_u`` images instead of ``n_u n_v``.
-* A linear-interpolation shift by ``s = n + f`` is ``(1 - f) I(x - n) + f I(x - n - 1)``: two
-  weighted adds of integer-shifted *slices* (views, no copies), done for all ``u`` of one ``v`` at
-  once, in ``float32``, into preallocated buffers.
-* Grey float32 views take a compiled kernel (:func:`stimuli.kernels.shift_add_rows`, numba):
-  one pass per output row reads the two source rows of every view while they are in the
-  cache, so each view is read from memory once and the sum, the normalisation and the clipping
-  happen in one go; threads split the rows evenly on every grid (a 3x3 grid's three view columns
-  would not split evenly over two threads), and an axis with one view costs no pass.
-* Otherwise (colour, other dtypes) the numpy-slice path: threads split the work (numpy releases
-  the GIL), the first pass by blocks of ``u``, the second by blocks of columns.
-* The weight ``W`` is separable too: ``W(y, x) = w_rows(y) w_cols(x)``.
+* Grey float32 views take a compiled kernel (:func:`stimuli.kernels.shift_add_rows`, numba).
+  It makes the output in blocks of :data:`stimuli.kernels.ROW_BLOCK` rows: for each view in
+  turn, the block's source rows (one run of memory, which the prefetcher follows) are added
+  with their four bilinear taps into the block's sums, which stay in the cache; then the block
+  is normalised and clipped. Each view is read from memory once, and an axis with one view
+  costs no pass. Threads split the output rows evenly on every grid (a 3x3 grid's three view
+  columns would not split evenly over two), the calling thread taking one strip itself.
+* Otherwise (colour, other dtypes) the numpy-slice path, also the tests' reference: the shift
+  is separable (for every grid row ``u`` the views are summed over ``v`` with column shifts
+  ``d dv``, then the ``n_u`` partial images with row shifts ``d du``), and a shift by
+  ``s = n + f`` is two weighted adds of integer-shifted slices, ``(1 - f) I(x - n) +
+  f I(x - n - 1)``, in ``float32``; threads split the first pass by blocks of ``u``, the
+  second by blocks of columns (numpy releases the GIL).
+* The weight ``W`` is separable: ``W(y, x) = w_rows(y) w_cols(x)`` (:func:`overlap_weights`).
 
 References
 ----------
@@ -185,9 +185,8 @@ def _refocus_compiled(
 ) -> np.ndarray:
     """Shift-and-add of grey, C-contiguous float32 views into ``result``, normalised and clipped.
 
-    One compiled pass per output row (:func:`stimuli.kernels.shift_add_rows`): for each row the
-    two source rows of every view are read while they are in the cache, so every view is read
-    from memory once, and an axis with one view costs nothing. Threads split the rows evenly.
+    One compiled pass over the views (:func:`stimuli.kernels.shift_add_rows`, blocks of output
+    rows), on strips of rows in threads (:func:`stimuli.rowthreads.run_on_row_strips`).
     """
     from stimuli.kernels import shift_add_rows
 
