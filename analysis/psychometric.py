@@ -40,7 +40,7 @@ from analysis.errors import DataError
 from analysis.weibull import SIGMOIDS, WeibullFit, default_prior, fit_mle, is_log_axis
 from analysis.weibull.batch import FitJob, sample_batch
 from analysis.weibull.model import _data_warnings
-from analysis.weibull.threshold import _bracket_text, _json_float
+from analysis.weibull.threshold import _json_float, _unmeasured_text
 
 __all__ = [
     "FitSpec",
@@ -521,19 +521,11 @@ def _fmt(v: float | None) -> str:
 
 
 def _threshold_md(t: dict[str, Any]) -> str:
-    st = t["status"]
-    if st == "measured":
+    if t["status"] == "measured":
         return (
             f"{_fmt(t['median'])} ({_fmt(t['ci95'][0])}-{_fmt(t['ci95'][1])}); ML {_fmt(t['mle'])}"
         )
-    if st == "censored_below":
-        return f"< {_fmt(t['lowest_tested'])} (censored: {t['reason']})"
-    if st == "censored_above":
-        return f"> {_fmt(t['highest_tested'])} (censored: {t['reason']})"
-    where = _bracket_text(t.get("bracket") or (None, None), "{:.4g}", "")
-    if where:
-        return f"{where} (unidentified: {t['reason']})"
-    return f"not identified ({t['reason']})"
+    return _unmeasured_text(t, "{:.4g}", below="censored", above="censored", with_reason=True)
 
 
 def render_fit_markdown(r: dict[str, Any], plots: Sequence[str]) -> str:

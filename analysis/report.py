@@ -26,7 +26,7 @@ from analysis.jung2015 import (
     THRESHOLD_P50_PX,
 )
 from analysis.pipeline import AnalysisResult
-from analysis.weibull.threshold import _bracket_text
+from analysis.weibull.threshold import _unmeasured_text
 
 __all__ = [
     "render_markdown",
@@ -124,19 +124,13 @@ def threshold_text(t: dict[str, Any], *, side: bool = False, question: str = "")
         2 levels with data; ...)"`` (the tested levels that bracket it, or a bound) or
         ``"not identified (...)"`` when the data do not identify it.
     """
-    st = t["status"]
-    if st == "measured":
+    if t["status"] == "measured":
         extra = f"{_side(t['median'])}; " if side else ""
         q = f" for {question}" if question else ""
         return f"{_px(t['median'])} px ({extra}95 % CrI {_ci(t['ci95'])}{q}; ML {_px(t['mle'])})"
-    if st == "censored_below":
-        return f"< {_px(t['lowest_tested'])} px (below the lowest level tested: {t['reason']})"
-    if st == "censored_above":
-        return f"> {_px(t['highest_tested'])} px (above the highest level tested: {t['reason']})"
-    where = _bracket_text(t.get("bracket") or (None, None), "{:,.0f}", " px")
-    if where:
-        return f"{where} (unidentified: {t['reason']}; no interval is given)"
-    return f"not identified ({t['reason']})"
+    return _unmeasured_text(
+        t, "{:,.0f}", "px", with_reason=True, unidentified_note="; no interval is given"
+    )
 
 
 #: How the odds-ratio intervals were chosen, from benchmarks/validate_or_coverage.py.

@@ -476,21 +476,23 @@ def check_file(
     return exists
 
 
-def require_missing_or_empty(out: str | os.PathLike, *, flag: str = "--out") -> None:
+def require_missing_or_empty(out: str | os.PathLike) -> None:
     """Refuse an ``out`` that is a file or a non-empty folder (library writers never replace one).
+
+    The rule and its message are those of :func:`stimuli.io.check_missing_or_empty`.
 
     Raises
     ------
     OutputFolderError
         Naming the folder and what was expected.
     """
-    out = Path(out)
-    if out.exists() and not out.is_dir():
-        raise _refuse(flag, out, "exists and is not a folder")
-    if out.is_dir() and any(out.iterdir()):
-        raise _refuse(
-            flag, out, "is not empty; confocal writes only into a new or empty folder here"
-        )
+    from stimuli.errors import InputError
+    from stimuli.io import check_missing_or_empty  # numpy and PIL: not at import (--help)
+
+    try:
+        check_missing_or_empty(out)
+    except InputError as exc:
+        raise OutputFolderError(str(exc)) from None
 
 
 # -- staging leftovers -----------------------------------------------------------------------------

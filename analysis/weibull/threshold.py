@@ -75,14 +75,8 @@ class Threshold:
                 f"{fmt.format(self.median)}{u} (95 % CrI {fmt.format(self.ci95[0])}-"
                 f"{fmt.format(self.ci95[1])}; ML {fmt.format(self.mle)})"
             )
-        if self.status == "censored_below":
-            return f"< {fmt.format(self.lowest)}{u} (below the lowest level tested)"
-        if self.status == "censored_above":
-            return f"> {fmt.format(self.highest)}{u} (above the highest level tested)"
-        where = _bracket_text(self.bracket, fmt, u)
-        if not where:
-            return f"not identified ({self.reason})"
-        return f"{where} (unidentified: {self.reason})"
+        levels = {"lowest_tested": self.lowest, "highest_tested": self.highest}  # nan, inf kept
+        return _unmeasured_text({**self.to_dict(), **levels}, fmt, unit)
 
     def to_dict(self) -> dict[str, Any]:
         """Return a JSON-ready dict (inf -> None)."""
@@ -97,6 +91,57 @@ class Threshold:
             "reason": self.reason,
             "bracket": [_json_float(self.bracket[0]), _json_float(self.bracket[1])],
         }
+
+
+def _unmeasured_text(
+    t: dict[str, Any],
+    fmt: str,
+    unit: str = "",
+    *,
+    below: str = "below the lowest level tested",
+    above: str = "above the highest level tested",
+    with_reason: bool = False,
+    unidentified_note: str = "",
+) -> str:
+    """Return a threshold that is not ``measured`` as report text.
+
+    Parameters
+    ----------
+    t : dict
+        A :meth:`Threshold.to_dict` entry (``status``, ``lowest_tested``, ``highest_tested``,
+        ``bracket``, ``reason``).
+    fmt : str
+        Format of a level (``"{:,.0f}"``); a missing level (None) is ``n/a``.
+    unit : str
+        Unit after each level (``px``), or ''.
+    below, above : str
+        What a threshold censored below or above the tested range is called in parentheses.
+    with_reason : bool
+        Add ``: <reason>`` to ``below`` and ``above``.
+    unidentified_note : str
+        Text after the reason of an unidentified threshold with a bracket.
+
+    Returns
+    -------
+    str
+        ``"< 96 px (below ...)"``, ``"> 160,884 px (above ...)"``, ``"between 3,290 and 17,876 px
+        (unidentified: ...)"`` (the tested levels that bracket it, or a bound) or
+        ``"not identified (...)"``.
+    """
+    u = f" {unit}" if unit else ""
+    why = f": {t['reason']}" if with_reason else ""
+    if t["status"] == "censored_below":
+        return f"< {_level_text(t['lowest_tested'], fmt)}{u} ({below}{why})"
+    if t["status"] == "censored_above":
+        return f"> {_level_text(t['highest_tested'], fmt)}{u} ({above}{why})"
+    where = _bracket_text(t.get("bracket") or (None, None), fmt, u)
+    if where:
+        return f"{where} (unidentified: {t['reason']}{unidentified_note})"
+    return f"not identified ({t['reason']})"
+
+
+def _level_text(v: float | None, fmt: str) -> str:
+    return "n/a" if v is None else fmt.format(v)
 
 
 def _bracket_text(br: Any, fmt: str, u: str) -> str:

@@ -54,7 +54,12 @@ from typing import Any
 import numpy as np
 
 from experiment.interfaces import Answer
-from experiment.observers.base import SimulatedObserver, check_limits, response_time_s
+from experiment.observers.base import (
+    AnswerParams,
+    SimulatedObserver,
+    check_limits,
+    response_time_s,
+)
 from experiment.observers.calibration import CalibratedObserver, CalibratedParams
 from experiment.observers.exemplar import ExemplarObserver, ExemplarParams
 from experiment.session.stimset import PHOTO_CONDITIONS, StimulusSet
@@ -90,8 +95,11 @@ def _stable_seed(*parts: object) -> int:
 
 
 @dataclass(frozen=True)
-class LogisticParams:
+class LogisticParams(AnswerParams):
     """Parameters of the ``logistic`` observer (see the module docstring for the model).
+
+    The answer parameters (``lapse``, ``p_use``, ``p_shape``, ``median_rt_s``) are those of
+    :class:`~experiment.observers.base.AnswerParams`, with the notes below.
 
     Parameters
     ----------
@@ -112,14 +120,10 @@ class LogisticParams:
         (10 subjects x 320 trials) a lapse of 0.01 already pulls its fitted OR per log10 px from
         74.5 to about 54 and 0.02 to about 45. With 0, ``confocal analyze`` recovers the paper's
         values; set it > 0 to study that bias.
-    p_use : float in [0, 1]
-        Share of recognised answers given as a use instead of a name. Ours.
     p_wrong : float in [0, 1]
         Share of unrecognised answers that name another object. Ours.
     p_shape : float in [0, 1]
-        Share of the remaining unrecognised answers that describe shape (else pass). Ours.
-    median_rt_s : float > 0
-        Median response time, seconds. Ours.
+        Share of the remaining unrecognised answers (after ``p_wrong``) that describe shape.
     population_seed : int
         Seed of the subject and object effects (shared by all simulated subjects).
     """
@@ -129,11 +133,7 @@ class LogisticParams:
     x50_cluttered_px: float = PAPER_X50_CLUTTERED_PX
     subject_sd: float = 0.3
     object_sd: float = 1.0
-    lapse: float = 0.0
-    p_use: float = 0.15
     p_wrong: float = 0.3
-    p_shape: float = 0.3
-    median_rt_s: float = 4.0
     population_seed: int = 0
 
     def __post_init__(self) -> None:
@@ -143,9 +143,9 @@ class LogisticParams:
                 "or_background": "> 0",
                 "or_per_log10_px": "> 1",
                 "x50_cluttered_px": "> 0",
-                "lapse": "in [0, 0.5)",
             },
         )
+        super().__post_init__()
 
     @property
     def intercept(self) -> float:
@@ -230,8 +230,11 @@ class LogisticObserver(SimulatedObserver):
 
 
 @dataclass(frozen=True)
-class TemplateParams:
+class TemplateParams(AnswerParams):
     """Parameters of the ``model`` (template-matching) observer. All are ours, not the paper's.
+
+    The answer parameters (``lapse``, ``p_use``, ``p_shape``, ``median_rt_s``) are those of
+    :class:`~experiment.observers.base.AnswerParams`; ``lapse`` defaults to 0.02 here.
 
     Every image (stimulus and templates) is first mapped onto a fixed "retinal" grid, because
     every level is shown at the same size on screen (14.6 x 9.7 cm): smaller images are enlarged
@@ -267,14 +270,6 @@ class TemplateParams:
         The best correlation must exceed the mean of the other candidates' correlations by this
         many of their SDs for the observer to answer; otherwise it passes (or describes a
         shape).
-    lapse : float in [0, 0.5)
-        Probability of passing regardless of the image.
-    p_use : float in [0, 1]
-        Share of correct answers given as a use.
-    p_shape : float in [0, 1]
-        Share of unanswered trials described by shape (else pass).
-    median_rt_s : float > 0
-        Median response time, seconds.
     """
 
     retina_shape_px: tuple[int, int] = (164, 246)
@@ -283,9 +278,6 @@ class TemplateParams:
     template_level: int | None = 8
     criterion_z: float = 3.0
     lapse: float = 0.02
-    p_use: float = 0.15
-    p_shape: float = 0.3
-    median_rt_s: float = 4.0
 
     def __post_init__(self) -> None:
         r = self.retina_shape_px
@@ -294,7 +286,8 @@ class TemplateParams:
         tl = self.template_level
         if tl is not None and (isinstance(tl, bool) or not isinstance(tl, int) or tl < 1):
             raise ValueError(f"template_level must be a level >= 1 or None, got {tl!r}")
-        check_limits(self, {"blur_sd_px": ">= 0", "pixel_noise_sd": ">= 0", "lapse": "in [0, 0.5)"})
+        check_limits(self, {"blur_sd_px": ">= 0", "pixel_noise_sd": ">= 0"})
+        super().__post_init__()
 
 
 def to_retina(image: np.ndarray, shape_px: tuple[int, int], blur_sd_px: float) -> np.ndarray:

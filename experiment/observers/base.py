@@ -1,14 +1,16 @@
 """What every simulated observer shares: construction, answer text, response time, description.
 
-Also the one-line check of a parameter's limits (``"> 0"``, ``">= 0"``, ``"in [0, 0.5)"``) that
-the observers' parameter classes use instead of one ``if``/``raise`` per field.
+Also the parameters of how an observer answers, whatever its model (:class:`AnswerParams`: lapses,
+uses, shape descriptions, pace), and the one-line check of a parameter's limits (``"> 0"``,
+``">= 0"``, ``"in [0, 0.5)"``) that the observers' parameter classes use instead of one
+``if``/``raise`` per field.
 """
 
 from __future__ import annotations
 
 import math
 import numbers
-from dataclasses import asdict
+from dataclasses import asdict, dataclass
 from typing import Any
 
 import numpy as np
@@ -16,7 +18,7 @@ import numpy as np
 from experiment.interfaces import Answer
 from experiment.session.stimset import StimulusSet
 
-__all__ = ["SimulatedObserver", "check_limits", "response_time_s"]
+__all__ = ["AnswerParams", "SimulatedObserver", "check_limits", "response_time_s"]
 
 
 def _within(value: Any, rule: str) -> bool:
@@ -61,6 +63,31 @@ def check_limits(params: Any, limits: dict[str, str]) -> None:
         value = getattr(params, name)
         if not _within(value, rule):
             raise ValueError(f"{name} must be {rule}, got {value!r}")
+
+
+@dataclass(frozen=True)
+class AnswerParams:
+    """How a simulated observer answers, whatever its model; the observers' parameters extend it.
+
+    Parameters
+    ----------
+    lapse : float in [0, 0.5)
+        Probability of passing (failing) a trial regardless of the image. Ours.
+    p_use : float in [0, 1]
+        Share of recognised answers given as a use instead of a name. Ours.
+    p_shape : float in [0, 1]
+        Share of unrecognised answers that describe the shape (else pass). Ours.
+    median_rt_s : float > 0
+        Median response time, seconds. Ours.
+    """
+
+    lapse: float = 0.0
+    p_use: float = 0.15
+    p_shape: float = 0.3
+    median_rt_s: float = 4.0
+
+    def __post_init__(self) -> None:
+        check_limits(self, {"lapse": "in [0, 0.5)"})
 
 
 def response_time_s(rng: np.random.Generator, median_s: float, limit_s: float = 600.0) -> float:

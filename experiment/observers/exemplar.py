@@ -85,7 +85,12 @@ from typing import Any
 import numpy as np
 
 from experiment.interfaces import Answer
-from experiment.observers.base import SimulatedObserver, check_limits, response_time_s
+from experiment.observers.base import (
+    AnswerParams,
+    SimulatedObserver,
+    check_limits,
+    response_time_s,
+)
 from experiment.presentation.geometry import PAPER_IMAGE_SIZE_CM, PAPER_VIEWING_DISTANCE_CM
 from experiment.session.scoring import normalize
 from experiment.session.stimset import StimulusSet
@@ -221,8 +226,11 @@ def hog_features(retina: np.ndarray, *, cell_px: int, orientations: int) -> np.n
 
 
 @dataclass(frozen=True)
-class ExemplarParams:
+class ExemplarParams(AnswerParams):
     """Parameters of the ``exemplar`` observer (see the module docstring for the model).
+
+    The answer parameters (``lapse``, ``p_use``, ``p_shape``, ``median_rt_s``) are those of
+    :class:`~experiment.observers.base.AnswerParams`.
 
     All values except the display geometry are ours, not the paper's; none was tuned to the
     paper's results.
@@ -267,14 +275,6 @@ class ExemplarParams:
         from the training phase (1: answer when a name is more likely right than wrong).
     calibration_repeats : int >= 1
         Noise draws per training stimulus when setting the criterion.
-    lapse : float in [0, 0.5)
-        Probability of passing regardless of the image.
-    p_use : float in [0, 1]
-        Share of correct answers given as a use instead of a name.
-    p_shape : float in [0, 1]
-        Share of passes that describe the shape instead.
-    median_rt_s : float > 0
-        Median response time, seconds.
     """
 
     knowledge: str | tuple[str, ...] | None = None
@@ -292,10 +292,6 @@ class ExemplarParams:
     criterion: float | None = None
     wrong_cost: float = 1.0
     calibration_repeats: int = 20
-    lapse: float = 0.0
-    p_use: float = 0.15
-    p_shape: float = 0.3
-    median_rt_s: float = 4.0
 
     def __post_init__(self) -> None:
         k = self.knowledge
@@ -326,9 +322,9 @@ class ExemplarParams:
                 "noise_sd": ">= 0",
                 "wrong_cost": "> 0",
                 "calibration_repeats": ">= 1",
-                "lapse": "in [0, 0.5)",
             },
         )
+        super().__post_init__()
         if not self.cell_deg * self.samples_per_deg >= 2:
             raise ValueError(
                 f"cell_deg must span >= 2 retinal samples (>= {2 / self.samples_per_deg:g} deg), "
