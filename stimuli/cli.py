@@ -19,15 +19,37 @@ _BUILD_BYTES_PER_PX = 64
 
 
 def seed_option(text: str, name: str = "--seed"):
-    """Return a seed option (any integer in [0, MAX_SEED]) whose help is ``text``.
+    """Return a seed option: every command's seeds (the experiment's too) take [0, MAX_SEED].
 
-    Every command's seeds share the range; the experiment's commands use it too.
+    Parameters
+    ----------
+    text : str
+        The option's help.
+    name : str
+        The option's name.
+
+    Returns
+    -------
+    typer.models.OptionInfo
+        For ``Annotated[int, seed_option(...)]``.
     """
     return typer.Option(name, min=0, max=MAX_SEED, help=text)
 
 
 def force_option(what: str):
-    """Return the ``--force`` option of a command that writes a folder: it replaces ``what``."""
+    """Return the ``--force`` option of a command that writes a folder.
+
+    Parameters
+    ----------
+    what : str
+        What it replaces, e.g. ``"a PAIRS folder this command wrote before"``; the help adds
+        that a folder holding anything else is never replaced.
+
+    Returns
+    -------
+    typer.models.OptionInfo
+        For ``Annotated[bool, force_option(...)]``.
+    """
     return typer.Option("--force", help=f"Replace {what} (never a folder holding anything else).")
 
 
