@@ -436,6 +436,14 @@ def _run_with_progress(gen, label: str, total: int) -> list:
     return points
 
 
+def _echo_power_table(design_heads: str, points: list, design_cells) -> None:
+    """Print one row per grid point: its design (``design_cells(point)``, under
+    ``design_heads``), then its power and the power's 95% interval."""
+    typer.echo(f"{design_heads}  power  (95% CI)")
+    for p in points:
+        typer.echo(f"{design_cells(p)}  {p.power:.2f}   ({p.ci95[0]:.2f}-{p.ci95[1]:.2f})")
+
+
 def _needed(row: list, target: float) -> str:
     """Say the fewest simulated subjects in ``row`` (one design) that reach power ``target``."""
     need = next((p.n_subjects for p in row if p.power >= target), None)
@@ -572,12 +580,11 @@ def power(
     )
     points: list[GridPoint] = _run_with_progress(gen, f"simulating {effect}", total)
     typer.echo(f"{effect}, alpha = {alpha:g}, {sims} SIMULATED studies per row, seed {seed}")
-    typer.echo(f"{'size':>6} {'levels':>6} {'objects':>7} {'subjects':>8}  power  (95% CI)")
-    for p in points:
-        typer.echo(
-            f"{p.size:>6g} {p.n_levels:>6} {p.n_objects:>7} {p.n_subjects:>8}  {p.power:.2f}   "
-            f"({p.ci95[0]:.2f}-{p.ci95[1]:.2f})"
-        )
+    _echo_power_table(
+        f"{'size':>6} {'levels':>6} {'objects':>7} {'subjects':>8}",
+        points,
+        lambda p: f"{p.size:>6g} {p.n_levels:>6} {p.n_objects:>7} {p.n_subjects:>8}",
+    )
     for z in sizes:
         for nl in nls:
             for no in nos:
@@ -643,12 +650,11 @@ def _active_power(hazard_ratio, subjects, opts, sims, alpha, target, seed, proce
         f"median {fixed['median_time_s']:g} s, Weibull shape {fixed['weibull_shape']:g}, "
         f"subject frailty SD {fixed['frailty_sd']:g}"
     )
-    typer.echo(f"{'HR':>6} {'scenes':>6} {'subjects':>8}  power  (95% CI)")
-    for p in points:
-        typer.echo(
-            f"{p.hazard_ratio:>6g} {p.n_scenes:>6} {p.n_subjects:>8}  {p.power:.2f}   "
-            f"({p.ci95[0]:.2f}-{p.ci95[1]:.2f})"
-        )
+    _echo_power_table(
+        f"{'HR':>6} {'scenes':>6} {'subjects':>8}",
+        points,
+        lambda p: f"{p.hazard_ratio:>6g} {p.n_scenes:>6} {p.n_subjects:>8}",
+    )
     for hr in hrs:
         for sc in nsc:
             row = [p for p in points if (p.hazard_ratio, p.n_scenes) == (hr, sc)]
