@@ -79,6 +79,16 @@ def _seed_option(what: str):
     return typer.Option("--seed", min=0, max=_MAX_SEED, help=f"Seed of the {what}.")
 
 
+def _list_option(name: str, what: str):
+    """Return an option holding comma-separated ``what``."""
+    return typer.Option(name, help=f"Comma-separated {what}")
+
+
+def _switch_option(name: str, text: str):
+    """Return the on/off option ``--NAME/--no-NAME``, whose help is ``text``."""
+    return typer.Option(f"--{name}/--no-{name}", help=text)
+
+
 def _active_option(name: str, what: str):
     """Return an option of ``power`` that only active-search studies use, saying ``what`` it is."""
     return typer.Option(name, help=f"Active search: {what}")
@@ -163,21 +173,17 @@ def run(
     subject_factor: Annotated[
         bool, typer.Option("--subject-factor", help="Add subject dummies to the logistic model.")
     ] = False,
-    figures: Annotated[
-        bool, typer.Option("--figures/--no-figures", help="Draw Figs. 8, 9, S2, S3.")
-    ] = True,
+    figures: Annotated[bool, _switch_option("figures", "Draw Figs. 8, 9, S2, S3.")] = True,
     lapse_prior: Annotated[
         str, typer.Option("--lapse-prior", help="Beta(a,b) prior of the lapse rate, as 'a,b'.")
     ] = "1,10",
     overdispersion: Annotated[
         bool,
-        typer.Option(
-            "--overdispersion/--no-overdispersion",
-            help=(
-                "Beta-binomial pooled fits (free scale, as psignifit 4); off by default, as its "
-                "credible interval over-covers in simulation "
-                "(benchmarks/validate_weibull_coverage.py)."
-            ),
+        _switch_option(
+            "overdispersion",
+            "Beta-binomial pooled fits (free scale, as psignifit 4); off by default, as its "
+            "credible interval over-covers in simulation "
+            "(benchmarks/validate_weibull_coverage.py).",
         ),
     ] = False,
     include_simulated: Annotated[
@@ -309,9 +315,7 @@ def fit(
     p: Annotated[
         str | None, typer.Option("--p", help="Proportion-correct column (0-1 or percent).")
     ] = None,
-    group: Annotated[
-        str, typer.Option("--group", help="Comma-separated columns to fit separately.")
-    ] = "",
+    group: Annotated[str, _list_option("--group", "columns to fit separately.")] = "",
     sigmoid: Annotated[
         str,
         typer.Option(
@@ -323,14 +327,11 @@ def fit(
         str, typer.Option("--axis", help="auto (the sigmoid's own), log or linear.")
     ] = "auto",
     guess: _Guess = 0.0,
-    pc: Annotated[
-        str, typer.Option("--pc", help="Comma-separated proportions correct of the thresholds.")
-    ] = "0.5",
+    pc: Annotated[str, _list_option("--pc", "proportions correct of the thresholds.")] = "0.5",
     overdispersion: Annotated[
-        bool,
-        typer.Option("--overdispersion/--no-overdispersion", help="Beta-binomial posteriors."),
+        bool, _switch_option("overdispersion", "Beta-binomial posteriors.")
     ] = True,
-    plots: Annotated[bool, typer.Option("--plots/--no-plots", help="One plot per group.")] = True,
+    plots: Annotated[bool, _switch_option("plots", "One plot per group.")] = True,
     seed: Annotated[int | None, _seed_option("sampler")] = None,
 ) -> None:
     """Fit psychometric functions to any table: thresholds, intervals, goodness of fit, plots."""
@@ -435,6 +436,14 @@ def _run_with_progress(gen, label: str, total: int) -> list:
     return points
 
 
+def _echo_power_table(design_heads: str, points: list, design_cells) -> None:
+    """Print one row per grid point: its design (``design_cells(point)``, under
+    ``design_heads``), then its power and the power's 95% interval."""
+    typer.echo(f"{design_heads}  power  (95% CI)")
+    for p in points:
+        typer.echo(f"{design_cells(p)}  {p.power:.2f}   ({p.ci95[0]:.2f}-{p.ci95[1]:.2f})")
+
+
 def _needed(row: list, target: float) -> str:
     """Say the fewest simulated subjects in ``row`` (one design) that reach power ``target``."""
     need = next((p.n_subjects for p in row if p.power >= target), None)
@@ -456,14 +465,10 @@ def power(
         ),
     ] = None,
     subjects: Annotated[
-        str, typer.Option("--subjects", help="Comma-separated numbers of subjects to simulate.")
+        str, _list_option("--subjects", "numbers of subjects to simulate.")
     ] = "1,2,3,4,6,8",
-    objects: Annotated[
-        str, typer.Option("--objects", help="Comma-separated numbers of objects (paper: 20).")
-    ] = "20",
-    levels: Annotated[
-        str, typer.Option("--levels", help="Comma-separated numbers of resolution levels (8).")
-    ] = "8",
+    objects: Annotated[str, _list_option("--objects", "numbers of objects (paper: 20).")] = "20",
+    levels: Annotated[str, _list_option("--levels", "numbers of resolution levels (8).")] = "8",
     target: Annotated[float, typer.Option("--power", help="Power wanted, in (0, 1).")] = 0.8,
     sims: Annotated[int, typer.Option("--sims", help="Simulated studies per grid point.")] = 200,
     alpha: Annotated[float, typer.Option("--alpha", help="Test level.")] = 0.05,
@@ -575,12 +580,11 @@ def power(
     )
     points: list[GridPoint] = _run_with_progress(gen, f"simulating {effect}", total)
     typer.echo(f"{effect}, alpha = {alpha:g}, {sims} SIMULATED studies per row, seed {seed}")
-    typer.echo(f"{'size':>6} {'levels':>6} {'objects':>7} {'subjects':>8}  power  (95% CI)")
-    for p in points:
-        typer.echo(
-            f"{p.size:>6g} {p.n_levels:>6} {p.n_objects:>7} {p.n_subjects:>8}  {p.power:.2f}   "
-            f"({p.ci95[0]:.2f}-{p.ci95[1]:.2f})"
-        )
+    _echo_power_table(
+        f"{'size':>6} {'levels':>6} {'objects':>7} {'subjects':>8}",
+        points,
+        lambda p: f"{p.size:>6g} {p.n_levels:>6} {p.n_objects:>7} {p.n_subjects:>8}",
+    )
     for z in sizes:
         for nl in nls:
             for no in nos:
@@ -646,12 +650,11 @@ def _active_power(hazard_ratio, subjects, opts, sims, alpha, target, seed, proce
         f"median {fixed['median_time_s']:g} s, Weibull shape {fixed['weibull_shape']:g}, "
         f"subject frailty SD {fixed['frailty_sd']:g}"
     )
-    typer.echo(f"{'HR':>6} {'scenes':>6} {'subjects':>8}  power  (95% CI)")
-    for p in points:
-        typer.echo(
-            f"{p.hazard_ratio:>6g} {p.n_scenes:>6} {p.n_subjects:>8}  {p.power:.2f}   "
-            f"({p.ci95[0]:.2f}-{p.ci95[1]:.2f})"
-        )
+    _echo_power_table(
+        f"{'HR':>6} {'scenes':>6} {'subjects':>8}",
+        points,
+        lambda p: f"{p.hazard_ratio:>6g} {p.n_scenes:>6} {p.n_subjects:>8}",
+    )
     for hr in hrs:
         for sc in nsc:
             row = [p for p in points if (p.hazard_ratio, p.n_scenes) == (hr, sc)]

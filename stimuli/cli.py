@@ -9,13 +9,49 @@ import typer
 
 from stimuli.resources import MAX_SEED
 
-__all__ = ["register", "stimuli_app"]
+__all__ = ["force_option", "register", "seed_option", "stimuli_app"]
 
 #: Peak memory of ``synth`` per photo pixel, bytes (ours: measured 147 B/px at 2000x1500).
 _SYNTH_BYTES_PER_PX = 160
 #: Working memory of one ``build`` worker per working-size pixel, bytes (ours: a dozen float32
 #: and float64 images of the working size; the estimate only has to catch absurd sizes).
 _BUILD_BYTES_PER_PX = 64
+
+
+def seed_option(text: str, name: str = "--seed"):
+    """Return a seed option: every command's seeds (the experiment's too) take [0, MAX_SEED].
+
+    Parameters
+    ----------
+    text : str
+        The option's help.
+    name : str
+        The option's name.
+
+    Returns
+    -------
+    typer.models.OptionInfo
+        For ``Annotated[int, seed_option(...)]``.
+    """
+    return typer.Option(name, min=0, max=MAX_SEED, help=text)
+
+
+def force_option(what: str):
+    """Return the ``--force`` option of a command that writes a folder.
+
+    Parameters
+    ----------
+    what : str
+        What it replaces, e.g. ``"a PAIRS folder this command wrote before"``; the help adds
+        that a folder holding anything else is never replaced.
+
+    Returns
+    -------
+    typer.models.OptionInfo
+        For ``Annotated[bool, force_option(...)]``.
+    """
+    return typer.Option("--force", help=f"Replace {what} (never a folder holding anything else).")
+
 
 #: The PAIRS input of ``build`` and ``tune``.
 _PairsArgument = Annotated[
@@ -273,23 +309,11 @@ def synth_command(
     training: Annotated[
         int, typer.Option("--training", min=0, help="Number of training objects.")
     ] = 3,
-    seed: Annotated[
-        int,
-        typer.Option(
-            "--seed", min=0, max=MAX_SEED, help="Random seed (the set is deterministic by seed)."
-        ),
-    ] = 0,
+    seed: Annotated[int, seed_option("Random seed (the set is deterministic by seed).")] = 0,
     size: Annotated[
         str, typer.Option("--size", help="Photo size WIDTHxHEIGHT, pixels (e.g. 1536x1024).")
     ] = "492x327",
-    force: Annotated[
-        bool,
-        typer.Option(
-            "--force",
-            help="Replace a PAIRS folder this command wrote before (never a folder holding "
-            "anything else).",
-        ),
-    ] = False,
+    force: Annotated[bool, force_option("a PAIRS folder this command wrote before")] = False,
 ) -> None:
     """Write synthetic wide/narrow-DOF photo pairs of named objects in front of clutter."""
     from stimuli.build import parse_working_size

@@ -37,9 +37,10 @@ from typing import Annotated
 import numpy as np
 import typer
 
+from stimuli.cli import seed_option
 from stimuli.edgegrid import declutter_and_compress
 from stimuli.errors import InputError
-from stimuli.resources import MAX_SEED, check_memory, finite_option
+from stimuli.resources import check_memory, finite_option
 
 __all__ = [
     "register",
@@ -715,9 +716,7 @@ def synth_command(
     size: Annotated[str, typer.Option("--size", help="View size COLSxROWS (paper: 385x308).")] = (
         "385x308"
     ),
-    seed: Annotated[
-        int, typer.Option("--seed", min=0, max=MAX_SEED, help="Seed of the textures.")
-    ] = 0,
+    seed: Annotated[int, seed_option("Seed of the textures.")] = 0,
 ) -> None:
     """Write the paper's simulated three-plane scene (Fig. 10)."""
     from stimuli.io import atomic_path, save_png

@@ -1,5 +1,6 @@
 """Shared fixtures and helpers: the real-data folder (``CONFOCAL_DATA``), the repository root, a
-small recognition protocol, the CLI run in-process, a small scored study.
+small recognition protocol, the CLI run in-process, a small scored study and the inputs the
+commands are fed in the command-table tests.
 
 Import the helpers by name (``from tests.conftest import protocol_toml, run_cli``).
 """
@@ -8,6 +9,7 @@ from __future__ import annotations
 
 import json
 import os
+from dataclasses import dataclass
 from pathlib import Path
 
 import pytest
@@ -101,3 +103,26 @@ def make_scored_study(root: Path) -> tuple[Path, Path, Path]:
             if r["trial_index"] % 3 != 1 if r["level"] == 2 else r["trial_index"] % 3 == 0:
                 log.add_score(r["session"], r["trial_index"], "named", True, r["rater"])
     return stim, proto, db
+
+
+@dataclass(frozen=True)
+class StudyInputs:
+    """The inputs of every command, written by :func:`make_study_inputs` under ``root``."""
+
+    root: Path
+    stim: Path  # a stimulus set
+    proto: Path  # its protocol
+    db: Path  # the log of one scored session
+    pairs: Path  # a PAIRS folder of synthetic photo pairs
+    lf: Path  # a small light field (.npz)
+
+
+def make_study_inputs(root: Path, *synth_options: str) -> StudyInputs:
+    """Write a scored study (:func:`make_scored_study`), a PAIRS folder made by ``confocal stimuli
+    synth SYNTH_OPTIONS`` and a 40x32 light field into ``root``; return their paths."""
+    stim, proto, db = make_scored_study(root)
+    pairs = root / "pairs"
+    assert run_cli(["stimuli", "synth", *synth_options, "--out", pairs]) == 0
+    lf = root / "lf.npz"
+    assert run_cli(["lightfield", "synth", "--size", "40x32", "--out", lf]) == 0
+    return StudyInputs(root, stim, proto, db, pairs, lf)

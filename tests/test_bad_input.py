@@ -25,51 +25,24 @@ from pathlib import Path
 import pytest
 
 from experiment import cli
-from tests.conftest import make_scored_study, run_cli
+from tests.conftest import StudyInputs, make_study_inputs, run_cli
 
 HUGE = "1000000x1000000"  # 10^12 px: refused by the memory check on any machine
 
 
 @dataclass(frozen=True)
-class World:
-    root: Path
-    stim: Path
-    proto: Path
-    db: Path
-    csv: Path
-    pairs: Path
-    lf: Path
-    png: Path
+class World(StudyInputs):
+    csv: Path  # the Psych-DS export of the study's log
+    png: Path  # one stimulus image
 
 
 @pytest.fixture(scope="module")
 def world(tmp_path_factory) -> World:
     root = tmp_path_factory.mktemp("study")
-    stim, proto, db = make_scored_study(root)
-    assert run_cli(["session", "export", db, "--out", root / "dataset"]) == 0
+    inputs = make_study_inputs(root, "--objects", "2", "--training", "1", "--size", "120x80")
+    assert run_cli(["session", "export", inputs.db, "--out", root / "dataset"]) == 0
     (csv_path,) = (root / "dataset" / "data").glob("*_data.csv")
-    pairs = root / "pairs"
-    assert (
-        run_cli(
-            [
-                "stimuli",
-                "synth",
-                "--objects",
-                "2",
-                "--training",
-                "1",
-                "--size",
-                "120x80",
-                "--out",
-                pairs,
-            ]
-        )
-        == 0
-    )
-    lf = root / "lf.npz"
-    assert run_cli(["lightfield", "synth", "--size", "40x32", "--out", lf]) == 0
-    png = next(stim.rglob("*.png"))
-    return World(root, stim, proto, db, csv_path, pairs, lf, png)
+    return World(**vars(inputs), csv=csv_path, png=next(inputs.stim.rglob("*.png")))
 
 
 def snapshot(*folders: Path) -> dict[str, tuple]:

@@ -74,34 +74,26 @@ def installed(tmp_path_factory) -> tuple[Path, dict[str, str], Path]:
     return bindir, env, work
 
 
-def _run(installed, *args: str, timeout: float = 300) -> subprocess.CompletedProcess:
+def _run(installed, program: str, *args: str, timeout: float = 300) -> subprocess.CompletedProcess:
+    """Run ``program`` of the venv's bin folder with ``args`` in the empty working folder."""
     bindir, env, work = installed
-    return subprocess.run(
-        [str(bindir / "confocal"), *args],
-        cwd=work,
-        env=env,
-        capture_output=True,
-        text=True,
-        timeout=timeout,
-    )
+    argv = [str(bindir / program), *args]
+    return subprocess.run(argv, cwd=work, env=env, capture_output=True, text=True, timeout=timeout)
 
 
 def test_installed_package_is_not_the_checkout(installed) -> None:
     """The venv imports the packages from its own site-packages, not from the source tree."""
-    bindir, env, work = installed
     code = "import stimuli, experiment, analysis; print(stimuli.__file__, experiment.__file__)"
-    out = subprocess.run(
-        [str(bindir / "python"), "-c", code], cwd=work, env=env, capture_output=True, text=True
-    )
+    out = _run(installed, "python", "-c", code)
     assert out.returncode == 0, out.stderr
     assert str(REPO_ROOT) not in out.stdout and "site-packages" in out.stdout
 
 
 def test_version_and_help(installed) -> None:
     """``--version`` and ``--help`` of the installed command."""
-    r = _run(installed, "--version")
+    r = _run(installed, "confocal", "--version")
     assert r.returncode == 0 and r.stdout.startswith("confocal "), r.stderr
-    r = _run(installed, "--help")
+    r = _run(installed, "confocal", "--help")
     assert r.returncode == 0 and "Usage" in r.stdout, r.stderr
 
 
@@ -111,7 +103,7 @@ def test_every_subcommand_help(installed) -> None:
     assert len(paths) >= 10, paths
     failed = []
     for path in paths:
-        r = _run(installed, *path, "--help")
+        r = _run(installed, "confocal", *path, "--help")
         if r.returncode != 0 or "Usage" not in r.stdout:
             failed.append(f"{' '.join(path)}: {r.returncode} {r.stderr.strip()[-300:]}")
     assert not failed, "\n".join(failed)
@@ -120,7 +112,7 @@ def test_every_subcommand_help(installed) -> None:
 def test_reduced_demo_from_installed_data(installed) -> None:
     """A one-subject demo runs from an empty folder: protocols come from the installed data."""
     _, _, work = installed
-    r = _run(installed, "demo", "--subjects", "1", "--out", "demo", timeout=600)
+    r = _run(installed, "confocal", "demo", "--subjects", "1", "--out", "demo", timeout=600)
     assert r.returncode == 0, r.stderr[-3000:]
     assert (work / "demo" / "report" / "report.md").is_file()
     assert (work / "demo" / "report" / "results.json").is_file()

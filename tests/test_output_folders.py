@@ -33,37 +33,29 @@ from experiment.outputs import (
     read_manifest,
     write_manifest,
 )
-from tests.conftest import make_scored_study, run_cli
+from tests.conftest import StudyInputs, make_study_inputs, run_cli
 
 #: The cheapest PAIRS folder: one object, no training object, small photos.
-SYNTH = "stimuli synth --objects 1 --training 0 --size 64x48"
+SYNTH_OPTIONS = ("--objects", "1", "--training", "0", "--size", "64x48")
+SYNTH = "stimuli synth " + " ".join(SYNTH_OPTIONS)
 
 
 @dataclass(frozen=True)
-class World:
-    root: Path
-    pairs: Path
-    stim_png: Path
-    lf: Path
-    db: Path
-    table: Path
-    proto: Path
+class World(StudyInputs):
+    table: Path  # a CSV of level,correct rows for 'analyze fit'
+    stim_png: Path  # one photo
 
 
 @pytest.fixture(scope="module")
 def world(tmp_path_factory) -> World:
     root = tmp_path_factory.mktemp("inputs")
-    pairs = root / "pairs"
-    assert run_cli([*SYNTH.split(), "--out", pairs]) == 0
-    lf = root / "lf.npz"
-    assert run_cli(["lightfield", "synth", "--size", "40x32", "--out", lf]) == 0
-    _, proto, db = make_scored_study(root)
+    inputs = make_study_inputs(root, *SYNTH_OPTIONS)
     table = root / "table.csv"
     rows = ["level,correct"] + [
         f"{lv},{int((i * 7 + lv) % 6 < lv)}" for lv in range(1, 6) for i in range(8)
     ]
     table.write_text("\n".join(rows) + "\n")
-    return World(root, pairs, pairs / "obj01_cup" / "wide.png", lf, db, table, proto)
+    return World(**vars(inputs), table=table, stim_png=inputs.pairs / "obj01_cup" / "wide.png")
 
 
 # -- the table of writing commands --------------------------------------------------------------
@@ -74,13 +66,21 @@ class Cmd:
     """A writing command at its cheapest: its command line and what its input is."""
 
     name: str  # the manifest's command name
-    kind: str  # 'folder' or 'file'
     line: str  # after 'confocal'; {out} and the World's fields ({db}, {lf}, ...) are filled in
     input: str | None = None  # the World field it reads
-    again: tuple[str, ...] = ()  # the flag a second run into its own output needs
-    out_name: str = "out"  # a file output's name (its suffix matters)
-    rerun: str | None = "ok"  # None: cannot run here (why in `why`)
-    why: str = ""
+    out_name: str | None = None  # a file output's name (its suffix matters); None: a folder
+    force: bool = False  # a second run into its own output folder needs --force (a file's always)
+    cannot_run: str = ""  # why it cannot run here (its second run is skipped)
+
+    @property
+    def kind(self) -> str:
+        """``'file'`` or ``'folder'``: what its output is."""
+        return "folder" if self.out_name is None else "file"
+
+    @property
+    def again(self) -> tuple[str, ...]:
+        """The flag a second run into its own output needs."""
+        return ("--force",) if self.force or self.kind == "file" else ()
 
     def argv(self, w: World, out: Path | str) -> list[str]:
         """Return the command's arguments for the inputs of ``w`` and the output ``out``."""
@@ -104,74 +104,48 @@ def _tiny_demo(monkeypatch) -> None:
 
 
 CMDS: list[Cmd] = [
-    Cmd("analyze run", "folder", "analyze {db} --out {out} --no-figures --seed 1", "db"),
-    Cmd(
-        "analyze fit",
-        "folder",
-        "analyze fit {table} --x level --y correct --out {out} --no-plots",
-        "table",
-    ),
-    Cmd(
-        "stimuli build", "folder", "stimuli build {pairs} --out {out} --working-size 64x48", "pairs"
-    ),
-    Cmd("stimuli synth", "folder", f"{SYNTH} --out {{out}}", again=("--force",)),
+    Cmd("analyze run", "analyze {db} --out {out} --no-figures --seed 1", "db"),
+    Cmd("analyze fit", "analyze fit {table} --x level --y correct --out {out} --no-plots", "table"),
+    Cmd("stimuli build", "stimuli build {pairs} --out {out} --working-size 64x48", "pairs"),
+    Cmd("stimuli synth", f"{SYNTH} --out {{out}}", force=True),
     Cmd(
         "stimuli tune",
-        "file",
         "stimuli tune {pairs} --sheet {out} --working-size 64x48 --dry-run",
         "pairs",
-        again=("--force",),
         out_name="sheet.png",
     ),
-    Cmd("lightfield scan", "folder", "lightfield scan {lf} --out {out} --planes 4", "lf"),
+    Cmd("lightfield scan", "lightfield scan {lf} --out {out} --planes 4", "lf"),
     Cmd(
-        "lightfield refocus --stack",
-        "folder",
-        "lightfield refocus {lf} --stack --planes 3 --out {out}",
-        "lf",
+        "lightfield refocus --stack", "lightfield refocus {lf} --stack --planes 3 --out {out}", "lf"
     ),
     Cmd(
         "lightfield refocus",
-        "file",
         "lightfield refocus {lf} --disparity 0 --out {out}",
         "lf",
-        again=("--force",),
         out_name="img.png",
     ),
-    Cmd("lightfield synth", "folder", "lightfield synth --size 40x32 --out {out}"),
-    Cmd(
-        "lightfield synth .npz",
-        "file",
-        "lightfield synth --size 40x32 --out {out}",
-        again=("--force",),
-        out_name="lf2.npz",
-    ),
-    Cmd("session export", "folder", "session export {db} --out {out}", "db"),
-    Cmd("demo", "folder", "demo --out {out}", again=("--force",)),
-    Cmd("demo --lightfield", "folder", "demo --lightfield --out {out}", again=("--force",)),
-    Cmd("demo --active", "folder", "demo --active --out {out}", again=("--force",)),
+    Cmd("lightfield synth", "lightfield synth --size 40x32 --out {out}"),
+    Cmd("lightfield synth .npz", "lightfield synth --size 40x32 --out {out}", out_name="lf2.npz"),
+    Cmd("session export", "session export {db} --out {out}", "db"),
+    Cmd("demo", "demo --out {out}", force=True),
+    Cmd("demo --lightfield", "demo --lightfield --out {out}", force=True),
+    Cmd("demo --active", "demo --active --out {out}", force=True),
     Cmd(
         "view --screenshot",
-        "file",
         "view {lf} --cpu --planes 4 --screenshot {out}",
         "lf",
-        again=("--force",),
         out_name="shot.png",
     ),
     Cmd(
         "view --shots",
-        "folder",
         "view {lf} --cpu --shots {out}",
         "lf",
-        rerun=None,
-        why="--shots saves frames of a window; none in CI",
+        cannot_run="--shots saves frames of a window; none in CI",
     ),
     Cmd(
         "present --screenshot",
-        "file",
         "present --stimulus {stim_png} --screenshot {out}",
         "stim_png",
-        again=("--force",),
         out_name="shot.png",
     ),
 ]
@@ -258,8 +232,8 @@ def test_writing_command_never_touches_what_it_did_not_write(
     t = tmp_path
     monkeypatch.chdir(t)
     if case == "own earlier output":
-        if cmd.rerun is None:
-            pytest.skip(cmd.why)
+        if cmd.cannot_run:
+            pytest.skip(cmd.cannot_run)
         out = t / (cmd.out_name if cmd.kind == "file" else "out")
         assert run_cli(cmd.argv(world, out)) == 0, capsys.readouterr().err
         if cmd.kind == "folder":

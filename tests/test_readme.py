@@ -15,7 +15,6 @@ import json
 import os
 import pty
 import re
-import select
 import shlex
 import sqlite3
 import subprocess
@@ -26,6 +25,7 @@ from pathlib import Path
 import pytest
 
 from tests.conftest import REPO_ROOT
+from tests.ptyread import read_pty
 
 README = REPO_ROOT / "README.md"
 
@@ -91,19 +91,7 @@ def _drive_tty(
     deadline = time.monotonic() + timeout_s
 
     def pump(seconds: float) -> None:
-        # Read for a fixed time: the input's blinking cursor redraws the screen continuously,
-        # so "wait until quiet" would never return.
-        end = min(deadline, time.monotonic() + seconds)
-        while time.monotonic() < end:
-            r, _, _ = select.select([fd], [], [], 0.05)
-            if r:
-                try:
-                    chunk = os.read(fd, 65536)
-                except OSError:
-                    return
-                if not chunk:
-                    return
-                out.extend(chunk)
+        read_pty(fd, out, min(deadline, time.monotonic() + seconds))
 
     def screen() -> str:
         return ANSI.sub("", out.decode(errors="replace"))

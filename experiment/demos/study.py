@@ -47,7 +47,7 @@ import typer
 
 from experiment.errors import ConfocalError
 from experiment.outputs import require_missing_or_empty
-from stimuli.resources import MAX_SEED
+from stimuli.cli import force_option, seed_option
 
 __all__ = [
     "DemoResult",
@@ -690,7 +690,7 @@ def register(app: typer.Typer) -> None:
         subjects: Annotated[
             int, typer.Option("--subjects", min=1, help="Simulated subjects (paper: 6).")
         ] = DEFAULT_SUBJECTS,
-        seed: Annotated[int, typer.Option("--seed", min=0, max=MAX_SEED, help="Root seed.")] = 0,
+        seed: Annotated[int, seed_option("Root seed.")] = 0,
         observer: Annotated[
             str,
             typer.Option(
@@ -703,12 +703,10 @@ def register(app: typer.Typer) -> None:
         ] = DEFAULT_OBSERVER,
         knowledge_seed: Annotated[
             int | None,
-            typer.Option(
-                "--knowledge-seed",
-                min=0,
-                max=MAX_SEED,
-                help="Seed of the observer's knowledge set (default: --seed + 1; the calibrated "
+            seed_option(
+                "Seed of the observer's knowledge set (default: --seed + 1; the calibrated "
                 "observer knows 3 renderings, seeds --knowledge-seed onwards).",
+                "--knowledge-seed",
             ),
         ] = None,
         lightfield: Annotated[
@@ -716,12 +714,7 @@ def register(app: typer.Typer) -> None:
             typer.Option("--lightfield", help="Run the light-field demo (paper Figs. 10-16)."),
         ] = False,
         force: Annotated[
-            bool,
-            typer.Option(
-                "--force",
-                help="Replace a folder an earlier demo of the same kind wrote (never a folder "
-                "holding anything else).",
-            ),
+            bool, force_option("a folder an earlier demo of the same kind wrote")
         ] = False,
         active: Annotated[
             bool, typer.Option("--active", help="Draw a simulated active search.")

@@ -19,7 +19,8 @@ import numpy as np
 import typer
 
 from experiment.errors import ConfocalError
-from stimuli.resources import MAX_ID_CHARS, MAX_SEED, check_memory, finite_option
+from stimuli.cli import seed_option
+from stimuli.resources import MAX_ID_CHARS, check_memory, finite_option
 
 __all__ = ["register", "load_stimulus", "geometry_from_options", "pending_for_rater"]
 
@@ -183,9 +184,7 @@ def register(app: typer.Typer) -> None:
         phosphene_spacing_deg: Annotated[
             float | None, typer.Option(callback=_positive, help="Degrees.")
         ] = None,
-        seed: Annotated[
-            int, typer.Option(min=0, max=MAX_SEED, help="Seed of the dropout pattern.")
-        ] = 0,
+        seed: Annotated[int, seed_option("Seed of the dropout pattern.")] = 0,
         implant: Annotated[
             str | None,
             typer.Option(

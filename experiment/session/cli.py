@@ -34,7 +34,8 @@ from experiment.session.run_options import (
     check_presenter,
     report_if_complete,
 )
-from stimuli.resources import MAX_ID_CHARS, MAX_SEED, check_memory, finite_option
+from stimuli.cli import seed_option
+from stimuli.resources import MAX_ID_CHARS, check_memory, finite_option
 
 __all__ = [
     "register",
@@ -96,10 +97,7 @@ def run_command(
         ),
     ] = None,
     seed: Annotated[
-        int | None,
-        typer.Option(
-            "--seed", min=0, max=MAX_SEED, help="Root seed of a new session (drawn if omitted)."
-        ),
+        int | None, seed_option("Root seed of a new session (drawn if omitted).")
     ] = None,
     hold_s: Annotated[
         float,

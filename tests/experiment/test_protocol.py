@@ -3,7 +3,9 @@
 from __future__ import annotations
 
 import hashlib
+import json
 import math
+import tomllib
 
 import pytest
 
@@ -22,19 +24,27 @@ from tests.conftest import protocol_toml
 MINIMAL = protocol_toml((1, 2), name="mini", training=None)
 
 
-def in_display(line: str) -> tuple[str, str]:
-    """An edit of :data:`MINIMAL` that adds a ``[display]`` table holding ``line``."""
-    return "[[blocks]]", f"[display]\n{line}\n[[blocks]]"
+def minimal_with(path: str, value: str | None) -> str:
+    """Return :data:`MINIMAL` with one field set to the TOML text ``value``, or removed (None).
 
-
-def in_scoring(line: str) -> tuple[str, str]:
-    """An edit of :data:`MINIMAL` that adds a ``[scoring]`` table holding ``line``."""
-    return "[[blocks]]", f"[scoring]\n{line}\n[[blocks]]"
-
-
-def in_block(line: str) -> tuple[str, str]:
-    """An edit of :data:`MINIMAL` that adds ``line`` to its main block."""
-    return 'part = "main"', f'part = "main"\n{line}'
+    ``path`` is ``table.key`` (``blocks`` is the main block), a bare key at top level, or a bare
+    table name, which ``value=None`` removes whole.
+    """
+    parsed = tomllib.loads(MINIMAL)
+    parsed["blocks"] = parsed["blocks"][0]
+    tables = {"": {}} | {t: {k: json.dumps(v) for k, v in f.items()} for t, f in parsed.items()}
+    table, _, key = path.rpartition(".")
+    if value is None and path in tables:
+        del tables[path]
+    elif value is None:
+        del tables[table][key]
+    else:
+        tables.setdefault(table, {})[key] = value
+    lines = [f"{k} = {v}" for k, v in tables.pop("").items()]
+    for name, fields in tables.items():
+        lines += [f"[[{name}]]" if name == "blocks" else f"[{name}]"]
+        lines += [f"{k} = {v}" for k, v in fields.items()]
+    return "\n".join(lines) + "\n"
 
 
 def write(tmp_path, text, name="p.toml"):
@@ -104,80 +114,76 @@ def test_defaults_fill_display_and_scoring(tmp_path):
     assert spec.blocks[0].group_by == "level_condition"
 
 
+#: (field path, bad TOML value, the message that must name it)
+BAD_FIELDS = [
+    ("protocol.colour", "1", r"p\.toml: unknown key 'colour' in \[protocol\]"),
+    ("extra", "1", r"unknown key 'extra' at top level"),
+    ("blocks.level", "[1]", r"unknown key 'level' in \[blocks\[0\]\]"),
+    ("display.screen_widht_px", "3", r"unknown key 'screen_widht_px' in \[display\]"),
+    ("blocks.levels", '[1, "2"]', r"levels\[\] must be int, got str"),
+    ("blocks.levels", "[1, 1]", r"levels lists a level twice"),
+    ("blocks.levels", "[0]", r"levels must be >= 1, got 0"),
+    ("blocks.levels", "[]", r"levels must be a non-empty list"),
+    ("blocks.part", '"warmup"', r"part must be one of training, main, got 'warmup'"),
+    ("blocks.conditions", '["blurry"]', r"conditions\[\] must be one of"),
+    ("blocks.conditions", '["photo", "photo"]', r"lists a condition twice"),
+    ("blocks.group_by", '"subject"', r"group_by must be one of"),
+    ("blocks.level_order", '"up"', r"level_order must be one of"),
+    ("blocks.condition_order", '"up"', r"condition_order must be one of"),
+    ("blocks.trial_order", '"up"', r"trial_order must be one of"),
+    ("blocks.block_order", '"up"', r"block_order must be one of"),
+    ("blocks.repetitions", "0", r"repetitions must be >= 1, got 0"),
+    ("blocks.repetitions", "1.5", r"repetitions must be int"),
+    ("blocks.break_every_blocks", "-1", r"break_every_blocks must be >= 0"),
+    ("blocks.objects", "[]", r"objects must be a role name or a list of ids"),
+    ("blocks.objects", '""', r"objects must be a role name"),
+    ("blocks.objects", '["a", "a"]', r"objects lists an object twice"),
+    ("blocks.objects", '["a", 3]', r"objects\[\] must be str"),
+    ("protocol.name", '""', r"protocol.name must not be empty"),
+    ("protocol.name", "3", r"protocol.name must be str"),
+    ("protocol.description", "2", r"protocol.description must be str"),
+    ("protocol.pass_allowed_after_s", "-1", r"pass_allowed_after_s must be >= 0"),
+    ("protocol.feedback", "1", r"protocol.feedback must be bool"),
+    ("blocks.part", '"training"', r"at least one entry with part = 'main'"),
+    ("display.screen_width_px", "0", r"display.screen_width_px must be >= 1"),
+    ("display.screen_height_px", "1.5", r"display.screen_height_px must be int"),
+    ("display.viewing_distance_cm", "0", r"viewing_distance_cm must be a positive number"),
+    ("display.image_width_cm", "99", r"image_width_cm must be <= screen_width_cm"),
+    ("display.image_height_cm", "-2", r"image_height_cm must be a positive number"),
+    ("display.screen_width_cm", '"40"', r"screen_width_cm must be int or float"),
+    ("display.border_rgb", "[0, 0, 256]", r"border_rgb must be 3 integers"),
+    ("display.background_rgb", "[0, 0]", r"background_rgb must be 3 integers"),
+    ("display.border_width_px", "-1", r"border_width_px must be >= 0"),
+    ("display", "3", r"\[display\] must be a table"),
+    ("scoring.recognized", "{ named = true }", r"scoring.recognized is missing score 'use'"),
+    ("scoring.recognized", "{ named = true, guessed = true }", r"unknown score 'guessed'"),
+    (
+        "scoring.recognized",
+        "{ named = 1, use = true, shape = false, wrong = false, pass = false }",
+        r"scoring.recognized.named must be true or false",
+    ),
+    ("scoring.recognized", "3", r"scoring.recognized must be a table"),
+    ("scoring.primary_rater", '" "', r"primary_rater must not be empty"),
+]
+
+
+@pytest.mark.parametrize(("path", "value", "match"), BAD_FIELDS)
+def test_bad_protocol_names_the_field(tmp_path, path, value, match):
+    with pytest.raises(ProtocolError, match=match):
+        load_protocol(write(tmp_path, minimal_with(path, value)))
+
+
 @pytest.mark.parametrize(
-    ("edit", "match"),
+    ("path", "match"),
     [
-        (
-            ("[protocol]", "[protocol]\ncolour = 1"),
-            r"p\.toml: unknown key 'colour' in \[protocol\]",
-        ),
-        (("[protocol]", "extra = 1\n[protocol]"), r"unknown key 'extra' at top level"),
-        (in_block("level = [1]"), r"unknown key 'level' in \[blocks\[0\]\]"),
-        (in_display("screen_widht_px = 3"), r"unknown key 'screen_widht_px' in \[display\]"),
-        (("levels = [1, 2]", 'levels = [1, "2"]'), r"levels\[\] must be int, got str"),
-        (("levels = [1, 2]", "levels = [1, 1]"), r"levels lists a level twice"),
-        (("levels = [1, 2]", "levels = [0]"), r"levels must be >= 1, got 0"),
-        (("levels = [1, 2]", "levels = []"), r"levels must be a non-empty list"),
-        (('part = "main"', 'part = "warmup"'), r"part must be one of training, main, got 'warmup'"),
-        (
-            ('conditions = ["cluttered", "decluttered"]', 'conditions = ["blurry"]'),
-            r"conditions\[\] must be one of",
-        ),
-        (
-            ('conditions = ["cluttered", "decluttered"]', 'conditions = ["photo", "photo"]'),
-            r"lists a condition twice",
-        ),
-        (in_block('group_by = "subject"'), r"group_by must be one of"),
-        (in_block('level_order = "up"'), r"level_order must be one of"),
-        (in_block('condition_order = "up"'), r"condition_order must be one of"),
-        (in_block('trial_order = "up"'), r"trial_order must be one of"),
-        (in_block('block_order = "up"'), r"block_order must be one of"),
-        (in_block("repetitions = 0"), r"repetitions must be >= 1, got 0"),
-        (in_block("repetitions = 1.5"), r"repetitions must be int"),
-        (in_block("break_every_blocks = -1"), r"break_every_blocks must be >= 0"),
-        (('objects = "main"', "objects = []"), r"objects must be a role name or a list of ids"),
-        (('objects = "main"', 'objects = ""'), r"objects must be a role name"),
-        (('objects = "main"', 'objects = ["a", "a"]'), r"objects lists an object twice"),
-        (('objects = "main"', 'objects = ["a", 3]'), r"objects\[\] must be str"),
-        (('objects = "main"\n', ""), r"\[blocks\[0\]\] is missing field objects"),
-        (('name = "mini"', 'name = ""'), r"protocol.name must not be empty"),
-        (('name = "mini"', "name = 3"), r"protocol.name must be str"),
-        (('name = "mini"', 'description = "x"'), r"\[protocol\] is missing field name"),
-        (('name = "mini"', 'name = "m"\ndescription = 2'), r"protocol.description must be str"),
-        (
-            ('name = "mini"', 'name = "m"\npass_allowed_after_s = -1'),
-            r"pass_allowed_after_s must be >= 0",
-        ),
-        (('name = "mini"', 'name = "m"\nfeedback = 1'), r"protocol.feedback must be bool"),
-        (('[protocol]\nname = "mini"', ""), r"missing table \[protocol\]"),
-        (('part = "main"', 'part = "training"'), r"at least one entry with part = 'main'"),
-        (in_display("screen_width_px = 0"), r"display.screen_width_px must be >= 1"),
-        (in_display("screen_height_px = 1.5"), r"display.screen_height_px must be int"),
-        (in_display("viewing_distance_cm = 0"), r"viewing_distance_cm must be a positive number"),
-        (in_display("image_width_cm = 99"), r"image_width_cm must be <= screen_width_cm"),
-        (in_display("image_height_cm = -2"), r"image_height_cm must be a positive number"),
-        (in_display('screen_width_cm = "40"'), r"screen_width_cm must be int or float"),
-        (in_display("border_rgb = [0, 0, 256]"), r"border_rgb must be 3 integers"),
-        (in_display("background_rgb = [0, 0]"), r"background_rgb must be 3 integers"),
-        (in_display("border_width_px = -1"), r"border_width_px must be >= 0"),
-        (("[protocol]", "display = 3\n[protocol]"), r"\[display\] must be a table"),
-        (in_scoring("recognized = { named = true }"), r"scoring.recognized is missing score 'use'"),
-        (in_scoring("recognized = { named = true, guessed = true }"), r"unknown score 'guessed'"),
-        (
-            in_scoring(
-                "recognized = { named = 1, use = true, shape = false, wrong = false, pass = false }"
-            ),
-            r"scoring.recognized.named must be true or false",
-        ),
-        (in_scoring("recognized = 3"), r"scoring.recognized must be a table"),
-        (in_scoring('primary_rater = " "'), r"primary_rater must not be empty"),
+        ("blocks.objects", r"\[blocks\[0\]\] is missing field objects"),
+        ("protocol.name", r"\[protocol\] is missing field name"),
+        ("protocol", r"missing table \[protocol\]"),
     ],
 )
-def test_bad_protocol_names_the_field(tmp_path, edit, match):
-    old, new = edit
-    assert old in MINIMAL
+def test_missing_field_is_named(tmp_path, path, match):
     with pytest.raises(ProtocolError, match=match):
-        load_protocol(write(tmp_path, MINIMAL.replace(old, new, 1)))
+        load_protocol(write(tmp_path, minimal_with(path, None)))
 
 
 def test_no_blocks_and_bad_toml(tmp_path):

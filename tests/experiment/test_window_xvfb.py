@@ -311,6 +311,8 @@ def test_active_run_person_opens_window_and_console(x_display, tmp_path) -> None
     import termios
     import time
 
+    from tests.ptyread import read_pty
+
     text = open(
         os.path.join(os.path.dirname(__file__), "..", "..", "protocols", "active_search.toml"),
         encoding="utf-8",
@@ -331,20 +333,13 @@ def test_active_run_person_opens_window_and_console(x_display, tmp_path) -> None
     if pid == 0:  # the child: the command in a terminal 100x30
         os.execve(exe, args, env)
     fcntl.ioctl(fd, termios.TIOCSWINSZ, struct.pack("HHHH", 30, 100, 0, 0))
-    out = b""
+    out = bytearray()
     end = time.monotonic() + 120
     status = None
     sent = False
     while time.monotonic() < end:
-        ready, _, _ = select.select([fd], [], [], 0.2)
-        if ready:
-            try:
-                chunk = os.read(fd, 65536)
-            except OSError:
-                chunk = b""
-            if not chunk:
-                break
-            out += chunk
+        if not read_pty(fd, out, time.monotonic() + 0.2):
+            break
         if not sent and b"Enter starts" in out:
             os.write(fd, b"\x11")  # Ctrl+Q
             sent = True
