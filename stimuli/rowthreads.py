@@ -2,7 +2,8 @@
 
 The compiled kernels (:mod:`stimuli.kernels`) release the GIL, so threads running them on
 different strips of rows work in parallel. Starting a thread pool costs about 0.1 ms, as much as
-a whole refocused plane of a small light field, so the pools are made once and kept.
+a whole refocused plane of a small light field, so the pools are made once and kept (a forked
+child makes its own).
 """
 
 from __future__ import annotations
@@ -24,6 +25,21 @@ R = TypeVar("R")
 _POOLS: dict[int, ThreadPoolExecutor] = {}
 _BLAS: dict = {}
 _POOLS_LOCK = threading.Lock()
+
+
+def _forget_pools_in_child() -> None:
+    """A forked child has none of its parent's threads: it starts its own pools when needed.
+
+    (Work handed to a pool whose threads stayed in the parent would wait for ever; the kill
+    test forks its runs from one warm process.)
+    """
+    global _POOLS_LOCK
+    _POOLS.clear()
+    _POOLS_LOCK = threading.Lock()
+
+
+if hasattr(os, "register_at_fork"):
+    os.register_at_fork(after_in_child=_forget_pools_in_child)
 
 
 def default_workers() -> int:
