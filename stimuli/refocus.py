@@ -39,7 +39,6 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterator, Sequence
-from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
@@ -251,15 +250,8 @@ def _refocus_views(
             )
 
     result[...] = 0.0
-    if n_threads == 1:
-        pass_cols(0, n_u)
-        pass_rows(0, cols)
-    else:
-        ub = np.linspace(0, n_u, n_threads + 1).astype(int)
-        cb = np.linspace(0, cols, n_threads + 1).astype(int)
-        with ThreadPoolExecutor(n_threads) as ex:
-            list(ex.map(pass_cols, ub[:-1], ub[1:]))
-            list(ex.map(pass_rows, cb[:-1], cb[1:]))
+    run_on_row_strips(pass_cols, n_u, n_threads)  # strips of grid rows, then of columns
+    run_on_row_strips(pass_rows, cols, n_threads)
     return _normalise(result, rows, cols, row_shifts, col_shifts, extra)
 
 
