@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import itertools
 import math
+import sys
 import warnings
 
 import numpy as np
@@ -32,6 +33,7 @@ from stimuli.rowthreads import default_workers, run_on_threads
 
 __all__ = [
     "scan_binning",
+    "scan_views",
     "agreement_scan",
     "estimate_disparity_range",
     "AGREEMENT_RATIO",
@@ -147,8 +149,29 @@ def _cross_offsets(lf: LightField) -> list[tuple[int, int]]:
     """Views used by the agreement scan: on the centre row and column, the outermost and the
     half-way view on each side. Views off the cross would need 2-D (four-tap) interpolation for
     little extra evidence."""
-    n_u, n_v = lf.grid
-    cu, cv = lf.centre_index
+    return _offsets_on_the_cross(lf.grid, lf.source)
+
+
+def scan_views(grid: tuple[int, int]) -> list[tuple[int, int]]:
+    """Return the grid positions ``(u, v)`` of the views the agreement scan reads.
+
+    The centre view (:attr:`LightField.centre_index`) and, on its row and column, the
+    outermost and the half-way view on each side: what a loader needs to read for a scan and
+    a plane choice (``load_lightfield(..., only_views=scan_views)``).
+
+    Examples
+    --------
+    >>> scan_views((1, 7))
+    [(0, 3), (0, 0), (0, 1), (0, 5), (0, 6)]
+    """
+    n_u, n_v = (int(n) for n in grid)
+    cu, cv = n_u // 2, n_v // 2
+    return [(cu, cv)] + [(cu + du, cv + dv) for du, dv in _offsets_on_the_cross(grid, "views")]
+
+
+def _offsets_on_the_cross(grid: tuple[int, int], source: str) -> list[tuple[int, int]]:
+    n_u, n_v = grid
+    cu, cv = n_u // 2, n_v // 2
     out: list[tuple[int, int]] = []
     for n, c, axis in ((n_u, cu, 0), (n_v, cv, 1)):
         for side in (-1, 1):
@@ -157,8 +180,39 @@ def _cross_offsets(lf: LightField) -> list[tuple[int, int]]:
                 if k > 0:
                     out.append((side * k, 0) if axis == 0 else (0, side * k))
     if not out:
-        raise InputError(f"{lf.source}: a light field needs at least two views, got grid {lf.grid}")
+        raise InputError(f"{source}: a light field needs at least two views, got grid {grid}")
     return out
+
+
+#: Which plane sweep :func:`_sweep` uses: ``"auto"`` (see :func:`_sweep_function`),
+#: ``"compiled"`` (:func:`stimuli.kernels.agreement_sweep`) or ``"numpy"``
+#: (:func:`stimuli.planesweep.agreement_sweep`). The two give the same result to the bit;
+#: benchmarks and tests set it to time or compare one of them.
+SWEEP_PATH: str = "auto"
+
+#: The largest sweep (pixels x views x planes) that ``"auto"`` makes in numpy while the compiled
+#: code is not loaded in the process (ours). Numpy takes about 4-6 ns per unit on a 2 GHz core,
+#: the compiled sweep about 1.4 ns but only after numba's start-up of about 0.75 s: below this
+#: bound (numpy at most about 0.5 s) numpy answers first. A 200-plane scan of a Lytro 7x7
+#: capture is about 4e7 units; once anything compiled has run, every sweep is compiled.
+NUMPY_SWEEP_MAX_WORK: int = 100_000_000
+
+
+def _sweep_function(work: int):
+    """The plane sweep for a sweep of ``work`` units (pixels x views x planes)."""
+    path = SWEEP_PATH
+    if path == "auto":
+        loaded = "stimuli.kernels" in sys.modules
+        path = "compiled" if loaded or work > NUMPY_SWEEP_MAX_WORK else "numpy"
+    if path == "numpy":
+        from stimuli.planesweep import COST_BOX_PX, agreement_sweep
+    elif path == "compiled":
+        from stimuli.kernels import COST_BOX_PX, agreement_sweep
+    else:
+        raise ValueError(f"SWEEP_PATH must be 'auto', 'compiled' or 'numpy', got {path!r}")
+    if COST_BOX_PX != COST_WINDOW_PX:  # pragma: no cover - the constants are one value
+        raise RuntimeError(f"COST_WINDOW_PX must equal the sweep's COST_BOX_PX ({path})")
+    return agreement_sweep
 
 
 def _sweep(
@@ -175,17 +229,14 @@ def _sweep(
     ``null_centre`` as the reference.
 
     How it is fast: every view is shifted along one axis only (centre row and column), and each
-    thread sweeps its share of the planes in one compiled call
-    (:func:`stimuli.kernels.agreement_sweep`): per plane, the interpolated views' differences
-    from both references, the box filter and the running best, without a pass of its own for
-    each step. The views that shift along columns are padded once by repeating their end
-    columns, so that a shift is an offset into the padded row.
+    thread sweeps its share of the planes in one call of the sweep :func:`_sweep_function`
+    chooses (compiled, or its numpy twin for a small sweep in a process that has not loaded
+    the compiled code): per plane, the interpolated views' differences from both references,
+    the box filter and the running best. The views that shift along columns are padded once by
+    repeating their end columns, so that a shift is an offset into the padded row.
     """
-    from stimuli.kernels import COST_BOX_PX, agreement_sweep
-
-    if COST_BOX_PX != COST_WINDOW_PX:  # pragma: no cover - the two constants are one value
-        raise RuntimeError("COST_WINDOW_PX must equal stimuli.kernels.COST_BOX_PX")
     rows, cols = centre.shape
+    agreement_sweep = _sweep_function(rows * cols * len(views) * len(ds))
     m = max(max(abs(a), abs(b)) for a, b in offsets)
     pad = int(math.ceil(float(np.abs(ds).max()) * m)) + 2
     row_group = [(img, du) for img, (du, dv) in zip(views, offsets, strict=True) if du]

@@ -38,10 +38,26 @@ __all__ = [
     "default_mode",
     "check_gray",
     "to_float01",
+    "luma",
 ]
 
 #: Rec. 709 luma weights used for colour -> luminance (the same as skimage.color.rgb2gray).
 _LUMA_WEIGHTS = np.array([0.2125, 0.7154, 0.0721], dtype=np.float32)
+
+
+def luma(rgb: np.ndarray) -> np.ndarray:
+    """Return the Rec. 709 luminance of RGB ``(..., 3)`` float32 values, clipped to [0, 1].
+
+    ``R w_R + G w_G + B w_B`` with each product rounded to float32 and the three added in that
+    order, pixel by pixel: a pixel's value does not depend on how many views are converted at
+    once (a BLAS product of the whole array may round by its blocking), so a light field read
+    view by view, or only some of its views, is the same to the bit.
+    """
+    rgb = np.asarray(rgb, dtype=np.float32)
+    g = rgb[..., 0] * _LUMA_WEIGHTS[0]
+    g += rgb[..., 1] * _LUMA_WEIGHTS[1]
+    g += rgb[..., 2] * _LUMA_WEIGHTS[2]
+    return np.clip(g, 0.0, 1.0, out=g)
 
 
 #: EXIF orientations (tag 0x0112) that swap rows and columns (transpose, rotate 90/270).

@@ -50,13 +50,14 @@ import re
 import tomllib
 import zipfile
 import zlib
+from collections.abc import Callable, Iterable
 from pathlib import Path
 
 import numpy as np
 
 from stimuli.elemental import views_from_elemental
 from stimuli.errors import InputError
-from stimuli.io import _LUMA_WEIGHTS
+from stimuli.io import luma
 from stimuli.lfviews import Geometry, LightField
 
 __all__ = ["load_lightfield", "as_lightfield", "ARRAY_AXES", "HCI_GRID_COLS"]
@@ -222,6 +223,27 @@ def _read_all(paths: list[Path]) -> list[np.ndarray]:
     return _on_threads(_read_raw, paths)
 
 
+#: Image modes whose samples are 8-bit: their scale to [0, 1] is 1/255 whatever the other
+#: views hold, so some views can be read without the others.
+_EIGHT_BIT_MODES = frozenset({"1", "L", "LA", "P", "PA", "RGB", "RGBA", "RGBX"})
+
+
+def _headers_allow_some(paths: list[Path]) -> bool:
+    """Whether every view is 8-bit and of one size, by the files' headers (no decoding)."""
+    from stimuli.io import _open_checked
+
+    sizes = set()
+    for f in paths:
+        try:
+            with _open_checked(f) as img:
+                if img.mode not in _EIGHT_BIT_MODES:
+                    return False
+                sizes.add(img.size)
+        except Exception:  # noqa: BLE001 - any unreadable header: the full read reports it
+            return False
+    return len(sizes) == 1
+
+
 def _scale_raw(
     raws: list[np.ndarray], names: list[str], bit_depth: int | None, where: Path
 ) -> tuple[float, int | None]:
@@ -273,6 +295,7 @@ def _load_folder(
     gray: bool,
     bit_depth: int | None = None,
     background: float = 0.0,
+    only_views: Callable[[tuple[int, int]], Iterable[tuple[int, int]]] | None = None,
 ) -> tuple[np.ndarray, dict]:
     files = sorted(
         f for f in folder.iterdir() if f.is_file() and f.suffix.lower() in _IMAGE_SUFFIXES
@@ -285,30 +308,34 @@ def _load_folder(
         raise InputError(f"{folder}: missing views: no file name matches {hint}; give --pattern")
     rows, cols = _check_grid(found, folder)
     items = sorted(found.items())
-    raws = _read_all([f for _, f in items])
+    some = None
+    if only_views is not None and bit_depth is None and _headers_allow_some(list(found.values())):
+        some = {(int(u), int(v)) for u, v in only_views((len(rows), len(cols)))}
+    shown = [(p, f) for p, f in items if some is None or (p[0] - rows[0], p[1] - cols[0]) in some]
+    raws = _read_all([f for _, f in shown])
     first = raws[0].shape[:2]
-    for (_, f), r in zip(items, raws, strict=True):
+    for (_, f), r in zip(shown, raws, strict=True):
         if r.shape[:2] != first:
             raise InputError(
-                f"{folder}: views of different sizes: {items[0][1].name} is "
+                f"{folder}: views of different sizes: {shown[0][1].name} is "
                 f"{first[0]}x{first[1]} px, {f.name} is {r.shape[0]}x{r.shape[1]} px"
             )
-    scale, bits = _scale_raw(raws, [f.name for _, f in items], bit_depth, folder)
+    scale, bits = _scale_raw(raws, [f.name for _, f in shown], bit_depth, folder)
     has_alpha = any(r.ndim == 3 and r.shape[2] in (2, 4) for r in raws)
-    out = np.empty((len(rows), len(cols), *first, 3), dtype=np.float32)
+    channels = () if gray else (3,)
+    out = (np.empty if some is None else np.zeros)(
+        (len(rows), len(cols), *first, *channels), dtype=np.float32
+    )
 
     def convert(item) -> None:
         ((r, c), _), raw = item
-        out[r - rows[0], c - cols[0]] = _to_views(raw, scale, background)
+        view = _to_views(raw, scale, background)
+        out[r - rows[0], c - cols[0]] = luma(view) if gray else view
 
-    _on_threads(convert, list(zip(items, raws, strict=True)))
-    if gray:
-        # One product over the whole light field: BLAS rounds a per-view product differently
-        # for some view sizes (measured), and the grey views must not depend on how they were
-        # read.
-        out = np.tensordot(out, _LUMA_WEIGHTS, axes=([4], [0]))
-        out = np.clip(out, 0, 1, out=out).astype(np.float32, copy=False)
+    _on_threads(convert, list(zip(shown, raws, strict=True)))
     meta: dict = {}
+    if some is not None:
+        meta["views_read"] = sorted((p[0] - rows[0], p[1] - cols[0]) for p, _ in shown)
     if bits is not None:
         meta["bit_depth"] = bits
     if has_alpha:
@@ -434,6 +461,7 @@ def load_lightfield(
     bit_depth: int | None = None,
     axes: str | None = None,
     background: float = 0.0,
+    only_views: Callable[[tuple[int, int]], Iterable[tuple[int, int]]] | None = None,
 ) -> LightField:
     """Load a light field from a folder of views, an array file or an elemental image.
 
@@ -460,6 +488,12 @@ def load_lightfield(
         the shape.
     background : float in [0, 1]
         Grey level an alpha channel is composited over (the protocol's background).
+    only_views : callable, optional
+        For work that looks at some views only (the agreement scan: the centre row and
+        column): given the grid ``(n_u, n_v)``, returns the grid positions ``(u, v)`` to read.
+        A folder of 8-bit views of one size (checked from the headers) is then read at those
+        positions only; the other views are left black and ``meta["views_read"]`` lists the
+        read ones. Other inputs are read whole. Not for refocusing: it needs every view.
 
     Returns
     -------
@@ -485,7 +519,9 @@ def load_lightfield(
     if not (isinstance(background, (int, float)) and 0.0 <= background <= 1.0):
         raise InputError(f"background must be a grey level in [0, 1], got {background!r}")
     if path.is_dir():
-        views, meta = _load_folder(path, pattern, grid_cols, gray, bit_depth, background)
+        views, meta = _load_folder(
+            path, pattern, grid_cols, gray, bit_depth, background, only_views
+        )
         meta["kind"] = "views"
     elif path.suffix.lower() in (".npy", ".npz"):
         views, meta = _load_array_file(path, bit_depth, axes)
@@ -503,7 +539,7 @@ def load_lightfield(
         scale, _ = _scale_raw([raw], [path.name], bit_depth, path.parent)
         img = _to_views(raw, scale, background)
         if gray:
-            img = np.clip(img @ _LUMA_WEIGHTS, 0, 1).astype(np.float32)
+            img = luma(img)
         try:
             views = views_from_elemental(img, pitch, border_px=border, offset_px=offset)
         except InputError as exc:
@@ -515,7 +551,7 @@ def load_lightfield(
             "elemental image)"
         )
     if views.ndim == 5 and gray:
-        views = np.clip(np.tensordot(views, _LUMA_WEIGHTS, axes=([4], [0])), 0, 1)
+        views = luma(views)
     if geometry is None:
         gdict = cfg.get("geometry") or meta.pop("geometry", None)
         geometry = Geometry.from_dict(gdict) if gdict else None

@@ -12,7 +12,7 @@ from typing import Literal
 import numpy as np
 
 from stimuli.errors import InputError
-from stimuli.io import _LUMA_WEIGHTS
+from stimuli.io import luma
 
 __all__ = ["Geometry", "LightField", "ANISOTROPY_RATIO", "is_one_dimensional"]
 
@@ -234,8 +234,7 @@ class LightField:
         if self.views.ndim == 4:
             return self
         v = self.views
-        g = v[..., 0] if v.shape[4] == 1 else np.tensordot(v, _LUMA_WEIGHTS, axes=([4], [0]))
-        g = np.clip(g.astype(np.float32), 0.0, 1.0)
+        g = np.clip(v[..., 0].astype(np.float32), 0.0, 1.0) if v.shape[4] == 1 else luma(v)
         return LightField(g, self.geometry, self.source, dict(self.meta))
 
     def binned(self, factor: int) -> LightField:

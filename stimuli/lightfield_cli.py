@@ -247,7 +247,12 @@ def _takes_loader_options(command: Callable[..., None]) -> Callable[..., None]:
     return run
 
 
-def _load(path: Path, options: _LoaderOptions):
+def _load(path: Path, options: _LoaderOptions, only_views=None):
+    """Read the light field at ``path`` grey, as the loader options say.
+
+    ``only_views`` (see :func:`stimuli.lightfield.load_lightfield`) is passed on unless views
+    are binned (binning averages every view).
+    """
     from stimuli.lightfield import load_lightfield
 
     off = None
@@ -269,6 +274,7 @@ def _load(path: Path, options: _LoaderOptions):
         axes=options.axes,
         background=options.background,
         gray=True,
+        only_views=only_views if options.view_bin == 1 else None,
     ).gray()
     if options.view_bin != 1:
         lf = lf.view_binned(options.view_bin)
@@ -371,6 +377,7 @@ def _scan_one(
     """
     import warnings
 
+    from stimuli.agreementscan import scan_views
     from stimuli.declutter import in_focus_mask
     from stimuli.io import atomic_path, save_png, staged_folder
     from stimuli.planechoice import choose_plane, detect_planes
@@ -392,7 +399,9 @@ def _scan_one(
         opts["edge_ratio"],
     )
     shape = parse_grid(opts["grid"])
-    lf = _load(lightfield, loader)
+    # The agreement scan and the plane choice read a few views (the centre row and column):
+    # only those are read before the answer; refocusing reads them all after it.
+    lf = _load(lightfield, loader, scan_views if method == "agreement" else None)
     mode = _resolve_mode(declutter_mode, lf)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
@@ -434,6 +443,8 @@ def _scan_one(
         use = f"plane{k + 1:02d} ({choice.disparity_px:.3f} px/view)"
         marginal = f"; marginal: {choice.marginal}" if choice.marginal else ""
         say(f"stimuli build --plane auto would use {use}{marginal}")
+    if "views_read" in lf.meta:
+        lf = _load(lightfield, loader)
     centre = lf.centre_view()
     images = []
     for k, p in enumerate(scan.peaks):

@@ -1,4 +1,5 @@
-"""The compiled agreement sweep against a plain numpy + scipy.ndimage version of the same sums."""
+"""The agreement sweep, compiled and in numpy: against a plain float64 numpy + scipy.ndimage
+version of the same sums, and against each other (equal to the bit)."""
 
 from __future__ import annotations
 
@@ -6,6 +7,7 @@ import numpy as np
 import pytest
 from scipy.ndimage import uniform_filter
 
+import stimuli.agreementscan as agreementscan
 from stimuli.agreementscan import (
     AGREEMENT_RATIO,
     COST_WINDOW_PX,
@@ -39,10 +41,12 @@ def _reference_costs(views, offsets, ref, ds):
     return np.stack(out)
 
 
+@pytest.mark.parametrize("path", ["compiled", "numpy"])
 @pytest.mark.parametrize(
     ("grid", "shape"), [((5, 5), (90, 120)), ((1, 7), (80, 100)), ((3, 3), (100, 90))]
 )
-def test_compiled_sweep_matches_the_reference(grid, shape):
+def test_sweep_matches_the_reference(grid, shape, path, monkeypatch):
+    monkeypatch.setattr(agreementscan, "SWEEP_PATH", path)
     lf = render_camera_array(three_plane_scene(shape), grid=grid, shape_px=shape, baseline_m=0.03)
     _, views, offsets, centre, null_centre = _scan_inputs(lf, 1)
     g = lf.geometry
@@ -70,3 +74,52 @@ def test_compiled_sweep_matches_the_reference(grid, shape):
         )
         assert np.mean(agrees == expected) > 0.999
         assert np.count_nonzero(agrees) >= 20  # not a vacuous comparison
+
+
+@pytest.mark.parametrize(
+    ("grid", "shape", "span"),
+    [
+        ((5, 5), (90, 120), (-6.0, 4.0)),
+        ((1, 7), (40, 150), (-3.3, 2.9)),  # columns only
+        ((7, 1), (150, 40), (-2.2, 3.7)),  # rows only
+        ((3, 3), (23, 31), (-9.5, 9.5)),  # shifts far beyond the image
+        ((9, 9), (3, 4), (-0.7, 0.4)),  # smaller than the cost box
+    ],
+)
+def test_numpy_sweep_equals_the_compiled_sweep_to_the_bit(grid, shape, span, monkeypatch):
+    rng = np.random.default_rng(sum(shape))
+    views = rng.random((*grid, *shape), dtype=np.float32)
+    views[..., : shape[0] // 2, :] *= np.float32(0.25)  # some contrast structure
+    from stimuli.lightfield import LightField
+
+    lf = LightField(views)
+    _, sv, offsets, centre, null_centre = _scan_inputs(lf, 1)
+    ds = np.linspace(*span, 37)
+    got = {}
+    for path in ("compiled", "numpy"):
+        monkeypatch.setattr(agreementscan, "SWEEP_PATH", path)
+        for workers in (1, 3):
+            got[path, workers] = _sweep(sv, offsets, centre, null_centre, ds, workers)
+    for workers in (1, 3):
+        for a, b in zip(got["compiled", workers], got["numpy", workers], strict=True):
+            np.testing.assert_array_equal(a, b)
+    assert len(np.unique(got["numpy", 1][0])) > 3  # the best plane varies: not a flat answer
+
+
+def test_auto_sweep_is_numpy_only_for_a_small_sweep_before_compiled_code_runs(monkeypatch):
+    import sys
+
+    def home(fn) -> str:
+        return getattr(fn, "py_func", fn).__module__
+
+    import stimuli.kernels  # noqa: F401 - loaded, as after any compiled call
+
+    monkeypatch.setattr(agreementscan, "SWEEP_PATH", "auto")
+    small, large = 10**6, agreementscan.NUMPY_SWEEP_MAX_WORK + 1
+    assert home(agreementscan._sweep_function(small)) == "stimuli.kernels"  # loaded: compiled
+    monkeypatch.delitem(sys.modules, "stimuli.kernels")
+    assert home(agreementscan._sweep_function(small)) == "stimuli.planesweep"
+    assert home(agreementscan._sweep_function(large)) == "stimuli.kernels"
+    monkeypatch.setattr(agreementscan, "SWEEP_PATH", "gpu")
+    with pytest.raises(ValueError, match="SWEEP_PATH"):
+        agreementscan._sweep_function(small)

@@ -1,5 +1,5 @@
 """A folder of views loaded grey, one view at a time on threads, is the luminance of the colour
-light field to the bit."""
+light field to the bit; a folder read at the agreement scan's views only gives the same scan."""
 
 from __future__ import annotations
 
@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from stimuli.io import _LUMA_WEIGHTS
+from stimuli.io import _LUMA_WEIGHTS, luma
 from stimuli.lightfield import load_lightfield
 
 
@@ -22,5 +22,56 @@ def test_grey_folder_is_the_luminance_of_the_colour_folder(tmp_path, mode):
     grey = load_lightfield(tmp_path, gray=True).views
     colour = load_lightfield(tmp_path, gray=False).views
     assert grey.shape == (3, 4, 37, 53) and grey.dtype == np.float32
-    whole = np.clip(np.tensordot(colour, _LUMA_WEIGHTS, axes=([4], [0])), 0, 1)
-    np.testing.assert_array_equal(grey, whole.astype(np.float32))
+    np.testing.assert_array_equal(grey, luma(colour))
+    np.testing.assert_array_equal(grey, load_lightfield(tmp_path, gray=False).gray().views)
+    weights = _LUMA_WEIGHTS.astype(np.float64)
+    exact = np.clip(np.tensordot(colour.astype(np.float64), weights, 1), 0, 1)
+    np.testing.assert_allclose(grey, exact, rtol=0, atol=2e-7)  # float32 rounding only
+
+
+def _folder_of_views(tmp_path, grid, dtype=np.uint8):
+    from stimuli.lfsynth import render_camera_array, three_plane_scene
+
+    shape = (60, 90)
+    lf = render_camera_array(three_plane_scene(shape), grid=grid, shape_px=shape, baseline_m=0.03)
+    top = np.iinfo(dtype).max
+    for u in range(grid[0]):
+        for v in range(grid[1]):
+            a = np.round(lf.views[u, v] * top).astype(dtype)
+            Image.fromarray(a).save(tmp_path / f"view_{u}_{v}.png")
+    return tmp_path
+
+
+@pytest.mark.parametrize("grid", [(5, 5), (1, 7), (3, 3)])
+def test_a_folder_read_at_the_scan_views_gives_the_same_scan(tmp_path, grid):
+    import warnings
+
+    from stimuli.agreementscan import scan_views
+    from stimuli.planechoice import choose_plane, detect_planes
+
+    folder = _folder_of_views(tmp_path, grid)
+    whole = load_lightfield(folder, gray=True)
+    some = load_lightfield(folder, gray=True, only_views=scan_views)
+    read = some.meta["views_read"]
+    assert sorted(read) == sorted(scan_views(grid)) and len(read) < grid[0] * grid[1]
+    for u in range(grid[0]):
+        for v in range(grid[1]):
+            expected = whole.views[u, v] if (u, v) in read else np.zeros_like(whole.views[u, v])
+            np.testing.assert_array_equal(some.views[u, v], expected)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        scans = [detect_planes(lf) for lf in (whole, some)]
+        choices = [choose_plane(lf, scan=s) for lf, s in zip((whole, some), scans, strict=True)]
+    np.testing.assert_array_equal(scans[0].scores, scans[1].scores)
+    assert scans[0].peaks == scans[1].peaks and len(scans[0].peaks) >= 2
+    assert choices[0] == choices[1]
+
+
+def test_sixteen_bit_views_are_read_whole(tmp_path):
+    """16-bit views are scaled by the largest value of all of them: none can be left out."""
+    from stimuli.agreementscan import scan_views
+
+    folder = _folder_of_views(tmp_path, (3, 3), dtype=np.uint16)
+    some = load_lightfield(folder, gray=True, only_views=scan_views)
+    assert "views_read" not in some.meta
+    np.testing.assert_array_equal(some.views, load_lightfield(folder, gray=True).views)

@@ -75,3 +75,53 @@ def test_no_plot_skips_the_figure_and_matplotlib(sim_png, tmp_path):
     res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert res.stdout.strip().splitlines()[-1] == "False"
     assert (out / "planes.csv").exists() and not (out / "scores.png").exists()
+
+
+def test_the_answer_reads_the_scan_views_only_and_needs_no_compiled_code(tmp_path):
+    """Before its answer, a scan of a folder of views reads only the views the agreement scan
+    uses and runs no compiled code (numba's start-up, about 0.75 s, comes after the answer)."""
+    import numpy as np
+    from PIL import Image
+
+    from stimuli.agreementscan import scan_views
+    from stimuli.lfsynth import render_camera_array, three_plane_scene
+
+    shape, grid = (70, 100), (5, 5)
+    lf = render_camera_array(three_plane_scene(shape), grid=grid, shape_px=shape, baseline_m=0.03)
+    folder = tmp_path / "views"
+    folder.mkdir()
+    for u in range(grid[0]):
+        for v in range(grid[1]):
+            a = np.round(lf.views[u, v] * 255).astype(np.uint8)
+            Image.fromarray(a).save(folder / f"view_{u}_{v}.png")
+    out = tmp_path / "scan"
+    code = (
+        "import sys\n"
+        "import typer\n"
+        "import stimuli.lfload as lfload\n"
+        "reads = []\n"
+        "read_all = lfload._read_all\n"
+        "def counted(paths):\n"
+        "    reads.append(len(paths))\n"
+        "    return read_all(paths)\n"
+        "lfload._read_all = counted\n"
+        "echo = typer.echo\n"
+        "def answer(message=None, *args, **kwargs):\n"
+        "    if str(message).startswith('stimuli build --plane auto'):\n"
+        "        print('AT-ANSWER', reads, 'numba' in sys.modules, flush=True)\n"
+        "    return echo(message, *args, **kwargs)\n"
+        "typer.echo = answer\n"
+        "from experiment.cli import main\n"
+        "try:\n"
+        f"    main(['lightfield', 'scan', {str(folder)!r}, '--out', {str(out)!r}, '--no-plot'])\n"
+        "except SystemExit as exc:\n"
+        "    assert exc.code in (0, None), exc.code\n"
+        "print('AT-EXIT', reads)\n"
+    )
+    res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    lines = res.stdout.splitlines()
+    at_answer = next(line for line in lines if line.startswith("AT-ANSWER"))
+    n_scan = len(scan_views(grid))
+    assert at_answer == f"AT-ANSWER [{n_scan}] False", res.stdout
+    assert lines[-1] == f"AT-EXIT [{n_scan}, {grid[0] * grid[1]}]"  # then every view, to refocus
+    assert (out / "plane01_confocal.png").exists()
