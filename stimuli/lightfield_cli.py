@@ -40,7 +40,7 @@ import typer
 from stimuli.cli import seed_option
 from stimuli.edgegrid import declutter_and_compress
 from stimuli.errors import InputError
-from stimuli.resources import check_memory, finite_option
+from stimuli.resources import check_memory, finite_option, parse_pair
 
 __all__ = [
     "register",
@@ -157,10 +157,7 @@ def _check_planes(planes: int) -> None:
 
 def parse_grid(text: str) -> tuple[int, int]:
     """Parse ``"38x25"`` (cols x rows, as the paper writes it) into ``shape_px=(rows, cols)``."""
-    try:
-        cols, rows = (int(v) for v in text.lower().split("x"))
-    except ValueError:
-        raise InputError(f"--grid must be COLSxROWS like 38x25, got {text!r}") from None
+    cols, rows = parse_pair(text, "--grid must be COLSxROWS like 38x25")
     if rows < 1 or cols < 1:
         raise InputError(f"--grid must be positive, got {text!r}")
     return rows, cols

@@ -45,6 +45,7 @@ import numpy as np
 from stimuli.errors import InputError
 from stimuli.lfload import as_lightfield
 from stimuli.lightfield import LightField
+from stimuli.resources import finite_number
 from stimuli.rowthreads import default_workers, run_on_row_strips
 
 __all__ = [
@@ -135,12 +136,7 @@ def overlap_weights(length: int, shifts: Sequence[float]) -> np.ndarray:
 
 
 def _check_disparity(lf: LightField, disparity_px: float) -> float:
-    try:
-        d = float(disparity_px)
-    except (TypeError, ValueError):
-        raise InputError(f"slope_px_per_view must be a number, got {disparity_px!r}") from None
-    if not math.isfinite(d):
-        raise InputError(f"slope_px_per_view must be finite, got {disparity_px!r}")
+    d = finite_number(disparity_px, "slope_px_per_view")
     dmax = lf.max_disparity_px()
     if abs(d) > dmax:
         raise InputError(

@@ -8,6 +8,8 @@ killed by the kernel with no message.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
+from typing import Any
 
 from stimuli.errors import InputError
 
@@ -30,7 +32,9 @@ __all__ = [
     "available_memory_bytes",
     "check_memory",
     "format_bytes",
+    "finite_number",
     "finite_option",
+    "parse_pair",
 ]
 
 
@@ -116,3 +120,86 @@ def finite_option(
         return value
 
     return callback
+
+
+def finite_number(
+    value: Any,
+    name: str,
+    *,
+    expected: str = "a number",
+    error: type[Exception] = InputError,
+) -> float:
+    """Return ``value`` as a float; refuse one that is no number, NaN or infinite.
+
+    Parameters
+    ----------
+    value : object
+        What the caller was given (a float, an int, a numpy scalar, a numeric string).
+    name : str
+        The argument's name, as the message gives it (``'slope_px_per_view'``).
+    expected : str, optional
+        What ``name`` must be, as the message gives it (``'a number of seconds'``).
+    error : type of Exception, optional
+        The caller's one-line error (:class:`~stimuli.errors.InputError` by default).
+
+    Returns
+    -------
+    float
+        The finite value.
+
+    Raises
+    ------
+    InputError
+        Or ``error``: ``<name> must be <expected>, got <value>`` when ``float(value)`` fails,
+        ``<name> must be finite, got <value>`` for NaN or an infinity.
+    """
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        raise error(f"{name} must be {expected}, got {value!r}") from None
+    if not math.isfinite(v):
+        raise error(f"{name} must be finite, got {value!r}")
+    return v
+
+
+def parse_pair(
+    text: str,
+    refusal: str,
+    *,
+    cast: Callable[[str], Any] = int,
+    error: type[Exception] = InputError,
+) -> tuple[Any, Any]:
+    """Parse an option's ``"AxB"`` (two values joined by ``x`` or ``X``) in the order typed.
+
+    Parameters
+    ----------
+    text : str
+        The option's value, e.g. ``"38x25"``.
+    refusal : str
+        The message's start for a value that is not two values joined by ``x``: the option and
+        the form it takes (``'--grid must be COLSxROWS like 38x25'``); ``, got <text>`` follows.
+    cast : callable, optional
+        Converts each side (``int``; ``float`` for sizes in cm).
+    error : type of Exception, optional
+        The caller's one-line error (:class:`~stimuli.errors.InputError` by default).
+
+    Returns
+    -------
+    tuple
+        ``(cast(A), cast(B))``.
+
+    Raises
+    ------
+    InputError
+        Or ``error``, when ``text`` is not two values joined by ``x`` or ``cast`` refuses one.
+
+    Examples
+    --------
+    >>> parse_pair("38x25", "--grid must be COLSxROWS like 38x25")
+    (38, 25)
+    """
+    try:
+        a, b = text.lower().split("x")
+        return cast(a), cast(b)
+    except ValueError:
+        raise error(f"{refusal}, got {text!r}") from None

@@ -20,7 +20,7 @@ import typer
 
 from experiment.errors import ConfocalError
 from stimuli.cli import seed_option
-from stimuli.resources import MAX_ID_CHARS, check_memory, finite_option
+from stimuli.resources import MAX_ID_CHARS, check_memory, finite_option, parse_pair
 
 __all__ = ["register", "load_stimulus", "geometry_from_options", "pending_for_rater"]
 
@@ -34,11 +34,7 @@ def load_stimulus(path: Path) -> np.ndarray:
 
 
 def _pair(text: str, name: str, cast: type = float) -> tuple:
-    try:
-        a, b = text.lower().split("x")
-        return cast(a), cast(b)
-    except ValueError:
-        raise ConfocalError(f"--{name} must look like WIDTHxHEIGHT, got {text!r}") from None
+    return parse_pair(text, f"--{name} must look like WIDTHxHEIGHT", cast=cast, error=ConfocalError)
 
 
 def geometry_from_options(

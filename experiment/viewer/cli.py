@@ -19,7 +19,7 @@ from typing import Annotated
 import typer
 
 from experiment.errors import ConfocalError
-from stimuli.resources import MAX_PLANES, finite_option
+from stimuli.resources import MAX_PLANES, finite_option, parse_pair
 
 __all__ = ["register", "view_command"]
 
@@ -35,10 +35,7 @@ def _ints(text: str, n: int, option: str) -> tuple[int, ...]:
 
 
 def _size(text: str) -> tuple[int, int]:
-    try:
-        w, h = (int(v) for v in text.lower().split("x"))
-    except ValueError:
-        raise ConfocalError(f"--size must be WIDTHxHEIGHT like 1080x720, got {text!r}") from None
+    w, h = parse_pair(text, "--size must be WIDTHxHEIGHT like 1080x720", error=ConfocalError)
     if w < 160 or h < 120:
         raise ConfocalError(f"--size must be at least 160x120, got {text!r}")
     return h, w

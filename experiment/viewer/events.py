@@ -25,7 +25,6 @@ recorded_at     TEXT       UTC wall-clock time, ISO 8601 (provenance, not timing
 from __future__ import annotations
 
 import json
-import math
 import re
 import sqlite3
 from dataclasses import dataclass, field
@@ -35,6 +34,7 @@ from typing import Any
 
 from experiment.errors import ConfocalError
 from experiment.interfaces import ClosesOnExit
+from stimuli.resources import finite_number
 
 __all__ = ["SCHEMA_VERSION", "ViewerEvent", "ViewerEventLogError", "ViewerEventLog"]
 
@@ -236,12 +236,7 @@ class ViewerEventLog(ClosesOnExit):
             ``t`` not finite, ``kind`` not an identifier, ``payload`` not a JSON object, or the
             write failed.
         """
-        try:
-            t_s = float(t)
-        except (TypeError, ValueError):
-            raise ViewerEventLogError(f"t must be a number of seconds, got {t!r}") from None
-        if not math.isfinite(t_s):
-            raise ViewerEventLogError(f"t must be finite, got {t!r}")
+        t_s = finite_number(t, "t", expected="a number of seconds", error=ViewerEventLogError)
         if not isinstance(kind, str) or not _KIND_RE.match(kind):
             raise ViewerEventLogError(
                 f"kind must be a lower-case identifier like 'key' or 'state', got {kind!r}"
