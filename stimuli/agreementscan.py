@@ -28,7 +28,7 @@ from stimuli.errors import InputError
 from stimuli.haarscan import MIN_EDGE_PIXELS
 from stimuli.lfload import as_lightfield
 from stimuli.lfviews import LightField
-from stimuli.planescan import Plane, PlaneScan, find_peaks, gaussian_smooth
+from stimuli.planescan import Plane, PlaneScan, find_peaks, gaussian_smooth, median_spacing
 from stimuli.rowthreads import default_workers, run_on_threads
 
 __all__ = [
@@ -513,7 +513,7 @@ def agreement_scan(
     best_i, agrees, nbest_i, nagrees = _sweep_once(
         views, offsets, centre, null_centre, ds / total, workers
     )
-    spacing = float(np.median(np.abs(np.diff(ds)))) / binning  # binned px per view step
+    spacing = median_spacing(ds) / binning  # binned px per view step
     sigma = max(1.0, SMOOTH_SHIFT_PX / (m * spacing)) if spacing > 0 else 1.0
     raw, s, ns, ends = _support_curves(best_i, agrees, nbest_i, nagrees, len(ds), sigma)
     n_px = best_i.size

@@ -41,7 +41,7 @@ import numpy as np
 from stimuli.errors import InputError
 from stimuli.lfload import as_lightfield
 from stimuli.lfviews import LightField
-from stimuli.planescan import PlaneScan
+from stimuli.planescan import PlaneScan, median_spacing
 
 __all__ = [
     "PLANE_RULES",
@@ -436,6 +436,6 @@ def _hill_of(d: float, bounds: np.ndarray | None) -> int | None:
 
 def _near(best_px: np.ndarray, d: float, scan: PlaneScan) -> np.ndarray:
     """Pixels agreeing within one smoothing step of ``d`` (a plane on no detected hill)."""
-    step = float(np.median(np.abs(np.diff(scan.disparities_px)))) * 2
+    step = median_spacing(scan.disparities_px) * 2
     with np.errstate(invalid="ignore"):
         return np.abs(best_px - d) <= step

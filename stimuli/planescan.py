@@ -23,6 +23,7 @@ from stimuli.lfviews import LightField
 
 __all__ = [
     "gaussian_smooth",
+    "median_spacing",
     "Plane",
     "PlaneScan",
     "score_peaks",
@@ -242,6 +243,25 @@ def _local_maxima(x: np.ndarray) -> np.ndarray:
                 i = ahead
         i += 1
     return np.asarray(peaks, dtype=np.intp)
+
+
+def median_spacing(disparities_px: np.ndarray) -> float:
+    """Return the median gap between neighbouring planes (NaN for fewer than two).
+
+    ``np.median(np.abs(np.diff(d)))`` to the bit, by a sort: ``np.median`` imports
+    ``numpy.ma`` on first use (0.015 s in a scan that answers in under a second).
+
+    Examples
+    --------
+    >>> median_spacing(np.array([0.0, 0.5, 1.5, 1.75]))
+    0.5
+    """
+    gaps = np.sort(np.abs(np.diff(np.asarray(disparities_px, dtype=np.float64))))
+    n = gaps.size
+    if n == 0:
+        return math.nan
+    mid = n // 2
+    return float(gaps[mid]) if n % 2 else float((gaps[mid - 1] + gaps[mid]) / 2.0)
 
 
 def gaussian_smooth(curve: np.ndarray, sigma: float, *, mode: str = "nearest") -> np.ndarray:

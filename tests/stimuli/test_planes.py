@@ -258,3 +258,13 @@ def test_range_outside_the_geometry_is_refused():
     g = Geometry(kind="camera_array", focal_length_px=100.0, baseline_m=0.01, near_m=0.5, far_m=2)
     with pytest.raises(InputError, match="estimated disparity range is empty"):
         estimate_disparity_range(LightField(lf.views, g))
+
+
+def test_median_spacing_is_numpys_median_of_the_gaps():
+    from stimuli.planescan import median_spacing
+
+    rng = np.random.default_rng(5)
+    for n in range(2, 40):
+        d = np.cumsum(rng.random(n) * rng.choice([1e-3, 1.0, 7.0], n)) * rng.choice([-1, 1])
+        assert median_spacing(d) == float(np.median(np.abs(np.diff(d))))
+    assert np.isnan(median_spacing(np.array([1.0])))
