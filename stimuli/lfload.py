@@ -228,20 +228,33 @@ def _read_all(paths: list[Path]) -> list[np.ndarray]:
 _EIGHT_BIT_MODES = frozenset({"1", "L", "LA", "P", "PA", "RGB", "RGBA", "RGBX"})
 
 
-def _headers_allow_some(paths: list[Path]) -> bool:
-    """Whether every view is 8-bit and of one size, by the files' headers (no decoding)."""
+_PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
+
+
+def _eight_bit_size(path: Path) -> tuple[int, int] | None:
+    """``(cols, rows)`` of an 8-bit image from its header, or None (other depths, unreadable).
+
+    A PNG's header chunk is read directly (33 bytes); other formats are opened by Pillow,
+    which reads their header without decoding.
+    """
     from stimuli.io import _open_checked
 
-    sizes = set()
-    for f in paths:
-        try:
-            with _open_checked(f) as img:
-                if img.mode not in _EIGHT_BIT_MODES:
-                    return False
-                sizes.add(img.size)
-        except Exception:  # noqa: BLE001 - any unreadable header: the full read reports it
-            return False
-    return len(sizes) == 1
+    try:
+        with open(path, "rb") as f:
+            head = f.read(26)
+        if head[:8] == _PNG_SIGNATURE and head[12:16] == b"IHDR":
+            cols, rows = int.from_bytes(head[16:20], "big"), int.from_bytes(head[20:24], "big")
+            return (cols, rows) if head[24] <= 8 else None
+        with _open_checked(path) as img:
+            return img.size if img.mode in _EIGHT_BIT_MODES else None
+    except Exception:  # noqa: BLE001 - any unreadable header: the whole read reports it
+        return None
+
+
+def _headers_allow_some(paths: list[Path]) -> bool:
+    """Whether every view is 8-bit and of one size, by the files' headers (no decoding)."""
+    sizes = {_eight_bit_size(f) for f in paths}
+    return len(sizes) == 1 and None not in sizes
 
 
 def _scale_raw(

@@ -75,3 +75,20 @@ def test_sixteen_bit_views_are_read_whole(tmp_path):
     some = load_lightfield(folder, gray=True, only_views=scan_views)
     assert "views_read" not in some.meta
     np.testing.assert_array_equal(some.views, load_lightfield(folder, gray=True).views)
+
+
+def test_eight_bit_size_reads_the_header_as_pillow_does(tmp_path):
+    from stimuli.lfload import _eight_bit_size
+
+    rng = np.random.default_rng(3)
+    rgb = rng.integers(0, 256, (21, 34, 3), dtype=np.uint8)
+    Image.fromarray(rgb).save(tmp_path / "rgb.png")
+    Image.fromarray(rgb).convert("P").save(tmp_path / "palette.png")
+    Image.fromarray(rgb[..., 0] > 128).save(tmp_path / "bits.png")
+    Image.fromarray(rgb).save(tmp_path / "rgb.jpg")
+    Image.fromarray(rgb[..., 0].astype(np.uint16) * 257).save(tmp_path / "deep.png")
+    (tmp_path / "cut.png").write_bytes((tmp_path / "rgb.png").read_bytes()[:10])
+    for name in ("rgb.png", "palette.png", "bits.png", "rgb.jpg"):
+        assert _eight_bit_size(tmp_path / name) == Image.open(tmp_path / name).size == (34, 21)
+    assert _eight_bit_size(tmp_path / "deep.png") is None  # 16-bit: every view sets the scale
+    assert _eight_bit_size(tmp_path / "cut.png") is None
