@@ -94,8 +94,11 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--out", type=Path, default=CALIBRATION_FILE)
     ap.add_argument("--seeds", type=int, nargs="+", default=list(CALIBRATION_SEEDS))
     ap.add_argument("--repeats", type=int, default=30)
-    ap.add_argument("--points", action="store_true",
-                    help="Also fit the 50 %% and 10 %% points only and record it beside.")
+    ap.add_argument(
+        "--points",
+        action="store_true",
+        help="Also fit the 50 %% and 10 %% points only and record it beside.",
+    )
     args = ap.parse_args(argv)
     work = args.work or Path(tempfile.mkdtemp(prefix="confocal-calibration-"))
     t0 = time.perf_counter()
