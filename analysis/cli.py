@@ -7,10 +7,12 @@ estimates how many subjects a study needs.
 
 from __future__ import annotations
 
+import contextlib
 import errno
 import logging
 import math
 import warnings
+from collections.abc import Iterator
 from enum import StrEnum
 from pathlib import Path
 from typing import Annotated
@@ -92,6 +94,18 @@ def _switch_option(name: str, text: str):
 def _active_option(name: str, what: str):
     """Return an option of ``power`` that only active-search studies use, saying ``what`` it is."""
     return typer.Option(name, help=f"Active search: {what}")
+
+
+@contextlib.contextmanager
+def _refused_as(error: type[Exception], message: str | None = None) -> Iterator[None]:
+    """Raise ``error(message)`` for a ``ValueError`` in the block: a bad option value.
+
+    Without ``message`` the ``ValueError``'s own message is kept (a spec's checks name the option).
+    """
+    try:
+        yield
+    except ValueError as exc:
+        raise error(str(exc) if message is None else message) from exc
 
 
 def _disk_full(exc: OSError, out: Path) -> DataError:
@@ -202,11 +216,9 @@ def run(
     from analysis.pipeline import AnalysisOptions, analyze
     from analysis.report import write_report
 
-    try:
+    with _refused_as(typer.BadParameter, f"--lapse-prior must be 'a,b', got {lapse_prior!r}"):
         lp = tuple(float(v) for v in lapse_prior.split(","))
-    except ValueError as exc:
-        raise typer.BadParameter(f"--lapse-prior must be 'a,b', got {lapse_prior!r}") from exc
-    try:
+    with _refused_as(typer.BadParameter):
         options = AnalysisOptions(
             lapse_prior=lp,
             pc=pc,
@@ -217,8 +229,6 @@ def run(
             mixed=mixed,
             overdispersion=overdispersion,
         )
-    except ValueError as exc:
-        raise typer.BadParameter(str(exc)) from exc
     from analysis.active import add_active_results, only_active, summary_lines, write_active_report
 
     if only_active(trials):  # active-search logs only: no static trials to fit
@@ -341,11 +351,9 @@ def fit(
     from analysis.errors import OptionError
     from analysis.psychometric import FitSpec, iter_fit_table, read_table, write_fit_report
 
-    try:
+    with _refused_as(OptionError, f"--pc must be numbers like 0.5,0.75, got {pc!r}"):
         pcs = tuple(float(v) for v in pc.split(",") if v.strip())
-    except ValueError as exc:
-        raise OptionError(f"--pc must be numbers like 0.5,0.75, got {pc!r}") from exc
-    try:
+    with _refused_as(OptionError):
         spec = FitSpec(
             x=x,
             y=y,
@@ -360,8 +368,6 @@ def fit(
             overdispersion=overdispersion,
             seed=seed,
         )
-    except ValueError as exc:
-        raise OptionError(str(exc)) from exc
     df = read_table(table)
     result = None
     with (
@@ -400,11 +406,9 @@ class Effect(StrEnum):
 def _numbers(text: str, option: str, kind: type = float) -> list:
     from analysis.errors import OptionError
 
-    try:
+    what = "integers like 1,2,4" if kind is int else "numbers like 2,3.5"
+    with _refused_as(OptionError, f"{option} must be {what}, got {text!r}"):
         vals = [kind(v) for v in text.split(",") if v.strip()]
-    except ValueError as exc:
-        what = "integers like 1,2,4" if kind is int else "numbers like 2,3.5"
-        raise OptionError(f"{option} must be {what}, got {text!r}") from exc
     if not vals:
         raise OptionError(f"{option} needs at least one value, got {text!r}")
     return vals
