@@ -245,11 +245,7 @@ def _takes_loader_options(command: Callable[..., None]) -> Callable[..., None]:
 
 
 def _load(path: Path, options: _LoaderOptions, only_views=None):
-    """Read the light field at ``path`` grey, as the loader options say.
-
-    ``only_views`` (see :func:`stimuli.lightfield.load_lightfield`) is passed on unless views
-    are binned (binning averages every view).
-    """
+    """The light field at ``path``, grey; ``only_views`` is ignored when views are binned."""
     from stimuli.lightfield import load_lightfield
 
     off = None
