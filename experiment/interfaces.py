@@ -9,9 +9,10 @@ the test twins are a headless display and scripted or simulated responders
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Protocol, Self, runtime_checkable
+from typing import TYPE_CHECKING, Protocol, Self, runtime_checkable
 
-import numpy as np
+if TYPE_CHECKING:
+    import numpy as np
 
 __all__ = ["FlipRecord", "Answer", "Display", "Responder", "ClosesOnExit", "combine_flips"]
 

@@ -38,7 +38,6 @@ import functools
 import json
 import logging
 import os
-import secrets
 import shutil
 import tempfile
 from collections.abc import Callable, Iterable, Iterator, Mapping
@@ -615,6 +614,8 @@ class _Output:
             self.before = folder_files(self.path)
 
     def move_aside(self) -> Path | None:
+        import secrets  # hashlib and hmac: not at import (--help)
+
         if self.kind != "folder" or self.state != "own" or self.spec.mode != "replace":
             return None
         out = Path(os.path.abspath(self.path))

@@ -29,16 +29,15 @@ import functools
 import inspect
 import json
 import math
+import warnings
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Annotated
 
-import numpy as np
 import typer
 
 from stimuli.cli import seed_option
-from stimuli.edgegrid import declutter_and_compress
 from stimuli.errors import InputError
 from stimuli.resources import check_memory, finite_option, parse_pair
 
@@ -278,6 +277,8 @@ def _load(path: Path, options: _LoaderOptions, only_views=None):
 
 
 def _disparities(lf, planes: int, near: float | None, far: float | None, disparities: str | None):
+    import numpy as np
+
     from stimuli.planes import default_disparities
 
     if disparities is not None and (near is not None or far is not None):
@@ -368,10 +369,11 @@ def _scan_one(
     passed to it line by line as soon as it is known, *before* the folder is written (the score
     plot needs matplotlib, which is imported only then), and only the closing line is returned.
     """
-    import warnings
+    import numpy as np
 
     from stimuli.agreementscan import scan_views
     from stimuli.declutter import in_focus_mask
+    from stimuli.edgegrid import declutter_and_compress
     from stimuli.io import atomic_path, save_png, staged_folder
     from stimuli.planechoice import choose_plane, detect_planes
     from stimuli.planes import (
@@ -643,6 +645,7 @@ def refocus_command(
 ) -> None:
     """Write the confocal image at one plane (or a focal stack); optionally zoom and compress."""
     from stimuli.declutter import in_focus_mask
+    from stimuli.edgegrid import declutter_and_compress
     from stimuli.io import save_png
     from stimuli.refocus import iter_focal_stack, refocus
 
@@ -684,6 +687,8 @@ def refocus_command(
     mode = _resolve_mode(declutter_mode, lf)
     focus = in_focus_mask(lf, d) if mode == "depth" and grid_px is not None else None
     if zoom_box is not None:
+        import numpy as np
+
         rs, cs = zoom_box
         img = np.ascontiguousarray(img[rs, cs])
         focus = None if focus is None else np.ascontiguousarray(focus[rs, cs])
@@ -764,6 +769,8 @@ def synth_command(
                 write_pfm(arr, tmp)
 
     if suffix == ".npz":
+        import numpy as np
+
         out.parent.mkdir(parents=True, exist_ok=True)
         with atomic_path(out) as tmp, open(tmp, "wb") as f:
             np.savez_compressed(

@@ -288,7 +288,7 @@ ROWS: list[Row] = [
     # stimuli synth
     R("stimuli synth", "huge size", lambda w, t: synth(w, t, "--size", HUGE), "--size", "memory"),
     R("stimuli synth", "negative seed", lambda w, t: synth(w, t, "--seed", "-1"), "--seed",
-      "greater than or equal to 0|x>=0"),
+      "greater than or equal to 0|x>=0|0<=x"),
     R("stimuli synth", "negative objects", lambda w, t: synth(w, t, "--objects", "-3"),
       "--objects", "greater than or equal to 1|x>=1"),
     R("stimuli synth", "zero objects", lambda w, t: synth(w, t, "--objects", "0"), "--objects"),

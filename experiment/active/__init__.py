@@ -3,8 +3,30 @@
 searchers, and the ``confocal demo --active`` rendering. GL-free: the views come from the CPU
 pipeline of :mod:`stimuli`; a person's screen is the presenter process."""
 
-from experiment.active.engine import ViewerState, apply_action
-from experiment.active.session import ActiveSession
-from experiment.protocol.task import ActiveSearchSpec
+import importlib
 
 __all__ = ["ActiveSession", "ActiveSearchSpec", "ViewerState", "apply_action"]
+
+#: The module each public name comes from. They are imported on first use, so that
+#: ``confocal active --help`` (which imports :mod:`experiment.active.cli`) does not load numpy,
+#: Pillow and the trial log.
+_HOME = {
+    "ActiveSession": "experiment.active.session",
+    "ActiveSearchSpec": "experiment.protocol.task",
+    "ViewerState": "experiment.active.engine",
+    "apply_action": "experiment.active.engine",
+}
+
+
+def __getattr__(name: str) -> object:
+    """Return a public name, importing its module on first use."""
+    if name not in _HOME:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    value = getattr(importlib.import_module(_HOME[name]), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    """Return the public names, imported or not."""
+    return sorted(set(globals()) | set(__all__))

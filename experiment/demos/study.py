@@ -42,7 +42,6 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Annotated, Any
 
-import numpy as np
 import typer
 
 from experiment.errors import ConfocalError
@@ -286,6 +285,8 @@ def run_demo(
     ConfocalError
         An unusable ``out_dir``, bad counts or seeds, or an unknown observer.
     """
+    import numpy as np
+
     from analysis.data import read_trials
     from analysis.pipeline import AnalysisOptions, analyze
     from analysis.report import write_report

@@ -13,20 +13,24 @@ from __future__ import annotations
 
 import sys
 from pathlib import Path
-from typing import Annotated
+from typing import TYPE_CHECKING, Annotated
 
-import numpy as np
 import typer
 
 from experiment.errors import ConfocalError
 from stimuli.cli import seed_option
 from stimuli.resources import MAX_ID_CHARS, check_memory, finite_option, parse_pair
 
+if TYPE_CHECKING:
+    import numpy as np
+
 __all__ = ["register", "load_stimulus", "geometry_from_options", "pending_for_rater"]
 
 
 def load_stimulus(path: Path) -> np.ndarray:
     """Read a stimulus image: bool if it has only black and white pixels, else float32 [0, 1]."""
+    import numpy as np
+
     from stimuli.io import load_gray
 
     img = load_gray(path)

@@ -7,6 +7,24 @@ draws are :mod:`stimuli.implants` (GL-free, shared with stimulus building and se
 
 from __future__ import annotations
 
-from experiment.viewer.events import ViewerEvent, ViewerEventLog
+import importlib
 
 __all__ = ["ViewerEvent", "ViewerEventLog"]
+
+
+def __getattr__(name: str) -> object:
+    """Return a public name, importing :mod:`experiment.viewer.events` on first use.
+
+    ``confocal view --help`` imports :mod:`experiment.viewer.cli` without the event log (and
+    sqlite3).
+    """
+    if name not in __all__:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    value = getattr(importlib.import_module("experiment.viewer.events"), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    """Return the public names, imported or not."""
+    return sorted(set(globals()) | set(__all__))
