@@ -9,7 +9,7 @@ import sys
 import pytest
 
 from experiment.cli import main
-from stimuli.lightfield_cli import _LoaderOptions, _scan_one
+from stimuli.lightfield_steps import LoaderOptions, scan_one
 
 
 @pytest.fixture(scope="module")
@@ -45,7 +45,7 @@ def test_answer_is_emitted_before_the_folder_is_written(sim_png, tmp_path):
     def emit(line):
         seen.append((line, out.exists()))
 
-    closing = _scan_one(sim_png, out, _opts(), _LoaderOptions(), emit)
+    closing = scan_one(sim_png, out, _opts(), LoaderOptions(), emit)
     planes = [line for line, _ in seen if re.match(r"plane\d\d: ", line)]
     assert planes, seen
     assert not any(written for _, written in seen)  # every answer line came before the folder
@@ -56,7 +56,7 @@ def test_answer_is_emitted_before_the_folder_is_written(sim_png, tmp_path):
 
 
 def test_without_emit_every_line_is_returned(sim_png, tmp_path):
-    lines = _scan_one(sim_png, tmp_path / "scan", _opts(), _LoaderOptions())
+    lines = scan_one(sim_png, tmp_path / "scan", _opts(), LoaderOptions())
     assert lines[0].startswith("plane01") and "object plane(s)" in lines[-1]
 
 
