@@ -25,6 +25,10 @@ INT_VALUES = ("-1", "1" + "0" * 308)
 EXTRA: dict[str, tuple[str, ...]] = {"analyze power": ("--odds-ratio", "2", "--sims", "1")}
 
 
+#: click's names of its number types (ranges included) -> the values to try.
+_NUMBER_TYPES = {"int": "int", "int range": "int", "float": "float", "float range": "float"}
+
+
 def _walk(cmd, path):
     if hasattr(cmd, "commands"):
         for name, sub in cmd.commands.items():
@@ -40,7 +44,7 @@ def _cases():
             for p in cmd.params:
                 if p.param_type_name != "option" or p.is_flag:
                     continue
-                kind = getattr(p.type_descriptor.annotation, "__name__", None)
+                kind = _NUMBER_TYPES.get(getattr(p.type, "name", None))
                 values = {"float": FLOAT_VALUES, "int": INT_VALUES}.get(kind, ())
                 for v in values:
                     out.append((" ".join(path), p.opts[0], v))
