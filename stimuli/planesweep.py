@@ -25,12 +25,15 @@ __all__ = ["agreement_sweep"]
 COST_BOX_PX: int = 5
 
 
-def _row_pad(planes: np.ndarray, steps: np.ndarray) -> int:
-    """Rows of edge padding that hold every row a plane's shift reads."""
-    if planes.size == 0 or steps.size == 0:
-        return 1
-    reach = max(abs(float(d) * float(s)) for d in (planes.min(), planes.max()) for s in steps)
-    return int(math.ceil(reach)) + 2
+def _reach(planes: np.ndarray, steps: np.ndarray) -> int:
+    """The largest whole-pixel shift of any plane for views ``steps`` from the centre."""
+    if planes.size == 0 or np.size(steps) == 0:
+        return 0
+    return int(
+        math.ceil(
+            max(abs(float(d) * float(s)) for d in (planes.min(), planes.max()) for s in steps)
+        )
+    )
 
 
 def agreement_sweep(
@@ -55,63 +58,85 @@ def agreement_sweep(
         reached it (int32) and the sum of every plane's cost (float32).
     """
     _, rows, cols = refs.shape
-    p = _row_pad(planes, row_steps)
-    padded_rows = [np.pad(v, ((p, p), (0, 0)), mode="edge") for v in row_views]
-    # b - a of the interpolation, for every pair of neighbouring rows (columns): the same
-    # float32 subtraction the compiled loop makes per sample.
-    row_diffs = [v[:-1] - v[1:] for v in padded_rows]
-    col_diffs = [v[:, :-1] - v[:, 1:] for v in col_views]
-    scale = np.float32(1.0 / (COST_BOX_PX * COST_BOX_PX))
     half = COST_BOX_PX // 2
-    by_rows = np.empty((2, rows + 2 * half, cols), np.float32)  # cost, end rows repeated
-    cost = by_rows[:, half : half + rows]
-    by_cols = np.empty((2, rows, cols + 2 * half), np.float32)  # row sums, end columns repeated
-    row_sums = by_cols[:, :, half : half + cols]
-    box = np.empty((2, rows, cols), np.float32)
-    sample = np.empty((rows, cols), np.float32)
-    diff = np.empty((2, rows, cols), np.float32)
-    lower = np.empty((2, rows, cols), bool)
-    rows_in = zip(padded_rows, row_diffs, row_steps, strict=True)
-    cols_in = zip(col_views, col_diffs, col_steps, strict=True)
+    p = _reach(planes, row_steps) + 2  # rows of padding of the row views
+    q = _reach(planes, col_steps) + half + 2  # columns of padding of every array
+    wide = cols + 2 * q
+    size = rows * wide
+    # Every image is laid out in rows of ``wide`` samples, its own columns at q .. q + cols, so
+    # that a shift by whole pixels is an offset into the flat array and each step below is one
+    # pass over contiguous memory; the columns outside hold values no pixel of ours reads.
+    row_flat = [np.pad(v, ((p, p), (q, q)), mode="edge").reshape(-1) for v in np.asarray(row_views)]
+    col_flat = [  # a row of zeros above and below keeps every offset inside the array
+        np.pad(
+            np.pad(v[:, pad : pad + cols], ((0, 0), (q, q)), mode="edge"),
+            ((1, 1), (0, 0)),
+        ).reshape(-1)
+        for v in np.asarray(col_views)
+    ]
+    # b - a of the interpolation for every pair of neighbouring rows (columns): the same float32
+    # subtraction the compiled loop makes per sample.
+    row_diffs = [v[:-wide] - v[wide:] for v in row_flat]
+    col_diffs = [v[:-1] - v[1:] for v in col_flat]
+    refs_w = np.zeros((2, rows, wide), np.float32)
+    refs_w[:, :, q : q + cols] = refs
+    refs_w = refs_w.reshape(2, size)
+    best_w = np.full((2, rows, wide), np.inf, np.float32)
+    best_w[:, :, q : q + cols] = best
+    best_i_w = np.zeros((2, rows, wide), np.int32)
+    best_i_w[:, :, q : q + cols] = best_i
+    total_w = np.zeros((2, rows, wide), np.float32)
+    total_w[:, :, q : q + cols] = total
+    best_f, best_i_f, total_f = (a.reshape(2, size) for a in (best_w, best_i_w, total_w))
+    scale = np.float32(1.0 / (COST_BOX_PX * COST_BOX_PX))
+    by_rows = np.empty((2, rows + 2 * half, wide), np.float32)  # cost, end rows repeated
+    cost = by_rows[:, half : half + rows].reshape(2, size)
+    row_sums = np.empty((2, rows, wide), np.float32)
+    sums = row_sums.reshape(2, size)
+    box = np.empty((2, size), np.float32)
+    sample = np.empty(size, np.float32)
+    diff = np.empty((2, size), np.float32)
+    lower = np.empty((2, size), bool)
+    rows_in = zip(row_flat, row_diffs, row_steps, strict=True)
+    cols_in = zip(col_flat, col_diffs, col_steps, strict=True)
     taps = [(v, dv, float(s), True) for v, dv, s in rows_in]
     taps += [(v, dv, float(s), False) for v, dv, s in cols_in]
     for k in range(planes.shape[0]):
         d = float(planes[k])
-        n_added = 0
-        for view, step_diff, step, along_rows in taps:
+        for j, (view, step_diff, step, along_rows) in enumerate(taps):
             s = d * step
             n = math.floor(s)
             f = np.float32(s - n)
-            if along_rows:  # sample y - s: rows y - n and y - n - 1 of the unpadded view
-                a = view[p - n : p - n + rows]
-                b_minus_a = step_diff[p - n - 1 : p - n - 1 + rows]
-            else:
-                a = view[:, pad - n : pad - n + cols]
-                b_minus_a = step_diff[:, pad - n - 1 : pad - n - 1 + cols]
-            np.multiply(b_minus_a, f, out=sample)
-            np.add(a, sample, out=sample)
-            if n_added == 0:  # 0 + x is x: the compiled loop's first addition
-                np.subtract(sample, refs, out=cost)
+            # a: the sample at y - n (row views) or x - n (column views); b: one further.
+            at = (p - n) * wide if along_rows else wide - n
+            diff_at = at - wide if along_rows else at - 1
+            np.multiply(step_diff[diff_at : diff_at + size], f, out=sample)
+            np.add(view[at : at + size], sample, out=sample)
+            if j == 0:  # 0 + x is x: the compiled loop's first addition
+                np.subtract(sample, refs_w, out=cost)
                 np.abs(cost, out=cost)
             else:
-                np.subtract(sample, refs, out=diff)
+                np.subtract(sample, refs_w, out=diff)
                 np.abs(diff, out=diff)
                 np.add(cost, diff, out=cost)
-            n_added += 1
-        if n_added == 0:
+        if not taps:
             cost[...] = 0.0
         by_rows[:, :half] = by_rows[:, half : half + 1]
         by_rows[:, half + rows :] = by_rows[:, half + rows - 1 : half + rows]
         np.add(by_rows[:, 0:rows], by_rows[:, 1 : rows + 1], out=row_sums)
         for i in range(2, COST_BOX_PX):
             np.add(row_sums, by_rows[:, i : i + rows], out=row_sums)
-        by_cols[:, :, :half] = by_cols[:, :, half : half + 1]
-        by_cols[:, :, half + cols :] = by_cols[:, :, half + cols - 1 : half + cols]
-        np.add(by_cols[:, :, 0:cols], by_cols[:, :, 1 : cols + 1], out=box)
+        row_sums[:, :, q - half : q] = row_sums[:, :, q : q + 1]  # the end columns repeated
+        row_sums[:, :, q + cols : q + cols + half] = row_sums[:, :, q + cols - 1 : q + cols]
+        inner = slice(half, size - half)
+        np.add(sums[:, 0 : size - 2 * half], sums[:, 1 : size - 2 * half + 1], out=box[:, inner])
         for i in range(2, COST_BOX_PX):
-            np.add(box, by_cols[:, :, i : i + cols], out=box)
+            np.add(box[:, inner], sums[:, i : size - 2 * half + i], out=box[:, inner])
         np.multiply(box, scale, out=box)
-        np.add(total, box, out=total)
-        np.less(box, best, out=lower)
-        np.copyto(best, box, where=lower)
-        np.copyto(best_i, first + k, where=lower)
+        np.add(total_f, box, out=total_f)
+        np.less(box, best_f, out=lower)
+        np.copyto(best_f, box, where=lower)
+        np.copyto(best_i_f, first + k, where=lower)
+    best[...] = best_w[:, :, q : q + cols]
+    best_i[...] = best_i_w[:, :, q : q + cols]
+    total[...] = total_w[:, :, q : q + cols]
