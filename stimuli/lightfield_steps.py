@@ -55,6 +55,23 @@ def parse_zoom(text: str, shape_px: tuple[int, int]) -> tuple[slice, slice]:
     return slice(y, y + h), slice(x, x + w)
 
 
+def _with_the_other_views(some, path: Path, options: LoaderOptions):
+    """The light field of which ``some`` holds the views ``meta["views_read"]``, whole."""
+    from stimuli.lfviews import LightField
+
+    read = {(int(u), int(v)) for u, v in some.meta["views_read"]}
+
+    def others(grid: tuple[int, int]) -> list[tuple[int, int]]:
+        return [(u, v) for u in range(grid[0]) for v in range(grid[1]) if (u, v) not in read]
+
+    rest = load_grey(path, options, others)
+    views = rest.views
+    for u, v in read:
+        views[u, v] = some.views[u, v]
+    meta = {k: v for k, v in rest.meta.items() if k != "views_read"}
+    return LightField(views, rest.geometry, rest.source, meta)
+
+
 def parse_disparity_range(text: str) -> tuple[float, float]:
     """Parse ``--disparities FROM:TO`` (pixels per view step): two different finite numbers."""
     try:
@@ -266,7 +283,7 @@ def scan_one(
         marginal = f"; marginal: {choice.marginal}" if choice.marginal else ""
         say(f"stimuli build --plane auto would use {use}{marginal}")
     if "views_read" in lf.meta:
-        lf = load_grey(lightfield, loader)
+        lf = _with_the_other_views(lf, lightfield, loader)
     centre = lf.centre_view()
     images = []
     for k, p in enumerate(scan.peaks):

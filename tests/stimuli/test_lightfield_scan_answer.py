@@ -123,5 +123,5 @@ def test_the_answer_reads_the_scan_views_only_and_needs_no_compiled_code(tmp_pat
     at_answer = next(line for line in lines if line.startswith("AT-ANSWER"))
     n_scan = len(scan_views(grid))
     assert at_answer == f"AT-ANSWER [{n_scan}] False", res.stdout
-    assert lines[-1] == f"AT-EXIT [{n_scan}, {grid[0] * grid[1]}]"  # then every view, to refocus
+    assert lines[-1] == f"AT-EXIT [{n_scan}, {grid[0] * grid[1] - n_scan}]"  # then the others
     assert (out / "plane01_confocal.png").exists()
