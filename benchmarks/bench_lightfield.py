@@ -20,7 +20,9 @@ as *medians* over ``--repeat`` runs with ratios to the floor measured in the sam
 refocus (goal <= 1.5x the floor), refocus + de-clutter + compress (goal <= 2x), and the
 200-plane scan with detection (goals < 0.1 s on the 9x9, < 0.5 s on the 1024x1024 3x3), with
 the factor ``f`` by which the scan downsampled the views (``stimuli.planes.scan_downsample``: 2
-on the 1024x1024 3x3, 1 elsewhere) and the planes it found.
+on the 1024x1024 3x3, 1 elsewhere) and the planes it found. The scan is timed with the compiled
+sweep (loaded by then) and again with its numpy twin (``numpy sweep``, what a fresh process uses
+for a small scan before anything compiled has run; ``stimuli.agreementscan.SWEEP_PATH``).
 Each ratio is given twice, on the same bytes:
 
 * *cold*: before every timed call (floor and work alike) a 64 MB buffer is read, which evicts
@@ -46,6 +48,7 @@ import warnings
 
 import numpy as np
 
+import stimuli.agreementscan as agreementscan
 from stimuli.agreementscan import _LAST_SWEEP
 from stimuli.compress import compress, grid_shape
 from stimuli.declutter import auto_threshold, declutter, declutter_depth, in_focus_mask
@@ -170,6 +173,15 @@ def _one_layout(grid, shape, baseline, repeat) -> dict:
         )
         scan = find_object_planes(lf, n_planes=N_PLANES)
         row["scan_planes_px"] = [round(p.disparity_px, 4) for p in scan.peaks]
+        agreementscan.SWEEP_PATH = "numpy"  # the sweep a fresh process uses for a small scan
+        try:
+            row["scan_numpy_s"] = _median(
+                lambda: find_object_planes(lf, n_planes=N_PLANES), max(3, repeat // 2)
+            )
+            same = find_object_planes(lf, n_planes=N_PLANES).peaks == scan.peaks
+            row["scan_numpy_same_planes"] = same
+        finally:
+            agreementscan.SWEEP_PATH = "auto"
         row["scan_downsample"] = scan.downsample
     row["load_average"] = os.getloadavg()[0]
     return row
@@ -180,11 +192,11 @@ def per_layout(repeat: int) -> dict:
     out = {}
     print(
         f"{'layout':18s} {'MB':>5s} {'floor ms':>9s} {'refocus x':>10s} {'pipe x':>8s} "
-        f"{'refocus x':>10s} {'pipe x':>8s} {'scan s':>7s} {'load':>5s}"
+        f"{'refocus x':>10s} {'pipe x':>8s} {'scan s':>7s} {'numpy':>6s} {'load':>5s}"
     )
     print(
         f"{'':18s} {'':>5s} {'(cold)':>9s} {'(cold)':>10s} {'(cold)':>8s} {'(hot)':>10s} "
-        f"{'(hot)':>8s} {'':>7s} {'':>5s} {'f':>2s}  planes px/view"
+        f"{'(hot)':>8s} {'':>7s} {'sweep':>6s} {'':>5s} {'f':>2s}  planes px/view"
     )
     for grid, shape, baseline in LAYOUTS:
         name = f"{grid[0]}x{grid[1]} of {shape[1]}x{shape[0]}"
@@ -193,7 +205,8 @@ def per_layout(repeat: int) -> dict:
             f"{name:18s} {row['light_field_mb']:5.0f} {row['floor_ms_cold']:9.2f} "
             f"{row['refocus_x_floor_cold']:10.2f} {row['pipeline_x_floor_cold']:8.2f} "
             f"{row['refocus_x_floor_hot']:10.2f} {row['pipeline_x_floor_hot']:8.2f} "
-            f"{row['scan_s']:7.3f} {row['load_average']:5.1f} {row['scan_downsample']:2d}  "
+            f"{row['scan_s']:7.3f} {row['scan_numpy_s']:6.3f} {row['load_average']:5.1f} "
+            f"{row['scan_downsample']:2d}  "
             f"{row['scan_planes_px']}",
             flush=True,
         )
