@@ -160,7 +160,8 @@ _BYTES_PER_PLANE = 256
 
 
 def _check_planes(planes: int) -> None:
-    check_memory(planes * _BYTES_PER_PLANE, f"--planes {planes}")
+    if planes * _BYTES_PER_PLANE > 1 << 20:  # smaller lists need no look at the system
+        check_memory(planes * _BYTES_PER_PLANE, f"--planes {planes}")
 
 
 #: The loader options as command-line parameters, in ``--help`` order: (name, type with its
