@@ -149,7 +149,10 @@ def _cross_offsets(lf: LightField) -> list[tuple[int, int]]:
     """Views used by the agreement scan: on the centre row and column, the outermost and the
     half-way view on each side. Views off the cross would need 2-D (four-tap) interpolation for
     little extra evidence."""
-    return _offsets_on_the_cross(lf.grid, lf.source)
+    out = _offsets_on_the_cross(lf.grid)
+    if not out:
+        raise InputError(f"{lf.source}: a light field needs at least two views, got grid {lf.grid}")
+    return out
 
 
 def scan_views(grid: tuple[int, int]) -> list[tuple[int, int]]:
@@ -162,14 +165,14 @@ def scan_views(grid: tuple[int, int]) -> list[tuple[int, int]]:
     Examples
     --------
     >>> scan_views((1, 7))
-    [(0, 3), (0, 0), (0, 1), (0, 5), (0, 6)]
+    [(0, 3), (0, 1), (0, 0), (0, 5), (0, 6)]
     """
     n_u, n_v = (int(n) for n in grid)
     cu, cv = n_u // 2, n_v // 2
-    return [(cu, cv)] + [(cu + du, cv + dv) for du, dv in _offsets_on_the_cross(grid, "views")]
+    return [(cu, cv)] + [(cu + du, cv + dv) for du, dv in _offsets_on_the_cross((n_u, n_v))]
 
 
-def _offsets_on_the_cross(grid: tuple[int, int], source: str) -> list[tuple[int, int]]:
+def _offsets_on_the_cross(grid: tuple[int, int]) -> list[tuple[int, int]]:
     n_u, n_v = grid
     cu, cv = n_u // 2, n_v // 2
     out: list[tuple[int, int]] = []
@@ -179,8 +182,6 @@ def _offsets_on_the_cross(grid: tuple[int, int], source: str) -> list[tuple[int,
             for k in sorted({far, (far + 1) // 2}):
                 if k > 0:
                     out.append((side * k, 0) if axis == 0 else (0, side * k))
-    if not out:
-        raise InputError(f"{source}: a light field needs at least two views, got grid {grid}")
     return out
 
 

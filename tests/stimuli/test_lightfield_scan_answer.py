@@ -125,3 +125,18 @@ def test_the_answer_reads_the_scan_views_only_and_needs_no_compiled_code(tmp_pat
     assert at_answer == f"AT-ANSWER [{n_scan}] False", res.stdout
     assert lines[-1] == f"AT-EXIT [{n_scan}, {grid[0] * grid[1] - n_scan}]"  # then the others
     assert (out / "plane01_confocal.png").exists()
+
+
+def test_a_folder_of_one_view_is_refused_naming_the_folder(tmp_path, capsys):
+    import numpy as np
+    from PIL import Image
+
+    folder = tmp_path / "one"
+    folder.mkdir()
+    Image.fromarray(np.full((30, 40), 128, np.uint8)).save(folder / "view_0_0.png")
+    with pytest.raises(SystemExit) as exc:
+        main(["lightfield", "scan", str(folder), "--out", str(tmp_path / "scan")])
+    assert exc.value.code == 2
+    err = capsys.readouterr().err.strip()
+    assert err.count("\n") == 0 and str(folder) in err and "at least two views" in err
+    assert not (tmp_path / "scan").exists()
