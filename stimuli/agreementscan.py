@@ -16,10 +16,13 @@ other plane (``tests/stimuli/test_lf_real.py``).
 
 from __future__ import annotations
 
+import contextlib
 import itertools
 import math
 import sys
+import threading
 import warnings
+from collections.abc import Iterator
 
 import numpy as np
 
@@ -34,6 +37,7 @@ from stimuli.rowthreads import default_workers, run_on_threads
 __all__ = [
     "scan_binning",
     "scan_views",
+    "answer_before_compiled_code",
     "agreement_scan",
     "estimate_disparity_range",
     "AGREEMENT_RATIO",
@@ -191,12 +195,31 @@ def _offsets_on_the_cross(grid: tuple[int, int]) -> list[tuple[int, int]]:
 #: benchmarks and tests set it to time or compare one of them.
 SWEEP_PATH: str = "auto"
 
-#: The largest sweep (pixels x views x planes) that ``"auto"`` makes in numpy while the compiled
-#: code is not loaded in the process (ours). Numpy takes about 4-6 ns per unit on a 2 GHz core,
-#: the compiled sweep about 1.4 ns but only after numba's start-up of about 0.75 s: below this
-#: bound (numpy at most about 0.5 s) numpy answers first. A 200-plane scan of a Lytro 7x7
-#: capture is about 4e7 units; once anything compiled has run, every sweep is compiled.
+#: The largest sweep (pixels x views x planes) that ``"auto"`` makes in numpy, within
+#: :func:`answer_before_compiled_code` while the compiled code is not loaded (ours). Numpy takes
+#: about 4-6 ns per unit on a 2 GHz core, the compiled sweep about 1.4 ns but only after
+#: numba's start-up of about 0.75 s: below this bound (numpy at most about 0.5 s) numpy answers
+#: first. A 200-plane scan of a Lytro 7x7 capture is about 4e7 units.
 NUMPY_SWEEP_MAX_WORK: int = 100_000_000
+
+_ANSWER_FIRST = threading.local()
+
+
+@contextlib.contextmanager
+def answer_before_compiled_code() -> Iterator[None]:
+    """Within this block (on this thread), a small sweep runs in numpy if nothing compiled runs yet.
+
+    For a command whose answer is the scan itself (``confocal lightfield scan``): the numpy
+    sweep answers before numba's start-up would be over. Work that refocuses right after its
+    scan (``stimuli build``, ``view``, active search) pays that start-up anyway and keeps the
+    compiled sweep. The result is the same to the bit either way.
+    """
+    before = getattr(_ANSWER_FIRST, "on", False)
+    _ANSWER_FIRST.on = True
+    try:
+        yield
+    finally:
+        _ANSWER_FIRST.on = before
 
 
 #: The smallest views (pixels) the numpy sweep splits over threads (ours): on smaller ones each
@@ -209,8 +232,8 @@ def _sweep_function(work: int):
     """The plane sweep for a sweep of ``work`` units (pixels x views x planes)."""
     path = SWEEP_PATH
     if path == "auto":
-        loaded = "stimuli.kernels" in sys.modules
-        path = "compiled" if loaded or work > NUMPY_SWEEP_MAX_WORK else "numpy"
+        small = work <= NUMPY_SWEEP_MAX_WORK and "stimuli.kernels" not in sys.modules
+        path = "numpy" if small and getattr(_ANSWER_FIRST, "on", False) else "compiled"
     if path == "numpy":
         from stimuli.planesweep import COST_BOX_PX, agreement_sweep
     elif path == "compiled":

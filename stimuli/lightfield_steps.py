@@ -215,7 +215,7 @@ def scan_one(
     """
     import numpy as np
 
-    from stimuli.agreementscan import scan_views
+    from stimuli.agreementscan import answer_before_compiled_code, scan_views
     from stimuli.declutter import in_focus_mask
     from stimuli.edgegrid import declutter_and_compress
     from stimuli.io import atomic_path, save_png, staged_folder
@@ -242,7 +242,7 @@ def scan_one(
     # only those are read before the answer; refocusing reads them all after it.
     lf = load_grey(lightfield, loader, scan_views if method == "agreement" else None)
     mode = resolve_declutter_mode(declutter_mode, lf)
-    with warnings.catch_warnings(record=True) as caught:
+    with warnings.catch_warnings(record=True) as caught, answer_before_compiled_code():
         warnings.simplefilter("always")
         defaults = (near, far, disparities, binning, planes)
         if method == "agreement" and defaults == (None, None, None, None, DEFAULT_N_PLANES):
@@ -275,7 +275,7 @@ def scan_one(
             f"score {p.score:.3f}{evidence if math.isfinite(p.support) else ''}"
         )
     if scan.peaks and method == "agreement":
-        with warnings.catch_warnings():
+        with warnings.catch_warnings(), answer_before_compiled_code():
             warnings.simplefilter("ignore")
             choice = choose_plane(lf, scan=scan)
         k = next(i for i, p in enumerate(scan.peaks) if p.disparity_px == choice.disparity_px)

@@ -106,7 +106,7 @@ def test_numpy_sweep_equals_the_compiled_sweep_to_the_bit(grid, shape, span, mon
     assert len(np.unique(got["numpy", 1][0])) > 3  # the best plane varies: not a flat answer
 
 
-def test_auto_sweep_is_numpy_only_for_a_small_sweep_before_compiled_code_runs(monkeypatch):
+def test_auto_sweep_is_numpy_only_for_a_small_answer_before_compiled_code_runs(monkeypatch):
     import sys
 
     def home(fn) -> str:
@@ -116,10 +116,15 @@ def test_auto_sweep_is_numpy_only_for_a_small_sweep_before_compiled_code_runs(mo
 
     monkeypatch.setattr(agreementscan, "SWEEP_PATH", "auto")
     small, large = 10**6, agreementscan.NUMPY_SWEEP_MAX_WORK + 1
-    assert home(agreementscan._sweep_function(small)) == "stimuli.kernels"  # loaded: compiled
+    with agreementscan.answer_before_compiled_code():
+        assert home(agreementscan._sweep_function(small)) == "stimuli.kernels"  # loaded
     monkeypatch.delitem(sys.modules, "stimuli.kernels")
-    assert home(agreementscan._sweep_function(small)) == "stimuli.planesweep"
-    assert home(agreementscan._sweep_function(large)) == "stimuli.kernels"
+    with agreementscan.answer_before_compiled_code():
+        assert home(agreementscan._sweep_function(small)) == "stimuli.planesweep"
+    assert home(agreementscan._sweep_function(small)) == "stimuli.kernels"  # outside the block
+    monkeypatch.delitem(sys.modules, "stimuli.kernels")
+    with agreementscan.answer_before_compiled_code():
+        assert home(agreementscan._sweep_function(large)) == "stimuli.kernels"
     monkeypatch.setattr(agreementscan, "SWEEP_PATH", "gpu")
     with pytest.raises(ValueError, match="SWEEP_PATH"):
         agreementscan._sweep_function(small)
