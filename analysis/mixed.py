@@ -233,16 +233,19 @@ def fit_mixed(trials: pd.DataFrame) -> MixedFit:
     if not groups:
         raise DataError("one subject and one object only: there is no random effect to fit")
     beta, se, sd, _ = laplace_glmm(d["recognized"].to_numpy(), X, groups)
-    bad = [
-        t
-        for i, t in ((1, "background"), (2, "log10_pixels"))
-        if not (abs(beta[i]) <= SEPARATION_LOG_OR and math.isfinite(se[i]) and se[i] > 0)
-    ]
-    if bad:
+    terms = ((1, "background"), (2, "log10_pixels"))
+    separated = [t for i, t in terms if not abs(beta[i]) <= SEPARATION_LOG_OR]
+    if separated:  # the fit ran off along the separated term: no other term's SE means anything
         raise DataError(
-            f"{', '.join(bad)} separated in these data (|log odds ratio| > "
-            f"{SEPARATION_LOG_OR:g} or no finite standard error): the mixed model's odds ratios "
-            "are not estimable; see the Firth fit of the fixed-effects model"
+            f"{', '.join(separated)} separated in these data (|log odds ratio| > "
+            f"{SEPARATION_LOG_OR:g}): the mixed model's odds ratios are not estimable; see the "
+            "Firth fit of the fixed-effects model"
+        )
+    no_se = [t for i, t in terms if not (math.isfinite(se[i]) and se[i] > 0)]
+    if no_se:
+        raise DataError(
+            f"{', '.join(no_se)}: no finite standard error in the mixed model (nearly separated "
+            "data): its odds ratios are not estimable; see the Firth fit of the fixed-effects model"
         )
     rows = []
     for i, term in ((1, "background"), (2, "log10_pixels")):

@@ -47,7 +47,8 @@ COMMANDS = readme_commands()
 
 @pytest.fixture(scope="module")
 def workdir(tmp_path_factory) -> Path:
-    """One scratch folder shared by all README commands (they build on each other)."""
+    """One scratch folder shared by all README commands (they build on each other, in order: the
+    suite runs each test file on one worker, ``--dist loadfile``)."""
     return tmp_path_factory.mktemp("readme")
 
 

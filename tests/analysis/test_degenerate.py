@@ -53,6 +53,8 @@ def test_separated_conditions(tmp_path, base):
     r, text = _ok(*_run(tmp_path, d, "--by", "none", "--mixed", figures=True))
     assert r["logistic"]["method"] == "firth"
     assert any("mixed model not fitted: background separated" in w for w in r["warnings"])
+    # Only the separated term is named: beside it no other term's standard error means anything.
+    assert not any("mixed model" in w and "log10_pixels" in w for w in r["warnings"])
     assert "background" in r["logistic"]["separated"]
     assert "separated in these data" in text
     assert r["thresholds"]["cluttered"]["status"] == "censored_above"

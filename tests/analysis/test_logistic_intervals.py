@@ -189,3 +189,80 @@ def test_separated_data_have_only_firth_intervals(sim_fit):
     assert f.method == "firth" and iv["interval"] == "firth_profile"
     assert "wald" not in iv and "ml_or" not in iv
     assert iv["ci95"][0] > 1.0 and (iv["ci95"][1] is None or iv["ci95"][1] > iv["or"])
+
+
+def _separated_design(n_objects: int = 3, repeats: int = 2) -> tuple[np.ndarray, np.ndarray]:
+    """A condition that alone decides the outcome, beside object dummies and log10 pixels."""
+    per_condition = 8 * n_objects * repeats
+    condition = np.repeat([0.0, 1.0], per_condition)
+    levels = np.log10(25.0 * 2.0 ** np.arange(8))
+    log_px = np.tile(np.repeat(levels, n_objects * repeats), 2)
+    obj = np.tile(np.repeat(np.arange(n_objects), repeats), 16)
+    dummies = [(obj == k).astype(float) for k in range(1, n_objects)]
+    X = np.column_stack([np.ones(len(condition)), *dummies, condition, log_px])
+    return X, condition.copy()
+
+
+def test_separated_profile_ends_have_deviance_3_84_where_the_surface_is_not_concave():
+    """Near a separated direction the penalised profile surface is not concave, and an iteration
+    that stops early reports a point below the profile's maximum, so an end too close. Second
+    computation: BFGS (scipy) over the free coefficients from two starts, the best kept."""
+    X, y = _separated_design()
+    j = X.shape[1] - 2
+    est, _, _ = firth_logit(y, X)
+    lo, hi = profile_interval(y, X, j, penalized=True)
+    free = np.arange(X.shape[1]) != j
+
+    def brute_profile(bj: float) -> float:
+        def nll(c):
+            b = np.empty(X.shape[1])
+            b[j], b[free] = bj, c
+            return -_penalised_ll(b, X, y)
+
+        starts = (est[free], np.zeros(int(free.sum())))
+        return max(-optimize.minimize(nll, s, method="BFGS").fun for s in starts)
+
+    l_max = _penalised_ll(est, X, y)
+    for end in (lo, hi):
+        assert 2 * (l_max - brute_profile(end)) == pytest.approx(stats.chi2.ppf(0.95, 1), abs=1e-3)
+    assert 5.0 < lo < est[j] < 15.0 < hi < 20.0
+
+
+def test_newton_step_is_minus_the_inverse_hessian_times_the_gradient_by_finite_differences():
+    """The penalised Newton step uses the analytic gradient and Hessian of Firth's penalised
+    log-likelihood; both are checked against central differences of the log-likelihood."""
+    from analysis.firth import _ascent_step
+
+    rng = np.random.default_rng(5)
+    X = np.column_stack([np.ones(60), rng.normal(size=60), rng.integers(0, 2, 60)])
+    y = (rng.random(60) < special.expit(X @ [0.2, 0.8, -0.5])).astype(float)
+    b = np.array([0.1, 0.6, -0.3])
+    eps = 1e-4
+    eye = np.eye(3) * eps
+    grad = np.array(
+        [(_penalised_ll(b + e, X, y) - _penalised_ll(b - e, X, y)) / (2 * eps) for e in eye]
+    )
+    hess = np.array(
+        [
+            [
+                (
+                    _penalised_ll(b + ei + ej, X, y)
+                    - _penalised_ll(b + ei - ej, X, y)
+                    - _penalised_ll(b - ei + ej, X, y)
+                    + _penalised_ll(b - ei - ej, X, y)
+                )
+                / (4 * eps * eps)
+                for ej in eye
+            ]
+            for ei in eye
+        ]
+    )
+    assert np.all(np.linalg.eigvalsh(hess) < 0)
+    step = _ascent_step(y, X, np.ones(60), b, np.ones(3, bool), True)
+    np.testing.assert_allclose(step, np.linalg.solve(-hess, grad), rtol=1e-4, atol=1e-7)
+    # One coefficient held: the step is the Newton step of the other two, and 0 for it.
+    held = np.array([True, False, True])
+    step = _ascent_step(y, X, np.ones(60), b, held, True)
+    sub = np.ix_(held, held)
+    assert step[1] == 0.0
+    np.testing.assert_allclose(step[held], np.linalg.solve(-hess[sub], grad[held]), rtol=1e-4)
