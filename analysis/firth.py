@@ -216,7 +216,7 @@ def firth_logit(
 
 #: Newton iterations of one point of a profile. A well-posed point takes about five; near a
 #: separated direction the penalised surface is not concave and the climb can take a few hundred
-#: (stopping at 100 there left a point of the profile 1.5 below its maximum).
+#: (a cap of 100 can stop a point with its deviance 1.5 above the profile's true one).
 PROFILE_MAX_ITER: int = 1000
 
 #: Chi-squared(1) 95 % quantile: a 95 % profile interval is where the deviance rises by this.

@@ -58,11 +58,10 @@ def scoring_profile(y: np.ndarray, X: np.ndarray, j: int, bj: float, b0: np.ndar
         delta = np.zeros_like(b)
         delta[free] = np.linalg.solve(X[:, free].T @ (w[:, None] * X[:, free]), score)
         frac = 1.0
-        while penalised_ll(b + frac * delta, X, y) < best - 1e-12 and frac > 1e-8:
+        while (new := penalised_ll(b + frac * delta, X, y)) < best - 1e-12 and frac > 1e-8:
             frac /= 2
         b += frac * delta
-        gain = penalised_ll(b, X, y) - best
-        best += gain
+        gain, best = new - best, new
         if np.abs(frac * delta).max() < 1e-10 or abs(gain) < 1e-13:
             break
     return best

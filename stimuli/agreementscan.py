@@ -222,18 +222,28 @@ def answer_before_compiled_code() -> Iterator[None]:
         _ANSWER_FIRST.on = before
 
 
-#: The smallest views (pixels) the numpy sweep splits over threads (ours): on smaller ones each
-#: step is so short that handing the GIL between threads costs more than the second core gives
-#: (measured: 8,400 px 1.3x slower on two threads, 23,000 px 1.4x faster).
+#: The smallest views (pixels) the numpy sweep splits over threads (ours): on small views each
+#: step is so short that handing the GIL between threads eats what the second core gives
+#: (measured on the shared Lytro capture, whole detection: two threads 1.04x faster with
+#: 383x552 views, no faster with 128x184; the sums are the same either way).
 NUMPY_THREADS_MIN_PX: int = 16_000
+
+
+def _sweep_path(work: int) -> str:
+    """Which plane sweep runs a sweep of ``work`` units (pixels x views x planes)."""
+    if SWEEP_PATH != "auto":
+        return SWEEP_PATH
+    small = work <= NUMPY_SWEEP_MAX_WORK and "stimuli.kernels" not in sys.modules
+    return "numpy" if small and getattr(_ANSWER_FIRST, "on", False) else "compiled"
 
 
 def _sweep_function(work: int):
     """The plane sweep for a sweep of ``work`` units (pixels x views x planes)."""
-    path = SWEEP_PATH
-    if path == "auto":
-        small = work <= NUMPY_SWEEP_MAX_WORK and "stimuli.kernels" not in sys.modules
-        path = "numpy" if small and getattr(_ANSWER_FIRST, "on", False) else "compiled"
+    return _load_sweep(_sweep_path(work))
+
+
+def _load_sweep(path: str):
+    """The plane sweep ``path`` names: ``"numpy"`` or ``"compiled"``."""
     if path == "numpy":
         from stimuli.planesweep import COST_BOX_PX, agreement_sweep
     elif path == "compiled":
@@ -266,8 +276,8 @@ def _sweep(
     repeating their end columns, so that a shift is an offset into the padded row.
     """
     rows, cols = centre.shape
-    agreement_sweep = _sweep_function(rows * cols * len(views) * len(ds))
-    compiled = getattr(agreement_sweep, "__module__", "") == "stimuli.kernels"
+    path = _sweep_path(rows * cols * len(views) * len(ds))
+    agreement_sweep = _load_sweep(path)
     m = max(max(abs(a), abs(b)) for a, b in offsets)
     pad = int(math.ceil(float(np.abs(ds).max()) * m)) + 2
     row_group = [(img, du) for img, (du, dv) in zip(views, offsets, strict=True) if du]
@@ -296,7 +306,7 @@ def _sweep(
 
     n_threads = max(1, min(workers, len(ds)))
     parts = np.array_split(np.arange(len(ds)), n_threads)
-    if compiled or rows * cols >= NUMPY_THREADS_MIN_PX:
+    if path == "compiled" or rows * cols >= NUMPY_THREADS_MIN_PX:
         results = run_on_threads(run, parts)
     else:  # the same parts in turn: the same sums, without the threads' hand-over of the GIL
         results = [run(part) for part in parts]
