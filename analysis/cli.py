@@ -441,8 +441,11 @@ def _run_with_progress(gen, label: str, total: int) -> list:
 
 
 def _echo_power_table(design_heads: str, points: list, design_cells) -> None:
-    """Print one row per grid point: its design (``design_cells(point)``, under
-    ``design_heads``), then its power and the power's 95% interval."""
+    """Print one row per grid point.
+
+    Its design (``design_cells(point)``, under ``design_heads``), then its power and the power's 95%
+    interval.
+    """
     typer.echo(f"{design_heads}  power  (95% CI)")
     for p in points:
         typer.echo(f"{design_cells(p)}  {p.power:.2f}   ({p.ci95[0]:.2f}-{p.ci95[1]:.2f})")
@@ -608,7 +611,6 @@ _ACTIVE_DESIGN_OPTIONS = {
 
 def _active_power(hazard_ratio, subjects, opts, sims, alpha, target, seed, processes, cluster):
     """Run and print ``analyze power --hazard-ratio``: power of active-search studies."""
-
     from analysis.active_power import ActiveDesign, ActivePowerPoint, active_power_grid
     from analysis.errors import OptionError
 

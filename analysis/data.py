@@ -315,7 +315,7 @@ def _bool_word(v: Any) -> Any:
 
 
 def _id_text(v: Any) -> str:
-    """Identifiers as text; '3', 3 and 3.0 are the same object."""
+    """Return an identifier as text; '3', 3 and 3.0 are the same object."""
     if isinstance(v, float) and v.is_integer():
         return str(int(v))
     s = str(v).strip()

@@ -80,10 +80,10 @@ def unescape_frame(df: pd.DataFrame) -> pd.DataFrame:
 
 
 def frame_csv_text(df: pd.DataFrame) -> str:
-    """Return ``df`` as CSV text (header, no index) with formula-safe cells.
+    r"""Return ``df`` as CSV text (header, no index) with formula-safe cells.
 
     Missing values are empty cells. A cell with a carriage return is quoted (pandas' and the
-    csv module's writers leave it bare when the line terminator is ``\\n``, which ends the row
+    csv module's writers leave it bare when the line terminator is ``\n``, which ends the row
     in every reader).
     """
     esc = escape_frame(df)

@@ -107,14 +107,19 @@ class Responder(Protocol):
     """Who answers a trial: the operator console (a person) or a simulated observer."""
 
     def respond(self, trial: object, image: np.ndarray) -> Answer:
-        """Return the answer to ``trial`` (a :class:`~experiment.session.schedule.Trial`) shown as
-        ``image``."""
+        """Return the answer to ``trial`` shown as ``image``.
+
+        ``trial`` is a :class:`~experiment.session.schedule.Trial`.
+        """
         ...
 
 
 class ClosesOnExit:
-    """Base of a class that holds a resource: ``with obj:`` gives ``obj`` and calls
-    :meth:`close` on leaving, whether or not an exception is raised."""
+    """Base of a class that holds a resource.
+
+    ``with obj:`` gives ``obj`` and calls :meth:`close` on leaving, whether or not an exception is
+    raised.
+    """
 
     def close(self) -> None:
         """Release the resource (each subclass says which)."""

@@ -513,7 +513,7 @@ def _marker_pid(folder: Path) -> int | None:
 
 
 def _name_pid(suffix: str) -> int | None:
-    """The pid in an aside folder's name suffix ``PID-TOKEN``, or None."""
+    """Return the pid in an aside folder's name suffix ``PID-TOKEN``, or None."""
     head, sep, _ = suffix.partition("-")
     return int(head) if sep and head.isdigit() else None
 
@@ -695,7 +695,7 @@ def _flag_of(cmd: Any, name: str) -> str:
 
 @functools.cache
 def _force_option() -> Any:
-    """A ``--force`` flag made by typer itself (so help and parsing match the other options)."""
+    """Return a ``--force`` flag made by typer itself (help and parsing match the other options)."""
     import typer
 
     holder = typer.Typer()

@@ -94,8 +94,11 @@ _PRCTL: Callable[..., int] | bool | None = None
 
 
 def _prctl() -> Callable[..., int] | None:
-    """Return libc's ``prctl`` (Linux), or None; loaded once, so that a child made by ``fork``
-    calls it without ``dlopen`` (not safe between ``fork`` and ``exec``)."""
+    """Return libc's ``prctl`` (Linux), or None.
+
+    Loaded once, so that a child made by ``fork`` calls it without ``dlopen`` (not safe between
+    ``fork`` and ``exec``).
+    """
     global _PRCTL
     if _PRCTL is None and sys.platform.startswith("linux"):
         import ctypes

@@ -150,9 +150,11 @@ def _max_offset(lf: LightField) -> int:
 
 
 def _cross_offsets(lf: LightField) -> list[tuple[int, int]]:
-    """Views used by the agreement scan: on the centre row and column, the outermost and the
-    half-way view on each side. Views off the cross would need 2-D (four-tap) interpolation for
-    little extra evidence."""
+    """Return the views used by the agreement scan.
+
+    On the centre row and column, the outermost and the half-way view on each side. Views off the
+    cross would need 2-D (four-tap) interpolation for little extra evidence.
+    """
     out = _offsets_on_the_cross(lf.grid)
     if not out:
         raise InputError(f"{lf.source}: a light field needs at least two views, got grid {lf.grid}")
@@ -238,12 +240,12 @@ def _sweep_path(work: int) -> str:
 
 
 def _sweep_function(work: int):
-    """The plane sweep for a sweep of ``work`` units (pixels x views x planes)."""
+    """Return the plane sweep for a sweep of ``work`` units (pixels x views x planes)."""
     return _load_sweep(_sweep_path(work))
 
 
 def _load_sweep(path: str):
-    """The plane sweep ``path`` names: ``"numpy"`` or ``"compiled"``."""
+    """Return the plane sweep ``path`` names: ``"numpy"`` or ``"compiled"``."""
     if path == "numpy":
         from stimuli.planesweep import COST_BOX_PX, agreement_sweep
     elif path == "compiled":
@@ -376,7 +378,7 @@ def _bin_view(view: np.ndarray, b: int) -> np.ndarray:
 
 
 def _scan_inputs(lf: LightField, binning: int):
-    """The views the agreement scan uses (only those are converted and binned)."""
+    """Return the views the agreement scan uses (only those are converted and binned)."""
     if lf.views.ndim == 5:
         lf = lf.gray()
     offsets = _cross_offsets(lf)
@@ -410,7 +412,7 @@ def _support_curves(best_i, agrees, nbest_i, nagrees, n_planes: int, sigma_plane
 
 
 def _occupied_span(ds: np.ndarray, best_i, agrees, nbest_i, nagrees) -> tuple[float, float] | None:
-    """The disparities (of ``ds``) holding the scene: where more pixels agree than by chance.
+    """Return the disparities (of ``ds``) holding the scene: where more pixels agree than by chance.
 
     The histogram of the agreeing pixels' best planes is smoothed by one plane and compared
     with the same histogram against the non-coincident reference (the null): planes above the
@@ -519,7 +521,7 @@ def estimate_disparity_range(
 
 
 def _is_plane_peak(height: float, prominence: float, null_prominence: float) -> bool:
-    """The peak rule with hysteresis: evidence against the null, and not a shoulder.
+    """Return the peak rule with hysteresis: evidence against the null, and not a shoulder.
 
     A peak needs :data:`MIN_EVIDENCE` times the null's largest prominence and a prominence of
     :data:`SHOULDER_FRACTION` of its height; with :data:`STRONG_EVIDENCE`, a prominence of

@@ -213,7 +213,7 @@ VOTE_WINDOW_PX: int = 9
 
 
 def _sample(padded: np.ndarray, pad: int, shift_px: float, axis: int, n: int) -> np.ndarray:
-    """An edge-padded image sampled at ``x - shift_px`` along ``axis`` (linear interpolation).
+    """Return an edge-padded image sampled at ``x - shift_px`` along ``axis`` (linear interp.).
 
     ``padded`` is the image padded by ``pad`` samples (edge values) along ``axis``; ``n`` is the
     image's length along it.

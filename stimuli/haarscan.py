@@ -152,8 +152,11 @@ def edge_overlap(edges: np.ndarray, reference_edges: np.ndarray) -> float:
 
 
 def auto_binning(lightfield: LightField, *, fraction: float = jung2015.HAAR_EDGE_FRACTION) -> int:
-    """Return :data:`DEFAULT_BINNING`, or less when the binned views would leave fewer than
-    :data:`MIN_EDGE_PIXELS` edge pixels per Haar sub-band."""
+    """Return :data:`DEFAULT_BINNING`, or less for small views.
+
+    Less when the binned views would leave fewer than :data:`MIN_EDGE_PIXELS` edge pixels per Haar
+    sub-band.
+    """
     rows, cols = lightfield.shape_px
     for b in range(DEFAULT_BINNING, 1, -1):
         if fraction * (rows // (2 * b)) * (cols // (2 * b)) >= MIN_EDGE_PIXELS:
@@ -185,15 +188,17 @@ def _prepare(
 
 
 def _informative_bands(lf: LightField) -> tuple[int, ...]:
-    """Sub-bands whose edges refocusing can blur: a single row of views (n_u = 1) has no
-    vertical parallax, so its horizontal edges (cH) are sharp at every plane; likewise cV for a
-    single column."""
+    """Return the sub-bands whose edges refocusing can blur.
+
+    A single row of views (n_u = 1) has no vertical parallax, so its horizontal edges (cH) are sharp
+    at every plane; likewise cV for a single column.
+    """
     n_u, n_v = lf.grid
     return tuple(b for b, keep in ((0, n_u > 1), (1, n_v > 1), (2, True)) if keep)
 
 
 def _scan_views(lf: LightField) -> tuple[np.ndarray, tuple[list[int], list[int]]]:
-    """Views used by the scan: all but the centre row and column (see module notes)."""
+    """Return the views used by the scan: all but the centre row and column (see module notes)."""
     n_u, n_v = lf.grid
     cu, cv = lf.centre_index
     us = [u for u in range(n_u) if not (n_u > 1 and u == cu)]

@@ -1,5 +1,6 @@
-"""Numbers fixed by Jung, Aloni, Yitzhaky & Peli (2015), "Active confocal imaging for visual
-prostheses".
+"""Numbers fixed by Jung, Aloni, Yitzhaky & Peli (2015).
+
+The paper: "Active confocal imaging for visual prostheses".
 
 Every constant cites the section it comes from (house style H9).
 """

@@ -247,7 +247,9 @@ def _box5_row(src, dst):  # pragma: no cover - compiled
 def agreement_sweep(
     row_views, row_steps, col_views, col_steps, pad, refs, planes, first, best, best_i, total
 ):  # pragma: no cover - compiled
-    """The agreement scan's plane sweep over ``planes`` (binned px per view step), in one pass.
+    """Return the agreement scan's plane sweep over ``planes`` (binned px per view step).
+
+    One pass over the data.
 
     ``row_views`` (a, rows, cols) are the views that shift along rows (``row_steps`` view steps
     from the centre), ``col_views`` (b, rows, cols + 2 pad) those that shift along columns,

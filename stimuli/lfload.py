@@ -207,8 +207,11 @@ def _read_raw(path: Path) -> np.ndarray:
 
 
 def _on_threads(fn, items: list) -> list:
-    """``[fn(x) for x in items]`` on up to 8 threads (the CPUs this process may use); PIL and
-    numpy release the GIL while they decode and convert views."""
+    """Return ``[fn(x) for x in items]``, on up to 8 threads.
+
+    No more threads than the CPUs this process may use; PIL and numpy release the GIL while they
+    decode and convert views.
+    """
     n = min(len(items), len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else 1)
     if n < 2:
         return [fn(x) for x in items]

@@ -1,5 +1,6 @@
-"""The steps behind ``confocal lightfield``: its option parsers, the capture read as the loader
-options say, and the scan of one capture.
+"""The steps behind ``confocal lightfield``.
+
+Its option parsers, the capture read as the loader options say, and the scan of one capture.
 
 :mod:`stimuli.lightfield_cli` declares the commands and their options; the work they share is
 here, importable without typer, and :func:`scan_one` is a module-level function so that worker
@@ -56,7 +57,7 @@ def parse_zoom(text: str, shape_px: tuple[int, int]) -> tuple[slice, slice]:
 
 
 def _with_the_other_views(some, path: Path, options: LoaderOptions):
-    """The light field of which ``some`` holds the views ``meta["views_read"]``, whole."""
+    """Return the light field of which ``some`` holds the views ``meta["views_read"]``, whole."""
     from stimuli.lfviews import LightField
 
     read = {(int(u), int(v)) for u, v in some.meta["views_read"]}
@@ -100,7 +101,7 @@ class LoaderOptions:
 
 
 def load_grey(path: Path, options: LoaderOptions, only_views=None):
-    """The light field at ``path``, grey; ``only_views`` is ignored when views are binned."""
+    """Return the light field at ``path``, grey; ``only_views`` is ignored when views are binned."""
     from stimuli.lightfield import load_lightfield
 
     off = None
@@ -135,7 +136,7 @@ def load_grey(path: Path, options: LoaderOptions, only_views=None):
 def scan_disparities(
     lf, planes: int, near: float | None, far: float | None, disparities: str | None
 ):
-    """The planes to scan: ``--disparities``, ``--near/--far`` in metres, or the scene's range."""
+    """Return the planes to scan: ``--disparities``, ``--near/--far`` (m), or the scene's range."""
     import numpy as np
 
     from stimuli.planes import default_disparities

@@ -312,7 +312,7 @@ class ObjectInfo:
 
 
 def _parse_roi(text: str | None, *, where: str) -> tuple[int, int, int, int] | str | None:
-    """A box ``x,y,w,h`` (has a comma) or a mask image's path; empty gives ``None``."""
+    """Return a box ``x,y,w,h`` (has a comma) or a mask image's path; empty gives ``None``."""
     if text is None or str(text).strip() == "":
         return None
     t = str(text).strip()

@@ -166,8 +166,10 @@ class PlaneScan:
         return out
 
     def notes(self) -> list[str]:
-        """Return the lines a command prints about how the scan ran: the downsampling of large
-        views (:attr:`downsample` > 1), or nothing."""
+        """Return the lines a command prints about how the scan ran.
+
+        The downsampling of large views (:attr:`downsample` > 1), or nothing.
+        """
         if self.downsample <= 1:
             return []
         return [

@@ -26,7 +26,7 @@ COST_BOX_PX: int = 5
 
 
 def _reach(planes: np.ndarray, steps: np.ndarray) -> int:
-    """The largest whole-pixel shift of any plane for views ``steps`` from the centre."""
+    """Return the largest whole-pixel shift of any plane for views ``steps`` from the centre."""
     if planes.size == 0 or np.size(steps) == 0:
         return 0
     return int(
@@ -39,7 +39,7 @@ def _reach(planes: np.ndarray, steps: np.ndarray) -> int:
 def agreement_sweep(
     row_views, row_steps, col_views, col_steps, pad, refs, planes, first, best, best_i, total
 ) -> None:
-    """The plane sweep of :func:`stimuli.kernels.agreement_sweep`, with the same arguments.
+    """Return the plane sweep of :func:`stimuli.kernels.agreement_sweep`, with the same arguments.
 
     Parameters
     ----------

@@ -28,7 +28,7 @@ _POOLS_LOCK = threading.Lock()
 
 
 def _forget_pools_in_child() -> None:
-    """A forked child has none of its parent's threads: it starts its own pools when needed.
+    """Forget the parent's pools in a forked child: it starts its own when needed.
 
     (Work handed to a pool whose threads stayed in the parent would wait for ever; the kill
     test forks its runs from one warm process.)

@@ -295,7 +295,7 @@ def _check_layers(layers: Sequence[Layer], shape_px: tuple[int, int]) -> list[La
 
 
 def _region(planes: np.ndarray, shape_px: tuple[int, int], margin_px: int) -> np.ndarray:
-    """The centred ``shape_px`` crop of (n, T_rows, T_cols) planes plus ``margin_px`` each side.
+    """Return the centred ``shape_px`` crop of (n, T_rows, T_cols) planes plus ``margin_px`` a side.
 
     Where the texture has no margin left, it is extended by reflection, so that blur never
     darkens the image border.

@@ -244,7 +244,7 @@ _TRAINING_ORDER: tuple[int, ...] = (20, 21, 22)
 
 
 def _assign_kinds(n_main: int, n_training: int) -> tuple[list[ObjectKind], list[ObjectKind]]:
-    """Main kinds first from the main order; training kinds from what is left."""
+    """Assign main kinds first from the main order; training kinds from what is left."""
     order = list(_MAIN_ORDER) + list(_TRAINING_ORDER)
     main = order[:n_main]
     left = [i for i in list(_TRAINING_ORDER) + list(_MAIN_ORDER)[::-1] if i not in main]

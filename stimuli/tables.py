@@ -39,12 +39,12 @@ _ESCAPED = re.compile(r"'+[" + re.escape(FORMULA_TRIGGERS) + "]", re.S)
 
 
 def escape_cell(value: Any) -> Any:
-    """Return ``value`` as a spreadsheet shows it as text; non-text values are returned as is.
+    r"""Return ``value`` as a spreadsheet shows it as text; non-text values are returned as is.
 
     Examples
     --------
     >>> escape_cell('=HYPERLINK("http://x","cup")')
-    '\\'=HYPERLINK("http://x","cup")'
+    '\'=HYPERLINK("http://x","cup")'
     >>> escape_cell("-1.5"), escape_cell("cup")
     ('-1.5', 'cup')
     """
@@ -78,7 +78,7 @@ def unescape_row(row: Mapping[str, Any]) -> dict[str, Any]:
 def table_text(
     rows: Iterable[Mapping[str, Any]], columns: Sequence[str], *, delimiter: str = ","
 ) -> str:
-    """Return a CSV (or TSV, ``delimiter="\\t"``) with a header and formula-safe cells.
+    r"""Return a CSV (or TSV, ``delimiter="\t"``) with a header and formula-safe cells.
 
     Parameters
     ----------
@@ -87,7 +87,7 @@ def table_text(
         ``columns`` are ignored.
     columns : sequence of str
         The header, in order.
-    delimiter : {',', '\\t'}
+    delimiter : {',', '\t'}
     """
     buf = io.StringIO()
     w = csv.writer(buf, delimiter=delimiter, lineterminator="\n")

@@ -58,3 +58,19 @@ def test_changelog_names_every_current_format_version() -> None:
     assert f"(latest: {SET_FORMAT_VERSION})" in text
     assert f"- **{SET_FORMAT_VERSION}** (" in text
     assert f"### Viewer event log\n- **{SCHEMA_VERSION}** (" in text
+
+
+def test_ci_runs_ruff_before_the_tests() -> None:
+    """CI runs the configured linter and formatter check, from the dev extra, before pytest."""
+    import tomllib
+
+    lines = [ln.strip() for ln in (ROOT / ".ci" / "run").read_text().splitlines()]
+    assert "ruff check ." in lines and "ruff format --check ." in lines
+    pytest_at = lines.index("python -m pytest")
+    assert (
+        lines.index("ruff check .") < pytest_at and lines.index("ruff format --check .") < pytest_at
+    )
+    config = tomllib.loads((ROOT / "pyproject.toml").read_text())
+    assert any(d.startswith("ruff") for d in config["project"]["optional-dependencies"]["dev"])
+    lint = config["tool"]["ruff"]["lint"]
+    assert "D" in lint["select"] and lint["pydocstyle"]["convention"] == "numpy"

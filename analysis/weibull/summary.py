@@ -453,7 +453,7 @@ class WeibullFit:
 
 
 def _num(v: float) -> str:
-    """A level or bound for a status reason: ``17,876``, ``2.35`` (no exponent for pixels)."""
+    """Return a level or bound for a status reason: ``17,876``, ``2.35`` (no exponent for px)."""
     return f"{v:,.0f}" if abs(v) >= 1000 else f"{v:.3g}"
 
 

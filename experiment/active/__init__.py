@@ -1,7 +1,10 @@
-"""Active search as a study: the task, its event log, a person searching
-(:mod:`~experiment.active.live`, with the operator's :mod:`~experiment.console.active`), simulated
-searchers, and the ``confocal demo --active`` rendering. GL-free: the views come from the CPU
-pipeline of :mod:`stimuli`; a person's screen is the presenter process."""
+"""Active search as a study.
+
+The task, its event log, a person searching (:mod:`~experiment.active.live`, with the operator's
+:mod:`~experiment.console.active`), simulated searchers, and the ``confocal demo --active``
+rendering. GL-free: the views come from the CPU pipeline of :mod:`stimuli`; a person's screen is the
+presenter process.
+"""
 
 import importlib
 

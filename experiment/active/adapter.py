@@ -165,8 +165,11 @@ def _synthetic(name, shape_px, grid, baseline_m, seed, layout):
 
 
 def _recorded(desc):
-    """Load a described light field; each target's look is the view refocused at its plane
-    (its template keeps that view's edges inside its box: :func:`object_edge_template`)."""
+    """Load a described light field.
+
+    Each target's look is the view refocused at its plane (its template keeps that view's edges
+    inside its box: :func:`object_edge_template`).
+    """
     from stimuli.errors import InputError
     from stimuli.lightfield import load_lightfield
     from stimuli.refocus import refocus

@@ -116,8 +116,10 @@ def run_command(
 
 
 def subject_phosphenes(spec) -> dict | None:
-    """The presenter's phosphene fields for a protocol with a ``[display] implant`` (else None):
-    the implant's view is drawn as its phosphenes at its field of view."""
+    """Return the presenter's phosphene fields for a protocol with a ``[display] implant``.
+
+    None without one; with one, the implant's view is drawn as its phosphenes at its field of view.
+    """
     layout = spec.display.implant_layout
     if layout is None:
         return None
@@ -130,9 +132,11 @@ def subject_phosphenes(spec) -> dict | None:
 
 @contextmanager
 def _open_session(data, spec, subject, seed, new_session, subject_index, **open_options):
-    """Open (or resume) SUBJECT's active-search session in the trial log DATA; yield the log and
-    the session, both closed on exit. ``open_options``: the searcher's ``responder`` and
-    ``clock``."""
+    """Open (or resume) SUBJECT's active-search session in the trial log DATA.
+
+    Yield the log and the session, both closed on exit. ``open_options``: the searcher's
+    ``responder`` and ``clock``.
+    """
     from experiment.active.session import ActiveSession
     from experiment.log import TrialLog
 
@@ -155,8 +159,11 @@ def _open_session(data, spec, subject, seed, new_session, subject_index, **open_
 def _run_person(
     spec, data, subject, seed, presenter, screen_options, rater, new_session, subject_index=None
 ) -> None:
-    """Run SUBJECT's session with a person searching; ``screen_options`` are the subject's
-    window's ``screen``, ``fullscreen`` and ``skip_timing_check``."""
+    """Run SUBJECT's session with a person searching.
+
+    ``screen_options`` are the subject's window's ``screen``, ``fullscreen`` and
+    ``skip_timing_check``.
+    """
     import json
     import sys
 

@@ -129,7 +129,7 @@ class LiveSearch:
         return self._trial.trial if self._trial is not None else self.session.next_trial()
 
     def cue_text(self, trial: ActiveTrial | None = None) -> str:
-        """The text shown to the subject before a trial."""
+        """Return the text shown to the subject before a trial."""
         t = trial or self.trial
         if t is None:
             return "The session is finished. Thank you."
@@ -198,7 +198,7 @@ class LiveSearch:
         return self.session.elapsed_s() if self._trial is not None else None
 
     def suggest(self, response: str) -> str:
-        """The score the console suggests for ``response`` (the static study's rule)."""
+        """Return the score the console suggests for ``response`` (the static study's rule)."""
         t = self.trial
         if t is None:
             return "pass"

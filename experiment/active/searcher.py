@@ -204,8 +204,11 @@ class EdgeRecogniser:
         return {k: float(v) for k, v in zip(names, r, strict=True)}
 
     def suspect_box(self, name: str, grid: np.ndarray, shape_px: tuple[int, int]):
-        """Return a zoom box (x, y, w, h) where ``name`` would be: its template's lit cells that
-        are also lit in the view (all its template's cells when none are), or None."""
+        """Return a zoom box (x, y, w, h) where ``name`` would be, or None.
+
+        Its template's lit cells that are also lit in the view (all its template's cells when none
+        are).
+        """
         names, _ = self.templates(None)
         look = self.scene.appearances[name]
         tg = adapter.object_edge_template(look, self.grid_px, mask=self.scene.edge_masks.get(name))
@@ -227,7 +230,7 @@ class EdgeRecogniser:
 
 
 def _lit_box(grid: np.ndarray, shape_px: tuple[int, int], pad_cells: int = 1):
-    """The view-pixel box around the lit cells of a grid (None when no cell is lit)."""
+    """Return the view-pixel box around the lit cells of a grid (None when no cell is lit)."""
     ys, xs = np.nonzero(grid)
     if ys.size == 0:
         return None

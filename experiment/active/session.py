@@ -81,8 +81,9 @@ def auto_scorer(
     targets: tuple[str, ...] = (),
     objects: dict[str, ObjectInfo] | None = None,
 ) -> tuple[str, str]:
-    """Score an answer as the console suggests it
-    (:func:`~experiment.session.scoring.suggest_score`).
+    """Score an answer as the console suggests it.
+
+    See :func:`~experiment.session.scoring.suggest_score`.
 
     ``objects`` adds the names, synonyms and uses of a recorded scene's targets (from its
     description) to :data:`SCENE_OBJECTS`.
@@ -128,7 +129,7 @@ def _scan_info(scene: adapter.Scene, task: ActiveSearchSpec) -> dict[str, Any]:
 
 
 def _scenes_sha256(shas: dict[str, str]) -> str:
-    """The session's scene hash: the scene's own for one scene, else a hash of all of them."""
+    """Return the session's scene hash: the scene's own for one scene, else a hash of them all."""
     if len(shas) == 1:
         return next(iter(shas.values()))
     text = json.dumps(shas, sort_keys=True, separators=(",", ":"))
@@ -149,7 +150,7 @@ def _check_targets(task: ActiveSearchSpec, objects: dict[str, tuple[str, ...] | 
 
 
 def _subject_index(log: TrialLog, subject: str) -> int:
-    """The subject's position among the subjects of this log (first session first), 0-based."""
+    """Return the subject's 0-based position among this log's subjects (first session first)."""
     order: list[str] = []
     for row in log.sessions():
         if row["subject"] not in order:
@@ -224,7 +225,7 @@ class ActiveSession(lifecycle.LoggedSession):
         return dict(self._objects)
 
     def _scene_state(self, trial: ActiveTrial) -> _SceneState:
-        """The trial's scene, loaded (fixed scenes at open; a randomised one rebuilt now)."""
+        """Return the trial's scene, loaded (fixed scenes at open; a randomised one rebuilt now)."""
         if trial.layout is None:
             return self._states[(trial.scene, None)]
         key = (trial.scene, trial.scene_seed, json.dumps(trial.layout, sort_keys=True))
@@ -243,7 +244,7 @@ class ActiveSession(lifecycle.LoggedSession):
         return self._states[key]
 
     def _check_rebuilt(self, trial: ActiveTrial, scene: adapter.Scene) -> None:
-        """A resumed trial must show the scene its first attempt showed."""
+        """Refuse a resumed trial whose scene is not the one its first attempt showed."""
         for r in self.events.rows():
             if r["trial"] == trial.index and r["kind"] == "trial_start":
                 logged = r["payload"].get("scene_sha256")

@@ -63,6 +63,7 @@ class ActiveConsole(TrialConsole):
     # -- start --------------------------------------------------------------------------------
 
     def on_mount(self) -> None:
+        """Set the title and start polling the search when the app starts (a Textual hook)."""
         s = self.live.session
         self.title = f"confocal: active search, session {s.session_id}, subject {s.subject}"
         self.set_interval(POLL_S, self.poll)
@@ -126,10 +127,12 @@ class ActiveConsole(TrialConsole):
     # -- operator input -----------------------------------------------------------------------
 
     def on_input_changed(self, event: Input.Changed) -> None:
+        """Show the score suggested for the answer typed so far (a Textual hook)."""
         if self.live.running:
             self._show_suggestion(self.live.suggest(event.value))
 
     def on_input_submitted(self, event: Input.Submitted) -> None:
+        """Take the typed answer on Enter, or leave once the session is over (a Textual hook)."""
         if self.finished:
             self.exit()
         elif not self.live.running:

@@ -32,8 +32,10 @@ def make_display(
     clock: Clock | None = None,
     **kwargs: Any,
 ) -> Any:
-    """Open the subject's display: ``'process'`` (a window in a presenter process),
-    ``'offscreen'`` (an in-process EGL presenter) or ``'none'`` (headless twin).
+    """Open the subject's display.
+
+    ``'process'`` (a window in a presenter process), ``'offscreen'`` (an in-process EGL presenter)
+    or ``'none'`` (headless twin).
     """
     if presenter == "process":
         from experiment.presentation.process import RemoteDisplay

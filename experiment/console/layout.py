@@ -102,6 +102,7 @@ class TrialConsole(App):
     ENABLE_COMMAND_PALETTE = False
 
     def compose(self) -> ComposeResult:
+        """Lay out the console's panes (a Textual hook)."""
         yield from console_layout()
 
     def _status(self, text: str) -> None:

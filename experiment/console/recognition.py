@@ -147,11 +147,13 @@ class OperatorConsole(TrialConsole):
     # -- layout -----------------------------------------------------------------------------------
 
     def compose(self) -> ComposeResult:
+        """Lay out the console's panes and the note field (a Textual hook)."""
         yield from console_layout(
             Input(placeholder="note for the log (Enter saves, Esc cancels)", id="note")
         )
 
     def on_resize(self) -> None:
+        """Fit the stimulus preview to the new size (a Textual hook)."""
         self.call_after_refresh(self._fit_preview)
 
     def _fit_preview(self) -> None:
@@ -170,6 +172,7 @@ class OperatorConsole(TrialConsole):
         self._show_preview(Text(preview_text(self._preview_image, cols)))
 
     def on_mount(self) -> None:
+        """Set the title, start the clock tick and show the first trial (a Textual hook)."""
         self.title = f"confocal: session {self.session.session_id}, subject {self.session.subject}"
         self.set_interval(0.25, self._tick)
         self._update_trial_panel()
@@ -292,6 +295,7 @@ class OperatorConsole(TrialConsole):
         self._status("Type the subject's words; F1-F5 scores, Enter takes the suggestion.")
 
     def on_input_changed(self, event: Input.Changed) -> None:
+        """Time the first key of an answer and show its suggested score (a Textual hook)."""
         if event.input.id != "response" or self.state not in ("trial", "rescoring"):
             return
         if self.state == "trial" and self.first_key_s is None and event.value:
@@ -299,6 +303,7 @@ class OperatorConsole(TrialConsole):
         self._show_suggestion(self.session.suggest_score(self.trial, event.value.strip()))
 
     def on_input_submitted(self, event: Input.Submitted) -> None:
+        """Save a note, or take the typed answer, on Enter (a Textual hook)."""
         if event.input.id == "note":
             self._save_note(event.value)
             return

@@ -63,11 +63,13 @@ class ScoringApp(App):
         self._last_scores: dict[int, str] = {}
 
     def compose(self) -> ComposeResult:
+        """Lay out the item, the status line and the key footer (a Textual hook)."""
         yield Static(id="item")
         yield Static(id="status")
         yield Footer()
 
     def on_mount(self) -> None:
+        """Set the title and show the first item (a Textual hook)."""
         self.title = f"confocal score: rater {self.rater}"
         self._show()
 

@@ -42,7 +42,7 @@ SCAN_RANGE_M: tuple[float, float] = (0.6, 12.0)
 
 
 def _tile(image: np.ndarray, height_px: int) -> Image.Image:
-    """An image as an 8-bit tile of the given height, magnified by nearest neighbour."""
+    """Return an image as an 8-bit tile of the given height, magnified by nearest neighbour."""
     a = np.asarray(image)
     u8 = a.astype(np.uint8) * 255 if a.dtype == bool else np.round(a * 255).astype(np.uint8)
     img = Image.fromarray(u8)

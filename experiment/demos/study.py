@@ -216,7 +216,7 @@ def _make_knowledge_sets(folders: list[tuple[Path, Path]], seeds: list[int]) -> 
 
 
 def _brief(desc: dict[str, Any]) -> dict[str, Any]:
-    """An observer description with its per-image lists replaced by their lengths."""
+    """Return an observer description with its per-image lists replaced by their lengths."""
     out = dict(desc)
     for part in ("knowledge", "calibration"):
         if isinstance(out.get(part), dict):
@@ -533,8 +533,11 @@ def _distance(sim: float | None, paper: float) -> str:
 
 
 def _knowledge_source(knowledge: dict[str, Any], rendering: str) -> str:
-    """Where an observer's knowledge came from: ``rendering`` formatted with the seed of the
-    synthesis that made it, the seeds of several pooled renderings, or a held-out stimulus set."""
+    """Describe where an observer's knowledge came from.
+
+    ``rendering`` formatted with the seed of the synthesis that made it, the seeds of several pooled
+    renderings, or a held-out stimulus set.
+    """
     seed = (knowledge.get("synth") or {}).get("seed")
     if isinstance(seed, list):  # knowledge pooled from several renderings
         return f"{len(seed)} other renderings (seeds {', '.join(str(s) for s in seed)})"

@@ -89,7 +89,7 @@ PAPER_X50_CLUTTERED_PX: float = 8695.0
 
 
 def _stable_seed(*parts: object) -> int:
-    """A seed from strings/ints that is the same on every run and platform (not ``hash()``)."""
+    """Return a seed from strings/ints, the same on every run and platform (not ``hash()``)."""
     h = hashlib.sha256("\x1f".join(map(str, parts)).encode()).digest()
     return int.from_bytes(h[:8], "little")
 

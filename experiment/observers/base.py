@@ -170,8 +170,11 @@ class SimulatedObserver:
         p_shape: float = 0.0,
         shape_text: str = "something round",
     ) -> Answer:
-        """Return the answer text and score: a name or use when recognised, else ``wrong``
-        (a wrong name) when given, else a shape description (``p_shape``) or a pass."""
+        """Return the answer text and score.
+
+        A name or use when recognised, else ``wrong`` (a wrong name) when given, else a shape
+        description (``p_shape``) or a pass.
+        """
         if recognized:
             obj = self.stimset.objects[trial.object]
             if obj.uses and self.rng.random() < p_use:

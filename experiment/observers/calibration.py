@@ -1,5 +1,6 @@
-"""The ``calibrated`` observer: the exemplar observer with a person's limits, fitted to one
-condition.
+"""The ``calibrated`` observer.
+
+The exemplar observer with a person's limits, fitted to one condition.
 
 What is added to :mod:`experiment.observers.exemplar`
 ------------------------------------------------------

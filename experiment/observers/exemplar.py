@@ -349,7 +349,7 @@ class ExemplarParams(AnswerParams):
         )
 
     def frontend_key(self) -> tuple:
-        """The parameters that fix an image's noise-free features (the cache key)."""
+        """Return the parameters that fix an image's noise-free features (the cache key)."""
         return (
             round(self.image_size_deg[0], 9),
             round(self.image_size_deg[1], 9),
@@ -458,7 +458,7 @@ def best_criterion(margins: np.ndarray, gains: np.ndarray) -> float:
 
 
 def _synth_provenance(info: dict) -> dict | None:
-    """``generator``, ``seed``, ``version`` of the synthetic pairs a stimulus set was built from."""
+    """Return ``generator``, ``seed``, ``version`` of the synthetic pairs a set was built from."""
     pairs = info.get("pairs")
     if isinstance(pairs, dict):  # recorded in the set since it stopped holding host paths
         synth = pairs.get("synth")
@@ -653,8 +653,11 @@ class ExemplarObserver(SimulatedObserver):
     # -- the training phase ---------------------------------------------------------------------
 
     def _calibrate(self) -> float:
-        """Set the criterion from the training phase (training objects, every level, both
-        conditions): the one that maximises the expected training score."""
+        """Set the criterion from the training phase.
+
+        Training objects, every level, both conditions: the criterion that maximises the expected
+        training score.
+        """
         p = self.params
         recs = [
             r

@@ -1,5 +1,7 @@
-"""The subject's screen: the moderngl presenter, its separate process, display twins, and the
-``confocal present`` / ``confocal score`` commands.
+"""The subject's screen.
+
+The moderngl presenter, its separate process, display twins, and the ``confocal present`` /
+``confocal score`` commands.
 
 - :mod:`experiment.presentation.presenter`: the GL presenter (window, offscreen, headless).
 - :mod:`experiment.presentation.geometry`: the screen's physical geometry and colours (GL-free).

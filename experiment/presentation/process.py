@@ -98,8 +98,10 @@ class PresenterDied(ConfocalError):
 
 
 def encode_image(image: np.ndarray) -> dict[str, Any]:
-    """Return the message fields (shape, dtype, data) of a bool or float32 (rows, cols) image,
-    or of a float32 colour photo (rows, cols, 3)."""
+    """Return the message fields (shape, dtype, data) of an image.
+
+    The image is bool or float32 (rows, cols), or a float32 colour photo (rows, cols, 3).
+    """
     image = np.asarray(image)
     colour = image.ndim == 3 and image.shape[2] == 3 and image.dtype == np.float32
     if image.ndim != 2 and not colour:
@@ -322,7 +324,6 @@ def _child_setup(parent_pid: int) -> Callable[[], None]:
     whole process group, and the session stops the presenter itself after logging the stop.
     The imports happen here, in the parent: importing between ``fork`` and ``exec`` can hang.
     """
-
     import signal
 
     from experiment.signals import _prctl, die_with_parent

@@ -61,9 +61,11 @@ def _objects(value: Any, name: str) -> None:
 
 @dataclass(frozen=True)
 class BlockSpec(_Spec):
-    """One ``[[blocks]]`` entry: a set of trials and how it is cut into blocks and ordered.
-    The trials are every object of ``objects`` x every level in ``levels`` x every condition in
-    ``conditions``, ``repetitions`` times.
+    """One ``[[blocks]]`` entry.
+
+    A set of trials and how it is cut into blocks and ordered. The trials are every object of
+    ``objects`` x every level in ``levels`` x every condition in ``conditions``, ``repetitions``
+    times.
 
     Parameters
     ----------

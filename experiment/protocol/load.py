@@ -18,8 +18,10 @@ __all__ = ["PROTOCOLS_DIR", "load_protocol", "shipped_or_path", "read_toml"]
 
 
 def shipped_or_path(name_or_path: str | Path, folder: Path) -> Path:
-    """Return ``folder/NAME.toml`` for a bare ``NAME`` that is no file here but shipped there;
-    otherwise the path as given."""
+    """Return the shipped ``folder/NAME.toml`` for a bare ``NAME``, else the path as given.
+
+    A bare ``NAME`` that is no file here but is shipped in ``folder`` gives ``folder/NAME.toml``.
+    """
     p = Path(name_or_path)
     if not p.exists() and not p.suffix and (folder / f"{p.name}.toml").is_file():
         return folder / f"{p.name}.toml"
@@ -27,8 +29,10 @@ def shipped_or_path(name_or_path: str | Path, folder: Path) -> Path:
 
 
 def read_toml(path: Path, error: type[Exception]) -> tuple[bytes, dict[str, Any]]:
-    """Return a TOML file's bytes and its tables; bad TOML raises ``error``, one line
-    ``<file>: not valid TOML (...)``."""
+    """Return a TOML file's bytes and its tables.
+
+    Bad TOML raises ``error``, one line ``<file>: not valid TOML (...)``.
+    """
     raw = path.read_bytes()
     try:
         return raw, tomllib.loads(raw.decode("utf-8"))

@@ -256,8 +256,10 @@ class LoggedSession(ClosesOnExit):
         self.log.add_event(self.session_id, kind, note, self.clock.now_s())
 
     def _mark_complete(self, t_s: float) -> None:
-        """Mark the session completed, with its ``complete`` event; inside the caller's
-        transaction, so that the last answer and the completion commit together."""
+        """Mark the session completed, with its ``complete`` event.
+
+        Inside the caller's transaction, so that the last answer and the completion commit together.
+        """
         self.log.finish_session(self.session_id)
         self.log.add_event(self.session_id, "complete", "", t_s)
 

@@ -344,7 +344,7 @@ class Viewer:
         return None
 
     def status_text(self) -> str:
-        """The status line for the current state."""
+        """Return the status line for the current state."""
         s, lay = self.state, self.layout
         z = self.lf.depth_m(s.disparity_px)
         depth = f"depth {s.disparity_px:+.3f} px/view" + (
@@ -384,7 +384,7 @@ class Viewer:
         return f"{self.message}  || {text}" if self.message else text
 
     def screen(self, zoom_shape: tuple[int, int]) -> ScreenLayout:
-        """The screen layout for the current implant and zoom."""
+        """Return the screen layout for the current implant and zoom."""
         return screen_layout(
             self.screen_shape_px,
             self.lf.shape_px,
@@ -409,7 +409,7 @@ class Viewer:
         return np.mean(np.stack(self._history), axis=0).astype(np.float32)
 
     def confocal(self, disparity_px: float) -> np.ndarray:
-        """The confocal image of the current frame at a disparity (numpy; cached)."""
+        """Return the confocal image of the current frame at a disparity (numpy; cached)."""
         from stimuli.refocus import refocus
 
         key = (self.state.frame, float(disparity_px))
@@ -447,7 +447,7 @@ class Viewer:
         return img
 
     def help_overlay(self) -> np.ndarray | None:
-        """The key help image (uint8) when the state asks for it, else None."""
+        """Return the key help image (uint8) when the state asks for it, else None."""
         if not self.state.help:
             return None
         lines = [f"{k:<18s}{v}" for k, v in KEY_HELP] + ["", "? or h: close this help"]

@@ -353,7 +353,7 @@ class FramePainter:
 
 
 def draw_implant(cells: np.ndarray, shape_px: tuple[int, int], layout: ImplantLayout) -> np.ndarray:
-    """The implant pane's image: ``cells`` drawn as the layout's phosphenes, float32 [0, 1].
+    """Return the implant pane's image: ``cells`` drawn as the layout's phosphenes, float32 [0, 1].
 
     Dead electrodes, brightness variation and rotation come from the layout
     (:meth:`~stimuli.implants.ImplantLayout.electrode_gain`, ``rotation_deg``).

@@ -203,7 +203,7 @@ class ViewerModel:
         return self.implant_levels[self.implants.index(implant)] <= 2
 
     def initial_state(self, implant: str | None = None) -> ViewerState:
-        """The first state: the nearest detected plane (or the middle of the range)."""
+        """Return the first state: the nearest detected plane (or the middle of the range)."""
         lo, hi = self.disparity_range_px
         d = self.planes_px[0] if self.planes_px else 0.5 * (lo + hi)
         return ViewerState(

@@ -262,8 +262,10 @@ def _sha256_source(path: Path) -> str:
 
 
 def source_hashes(src: PairSource) -> dict[str, str]:
-    """Return the sha256 of an object's sources: ``{"wide": ..., "narrow": ...}`` or
-    ``{"lightfield": ...}`` (a folder's hash covers every file's name and sha256).
+    """Return the sha256 of an object's sources.
+
+    ``{"wide": ..., "narrow": ...}`` or ``{"lightfield": ...}`` (a folder's hash covers every file's
+    name and sha256).
 
     Raises
     ------

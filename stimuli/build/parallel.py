@@ -1,5 +1,7 @@
-"""Run one step over every object, on a thread pool or on worker processes / a Dask cluster
-(:class:`stimuli.lfbatch.CapturePool`), reporting progress (build and tune)."""
+"""Run one step over every object, reporting progress (build and tune).
+
+On a thread pool, or on worker processes / a Dask cluster (:class:`stimuli.lfbatch.CapturePool`).
+"""
 
 from __future__ import annotations
 

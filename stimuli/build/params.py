@@ -114,8 +114,10 @@ def parse_edge_ratio(text: str | float | None) -> float | None:
 def _check_choice(
     value: object, choices: tuple[str, ...], name: str, shown: str | None = None
 ) -> None:
-    """Refuse a value outside ``choices``, naming the field and the choices (``shown``, else
-    the tuple as Python writes it)."""
+    """Refuse a value outside ``choices``, naming the field and the choices.
+
+    The choices are named by ``shown``, else by the tuple as Python writes it.
+    """
     if value not in choices:
         raise InputError(
             f"{name} must be one of {choices if shown is None else shown}, got {value!r}"

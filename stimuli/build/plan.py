@@ -124,8 +124,11 @@ def plan_build(
 
 
 def _check_light_field_options(params: BuildParams, inp: PairsInput) -> BuildParams:
-    """Refuse light-field options on photo pairs; resolve ``declutter='auto'`` for a set
-    without light fields to the Sobel mode it applies (so its id and record are unchanged)."""
+    """Refuse light-field options on photo pairs; resolve ``declutter='auto'``.
+
+    ``declutter='auto'`` for a set without light fields resolves to the Sobel mode it applies (so
+    its id and record are unchanged).
+    """
     photos = [s for s in inp.sources if s.lightfield is None]
     if params.declutter == "depth" and photos:
         raise InputError(

@@ -36,8 +36,9 @@ Box = tuple[int, int, int, int]
 
 @dataclass
 class ObjectImages:
-    """One object's images at the working size and what was done to them (mutable: the
-    de-clutter step of :mod:`stimuli.build.edges` fills the edge fields).
+    """One object's images at the working size and what was done to them.
+
+    Mutable: the de-clutter step of :mod:`stimuli.build.edges` fills the edge fields.
 
     Parameters
     ----------
@@ -106,7 +107,7 @@ class ObjectImages:
 
 
 def _cut(image: np.ndarray, box: Box | None) -> np.ndarray:
-    """The box ``(x, y, w, h)`` of an image (a view), or the image itself for ``None``."""
+    """Return the box ``(x, y, w, h)`` of an image (a view), or the image itself for ``None``."""
     if box is None:
         return image
     x, y, w, h = box
@@ -257,8 +258,10 @@ def aspect_pad(
 def _valid_mask(
     shape_px: tuple[int, int], pad: tuple[tuple[int, int], tuple[int, int]], working: tuple
 ) -> np.ndarray:
-    """Working-size pixels wholly inside the image, one pixel in from the padding (the Sobel
-    kernel's reach)."""
+    """Return the working-size pixels wholly inside the image.
+
+    One pixel in from the padding (the Sobel kernel's reach).
+    """
     from scipy.ndimage import binary_erosion
 
     ones = np.pad(np.ones(shape_px, np.float32), pad)

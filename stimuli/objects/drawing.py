@@ -103,8 +103,10 @@ def ellipse(cx: float, cy: float, rx: float, ry: float) -> Shape:
 
 
 def box(cx: float, cy: float, w: float, h: float, r: float = 0.0, angle_deg: float = 0.0) -> Shape:
-    """Return a ``w`` by ``h`` box centred on ``(cx, cy)``, corner radius ``r``, turned by
-    ``angle_deg``."""
+    """Return a ``w`` by ``h`` box centred on ``(cx, cy)``.
+
+    Corner radius ``r``, turned by ``angle_deg``.
+    """
     hw, hh = w / 2.0 - r, h / 2.0 - r
     c, s = math.cos(math.radians(angle_deg)), math.sin(math.radians(angle_deg))
 
