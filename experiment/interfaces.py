@@ -109,7 +109,7 @@ class Responder(Protocol):
     def respond(self, trial: object, image: np.ndarray) -> Answer:
         """Return the answer to ``trial`` shown as ``image``.
 
-        ``trial`` is a :class:`~experiment.session.schedule.Trial`.
+        ``trial`` is a :class:`~experiment.trials.Trial`.
         """
         ...
 

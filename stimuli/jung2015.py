@@ -25,6 +25,11 @@ __all__ = [
     "LF_SIM_RELAY_MINIFICATION",
     "LF_SIM_PIXELS_PER_LENS",
     "HAAR_EDGE_FRACTION",
+    "SCREEN_SHAPE_PX",
+    "VIEWING_DISTANCE_CM",
+    "IMAGE_SIZE_CM",
+    "SCREEN_WIDTH_CM",
+    "BORDER_RGB",
 ]
 
 #: Working size (rows, cols) of the edge images. Source: Sec. 3.1 ("492x327").
@@ -81,3 +86,17 @@ LF_SIM_PIXELS_PER_LENS: int = 10
 
 #: Fraction of each Haar detail sub-band kept as edges in depth-plane detection. Source: Sec. 4.2.
 HAAR_EDGE_FRACTION: float = 0.005
+
+#: Subject's screen (rows, cols), px. Source: Sec. 3.1 (21" CRT, 1280x1024).
+SCREEN_SHAPE_PX: tuple[int, int] = (1024, 1280)
+#: Viewing distance, cm. Source: Sec. 3.1 ("80 cm").
+VIEWING_DISTANCE_CM: float = 80.0
+#: Displayed image size (height, width), cm. Source: Sec. 3.1 ("14.6 x 9.7 cm", i.e.
+#: 10.4 x 6.9 deg at 80 cm).
+IMAGE_SIZE_CM: tuple[float, float] = (9.7, 14.6)
+#: Visible width of the CRT, cm. Ours, not the paper's: the paper gives no width; this value makes
+#: its 492 x 327 px working image exactly 14.6 x 9.7 cm (492 px / 14.6 cm = 33.7 px/cm, and
+#: 1280 px / 33.7 px/cm = 37.98 cm), which is what a 21" CRT's visible width is.
+SCREEN_WIDTH_CM: float = 1280 * 14.6 / 492
+#: Border colour around the image, device RGB 0-255. Source: Sec. 3.1 ("blue").
+BORDER_RGB: tuple[int, int, int] = (0, 0, 255)

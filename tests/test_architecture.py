@@ -368,11 +368,6 @@ EXPERIMENT_KNOT: frozenset[tuple[str, str]] = frozenset(
         ("experiment.session.run_options", "*"),
         ("experiment.presentation.cli", "*"),
         ("experiment.viewer.cli", "*"),
-        # Trial and Schedule, which the trial log writes, live in the session room.
-        ("experiment.log.readers", "experiment.session.schedule"),
-        ("experiment.log.triallog", "experiment.session.schedule"),
-        # The protocol's display takes the paper's screen numbers from the presenter's room.
-        ("experiment.protocol.display", "experiment.presentation.geometry"),
     }
 )
 

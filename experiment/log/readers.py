@@ -13,7 +13,7 @@ from typing import Any
 
 from experiment.log.errors import TrialLogError
 from experiment.log.schema import SCHEDULE_COLUMNS
-from experiment.session.schedule import Schedule, Trial
+from experiment.trials import Schedule, Trial
 
 __all__ = ["LogQueries"]
 

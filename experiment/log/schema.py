@@ -395,7 +395,7 @@ MIGRATIONS += (
     _migration_application_id(6),
 )
 
-#: Columns of the ``schedule`` table a :class:`~experiment.session.schedule.Trial` fills, in order.
+#: Columns of the ``schedule`` table a :class:`~experiment.trials.Trial` fills, in order.
 SCHEDULE_COLUMNS: tuple[str, ...] = (
     "trial_index",
     "part",

@@ -33,7 +33,7 @@ from experiment.log.logfile import check_writable, create_log_file, identify_log
 from experiment.log.readers import LogQueries
 from experiment.log.schema import utc_now
 from experiment.protocol import SCORES
-from experiment.session.schedule import Schedule, Trial
+from experiment.trials import Schedule, Trial
 
 __all__ = ["TrialLog"]
 

@@ -91,9 +91,9 @@ from experiment.observers.base import (
     check_limits,
     response_time_s,
 )
-from experiment.presentation.geometry import PAPER_IMAGE_SIZE_CM, PAPER_VIEWING_DISTANCE_CM
 from experiment.session.scoring import normalize
 from experiment.session.stimset import StimulusSet
+from stimuli.jung2015 import IMAGE_SIZE_CM, VIEWING_DISTANCE_CM
 
 __all__ = [
     "ExemplarParams",
@@ -281,9 +281,9 @@ class ExemplarParams(AnswerParams):
     exemplar_level: int | None = None
     exemplar_condition: str = "decluttered"
     mirror: bool = True
-    image_width_cm: float = PAPER_IMAGE_SIZE_CM[1]
-    image_height_cm: float = PAPER_IMAGE_SIZE_CM[0]
-    viewing_distance_cm: float = PAPER_VIEWING_DISTANCE_CM
+    image_width_cm: float = IMAGE_SIZE_CM[1]
+    image_height_cm: float = IMAGE_SIZE_CM[0]
+    viewing_distance_cm: float = VIEWING_DISTANCE_CM
     samples_per_deg: float = 10.0
     blur_deg: float = 0.1
     cell_deg: float = 0.6

@@ -10,6 +10,8 @@ import math
 from dataclasses import asdict, dataclass
 from typing import Any
 
+from stimuli import jung2015
+
 __all__ = [
     "PAPER_SCREEN_SHAPE_PX",
     "PAPER_VIEWING_DISTANCE_CM",
@@ -19,19 +21,13 @@ __all__ = [
     "ScreenGeometry",
 ]
 
-#: Subject's screen (rows, cols), px. Source: Jung et al. 2015, Sec. 3.1 (21" CRT, 1280x1024).
-PAPER_SCREEN_SHAPE_PX: tuple[int, int] = (1024, 1280)
-#: Viewing distance, cm. Source: Jung et al. 2015, Sec. 3.1 ("80 cm").
-PAPER_VIEWING_DISTANCE_CM: float = 80.0
-#: Displayed image size (height, width) in cm. Source: Jung et al. 2015, Sec. 3.1
-#: ("14.6 x 9.7 cm", i.e. 10.4 x 6.9 deg at 80 cm).
-PAPER_IMAGE_SIZE_CM: tuple[float, float] = (9.7, 14.6)
-#: Visible width of the CRT, cm. Ours, not the paper's: the paper gives no width; this value makes
-#: its 492 x 327 px working image exactly 14.6 x 9.7 cm (492 px / 14.6 cm = 33.7 px/cm, and
-#: 1280 px / 33.7 px/cm = 37.98 cm), which is what a 21" CRT's visible width is.
-PAPER_SCREEN_WIDTH_CM: float = 1280 * 14.6 / 492
-#: Border colour around the image, device RGB 0-255. Source: Jung et al. 2015, Sec. 3.1 ("blue").
-PAPER_BORDER_RGB: tuple[int, int, int] = (0, 0, 255)
+#: The paper's screen (Jung et al. 2015, Sec. 3.1), from :mod:`stimuli.jung2015` where every
+#: number the paper fixes lives; named here as the presenter's defaults.
+PAPER_SCREEN_SHAPE_PX: tuple[int, int] = jung2015.SCREEN_SHAPE_PX
+PAPER_VIEWING_DISTANCE_CM: float = jung2015.VIEWING_DISTANCE_CM
+PAPER_IMAGE_SIZE_CM: tuple[float, float] = jung2015.IMAGE_SIZE_CM
+PAPER_SCREEN_WIDTH_CM: float = jung2015.SCREEN_WIDTH_CM
+PAPER_BORDER_RGB: tuple[int, int, int] = jung2015.BORDER_RGB
 
 
 def _check_rgb(name: str, rgb: Any) -> tuple[int, int, int]:

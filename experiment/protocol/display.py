@@ -8,12 +8,6 @@ from functools import partial
 from pathlib import Path
 from typing import Any
 
-from experiment.presentation.geometry import (
-    PAPER_BORDER_RGB,
-    PAPER_IMAGE_SIZE_CM,
-    PAPER_SCREEN_SHAPE_PX,
-    PAPER_VIEWING_DISTANCE_CM,
-)
 from experiment.protocol.fields import (
     ProtocolError,
     _from_table,
@@ -25,6 +19,7 @@ from experiment.protocol.fields import (
     _type_name,
 )
 from stimuli.implants import ImplantError, ImplantLayout, load_implant
+from stimuli.jung2015 import BORDER_RGB, IMAGE_SIZE_CM, SCREEN_SHAPE_PX, VIEWING_DISTANCE_CM
 
 __all__ = ["DisplaySpec"]
 
@@ -74,16 +69,16 @@ class DisplaySpec(_Spec):
         that resolved the file itself may pass it).
     """
 
-    screen_width_px: int = PAPER_SCREEN_SHAPE_PX[1]
-    screen_height_px: int = PAPER_SCREEN_SHAPE_PX[0]
+    screen_width_px: int = SCREEN_SHAPE_PX[1]
+    screen_height_px: int = SCREEN_SHAPE_PX[0]
     #: Inferred, not stated in the paper: 14.6 cm for the 492 px image means 0.2967 mm per
     #: pixel if it was shown pixel for pixel, so 1280 px span 37.98 cm, the visible width of a
     #: 21-inch CRT. Measure your own monitor.
     screen_width_cm: float = 37.98
-    viewing_distance_cm: float = PAPER_VIEWING_DISTANCE_CM
-    image_width_cm: float = PAPER_IMAGE_SIZE_CM[1]
-    image_height_cm: float = PAPER_IMAGE_SIZE_CM[0]
-    border_rgb: tuple[int, int, int] = PAPER_BORDER_RGB
+    viewing_distance_cm: float = VIEWING_DISTANCE_CM
+    image_width_cm: float = IMAGE_SIZE_CM[1]
+    image_height_cm: float = IMAGE_SIZE_CM[0]
+    border_rgb: tuple[int, int, int] = BORDER_RGB
     border_width_px: int = 6
     background_rgb: tuple[int, int, int] = (0, 0, 0)
     gamma: float = 1.0

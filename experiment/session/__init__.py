@@ -14,8 +14,10 @@ A newcomer's map of this room:
 - :mod:`~experiment.session.status`: the study's status read from its trial log.
 - :mod:`~experiment.session.cli`: ``confocal session run | status | export``.
 
-Import from the modules themselves: the package re-exports nothing, so that the trial log (which
-reads :mod:`~experiment.session.schedule`) can be imported without loading the session engine.
+Import from the modules themselves: the package re-exports nothing, so that importing one module
+does not load the session engine. A schedule's :class:`~experiment.trials.Trial` and
+:class:`~experiment.trials.Schedule` live below this room and the trial log, in
+:mod:`experiment.trials`.
 """
 
 __all__: list[str] = []
