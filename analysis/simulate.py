@@ -95,6 +95,78 @@ class LogisticObserver:
     object_sd: float = 1.0
     lapse: float = 0.0
 
+    @classmethod
+    def from_x50(
+        cls,
+        x50_cluttered_px: float,
+        *,
+        background_or: float = 5.6,
+        log10_pixels_or: float = 74.5,
+        subject_sd: float = 0.5,
+        object_sd: float = 1.0,
+        lapse: float = 0.0,
+    ) -> LogisticObserver:
+        """Return the observer whose cluttered 50 % point (no lapse) is ``x50_cluttered_px``.
+
+        Parameters
+        ----------
+        x50_cluttered_px : float
+            Cluttered 50 % point for an average subject and object, pixels (> 0).
+        background_or, log10_pixels_or, subject_sd, object_sd, lapse : float
+            As in the class.
+
+        Returns
+        -------
+        LogisticObserver
+            With ``intercept = -log(log10_pixels_or) * log10(x50_cluttered_px)``.
+
+        Examples
+        --------
+        >>> obs = LogisticObserver.from_x50(8695.0)
+        >>> round(float(obs.p_recognized(8695.0, False)), 6)
+        0.5
+        """
+        return cls(
+            background_or=background_or,
+            log10_pixels_or=log10_pixels_or,
+            intercept=-float(np.log(log10_pixels_or) * np.log10(x50_cluttered_px)),
+            subject_sd=subject_sd,
+            object_sd=object_sd,
+            lapse=lapse,
+        )
+
+    def p_recognized(
+        self,
+        pixels: np.ndarray | float,
+        decluttered: np.ndarray | bool,
+        subject_effect: np.ndarray | float = 0.0,
+        object_effect: np.ndarray | float = 0.0,
+    ) -> np.ndarray:
+        """Return P(recognised) of trials, lapse included (the one formula of the model).
+
+        Parameters
+        ----------
+        pixels : array_like of float
+            Pixels of each stimulus (> 0).
+        decluttered : array_like of bool
+            Whether each stimulus is de-cluttered (else cluttered).
+        subject_effect, object_effect : array_like of float
+            The trials' random intercepts u and v, log-odds units.
+
+        Returns
+        -------
+        numpy.ndarray
+            ``(1 - lapse) * expit(eta)``, broadcast over the arguments.
+        """
+        eta = (
+            self.intercept
+            + np.log(self.background_or) * np.asarray(decluttered)
+            + np.log(self.log10_pixels_or) * np.log10(np.asarray(pixels, dtype=float))
+            + subject_effect
+            + object_effect
+        )
+        return (1 - self.lapse) * special.expit(eta)
+
 
 def design(
     *,
@@ -243,13 +315,11 @@ def simulate_logistic_trials(
     v = dict(
         zip(d["object"].unique(), obs.object_sd * rng.standard_normal(n_objects), strict=False)
     )
-    eta = (
-        obs.intercept
-        + np.log(obs.background_or) * (d["condition"] == "decluttered").to_numpy()
-        + np.log(obs.log10_pixels_or) * np.log10(d["pixels"].to_numpy())
-        + d["subject"].map(u).to_numpy()
-        + d["object"].map(v).to_numpy()
+    p = obs.p_recognized(
+        d["pixels"].to_numpy(),
+        (d["condition"] == "decluttered").to_numpy(),
+        d["subject"].map(u).to_numpy(),
+        d["object"].map(v).to_numpy(),
     )
-    p = (1 - obs.lapse) * special.expit(eta)
     d["recognized"] = (rng.random(len(d)) < p).astype(int)
     return d

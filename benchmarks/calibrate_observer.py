@@ -15,7 +15,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import subprocess
 import sys
 import tempfile
 import time
@@ -30,6 +29,7 @@ from experiment.observers.calibration import (  # noqa: E402
     PAPER_CLUTTERED_ONSET_PX,
     calibrate,
 )
+from stimuli.software import git_commit  # noqa: E402
 
 __all__ = ["main", "build_sets"]
 
@@ -77,14 +77,6 @@ def build_sets(work: Path, seeds: list[int]) -> list[tuple[Path, list[Path]]]:
             knowledge.append(k)
         out.append((test, knowledge))
     return out
-
-
-def _git_commit() -> str | None:
-    try:
-        r = subprocess.run(["git", "rev-parse", "HEAD"], cwd=REPO, capture_output=True, text=True)
-    except OSError:
-        return None
-    return r.stdout.strip() or None
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -141,7 +133,7 @@ def main(argv: list[str] | None = None) -> int:
         "test": args.seeds,
         "knowledge": [list(range(s + 1, s + 1 + KNOWLEDGE_RENDERINGS)) for s in args.seeds],
     }
-    result["git_commit"] = _git_commit()
+    result["git_commit"] = git_commit(REPO)
     text = json.dumps(result, indent=2) + "\n"
     tmp = args.out.with_name(f".{args.out.name}.tmp")
     tmp.write_text(text, encoding="utf-8")

@@ -41,7 +41,8 @@ from experiment.log import ResumeMismatch, TrialLog
 from experiment.protocol import ProtocolError, ProtocolSpec
 from experiment.session import lifecycle
 from experiment.session.scoring import check_rater, check_score, suggest_score
-from experiment.session.stimset import ObjectInfo
+from stimuli.errors import InputError
+from stimuli.manifest import ObjectInfo, check_object_id
 
 __all__ = ["ActiveSession", "SCENE_OBJECTS", "Scorer", "auto_scorer"]
 
@@ -69,10 +70,26 @@ SCENE_OBJECTS: dict[str, ObjectInfo] = {
 Scorer = Callable[[ActiveTrial, str], tuple[str, str]]
 
 
+def _scene_object(
+    name: str, synonyms: tuple[str, ...] = (), uses: tuple[str, ...] = ()
+) -> ObjectInfo:
+    """Return the record of a scene's object.
+
+    Its id is its name when that is a safe id, else one derived from it (a scene may name an
+    object ``red car``; records' ids are folder-safe).
+    """
+    try:
+        check_object_id(name, where="scene object")
+        object_id = name
+    except InputError:
+        object_id = "scene-" + hashlib.sha256(name.encode()).hexdigest()[:16]
+    return ObjectInfo(object_id, name, synonyms, uses, "main")
+
+
 def _object_info(name: str, objects: dict[str, ObjectInfo] | None = None) -> ObjectInfo:
     if objects and name in objects:
         return objects[name]
-    return SCENE_OBJECTS.get(name, ObjectInfo(name, name, (), (), "main"))
+    return SCENE_OBJECTS.get(name) or _scene_object(name)
 
 
 def auto_scorer(
@@ -217,7 +234,7 @@ class ActiveSession(lifecycle.LoggedSession):
 
     def _learn_words(self, scene: adapter.Scene) -> None:
         for name, (syn, uses) in scene.synonyms.items():
-            self._objects[name] = ObjectInfo(name, name, tuple(syn), tuple(uses), "main")
+            self._objects[name] = _scene_object(name, tuple(syn), tuple(uses))
 
     @property
     def object_infos(self) -> dict[str, ObjectInfo]:

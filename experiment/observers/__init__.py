@@ -70,7 +70,7 @@ __all__ = [
     "ExemplarParams",
     "ExemplarObserver",
     "LogisticParams",
-    "LogisticObserver",
+    "LogisticResponder",
     "TemplateParams",
     "TemplateObserver",
     "OBSERVERS",
@@ -159,8 +159,12 @@ class LogisticParams(AnswerParams):
         return 10 ** (math.log10(self.x50_cluttered_px) - shift)
 
 
-class LogisticObserver(SimulatedObserver):
-    """The ``logistic`` simulated observer (a :class:`~experiment.interfaces.Responder`).
+class LogisticResponder(SimulatedObserver):
+    """The ``logistic`` observer of a session (a :class:`~experiment.interfaces.Responder`).
+
+    The model is :class:`analysis.simulate.LogisticObserver` (the one logistic observer, which
+    also simulates whole trial tables); this class draws its subject and object effects from
+    ``population_seed`` and answers trials with that model's probabilities.
 
     Parameters
     ----------
@@ -178,7 +182,17 @@ class LogisticObserver(SimulatedObserver):
     params_class = LogisticParams
 
     def _prepare(self) -> None:
+        from analysis.simulate import LogisticObserver  # pandas and scipy: only when used
+
         p = self.params
+        self.model = LogisticObserver.from_x50(
+            p.x50_cluttered_px,
+            background_or=p.or_background,
+            log10_pixels_or=p.or_per_log10_px,
+            subject_sd=p.subject_sd,
+            object_sd=p.object_sd,
+            lapse=p.lapse,
+        )
         self.subject_effect = float(
             np.random.default_rng(_stable_seed(p.population_seed, "subject", self.subject)).normal(
                 0.0, p.subject_sd
@@ -195,17 +209,16 @@ class LogisticObserver(SimulatedObserver):
 
     def p_recognized(self, trial: Any) -> float:
         """Return P(recognised) for a trial (condition, pixels, object), lapse included."""
-        p = self.params
         if trial.condition in PHOTO_CONDITIONS:
-            return 1.0 - p.lapse
-        eta = (
-            p.intercept
-            + math.log(p.or_per_log10_px) * math.log10(trial.pixels)
-            + (math.log(p.or_background) if trial.condition == "decluttered" else 0.0)
-            + self.subject_effect
-            + self.object_effects.get(trial.object, 0.0)
+            return 1.0 - self.params.lapse
+        return float(
+            self.model.p_recognized(
+                trial.pixels,
+                trial.condition == "decluttered",
+                self.subject_effect,
+                self.object_effects.get(trial.object, 0.0),
+            )
         )
-        return (1.0 - p.lapse) / (1.0 + math.exp(-eta))
 
     def respond(self, trial: Any, image: np.ndarray) -> Answer:
         """Draw recognised or not, then an answer text and score consistent with it."""
@@ -433,7 +446,7 @@ def _register(name: str, cls: type, params_cls: type) -> None:
     OBSERVERS[name] = factory
 
 
-_register("logistic", LogisticObserver, LogisticParams)
+_register("logistic", LogisticResponder, LogisticParams)
 _register("model", TemplateObserver, TemplateParams)
 _register("exemplar", ExemplarObserver, ExemplarParams)
 _register("calibrated", CalibratedObserver, CalibratedParams)

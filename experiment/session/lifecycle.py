@@ -27,9 +27,7 @@ import json
 import logging
 import platform
 import socket
-import subprocess
 from collections.abc import Callable
-from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -38,6 +36,7 @@ from experiment.clock import Clock
 from experiment.interfaces import ClosesOnExit
 from experiment.log import ResumeMismatch, SessionComplete, TrialLog, TrialLogError
 from experiment.protocol import ProtocolSpec
+from stimuli.software import git_commit
 
 __all__ = [
     "LoggedSession",
@@ -59,19 +58,7 @@ def software_provenance() -> dict[str, str | None]:
         from stimuli import __version__ as version
     except ImportError:  # pragma: no cover - stimuli is part of the same distribution
         version = None
-    commit = None
-    try:
-        out = subprocess.run(
-            ["git", "rev-parse", "HEAD"],
-            cwd=Path(__file__).resolve().parent,
-            capture_output=True,
-            text=True,
-            timeout=5,
-        )
-        if out.returncode == 0:
-            commit = out.stdout.strip() or None
-    except (OSError, subprocess.SubprocessError):
-        commit = None
+    commit = git_commit()
     machine = (
         f"{socket.gethostname()} ({platform.system()} {platform.machine()}, "
         f"Python {platform.python_version()})"

@@ -28,13 +28,14 @@ import csv
 import hashlib
 import json
 from collections.abc import Iterable
-from dataclasses import dataclass, fields
+from dataclasses import fields
 from pathlib import Path
 
 import numpy as np
 
 from experiment.errors import ConfocalError
-from stimuli.manifest import ManifestEntry
+from stimuli.errors import InputError
+from stimuli.manifest import ManifestEntry, ObjectInfo
 from stimuli.tables import unescape_row
 
 __all__ = [
@@ -75,17 +76,6 @@ OBJECT_COLUMNS = ("object", "name", "synonyms", "uses", "role")
 
 class StimulusSetError(ConfocalError):
     """A stimulus set is missing, malformed or does not match its manifest."""
-
-
-@dataclass(frozen=True)
-class ObjectInfo:
-    """One row of ``objects.csv``: an object's id, name, synonyms and uses."""
-
-    object: str
-    name: str
-    synonyms: tuple[str, ...]
-    uses: tuple[str, ...]
-    role: str
 
 
 def _sha256(path: Path) -> str:
@@ -185,13 +175,17 @@ class StimulusSet:
                 )
         objects = {}
         for row in _read_csv(root / "objects.csv", OBJECT_COLUMNS):
-            o = ObjectInfo(
-                object=row["object"].strip(),
-                name=row["name"].strip(),
-                synonyms=_split(row["synonyms"]),
-                uses=_split(row["uses"]),
-                role=row["role"].strip(),
-            )
+            try:
+                o = ObjectInfo(
+                    object=row["object"].strip(),
+                    name=row["name"].strip(),
+                    synonyms=_split(row["synonyms"]),
+                    uses=_split(row["uses"]),
+                    role=row["role"].strip(),
+                )
+            except InputError as exc:  # the record's own check names the column
+                where = str(root / "objects.csv")
+                raise StimulusSetError(str(exc).replace("objects.csv", where, 1)) from None
             objects[o.object] = o
         for r in records:
             if r.object not in objects:

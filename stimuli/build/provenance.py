@@ -7,7 +7,6 @@ object's sources with their sha256, and the implant layouts.
 
 from __future__ import annotations
 
-import subprocess
 from collections.abc import Sequence
 from dataclasses import asdict, dataclass
 from datetime import UTC, datetime
@@ -20,6 +19,7 @@ from stimuli.build.params import BuildParams
 from stimuli.build.plan import BuildPlan
 from stimuli.build.prepare import MIN_KEPT_SHARE, ObjectImages
 from stimuli.io import sha256_file
+from stimuli.software import git_commit
 
 __all__ = [
     "NEARLY_EMPTY_SHARE",
@@ -178,7 +178,7 @@ def set_record(
         "software": {
             "package": "active-confocal",
             "version": _version(),
-            "git_commit": _git_commit(),
+            "git_commit": git_commit(),
         },
         "built_utc": datetime.now(UTC).isoformat(timespec="seconds"),
         "reference": "Jung, Aloni, Yitzhaky & Peli (2015), Vision Research 111, 182-196",
@@ -225,20 +225,6 @@ def _version() -> str:
     from stimuli import __version__
 
     return __version__
-
-
-def _git_commit() -> str | None:
-    try:
-        r = subprocess.run(
-            ["git", "-C", str(Path(__file__).resolve().parent), "rev-parse", "HEAD"],
-            capture_output=True,
-            text=True,
-            timeout=5,
-            check=False,
-        )
-    except (OSError, subprocess.SubprocessError):
-        return None
-    return r.stdout.strip() or None if r.returncode == 0 else None
 
 
 def _summary_dict(s: ObjectSummary) -> dict:

@@ -11,8 +11,8 @@ import pytest
 
 from experiment.observers import (
     OBSERVERS,
-    LogisticObserver,
     LogisticParams,
+    LogisticResponder,
     TemplateObserver,
     TemplateParams,
     make_observer,
@@ -37,7 +37,7 @@ def trial(obj="obj01", condition="cluttered", pixels=8695, level=5):
 
 def test_registry_has_both_observers(small_set):
     assert set(OBSERVERS) >= {"calibrated", "exemplar", "logistic", "model"}
-    assert isinstance(make_observer("logistic", small_set, "S1", rng=0), LogisticObserver)
+    assert isinstance(make_observer("logistic", small_set, "S1", rng=0), LogisticResponder)
     assert isinstance(make_observer("model", small_set, "S1", rng=0), TemplateObserver)
     with pytest.raises(
         ValueError, match="observer must be one of calibrated, exemplar, logistic, model"
