@@ -12,10 +12,12 @@ module         what it does
                data warnings
 ``priors``     the box-and-Beta prior of the sampled parameters and its default
 ``mle``        the maximum-likelihood fit
-``posterior``  emcee sampling chunk by chunk until converged; the sampler constants
+``posterior``  emcee sampling chunk by chunk until converged (the reference sampler); the
+               sampler constants
 ``threshold``  a threshold with its status (measured, censored, unidentified)
 ``summary``    ``WeibullFit``: posterior summaries, thresholds, goodness of fit, warnings
-``batch``      many posteriors sampled together by one vectorised sampler
+``batch``      the sampler every fit runs: many posteriors sampled together, one vectorised
+               ensemble sampler (checked against emcee's in the tests)
 ``fit``        ``fit_weibull`` / ``fit_counts``: data checks, ML fit, then a posterior
 =============  ==================================================================================
 

@@ -1,5 +1,10 @@
 """Many psychometric posteriors sampled at once: one vectorised ensemble sampler for all fits.
 
+This is the sampler every fit runs (:func:`analysis.weibull.fit_counts`, ``confocal analyze fit``
+and the pipeline); :func:`analysis.weibull.sample_posterior` (emcee itself) is the reference it
+is checked against (``tests/analysis/test_sampler_agreement.py``: same posterior quantiles within
+Monte Carlo error).
+
 A study analysis needs a dozen or more small posteriors (per condition, per subject, per group).
 Run one at a time through emcee, each step costs more in Python overhead than in arithmetic. Here
 every fit keeps its own ensemble of walkers, and one step of all ensembles is one NumPy

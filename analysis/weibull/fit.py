@@ -27,7 +27,7 @@ logger = logging.getLogger(__name__)
 
 
 def fit_weibull(x: Any, correct: Any, **options: Any) -> WeibullFit:
-    """Fit a psychometric function to trials: MLE, then an emcee posterior until converged.
+    """Fit a psychometric function to trials: MLE, then a posterior sampled until converged.
 
     Like :func:`fit_counts` (same options, result, errors and warnings), for one row per trial:
     the trials are counted per level (:func:`aggregate`) and fitted.
@@ -64,9 +64,11 @@ def fit_counts(
     max_steps: int = MAX_STEPS,
     rng: np.random.Generator | int | None = None,
 ) -> WeibullFit:
-    """Fit a psychometric function to aggregated counts: MLE, then an emcee posterior.
+    """Fit a psychometric function to aggregated counts: MLE, then a converged posterior.
 
-    The posterior is sampled until converged (see :mod:`analysis.weibull.posterior`).
+    The posterior is sampled by the batch sampler (:func:`analysis.weibull.batch.fit_batch`, the
+    one that every fit runs; emcee's differential-evolution move, vectorised) until the chain
+    is 50 autocorrelation times long, with the constants of :mod:`analysis.weibull.posterior`.
 
     Parameters
     ----------
@@ -85,7 +87,7 @@ def fit_counts(
     overdispersion : bool
         Beta-binomial posterior (free scale eta) instead of binomial.
     n_walkers : int
-        emcee walkers.
+        Walkers of the fit's ensemble (even, >= 8).
     max_steps : int
         Steps per walker after which the fit gives up (``converged = False``).
     rng : numpy.random.Generator or int or None

@@ -5,8 +5,12 @@ Convergence follows emcee's advice: the chain is extended in chunks until it is 
 (:func:`emcee.autocorr.integrated_time`) of the slowest parameter; otherwise the fit reports
 ``converged = False``.
 
-The constants here (walkers, chunk and step limits, samples kept) are shared by the batch sampler
-(:mod:`analysis.weibull.batch`), which samples many posteriors at once.
+The fits do not run this sampler: :func:`analysis.weibull.fit_counts`, ``confocal analyze`` and
+the pipeline sample with the batch sampler (:mod:`analysis.weibull.batch`), which runs emcee's
+differential-evolution move on many posteriors at once. :func:`sample_posterior` is emcee itself,
+kept as the reference: ``tests/analysis/test_sampler_agreement.py`` checks that both give the same
+posterior quantiles within Monte Carlo error. The constants here (walkers, chunk and step
+limits, samples kept) are shared by both.
 """
 
 from __future__ import annotations

@@ -101,30 +101,6 @@ def test_mixed_needs_a_random_effect():
         fit_mixed(d)
 
 
-def test_batch_matches_independent_sampling_of_a_posterior():
-    """Second method: the posterior of a 2-level logistic with lapse 0 fixed is not closed-form,
-    so compare the batch sampler's median threshold with emcee's (analysis.weibull.
-    sample_posterior, stretch-free DE moves of emcee itself) on the same data and prior; their
-    difference must be within 3 Monte Carlo standard errors (about 0.05 log10 units here)."""
-    from analysis.weibull import fit_counts, sample_posterior
-    from analysis.weibull.fit import _finish
-
-    lv = np.geomspace(100, 10000, 6)
-    k, n = np.array([1.0, 4, 12, 21, 27, 28]), np.array([30.0] * 6)
-    ours = fit_counts(lv, k, n, rng=1)
-    prior = default_prior(lv)
-    mle = fit_mle(lv, k, n, prior=prior)
-    last = None
-    for last in sample_posterior(lv, k, n, prior=prior, start=mle, rng=2):  # noqa: B007
-        pass
-    ref = _finish("", "weibull", 0.0, lv, k, n, mle, prior, last)
-    a, b = ours.threshold(0.5), ref.threshold(0.5)
-    assert np.log10(a.median) == pytest.approx(np.log10(b.median), abs=0.02)
-    assert np.log10(a.ci95[1] / a.ci95[0]) == pytest.approx(
-        np.log10(b.ci95[1] / b.ci95[0]), rel=0.15
-    )
-
-
 def test_cluster_interval_matches_statsmodels_cluster_robust_logit():
     """Second method: statsmodels Logit with cov_type='cluster' (one-way, by subject) and the
     delta method for the 50 % point -b0/b1. With the lapse held at 0 our model is that logistic
