@@ -7,6 +7,8 @@ import re
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
+#: Where the project's Python lives (not build output or virtual environments).
+FOLDERS = ("stimuli", "experiment", "analysis", "tests", "benchmarks")
 
 #: A rule citation in a comment or docstring: the letter H and one or two digits, as a word.
 _CITATION = re.compile(r"\bH([0-9]{1,2})\b")
@@ -14,10 +16,9 @@ _CITATION = re.compile(r"\bH([0-9]{1,2})\b")
 
 def _cited_rules() -> dict[int, list[str]]:
     cited: dict[int, list[str]] = {}
-    for path in sorted(ROOT.rglob("*.py")):
+    paths = [p for folder in FOLDERS for p in sorted((ROOT / folder).rglob("*.py"))]
+    for path in paths:
         rel = path.relative_to(ROOT)
-        if rel.parts[0].startswith(".") or "venv" in rel.parts[0]:
-            continue
         for lineno, line in enumerate(path.read_text(encoding="utf-8").splitlines(), 1):
             for m in _CITATION.finditer(line):
                 cited.setdefault(int(m.group(1)), []).append(f"{rel}:{lineno}")
