@@ -57,6 +57,8 @@ def test_session_logistic_observer_answers_with_the_model_probability() -> None:
             assert obs.p_recognized(trial) == pytest.approx(expected, rel=1e-12)
     photo = SimpleNamespace(condition="photo", pixels=96.0, object="o1")
     assert obs.p_recognized(photo) == pytest.approx(1 - params.lapse)
+    # the log's one-line description of the model is still a string (it goes into JSON)
+    assert isinstance(obs.model, str) and "logistic" in obs.model
 
 
 def test_logistic_model_x50_and_odds_ratios() -> None:

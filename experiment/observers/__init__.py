@@ -185,7 +185,7 @@ class LogisticResponder(SimulatedObserver):
         from analysis.simulate import LogisticObserver  # pandas and scipy: only when used
 
         p = self.params
-        self.model = LogisticObserver.from_x50(
+        self._logistic = LogisticObserver.from_x50(
             p.x50_cluttered_px,
             background_or=p.or_background,
             log10_pixels_or=p.or_per_log10_px,
@@ -212,7 +212,7 @@ class LogisticResponder(SimulatedObserver):
         if trial.condition in PHOTO_CONDITIONS:
             return 1.0 - self.params.lapse
         return float(
-            self.model.p_recognized(
+            self._logistic.p_recognized(
                 trial.pixels,
                 trial.condition == "decluttered",
                 self.subject_effect,
