@@ -4,7 +4,9 @@ in-memory trial log saved whole, and a run end to end."""
 from __future__ import annotations
 
 import json
+import shutil
 import sqlite3
+from pathlib import Path
 
 import pytest
 
@@ -165,12 +167,27 @@ def test_no_pooled_knowledge_rendering_may_be_the_test_seed(tmp_path):
         run_demo(tmp_path / "e", seed=2, knowledge_seed=2, observer="exemplar", show_progress=False)
 
 
+@pytest.fixture(scope="module")
+def demo_two_subjects(tmp_path_factory) -> Path:
+    """One ``confocal demo --subjects 2`` (seed 0), shared by the end-to-end checks below: a demo
+    takes minutes on two cores. Written by the command into a fresh folder beside a user's
+    file, which it leaves alone."""
+    root = tmp_path_factory.mktemp("demo")
+    (root / "notes.txt").write_text("mine")
+    with pytest.raises(SystemExit) as exc:
+        cli.main(["demo", "--out", str(root / "d"), "--subjects", "2"])
+    assert exc.value.code in (0, None)
+    assert sorted(p.name for p in root.iterdir()) == ["d", "notes.txt"]
+    assert (root / "notes.txt").read_text() == "mine"
+    return root / "d"
+
+
 @pytest.mark.slow
-def test_demo_logs_and_reports_its_simulated_observers(tmp_path):
+def test_demo_logs_and_reports_its_simulated_observers(demo_two_subjects):
     """Two simulated subjects end to end: each session's observer is in the trial log, none of
     its exemplars is a stimulus, and report.md and demo.json say the data are simulated."""
-    demo = run_demo(tmp_path / "d", n_subjects=2, seed=0, show_progress=False)
-    con = sqlite3.connect(f"file:{demo.paths['data']}?mode=ro", uri=True)
+    out = demo_two_subjects
+    con = sqlite3.connect(f"file:{out / 'study.sqlite'}?mode=ro", uri=True)
     try:
         events = con.execute(
             "SELECT session_id, note FROM events WHERE kind = 'observer' ORDER BY session_id"
@@ -184,10 +201,10 @@ def test_demo_logs_and_reports_its_simulated_observers(tmp_path):
     assert n == 2 * 320 and responders == {"sim:calibrated"}
     assert labels == {(1, "calibrated")}  # the sessions table labels them simulated
     # the calibrated observer knows three renderings of each kind (seeds 1, 2, 3), pooled
-    folders = [str(demo.paths["knowledge"] / f"seed{k}" / "stimuli") for k in (1, 2, 3)]
+    folders = [str(out / "knowledge" / f"seed{k}" / "stimuli") for k in (1, 2, 3)]
     assert all(p["knowledge"] == folders for p in params)
     assert [sid for sid, _ in events] == [1, 2]
-    manifest = (demo.paths["stimuli"] / "manifest.csv").read_text()
+    manifest = (out / "stimuli" / "manifest.csv").read_text()
     for _, note in events:
         d = json.loads(note)
         assert d["observer"] == "calibrated" and d["simulated"] is True
@@ -196,9 +213,9 @@ def test_demo_logs_and_reports_its_simulated_observers(tmp_path):
         assert len(d["knowledge"]["categories"]) == 23
         for e in d["knowledge"]["exemplars"]:
             assert e["file_sha256"] not in manifest
-    report = (demo.paths["report"] / "report.md").read_text()
+    report = (out / "report" / "report.md").read_text()
     assert "## Simulated observers" in report and "8,695 px" in report
-    summary = json.loads((demo.out_dir / "demo.json").read_text())
+    summary = json.loads((out / "demo.json").read_text())
     assert summary["simulated"] is True and summary["knowledge_seed"] == 1
     assert summary["knowledge_seeds"] == [1, 2, 3]
     assert summary["observers"][0]["observer"] == "calibrated"
@@ -206,18 +223,28 @@ def test_demo_logs_and_reports_its_simulated_observers(tmp_path):
 
 @pytest.mark.slow
 def test_demo_runs_twice_into_the_same_folder_and_keeps_a_users_file_beside_it(
-    tmp_path, monkeypatch, capsys
+    demo_two_subjects, tmp_path, monkeypatch, capsys
 ):
-    """`confocal demo` twice in a row (the second with --force) replaces only its own files."""
+    """`confocal demo` into a folder it wrote before: refused without --force, replaced with it
+    (only its own files), refused when a user's file is inside. The earlier run is the shared
+    one, copied here (its manifest holds relative paths only, so the copy is the demo's own)."""
     monkeypatch.chdir(tmp_path)
     (tmp_path / "notes.txt").write_text("mine")
+    shutil.copytree(demo_two_subjects, tmp_path / "d")
     argv = ["demo", "--out", str(tmp_path / "d"), "--subjects", "1"]
-    for extra in ([], ["--force"]):
-        with pytest.raises(SystemExit) as exc:
-            cli.main([*argv, *extra])
-        assert exc.value.code in (0, None), capsys.readouterr().err
+    with pytest.raises(SystemExit) as exc:
+        cli.main(argv)
+    assert exc.value.code == 2 and "--force" in capsys.readouterr().err
+    with pytest.raises(SystemExit) as exc:
+        cli.main([*argv, "--force"])
+    assert exc.value.code in (0, None), capsys.readouterr().err
     assert (tmp_path / "d" / "report" / "report.md").is_file()
     assert sorted(p.name for p in tmp_path.iterdir()) == ["d", "notes.txt"]
+    con = sqlite3.connect(f"file:{tmp_path / 'd' / 'study.sqlite'}?mode=ro", uri=True)
+    try:  # replaced, not added to: the second run's one subject only
+        assert con.execute("SELECT COUNT(*) FROM sessions").fetchone()[0] == 1
+    finally:
+        con.close()
     (tmp_path / "d" / "mine.txt").write_text("mine")
     with pytest.raises(SystemExit) as exc:
         cli.main([*argv, "--force"])
