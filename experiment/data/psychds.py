@@ -77,6 +77,7 @@ __all__ = [
     "SubjectCollision",
     "parse_participant",
     "identifying_reason",
+    "identifying_value",
     "identifying_fields",
     "check_not_identifying",
     "parse_dates",
@@ -594,13 +595,30 @@ def identifying_reason(key: str, value: object) -> str | None:
     words = set(str(key).lower().split("_"))
     if words & _IDENTIFYING_WORDS or any(p in str(key).lower() for p in _IDENTIFYING_PARTS):
         return f"the key {key!r} names a person or a way to reach them"
+    reason = identifying_value(value)
+    return None if reason is None else f"the value of {key!r} {reason}"
+
+
+def identifying_value(value: object) -> str | None:
+    """Return why a text looks identifying (an e-mail, a phone number, a date), or None.
+
+    The value half of :func:`identifying_reason`, used for ``--participant`` values, subject
+    codes (:mod:`experiment.data.subjects`) and the answers an export warns about.
+
+    Examples
+    --------
+    >>> identifying_value("ann@example.org")
+    'has an @ (an e-mail address or handle)'
+    >>> identifying_value("cup") is None
+    True
+    """
     text = str(value)
     if "@" in text:
-        return f"the value of {key!r} has an @ (an e-mail address or handle)"
+        return "has an @ (an e-mail address or handle)"
     if _PHONE_RE.fullmatch(text.strip()) and sum(c.isdigit() for c in text) >= 7:
-        return f"the value of {key!r} looks like a phone number"
+        return "looks like a phone number"
     if _DATE_RE.search(text):
-        return f"the value of {key!r} looks like a date (a date of birth identifies)"
+        return "looks like a date (a date of birth identifies)"
     return None
 
 
