@@ -78,6 +78,9 @@ __all__ = [
     "parse_participant",
     "identifying_reason",
     "identifying_value",
+    "identifying_answer",
+    "OPTIONAL_FILES",
+    "is_optional_file",
     "identifying_fields",
     "check_not_identifying",
     "parse_dates",
@@ -172,6 +175,14 @@ EXPORT_COLUMNS: tuple[str, ...] = tuple(COLUMN_DESCRIPTIONS)
 DATAFILE_RE = re.compile(r"^([a-z]+-[a-zA-Z0-9]+)(_[a-z]+-[a-zA-Z0-9]+)*_data\.csv$")
 
 _KEY_RE = re.compile(r"^[a-z][a-z0-9_]*$")
+_ISO_DAY = re.compile(r"\d{4}-\d{2}-\d{2}")
+#: In a typed answer: an e-mail address, or 7 or more digits of a phone number.
+_EMAIL_IN_TEXT = re.compile(r"[^\s@]+@[^\s@]+\.[^\s@]+")
+_PHONE_IN_TEXT = re.compile(r"(?<![\w.])\+?\d[\d\s().-]{5,}\d(?![\w.])")
+
+#: Psych-DS's optional files at a dataset's top level, which a person may add to an exported
+#: dataset (with or without an extension): kept by every later export, never listed as its own.
+OPTIONAL_FILES: tuple[str, ...] = ("README", "CHANGES", "LICENSE")
 
 #: schema.org/Psych-DS keys this export writes; on re-export these are refreshed, every other
 #: key in an existing dataset_description.json is kept as the person wrote it.
@@ -486,6 +497,14 @@ def export_dataset(
         if sid in by_session:
             files.append((out / "data" / name, _csv_text(by_session[sid], EXPORT_COLUMNS)))
     simulated = [int(s["session_id"]) for s in sessions if s.get("observer")]
+    answers = [  # typed answers leave the lab as they were typed: say which to check
+        f"session {r['session']} trial {r['trial_index']} ({reason})"
+        for r in rows
+        if (reason := identifying_answer(r.get("response"))) is not None
+    ]
+    from experiment.data.subjects import subject_code_problem
+
+    codes = sorted({s["subject"] for s in sessions if subject_code_problem(s["subject"])})
 
     desc_path = out / "dataset_description.json"
     old: dict[str, Any] = {}
@@ -499,7 +518,9 @@ def export_dataset(
             ) from None
         if not isinstance(old, dict):
             raise TrialLogError(f"{desc_path}: existing dataset_description.json is not an object")
-    now = datetime.now(UTC).isoformat(timespec="seconds")
+    # the export's own date follows --dates as the sessions' days do: no time of day, shifted
+    # by the same days, or none at all
+    export_day = _day(datetime.now(UTC).isoformat(), rule) or None
     sim_note = (
         " Simulated sessions (no person answered): "
         + ", ".join(
@@ -524,8 +545,8 @@ def export_dataset(
             + sim_note
         ),
         "schemaVersion": "Psych-DS 1.0.0",
-        "dateCreated": now,
-        "dateModified": now,
+        "dateCreated": export_day,
+        "dateModified": export_day,
         "keywords": ["psychophysics", "object recognition", "visual prosthesis"]
         + (["simulated data"] if simulated else []),
         "variableMeasured": [
@@ -534,9 +555,14 @@ def export_dataset(
         ],
     }
     desc = dict(old)
+    if not _ISO_DAY.fullmatch(str(desc.get("dateCreated", ""))):
+        desc.pop("dateCreated", None)  # a time of day (an older export's): not kept
     for key, value in generated.items():
         if key in _GENERATED_KEYS or key not in desc:
             desc[key] = value
+    if export_day is None:  # --dates none: no date of any kind
+        desc.pop("dateCreated", None)
+        desc.pop("dateModified", None)
     if simulated and "simulated data" not in desc.get("keywords", []):
         desc["keywords"] = [*desc.get("keywords", []), "simulated data"]
     old_vars = [v for v in old.get("variableMeasured", []) if isinstance(v, dict)]
@@ -579,6 +605,8 @@ def export_dataset(
         "simulated_sessions": simulated,
         "identifying_left_out": left_out,
         "undocumented": undocumented,
+        "identifying_answers": answers,
+        "subject_codes_to_check": codes,
     }
 
 
@@ -620,6 +648,44 @@ def identifying_value(value: object) -> str | None:
     if _DATE_RE.search(text):
         return "looks like a date (a date of birth identifies)"
     return None
+
+
+def identifying_answer(text: object) -> str | None:
+    """Return why a typed answer looks identifying (an e-mail address, a phone number), or None.
+
+    Searched anywhere in the text: ``call me on 020 7946 0958`` is found.
+
+    Examples
+    --------
+    >>> identifying_answer("write to ann@example.org")
+    'holds an e-mail address'
+    >>> identifying_answer("a cup") is None
+    True
+    """
+    if not isinstance(text, str) or not text:
+        return None
+    if _EMAIL_IN_TEXT.search(text):
+        return "holds an e-mail address"
+    for m in _PHONE_IN_TEXT.finditer(text):
+        if sum(c.isdigit() for c in m.group()) >= 7:
+            return "holds a phone number"
+    return None
+
+
+def is_optional_file(relpath: str) -> bool:
+    """Return whether ``relpath`` (relative to a dataset) is one of Psych-DS's optional files.
+
+    ``README``, ``CHANGES`` or ``LICENSE`` at the top level, bare or with ``.md``, ``.txt`` or
+    ``.rst``: a person may add them to an exported dataset, and a later export keeps them.
+
+    Examples
+    --------
+    >>> is_optional_file("README.md"), is_optional_file("data/README")
+    (True, False)
+    """
+    name = str(relpath)
+    stem, dot, ext = name.partition(".")
+    return "/" not in name and stem in OPTIONAL_FILES and (not dot or ext in ("md", "txt", "rst"))
 
 
 def identifying_fields(meta: dict[str, object]) -> dict[str, str]:

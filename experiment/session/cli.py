@@ -438,6 +438,21 @@ def export_command(
             f"undocumented participant column(s) {', '.join(info['undocumented'])}: check they "
             "identify nobody before sharing (documentation/participants.json)"
         )
+    if info["identifying_answers"]:
+        found = info["identifying_answers"]
+        typer.echo(
+            f"warning: {len(found)} typed answer(s) look like contact details: "
+            f"{'; '.join(found[:5])}{' ...' if len(found) > 5 else ''}; answers are exported as "
+            "typed: check them before sharing",
+            err=True,
+        )
+    if info["subject_codes_to_check"]:
+        typer.echo(
+            "warning: subject code(s) "
+            f"{', '.join(map(repr, info['subject_codes_to_check']))} break the subject-code "
+            "rule (logged before it was checked): check they name nobody before sharing",
+            err=True,
+        )
 
 
 def register(app: typer.Typer) -> None:
