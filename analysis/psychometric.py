@@ -18,7 +18,8 @@ option      column meaning
 ``--y``     per-trial outcome, 1 = correct (also ``true``/``yes``), 0 = not
 ``--k``     number correct in the row
 ``--n``     number of trials in the row (> 0)
-``--p``     proportion correct in the row (0-1, or 0-100 when any value exceeds 1)
+``--p``     proportion correct in the row (0-1, or 0-100 when any value exceeds 1; a column
+            with values above 1 and fractions between 0 and 1 is refused as mixed)
 ``--group`` comma-separated columns whose value combinations are fitted separately
 =========== ======================================================================
 """
@@ -292,6 +293,14 @@ def counts_by_group(
             p = _numeric(df, spec.p, source, "--p")
             if np.any(p < 0) or np.any(p > 100):
                 raise DataError(f"{source}: --p column {spec.p!r} must be in 0-1 or 0-100")
+            above, inside = p > 1, (p > 0) & (p < 1)
+            if above.any() and inside.any():  # 1.5 among proportions: a typo, not 1.5 %
+                i, j = int(np.flatnonzero(above)[0]), int(np.flatnonzero(inside)[0])
+                raise DataError(
+                    f"{source}: --p column {spec.p!r} mixes proportions and percentages "
+                    f"({p[i]:g} at data row {i + 1} is above 1, {p[j]:g} at data row {j + 1} is "
+                    "a fraction): give proportions in 0-1 or percentages in 0-100"
+                )
             # Percentages when any value exceeds 1; k need not be an integer (rounded percents).
             k = (p / 100.0 if np.any(p > 1) else p) * n
         bad = (k < 0) | (k > n + 1e-9)
