@@ -65,6 +65,8 @@ from datetime import UTC, datetime, timedelta
 from pathlib import Path
 from typing import Any
 
+from experiment.data.identifying import identifying_answer, identifying_value
+from experiment.data.subjects import subject_code_problem
 from experiment.errors import ConfocalError
 from stimuli.tables import table_text, unescape_row
 
@@ -121,10 +123,6 @@ _IDENTIFYING_WORDS = frozenset(
     "birthday birthdate ssn mrn nhs passport".split()
 )
 _IDENTIFYING_PARTS = ("name", "mail", "phone", "address", "street", "postcode", "zipcode", "birth")
-#: A phone number: 7 or more digits with only spaces, dots, dashes, brackets and a leading +.
-_PHONE_RE = re.compile(r"\+?[\d\s().-]{7,}")
-#: A full calendar date (2001-02-03, 3/2/2001, 03.02.01): a date of birth, or a visit date.
-_DATE_RE = re.compile(r"\b(\d{4}[-/.]\d{1,2}[-/.]\d{1,2}|\d{1,2}[-/.]\d{1,2}[-/.]\d{2,4})\b")
 
 #: The data dictionary: every exported column and what it holds (units in the name, H8).
 COLUMN_DESCRIPTIONS: dict[str, str] = {
@@ -176,9 +174,6 @@ DATAFILE_RE = re.compile(r"^([a-z]+-[a-zA-Z0-9]+)(_[a-z]+-[a-zA-Z0-9]+)*_data\.c
 
 _KEY_RE = re.compile(r"^[a-z][a-z0-9_]*$")
 _ISO_DAY = re.compile(r"\d{4}-\d{2}-\d{2}")
-#: In a typed answer: an e-mail address, or 7 or more digits of a phone number.
-_EMAIL_IN_TEXT = re.compile(r"[^\s@]+@[^\s@]+\.[^\s@]+")
-_PHONE_IN_TEXT = re.compile(r"(?<![\w.])\+?\d[\d\s().-]{5,}\d(?![\w.])")
 
 #: Psych-DS's optional files at a dataset's top level, which a person may add to an exported
 #: dataset (with or without an extension): kept by every later export, never listed as its own.
@@ -195,21 +190,30 @@ _DATES_NOTE = {
     "none": "left blank",
 }
 
+#: The trials of every session, from the log's tables (the join of its ``tidy_trials`` view,
+#: written out: a view in the file is never what the export reads).
 _SQL = """
 SELECT s.subject AS subject, t.session_id AS session, t.trial_index AS trial_index,
        p.part AS part, p.block AS block, t.object AS object, p.object_name AS object_name,
        t.condition AS condition, t.level AS level, p.window AS window, t.pixels AS pixels,
-       t.response AS response, v.score AS score, v.rater AS rater, v.recognized AS recognized,
+       t.response AS response, sc.score AS score, sc.rater AS rater, sc.recognized AS recognized,
        t.rt_s AS operator_rt_s, s.started_at AS date, t.recorded_at AS time_s,
        t.refresh_hz AS frame_rate_hz,
        t.onset_s AS onset_s, t.dropped_frames AS dropped_frames, p.path AS stimulus_file,
-       t.stimulus_sha256 AS stimulus_sha256, v.simulated AS simulated, v.observer AS observer,
-       v.viewings AS viewings, v.repeat_viewing AS repeat_viewing,
+       t.stimulus_sha256 AS stimulus_sha256,
+       CASE WHEN s.observer IS NULL THEN 0 ELSE 1 END AS simulated,
+       COALESCE(s.observer, 'human') AS observer,
+       (SELECT count(*) FROM viewings w
+        WHERE w.session_id = t.session_id AND w.trial_index = t.trial_index) AS viewings,
+       (SELECT count(*) > 1 FROM viewings w
+        WHERE w.session_id = t.session_id AND w.trial_index = t.trial_index) AS repeat_viewing,
        a.voice_rt_s AS voice_rt_s, a.path AS audio_file, a.sha256 AS audio_sha256
 FROM trials t
 JOIN sessions s ON s.session_id = t.session_id
 JOIN schedule p ON p.session_id = t.session_id AND p.trial_index = t.trial_index
-JOIN tidy_trials v ON v.session = t.session_id AND v.trial_index = t.trial_index
+JOIN scores sc ON sc.score_id = (
+    SELECT max(q.score_id) FROM scores q
+    WHERE q.session_id = t.session_id AND q.trial_index = t.trial_index AND q.is_primary = 1)
 LEFT JOIN audio a ON a.session_id = t.session_id AND a.trial_index = t.trial_index
 ORDER BY t.session_id, t.trial_index
 """
@@ -502,8 +506,6 @@ def export_dataset(
         for r in rows
         if (reason := identifying_answer(r.get("response"))) is not None
     ]
-    from experiment.data.subjects import subject_code_problem
-
     codes = sorted({s["subject"] for s in sessions if subject_code_problem(s["subject"])})
 
     desc_path = out / "dataset_description.json"
@@ -625,51 +627,6 @@ def identifying_reason(key: str, value: object) -> str | None:
         return f"the key {key!r} names a person or a way to reach them"
     reason = identifying_value(value)
     return None if reason is None else f"the value of {key!r} {reason}"
-
-
-def identifying_value(value: object) -> str | None:
-    """Return why a text looks identifying (an e-mail, a phone number, a date), or None.
-
-    The value half of :func:`identifying_reason`, used for ``--participant`` values, subject
-    codes (:mod:`experiment.data.subjects`) and the answers an export warns about.
-
-    Examples
-    --------
-    >>> identifying_value("ann@example.org")
-    'has an @ (an e-mail address or handle)'
-    >>> identifying_value("cup") is None
-    True
-    """
-    text = str(value)
-    if "@" in text:
-        return "has an @ (an e-mail address or handle)"
-    if _PHONE_RE.fullmatch(text.strip()) and sum(c.isdigit() for c in text) >= 7:
-        return "looks like a phone number"
-    if _DATE_RE.search(text):
-        return "looks like a date (a date of birth identifies)"
-    return None
-
-
-def identifying_answer(text: object) -> str | None:
-    """Return why a typed answer looks identifying (an e-mail address, a phone number), or None.
-
-    Searched anywhere in the text: ``call me on 020 7946 0958`` is found.
-
-    Examples
-    --------
-    >>> identifying_answer("write to ann@example.org")
-    'holds an e-mail address'
-    >>> identifying_answer("a cup") is None
-    True
-    """
-    if not isinstance(text, str) or not text:
-        return None
-    if _EMAIL_IN_TEXT.search(text):
-        return "holds an e-mail address"
-    for m in _PHONE_IN_TEXT.finditer(text):
-        if sum(c.isdigit() for c in m.group()) >= 7:
-            return "holds a phone number"
-    return None
 
 
 def is_optional_file(relpath: str) -> bool:

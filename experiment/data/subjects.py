@@ -10,7 +10,7 @@ as a file-name part. :func:`check_subject_code` refuses, with one line naming ``
 * path characters: ``/``, ``\\`` or ``..``;
 * a space inside the code (a full name such as ``Ann Smith``), or a name-shaped code of
   capitalised words (``Ann_Smith``, ``Ann.Smith``);
-* what ``--participant`` refuses in a value (:func:`experiment.data.psychds.identifying_value`):
+* what ``--participant`` refuses in a value (:func:`experiment.data.identifying.identifying_value`):
   an ``@`` (an e-mail address), a phone number, a full calendar date;
 * a code without a letter or digit (the data file name keeps only letters and digits).
 
@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import re
 
-from experiment.data.psychds import identifying_value
+from experiment.data.identifying import identifying_value
 from experiment.errors import ConfocalError
 from stimuli.resources import MAX_ID_CHARS
 
