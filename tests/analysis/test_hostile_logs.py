@@ -151,6 +151,19 @@ def test_csv_rows_and_bytes_are_bounded(tmp_path, monkeypatch):
         read_trial_file(p)
 
 
+def test_parquet_rows_are_bounded_from_its_footer(tmp_path, monkeypatch):
+    pytest.importorskip("pyarrow")
+    p = tmp_path / "t.parquet"
+    pd.DataFrame(
+        {"subject": ["s1"] * 5, "object": ["1"] * 5, "condition": ["cluttered"] * 5,
+         "pixels": [96] * 5, "recognized": [0] * 5}
+    ).to_parquet(p)  # fmt: skip
+    assert len(read_trial_file(p)[0]) == 5
+    monkeypatch.setattr(data, "MAX_INPUT_ROWS", 4)
+    with pytest.raises(DataError, match=r"t\.parquet: more than 4 rows"):
+        read_trial_file(p)
+
+
 TRIALS = (
     "subject,session,trial_index,object,condition,pixels,recognized\n"
     "s1,1,0,1,cluttered,96,0\n"
