@@ -117,9 +117,7 @@ class WritingCommand:
         A parameter of the command that receives the folder moved aside (``stimuli build``
         refuses a different stimulus set there without ``--force``).
     user_files : callable(relative path) -> bool, optional
-        Files a person may add to the command's own folder (Psych-DS's README, CHANGES and
-        LICENSE in an exported dataset): they do not block the next run and are never listed
-        as the command's.
+        Files a person may add to the own folder (a dataset's README): kept, never the command's.
     """
 
     command: str
@@ -176,8 +174,8 @@ def _demo_name(params: Mapping[str, Any]) -> str:
     return f"demo --{mode}" if mode else "demo"
 
 
-def _psychds_optional(relpath: str) -> bool:
-    from experiment.data.psychds import is_optional_file
+def _dataset_user_file(relpath: str) -> bool:
+    from experiment.data.psychds import is_optional_file  # not at start-up
 
     return is_optional_file(relpath)
 
@@ -215,7 +213,7 @@ WRITING_COMMANDS: tuple[WritingCommand, ...] = (
     ),
     WritingCommand("lightfield synth", "out", kind=_synth_kind, force="force", add_force=True),
     WritingCommand(
-        "session export", "out", ("data",), mode="update-in-place", user_files=_psychds_optional
+        "session export", "out", ("data",), mode="update-in-place", user_files=_dataset_user_file
     ),
     WritingCommand(
         "demo",
@@ -363,7 +361,7 @@ def check_folder(
     flag : str
         The option named in messages.
     user_files : callable(relative path) -> bool, optional
-        Files a person may add to an own folder (:attr:`WritingCommand.user_files`).
+        As :attr:`WritingCommand.user_files`.
 
     Returns
     -------
