@@ -196,14 +196,24 @@ def read_table(path: str | Path) -> pd.DataFrame:
         df = table.trials.astype(str)
         df.attrs["simulated_sessions"] = tuple(table.simulated_sessions)
         return df
+    from analysis.logreader import MAX_INPUT_ROWS, check_input_size
+
+    check_input_size(path)  # one input is bounded, as every trial file is
     try:
         raw = pd.read_csv(
-            path, header=None, dtype=str, keep_default_na=False, skipinitialspace=True
+            path,
+            header=None,
+            dtype=str,
+            keep_default_na=False,
+            skipinitialspace=True,
+            nrows=MAX_INPUT_ROWS + 2,
         )
     except pd.errors.EmptyDataError as exc:
         raise DataError(f"{path}: file is empty") from exc
     except (pd.errors.ParserError, UnicodeDecodeError) as exc:
         raise DataError(f"{path}: not a readable CSV table ({' '.join(str(exc).split())})") from exc
+    if len(raw) > MAX_INPUT_ROWS + 1:
+        raise DataError(f"{path}: more than {MAX_INPUT_ROWS:,} rows, the most one input may have")
     from analysis.tables import unescape_frame
 
     raw = unescape_frame(raw)

@@ -203,3 +203,11 @@ def test_pixels_no_display_can_show_are_refused(tmp_path, value):
     p.write_text(TRIALS.replace("3290", value))
     with pytest.raises(DataError, match=r"t\.csv: column 'pixels' must be at most 1e\+09.*row 3"):
         read_trial_file(p)
+
+
+@pytest.mark.parametrize("value", ["inf", "nan", "0", "-96"])
+def test_pixels_not_positive_or_not_finite_are_refused(tmp_path, value):
+    p = tmp_path / "t.csv"
+    p.write_text(TRIALS.replace("3290", value))
+    with pytest.raises(DataError, match=r"t\.csv: column 'pixels' .*row 3"):
+        read_trial_file(p)

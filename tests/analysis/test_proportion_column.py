@@ -43,3 +43,18 @@ def test_fit_refuses_with_exit_2(tmp_path, capsys):
     err = capsys.readouterr().err.strip().splitlines()
     assert code == 2 and len(err) == 1 and "'p'" in err[0] and "t.csv" in err[0], err
     assert not (tmp_path / "o").exists()
+
+
+def test_fit_tables_are_bounded(tmp_path, monkeypatch):
+    import analysis.logreader as logreader
+    from analysis.psychometric import read_table
+
+    t = tmp_path / "t.csv"
+    t.write_text("x,k,n\n" + "1,2,10\n" * 6)
+    assert len(read_table(t)) == 6
+    monkeypatch.setattr(logreader, "MAX_INPUT_ROWS", 5)
+    with pytest.raises(DataError, match=r"t\.csv: more than 5 rows"):
+        read_table(t)
+    monkeypatch.setattr(logreader, "MAX_INPUT_BYTES", 10)
+    with pytest.raises(DataError, match=r"t\.csv: .* GiB is larger than"):
+        read_table(t)
