@@ -19,7 +19,10 @@ letters, values letters and digits, ending ``_data.csv``); subject codes and stu
 reduced to their letters and digits there (the ``subject`` column keeps the code as logged).
 A second export into the same folder *merges*: keys a person added to
 ``dataset_description.json`` (authors, licence, a better description) are kept, the generated
-ones refreshed; rows of ``participants.tsv`` and data files of other sessions are kept.
+ones refreshed; rows of ``participants.tsv`` and data files of other sessions are kept, and so
+are Psych-DS's optional ``README``, ``CHANGES`` and ``LICENSE`` files a person adds
+(:func:`is_optional_file`). The trials are read from the log's tables (the join of its
+``tidy_trials`` view written out here), never through a view in the file.
 
 What is and is not identifying:
 
@@ -36,10 +39,15 @@ What is and is not identifying:
   start, and ``date`` is the session's day (``--dates day``), that day shifted by a number of
   days the exporter chooses (``--dates shift:N``; the shift itself is written nowhere), or
   blank (``--dates none``). ``sessions.json`` likewise has each session's ``date`` and
-  ``duration_s`` instead of its start and end times.
-* Subject codes are exported as logged: choose codes that name nobody. Two codes that reduce
-  to the same file-name keyword (``S_01``, ``S-01``, ``S01``, ``s01``) are refused, at export
-  and when ``session run`` would add the second to a log.
+  ``duration_s`` instead of its start and end times, and ``dataset_description.json``'s
+  ``dateCreated``/``dateModified`` are the export's day under the same rule (or left out).
+* Subject codes are exported as logged; ``session run`` and ``active run`` accept only codes
+  that follow :mod:`experiment.data.subjects` (no e-mail, phone number, date, name, path or
+  control character). A log's codes from before that rule are named in the export's warning.
+  Two codes that reduce to the same file-name keyword (``S_01``, ``S-01``, ``S01``, ``s01``)
+  are refused, at export and when ``session run`` would add the second to a log.
+* Typed answers are exported as typed; the export names the trials whose answer looks like an
+  e-mail address or a phone number (:func:`identifying_answer`) so that someone checks them.
 * Every text cell of the CSV/TSV files is formula-safe (``stimuli/tables.py``).
 
 Columns of each data file (``COLUMN_DESCRIPTIONS`` is the data dictionary, copied into
@@ -448,7 +456,9 @@ def export_dataset(
     -------
     dict
         ``{"files": [data file paths], "sessions": n, "simulated_sessions": [ids],
-        "identifying_left_out": [keys], "undocumented": [participants.tsv columns]}``.
+        "identifying_left_out": [keys], "undocumented": [participants.tsv columns],
+        "identifying_answers": ["session S trial T (why)"], "subject_codes_to_check":
+        [codes that break the subject-code rule]}``.
 
     Raises
     ------
