@@ -20,6 +20,7 @@ column          dtype     meaning
 ``simulated``   optional  1 if a simulated observer answered (no person), else 0
 ``observer``    optional  the simulated observer's name, or ``human``
 ``rater``       optional  who gave the score (``sim:<observer>`` for a simulated observer)
+``trial_index`` optional  the trial's position in its session's schedule
 ==============  ========  ==========================================================
 
 Simulated and human sessions are not pooled unless asked (``include_simulated=True``,
@@ -32,9 +33,17 @@ columns. A file with none of these columns counts as human data.
 CSV cells that were written formula-safe (a leading ``'`` before ``=``, ``+``, ``-``, ``@``;
 see ``analysis/tables.py``) are read back as the original text.
 
-SQLite files (recognised by their ``SQLite format 3`` header) are read through the engine's
-``tidy_trials`` view, which has the same columns. Nothing here imports the experiment engine
-(house style H1): the schema is the contract.
+SQLite files (recognised by their ``SQLite format 3`` header) are identified as confocal trial
+logs and read from their base tables, never through a view the file brings
+(:mod:`analysis.logreader`); the result has the columns of the engine's ``tidy_trials`` view.
+Nothing here imports the experiment engine (the packages stay independent): the schema is the
+contract.
+
+Hostile or mistaken input is bounded and refused with one line naming the file: more than
+:data:`analysis.logreader.MAX_INPUT_BYTES` on disk or :data:`analysis.logreader.MAX_INPUT_ROWS`
+rows; ``pixels`` that are not a finite number in (0, :data:`MAX_PIXELS`] (no display shows
+more); the same trial twice -- a repeated (subject, session, trial_index), within a file or
+across the files pooled (the same file given twice, say).
 """
 
 from __future__ import annotations
@@ -49,6 +58,13 @@ import numpy as np
 import pandas as pd
 
 from analysis.errors import DataError
+from analysis.logreader import (
+    MAX_INPUT_BYTES,
+    MAX_INPUT_ROWS,
+    check_input_size,
+    open_log,
+    read_log_trials,
+)
 from analysis.tables import unescape_frame
 
 __all__ = [
@@ -56,6 +72,7 @@ __all__ = [
     "OPTIONAL_COLUMNS",
     "SIMULATED_RATER_PREFIX",
     "CONDITIONS",
+    "MAX_PIXELS",
     "TrialTable",
     "read_trial_file",
     "read_trials",
@@ -78,6 +95,7 @@ OPTIONAL_COLUMNS: tuple[str, ...] = (
     "simulated",
     "observer",
     "rater",
+    "trial_index",
 )
 #: Rater names that mark a simulated observer's score (``sim:<observer>``, the engine's
 #: responder name for a headless session).
@@ -85,6 +103,9 @@ SIMULATED_RATER_PREFIX = "sim:"
 #: Background conditions, reference first. Source: Jung et al. 2015, Sec. 3.2.2 (reference:
 #: background cluttered).
 CONDITIONS: tuple[str, str] = ("cluttered", "decluttered")
+#: Most pixels a stimulus can have (ours: a gigapixel, 7.5 times a 16K display's 15360 x 8640;
+#: a larger value is a typo or a hostile file, and would stretch every fitted pixel axis).
+MAX_PIXELS: float = 1e9
 
 _SQLITE_MAGIC = b"SQLite format 3\x00"
 _PARQUET_MAGIC = b"PAR1"
@@ -127,21 +148,56 @@ def _read_raw(path: Path) -> pd.DataFrame:
         raise DataError(f"{path}: file is empty (no trials)")
     head = _magic(path)
     if head.startswith(_SQLITE_MAGIC):
-        return _read_sqlite(path)
+        # identified as a trial log, then read from its base tables, never through a view the
+        # file brings (a view may recurse without end), within bounds
+        return read_log_trials(path)
+    check_input_size(path)
     if head.startswith(_PARQUET_MAGIC) or path.suffix.lower() in (".parquet", ".pq"):
-        try:
-            return pd.read_parquet(path)
-        except ImportError as exc:
-            raise DataError(f"{path}: reading Parquet needs pyarrow ({exc})") from exc
-        except Exception as exc:  # noqa: BLE001 - any parser failure is a data error here
-            raise DataError(f"{path}: not a readable Parquet file ({_line(exc)})") from exc
+        return _read_parquet(path)
     try:
-        raw = pd.read_csv(path, dtype=str, keep_default_na=False, skipinitialspace=True)
+        raw = pd.read_csv(
+            path,
+            dtype=str,
+            keep_default_na=False,
+            skipinitialspace=True,
+            nrows=MAX_INPUT_ROWS + 1,
+        )
     except pd.errors.EmptyDataError as exc:
         raise DataError(f"{path}: file is empty (no trials)") from exc
     except (pd.errors.ParserError, UnicodeDecodeError) as exc:
         raise DataError(f"{path}: not a readable CSV trial table ({_line(exc)})") from exc
+    _check_rows(path, len(raw))
     return unescape_frame(raw)
+
+
+def _check_rows(path: Path, n: int) -> None:
+    if n > MAX_INPUT_ROWS:
+        raise DataError(
+            f"{path}: more than {MAX_INPUT_ROWS:,} rows, the most one input may have; split the "
+            "trials into several files"
+        )
+
+
+def _read_parquet(path: Path) -> pd.DataFrame:
+    """Read a Parquet trial table after checking its footer: rows and unpacked size bounded."""
+    try:
+        import pyarrow.parquet as pq
+    except ImportError as exc:
+        raise DataError(f"{path}: reading Parquet needs pyarrow ({exc})") from exc
+    try:
+        meta = pq.read_metadata(path)
+        _check_rows(path, meta.num_rows)
+        unpacked = sum(meta.row_group(i).total_byte_size for i in range(meta.num_row_groups))
+        if unpacked > MAX_INPUT_BYTES:
+            raise DataError(
+                f"{path}: unpacks to {unpacked / 2**30:.1f} GiB, more than the "
+                f"{MAX_INPUT_BYTES / 2**30:g} GiB an input may be"
+            )
+        return pd.read_parquet(path)
+    except DataError:
+        raise
+    except Exception as exc:  # noqa: BLE001 - any parser failure is a data error here
+        raise DataError(f"{path}: not a readable Parquet file ({_line(exc)})") from exc
 
 
 def _line(exc: BaseException) -> str:
@@ -149,38 +205,13 @@ def _line(exc: BaseException) -> str:
 
 
 def connect_readonly(path: Path) -> sqlite3.Connection:
-    """Open an SQLite trial log read-only, leaving nothing beside it.
+    """Open an SQLite trial log read-only, leaving nothing beside it, trusting nothing in it.
 
     Without a ``-wal`` file no writer has the log open, and it is opened ``immutable``
-    (``mode=ro`` alone would create ``-wal``/``-shm`` files beside a WAL-mode log).
+    (``mode=ro`` alone would create ``-wal``/``-shm`` files beside a WAL-mode log); the
+    connection is bounded as :func:`analysis.logreader.open_log` says.
     """
-    uri = f"{path.resolve().as_uri()}?mode=ro"
-    if not Path(f"{path}-wal").exists():
-        uri += "&immutable=1"
-    try:
-        return sqlite3.connect(uri, uri=True)
-    except sqlite3.Error as exc:
-        raise DataError(f"{path}: cannot open SQLite file ({_line(exc)})") from exc
-
-
-def _read_sqlite(path: Path) -> pd.DataFrame:
-    con = connect_readonly(path)
-    try:
-        names = {
-            r[0]
-            for r in con.execute(
-                "SELECT name FROM sqlite_master WHERE type IN ('view', 'table')"
-            ).fetchall()
-        }
-        if "tidy_trials" not in names:
-            raise DataError(
-                f"{path}: not a confocal trial log (SQLite file without a 'tidy_trials' view)"
-            )
-        return pd.read_sql_query("SELECT * FROM tidy_trials", con)
-    except sqlite3.DatabaseError as exc:
-        raise DataError(f"{path}: cannot read SQLite trial log ({_line(exc)})") from exc
-    finally:
-        con.close()
+    return open_log(path)
 
 
 def _blank(s: pd.Series) -> pd.Series:
@@ -211,8 +242,9 @@ def check_trials(df: pd.DataFrame, source: str) -> pd.DataFrame:
     Raises
     ------
     DataError
-        Missing columns, no rows, missing values, non-numeric or non-positive pixels,
-        ``recognized`` not 0/1, or an unknown condition; the message names file, column and row.
+        Missing columns, no rows, missing values, non-numeric, non-positive or more than
+        :data:`MAX_PIXELS` pixels, ``recognized`` not 0/1, or an unknown condition; the message
+        names file, column and row.
     """
     df = df.copy()
     df.columns = [str(c).strip() for c in df.columns]
@@ -251,6 +283,11 @@ def check_trials(df: pd.DataFrame, source: str) -> pd.DataFrame:
     if (pixels <= 0).any():
         raise DataError(
             f"{source}: column 'pixels' must be > 0, got {_first_bad(pixels <= 0, df, 'pixels')}"
+        )
+    if (pixels > MAX_PIXELS).any():
+        raise DataError(
+            f"{source}: column 'pixels' must be at most {MAX_PIXELS:.0e} (no display shows "
+            f"more), got {_first_bad(pixels > MAX_PIXELS, df, 'pixels')}"
         )
     rec = pd.to_numeric(df["recognized"].map(_bool_word), errors="coerce")
     bad = rec.isna() | ~rec.isin([0, 1])
@@ -394,6 +431,13 @@ def read_trials(paths: Iterable[str | Path], *, include_simulated: bool = False)
     paths = [Path(p) for p in paths]
     if not paths:
         raise DataError("no trial files given")
+    seen: dict[Path, Path] = {}
+    for p in paths:
+        if p.resolve() in seen:
+            raise DataError(
+                f"{p}: given twice (as {seen[p.resolve()]} too); each file may be analysed once"
+            )
+        seen[p.resolve()] = p
     frames, dropped, simulated, human = [], 0, [], []
     for p in paths:
         df, d = read_trial_file(p)
@@ -407,7 +451,29 @@ def read_trials(paths: Iterable[str | Path], *, include_simulated: bool = False)
             f"session(s) {'; '.join(human)}: analyse them apart, or pass --include-simulated"
         )
     trials = pd.concat(frames, ignore_index=True)
+    _check_no_repeats(trials)
     return TrialTable(trials, tuple(str(p) for p in paths), dropped, tuple(simulated))
+
+
+def _check_no_repeats(trials: pd.DataFrame) -> None:
+    """Refuse the same trial twice: a repeated (subject, session, trial_index), within a file or
+    across files (a file given twice would count every trial twice)."""
+    key = [c for c in ("subject", "session", "trial_index") if c in trials.columns]
+    if "trial_index" not in key:
+        return  # a table without trial numbers: repeated conditions are not repeated trials
+    numbered = trials.dropna(subset=key)  # rows of a table without these columns: not checked
+    k = numbered[key].astype(str)
+    dup = k.duplicated(keep=False)
+    if not dup.any():
+        return
+    first = k[dup].iloc[0]
+    same = numbered[(k == first).all(axis=1)]
+    files = list(dict.fromkeys(same["source"]))
+    what = ", ".join(f"{c} {first[c]}" for c in key)
+    raise DataError(
+        f"{files[0]}: the same trial ({what}) appears {len(same)} times, in "
+        f"{' and '.join(files)}; each trial may be analysed once"
+    )
 
 
 def file_record(path: str | Path) -> dict[str, str | None]:

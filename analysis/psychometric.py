@@ -18,7 +18,8 @@ option      column meaning
 ``--y``     per-trial outcome, 1 = correct (also ``true``/``yes``), 0 = not
 ``--k``     number correct in the row
 ``--n``     number of trials in the row (> 0)
-``--p``     proportion correct in the row (0-1, or 0-100 when any value exceeds 1)
+``--p``     proportion correct in the row (0-1, or 0-100 when any value exceeds 1; a column
+            with values above 1 and fractions between 0 and 1 is refused as mixed)
 ``--group`` comma-separated columns whose value combinations are fitted separately
 =========== ======================================================================
 """
@@ -195,14 +196,24 @@ def read_table(path: str | Path) -> pd.DataFrame:
         df = table.trials.astype(str)
         df.attrs["simulated_sessions"] = tuple(table.simulated_sessions)
         return df
+    from analysis.logreader import MAX_INPUT_ROWS, check_input_size
+
+    check_input_size(path)  # one input is bounded, as every trial file is
     try:
         raw = pd.read_csv(
-            path, header=None, dtype=str, keep_default_na=False, skipinitialspace=True
+            path,
+            header=None,
+            dtype=str,
+            keep_default_na=False,
+            skipinitialspace=True,
+            nrows=MAX_INPUT_ROWS + 2,
         )
     except pd.errors.EmptyDataError as exc:
         raise DataError(f"{path}: file is empty") from exc
     except (pd.errors.ParserError, UnicodeDecodeError) as exc:
         raise DataError(f"{path}: not a readable CSV table ({' '.join(str(exc).split())})") from exc
+    if len(raw) > MAX_INPUT_ROWS + 1:
+        raise DataError(f"{path}: more than {MAX_INPUT_ROWS:,} rows, the most one input may have")
     from analysis.tables import unescape_frame
 
     raw = unescape_frame(raw)
@@ -292,6 +303,14 @@ def counts_by_group(
             p = _numeric(df, spec.p, source, "--p")
             if np.any(p < 0) or np.any(p > 100):
                 raise DataError(f"{source}: --p column {spec.p!r} must be in 0-1 or 0-100")
+            above, inside = p > 1, (p > 0) & (p < 1)
+            if above.any() and inside.any():  # 1.5 among proportions: a typo, not 1.5 %
+                i, j = int(np.flatnonzero(above)[0]), int(np.flatnonzero(inside)[0])
+                raise DataError(
+                    f"{source}: --p column {spec.p!r} mixes proportions and percentages "
+                    f"({p[i]:g} at data row {i + 1} is above 1, {p[j]:g} at data row {j + 1} is "
+                    "a fraction): give proportions in 0-1 or percentages in 0-100"
+                )
             # Percentages when any value exceeds 1; k need not be an integer (rounded percents).
             k = (p / 100.0 if np.any(p > 1) else p) * n
         bad = (k < 0) | (k > n + 1e-9)

@@ -2,9 +2,11 @@
 
 A text cell beginning with ``=``, ``+``, ``-``, ``@``, a tab or a carriage return that is not a
 plain decimal number is written with a leading single quote, so a spreadsheet shows it as text
-(OWASP "CSV injection"); reading takes the quote off again. The analysis package may not import
-``stimuli`` (house style H1), so the two functions live here too; ``tests/test_tables.py``
-checks that both copies agree.
+(OWASP "CSV injection"); so is such a trigger right after a separator inside the cell (``;``,
+``,``, a tab or ``|``: ``cup;=1+1`` is written ``cup;'=1+1``), because a spreadsheet whose list
+separator is ``;`` splits the cell there. Reading takes the quotes off again. The analysis
+package may not import ``stimuli`` (the packages stay independent), so the two functions live
+here too; ``tests/test_tables.py`` checks both copies against one table of cases.
 """
 
 from __future__ import annotations
@@ -18,6 +20,7 @@ import pandas as pd
 
 __all__ = [
     "FORMULA_TRIGGERS",
+    "SEPARATORS",
     "escape_cell",
     "unescape_cell",
     "escape_frame",
@@ -28,8 +31,19 @@ __all__ = [
 #: First characters that make a spreadsheet read a cell as a formula (OWASP, "CSV Injection").
 FORMULA_TRIGGERS: str = "=+-@\t\r"
 
+#: Characters after which a spreadsheet may begin a new cell: its list separator (``;`` under
+#: German or French settings, ``,``), a tab, or ``|`` (a common choice in import dialogs).
+SEPARATORS: str = ";,\t|"
+
 _NUMBER = re.compile(r"[+-]?(?:\d+(?:\.\d*)?|\.\d+)(?:[eE][+-]?\d+)?")
 _ESCAPED = re.compile(r"'+[" + re.escape(FORMULA_TRIGGERS) + "]", re.S)
+_TRIGGERED = re.compile(r"'*[" + re.escape(FORMULA_TRIGGERS) + "]", re.S)
+_ANY_TRIGGER = re.compile("[" + re.escape(FORMULA_TRIGGERS) + "]")
+
+
+def _cell_starts(value: str) -> list[int]:
+    """Where a spreadsheet may begin a cell in ``value``: 0 and after each separator."""
+    return [0] + [i + 1 for i, c in enumerate(value) if c in SEPARATORS and i + 1 < len(value)]
 
 
 def escape_cell(value: Any) -> Any:
@@ -40,20 +54,28 @@ def escape_cell(value: Any) -> Any:
     >>> escape_cell("=1+1"), escape_cell("-1.5")
     ("'=1+1", '-1.5')
     """
-    if not isinstance(value, str) or not value:
+    if not isinstance(value, str) or not _ANY_TRIGGER.search(value):
         return value
-    if value[0] in FORMULA_TRIGGERS and not _NUMBER.fullmatch(value):
-        return "'" + value
-    if _ESCAPED.match(value):
-        return "'" + value
-    return value
+    parts, last = [], 0
+    for p in _cell_starts(value):
+        m = _TRIGGERED.match(value, p)
+        if m is None or (m.end() - p == 1 and _NUMBER.fullmatch(value, p)):
+            continue  # no trigger here, or a plain number to the end of the cell
+        parts += [value[last:p], "'"]
+        last = p
+    return "".join(parts) + value[last:] if parts else value
 
 
 def unescape_cell(value: Any) -> Any:
     """Return the value :func:`escape_cell` was given (inverse of it); non-text as is."""
-    if isinstance(value, str) and _ESCAPED.match(value):
-        return value[1:]
-    return value
+    if not isinstance(value, str) or "'" not in value:
+        return value
+    parts, last = [], 0
+    for p in _cell_starts(value):
+        if _ESCAPED.match(value, p):
+            parts.append(value[last:p])
+            last = p + 1
+    return "".join(parts) + value[last:] if parts else value
 
 
 def escape_frame(df: pd.DataFrame) -> pd.DataFrame:
@@ -72,9 +94,9 @@ def unescape_frame(df: pd.DataFrame) -> pd.DataFrame:
     for col in out.columns:
         s = out[col]
         if s.dtype == object or pd.api.types.is_string_dtype(s):
-            mask = s.str.match(_ESCAPED, na=False)
+            mask = s.str.contains("'", regex=False, na=False)
             if mask.any():
-                out[col] = s.where(~mask, s[mask].str[1:])
+                out[col] = s.where(~mask, s[mask].map(unescape_cell))
     out.columns = [unescape_cell(c) if isinstance(c, str) else c for c in out.columns]
     return out
 

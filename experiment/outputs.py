@@ -116,6 +116,8 @@ class WritingCommand:
     passes_aside : str or None
         A parameter of the command that receives the folder moved aside (``stimuli build``
         refuses a different stimulus set there without ``--force``).
+    user_files : callable(relative path) -> bool, optional
+        Files a person may add to the own folder (a dataset's README): kept, never the command's.
     """
 
     command: str
@@ -130,6 +132,7 @@ class WritingCommand:
     default_is_own: bool = False
     name: Callable[[Mapping[str, Any]], str] | None = None
     passes_aside: str | None = None
+    user_files: Callable[[str], bool] | None = None
 
     def kind_of(self, params: Mapping[str, Any]) -> Kind:
         """Return ``'folder'`` or ``'file'`` for these parameters."""
@@ -171,6 +174,12 @@ def _demo_name(params: Mapping[str, Any]) -> str:
     return f"demo --{mode}" if mode else "demo"
 
 
+def _dataset_user_file(relpath: str) -> bool:
+    from experiment.data.psychds import is_optional_file  # not at start-up
+
+    return is_optional_file(relpath)
+
+
 def _tune_sheet(params: Mapping[str, Any]) -> Path:
     if params.get("sheet") is not None:
         return Path(params["sheet"])
@@ -203,7 +212,9 @@ WRITING_COMMANDS: tuple[WritingCommand, ...] = (
         "lightfield refocus", "out", ("lightfield",), kind=_stack, force="force", add_force=True
     ),
     WritingCommand("lightfield synth", "out", kind=_synth_kind, force="force", add_force=True),
-    WritingCommand("session export", "out", ("data",), mode="update-in-place"),
+    WritingCommand(
+        "session export", "out", ("data",), mode="update-in-place", user_files=_dataset_user_file
+    ),
     WritingCommand(
         "demo",
         "out",
@@ -329,6 +340,7 @@ def check_folder(
     force: bool = False,
     needs_force: bool = False,
     flag: str = "--out",
+    user_files: Callable[[str], bool] | None = None,
 ) -> State:
     """Check an output folder against the contract; return what it is now.
 
@@ -348,6 +360,8 @@ def check_folder(
         Replacing an own folder needs ``force``.
     flag : str
         The option named in messages.
+    user_files : callable(relative path) -> bool, optional
+        As :attr:`WritingCommand.user_files`.
 
     Returns
     -------
@@ -405,7 +419,7 @@ def check_folder(
             "choose a new or empty folder",
         )
     own = {str(f) for f in manifest["files"]}
-    foreign = [f for f in files if f not in own]
+    foreign = [f for f in files if f not in own and not (user_files and user_files(f))]
     if foreign:
         raise _refuse(
             flag,
@@ -609,6 +623,7 @@ class _Output:
             force=self.force,
             needs_force=self.spec.folder_needs_force,
             flag=self.flag,
+            user_files=self.spec.user_files,
         )
         if self.spec.mode == "update-in-place" and self.state != "new":
             self.before = folder_files(self.path)
@@ -652,6 +667,8 @@ class _Output:
                 files = set(manifest["files"]) | set(folder_files(out))
             else:
                 files = set(folder_files(out))
+            if self.spec.user_files is not None:  # a person's README is never the command's
+                files = {f for f in files if not self.spec.user_files(f)}
             write_manifest(out, self.spec.name_of(self.params), files)
             if self.aside is not None:
                 shutil.rmtree(self.aside, ignore_errors=True)

@@ -83,6 +83,14 @@ def _read_toml(path: Path) -> dict:
             return tomllib.load(f)
     except tomllib.TOMLDecodeError as exc:
         raise InputError(f"{path}: not valid TOML ({exc})") from None
+    except UnicodeDecodeError as exc:  # TOML is UTF-8; a Latin-1 or UTF-16 file is not
+        bad = exc.object[exc.start : exc.start + 1]
+        raise InputError(
+            f"{path}: not valid TOML (not UTF-8 text: byte {exc.start} is {bad!r}); save it as "
+            "UTF-8"
+        ) from None
+    except OSError as exc:
+        raise InputError(f"{path}: cannot read ({exc.strerror or exc})") from None
     except RecursionError:  # tomllib parses nested tables and arrays recursively
         raise InputError(f"{path}: not valid TOML (tables or arrays nested too deeply)") from None
 

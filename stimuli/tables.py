@@ -4,12 +4,16 @@ A text cell that begins with ``=``, ``+``, ``-``, ``@``, a tab or a carriage ret
 to Excel, LibreOffice and Google Sheets (``=HYPERLINK("http://...","cup")`` as an object name
 would become a live link in everyone's copy of the data). Such a cell is written with a leading
 single quote, which spreadsheets show as text (the OWASP "CSV injection" rule); a cell that is a
-plain decimal number (``-1.5``, ``+3``, ``1e-3``) is left alone. The project's readers take the
-quote off again, so a value read back is the value written. A text that itself begins with
-quotes before one of those characters gets one more quote, so the round trip is exact.
+plain decimal number (``-1.5``, ``+3``, ``1e-3``) is left alone. The same holds after each
+separator inside a cell (:data:`SEPARATORS`: ``;``, ``,``, a tab, ``|``): a spreadsheet whose
+list separator is ``;`` (German or French settings) splits ``cup;=1+1`` into ``cup`` and a
+formula, so it is written ``cup;'=1+1``. The project's readers take the quotes off again, so a
+value read back is the value written. A text that itself has quotes before one of those
+characters (at its start or after a separator) gets one more quote, so the round trip is exact.
 
 ``analysis/tables.py`` holds the same two functions for the analysis package, which may not
-import this one (house style H1); ``tests/test_tables.py`` checks that the two agree.
+import this one (the packages stay independent); ``tests/test_tables.py`` checks both copies
+against one table of cases.
 """
 
 from __future__ import annotations
@@ -24,6 +28,7 @@ from typing import Any
 
 __all__ = [
     "FORMULA_TRIGGERS",
+    "SEPARATORS",
     "escape_cell",
     "unescape_cell",
     "unescape_row",
@@ -34,8 +39,19 @@ __all__ = [
 #: First characters that make a spreadsheet read a cell as a formula (OWASP, "CSV Injection").
 FORMULA_TRIGGERS: str = "=+-@\t\r"
 
+#: Characters after which a spreadsheet may begin a new cell: its list separator (``;`` under
+#: German or French settings, ``,``), a tab, or ``|`` (a common choice in import dialogs).
+SEPARATORS: str = ";,\t|"
+
 _NUMBER = re.compile(r"[+-]?(?:\d+(?:\.\d*)?|\.\d+)(?:[eE][+-]?\d+)?")
 _ESCAPED = re.compile(r"'+[" + re.escape(FORMULA_TRIGGERS) + "]", re.S)
+_TRIGGERED = re.compile(r"'*[" + re.escape(FORMULA_TRIGGERS) + "]", re.S)
+_ANY_TRIGGER = re.compile("[" + re.escape(FORMULA_TRIGGERS) + "]")
+
+
+def _cell_starts(value: str) -> list[int]:
+    """Where a spreadsheet may begin a cell in ``value``: 0 and after each separator."""
+    return [0] + [i + 1 for i, c in enumerate(value) if c in SEPARATORS and i + 1 < len(value)]
 
 
 def escape_cell(value: Any) -> Any:
@@ -48,13 +64,16 @@ def escape_cell(value: Any) -> Any:
     >>> escape_cell("-1.5"), escape_cell("cup")
     ('-1.5', 'cup')
     """
-    if not isinstance(value, str) or not value:
+    if not isinstance(value, str) or not _ANY_TRIGGER.search(value):
         return value
-    if value[0] in FORMULA_TRIGGERS and not _NUMBER.fullmatch(value):
-        return "'" + value
-    if _ESCAPED.match(value):
-        return "'" + value
-    return value
+    parts, last = [], 0
+    for p in _cell_starts(value):
+        m = _TRIGGERED.match(value, p)
+        if m is None or (m.end() - p == 1 and _NUMBER.fullmatch(value, p)):
+            continue  # no trigger here, or a plain number to the end of the cell
+        parts += [value[last:p], "'"]
+        last = p
+    return "".join(parts) + value[last:] if parts else value
 
 
 def unescape_cell(value: Any) -> Any:
@@ -65,9 +84,14 @@ def unescape_cell(value: Any) -> Any:
     >>> unescape_cell("'=1+1"), unescape_cell("'quoted")
     ('=1+1', "'quoted")
     """
-    if isinstance(value, str) and _ESCAPED.match(value):
-        return value[1:]
-    return value
+    if not isinstance(value, str) or "'" not in value:
+        return value
+    parts, last = [], 0
+    for p in _cell_starts(value):
+        if _ESCAPED.match(value, p):
+            parts.append(value[last:p])
+            last = p + 1
+    return "".join(parts) + value[last:] if parts else value
 
 
 def unescape_row(row: Mapping[str, Any]) -> dict[str, Any]:

@@ -19,18 +19,55 @@ from hypothesis import strategies as st
 import analysis.tables as at
 import stimuli.tables as stt
 
-#: Text that often starts with a trigger or with quotes before one.
+#: Text that often starts with a trigger or with quotes before one, and has separators inside.
+_PIECES = st.sampled_from(
+    ["=", "+", "-", "@", "\t", "\r", "'", "''", "'=", ";", ",", "|", "1", "a"]
+)
 CELLS = st.one_of(
     st.text(),
-    st.builds(
-        lambda a, b: a + b,
-        st.sampled_from(["=", "+", "-", "@", "\t", "\r", "'", "''", "'="]),
-        st.text(),
-    ),
+    st.builds(lambda a, b: a + b, _PIECES, st.text()),
+    st.lists(st.one_of(_PIECES, st.text(max_size=3)), max_size=12).map("".join),
     # fmt: skip
 )
 
 HOSTILE = ['=HYPERLINK("http://x","cup")', "+1+cmd", "-2+3", "@SUM(A1)", "\tx", "\rx", "'=x"]
+
+#: One table of cases for both copies of the rule: (text, as written). A trigger after a
+#: separator (``;``, ``,``, tab, ``|``) inside a cell is escaped too: a spreadsheet whose list
+#: separator is ``;`` splits ``cup;=1+1`` into ``cup`` and a live formula.
+CASES = [
+    ("cup", "cup"),
+    ("=1+1", "'=1+1"),
+    ("-1.5", "-1.5"),
+    ("+3", "+3"),
+    ("cup;=1+1", "cup;'=1+1"),
+    ("cup,=1+1", "cup,'=1+1"),
+    ("cup\t=1+1", "cup\t'=1+1"),
+    ("cup|=1+1", "cup|'=1+1"),
+    ("a;+cmd|calc", "a;'+cmd|calc"),
+    ("a;@SUM(A1)", "a;'@SUM(A1)"),
+    ("a;\rx", "a;'\rx"),
+    ("a;-2", "a;-2"),
+    ("1,-2", "1,-2"),
+    ("a;-2;=3", "a;'-2;'=3"),
+    ("a|-1;=2", "a|'-1;'=2"),
+    ("=a;=b", "'=a;'=b"),
+    ("\t=1", "'\t'=1"),
+    ("'=x", "''=x"),
+    ("a;'=x", "a;''=x"),
+    ("a;'b", "a;'b"),
+    ("it's;ok", "it's;ok"),
+    ("a;", "a;"),
+    (";", ";"),
+    ("", ""),
+]
+
+
+@pytest.mark.parametrize("module", [stt, at], ids=["stimuli", "analysis"])
+@pytest.mark.parametrize(("text", "written"), CASES)
+def test_shared_cases(module, text, written):
+    assert module.escape_cell(text) == written
+    assert module.unescape_cell(written) == text
 
 
 @given(CELLS)
@@ -44,8 +81,11 @@ def test_both_copies_agree_and_round_trip(text):
 @given(CELLS)
 def test_an_escaped_cell_never_starts_a_formula(text):
     out = stt.escape_cell(text)
-    if out[:1] in ("=", "+", "-", "@", "\t", "\r"):
-        assert float(out) == float(out), "only plain numbers keep a leading sign"
+    # whatever list separator the spreadsheet splits on, no piece starts a formula
+    for sep in (None, ";", ",", "\t", "|"):
+        for piece in [out] if sep is None else out.split(sep):
+            if piece[:1] in ("=", "+", "-", "@", "\t", "\r"):
+                assert _is_number(piece), (text, out, piece)
 
 
 @given(st.one_of(st.integers(), st.floats(allow_nan=False, allow_infinity=False)))

@@ -20,6 +20,7 @@ from typing import Annotated
 
 import typer
 
+from experiment.data.subjects import check_subject_code
 from experiment.errors import ConfocalError
 from experiment.session import run_options
 from stimuli.resources import MAX_ID_CHARS, MAX_SEED
@@ -89,12 +90,11 @@ def run_command(
         raise ConfocalError(f"--searcher must be one of {', '.join(SEARCHERS)}, got {searcher!r}")
     if not rater.strip():
         raise ConfocalError("--rater must not be blank")
-    for option, value in (("--subject", subject), ("--rater", rater)):
-        if not value.strip() or len(value) > MAX_ID_CHARS:
-            raise ConfocalError(
-                f"{option} must be 1 to {MAX_ID_CHARS} characters, got {len(value)} "
-                f"({value[:20]!r})"
-            )
+    check_subject_code(subject)  # the one rule for what leaves the lab as a subject code
+    if len(rater) > MAX_ID_CHARS:
+        raise ConfocalError(
+            f"--rater must be 1 to {MAX_ID_CHARS} characters, got {len(rater)} ({rater[:20]!r})"
+        )
     run_options.check_presenter(presenter)
     spec = load_protocol(protocol)
     if spec.task is None:

@@ -19,7 +19,10 @@ letters, values letters and digits, ending ``_data.csv``); subject codes and stu
 reduced to their letters and digits there (the ``subject`` column keeps the code as logged).
 A second export into the same folder *merges*: keys a person added to
 ``dataset_description.json`` (authors, licence, a better description) are kept, the generated
-ones refreshed; rows of ``participants.tsv`` and data files of other sessions are kept.
+ones refreshed; rows of ``participants.tsv`` and data files of other sessions are kept, and so
+are Psych-DS's optional ``README``, ``CHANGES`` and ``LICENSE`` files a person adds
+(:func:`is_optional_file`). The trials are read from the log's tables (the join of its
+``tidy_trials`` view written out here), never through a view in the file.
 
 What is and is not identifying:
 
@@ -36,10 +39,15 @@ What is and is not identifying:
   start, and ``date`` is the session's day (``--dates day``), that day shifted by a number of
   days the exporter chooses (``--dates shift:N``; the shift itself is written nowhere), or
   blank (``--dates none``). ``sessions.json`` likewise has each session's ``date`` and
-  ``duration_s`` instead of its start and end times.
-* Subject codes are exported as logged: choose codes that name nobody. Two codes that reduce
-  to the same file-name keyword (``S_01``, ``S-01``, ``S01``, ``s01``) are refused, at export
-  and when ``session run`` would add the second to a log.
+  ``duration_s`` instead of its start and end times, and ``dataset_description.json``'s
+  ``dateCreated``/``dateModified`` are the export's day under the same rule (or left out).
+* Subject codes are exported as logged; ``session run`` and ``active run`` accept only codes
+  that follow :mod:`experiment.data.subjects` (no e-mail, phone number, date, name, path or
+  control character). A log's codes from before that rule are named in the export's warning.
+  Two codes that reduce to the same file-name keyword (``S_01``, ``S-01``, ``S01``, ``s01``)
+  are refused, at export and when ``session run`` would add the second to a log.
+* Typed answers are exported as typed; the export names the trials whose answer looks like an
+  e-mail address or a phone number (:func:`identifying_answer`) so that someone checks them.
 * Every text cell of the CSV/TSV files is formula-safe (``stimuli/tables.py``).
 
 Columns of each data file (``COLUMN_DESCRIPTIONS`` is the data dictionary, copied into
@@ -65,6 +73,8 @@ from datetime import UTC, datetime, timedelta
 from pathlib import Path
 from typing import Any
 
+from experiment.data.identifying import identifying_answer, identifying_value
+from experiment.data.subjects import subject_code_problem
 from experiment.errors import ConfocalError
 from stimuli.tables import table_text, unescape_row
 
@@ -77,6 +87,10 @@ __all__ = [
     "SubjectCollision",
     "parse_participant",
     "identifying_reason",
+    "identifying_value",
+    "identifying_answer",
+    "OPTIONAL_FILES",
+    "is_optional_file",
     "identifying_fields",
     "check_not_identifying",
     "parse_dates",
@@ -117,10 +131,6 @@ _IDENTIFYING_WORDS = frozenset(
     "birthday birthdate ssn mrn nhs passport".split()
 )
 _IDENTIFYING_PARTS = ("name", "mail", "phone", "address", "street", "postcode", "zipcode", "birth")
-#: A phone number: 7 or more digits with only spaces, dots, dashes, brackets and a leading +.
-_PHONE_RE = re.compile(r"\+?[\d\s().-]{7,}")
-#: A full calendar date (2001-02-03, 3/2/2001, 03.02.01): a date of birth, or a visit date.
-_DATE_RE = re.compile(r"\b(\d{4}[-/.]\d{1,2}[-/.]\d{1,2}|\d{1,2}[-/.]\d{1,2}[-/.]\d{2,4})\b")
 
 #: The data dictionary: every exported column and what it holds (units in the name, H8).
 COLUMN_DESCRIPTIONS: dict[str, str] = {
@@ -171,6 +181,11 @@ EXPORT_COLUMNS: tuple[str, ...] = tuple(COLUMN_DESCRIPTIONS)
 DATAFILE_RE = re.compile(r"^([a-z]+-[a-zA-Z0-9]+)(_[a-z]+-[a-zA-Z0-9]+)*_data\.csv$")
 
 _KEY_RE = re.compile(r"^[a-z][a-z0-9_]*$")
+_ISO_DAY = re.compile(r"\d{4}-\d{2}-\d{2}")
+
+#: Psych-DS's optional files at a dataset's top level, which a person may add to an exported
+#: dataset (with or without an extension): kept by every later export, never listed as its own.
+OPTIONAL_FILES: tuple[str, ...] = ("README", "CHANGES", "LICENSE")
 
 #: schema.org/Psych-DS keys this export writes; on re-export these are refreshed, every other
 #: key in an existing dataset_description.json is kept as the person wrote it.
@@ -183,21 +198,30 @@ _DATES_NOTE = {
     "none": "left blank",
 }
 
+#: The trials of every session, from the log's tables (the join of its ``tidy_trials`` view,
+#: written out: a view in the file is never what the export reads).
 _SQL = """
 SELECT s.subject AS subject, t.session_id AS session, t.trial_index AS trial_index,
        p.part AS part, p.block AS block, t.object AS object, p.object_name AS object_name,
        t.condition AS condition, t.level AS level, p.window AS window, t.pixels AS pixels,
-       t.response AS response, v.score AS score, v.rater AS rater, v.recognized AS recognized,
+       t.response AS response, sc.score AS score, sc.rater AS rater, sc.recognized AS recognized,
        t.rt_s AS operator_rt_s, s.started_at AS date, t.recorded_at AS time_s,
        t.refresh_hz AS frame_rate_hz,
        t.onset_s AS onset_s, t.dropped_frames AS dropped_frames, p.path AS stimulus_file,
-       t.stimulus_sha256 AS stimulus_sha256, v.simulated AS simulated, v.observer AS observer,
-       v.viewings AS viewings, v.repeat_viewing AS repeat_viewing,
+       t.stimulus_sha256 AS stimulus_sha256,
+       CASE WHEN s.observer IS NULL THEN 0 ELSE 1 END AS simulated,
+       COALESCE(s.observer, 'human') AS observer,
+       (SELECT count(*) FROM viewings w
+        WHERE w.session_id = t.session_id AND w.trial_index = t.trial_index) AS viewings,
+       (SELECT count(*) > 1 FROM viewings w
+        WHERE w.session_id = t.session_id AND w.trial_index = t.trial_index) AS repeat_viewing,
        a.voice_rt_s AS voice_rt_s, a.path AS audio_file, a.sha256 AS audio_sha256
 FROM trials t
 JOIN sessions s ON s.session_id = t.session_id
 JOIN schedule p ON p.session_id = t.session_id AND p.trial_index = t.trial_index
-JOIN tidy_trials v ON v.session = t.session_id AND v.trial_index = t.trial_index
+JOIN scores sc ON sc.score_id = (
+    SELECT max(q.score_id) FROM scores q
+    WHERE q.session_id = t.session_id AND q.trial_index = t.trial_index AND q.is_primary = 1)
 LEFT JOIN audio a ON a.session_id = t.session_id AND a.trial_index = t.trial_index
 ORDER BY t.session_id, t.trial_index
 """
@@ -432,7 +456,9 @@ def export_dataset(
     -------
     dict
         ``{"files": [data file paths], "sessions": n, "simulated_sessions": [ids],
-        "identifying_left_out": [keys], "undocumented": [participants.tsv columns]}``.
+        "identifying_left_out": [keys], "undocumented": [participants.tsv columns],
+        "identifying_answers": ["session S trial T (why)"], "subject_codes_to_check":
+        [codes that break the subject-code rule]}``.
 
     Raises
     ------
@@ -485,6 +511,12 @@ def export_dataset(
         if sid in by_session:
             files.append((out / "data" / name, _csv_text(by_session[sid], EXPORT_COLUMNS)))
     simulated = [int(s["session_id"]) for s in sessions if s.get("observer")]
+    answers = [  # typed answers leave the lab as they were typed: say which to check
+        f"session {r['session']} trial {r['trial_index']} ({reason})"
+        for r in rows
+        if (reason := identifying_answer(r.get("response"))) is not None
+    ]
+    codes = sorted({s["subject"] for s in sessions if subject_code_problem(s["subject"])})
 
     desc_path = out / "dataset_description.json"
     old: dict[str, Any] = {}
@@ -498,7 +530,9 @@ def export_dataset(
             ) from None
         if not isinstance(old, dict):
             raise TrialLogError(f"{desc_path}: existing dataset_description.json is not an object")
-    now = datetime.now(UTC).isoformat(timespec="seconds")
+    # the export's own date follows --dates as the sessions' days do: no time of day, shifted
+    # by the same days, or none at all
+    export_day = _day(datetime.now(UTC).isoformat(), rule) or None
     sim_note = (
         " Simulated sessions (no person answered): "
         + ", ".join(
@@ -523,8 +557,8 @@ def export_dataset(
             + sim_note
         ),
         "schemaVersion": "Psych-DS 1.0.0",
-        "dateCreated": now,
-        "dateModified": now,
+        "dateCreated": export_day,
+        "dateModified": export_day,
         "keywords": ["psychophysics", "object recognition", "visual prosthesis"]
         + (["simulated data"] if simulated else []),
         "variableMeasured": [
@@ -533,9 +567,14 @@ def export_dataset(
         ],
     }
     desc = dict(old)
+    if not _ISO_DAY.fullmatch(str(desc.get("dateCreated", ""))):
+        desc.pop("dateCreated", None)  # a time of day (an older export's): not kept
     for key, value in generated.items():
         if key in _GENERATED_KEYS or key not in desc:
             desc[key] = value
+    if export_day is None:  # --dates none: no date of any kind
+        desc.pop("dateCreated", None)
+        desc.pop("dateModified", None)
     if simulated and "simulated data" not in desc.get("keywords", []):
         desc["keywords"] = [*desc.get("keywords", []), "simulated data"]
     old_vars = [v for v in old.get("variableMeasured", []) if isinstance(v, dict)]
@@ -578,6 +617,8 @@ def export_dataset(
         "simulated_sessions": simulated,
         "identifying_left_out": left_out,
         "undocumented": undocumented,
+        "identifying_answers": answers,
+        "subject_codes_to_check": codes,
     }
 
 
@@ -594,14 +635,24 @@ def identifying_reason(key: str, value: object) -> str | None:
     words = set(str(key).lower().split("_"))
     if words & _IDENTIFYING_WORDS or any(p in str(key).lower() for p in _IDENTIFYING_PARTS):
         return f"the key {key!r} names a person or a way to reach them"
-    text = str(value)
-    if "@" in text:
-        return f"the value of {key!r} has an @ (an e-mail address or handle)"
-    if _PHONE_RE.fullmatch(text.strip()) and sum(c.isdigit() for c in text) >= 7:
-        return f"the value of {key!r} looks like a phone number"
-    if _DATE_RE.search(text):
-        return f"the value of {key!r} looks like a date (a date of birth identifies)"
-    return None
+    reason = identifying_value(value)
+    return None if reason is None else f"the value of {key!r} {reason}"
+
+
+def is_optional_file(relpath: str) -> bool:
+    """Return whether ``relpath`` (relative to a dataset) is one of Psych-DS's optional files.
+
+    ``README``, ``CHANGES`` or ``LICENSE`` at the top level, bare or with ``.md``, ``.txt`` or
+    ``.rst``: a person may add them to an exported dataset, and a later export keeps them.
+
+    Examples
+    --------
+    >>> is_optional_file("README.md"), is_optional_file("data/README")
+    (True, False)
+    """
+    name = str(relpath)
+    stem, dot, ext = name.partition(".")
+    return "/" not in name and stem in OPTIONAL_FILES and (not dot or ext in ("md", "txt", "rst"))
 
 
 def identifying_fields(meta: dict[str, object]) -> dict[str, str]:

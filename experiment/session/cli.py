@@ -22,6 +22,7 @@ from typing import Annotated
 
 import typer
 
+from experiment.data.subjects import check_subject_code
 from experiment.errors import ConfocalError
 from experiment.session.run_options import (
     DataOption,
@@ -35,7 +36,7 @@ from experiment.session.run_options import (
     report_if_complete,
 )
 from stimuli.cli import seed_option
-from stimuli.resources import MAX_ID_CHARS, check_memory, finite_option
+from stimuli.resources import check_memory, finite_option
 
 __all__ = [
     "register",
@@ -189,16 +190,7 @@ def run_command(
                 f"the operator console is unavailable ({exc}); use --headless --observer NAME "
                 "for a simulated session"
             ) from None
-    if not subject.strip() or subject != subject.strip() or not subject.isprintable():
-        raise ConfocalError(
-            f"--subject must be a subject code without surrounding spaces, e.g. S01; got "
-            f"{subject!r}"
-        )
-    if len(subject) > MAX_ID_CHARS:
-        raise ConfocalError(
-            f"--subject must be at most {MAX_ID_CHARS} characters, got {len(subject)} "
-            f"({subject[:20]!r}...)"
-        )
+    check_subject_code(subject)  # the one rule for what leaves the lab as a subject code
     if data.is_dir():
         raise ConfocalError(f"--data {data} is a folder; expected the study's .sqlite file")
     check_new_session_reason(new_session)
@@ -445,6 +437,21 @@ def export_command(
         typer.echo(
             f"undocumented participant column(s) {', '.join(info['undocumented'])}: check they "
             "identify nobody before sharing (documentation/participants.json)"
+        )
+    if info["identifying_answers"]:
+        found = info["identifying_answers"]
+        typer.echo(
+            f"warning: {len(found)} typed answer(s) look like contact details: "
+            f"{'; '.join(found[:5])}{' ...' if len(found) > 5 else ''}; answers are exported as "
+            "typed: check them before sharing",
+            err=True,
+        )
+    if info["subject_codes_to_check"]:
+        typer.echo(
+            "warning: subject code(s) "
+            f"{', '.join(map(repr, info['subject_codes_to_check']))} break the subject-code "
+            "rule (logged before it was checked): check they name nobody before sharing",
+            err=True,
         )
 
 

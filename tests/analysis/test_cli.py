@@ -135,17 +135,11 @@ def test_power_needs_one_effect(capsys):
 
 def test_sqlite_and_csv_pooled_options_first(tmp_path, small_trials, capsys):
     """Options before TRIALS, explicit 'run', a SQLite log pooled with a CSV, --mixed, --pc."""
-    import sqlite3
+    from tests.analysis.trial_logs import write_trial_log
 
     half = len(small_trials) // 2
     db = tmp_path / "session.sqlite"
-    con = sqlite3.connect(db)
-    t = small_trials.iloc[:half].copy()
-    t["part"] = "main"
-    t.to_sql("log", con, index=False)
-    con.execute("CREATE VIEW tidy_trials AS SELECT * FROM log")
-    con.commit()
-    con.close()
+    write_trial_log(db, small_trials.iloc[:half])
     csv = tmp_path / "rest.csv"
     small_trials.iloc[half:].to_csv(csv, index=False)
     out = tmp_path / "rep"

@@ -1,4 +1,4 @@
-"""Readers: CSV, Parquet, SQLite (tidy_trials view), pooling, training exclusion, bad data."""
+"""Readers: CSV, Parquet, SQLite trial logs, pooling, training exclusion, bad data."""
 
 from __future__ import annotations
 
@@ -90,16 +90,29 @@ def _sqlite(path, with_view=True):
     con.close()
 
 
-def test_sqlite_view_is_read_by_header_not_extension(tmp_path):
-    p = tmp_path / "session.anything"
-    _sqlite(p)
+def test_trial_log_is_read_by_header_not_extension(tmp_path):
+    from tests.analysis.trial_logs import write_trial_log
+
+    rows = pd.DataFrame(
+        {
+            "subject": ["s1"] * 3,
+            "object": ["1", "1", "2"],
+            "condition": ["cluttered", "decluttered", "cluttered"],
+            "pixels": [96, 950, 96],
+            "recognized": [0, 1, 1],
+            "part": ["main", "main", "training"],
+        }
+    )
+    p = write_trial_log(tmp_path / "session.anything", rows)
     df, dropped = read_trial_file(p)
     assert len(df) == 2 and dropped == 1
 
 
-def test_sqlite_without_view(tmp_path):
+@pytest.mark.parametrize("with_view", [True, False])
+def test_sqlite_that_is_not_a_trial_log(tmp_path, with_view):
+    """Another program's SQLite file is refused, whatever views it brings."""
     p = tmp_path / "other.db"
-    _sqlite(p, with_view=False)
+    _sqlite(p, with_view=with_view)
     with pytest.raises(DataError, match=r"other\.db: not a confocal trial log"):
         read_trial_file(p)
 

@@ -211,3 +211,117 @@ def test_participants_tsv_is_formula_safe(study, tmp_path, capsys):
     assert confocal(["session", "export", db, "--out", out], capsys)[0] == 0
     (row,) = read(out / "participants.tsv", "\t")
     assert row["group"] == "'+cmd|calc" and row["site"] == "'-A"
+
+
+# -- what the description, the answers and a person's own files may hold -----------------------
+
+
+def _log_with_answers(folder, subject, answers):
+    """A trial log of ``subject``'s session whose trials are answered with ``answers`` in turn."""
+    from experiment.clock import FakeClock
+    from experiment.interfaces import Answer, FlipRecord
+    from experiment.protocol import load_protocol
+    from experiment.session.engine import Session
+    from experiment.session.stimset import StimulusSet
+
+    stim, proto, db = make_study(folder, (1, 8), n_main=2, training=None)
+    clock = FakeClock(0.0)
+    with TrialLog(db) as log:
+        s = Session.open(log, load_protocol(proto), StimulusSet.load(stim), subject, seed=1,
+                         clock=clock)  # fmt: skip
+        with s:
+            i = 0
+            while (trial := s.next_trial()) is not None:
+                clock.advance(1.0)
+                s.record(trial, Answer(answers[i % len(answers)], "named", "operator", rt_s=0.5),
+                         FlipRecord(onset_s=0.0, offset_s=1.0))  # fmt: skip
+                i += 1
+    return db
+
+
+@pytest.mark.parametrize("rule", ["day", "shift:-400", "none"])
+def test_description_dates_follow_the_dates_rule(study, tmp_path, capsys, rule):
+    stim, proto, db = study
+    assert confocal(headless_run_args(stim, proto, db, "S01"), capsys)[0] == 0
+    out = tmp_path / "dataset"
+    code, _, err = confocal(["session", "export", db, "--out", out, "--dates", rule], capsys)
+    assert code == 0, err
+    desc = json.loads((out / "dataset_description.json").read_text())
+    today = date.today()  # UTC and local differ by at most a day
+    near = {(today + timedelta(d)).isoformat() for d in (-1, 0, 1)}
+    if rule == "none":
+        assert "dateCreated" not in desc and "dateModified" not in desc
+    else:
+        shift = parse_dates(rule)[1]
+        near = {(date.fromisoformat(d) + timedelta(shift)).isoformat() for d in near}
+        assert desc["dateCreated"] in near and desc["dateModified"] in near, desc
+    text = (out / "dataset_description.json").read_text()
+    assert not re.search(r"\d{2}:\d{2}", text), "no time of day"
+
+
+def test_a_time_of_day_left_by_an_older_export_is_not_kept(study, tmp_path, capsys):
+    out = tmp_path / "dataset"
+    run_and_export(study, out, capsys)
+    desc_path = out / "dataset_description.json"
+    desc = json.loads(desc_path.read_text())
+    desc["dateCreated"] = "2020-01-02T03:04:05+00:00"
+    desc_path.write_text(json.dumps(desc))
+    assert confocal(["session", "export", study[2], "--out", out], capsys)[0] == 0
+    assert "03:04:05" not in desc_path.read_text()
+
+
+def test_answers_that_look_like_contact_details_are_warned(tmp_path, capsys):
+    db = _log_with_answers(tmp_path, "S01", ["cup", "write to ann@example.org", "cup",
+                                             "call 020 7946 0958"])  # fmt: skip
+    out = tmp_path / "dataset"
+    code, stdout, err = confocal(["session", "export", db, "--out", out], capsys)
+    assert code == 0, err
+    (line,) = [x for x in err.splitlines() if "typed answer" in x]
+    assert line.startswith("warning: ") and "e-mail" in line and "phone" in line
+    assert "session 1 trial 1 " in line and "session 1 trial 3 " in line
+    assert "trial 0 " not in line and "trial 2 " not in line
+
+
+def test_plain_answers_give_no_warning(tmp_path, capsys):
+    db = _log_with_answers(tmp_path, "S01", ["cup", "a red cup", "3 cups", "1,-2"])
+    code, _, err = confocal(["session", "export", db, "--out", tmp_path / "d"], capsys)
+    assert code == 0 and "warning" not in err, err
+
+
+@pytest.mark.parametrize(
+    ("text", "found"),
+    [("ann@example.org", "e-mail"), ("me: a.b@c.co.uk ok", "e-mail"), ("020 7946 0958", "phone"),
+     ("+1 (555) 010-9999", "phone"), ("cup", None), ("20/200", None), ("12 cups", None),
+     ("version 1.2.3", None), ("", None)],
+)  # fmt: skip
+def test_identifying_answer(text, found):
+    from experiment.data.psychds import identifying_answer
+
+    reason = identifying_answer(text)
+    assert (reason is None) if found is None else (found in reason)
+
+
+def test_subject_codes_logged_before_the_rule_are_warned(tmp_path, capsys):
+    db = _log_with_answers(tmp_path, "ann@example.org", ["cup"])
+    code, _, err = confocal(["session", "export", db, "--out", tmp_path / "d"], capsys)
+    assert code == 0, err
+    assert "warning: subject code(s) 'ann@example.org'" in err
+
+
+def test_a_persons_readme_changes_and_license_do_not_block_the_next_export(study, tmp_path, capsys):
+    from experiment.outputs import read_manifest
+
+    out = tmp_path / "dataset"
+    run_and_export(study, out, capsys)
+    mine = {"README": "About this study\n", "CHANGES": "1.0 first\n", "LICENSE.md": "CC-BY\n"}
+    for name, text in mine.items():
+        (out / name).write_text(text)
+    code, _, err = confocal(["session", "export", study[2], "--out", out], capsys)
+    assert code == 0, err
+    assert {n: (out / n).read_text() for n in mine} == mine, "kept as the person wrote them"
+    assert not set(mine) & set(read_manifest(out)["files"]), "never listed as the export's"
+    assert confocal(["session", "export", study[2], "--out", out], capsys)[0] == 0
+    # any other file of a person's is still refused, naming it
+    (out / "notes.txt").write_text("mine\n")
+    code, _, err = confocal(["session", "export", study[2], "--out", out], capsys)
+    assert code == 2 and "notes.txt" in err and len(err.strip().splitlines()) == 1

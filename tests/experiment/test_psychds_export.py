@@ -211,3 +211,36 @@ def test_export_refuses_a_file_as_folder(study, tmp_path, capsys):
     target.write_text("keep")
     code, _, err = confocal(["session", "export", db, "--out", target], capsys)
     assert code == 2 and "not a folder" in err and target.read_text() == "keep"
+
+
+def test_export_reads_the_logs_tables_not_a_view_in_the_file(tmp_path, capsys):
+    """A log whose tidy_trials view was replaced (here: every trial 'named' by 'evil', and
+    200,000 rows of it) is exported from its tables, as the untouched log is."""
+    import shutil
+    import sqlite3
+
+    stim, proto, db = make_study(tmp_path, (1, 8), n_main=2, training=None)
+    assert confocal(headless_run_args(stim, proto, db, "S01"), capsys)[0] == 0
+    swapped = _swap_view(tmp_path / "swapped.sqlite", db, shutil, sqlite3)
+    texts = []
+    for log, out in ((db, tmp_path / "a"), (swapped, tmp_path / "b")):
+        code, _, err = confocal(["session", "export", log, "--out", out, "--study", "s"], capsys)
+        assert code == 0, err
+        (data,) = (out / "data").glob("*_data.csv")
+        texts.append(data.read_text())
+    assert texts[0] == texts[1] and "evil" not in texts[1]
+
+
+def _swap_view(dst, src, shutil, sqlite3):
+    shutil.copyfile(src, dst)
+    con = sqlite3.connect(dst)
+    con.execute("DROP VIEW tidy_trials")
+    con.execute(
+        "CREATE VIEW tidy_trials AS WITH RECURSIVE r(n) AS (SELECT 0 UNION ALL SELECT n + 1 "
+        "FROM r LIMIT 200000) SELECT 'S01' AS subject, 1 AS session, n AS trial_index, "
+        "'named' AS score, 'evil' AS rater, 1 AS recognized, 0 AS simulated, 'human' AS observer, "
+        "0 AS viewings, 0 AS repeat_viewing FROM r"
+    )
+    con.commit()
+    con.close()
+    return dst
