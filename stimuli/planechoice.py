@@ -131,6 +131,9 @@ class PlaneChoice:
         or a given plane lies on no detected plane.
     content : ndarray of shape (rows, cols), bool
         The plane's in-focus content (or the region of interest), full resolution.
+    view_crop : list of int (x, y, w, h) or None
+        The crop the views were read with (:func:`stimuli.vignette.apply_view_crop`), in the
+        capture's pixels; recorded so that every command can be checked to use the same one.
     """
 
     disparity_px: float
@@ -141,6 +144,7 @@ class PlaneChoice:
     candidates: tuple[PlaneCandidate, ...]
     marginal: str = ""
     content: np.ndarray = field(default=None, repr=False, compare=False)  # type: ignore[assignment]
+    view_crop: list | None = None
 
     def describe(self) -> str:
         """One-line provenance: ``disparity=...px,depth=...m,<rule>``."""
@@ -157,6 +161,7 @@ class PlaneChoice:
             "rule": self.rule,
             "marginal": self.marginal,
             "alternatives": [c.to_dict() for c in self.candidates],
+            "view_crop": None if self.view_crop is None else list(self.view_crop),
         }
 
 
@@ -422,6 +427,7 @@ def choose_plane(
         candidates=tuple(cands),
         marginal=marginal,
         content=content,
+        view_crop=lf.meta.get("view_crop") if isinstance(lightfield, LightField) else None,
     )
 
 

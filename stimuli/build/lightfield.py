@@ -35,6 +35,8 @@ from stimuli.manifest import ObjectInfo
 __all__ = [
     "ANISOTROPY_RATIO",
     "ConfocalPairImages",
+    "field_crop_in_crop",
+    "roi_in_crop",
     "is_one_dimensional",
     "load_confocal_pair",
 ]
@@ -70,6 +72,64 @@ class ConfocalPairImages:
     declutter: str = "sobel"
 
 
+def roi_in_crop(roi, box, where: str):
+    """Return a region of interest (box ``x,y,w,h`` or mask, capture pixels) in the cropped views.
+
+    Parameters
+    ----------
+    roi : (x, y, w, h), ndarray of shape (rows, cols) or None
+        In the capture's centre-view pixels, as ``objects.csv`` gives it.
+    box : (x, y, w, h) or None
+        The view crop applied (:func:`stimuli.vignette.apply_view_crop`).
+    where : str
+        Names the object in error messages.
+
+    Returns
+    -------
+    (x, y, w, h), ndarray or None
+        The part of the region inside the crop, in the cropped views' pixels.
+
+    Raises
+    ------
+    InputError
+        The region lies wholly in the cropped-away rim.
+    """
+    from stimuli.errors import InputError
+
+    if roi is None or box is None:
+        return roi
+    cx, cy, cw, ch = (int(v) for v in box)
+    if isinstance(roi, np.ndarray):
+        return roi[cy : cy + ch, cx : cx + cw] if roi.shape[0] >= cy + ch else roi
+    x, y, w, h = (int(v) for v in roi)
+    x0, y0 = max(x, cx), max(y, cy)
+    x1, y1 = min(x + w, cx + cw), min(y + h, cy + ch)
+    if x1 <= x0 or y1 <= y0:
+        raise InputError(
+            f"{where}: roi box x,y,w,h = {x},{y},{w},{h} lies in the vignette rim left out by the "
+            f"view crop {cx},{cy},{cw},{ch}"
+        )
+    return (x0 - cx, y0 - cy, x1 - x0, y1 - y0)
+
+
+def field_crop_in_crop(crop, box):
+    """Return a field crop ``(x, y, w, h)`` (capture pixels) in the pixels of the cropped views.
+
+    The part inside the view crop ``box``; None stays None, and so does any crop when no view
+    crop was made. A field crop wholly outside the view crop is returned unchanged (the
+    build's own check then names it).
+    """
+    if crop is None or box is None:
+        return crop
+    cx, cy, cw, ch = (int(v) for v in box)
+    x, y, w, h = (int(v) for v in crop)
+    x0, y0 = max(x, cx), max(y, cy)
+    x1, y1 = min(x + w, cx + cw), min(y + h, cy + ch)
+    if x1 <= x0 or y1 <= y0:
+        return crop
+    return (x0 - cx, y0 - cy, x1 - x0, y1 - y0)
+
+
 def load_confocal_pair(
     src: PairSource, info: ObjectInfo, params: BuildParams
 ) -> ConfocalPairImages:
@@ -99,12 +159,16 @@ def load_confocal_pair(
     from stimuli.lfload import as_lightfield
     from stimuli.planechoice import choose_plane
     from stimuli.refocus import refocus
+    from stimuli.vignette import apply_view_crop
 
-    lf = as_lightfield(src.lightfield).gray()
     where = f"object {src.object!r} ({src.lightfield})"
+    # the vignette crop every command finds (lightfield scan, refocus, the viewer, active search)
+    lf = apply_view_crop(as_lightfield(src.lightfield).gray(), "auto")
+    box = lf.meta.get("view_crop")
     roi = info.roi
     if src.roi_mask is not None:
         roi = load_gray(src.roi_mask) > 0
+    roi = roi_in_crop(roi, box, where)
     choice = choose_plane(
         lf,
         rule=params.plane,

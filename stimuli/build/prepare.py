@@ -12,7 +12,7 @@ from dataclasses import dataclass
 import numpy as np
 from skimage.transform import resize
 
-from stimuli.build.lightfield import ConfocalPairImages, load_confocal_pair
+from stimuli.build.lightfield import ConfocalPairImages, field_crop_in_crop, load_confocal_pair
 from stimuli.build.pairs import PairSource
 from stimuli.build.params import BuildParams, min_photo_shape_px
 from stimuli.errors import InputError
@@ -370,6 +370,8 @@ def prepare_object(src: PairSource, info: ObjectInfo, params: BuildParams) -> Ob
     """
     crop = info.crop if info.crop is not None else src.crop
     wide_raw, narrow_raw, wide_full, narrow_full, pair = _load_raw(src, info, params, crop)
+    if pair is not None and pair.choice is not None:  # a field crop in the vignette-cropped views
+        crop = field_crop_in_crop(crop, pair.choice.view_crop)
     plane = "" if pair is None else pair.plane
     focus = None if pair is None else pair.focus
     notes: list[str] = []
