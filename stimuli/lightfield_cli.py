@@ -403,7 +403,7 @@ def refocus_command(
     vignette crop, ``--declutter auto`` rule and threshold rule), so the same plane gives the
     same edge image.
     """
-    from stimuli.declutter import in_focus_mask
+    from stimuli.declutter import in_focus_evidence
     from stimuli.edgegrid import declutter_and_compress
     from stimuli.io import save_png
     from stimuli.refocus import iter_focal_stack, refocus
@@ -446,7 +446,15 @@ def refocus_command(
 
     img = np.clip(refocus(lf, d), 0.0, 1.0).astype(np.float32)
     mode = resolve_declutter_mode(declutter_mode, lf)
-    focus = in_focus_mask(lf, d) if mode == "depth" and grid_px is not None else None
+    focus = None
+    if mode == "depth" and grid_px is not None:
+        focus, stats = in_focus_evidence(lf, d)
+        if stats.unmeasured:
+            typer.echo(
+                f"edges the views cannot measure: {stats.unmeasured} px, dropped "
+                f"{stats.unresolved} unresolved ({100 * stats.to_dict()['dropped_share']:.1f} % "
+                "of the edges)"
+            )
     centre = lf.centre_view()
     if zoom_box is not None:
         rs, cs = zoom_box

@@ -228,7 +228,7 @@ def scan_one(
     import numpy as np
 
     from stimuli.agreementscan import answer_before_compiled_code, scan_views
-    from stimuli.declutter import in_focus_mask
+    from stimuli.declutter import in_focus_evidence
     from stimuli.edgegrid import declutter_and_compress
     from stimuli.io import atomic_path, save_png, staged_folder
     from stimuli.planechoice import choose_plane, detect_planes
@@ -301,9 +301,14 @@ def scan_one(
         lf = _with_the_other_views(lf, lightfield, loader)
     centre = lf.centre_view()
     images = []
+    edge_depth: dict = {}  # per plane: the edges the views could not measure (1-D, depth mode)
     for k, p in enumerate(scan.peaks):
         img = np.clip(refocus(lf, p.disparity_px), 0.0, 1.0).astype(np.float32)
-        focus = in_focus_mask(lf, p.disparity_px) if mode == "depth" else None
+        focus = None
+        if mode == "depth":
+            focus, stats = in_focus_evidence(lf, p.disparity_px)
+            if stats.unmeasured:
+                edge_depth[f"plane{k + 1:02d}"] = stats.to_dict()
         edges, cells, t = declutter_and_compress(
             img,
             shape,
@@ -328,6 +333,7 @@ def scan_one(
                         "view_crop": lf.meta.get("view_crop"),
                         "view_crop_rule": lf.meta.get("view_crop_rule"),
                     }
+                    | ({"edge_depth": edge_depth} if edge_depth else {})
                     | scan.to_dict(),
                     indent=1,
                 )

@@ -76,7 +76,7 @@ class LightFieldSource:
 
 
 def open_source(
-    path: Path, *, view_crop: tuple[int, int, int, int] | str | None = None, **loader: Any
+    path: Path, *, view_crop: tuple[int, int, int, int] | str | None = "auto", **loader: Any
 ) -> LightFieldSource:
     """Open a light field (any input ``confocal lightfield`` reads) or a folder of frames.
 

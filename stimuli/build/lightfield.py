@@ -56,8 +56,10 @@ class ConfocalPairImages:
         The confocal image at the plane (the de-cluttered image).
     plane : str
         The plane, as :meth:`stimuli.planechoice.PlaneChoice.describe` gives it (provenance).
-    focus : ndarray of shape (rows, cols), bool, or None
-        Where the views agree at the plane, in the ``depth`` de-cluttering mode; else ``None``.
+    focus : ndarray of shape (rows, cols), uint8, or None
+        Where the views agree at the plane, in the ``depth`` de-cluttering mode
+        (:func:`stimuli.declutter.in_focus_evidence`: 0 out, 1 in focus, 2 dropped); else
+        ``None``.
     choice : PlaneChoice or None
         The plane with its evidence, the rule and the alternatives, and its content mask.
     declutter : {'sobel', 'depth'}
@@ -183,9 +185,14 @@ def load_confocal_pair(
         mode = "depth" if is_one_dimensional(lf.grid) else "sobel"
     focus = None
     if mode == "depth":
-        from stimuli.declutter import in_focus_mask
+        from dataclasses import replace
 
-        focus = in_focus_mask(lf, d)
+        from stimuli.declutter import in_focus_evidence
+        from stimuli.edgedepth import baseline_axes
+
+        focus, stats = in_focus_evidence(lf, d)
+        if len(baseline_axes(lf.grid)) == 1:
+            choice = replace(choice, edge_depth=stats.to_dict())
     confocal = np.clip(refocus(lf, d), 0.0, 1.0).astype(np.float32)
     centre = check_gray(lf.centre_view(), f"{src.lightfield}: centre view")
     confocal = check_gray(confocal, f"{src.lightfield}: confocal image")

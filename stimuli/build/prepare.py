@@ -64,8 +64,9 @@ class ObjectImages:
         The wide photo's size as decoded (smaller than on file with ``fast_decode``).
     plane : str
         A light-field object's confocal plane (provenance); ``""`` for photos.
-    focus : ndarray of bool or None
-        A light-field object's in-focus mask at the working size (``declutter='depth'``).
+    focus : ndarray of uint8 or None
+        A light-field object's in-focus evidence at the working size (``declutter='depth'``;
+        0 out of focus, 1 in focus, 2 dropped: :func:`stimuli.declutter.in_focus_evidence`).
     plane_choice : PlaneChoice or None
         A light-field object's plane with its evidence and rule
         (:func:`stimuli.planechoice.choose_plane`).
@@ -81,6 +82,9 @@ class ObjectImages:
     valid : ndarray of shape working_shape_px, bool, or None
         With padding: the pixels of the image (not of the padding, nor on its border); edges
         elsewhere are dropped.
+    visibility : dict or None
+        A light-field object's on-plane share and object coverage per level
+        (:func:`stimuli.build.visibility.measure_visibility`), once the set's edge ratio is known.
     """
 
     info: ObjectInfo
@@ -103,6 +107,7 @@ class ObjectImages:
     declutter: str = ""
     aspect_pad: tuple[int, int, int, int] | None = None
     valid: np.ndarray | None = None
+    visibility: dict | None = None
 
 
 def _cut(image: np.ndarray, box: Box | None) -> np.ndarray:
@@ -421,16 +426,19 @@ def prepare_object(src: PairSource, info: ObjectInfo, params: BuildParams) -> Ob
                 f"size; upsampled"
             )
         out.append(to_working_size(img, params.working_shape_px))
-    if focus is not None:  # the in-focus mask follows the confocal image (zoom, aspect, resize)
-        f = zoom_crop(
-            focus.astype(np.float32),
-            _scale_crop(crop, wide_full, narrow_raw.shape),
-            where=where,
-        )
-        f = _cut(f, box)
-        if pad is not None:
-            f = np.pad(f, pad)
-        focus = to_working_size(f, params.working_shape_px) >= 0.5
+    if focus is not None:  # the in-focus evidence follows the confocal image (zoom, aspect, size)
+        layers = []
+        for value in (1, 2):  # in focus, dropped (stimuli.declutter.in_focus_evidence)
+            f = zoom_crop(
+                (focus == value).astype(np.float32),
+                _scale_crop(crop, wide_full, narrow_raw.shape),
+                where=where,
+            )
+            f = _cut(f, box)
+            if pad is not None:
+                f = np.pad(f, pad)
+            layers.append(to_working_size(f, params.working_shape_px) >= 0.5)
+        focus = np.where(layers[1], 2, np.where(layers[0], 1, 0)).astype(np.uint8)
         plane = f"{plane},declutter=depth"
     return ObjectImages(
         info=info,
