@@ -386,8 +386,8 @@ def declutter_depth(image: np.ndarray, focus_mask: np.ndarray, *, threshold: flo
     m = np.asarray(focus_mask)
     if m.dtype not in (np.bool_, np.uint8) or m.shape != edges.shape:
         raise InputError(
-            f"focus_mask must be a bool or uint8 image of shape {edges.shape}, got {m.dtype} "
-            f"{m.shape}"
+            f"focus_mask must be a bool image (or in_focus_evidence's uint8) of shape "
+            f"{edges.shape}, got {m.dtype} {m.shape}"
         )
     drop = None
     if m.dtype == np.uint8:

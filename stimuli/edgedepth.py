@@ -9,10 +9,11 @@ depth only through what they connect to.
 :func:`resolve_edge_depth` therefore
 
 1. gives every edge pixel of the confocal image a *depth confidence* from its orientation
-   relative to the baseline: the share of its Sobel gradient that lies along the baseline,
-   ``|g . b| / |g|`` (1 for an edge across the baseline, 0 for one along it). A pixel is
-   *measured* when it reaches :data:`MIN_CONFIDENCE`; on a 2-D grid every direction is
-   measured along one axis or the other (confidence >= 0.71), so nothing changes there;
+   relative to the baseline: the share of the Sobel gradient around it (a
+   :data:`CONFIDENCE_WINDOW_PX` box, the scale of the views' agreement test) that lies along
+   the baseline (about 1 for an edge across the baseline, 0 for one along it, 0.7 for a
+   texture or a corner). A pixel is *measured* when it reaches :data:`MIN_CONFIDENCE`; on a 2-D
+   grid every direction is measured along one axis or the other, so nothing changes there;
 2. splits the unmeasured edge pixels into segments (8-connected) and lets each segment take the
    depth of the measured structure at its two *end points* (its first and last pixel along
    the baseline): a measured edge that ends where the segment ends (a corner: the box's side
@@ -20,11 +21,12 @@ depth only through what they connect to.
    the contact on both sides (a T-junction: a background stripe disappearing behind the box's
    side) is the occluder's, not the segment's, and gives no vote; contacts along the middle of
    a segment (crossings) give none either;
-3. keeps a segment in focus when both its ends sit on corners in focus, marks it off the plane
-   when an end sits on a corner off the plane, and otherwise drops it as *unresolved* (an end
-   on the image border or on a T-junction says nothing about the segment's depth: a
-   background line continuing the box's top edge past its corner has one such end); the
-   pixels dropped are counted (:class:`EdgeDepthStats`).
+3. keeps a segment in focus when an end sits on a corner in focus, no end on a corner off the
+   plane, and it does not run off the image along the baseline (a line continuing past the
+   frame, like a wall's stripe that continues the box's top edge past its corner, is the
+   wall's); marks it off the plane when an end sits on a corner off the plane; and otherwise
+   drops it as *unresolved* (an end on a T-junction says nothing about the segment's depth).
+   The pixels dropped are counted (:class:`EdgeDepthStats`).
 """
 
 from __future__ import annotations
@@ -35,6 +37,7 @@ import numpy as np
 from scipy import ndimage
 
 __all__ = [
+    "CONFIDENCE_WINDOW_PX",
     "CONTACT_RADIUS_PX",
     "EdgeDepthStats",
     "MIN_CONFIDENCE",
@@ -48,6 +51,10 @@ __all__ = [
 #: along the baseline (ours: sin 24 degrees; a one-pixel shift along the baseline then moves
 #: the edge by 0.4 px, which the agreement test's 1 px tolerance still tells from no shift).
 MIN_CONFIDENCE: float = 0.4
+
+#: The neighbourhood whose gradients give a pixel's confidence, px (ours: a little more than the
+#: 3x3 box the views' agreement test compares, so a corner's both edges are seen).
+CONFIDENCE_WINDOW_PX: int = 5
 
 #: Unmeasured edge pixels within this many pixels of a measured edge are junction pixels: they
 #: cut the unmeasured edges into segments there and go with the segment they complete; a
@@ -102,7 +109,8 @@ def baseline_axes(grid: tuple[int, int]) -> tuple[int, ...]:
 
 
 def edge_confidence(image: np.ndarray, axes: tuple[int, ...]) -> np.ndarray:
-    """Return each pixel's depth confidence: the share of its gradient along the baseline.
+    """Return each pixel's depth confidence: the share of its neighbourhood's gradient along
+    the baseline.
 
     Parameters
     ----------
@@ -113,7 +121,10 @@ def edge_confidence(image: np.ndarray, axes: tuple[int, ...]) -> np.ndarray:
     Returns
     -------
     ndarray of shape (rows, cols), float32 in [0, 1]
-        ``max over axes of |g_axis| / |g|`` (1 where the gradient is zero: nothing to doubt).
+        ``sqrt(max over axes of E_axis / (E_0 + E_1))``, ``E_a`` the Sobel gradient energy
+        along image axis ``a`` summed over a :data:`CONFIDENCE_WINDOW_PX` box (1 where there is
+        no gradient: nothing to doubt). A long edge along the baseline scores about 0, a
+        texture or a corner about 0.7 or more.
 
     Examples
     --------
@@ -122,11 +133,12 @@ def edge_confidence(image: np.ndarray, axes: tuple[int, ...]) -> np.ndarray:
     (0.0, 1.0)
     """
     img = np.asarray(image, dtype=np.float32)
-    g = (ndimage.sobel(img, axis=0), ndimage.sobel(img, axis=1))
-    mag = np.hypot(g[0], g[1])
-    along = np.max([np.abs(g[a]) for a in axes], axis=0) if axes else np.zeros_like(mag)
+    w = CONFIDENCE_WINDOW_PX
+    energy = [ndimage.uniform_filter(ndimage.sobel(img, axis=a) ** 2, w) for a in (0, 1)]
+    total = energy[0] + energy[1]
+    along = np.max([energy[a] for a in axes], axis=0) if axes else np.zeros_like(total)
     with np.errstate(invalid="ignore", divide="ignore"):
-        c = np.where(mag > 0, along / mag, 1.0)
+        c = np.where(total > 0, np.sqrt(along / total), 1.0)
     return c.astype(np.float32)
 
 
@@ -236,7 +248,12 @@ def _vote(low: np.ndarray, measured: np.ndarray, focus: np.ndarray):
         score = np.zeros(n_seg + 1, np.int64)
         np.add.at(score, seg_of[at], vote[at])
         ends.append(score)
-    keep = (ends[0] > 0) & (ends[1] > 0)  # both ends on corners in focus
+    # kept: an end on a corner in focus, no end on a corner off the plane, and no end running
+    # off the image along the baseline (a line continuing past the frame, such as a wall's
+    # stripe continuing the box's edge past its corner, is not the box's)
+    off_frame = np.zeros(n_seg + 1, bool)
+    off_frame[1:] = (left <= r) | (right >= low.shape[1] - 1 - r)
+    keep = ((ends[0] > 0) | (ends[1] > 0)) & (ends[0] >= 0) & (ends[1] >= 0) & ~off_frame
     off = ~keep & ((ends[0] < 0) | (ends[1] < 0))  # an end on a corner off the plane
     keep[0] = off[0] = False
     sizes = np.bincount(seg.ravel(), minlength=n_seg + 1)
