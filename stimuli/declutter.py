@@ -213,7 +213,7 @@ FOCUS_TOLERANCE_PX: float = 1.0
 _FOCUS_STEPS_PER_PX = 4
 
 #: Values of :func:`in_focus_evidence`: out of focus, in focus, and dropped whatever the
-#: neighbours say (an edge whose depth the views cannot measure, left unresolved).
+#: neighbours say (an edge whose depth the views cannot measure, resolved off the plane).
 FOCUS_OUT, FOCUS_IN, FOCUS_DROP = 0, 1, 2
 
 #: An edge pixel is kept when at least half of the edge pixels in this box around it are in
@@ -257,19 +257,23 @@ def in_focus_evidence(
     slope_px_per_view: float,
     *,
     tolerance_px: float = FOCUS_TOLERANCE_PX,
+    confocal: np.ndarray | None = None,
 ):
     """Return where a light field is in focus at one plane, and what its edges' depth cost.
 
     The views' agreement (:func:`agreement_mask`); on a 1-D light field the edges the views
     cannot measure (parallel to the baseline) then take the depth of the measured edges they
-    end on, and those that end on none are dropped
+    end on, and those that resolve off the plane are dropped
     (:func:`stimuli.edgedepth.resolve_edge_depth`).
+
+    ``confocal``: the confocal image at the plane, if the caller has it (refocused otherwise,
+    on 1-D light fields).
 
     Returns
     -------
     evidence : ndarray of shape (rows, cols), uint8
         :data:`FOCUS_OUT` (0), :data:`FOCUS_IN` (1) or :data:`FOCUS_DROP` (2: an edge whose
-        depth the views cannot measure and nothing resolved, or that resolved off the plane;
+        depth the views cannot measure and that resolved off the plane;
         :func:`declutter_depth` drops it whatever its neighbours say).
     stats : stimuli.edgedepth.EdgeDepthStats
         How many edge pixels the views could not measure, and what became of them.
@@ -281,9 +285,10 @@ def in_focus_evidence(
     mask = agreement_mask(lf, slope_px_per_view, tolerance_px=tolerance_px)
     if len(baseline_axes(lf.grid)) != 1:
         return mask.astype(np.uint8), EdgeDepthStats()
-    from stimuli.refocus import refocus
+    if confocal is None:
+        from stimuli.refocus import refocus
 
-    confocal = np.clip(refocus(lf, float(slope_px_per_view)), 0.0, 1.0).astype(np.float32)
+        confocal = np.clip(refocus(lf, float(slope_px_per_view)), 0.0, 1.0).astype(np.float32)
     return resolve_edge_depth(confocal, mask, lf.grid)
 
 

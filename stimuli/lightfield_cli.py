@@ -448,12 +448,13 @@ def refocus_command(
     mode = resolve_declutter_mode(declutter_mode, lf)
     focus = None
     if mode == "depth" and grid_px is not None:
-        focus, stats = in_focus_evidence(lf, d)
+        focus, stats = in_focus_evidence(lf, d, confocal=img)
         if stats.unmeasured:
             typer.echo(
-                f"edges the views cannot measure: {stats.unmeasured} px, dropped "
-                f"{stats.unresolved} unresolved ({100 * stats.to_dict()['dropped_share']:.1f} % "
-                "of the edges)"
+                f"edges the views cannot measure: {stats.unmeasured} px; dropped "
+                f"{stats.resolved_off_plane} resolved off the plane "
+                f"({100 * stats.to_dict()['dropped_share']:.1f} % of the edges), "
+                f"{stats.unresolved} unresolved"
             )
     centre = lf.centre_view()
     if zoom_box is not None:

@@ -306,7 +306,7 @@ def scan_one(
         img = np.clip(refocus(lf, p.disparity_px), 0.0, 1.0).astype(np.float32)
         focus = None
         if mode == "depth":
-            focus, stats = in_focus_evidence(lf, p.disparity_px)
+            focus, stats = in_focus_evidence(lf, p.disparity_px, confocal=img)
             if stats.unmeasured:
                 edge_depth[f"plane{k + 1:02d}"] = stats.to_dict()
         edges, cells, t = declutter_and_compress(

@@ -183,6 +183,7 @@ def load_confocal_pair(
     mode = params.declutter
     if mode == "auto":
         mode = "depth" if is_one_dimensional(lf.grid) else "sobel"
+    confocal = np.clip(refocus(lf, d), 0.0, 1.0).astype(np.float32)
     focus = None
     if mode == "depth":
         from dataclasses import replace
@@ -190,10 +191,9 @@ def load_confocal_pair(
         from stimuli.declutter import in_focus_evidence
         from stimuli.edgedepth import baseline_axes
 
-        focus, stats = in_focus_evidence(lf, d)
+        focus, stats = in_focus_evidence(lf, d, confocal=confocal)
         if len(baseline_axes(lf.grid)) == 1:
             choice = replace(choice, edge_depth=stats.to_dict())
-    confocal = np.clip(refocus(lf, d), 0.0, 1.0).astype(np.float32)
     centre = check_gray(lf.centre_view(), f"{src.lightfield}: centre view")
     confocal = check_gray(confocal, f"{src.lightfield}: confocal image")
     logger.info("%s: confocal image at %s (%s)", src.object, choice.describe(), mode)

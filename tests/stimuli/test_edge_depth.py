@@ -83,7 +83,7 @@ def test_box_horizontal_edges_kept_and_the_stripes_dropped():
     # the wall's stripes are gone: (almost) every white pixel lies on the box's outline
     assert (edges & ~band).sum() <= 0.02 * edges.sum()
     # what was dropped is counted: most unmeasured edge pixels were the wall's
-    assert stats.unmeasured > 0 and stats.unresolved > 0.5 * stats.unmeasured
+    assert stats.unmeasured > 0 and stats.resolved_off_plane > 0.5 * stats.unmeasured
     assert 0 < stats.to_dict()["dropped_share"] < 1
 
 
