@@ -86,7 +86,7 @@ class EdgeDepthStats:
     Parameters
     ----------
     edge_pixels : int
-        Edge pixels of the confocal image (Sobel above half Otsu's threshold).
+        Edge pixels of the confocal image (Sobel magnitude above half Otsu's threshold).
     unmeasured : int
         Of those, the pixels below :data:`MIN_CONFIDENCE`.
     resolved_in_focus, resolved_off_plane, unresolved : int
@@ -178,14 +178,12 @@ def resolve_edge_depth(
         (dropped: :data:`stimuli.declutter.FOCUS_DROP`).
     stats : EdgeDepthStats
     """
-    from stimuli.declutter import sobel_magnitude
-
     focus = np.asarray(focus, dtype=bool)
     axes = baseline_axes(grid)
     if len(axes) != 1:  # a 2-D grid measures every direction
         return focus.astype(np.uint8), EdgeDepthStats()
     img = np.asarray(confocal, dtype=np.float32)
-    mag = sobel_magnitude(img)
+    mag = np.hypot(ndimage.sobel(img, axis=0), ndimage.sobel(img, axis=1))
     if float(mag.max()) <= 0.0:
         return focus.astype(np.uint8), EdgeDepthStats()
     from skimage.filters import threshold_otsu

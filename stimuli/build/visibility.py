@@ -6,12 +6,14 @@ agree best on that plane (:attr:`stimuli.planechoice.PlaneChoice.on_plane`, from
 never from the edges judged). The support follows the stimulus through the build's crops and
 resize; then, at every level of the de-cluttered condition:
 
-* ``on_plane``: the share of the white pixels (cells) that lie on the support, widened by
+* ``on_plane``: the share of the white pixels (cells) that lie on the plane's region (the
+  support with its gaps closed and its holes filled: a 1-D light field's views cannot place
+  an edge parallel to their baseline, so the support has gaps along such edges), widened by
   :data:`ON_PLANE_MARGIN_PX` (an outline lies where the views stop agreeing, at the object's
   rim). A stimulus whose white lies mostly off the plane shows clutter, not the object.
 * ``object_coverage``: the share of the object's cells that are white, the object's cells being
-  those at least half covered by its region (the support with its gaps closed and its holes
-  filled). At the low levels (few cells) an object of which few cells light up is not seen.
+  those at least half covered by its region. At the low levels (few cells) an object of
+  which few cells light up is not seen.
 
 Both are written to ``stimulus_set.json`` (``visibility``), shown on the contact sheet, and a
 warning is given when the full-resolution ``on_plane`` share is below :data:`MIN_ON_PLANE` or
@@ -122,10 +124,10 @@ def object_visibility(
     support = plane_support(work, params)
     if support is None or params.mode != "edges":
         return None
-    near = ndimage.binary_dilation(support, _disk(ON_PLANE_MARGIN_PX))
     region = ndimage.binary_fill_holes(
         ndimage.binary_closing(support, _disk(_REGION_CLOSE_PX), border_value=0)
     )
+    near = ndimage.binary_dilation(region | support, _disk(ON_PLANE_MARGIN_PX))
     if work.valid is not None:
         region &= work.valid
     levels = []
