@@ -297,6 +297,7 @@ def agreement_mask(
     slope_px_per_view: float,
     *,
     tolerance_px: float = FOCUS_TOLERANCE_PX,
+    compiled: bool = True,
 ) -> np.ndarray:
     """Return where a light field's views agree at one plane.
 
@@ -314,13 +315,15 @@ def agreement_mask(
         The plane, pixels per view step (convention of :mod:`stimuli.lightfield`).
     tolerance_px : float >= 0
         Depth of field of the test, pixels per view step either side.
+    compiled : bool
+        One compiled pass per neighbour (:func:`stimuli.kernels.focus_agreement`, the
+        default) or the numpy twin (a chain of full-image temporaries per disparity); the
+        same mask to the bit.
 
     Returns
     -------
     ndarray of shape (rows, cols), bool
     """
-    from scipy.ndimage import uniform_filter
-
     from stimuli.lfload import as_lightfield
 
     lf = as_lightfield(lightfield).gray()
@@ -341,26 +344,44 @@ def agreement_mask(
     steps = max(1, int(np.ceil(2 * tol * _FOCUS_STEPS_PER_PX)))
     ds = np.linspace(d0 - tol, d0 + tol, steps + 1) if tol > 0 else np.array([d0])
     out = np.zeros(centre.shape, bool)
-    pad = int(np.ceil(np.abs(ds).max())) + 2
+    if compiled:
+        from stimuli.kernels import focus_agreement
+
+        c32 = np.ascontiguousarray(centre, dtype=np.float32)
     for axis, n, c in ((0, n_u, cu), (1, n_v, cv)):
         if n < 2:
             continue
-        widths = [(0, 0), (0, 0)]
-        widths[axis] = (pad, pad)
-        pc = np.pad(centre, widths, mode="edge")
         for side in (-1, 1):
             if not 0 <= c + side < n:
                 continue
             nb = views[cu + side, cv] if axis == 0 else views[cu, cv + side]
-            pn = np.pad(nb, widths, mode="edge")
-            one_px = _sample(pc, pad, float(side), axis, centre.shape[axis])
-            texture = uniform_filter(np.abs(one_px - centre), 3, mode="nearest")
-            limit = np.float32(FOCUS_AGREEMENT_RATIO) * texture + np.float32(FOCUS_NOISE)
-            for d in ds:
-                diff = uniform_filter(
-                    np.abs(_sample(pn, pad, d * side, axis, centre.shape[axis]) - centre), 3
-                )
-                out |= diff < limit
+            if compiled:  # one compiled call per neighbour: the same mask to the bit
+                nb32 = np.ascontiguousarray(nb, dtype=np.float32)
+                r, noise = FOCUS_AGREEMENT_RATIO, FOCUS_NOISE
+                focus_agreement(c32, nb32, axis, side, ds.astype(np.float64), r, noise, out)
+            else:
+                out |= _agreement_numpy(centre, nb, axis, side, ds)
+    return out
+
+
+def _agreement_numpy(centre, nb, axis, side, ds):
+    """The numpy twin of :func:`stimuli.kernels.focus_agreement` (a chain of full images)."""
+    from scipy.ndimage import uniform_filter
+
+    pad = int(np.ceil(np.abs(ds).max())) + 2
+    widths = [(0, 0), (0, 0)]
+    widths[axis] = (pad, pad)
+    pc = np.pad(centre, widths, mode="edge")
+    pn = np.pad(nb, widths, mode="edge")
+    one_px = _sample(pc, pad, float(side), axis, centre.shape[axis])
+    texture = uniform_filter(np.abs(one_px - centre), 3, mode="nearest")
+    limit = np.float32(FOCUS_AGREEMENT_RATIO) * texture + np.float32(FOCUS_NOISE)
+    out = np.zeros(centre.shape, bool)
+    for d in ds:
+        diff = uniform_filter(
+            np.abs(_sample(pn, pad, d * side, axis, centre.shape[axis]) - centre), 3
+        )
+        out |= diff < limit
     return out
 
 

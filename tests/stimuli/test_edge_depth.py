@@ -164,3 +164,14 @@ def test_a_stimulus_of_clutter_is_flagged(tmp_path: Path, capsys):
     assert "may not show its object" in (out.out + out.err).replace("\n", " ")
     sheet = np.asarray(Image.open(tmp_path / "set" / "contact" / "box.png"))
     assert (sheet[14:26] == 0).mean() > 0.5  # the warning band under the title
+
+
+@pytest.mark.parametrize("grid", [(1, 7), (3, 3), (7, 1)])
+def test_compiled_agreement_is_the_numpy_twin(grid):
+    """The compiled in-focus test gives the numpy chain's mask to the bit (random texture with
+    sharp steps, a plane between the box and the wall and one on the box)."""
+    lf, _ = _box_scene(grid)
+    for d in (D_BOX, 1.3):
+        fast = agreement_mask(lf, d)
+        slow = agreement_mask(lf, d, compiled=False)
+        assert np.array_equal(fast, slow)
