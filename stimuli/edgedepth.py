@@ -224,7 +224,7 @@ def _vote(low: np.ndarray, measured: np.ndarray, focus: np.ndarray):
     r = CONTACT_RADIUS_PX
     # cut the unmeasured edges where measured ones pass (corners, junctions): a box's top edge
     # and a background line continuing it past the corner become two segments
-    junction = low & ndimage.binary_dilation(measured, np.ones((2 * r + 1, 2 * r + 1), bool))
+    junction = low & _grow(measured, 2 * r + 1)
     seg, n_seg = ndimage.label(low & ~junction, eight)
     comp, n_comp = ndimage.label(measured, eight)
     none = (np.zeros_like(low), np.zeros_like(low))
@@ -232,11 +232,12 @@ def _vote(low: np.ndarray, measured: np.ndarray, focus: np.ndarray):
         return none
     rows = np.broadcast_to(np.arange(low.shape[0])[:, None], low.shape)
     cols = np.broadcast_to(np.arange(low.shape[1])[None, :], low.shape)
-    ci, si = np.arange(1, n_comp + 1), np.arange(1, n_seg + 1)
-    top = np.asarray(ndimage.minimum(rows, comp, ci))
-    bottom = np.asarray(ndimage.maximum(rows, comp, ci))
-    left = np.asarray(ndimage.minimum(cols, seg, si))
-    right = np.asarray(ndimage.maximum(cols, seg, si))
+    boxes = ndimage.find_objects(comp)  # bounding boxes: extents without sorting the pixels
+    top = np.array([b[0].start for b in boxes])
+    bottom = np.array([b[0].stop - 1 for b in boxes])
+    boxes = ndimage.find_objects(seg)
+    left = np.array([b[1].start for b in boxes])
+    right = np.array([b[1].stop - 1 for b in boxes])
     # each measured pixel near a segment: which segment (the largest label nearby)
     near = ndimage.grey_dilation(seg, size=2 * (r + 1) + 1)
     touch = measured & (near > 0)
@@ -272,7 +273,11 @@ def _vote(low: np.ndarray, measured: np.ndarray, focus: np.ndarray):
     kept, dropped = keep[seg], off[seg]
     # a junction pixel goes with a segment it touches (the corner of the box's outline), kept
     # first
-    grow = np.ones((2 * r + 3, 2 * r + 3), bool)
-    kept |= junction & ndimage.binary_dilation(kept, grow)
-    dropped |= junction & ~kept & ndimage.binary_dilation(dropped, grow)
+    kept |= junction & _grow(kept, 2 * r + 3)
+    dropped |= junction & ~kept & _grow(dropped, 2 * r + 3)
     return kept, dropped
+
+
+def _grow(mask: np.ndarray, size: int) -> np.ndarray:
+    """``mask`` dilated by a ``size`` x ``size`` square (two separable running maxima)."""
+    return ndimage.maximum_filter(mask.view(np.uint8), size=size, mode="constant") > 0
