@@ -152,3 +152,21 @@ def test_planes_do_not_depend_on_the_range_asked_for(data_dir, name: str):
         for d in planes:
             if a <= d <= b:
                 assert min(abs(d - f) for f in found) <= 0.5, (name, (a, b), planes, found)
+
+
+def test_view_crop_option_takes_auto_none_or_a_box(tmp_path: Path, capsys):
+    """``--view-crop auto`` was refused with a message about ``--zoom``; now auto, none and a box
+    work, and anything else is one line naming ``--view-crop``."""
+    cap = _vignetted_capture(tmp_path / "rim.npz")
+    for value, box in (("auto", [12, 12, 136, 96]), ("none", None), ("20,20,100,80", None)):
+        out = tmp_path / f"scan_{value.replace(',', '_')}"
+        args = ["lightfield", "scan", cap, "--out", out, "--no-plot", "--view-crop", value]
+        assert run_cli(args) == 0
+        rec = json.loads((out / "scan.json").read_text())
+        assert rec["view_crop"] == (box if value != "20,20,100,80" else [20, 20, 100, 80])
+    capsys.readouterr()
+    bad = ["lightfield", "scan", cap, "--out", tmp_path / "bad", "--view-crop", "corners"]
+    assert run_cli(bad) == 2
+    err = capsys.readouterr().err
+    assert "--view-crop must be auto, none or x,y,w,h" in err and "--zoom" not in err
+    assert not (tmp_path / "bad").exists()
