@@ -16,8 +16,12 @@ Peak memory is the largest extra allocation during the call (``tracemalloc``; nu
 buffers to it), in MB. Times are the best of ``--repeat`` runs.
 
 ``--layouts`` adds the same figures per grid layout (9x9, 7x7, 3x3 of 1024x1024 views, 1x7),
-as *medians* over ``--repeat`` runs with ratios to the floor measured in the same process:
-refocus (goal <= 1.5x the floor), refocus + de-clutter + compress (goal <= 2x), and the
+and ``--capture FOLDER`` (repeatable) per real capture, read as ``lightfield scan`` reads it
+(vignette crop included) at the plane ``stimuli build`` chooses, as *medians* over
+``--repeat`` runs with ratios to the floor measured in the same process: refocus (goal <= 1.5x
+the floor), refocus + Sobel de-clutter + compress (``sobel``, goal <= 2x), refocus + depth
+de-clutter (views' agreement, and on 1-D light fields the depth of the edges the views cannot
+measure: ``stimuli.declutter.in_focus_evidence``) + compress (``depth``, goal <= 3x), and the
 200-plane scan with detection (goals < 0.1 s on the 9x9, < 0.5 s on the 1024x1024 3x3), with
 the factor ``f`` by which the scan downsampled the views (``stimuli.planes.scan_downsample``: 2
 on the 1024x1024 3x3, 1 elsewhere) and the planes it found. The scan is timed with the compiled
@@ -34,7 +38,8 @@ Each ratio is given twice, on the same bytes:
 The load average is printed with the figures: other processes on a shared machine take cores
 and memory bandwidth from both the floor and the work.
 
-Run: ``python benchmarks/bench_lightfield.py [--repeat 7] [--layouts] [--json out.json]``.
+Run: ``python benchmarks/bench_lightfield.py [--repeat 7] [--layouts] [--capture FOLDER]
+[--only-layouts] [--json out.json]`` (``--capture`` alone reports only the captures).
 """
 
 from __future__ import annotations
@@ -51,7 +56,13 @@ import numpy as np
 import stimuli.agreementscan as agreementscan
 from stimuli.agreementscan import _LAST_SWEEP
 from stimuli.compress import compress, grid_shape
-from stimuli.declutter import auto_threshold, declutter, declutter_depth, in_focus_mask
+from stimuli.declutter import (
+    auto_threshold,
+    declutter,
+    declutter_depth,
+    in_focus_evidence,
+    in_focus_mask,
+)
 from stimuli.lfsynth import render_camera_array, three_plane_scene
 from stimuli.planes import find_object_planes as _find_object_planes
 from stimuli.refocus import default_workers, refocus
@@ -141,14 +152,16 @@ def _median(fn, repeat, cold=False):
     return float(np.median(times))
 
 
-def _one_layout(grid, shape, baseline, repeat) -> dict:
-    lf = render_camera_array(
-        three_plane_scene(shape), grid=grid, shape_px=shape, baseline_m=baseline
-    )
+def _one_layout(grid, shape, baseline, repeat, lf=None, d=None) -> dict:
+    if lf is None:
+        lf = render_camera_array(
+            three_plane_scene(shape), grid=grid, shape_px=shape, baseline_m=baseline
+        )
+        d = lf.geometry.disparity_px(4.0) + 0.37
+    shape = lf.shape_px
     views = lf.views
     dst = np.empty_like(views)
     np.copyto(dst, views)
-    d = lf.geometry.disparity_px(4.0) + 0.37
     cells = grid_shape(shape, 13)
     threshold = auto_threshold(refocus(lf, d))
 
@@ -156,11 +169,20 @@ def _one_layout(grid, shape, baseline, repeat) -> dict:
         edges = declutter(refocus(lf, d), threshold=threshold)
         return compress(edges, cells, edge_ratio=1 / 13)
 
+    def pipe_depth():
+        img = refocus(lf, d)
+        evidence, _ = in_focus_evidence(lf, d, confocal=img)
+        edges = declutter_depth(img, evidence, threshold=threshold)
+        return compress(edges, cells, edge_ratio=1 / 13)
+
     row = {"light_field_mb": views.nbytes / 1e6}
     for how, cold in (("cold", True), ("hot", False)):
         floor_s = _median(lambda: np.copyto(dst, views), 2 * repeat, cold)
         ref_s = _median(lambda: refocus(lf, d), repeat, cold)
         pipe_s = _median(pipe, repeat, cold)
+        depth_s = _median(pipe_depth, repeat, cold)
+        row[f"depth_ms_{how}"] = depth_s * 1e3
+        row[f"depth_x_floor_{how}"] = depth_s / floor_s
         row[f"floor_ms_{how}"] = floor_s * 1e3
         row[f"refocus_ms_{how}"] = ref_s * 1e3
         row[f"pipeline_ms_{how}"] = pipe_s * 1e3
@@ -187,24 +209,51 @@ def _one_layout(grid, shape, baseline, repeat) -> dict:
     return row
 
 
-def per_layout(repeat: int) -> dict:
-    """Refocus, pipeline and scan per layout: medians and ratios to the same-process floor."""
+def _captures(paths) -> list:
+    """``(name, light field, plane)`` of each capture folder: read as ``lightfield scan`` reads
+    it (the vignette crop included), at the plane ``stimuli build --plane auto`` chooses."""
+    from pathlib import Path
+
+    from stimuli.lightfield_steps import LoaderOptions, load_grey
+    from stimuli.planechoice import choose_plane
+
+    out = []
+    for p in paths:
+        lf = load_grey(Path(p), LoaderOptions())
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            d = choose_plane(lf).disparity_px
+        n_u, n_v = lf.grid
+        rows, cols = lf.shape_px
+        out.append((f"{Path(p).name[:12]} {n_u}x{n_v} {cols}x{rows}", lf, d))
+    return out
+
+
+def per_layout(repeat: int, captures=()) -> dict:
+    """Refocus, pipelines and scan per layout (and per capture folder): medians and ratios to
+    the same-process floor."""
     out = {}
     print(
-        f"{'layout':18s} {'MB':>5s} {'floor ms':>9s} {'refocus x':>10s} {'pipe x':>8s} "
-        f"{'refocus x':>10s} {'pipe x':>8s} {'scan s':>7s} {'numpy':>6s} {'load':>5s}"
+        f"{'layout':26s} {'MB':>5s} {'floor ms':>9s} {'refocus x':>10s} {'sobel x':>8s} "
+        f"{'depth x':>8s} {'refocus x':>10s} {'sobel x':>8s} {'depth x':>8s} {'scan s':>7s} "
+        f"{'numpy':>6s} {'load':>5s}"
     )
     print(
-        f"{'':18s} {'':>5s} {'(cold)':>9s} {'(cold)':>10s} {'(cold)':>8s} {'(hot)':>10s} "
-        f"{'(hot)':>8s} {'':>7s} {'sweep':>6s} {'':>5s} {'f':>2s}  planes px/view"
+        f"{'':26s} {'':>5s} {'(cold)':>9s} {'(cold)':>10s} {'(cold)':>8s} {'(cold)':>8s} "
+        f"{'(hot)':>10s} {'(hot)':>8s} {'(hot)':>8s} {'':>7s} {'sweep':>6s} {'':>5s} "
+        f"{'f':>2s}  planes px/view"
     )
-    for grid, shape, baseline in LAYOUTS:
-        name = f"{grid[0]}x{grid[1]} of {shape[1]}x{shape[0]}"
-        row = out[name] = _one_layout(grid, shape, baseline, repeat)
+    items = [(f"{g[0]}x{g[1]} of {s[1]}x{s[0]}", (g, s, b), None, None) for g, s, b in LAYOUTS] + [
+        (name, ((), (), 0.0), lf, d) for name, lf, d in _captures(captures)
+    ]
+    for name, (grid, shape, baseline), lf, d in items:
+        row = out[name] = _one_layout(grid, shape, baseline, repeat, lf, d)
         print(
-            f"{name:18s} {row['light_field_mb']:5.0f} {row['floor_ms_cold']:9.2f} "
+            f"{name:26s} {row['light_field_mb']:5.0f} {row['floor_ms_cold']:9.2f} "
             f"{row['refocus_x_floor_cold']:10.2f} {row['pipeline_x_floor_cold']:8.2f} "
+            f"{row['depth_x_floor_cold']:8.2f} "
             f"{row['refocus_x_floor_hot']:10.2f} {row['pipeline_x_floor_hot']:8.2f} "
+            f"{row['depth_x_floor_hot']:8.2f} "
             f"{row['scan_s']:7.3f} {row['scan_numpy_s']:6.3f} {row['load_average']:5.1f} "
             f"{row['scan_downsample']:2d}  "
             f"{row['scan_planes_px']}",
@@ -213,12 +262,40 @@ def per_layout(repeat: int) -> dict:
     return out
 
 
+def _captures_only(repeat: int, captures) -> dict:
+    saved = globals()["LAYOUTS"]
+    globals()["LAYOUTS"] = ()
+    try:
+        return per_layout(repeat, captures)
+    finally:
+        globals()["LAYOUTS"] = saved
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--repeat", type=int, default=7)
     ap.add_argument("--json", default=None, help="also write the results here")
     ap.add_argument("--layouts", action="store_true", help="also report per grid layout")
+    ap.add_argument(
+        "--capture",
+        action="append",
+        default=[],
+        metavar="FOLDER",
+        help="also report this capture (a folder of views; repeatable) beside the layouts, "
+        "at the plane the build chooses",
+    )
+    ap.add_argument(
+        "--only-layouts", action="store_true", help="skip the single-scene table (with --layouts)"
+    )
     args = ap.parse_args(argv)
+    if args.only_layouts or (args.capture and not args.layouts):
+        res = {"layouts": per_layout(args.repeat, args.capture) if args.layouts else {}}
+        if not args.layouts:
+            res["layouts"] = _captures_only(args.repeat, args.capture)
+        if args.json:
+            with open(args.json, "w") as f:
+                json.dump(res, f, indent=1)
+        return res
 
     lf = render_camera_array(three_plane_scene(SHAPE), grid=GRID, shape_px=SHAPE, baseline_m=0.03)
     views = lf.views
@@ -289,7 +366,7 @@ def main(argv=None):
         f"{res['scan_planes_m']} (truth 1, 4, 9)"
     )
     if args.layouts:
-        res["layouts"] = per_layout(args.repeat)
+        res["layouts"] = per_layout(args.repeat, args.capture)
     if args.json:
         with open(args.json, "w") as f:
             json.dump(res, f, indent=1)

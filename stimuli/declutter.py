@@ -45,6 +45,11 @@ __all__ = [
     "FOCUS_NOISE",
     "VOTE_WINDOW_PX",
     "in_focus_mask",
+    "in_focus_evidence",
+    "FOCUS_OUT",
+    "FOCUS_IN",
+    "FOCUS_DROP",
+    "agreement_mask",
     "declutter_depth",
     "bokeh_guard",
     "BOKEH_GUARD_RADIUS_PX",
@@ -207,6 +212,10 @@ FOCUS_TOLERANCE_PX: float = 1.0
 #: Planes sampled per pixel per view step inside the tolerance (ours: quarter-pixel steps).
 _FOCUS_STEPS_PER_PX = 4
 
+#: Values of :func:`in_focus_evidence`: out of focus, in focus, and dropped whatever the
+#: neighbours say (an edge whose depth the views cannot measure, resolved off the plane).
+FOCUS_OUT, FOCUS_IN, FOCUS_DROP = 0, 1, 2
+
 #: An edge pixel is kept when at least half of the edge pixels in this box around it are in
 #: focus (ours: a local majority, so single noisy pixels neither keep nor drop an edge).
 VOTE_WINDOW_PX: int = 9
@@ -238,7 +247,59 @@ def in_focus_mask(
     *,
     tolerance_px: float = FOCUS_TOLERANCE_PX,
 ) -> np.ndarray:
-    """Return where a light field is in focus at one plane, by agreement across views.
+    """Return where a light field is in focus at one plane (bool): :func:`in_focus_evidence`
+    equal to :data:`FOCUS_IN`."""
+    return in_focus_evidence(lightfield, slope_px_per_view, tolerance_px=tolerance_px)[0] == 1
+
+
+def in_focus_evidence(
+    lightfield,
+    slope_px_per_view: float,
+    *,
+    tolerance_px: float = FOCUS_TOLERANCE_PX,
+    confocal: np.ndarray | None = None,
+):
+    """Return where a light field is in focus at one plane, and what its edges' depth cost.
+
+    The views' agreement (:func:`agreement_mask`); on a 1-D light field the edges the views
+    cannot measure (parallel to the baseline) then take the depth of the measured edges they
+    end on, and those that resolve off the plane are dropped
+    (:func:`stimuli.edgedepth.resolve_edge_depth`).
+
+    ``confocal``: the confocal image at the plane, if the caller has it (refocused otherwise,
+    on 1-D light fields).
+
+    Returns
+    -------
+    evidence : ndarray of shape (rows, cols), uint8
+        :data:`FOCUS_OUT` (0), :data:`FOCUS_IN` (1) or :data:`FOCUS_DROP` (2: an edge whose
+        depth the views cannot measure and that resolved off the plane;
+        :func:`declutter_depth` drops it whatever its neighbours say).
+    stats : stimuli.edgedepth.EdgeDepthStats
+        How many edge pixels the views could not measure, and what became of them.
+    """
+    from stimuli.edgedepth import EdgeDepthStats, baseline_axes, resolve_edge_depth
+    from stimuli.lfload import as_lightfield
+
+    lf = as_lightfield(lightfield).gray()
+    mask = agreement_mask(lf, slope_px_per_view, tolerance_px=tolerance_px)
+    if len(baseline_axes(lf.grid)) != 1:
+        return mask.astype(np.uint8), EdgeDepthStats()
+    if confocal is None:
+        from stimuli.refocus import refocus
+
+        confocal = np.clip(refocus(lf, float(slope_px_per_view)), 0.0, 1.0).astype(np.float32)
+    return resolve_edge_depth(confocal, mask, lf.grid)
+
+
+def agreement_mask(
+    lightfield,
+    slope_px_per_view: float,
+    *,
+    tolerance_px: float = FOCUS_TOLERANCE_PX,
+    compiled: bool = True,
+) -> np.ndarray:
+    """Return where a light field's views agree at one plane.
 
     For each of the (up to four) neighbours of the centre view on its row and column, the
     neighbour is aligned at disparities within ``tolerance_px`` of the plane and compared with
@@ -254,13 +315,15 @@ def in_focus_mask(
         The plane, pixels per view step (convention of :mod:`stimuli.lightfield`).
     tolerance_px : float >= 0
         Depth of field of the test, pixels per view step either side.
+    compiled : bool
+        One compiled pass per neighbour (:func:`stimuli.kernels.focus_agreement`, the
+        default) or the numpy twin (a chain of full-image temporaries per disparity); the
+        same mask to the bit.
 
     Returns
     -------
     ndarray of shape (rows, cols), bool
     """
-    from scipy.ndimage import uniform_filter
-
     from stimuli.lfload import as_lightfield
 
     lf = as_lightfield(lightfield).gray()
@@ -281,26 +344,44 @@ def in_focus_mask(
     steps = max(1, int(np.ceil(2 * tol * _FOCUS_STEPS_PER_PX)))
     ds = np.linspace(d0 - tol, d0 + tol, steps + 1) if tol > 0 else np.array([d0])
     out = np.zeros(centre.shape, bool)
-    pad = int(np.ceil(np.abs(ds).max())) + 2
+    if compiled:
+        from stimuli.kernels import focus_agreement
+
+        c32 = np.ascontiguousarray(centre, dtype=np.float32)
     for axis, n, c in ((0, n_u, cu), (1, n_v, cv)):
         if n < 2:
             continue
-        widths = [(0, 0), (0, 0)]
-        widths[axis] = (pad, pad)
-        pc = np.pad(centre, widths, mode="edge")
         for side in (-1, 1):
             if not 0 <= c + side < n:
                 continue
             nb = views[cu + side, cv] if axis == 0 else views[cu, cv + side]
-            pn = np.pad(nb, widths, mode="edge")
-            one_px = _sample(pc, pad, float(side), axis, centre.shape[axis])
-            texture = uniform_filter(np.abs(one_px - centre), 3, mode="nearest")
-            limit = np.float32(FOCUS_AGREEMENT_RATIO) * texture + np.float32(FOCUS_NOISE)
-            for d in ds:
-                diff = uniform_filter(
-                    np.abs(_sample(pn, pad, d * side, axis, centre.shape[axis]) - centre), 3
-                )
-                out |= diff < limit
+            if compiled:  # one compiled call per neighbour: the same mask to the bit
+                nb32 = np.ascontiguousarray(nb, dtype=np.float32)
+                r, noise = FOCUS_AGREEMENT_RATIO, FOCUS_NOISE
+                focus_agreement(c32, nb32, axis, side, ds.astype(np.float64), r, noise, out)
+            else:
+                out |= _agreement_numpy(centre, nb, axis, side, ds)
+    return out
+
+
+def _agreement_numpy(centre, nb, axis, side, ds):
+    """The numpy twin of :func:`stimuli.kernels.focus_agreement` (a chain of full images)."""
+    from scipy.ndimage import uniform_filter
+
+    pad = int(np.ceil(np.abs(ds).max())) + 2
+    widths = [(0, 0), (0, 0)]
+    widths[axis] = (pad, pad)
+    pc = np.pad(centre, widths, mode="edge")
+    pn = np.pad(nb, widths, mode="edge")
+    one_px = _sample(pc, pad, float(side), axis, centre.shape[axis])
+    texture = uniform_filter(np.abs(one_px - centre), 3, mode="nearest")
+    limit = np.float32(FOCUS_AGREEMENT_RATIO) * texture + np.float32(FOCUS_NOISE)
+    out = np.zeros(centre.shape, bool)
+    for d in ds:
+        diff = uniform_filter(
+            np.abs(_sample(pn, pad, d * side, axis, centre.shape[axis]) - centre), 3
+        )
+        out |= diff < limit
     return out
 
 
@@ -309,13 +390,15 @@ def declutter_depth(image: np.ndarray, focus_mask: np.ndarray, *, threshold: flo
 
     An edge pixel of :func:`declutter` is kept when at least half of the edge pixels in the
     :data:`VOTE_WINDOW_PX` box around it are in focus (``focus_mask``, from
-    :func:`in_focus_mask`).
+    :func:`in_focus_mask`), unless ``focus_mask`` (the uint8 evidence of
+    :func:`in_focus_evidence`) marks it :data:`FOCUS_DROP`.
 
     Parameters
     ----------
     image : ndarray of shape (rows, cols), float32 in [0, 1]
         The confocal image at the plane.
-    focus_mask : ndarray of shape (rows, cols), bool
+    focus_mask : ndarray of shape (rows, cols), bool or uint8
+        In focus (bool), or :data:`FOCUS_OUT` / :data:`FOCUS_IN` / :data:`FOCUS_DROP` (uint8).
     threshold : float >= 0
         Sobel threshold, as :func:`declutter`.
 
@@ -327,14 +410,19 @@ def declutter_depth(image: np.ndarray, focus_mask: np.ndarray, *, threshold: flo
 
     edges = declutter(image, threshold=threshold)
     m = np.asarray(focus_mask)
-    if m.dtype != bool or m.shape != edges.shape:
+    if m.dtype not in (np.bool_, np.uint8) or m.shape != edges.shape:
         raise InputError(
-            f"focus_mask must be a bool image of shape {edges.shape}, got {m.dtype} {m.shape}"
+            f"focus_mask must be a bool image (or in_focus_evidence's uint8) of shape "
+            f"{edges.shape}, got {m.dtype} {m.shape}"
         )
+    drop = None
+    if m.dtype == np.uint8:
+        m, drop = m == FOCUS_IN, m == FOCUS_DROP
     e = edges.astype(np.float32)
     agree = uniform_filter(e * m, VOTE_WINDOW_PX, mode="constant")
     total = uniform_filter(e, VOTE_WINDOW_PX, mode="constant")
-    return edges & (agree >= 0.5 * total)
+    kept = edges & (agree >= 0.5 * total)
+    return kept if drop is None else kept & ~drop
 
 
 #: Bokeh-rim guard: a narrow-DOF edge is kept only with a wide-DOF edge within this many pixels

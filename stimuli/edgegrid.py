@@ -31,7 +31,7 @@ def declutter_and_compress(
         Sobel threshold; ``'auto'`` is :func:`stimuli.declutter.auto_threshold` (Otsu).
     edge_ratio : float in [0, 1)
         Compression edge ratio (paper: 1/13).
-    focus_mask : ndarray of shape (rows, cols), bool, optional
+    focus_mask : ndarray of shape (rows, cols), bool or uint8, optional
         Depth mode: keep only the edges the light field says are in focus
         (:func:`stimuli.declutter.in_focus_mask`, :func:`stimuli.declutter.declutter_depth`);
         without it, the paper's Sobel mode.

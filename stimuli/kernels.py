@@ -12,7 +12,9 @@ cached on disk (``cache=True``), so only the first run on a machine pays for the
   divided in float32), for a range of rows;
 * :func:`count_blocks`: the number of True pixels in each window of a grid (exact integers);
 * :func:`agreement_sweep`: the agreement scan's plane sweep (:mod:`stimuli.agreementscan`),
-  every plane's view differences, box filter and running best in one call.
+  every plane's view differences, box filter and running best in one call;
+* :func:`focus_agreement`: the in-focus test of :func:`stimuli.declutter.agreement_mask` for
+  one neighbouring view, every disparity of the tolerance in one call.
 
 Importing this module imports numba (about 0.3 s), so the modules that use it import it inside
 the functions that need it.
@@ -28,6 +30,7 @@ __all__ = [
     "sobel_rows",
     "count_blocks",
     "agreement_sweep",
+    "focus_agreement",
     "ROW_BLOCK",
     "COST_BOX_PX",
 ]
@@ -323,3 +326,69 @@ def agreement_sweep(
                     if v < b[x]:
                         b[x] = v
                         bi[x] = first + k
+
+
+@njit(nogil=True, cache=True)
+def _box3_cols(src, dst):  # pragma: no cover - compiled
+    """Mean of 3 along axis 0 (rows), edge rows repeated, in float64 then float32."""
+    rows, cols = src.shape
+    for y in range(rows):
+        ya, yb = max(y - 1, 0), min(y + 1, rows - 1)
+        for x in range(cols):
+            s = np.float64(src[ya, x]) + np.float64(src[y, x]) + np.float64(src[yb, x])
+            dst[y, x] = np.float32(s / 3.0)
+
+
+@njit(nogil=True, cache=True)
+def focus_agreement(centre, nb, axis, side, ds, ratio, noise, out):  # pragma: no cover
+    """The views' agreement test of :func:`stimuli.declutter.agreement_mask` for one neighbour.
+
+    ``out |= box3(|nb sampled at x - d * side - centre|) < ratio * box3(|centre at x - side -
+    centre|) + noise`` for every ``d`` of ``ds``, along image ``axis`` (0 rows, 1 columns),
+    edge pixels repeated and linear interpolation as ``stimuli.declutter._sample``; box3 is the
+    3x3 mean (rows first, then columns, each in float64 rounded to float32, as
+    ``scipy.ndimage.uniform_filter``), in passes over whole images held in two buffers instead
+    of a chain of numpy temporaries.
+    """
+    rows, cols = centre.shape
+    n = cols if axis == 1 else rows
+    a = np.empty((rows, cols), np.float32)
+    b = np.empty((rows, cols), np.float32)
+    limit = np.empty((rows, cols), np.float32)
+    for y in range(rows):  # the texture: a one-pixel shift of the centre view
+        for x in range(cols):
+            if axis == 1:
+                j = min(max(x - side, 0), n - 1)
+                v = centre[y, j]
+            else:
+                j = min(max(y - side, 0), n - 1)
+                v = centre[j, x]
+            a[y, x] = abs(v - centre[y, x])
+    _box3_cols(a, b)
+    for y in range(rows):
+        for x in range(cols):
+            xa, xb = max(x - 1, 0), min(x + 1, cols - 1)
+            s = np.float64(b[y, xa]) + np.float64(b[y, x]) + np.float64(b[y, xb])
+            limit[y, x] = np.float32(ratio) * np.float32(s / 3.0) + np.float32(noise)
+    for di in range(ds.shape[0]):
+        sh = ds[di] * side
+        k = int(np.floor(sh))
+        f = np.float32(sh - k)
+        for y in range(rows):
+            for x in range(cols):
+                if axis == 1:
+                    ja = min(max(x - k, 0), n - 1)
+                    jb = min(max(x - k - 1, 0), n - 1)
+                    va, vb = nb[y, ja], nb[y, jb]
+                else:
+                    ja = min(max(y - k, 0), n - 1)
+                    jb = min(max(y - k - 1, 0), n - 1)
+                    va, vb = nb[ja, x], nb[jb, x]
+                a[y, x] = abs((va + f * (vb - va)) - centre[y, x])
+        _box3_cols(a, b)
+        for y in range(rows):
+            for x in range(cols):
+                xa, xb = max(x - 1, 0), min(x + 1, cols - 1)
+                s = np.float64(b[y, xa]) + np.float64(b[y, x]) + np.float64(b[y, xb])
+                if np.float32(s / 3.0) < limit[y, x]:
+                    out[y, x] = True

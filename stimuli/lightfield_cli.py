@@ -37,6 +37,7 @@ import typer
 from stimuli.cli import seed_option
 from stimuli.errors import InputError
 from stimuli.lightfield_steps import (
+    VIEW_CROP_HELP,
     LoaderOptions,
     check_declutter_mode,
     check_zoom_aspect,
@@ -115,7 +116,7 @@ _ViewCrop = Annotated[
     str | None,
     typer.Option(
         "--view-crop",
-        help="Crop every view to x,y,w,h first (e.g. to drop a Lytro's vignetted corners).",
+        help=VIEW_CROP_HELP,
     ),
 ]
 _ViewBin = Annotated[
@@ -373,18 +374,36 @@ def refocus_command(
     disparities: Annotated[
         str | None, typer.Option("--disparities", help="Stack: FROM:TO, px per view step.")
     ] = None,
-    zoom: Annotated[str | None, typer.Option("--zoom", help="Crop x,y,w,h before edges.")] = None,
+    zoom: Annotated[
+        str | None,
+        typer.Option(
+            "--zoom",
+            help="Crop x,y,w,h before edges (pixels of the image written: after the view crop).",
+        ),
+    ] = None,
     grid: Annotated[
         str | None, typer.Option("--grid", help="Also write edges and a COLSxROWS grid.")
     ] = None,
-    declutter_mode: _Declutter = "sobel",
-    threshold: _Threshold = "auto",
+    declutter_mode: _Declutter = "auto",
+    threshold: Annotated[
+        str,
+        typer.Option(
+            "--threshold",
+            help="Sobel threshold: 'auto' (the stimulus builder's rule, as scan: minimum edge "
+            "retention of the centre view and the confocal image) or a number.",
+        ),
+    ] = "auto",
     edge_ratio: _EdgeRatio = 1.0 / 13.0,
     *,
     loader: LoaderOptions,
 ) -> None:
-    """Write the confocal image at one plane (or a focal stack); optionally zoom and compress."""
-    from stimuli.declutter import in_focus_mask
+    """Write the confocal image at one plane (or a focal stack); optionally zoom and compress.
+
+    The views are read, cropped and de-cluttered as ``scan`` and ``stimuli build`` do (the same
+    vignette crop, ``--declutter auto`` rule and threshold rule), so the same plane gives the
+    same edge image.
+    """
+    from stimuli.declutter import in_focus_evidence
     from stimuli.edgegrid import declutter_and_compress
     from stimuli.io import save_png
     from stimuli.refocus import iter_focal_stack, refocus
@@ -423,19 +442,38 @@ def refocus_command(
         if grid_px is not None:
             rs, cs = zoom_box
             check_zoom_aspect((rs.stop - rs.start, cs.stop - cs.start), grid_px)
-    img = refocus(lf, d)
-    mode = resolve_declutter_mode(declutter_mode, lf)
-    focus = in_focus_mask(lf, d) if mode == "depth" and grid_px is not None else None
-    if zoom_box is not None:
-        import numpy as np
+    import numpy as np
 
+    img = np.clip(refocus(lf, d), 0.0, 1.0).astype(np.float32)
+    mode = resolve_declutter_mode(declutter_mode, lf)
+    focus = None
+    if mode == "depth" and grid_px is not None:
+        focus, stats = in_focus_evidence(lf, d, confocal=img)
+        if stats.unmeasured:
+            typer.echo(
+                f"edges the views cannot measure: {stats.unmeasured} px; dropped "
+                f"{stats.resolved_off_plane} resolved off the plane "
+                f"({100 * stats.to_dict()['dropped_share']:.1f} % of the edges), "
+                f"{stats.unresolved} unresolved"
+            )
+    centre = lf.centre_view()
+    if zoom_box is not None:
         rs, cs = zoom_box
         img = np.ascontiguousarray(img[rs, cs])
+        centre = np.ascontiguousarray(centre[rs, cs])
         focus = None if focus is None else np.ascontiguousarray(focus[rs, cs])
+    if lf.meta.get("view_crop") is not None:
+        x, y, w, h = lf.meta["view_crop"]
+        typer.echo(f"view crop {x},{y},{w},{h} ({lf.meta.get('view_crop_rule')})")
     save_png(img, out)
     if grid_px is not None:
         edges, cells, t = declutter_and_compress(
-            img, grid_px, threshold=threshold, edge_ratio=edge_ratio, focus_mask=focus
+            img,
+            grid_px,
+            threshold=threshold,
+            edge_ratio=edge_ratio,
+            focus_mask=focus,
+            centre_view=centre,
         )
         save_png(edges, out.with_name(out.stem + "_edges.png"))
         save_png(cells, out.with_name(out.stem + "_grid.png"))

@@ -14,13 +14,14 @@ import json
 import math
 import warnings
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 from stimuli.errors import InputError
 from stimuli.resources import parse_pair
 
 __all__ = [
+    "VIEW_CROP_HELP",
     "LoaderOptions",
     "check_declutter_mode",
     "check_zoom_aspect",
@@ -32,6 +33,14 @@ __all__ = [
     "scan_disparities",
     "scan_one",
 ]
+
+
+#: What ``--view-crop`` takes, for the help of every command that reads a capture.
+VIEW_CROP_HELP = (
+    "Crop every view first: auto (default: leave out the capture's dark vignette rim and "
+    "clipped strip, found in the views the plane scan reads; the same box in every command), "
+    "none, or x,y,w,h."
+)
 
 
 def parse_grid(text: str) -> tuple[int, int]:
@@ -65,11 +74,14 @@ def _with_the_other_views(some, path: Path, options: LoaderOptions):
     def others(grid: tuple[int, int]) -> list[tuple[int, int]]:
         return [(u, v) for u in range(grid[0]) for v in range(grid[1]) if (u, v) not in read]
 
-    rest = load_grey(path, options, others)
+    box = some.meta.get("view_crop")
+    crop = "none" if box is None else ",".join(str(int(v)) for v in box)
+    rest = load_grey(path, replace(options, view_crop=crop), others)
     views = rest.views
     for u, v in read:
         views[u, v] = some.views[u, v]
     meta = {k: v for k, v in rest.meta.items() if k != "views_read"}
+    meta["view_crop_rule"] = some.meta.get("view_crop_rule")
     return LightField(views, rest.geometry, rest.source, meta)
 
 
@@ -88,7 +100,7 @@ def parse_disparity_range(text: str) -> tuple[float, float]:
 class LoaderOptions:
     """How ``scan`` and ``refocus`` read their light field (the loader options of both)."""
 
-    view_crop: str | None = None
+    view_crop: str | None = "auto"
     pattern: str | None = None
     grid_cols: int | None = None
     pitch: int | None = None
@@ -127,10 +139,10 @@ def load_grey(path: Path, options: LoaderOptions, only_views=None):
     ).gray()
     if options.view_bin != 1:
         lf = lf.view_binned(options.view_bin)
-    if options.view_crop is not None:
-        rs, cs = parse_zoom(options.view_crop, lf.shape_px)
-        lf = lf.cropped((cs.start, rs.start, cs.stop - cs.start, rs.stop - rs.start))
-    return lf
+    from stimuli.vignette import apply_view_crop
+
+    # auto: the vignette crop every command finds in the scan's views (read in every case)
+    return apply_view_crop(lf, options.view_crop)
 
 
 def scan_disparities(
@@ -217,7 +229,7 @@ def scan_one(
     import numpy as np
 
     from stimuli.agreementscan import answer_before_compiled_code, scan_views
-    from stimuli.declutter import in_focus_mask
+    from stimuli.declutter import in_focus_evidence
     from stimuli.edgegrid import declutter_and_compress
     from stimuli.io import atomic_path, save_png, staged_folder
     from stimuli.planechoice import choose_plane, detect_planes
@@ -266,6 +278,9 @@ def scan_one(
             scan = scan_result(lf, ds, scores, binning=b)
     lines: list[str] = []
     say = lines.append if emit is None else emit  # the answer goes out as soon as it is known
+    if lf.meta.get("view_crop") is not None:
+        x, y, w, h = lf.meta["view_crop"]
+        say(f"view crop {x},{y},{w},{h} ({lf.meta.get('view_crop_rule')})")
     for line in [f"warning: {w.message}" for w in caught] + scan.notes():
         say(line)
     for k, p in enumerate(scan.peaks):  # no refocusing needed for the answer
@@ -287,9 +302,14 @@ def scan_one(
         lf = _with_the_other_views(lf, lightfield, loader)
     centre = lf.centre_view()
     images = []
+    edge_depth: dict = {}  # per plane: the edges the views could not measure (1-D, depth mode)
     for k, p in enumerate(scan.peaks):
         img = np.clip(refocus(lf, p.disparity_px), 0.0, 1.0).astype(np.float32)
-        focus = in_focus_mask(lf, p.disparity_px) if mode == "depth" else None
+        focus = None
+        if mode == "depth":
+            focus, stats = in_focus_evidence(lf, p.disparity_px, confocal=img)
+            if stats.unmeasured:
+                edge_depth[f"plane{k + 1:02d}"] = stats.to_dict()
         edges, cells, t = declutter_and_compress(
             img,
             shape,
@@ -308,7 +328,14 @@ def scan_one(
             part.write_text(
                 json.dumps(
                     # the light field's file name only: no host path in a file that gets shared
-                    {"source": Path(lf.source).name, "declutter": mode} | scan.to_dict(),
+                    {
+                        "source": Path(lf.source).name,
+                        "declutter": mode,
+                        "view_crop": lf.meta.get("view_crop"),
+                        "view_crop_rule": lf.meta.get("view_crop_rule"),
+                    }
+                    | ({"edge_depth": edge_depth} if edge_depth else {})
+                    | scan.to_dict(),
                     indent=1,
                 )
             )

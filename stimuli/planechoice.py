@@ -44,6 +44,7 @@ from stimuli.lfviews import LightField
 from stimuli.planescan import PlaneScan, median_spacing
 
 __all__ = [
+    "SUPPORT_BLUR_PX",
     "PLANE_RULES",
     "SUPPORT_SHARE",
     "BORDER_MARGIN",
@@ -56,6 +57,10 @@ __all__ = [
     "choose_plane",
     "parse_plane_option",
 ]
+
+#: A pixel is on a plane when refocusing at the plane blurs it by at most this much between
+#: the centre view and the outermost view, px (ours: Sobel's 3x3 kernel still finds its edge).
+SUPPORT_BLUR_PX: float = 1.5
 
 #: Named plane rules of ``--plane`` (a number is a disparity, px per view step).
 PLANE_RULES: tuple[str, ...] = ("auto", "strongest", "nearest")
@@ -131,6 +136,17 @@ class PlaneChoice:
         or a given plane lies on no detected plane.
     content : ndarray of shape (rows, cols), bool
         The plane's in-focus content (or the region of interest), full resolution.
+    on_plane : ndarray of shape (rows, cols), bool, or None
+        The plane's support: the pixels the depth scan puts on the plane itself, whose views
+        agree best within :data:`SUPPORT_BLUR_PX` of blur of it (the plane's hill may hold the
+        whole scene when the scan finds one plane). What a stimulus shows is judged against it.
+    edge_depth : dict or None
+        On a 1-D light field de-cluttered by depth: the edge pixels whose depth the views
+        could not measure and what became of them
+        (:meth:`stimuli.edgedepth.EdgeDepthStats.to_dict`); set by the build.
+    view_crop : list of int (x, y, w, h) or None
+        The crop the views were read with (:func:`stimuli.vignette.apply_view_crop`), in the
+        capture's pixels; recorded so that every command can be checked to use the same one.
     """
 
     disparity_px: float
@@ -141,6 +157,9 @@ class PlaneChoice:
     candidates: tuple[PlaneCandidate, ...]
     marginal: str = ""
     content: np.ndarray = field(default=None, repr=False, compare=False)  # type: ignore[assignment]
+    view_crop: list | None = None
+    on_plane: np.ndarray | None = field(default=None, repr=False, compare=False)
+    edge_depth: dict | None = None
 
     def describe(self) -> str:
         """One-line provenance: ``disparity=...px,depth=...m,<rule>``."""
@@ -157,7 +176,8 @@ class PlaneChoice:
             "rule": self.rule,
             "marginal": self.marginal,
             "alternatives": [c.to_dict() for c in self.candidates],
-        }
+            "view_crop": None if self.view_crop is None else list(self.view_crop),
+        } | ({} if self.edge_depth is None else {"edge_depth": dict(self.edge_depth)})
 
 
 def _json_number(v):
@@ -413,6 +433,7 @@ def choose_plane(
     if roi_m is not None:
         content = roi_m
     on = None if k is None else scan.peaks[k]
+    on_plane = None if best_px is None else _on_plane(best_px, float(d), lf)
     return PlaneChoice(
         disparity_px=float(d),
         depth_m=lf.depth_m(d),
@@ -422,7 +443,17 @@ def choose_plane(
         candidates=tuple(cands),
         marginal=marginal,
         content=content,
+        view_crop=lf.meta.get("view_crop") if isinstance(lightfield, LightField) else None,
+        on_plane=on_plane,
     )
+
+
+def _on_plane(best_px: np.ndarray, d: float, lf: LightField) -> np.ndarray:
+    """Pixels whose best plane refocuses within :data:`SUPPORT_BLUR_PX` of blur at ``d``."""
+    n_u, n_v = lf.grid
+    reach = max(n_u // 2, n_u - 1 - n_u // 2, n_v // 2, n_v - 1 - n_v // 2, 1)
+    with np.errstate(invalid="ignore"):
+        return np.abs(best_px - d) * reach <= SUPPORT_BLUR_PX
 
 
 def _hill_of(d: float, bounds: np.ndarray | None) -> int | None:

@@ -18,9 +18,20 @@ with the largest share of such pixels, until no border line has more than
 
 from __future__ import annotations
 
+import copy
+
 import numpy as np
 
-__all__ = ["DARK_FRACTION", "CLIP_FRACTION", "BORDER_TOLERANCE", "MIN_KEEP", "vignette_crop"]
+__all__ = [
+    "DARK_FRACTION",
+    "CLIP_FRACTION",
+    "BORDER_TOLERANCE",
+    "MIN_KEEP",
+    "apply_view_crop",
+    "capture_crop",
+    "parse_view_crop",
+    "vignette_crop",
+]
 
 #: A pixel is vignetted when it is at most this fraction of the image's median (ours: the
 #: Lytro rim is exactly 0 and the darkest scene pixels about a third of the median).
@@ -73,6 +84,10 @@ def vignette_crop(views: np.ndarray) -> tuple[int, int, int, int] | None:
         darkest = a.min(axis=(0, 1))
     else:
         centre = darkest = a
+    return _crop_from(centre, darkest)
+
+
+def _crop_from(centre: np.ndarray, darkest: np.ndarray) -> tuple[int, int, int, int] | None:
     median = float(np.median(centre))
     top = float(centre.max())
     bad = darkest <= DARK_FRACTION * median
@@ -104,3 +119,107 @@ def vignette_crop(views: np.ndarray) -> tuple[int, int, int, int] | None:
     if r1 - r0 < MIN_KEEP * rows or c1 - c0 < MIN_KEEP * cols:
         return None
     return (c0, r0, c1 - c0, r1 - r0)
+
+
+def capture_crop(lightfield) -> tuple[int, int, int, int] | None:
+    """Return a capture's vignette crop, found in the views the plane scan reads.
+
+    The one rule every command uses (``lightfield scan``, ``refocus``, ``stimuli build``, the
+    viewer, active search): :func:`vignette_crop` of the centre view and the views on its row
+    and column that :func:`stimuli.agreementscan.scan_views` lists, so a command that reads
+    only those views finds the same box as one that reads them all.
+
+    Parameters
+    ----------
+    lightfield : LightField
+        A grey light field (only the views of ``scan_views`` are looked at).
+
+    Returns
+    -------
+    (x, y, w, h) or None
+    """
+    from stimuli.agreementscan import scan_views
+
+    views = np.asarray(lightfield.views)
+    if views.ndim == 5:
+        views = views.mean(axis=-1)
+    idx = scan_views(views.shape[:2])
+    cu, cv = idx[0]
+    darkest = np.min(np.stack([views[u, v] for u, v in idx]), axis=0).astype(np.float32)
+    return _crop_from(np.asarray(views[cu, cv], np.float32), darkest)
+
+
+def parse_view_crop(
+    text: str | tuple | list | None, option: str = "--view-crop"
+) -> str | tuple[int, int, int, int] | None:
+    """Check a view-crop setting: ``"auto"``, ``"none"`` / None, or a box ``x,y,w,h``.
+
+    Returns ``"auto"``, ``None`` or the box as a tuple of four ints.
+
+    Raises
+    ------
+    stimuli.errors.InputError
+        Anything else, naming ``option``.
+    """
+    from stimuli.errors import InputError
+
+    if text is None or (isinstance(text, str) and text.strip().lower() == "none"):
+        return None
+    if isinstance(text, str) and text.strip().lower() == "auto":
+        return "auto"
+    try:
+        parts = text.split(",") if isinstance(text, str) else list(text)
+        x, y, w, h = (int(v) for v in parts)
+    except (TypeError, ValueError):
+        raise InputError(
+            f"{option} must be auto, none or x,y,w,h in pixels, got {text!r}"
+        ) from None
+    return (x, y, w, h)
+
+
+def apply_view_crop(lightfield, view_crop="auto", option: str = "--view-crop"):
+    """Return the light field cropped as ``view_crop`` says, the box recorded in its meta.
+
+    Parameters
+    ----------
+    lightfield : LightField
+    view_crop : 'auto', 'none', None, (x, y, w, h) or str 'x,y,w,h'
+        ``auto``: :func:`capture_crop` (nothing is cut when it finds no rim).
+    option : str
+        Names the setting in error messages.
+
+    Returns
+    -------
+    LightField
+        ``meta["view_crop"]`` is the box applied (a list) or None, ``meta["view_crop_rule"]``
+        is ``'auto'``, ``'given'`` or ``'none'``.
+
+    Raises
+    ------
+    stimuli.errors.InputError
+        A malformed box, or one that does not lie inside the views.
+    """
+    from stimuli.errors import InputError
+
+    spec = parse_view_crop(view_crop, option)
+    if spec is None:
+        box, rule = None, "none"
+    elif spec == "auto":
+        box, rule = capture_crop(lightfield), "auto"
+    else:
+        box, rule = spec, "given"
+    if box is not None:
+        x, y, w, h = box
+        rows, cols = lightfield.shape_px
+        if w < 2 or h < 2 or x < 0 or y < 0 or x + w > cols or y + h > rows:
+            raise InputError(
+                f"{option} {x},{y},{w},{h} must be a box of at least 2x2 px inside the "
+                f"{cols}x{rows} views"
+            )
+        lightfield = lightfield.cropped(box)
+    out = copy.copy(lightfield)  # the caller's light field keeps its meta
+    meta = dict(lightfield.meta)
+    meta["view_crop"] = None if box is None else [int(v) for v in box]
+    meta["view_crop_rule"] = rule
+    object.__setattr__(out, "meta", meta)
+    return out

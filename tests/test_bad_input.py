@@ -420,7 +420,7 @@ ROWS: list[Row] = [
     R("lightfield scan", "out is an existing file",
       lambda w, t: ["lightfield", "scan", w.lf, "--out", text_file(t / "scan.txt")], "scan.txt"),
     R("lightfield scan", "bad view crop", lambda w, t: scan(w, t, "--view-crop", "1,2"),
-      "--zoom"),
+      "--view-crop"),
     # lightfield refocus
     R("lightfield refocus", "bad grid", lambda w, t: refocus(w, t, "--disparity", "0",
                                                              "--grid", "axb"), "--grid"),

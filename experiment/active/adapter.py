@@ -173,11 +173,18 @@ def _recorded(desc):
     from stimuli.errors import InputError
     from stimuli.lightfield import load_lightfield
     from stimuli.refocus import refocus
+    from stimuli.vignette import apply_view_crop
 
     lf = load_lightfield(desc.lightfield).gray()
     rows, cols = lf.shape_px
     ox = oy = 0
-    if desc.crop_xywh is not None:
+    auto = desc.crop_xywh is None
+    if auto:  # the vignette crop every command finds (scan, build, the viewer)
+        lf = apply_view_crop(lf, "auto")
+        if lf.meta.get("view_crop") is not None:
+            ox, oy = lf.meta["view_crop"][:2]
+            rows, cols = lf.shape_px
+    else:
         x, y, w, h = desc.crop_xywh
         if x + w > cols or y + h > rows:
             raise InputError(
@@ -190,7 +197,10 @@ def _recorded(desc):
     for i, t in enumerate(desc.targets):
         x, y, w, h = t.box_xywh
         x, y = x - ox, y - oy
-        if x + w > cols or y + h > rows:
+        if auto:  # a box reaching into the rim the crop left out keeps its part inside
+            x0, y0, x1, y1 = max(x, 0), max(y, 0), min(x + w, cols), min(y + h, rows)
+            x, y, w, h = x0, y0, max(x1 - x0, 0), max(y1 - y0, 0)
+        if x + w > cols or y + h > rows or w < 1 or h < 1:
             raise InputError(
                 f"{desc.path}: targets[{i}].box_xywh {list(t.box_xywh)} must lie inside the "
                 f"searched {cols}x{rows} view"
@@ -283,7 +293,10 @@ def load_scene(
             path = Path(base_dir) / path
         if not path.exists():
             raise InputError(f"{path}: light field not found")
-        lf = load_lightfield(path).gray()
+        from stimuli.vignette import apply_view_crop
+
+        # the vignette crop every command finds (scan, build, the viewer)
+        lf = apply_view_crop(load_lightfield(path).gray(), "auto")
         objects, masks, looks = {}, {}, {}
     sha = hashlib.sha256(np.ascontiguousarray(lf.views).tobytes()).hexdigest()
     return Scene(name, lf, objects, masks, looks, sha, words, layout, scan, edge_masks)
@@ -377,16 +390,29 @@ def detect_planes(scene: Scene, *, n_planes: int) -> tuple[np.ndarray, tuple[flo
     planes_px : tuple of float
         Detected object planes, nearest first.
     """
-    from stimuli.planes import auto_binning, default_disparities, find_object_planes
+    from stimuli.planes import (
+        DEFAULT_N_PLANES,
+        auto_binning,
+        default_disparities,
+        find_object_planes,
+    )
 
     lf = scene.lightfield
     if scene.scan_px is not None:
         ds = np.linspace(scene.scan_px[0], scene.scan_px[1], n_planes)
     elif getattr(lf, "geometry", None) is not None:
         ds = default_disparities(lf, n_planes)
+    elif n_planes == DEFAULT_N_PLANES:  # a recorded capture: the detector every command uses
+        from stimuli.planechoice import detect_planes as detect
+
+        scan = detect(lf, workers=1)
+        ds = np.sort(np.asarray(scan.disparities_px, dtype=np.float64))[::-1]
+        return ds, tuple(float(p.disparity_px) for p in scan.peaks)
     else:
-        m = 0.9 * scene.max_disparity_px()
-        ds = np.linspace(m, -m, n_planes)
-    scan = find_object_planes(lf, ds, binning=auto_binning(lf), workers=1)
+        ds = None
+    if ds is None:
+        scan = find_object_planes(lf, n_planes=n_planes, workers=1)
+    else:
+        scan = find_object_planes(lf, ds, binning=auto_binning(lf), workers=1)
     ds = np.sort(np.asarray(scan.disparities_px, dtype=np.float64))[::-1]
     return ds, tuple(float(p.disparity_px) for p in scan.peaks)

@@ -153,7 +153,8 @@ def view_command(
         str,
         _input_option(
             help="Crop every view first: auto (leave out the capture's dark vignette rim and "
-            "clipped strip, found in the data), none, or x,y,w,h."
+            "clipped strip, found in the data as lightfield scan and stimuli build find it), "
+            "none, or x,y,w,h."
         ),
     ] = "auto",
 ) -> None:

@@ -76,7 +76,7 @@ class LightFieldSource:
 
 
 def open_source(
-    path: Path, *, view_crop: tuple[int, int, int, int] | str | None = None, **loader: Any
+    path: Path, *, view_crop: tuple[int, int, int, int] | str | None = "auto", **loader: Any
 ) -> LightFieldSource:
     """Open a light field (any input ``confocal lightfield`` reads) or a folder of frames.
 
@@ -85,16 +85,16 @@ def open_source(
 
     ``view_crop``: a box ``(x, y, w, h)`` cropped from every view, None for none, or ``"auto"``:
     the box that leaves out the capture's vignette rim and clipped strip, found in the (first)
-    frame's views (:func:`stimuli.vignette.vignette_crop`; none when there is nothing to leave
-    out). The box used is :attr:`LightFieldSource.view_crop`.
+    frame's views as every command finds it (:func:`stimuli.vignette.capture_crop`; none when
+    there is nothing to leave out). The box used is :attr:`LightFieldSource.view_crop`.
     """
     if isinstance(view_crop, str):
         if view_crop != "auto":
             raise ConfocalError(f"view_crop must be a box, None or 'auto', got {view_crop!r}")
-        from stimuli.vignette import vignette_crop
+        from stimuli.vignette import capture_crop
 
         src = open_source(path, view_crop=None, **loader)
-        box = vignette_crop(src.frame(0).views)
+        box = capture_crop(src.frame(0).gray())
         if box is None:
             return src
         return open_source(path, view_crop=box, **loader)

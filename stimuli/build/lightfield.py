@@ -35,6 +35,8 @@ from stimuli.manifest import ObjectInfo
 __all__ = [
     "ANISOTROPY_RATIO",
     "ConfocalPairImages",
+    "field_crop_in_crop",
+    "roi_in_crop",
     "is_one_dimensional",
     "load_confocal_pair",
 ]
@@ -54,8 +56,10 @@ class ConfocalPairImages:
         The confocal image at the plane (the de-cluttered image).
     plane : str
         The plane, as :meth:`stimuli.planechoice.PlaneChoice.describe` gives it (provenance).
-    focus : ndarray of shape (rows, cols), bool, or None
-        Where the views agree at the plane, in the ``depth`` de-cluttering mode; else ``None``.
+    focus : ndarray of shape (rows, cols), uint8, or None
+        Where the views agree at the plane, in the ``depth`` de-cluttering mode
+        (:func:`stimuli.declutter.in_focus_evidence`: 0 out, 1 in focus, 2 dropped); else
+        ``None``.
     choice : PlaneChoice or None
         The plane with its evidence, the rule and the alternatives, and its content mask.
     declutter : {'sobel', 'depth'}
@@ -68,6 +72,64 @@ class ConfocalPairImages:
     focus: np.ndarray | None
     choice: object = None
     declutter: str = "sobel"
+
+
+def roi_in_crop(roi, box, where: str):
+    """Return a region of interest (box ``x,y,w,h`` or mask, capture pixels) in the cropped views.
+
+    Parameters
+    ----------
+    roi : (x, y, w, h), ndarray of shape (rows, cols) or None
+        In the capture's centre-view pixels, as ``objects.csv`` gives it.
+    box : (x, y, w, h) or None
+        The view crop applied (:func:`stimuli.vignette.apply_view_crop`).
+    where : str
+        Names the object in error messages.
+
+    Returns
+    -------
+    (x, y, w, h), ndarray or None
+        The part of the region inside the crop, in the cropped views' pixels.
+
+    Raises
+    ------
+    InputError
+        The region lies wholly in the cropped-away rim.
+    """
+    from stimuli.errors import InputError
+
+    if roi is None or box is None:
+        return roi
+    cx, cy, cw, ch = (int(v) for v in box)
+    if isinstance(roi, np.ndarray):
+        return roi[cy : cy + ch, cx : cx + cw] if roi.shape[0] >= cy + ch else roi
+    x, y, w, h = (int(v) for v in roi)
+    x0, y0 = max(x, cx), max(y, cy)
+    x1, y1 = min(x + w, cx + cw), min(y + h, cy + ch)
+    if x1 <= x0 or y1 <= y0:
+        raise InputError(
+            f"{where}: roi box x,y,w,h = {x},{y},{w},{h} lies in the vignette rim left out by the "
+            f"view crop {cx},{cy},{cw},{ch}"
+        )
+    return (x0 - cx, y0 - cy, x1 - x0, y1 - y0)
+
+
+def field_crop_in_crop(crop, box):
+    """Return a field crop ``(x, y, w, h)`` (capture pixels) in the pixels of the cropped views.
+
+    The part inside the view crop ``box``; None stays None, and so does any crop when no view
+    crop was made. A field crop wholly outside the view crop is returned unchanged (the
+    build's own check then names it).
+    """
+    if crop is None or box is None:
+        return crop
+    cx, cy, cw, ch = (int(v) for v in box)
+    x, y, w, h = (int(v) for v in crop)
+    x0, y0 = max(x, cx), max(y, cy)
+    x1, y1 = min(x + w, cx + cw), min(y + h, cy + ch)
+    if x1 <= x0 or y1 <= y0:
+        return crop
+    return (x0 - cx, y0 - cy, x1 - x0, y1 - y0)
 
 
 def load_confocal_pair(
@@ -99,12 +161,16 @@ def load_confocal_pair(
     from stimuli.lfload import as_lightfield
     from stimuli.planechoice import choose_plane
     from stimuli.refocus import refocus
+    from stimuli.vignette import apply_view_crop
 
-    lf = as_lightfield(src.lightfield).gray()
     where = f"object {src.object!r} ({src.lightfield})"
+    # the vignette crop every command finds (lightfield scan, refocus, the viewer, active search)
+    lf = apply_view_crop(as_lightfield(src.lightfield).gray(), "auto")
+    box = lf.meta.get("view_crop")
     roi = info.roi
     if src.roi_mask is not None:
         roi = load_gray(src.roi_mask) > 0
+    roi = roi_in_crop(roi, box, where)
     choice = choose_plane(
         lf,
         rule=params.plane,
@@ -117,12 +183,17 @@ def load_confocal_pair(
     mode = params.declutter
     if mode == "auto":
         mode = "depth" if is_one_dimensional(lf.grid) else "sobel"
+    confocal = np.clip(refocus(lf, d), 0.0, 1.0).astype(np.float32)
     focus = None
     if mode == "depth":
-        from stimuli.declutter import in_focus_mask
+        from dataclasses import replace
 
-        focus = in_focus_mask(lf, d)
-    confocal = np.clip(refocus(lf, d), 0.0, 1.0).astype(np.float32)
+        from stimuli.declutter import in_focus_evidence
+        from stimuli.edgedepth import baseline_axes
+
+        focus, stats = in_focus_evidence(lf, d, confocal=confocal)
+        if len(baseline_axes(lf.grid)) == 1:
+            choice = replace(choice, edge_depth=stats.to_dict())
     centre = check_gray(lf.centre_view(), f"{src.lightfield}: centre view")
     confocal = check_gray(confocal, f"{src.lightfield}: confocal image")
     logger.info("%s: confocal image at %s (%s)", src.object, choice.describe(), mode)

@@ -12,7 +12,7 @@ from dataclasses import dataclass
 import numpy as np
 from skimage.transform import resize
 
-from stimuli.build.lightfield import ConfocalPairImages, load_confocal_pair
+from stimuli.build.lightfield import ConfocalPairImages, field_crop_in_crop, load_confocal_pair
 from stimuli.build.pairs import PairSource
 from stimuli.build.params import BuildParams, min_photo_shape_px
 from stimuli.errors import InputError
@@ -65,8 +65,9 @@ class ObjectImages:
         The wide photo's size as decoded (smaller than on file with ``fast_decode``).
     plane : str
         A light-field object's confocal plane (provenance); ``""`` for photos.
-    focus : ndarray of bool or None
-        A light-field object's in-focus mask at the working size (``declutter='depth'``).
+    focus : ndarray of uint8 or None
+        A light-field object's in-focus evidence at the working size (``declutter='depth'``;
+        0 out of focus, 1 in focus, 2 dropped: :func:`stimuli.declutter.in_focus_evidence`).
     plane_choice : PlaneChoice or None
         A light-field object's plane with its evidence and rule
         (:func:`stimuli.planechoice.choose_plane`).
@@ -82,6 +83,9 @@ class ObjectImages:
     valid : ndarray of shape working_shape_px, bool, or None
         With padding: the pixels of the image (not of the padding, nor on its border); edges
         elsewhere are dropped.
+    visibility : dict or None
+        A light-field object's on-plane share and object coverage per level
+        (:func:`stimuli.build.visibility.measure_visibility`), once the set's edge ratio is known.
     """
 
     info: ObjectInfo
@@ -104,6 +108,7 @@ class ObjectImages:
     declutter: str = ""
     aspect_pad: tuple[int, int, int, int] | None = None
     valid: np.ndarray | None = None
+    visibility: dict | None = None
 
 
 def _cut(image: np.ndarray, box: Box | None) -> np.ndarray:
@@ -373,6 +378,8 @@ def prepare_object(src: PairSource, info: ObjectInfo, params: BuildParams) -> Ob
     """
     crop = info.crop if info.crop is not None else src.crop
     wide_raw, narrow_raw, wide_full, narrow_full, pair = _load_raw(src, info, params, crop)
+    if pair is not None and pair.choice is not None:  # a field crop in the vignette-cropped views
+        crop = field_crop_in_crop(crop, pair.choice.view_crop)
     plane = "" if pair is None else pair.plane
     focus = None if pair is None else pair.focus
     notes: list[str] = []
@@ -422,16 +429,19 @@ def prepare_object(src: PairSource, info: ObjectInfo, params: BuildParams) -> Ob
                 f"size; upsampled"
             )
         out.append(to_working_size(img, params.working_shape_px))
-    if focus is not None:  # the in-focus mask follows the confocal image (zoom, aspect, resize)
-        f = zoom_crop(
-            focus.astype(np.float32),
-            _scale_crop(crop, wide_full, narrow_raw.shape),
-            where=where,
-        )
-        f = _cut(f, box)
-        if pad is not None:
-            f = np.pad(f, pad)
-        focus = to_working_size(f, params.working_shape_px) >= 0.5
+    if focus is not None:  # the in-focus evidence follows the confocal image (zoom, aspect, size)
+        layers = []
+        for value in (1, 2):  # in focus, dropped (stimuli.declutter.in_focus_evidence)
+            f = zoom_crop(
+                (focus == value).astype(np.float32),
+                _scale_crop(crop, wide_full, narrow_raw.shape),
+                where=where,
+            )
+            f = _cut(f, box)
+            if pad is not None:
+                f = np.pad(f, pad)
+            layers.append(to_working_size(f, params.working_shape_px) >= 0.5)
+        focus = np.where(layers[1], 2, np.where(layers[0], 1, 0)).astype(np.uint8)
         plane = f"{plane},declutter=depth"
     return ObjectImages(
         info=info,

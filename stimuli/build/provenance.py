@@ -18,6 +18,7 @@ from stimuli.build.pairs import pairs_record, path_in_pairs
 from stimuli.build.params import BuildParams
 from stimuli.build.plan import BuildPlan
 from stimuli.build.prepare import MIN_KEPT_SHARE, ObjectImages
+from stimuli.build.visibility import visibility_warnings
 from stimuli.io import sha256_file
 from stimuli.software import git_commit
 
@@ -61,6 +62,7 @@ def object_warnings(work: ObjectImages) -> list[str]:
                 f"{work.info.object}: the de-cluttered image is nearly empty ({100 * narrow:.2f} "
                 f"% edge pixels, cluttered {100 * wide:.2f} %); check the plane"
             )
+    out.extend(visibility_warnings(work.info.object, work.visibility))
     return out
 
 
@@ -72,7 +74,9 @@ class ObjectSummary:
     disparity, depth, support, evidence, rule, alternatives), ``content_kept`` (share of the
     plane's content the crops keep), ``declutter`` (the mode applied), ``warnings`` and, when
     no aspect crop keeps the plane, ``aspect_pad`` (top, bottom, left, right padding, px); these
-    are ``None`` (and absent from the record) for photo pairs.
+    are ``None`` (and absent from the record) for photo pairs. ``visibility``: the share of
+    the de-cluttered stimulus's white pixels on the plane's support and the object's coverage,
+    per level (:mod:`stimuli.build.visibility`).
     """
 
     object: str
@@ -90,6 +94,7 @@ class ObjectSummary:
     declutter: str | None = None
     warnings: tuple[str, ...] | None = None
     aspect_pad: tuple[int, int, int, int] | None = None
+    visibility: dict | None = None
 
 
 def object_summary(work: ObjectImages) -> ObjectSummary:
@@ -114,6 +119,7 @@ def object_summary(work: ObjectImages) -> ObjectSummary:
         declutter=(work.declutter or None) if lf else None,
         warnings=tuple(object_warnings(work)) if lf else None,
         aspect_pad=work.aspect_pad,
+        visibility=work.visibility if lf else None,
     )
 
 
@@ -231,7 +237,7 @@ def _summary_dict(s: ObjectSummary) -> dict:
     d = asdict(s)
     for k in ("original_shape_px", "crop", "aspect_crop", "decoded_shape_px"):
         d[k] = None if d[k] is None else list(d[k])
-    for k in ("plane", "content_kept", "declutter", "warnings", "aspect_pad"):  # light fields
+    for k in ("plane", "content_kept", "declutter", "warnings", "aspect_pad", "visibility"):
         if d[k] is None:
             del d[k]
     if "aspect_pad" in d:

@@ -23,6 +23,7 @@ from stimuli.build.prepare import (
     prepare_object,
 )
 from stimuli.build.provenance import ObjectSummary
+from stimuli.build.visibility import measure_visibility
 from stimuli.build.write import write_stimulus_set
 from stimuli.implants import ImplantLayout
 from stimuli.manifest import ObjectInfo
@@ -189,6 +190,8 @@ def _build(
         works = map_on_pool(pool, _read_object, tasks, progress, "read")
     t_read = time.perf_counter()
     ratio = set_edge_ratio(works, plan.params)
+    for w in works:  # does each light-field stimulus show its object? (from the depth evidence)
+        w.visibility = measure_visibility(w, plan.params, ratio.edge_ratio)
     written = write_stimulus_set(plan, works, ratio, progress, pool)
     t_end = time.perf_counter()
     for n in written.notes:

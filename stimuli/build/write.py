@@ -31,6 +31,7 @@ from stimuli.build.provenance import (
     object_warnings,
     set_record,
 )
+from stimuli.build.visibility import visibility_line
 from stimuli.contact import contact_sheet, save_contact_sheet
 from stimuli.io import save_png, sha256_file, staged_folder
 from stimuli.manifest import StimulusRecord, format_crop, write_manifest, write_objects_csv
@@ -199,7 +200,8 @@ def render_object(
         title=("WARNING " if warnings else "")
         + f"{oid}: {work.info.display_name} ({work.info.role}; "
         + ("grey" if grey else f"threshold {work.threshold:.4g}, edge ratio {edge_ratio:.4g}")
-        + ")",
+        + ")"
+        + (f"; {visibility_line(work.visibility)}" if work.visibility else ""),
         subtitle="; ".join(w.split(": ", 1)[1] for w in warnings),
     )
     return RenderedObject(tuple(out), sheet)
