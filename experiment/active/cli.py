@@ -152,20 +152,24 @@ def _open_session(
     lock held on another host (confirmed first on a terminal). ``open_options``: the
     searcher's ``responder`` and ``clock``."""
     from experiment.active.session import ActiveSession
-    from experiment.log import TrialLog
+    from experiment.log import SessionComplete, TrialLog
 
     run_options.confirm_take_over(data, subject, take_over_lock)
     with TrialLog(data) as log:
-        session = ActiveSession.open(
-            log,
-            spec,
-            subject,
-            seed=seed,
-            new_session=new_session,
-            subject_index=subject_index,
-            take_over_lock=take_over_lock,
-            **open_options,
-        )
+        try:
+            session = ActiveSession.open(
+                log,
+                spec,
+                subject,
+                seed=seed,
+                new_session=new_session,
+                subject_index=subject_index,
+                take_over_lock=take_over_lock,
+                **open_options,
+            )
+        except SessionComplete as exc:  # completed by another process since the check
+            typer.echo(str(exc))
+            raise typer.Exit(0) from None
         try:
             yield log, session
         finally:

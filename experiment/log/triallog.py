@@ -84,19 +84,9 @@ class TrialLog(ClosesOnExit, LogQueries):
                 if kind == "new":
                     create_log_file(p)
         try:
-            if readonly and not memory:
-                uri = Path(self.path).resolve().as_uri() + "?mode=ro"
-                if not Path(self.path + "-wal").exists():
-                    # No WAL file: no writer has the log open, and a mode=ro connection to a
-                    # WAL database would still create -wal/-shm files beside it and leave them.
-                    uri += "&immutable=1"
-                self._con = sqlite3.connect(uri, uri=True, isolation_level=None, timeout=10.0)
-            else:
-                self._con = sqlite3.connect(self.path, isolation_level=None, timeout=10.0)
-            self._con.row_factory = sqlite3.Row
-            self._con.execute("PRAGMA busy_timeout = 10000")
+            self._connect()
             tables = {
-                r[0] for r in self._con.execute("SELECT name FROM sqlite_master WHERE type='table'")
+                r[0] for r in self._fetch("SELECT name FROM sqlite_master WHERE type='table'")
             }
         except sqlite3.DatabaseError as exc:
             raise TrialLogError(
@@ -129,6 +119,33 @@ class TrialLog(ClosesOnExit, LogQueries):
                 self._con.close()
                 raise TrialLogError(f"{self.path}: cannot write the trial log ({exc})") from None
         self._check_version()
+
+    def _connect(self) -> None:
+        """Open the connection: read-write, or read-only (``immutable`` while no WAL exists)."""
+        self._immutable = False
+        if self.readonly and self.path != ":memory:":
+            uri = Path(self.path).resolve().as_uri() + "?mode=ro"
+            if not Path(self.path + "-wal").exists():
+                # No WAL file: no writer has the log open, and a mode=ro connection to a
+                # WAL database would still create -wal/-shm files beside it and leave them.
+                uri += "&immutable=1"
+                self._immutable = True
+            self._con = sqlite3.connect(uri, uri=True, isolation_level=None, timeout=10.0)
+        else:
+            self._con = sqlite3.connect(self.path, isolation_level=None, timeout=10.0)
+        self._con.row_factory = sqlite3.Row
+        self._con.execute("PRAGMA busy_timeout = 10000")
+
+    def _reopen_after_write(self) -> bool:
+        """An ``immutable`` connection assumes nobody writes the file; a writer that opened it
+        since (the same subject started twice at once) can make a read fail as "malformed".
+        Reopen once -- through the WAL the writer keeps now -- and let the query run again."""
+        if not getattr(self, "_immutable", False) or getattr(self, "_reopened", False):
+            return False
+        self._reopened = True
+        self._con.close()
+        self._connect()
+        return True
 
     def _bound_wal(self) -> None:
         """Keep the write-ahead log small while a session writes (:data:`WAL_CHECKPOINT_PAGES`).

@@ -280,11 +280,17 @@ def reopen(
 
     Raises
     ------
+    SessionComplete
+        Another process completed the session since the caller decided to resume it (the
+        check and the lock are one transaction).
     SessionLocked
         Another live process has the session open (or one on another host, without
         ``take_over``).
     """
     with log.atomic():
+        row = log.session(session_id)
+        if row["status"] != "open":  # completed by another process since the decision
+            raise SessionComplete(log.complete_message(row), row)
         stale = log.acquire_lock(session_id, take_over=take_over)
         if stale is not None and stale.get("taken_over") is not None:
             log.add_event(
