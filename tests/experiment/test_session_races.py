@@ -406,3 +406,26 @@ def test_a_reader_opened_before_a_writer_started_still_reads(study) -> None:
             for i in range(30):
                 Session.open(writer, spec, stimset, f"S{i:02d}", seed=1).close()
         assert len(reader.sessions()) == 30
+
+
+def test_status_tells_a_crashed_runs_lock_from_a_live_one(study, capsys) -> None:
+    import json
+
+    stim, proto, db = study
+    spec, stimset = load_protocol(proto), StimulusSet.load(stim)
+    with TrialLog(db) as log:
+        live = Session.open(log, spec, stimset, "S01", seed=1)
+        crashed = Session.open(log, spec, stimset, "S02", seed=1)
+        with log.atomic() as con:
+            con.execute(
+                "UPDATE locks SET pid = ?, token = 'gone' WHERE session_id = ?",
+                (_dead_pid(), crashed.session_id),
+            )
+        assert run_cli(["session", "status", db]) == 0
+        lines = capsys.readouterr().out.splitlines()
+        assert f"OPEN in pid {os.getpid()}" in lines[0]
+        assert "crashed in pid" in lines[1] and "run the same command to resume" in lines[1]
+        assert run_cli(["session", "status", db, "--json"]) == 0
+        rep = json.loads(capsys.readouterr().out)
+        assert [s["lock"]["stale"] for s in rep["sessions"]] == [False, True]
+        live.close()
