@@ -4,10 +4,10 @@ Each subject's command (``session run --headless --observer logistic`` or ``acti
 simulated searcher) is killed with SIGKILL after a random delay drawn over the whole run,
 including the commit that completes the session and the moments after it, and recovered with
 the README's command (the same command again) until it ends by itself. Then every log is read:
-trials lost, trials duplicated, extra sessions and sessions run again after they were complete
-must all be 0, and a run that reports a session complete must not change the log's bytes. The
-commands run in children forked from one warm process (:mod:`experiment.kill_recovery`), so a
-kill costs the run's own work, not Python's start-up.
+trials lost, trials duplicated, extra sessions, sessions run again after they were complete and
+locks left on completed sessions must all be 0, and a run that reports a session complete must
+not change the log's bytes. The commands run in children forked from one warm process
+(:mod:`experiment.kill_recovery`), so a kill costs the run's own work, not Python's start-up.
 
 Run: ``python benchmarks/bench_kill_recovery.py --kills 10000 --workers 2 --seed 1``
 (exit status 1 if anything was lost, duplicated or run again).

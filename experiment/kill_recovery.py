@@ -7,7 +7,8 @@ the subject's command ends by itself. The delay is drawn from 0 to 1.25 times a 
 kills cover the whole run: start-up, the creation of the session, every trial's writes, the
 commit that completes the session and the moments after it (then the next run must report the
 session complete and write nothing). At the end :func:`check_logs` reads every log and counts
-trials lost, trials duplicated, extra sessions and sessions run again after they were complete.
+trials lost, trials duplicated, extra sessions, sessions run again after they were complete and
+lock rows left on completed sessions.
 
 Python start-up is not paid per kill: the parent imports everything and runs one subject of
 each kind first (so every lazy import and cache is warm), then ``os.fork()`` s a child per run,
@@ -116,6 +117,7 @@ class KillReport:
     duplicated: int = 0
     extra_sessions: int = 0
     rerun_sessions: int = 0
+    stale_locks: int = 0
     complete_reports: int = 0
     complete_reports_that_wrote: int = 0
     logs: int = 0
@@ -125,12 +127,14 @@ class KillReport:
 
     @property
     def ok(self) -> bool:
-        """Whether nothing was lost, duplicated, added or run again, and no command failed."""
+        """Whether nothing was lost, duplicated, added or run again, no completed session kept
+        a lock, and no command failed."""
         return not (
             self.lost
             or self.duplicated
             or self.extra_sessions
             or self.rerun_sessions
+            or self.stale_locks
             or self.complete_reports_that_wrote
             or self.failures
         )
@@ -146,6 +150,7 @@ class KillReport:
             f"trials checked: {self.trials_checked}",
             f"lost: {self.lost}   duplicated: {self.duplicated}   extra sessions: "
             f"{self.extra_sessions}   sessions run again after complete: {self.rerun_sessions}",
+            f"stale locks on completed sessions: {self.stale_locks}",
             f"kills after the complete commit (next run reported 'complete'): "
             f"{self.complete_reports}; of those runs, wrote to the log: "
             f"{self.complete_reports_that_wrote}",
@@ -190,8 +195,13 @@ def _file_hashes(log: Path) -> tuple[str, str]:
     return one(log), one(Path(f"{log}-wal"))
 
 
-def _fork_command(argv: list[str], out: Path) -> int:
-    """Fork a child that runs ``confocal ARGV`` (output to ``out``); return its pid."""
+def _fork_command(argv: list[str], out: Path, release: tuple[int, int] | None = None) -> int:
+    """Fork a child that runs ``confocal ARGV`` (output to ``out``); return its pid.
+
+    ``release``: a pipe's ``(read end, write end)``; the child closes the write end and waits
+    for the end of the pipe before it runs the command (so that the parent starts several
+    children at the same moment by closing its write end).
+    """
     from experiment import cli
     from experiment.log import faults
 
@@ -202,6 +212,10 @@ def _fork_command(argv: list[str], out: Path) -> int:
         return pid
     code = 99  # pragma: no cover - the child
     try:
+        if release is not None:
+            os.close(release[1])
+            os.read(release[0], 1)  # returns at the end of the pipe
+            os.close(release[0])
         fd = os.open(out, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o644)
         os.dup2(fd, 1)
         os.dup2(fd, 2)
@@ -416,7 +430,14 @@ def run_kill_recovery(
             last_note = time.perf_counter()
             progress(f"{report.kills} kills, {len(subjects)} subjects, {report.runs} runs")
     checked = check_logs(subjects)
-    for k in ("trials_checked", "lost", "duplicated", "extra_sessions", "rerun_sessions"):
+    for k in (
+        "trials_checked",
+        "lost",
+        "duplicated",
+        "extra_sessions",
+        "rerun_sessions",
+        "stale_locks",
+    ):
         setattr(report, k, checked[k])
     report.failures += checked["failures"]
     report.subjects = len(subjects)
@@ -438,7 +459,8 @@ def check_logs(subjects: list) -> dict:
         ``trials_checked`` (planned trials of all subjects), ``lost`` (planned, not answered),
         ``duplicated`` (answered, or scored first, more than once), ``extra_sessions`` (more
         than one session for a subject, or a session of no subject run), ``rerun_sessions``
-        (a session opened or resumed after its ``complete`` event), ``failures`` (lines).
+        (a session opened or resumed after its ``complete`` event), ``stale_locks`` (lock rows
+        of completed sessions: ``session status`` would call them open), ``failures`` (lines).
     """
     out = {
         "trials_checked": 0,
@@ -446,6 +468,7 @@ def check_logs(subjects: list) -> dict:
         "duplicated": 0,
         "extra_sessions": 0,
         "rerun_sessions": 0,
+        "stale_locks": 0,
         "failures": [],
     }
     by_log: dict[Path, list] = {}
@@ -467,6 +490,10 @@ def check_logs(subjects: list) -> dict:
                     out["failures"].append(f"{log.name}: a session of unknown subject {subject}")
             for s in subs:
                 _check_subject(con, log, s, out)
+            out["stale_locks"] += con.execute(
+                "SELECT count(*) FROM locks JOIN sessions USING (session_id) "
+                "WHERE sessions.status = 'completed'"
+            ).fetchone()[0]
         finally:
             con.close()
     return out

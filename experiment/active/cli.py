@@ -66,6 +66,7 @@ def run_command(
         str, typer.Option("--rater", help="person: rater name stored with the scores.")
     ] = "operator",
     new_session: run_options.NewSessionOption = None,
+    take_over_lock: run_options.TakeOverLockOption = None,
     subject_index: Annotated[
         int | None,
         typer.Option(
@@ -102,6 +103,9 @@ def run_command(
             f'{protocol}: not an active-search protocol (needs [task] type = "active_search")'
         )
     check_new_session_reason(new_session)
+    from experiment.log.locks import check_take_over_reason
+
+    check_take_over_reason(take_over_lock)
     if searcher == "person":
         screen_options = {
             "screen": screen,
@@ -109,10 +113,21 @@ def run_command(
             "skip_timing_check": skip_timing_check,
         }
         _run_person(
-            spec, data, subject, seed, presenter, screen_options, rater, new_session, subject_index
+            spec,
+            data,
+            subject,
+            seed,
+            presenter,
+            screen_options,
+            rater,
+            new_session,
+            subject_index,
+            take_over_lock,
         )
         return
-    _run_simulated(protocol, spec, data, subject, searcher, seed, new_session, subject_index)
+    _run_simulated(
+        protocol, spec, data, subject, searcher, seed, new_session, subject_index, take_over_lock
+    )
 
 
 def subject_phosphenes(spec) -> dict | None:
@@ -131,25 +146,34 @@ def subject_phosphenes(spec) -> dict | None:
 
 
 @contextmanager
-def _open_session(data, spec, subject, seed, new_session, subject_index, **open_options):
+def _open_session(
+    data, spec, subject, seed, new_session, subject_index, take_over_lock=None, **open_options
+):
     """Open (or resume) SUBJECT's active-search session in the trial log DATA.
 
-    Yield the log and the session, both closed on exit. ``open_options``: the searcher's
-    ``responder`` and ``clock``.
+    Yield the log and the session, both closed on exit. ``take_over_lock``: the operator's
+    reason to take over a lock held on another host (confirmed first on a terminal).
+    ``open_options``: the searcher's ``responder`` and ``clock``.
     """
     from experiment.active.session import ActiveSession
-    from experiment.log import TrialLog
+    from experiment.log import SessionComplete, TrialLog
 
+    run_options.confirm_take_over(data, subject, take_over_lock)
     with TrialLog(data) as log:
-        session = ActiveSession.open(
-            log,
-            spec,
-            subject,
-            seed=seed,
-            new_session=new_session,
-            subject_index=subject_index,
-            **open_options,
-        )
+        try:
+            session = ActiveSession.open(
+                log,
+                spec,
+                subject,
+                seed=seed,
+                new_session=new_session,
+                subject_index=subject_index,
+                take_over_lock=take_over_lock,
+                **open_options,
+            )
+        except SessionComplete as exc:  # completed by another process since the check
+            typer.echo(str(exc))
+            raise typer.Exit(0) from None
         try:
             yield log, session
         finally:
@@ -157,7 +181,16 @@ def _open_session(data, spec, subject, seed, new_session, subject_index, **open_
 
 
 def _run_person(
-    spec, data, subject, seed, presenter, screen_options, rater, new_session, subject_index=None
+    spec,
+    data,
+    subject,
+    seed,
+    presenter,
+    screen_options,
+    rater,
+    new_session,
+    subject_index=None,
+    take_over_lock=None,
 ) -> None:
     """Run SUBJECT's session with a person searching.
 
@@ -184,7 +217,7 @@ def _run_person(
     if run_options.report_if_complete(data, subject, new_session):
         return
     with _open_session(
-        data, spec, subject, seed, new_session, subject_index, responder="person"
+        data, spec, subject, seed, new_session, subject_index, take_over_lock, responder="person"
     ) as (log, session):
         try:
             if presenter == "none":
@@ -223,7 +256,15 @@ def _run_person(
 
 
 def _run_simulated(
-    protocol, spec, data, subject, searcher, seed, new_session=None, subject_index=None
+    protocol,
+    spec,
+    data,
+    subject,
+    searcher,
+    seed,
+    new_session=None,
+    subject_index=None,
+    take_over_lock=None,
 ) -> None:
     from pathlib import Path
 
@@ -242,7 +283,15 @@ def _run_simulated(
     if run_options.report_if_complete(data, subject, new_session):
         return
     with _open_session(
-        data, spec, subject, seed, new_session, subject_index, clock=FakeClock(), responder=searcher
+        data,
+        spec,
+        subject,
+        seed,
+        new_session,
+        subject_index,
+        take_over_lock,
+        clock=FakeClock(),
+        responder=searcher,
     ) as (_, session):
         rec = EdgeRecogniser(session.scene, spec.task.grid_px, rng=session.seed)
         sim = SimulatedSearcher(rec, searcher.split(":", 1)[1], rng=session.seed)

@@ -304,6 +304,7 @@ class ActiveSession(lifecycle.LoggedSession):
         responder: str | None = None,
         new_session: str | None = None,
         subject_index: int | None = None,
+        take_over_lock: str | None = None,
     ) -> ActiveSession:
         """Create an active-search session, or resume the subject's unfinished one.
 
@@ -313,7 +314,9 @@ class ActiveSession(lifecycle.LoggedSession):
 
         A subject whose session is complete is not run again unless ``new_session`` gives the
         reason for a further session (logged as a ``new_session`` event; the same reason again
-        resumes or reports that session).
+        resumes or reports that session). ``take_over_lock`` (the operator's reason,
+        ``--take-over-lock REASON``) takes over the unfinished session's lock held on another
+        host, logged as a ``lock_taken_over`` event.
 
         Raises
         ------
@@ -358,60 +361,68 @@ class ActiveSession(lifecycle.LoggedSession):
         if adapter.RANDOM_SCENE in task.scenes:
             shas[adapter.RANDOM_SCENE] = "layout and textures drawn per trial (see the plan)"
         scenes_sha = _scenes_sha256(shas)
-        existing = lifecycle.session_to_resume(log, subject, new_session)
-        if existing is not None:
-            return cls._resume(log, protocol, subject, existing, seed, scenes, scenes_sha, clock)
-        root = int(seed) if seed is not None else int(np.random.SeedSequence().entropy % 2**63)
-        index = _subject_index(log, subject) if subject_index is None else int(subject_index)
-        infos = {k: _scan_info(v, task) for k, v in scenes.items()}
-        trials = plan_trials(
-            task,
-            np.random.default_rng(np.random.SeedSequence(root).spawn(1)[0]),
-            scene_objects=objects,
-            subject_index=index,
-        )
-        plan: dict[str, Any] = {
-            "trials": [t.to_dict() for t in trials],
-            "task": task.to_dict(),
-            "scenes": infos,
-            "counterbalance": {
-                "scheme": task.counterbalance,
-                "subject_index": index,
-                "condition_order": list(
-                    condition_order(task, index)
-                    if task.counterbalance == "latin_square"
-                    else task.conditions
-                ),
-            },
-        }
-        if len(infos) == 1 and len(task.scenes) == 1:
-            # one fixed scene: its facts at top level too, as plans have always had them
-            (info,) = infos.values()
-            plan.update(
-                scene_sha256=info["sha256"],
-                planes_px=info["planes_px"],
-                depth_step_px=info["depth_step_px"],
-                scan_px=info["scan_px"],
-                objects_px=info["objects_px"],
+
+        def resume(row: dict) -> ActiveSession:
+            return cls._resume(
+                log, protocol, subject, row, seed, scenes, scenes_sha, clock, take_over_lock
             )
-        sid = lifecycle.create_session(
-            log,
-            protocol,
-            subject,
-            clock,
-            seed=root,
-            write_plan=lambda sid: ActiveEventLog(log, sid).append("plan", plan, clock.now_s()),
-            open_note=f"active search: {len(trials)} trials in {len(task.scenes)} scene(s)",
-            new_session=new_session,
-            display_json=json.dumps(protocol.display.to_dict(), sort_keys=True),
-            stimset_path=", ".join(task.scenes),
-            stimset_manifest_sha256=scenes_sha,
-            responder=responder,
-        )
-        return cls(log, protocol, subject, sid, root, scenes, plan, clock)
+
+        def create() -> ActiveSession:
+            root = int(seed) if seed is not None else int(np.random.SeedSequence().entropy % 2**63)
+            index = _subject_index(log, subject) if subject_index is None else int(subject_index)
+            infos = {k: _scan_info(v, task) for k, v in scenes.items()}
+            trials = plan_trials(
+                task,
+                np.random.default_rng(np.random.SeedSequence(root).spawn(1)[0]),
+                scene_objects=objects,
+                subject_index=index,
+            )
+            plan: dict[str, Any] = {
+                "trials": [t.to_dict() for t in trials],
+                "task": task.to_dict(),
+                "scenes": infos,
+                "counterbalance": {
+                    "scheme": task.counterbalance,
+                    "subject_index": index,
+                    "condition_order": list(
+                        condition_order(task, index)
+                        if task.counterbalance == "latin_square"
+                        else task.conditions
+                    ),
+                },
+            }
+            if len(infos) == 1 and len(task.scenes) == 1:
+                # one fixed scene: its facts at top level too, as plans have always had them
+                (info,) = infos.values()
+                plan.update(
+                    scene_sha256=info["sha256"],
+                    planes_px=info["planes_px"],
+                    depth_step_px=info["depth_step_px"],
+                    scan_px=info["scan_px"],
+                    objects_px=info["objects_px"],
+                )
+            sid = lifecycle.create_session(
+                log,
+                protocol,
+                subject,
+                clock,
+                seed=root,
+                write_plan=lambda sid: ActiveEventLog(log, sid).append("plan", plan, clock.now_s()),
+                open_note=f"active search: {len(trials)} trials in {len(task.scenes)} scene(s)",
+                new_session=new_session,
+                display_json=json.dumps(protocol.display.to_dict(), sort_keys=True),
+                stimset_path=", ".join(task.scenes),
+                stimset_manifest_sha256=scenes_sha,
+                responder=responder,
+            )
+            return cls(log, protocol, subject, sid, root, scenes, plan, clock)
+
+        return lifecycle.open_or_create(log, subject, new_session, resume, create)
 
     @classmethod
-    def _resume(cls, log, protocol, subject, row, seed, scenes, scenes_sha, clock) -> ActiveSession:
+    def _resume(
+        cls, log, protocol, subject, row, seed, scenes, scenes_sha, clock, take_over_lock=None
+    ) -> ActiveSession:
         sid = int(row["session_id"])
         if row["protocol_sha256"] != protocol.content_sha256():
             raise ResumeMismatch(
@@ -451,7 +462,7 @@ class ActiveSession(lifecycle.LoggedSession):
                         attempt=n - 1,
                     )
 
-        lifecycle.reopen(log, sid, clock, describe, abandon_cut_attempts)
+        lifecycle.reopen(log, sid, clock, describe, abandon_cut_attempts, take_over=take_over_lock)
         return cls(log, protocol, subject, sid, stored, scenes, plan, clock)
 
     # -- position -----------------------------------------------------------------------------

@@ -28,10 +28,26 @@ class LogQueries:
     path: str
     _con: sqlite3.Connection
 
+    def _reopen_after_write(self) -> bool:
+        """Reopen a read-only connection that may have read the file while a writer changed it;
+        return whether it was reopened (then the query is run again). None here."""
+        return False
+
+    def _fetch(self, sql: str, params: tuple | dict = ()) -> list[sqlite3.Row]:
+        """Run a read query; once more on a fresh connection if the file changed under it."""
+        try:
+            return self._con.execute(sql, params).fetchall()
+        except sqlite3.OperationalError:
+            raise
+        except sqlite3.DatabaseError:
+            if not self._reopen_after_write():
+                raise
+            return self._con.execute(sql, params).fetchall()
+
     def schema_version(self) -> int:
         """Return the highest applied migration number (0 for an empty file)."""
         try:
-            row = self._con.execute("SELECT max(version) FROM schema_migrations").fetchone()
+            row = self._fetch("SELECT max(version) FROM schema_migrations")[0]
         except sqlite3.OperationalError:
             return 0
         return int(row[0] or 0)
@@ -39,7 +55,7 @@ class LogQueries:
     def execute(self, sql: str, params: tuple | dict = ()) -> list[sqlite3.Row]:
         """Run a read query and return all rows (for status, export and tests)."""
         try:
-            return self._con.execute(sql, params).fetchall()
+            return self._fetch(sql, params)
         except sqlite3.DatabaseError as exc:
             raise TrialLogError(f"{self.path}: query failed ({exc})") from None
 
@@ -78,18 +94,19 @@ class LogQueries:
         if planned:
             return self.answered_count(session_id), planned
         try:
-            plan = self._con.execute(
+            plans = self._fetch(
                 "SELECT payload FROM active_events WHERE session_id = ? AND kind = 'plan' "
                 "ORDER BY seq LIMIT 1",
                 (session_id,),
-            ).fetchone()
-            if plan is None:
+            )
+            if not plans:
                 return 0, 0
-            answered = self._con.execute(
+            plan = plans[0]
+            answered = self._fetch(
                 "SELECT count(DISTINCT trial) FROM active_events "
                 "WHERE session_id = ? AND kind = 'answer'",
                 (session_id,),
-            ).fetchone()[0]
+            )[0][0]
         except sqlite3.OperationalError:  # a log from before active search
             return 0, 0
         return int(answered), len(json.loads(plan[0]).get("trials", []))

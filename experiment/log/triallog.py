@@ -35,7 +35,15 @@ from experiment.log.schema import utc_now
 from experiment.protocol import SCORES
 from experiment.trials import Schedule, Trial
 
-__all__ = ["TrialLog"]
+__all__ = ["TrialLog", "WAL_CHECKPOINT_PAGES", "WAL_SIZE_LIMIT_BYTES"]
+
+#: Pages written to the WAL before SQLite copies them into the log (a passive checkpoint, which
+#: never waits for a reader). Ours: 32 pages (128 KB at SQLite's 4 KB page) is a few trials'
+#: commits, so a checkpoint's extra fsync comes every few trials; SQLite's default is 1000.
+WAL_CHECKPOINT_PAGES = 32
+#: Size the WAL file is truncated to when a checkpoint lets it restart, bytes (ours: twice the
+#: checkpoint interval, so one large transaction -- a schedule -- does not stay on disk).
+WAL_SIZE_LIMIT_BYTES = 2 * WAL_CHECKPOINT_PAGES * 4096
 
 
 class TrialLog(ClosesOnExit, LogQueries):
@@ -76,19 +84,9 @@ class TrialLog(ClosesOnExit, LogQueries):
                 if kind == "new":
                     create_log_file(p)
         try:
-            if readonly and not memory:
-                uri = Path(self.path).resolve().as_uri() + "?mode=ro"
-                if not Path(self.path + "-wal").exists():
-                    # No WAL file: no writer has the log open, and a mode=ro connection to a
-                    # WAL database would still create -wal/-shm files beside it and leave them.
-                    uri += "&immutable=1"
-                self._con = sqlite3.connect(uri, uri=True, isolation_level=None, timeout=10.0)
-            else:
-                self._con = sqlite3.connect(self.path, isolation_level=None, timeout=10.0)
-            self._con.row_factory = sqlite3.Row
-            self._con.execute("PRAGMA busy_timeout = 10000")
+            self._connect()
             tables = {
-                r[0] for r in self._con.execute("SELECT name FROM sqlite_master WHERE type='table'")
+                r[0] for r in self._fetch("SELECT name FROM sqlite_master WHERE type='table'")
             }
         except sqlite3.DatabaseError as exc:
             raise TrialLogError(
@@ -114,11 +112,52 @@ class TrialLog(ClosesOnExit, LogQueries):
                         raise TrialLogError(f"{self.path}: could not enable WAL (got {mode})")
                 self._con.execute("PRAGMA synchronous = FULL")
                 self._con.execute("PRAGMA foreign_keys = ON")
+                if not memory:
+                    self._bound_wal()
                 self._migrate()
             except sqlite3.OperationalError as exc:
                 self._con.close()
                 raise TrialLogError(f"{self.path}: cannot write the trial log ({exc})") from None
         self._check_version()
+
+    def _connect(self) -> None:
+        """Open the connection: read-write, or read-only (``immutable`` while no WAL exists)."""
+        self._immutable = False
+        if self.readonly and self.path != ":memory:":
+            uri = Path(self.path).resolve().as_uri() + "?mode=ro"
+            if not Path(self.path + "-wal").exists():
+                # No WAL file: no writer has the log open, and a mode=ro connection to a
+                # WAL database would still create -wal/-shm files beside it and leave them.
+                uri += "&immutable=1"
+                self._immutable = True
+            self._con = sqlite3.connect(uri, uri=True, isolation_level=None, timeout=10.0)
+        else:
+            self._con = sqlite3.connect(self.path, isolation_level=None, timeout=10.0)
+        self._con.row_factory = sqlite3.Row
+        self._con.execute("PRAGMA busy_timeout = 10000")
+
+    def _reopen_after_write(self) -> bool:
+        """An ``immutable`` connection assumes nobody writes the file; a writer that opened it
+        since (the same subject started twice at once) can make a read fail as "malformed".
+        Reopen once -- through the WAL the writer keeps now -- and let the query run again."""
+        if not getattr(self, "_immutable", False) or getattr(self, "_reopened", False):
+            return False
+        self._reopened = True
+        self._con.close()
+        self._connect()
+        return True
+
+    def _bound_wal(self) -> None:
+        """Keep the write-ahead log small while a session writes (:data:`WAL_CHECKPOINT_PAGES`).
+
+        SQLite's default copies the WAL into the file only every 1000 pages (4 MB) and never
+        shrinks it, so a session's WAL grew ~25 KB a trial to several times the finished log.
+        Checkpointing every :data:`WAL_CHECKPOINT_PAGES` pages (passive: it never waits for a
+        reader) and truncating the WAL to :data:`WAL_SIZE_LIMIT_BYTES` when it restarts keeps
+        the WAL near that size; each checkpoint is crash-safe (SQLite's own protocol).
+        """
+        self._con.execute(f"PRAGMA wal_autocheckpoint = {WAL_CHECKPOINT_PAGES}")
+        self._con.execute(f"PRAGMA journal_size_limit = {WAL_SIZE_LIMIT_BYTES}")
 
     def _check_version(self) -> None:
         v = self.schema_version()
@@ -191,6 +230,12 @@ class TrialLog(ClosesOnExit, LogQueries):
             if version in done:
                 continue
             with self.atomic() as con:
+                # decided again inside the write transaction: another process opening the
+                # same old log at the same moment may have applied it since the read above
+                if con.execute(
+                    "SELECT 1 FROM schema_migrations WHERE version = ?", (version,)
+                ).fetchone():
+                    continue
                 schema.apply_migration(con, version, name, sql)
 
     # -- sessions -----------------------------------------------------------------------------
@@ -231,12 +276,17 @@ class TrialLog(ClosesOnExit, LogQueries):
             return int(cur.lastrowid)
 
     def finish_session(self, session_id: int) -> None:
-        """Mark a session completed (all planned trials answered)."""
+        """Mark a session completed (all planned trials answered) and drop its lock row.
+
+        One transaction (inside the caller's, with the last answer): a completed session is
+        never "open" in any process, so a kill right after this commit leaves no lock behind.
+        """
         with self.atomic() as con:
             con.execute(
                 "UPDATE sessions SET status = 'completed', ended_at = ? WHERE session_id = ?",
                 (utc_now(), session_id),
             )
+            con.execute("DELETE FROM locks WHERE session_id = ?", (session_id,))
 
     # -- schedule -----------------------------------------------------------------------------
 
@@ -405,15 +455,20 @@ class TrialLog(ClosesOnExit, LogQueries):
                 (session_id, kind, note, clock_s, utc_now(), os.getpid(), socket.gethostname()),
             )
 
-    def acquire_lock(self, session_id: int) -> dict[str, Any] | None:
+    def acquire_lock(
+        self, session_id: int, *, take_over: str | None = None
+    ) -> dict[str, Any] | None:
         """Claim a session for this process, in one transaction.
 
         Returns the stale lock row that was taken over (a crashed run), or None; raises
         :class:`~experiment.log.errors.SessionLocked` when a live process (or one on another
-        host) holds the session (:func:`~experiment.log.locks.claim_session`).
+        host, unless ``take_over`` gives the operator's reason) holds the session
+        (:func:`~experiment.log.locks.claim_session`).
         """
         with self.atomic() as con:
-            stale = locks.claim_session(con, self.path, session_id, self._token)
+            stale = locks.claim_session(
+                con, self.path, session_id, self._token, take_over=take_over
+            )
         self._held.add(session_id)
         return stale
 

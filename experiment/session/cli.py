@@ -32,7 +32,9 @@ from experiment.session.run_options import (
     ScreenOption,
     SkipTimingCheckOption,
     SubjectOption,
+    TakeOverLockOption,
     check_presenter,
+    confirm_take_over,
     report_if_complete,
 )
 from stimuli.cli import seed_option
@@ -154,6 +156,7 @@ def run_command(
         ),
     ] = False,
     new_session: NewSessionOption = None,
+    take_over_lock: TakeOverLockOption = None,
 ) -> None:
     """Run (or resume) a subject's session: console and presenter, or headless simulation.
 
@@ -228,6 +231,7 @@ def run_command(
         effective_params = _params_dict(getattr(probe, "params", None), params)
     if report_if_complete(data, subject, new_session):
         return
+    confirm_take_over(data, subject, take_over_lock)
     log = TrialLog(data)
     try:
         try:
@@ -243,6 +247,7 @@ def run_command(
                 participant=meta,
                 monitor=monitor_record,
                 new_session=new_session,
+                take_over_lock=take_over_lock,
             )
         except SessionComplete as exc:  # completed by another process since the check above
             typer.echo(str(exc))
@@ -351,7 +356,9 @@ def status_command(
             line += f"  SIMULATED ({s['observer']})"
         if s["crashes"]:
             line += f"  crashes recovered: {s['crashes']}"
-        if s["lock"]:
+        if s["lock"] and s["lock"]["stale"]:
+            line += f"  crashed in pid {s['lock']['pid']} (run the same command to resume)"
+        elif s["lock"]:
             line += f"  OPEN in pid {s['lock']['pid']} on {s['lock']['host']}"
         if s["new_session"]:
             line += f"  new session: {s['new_session']}"

@@ -27,8 +27,8 @@ from experiment.session.lifecycle import (
     LoggedSession,
     check_subject_and_seed,
     create_session,
+    open_or_create,
     reopen,
-    session_to_resume,
     stored_seed,
 )
 from experiment.session.schedule import Schedule, Trial, build_schedule
@@ -110,6 +110,7 @@ class Session(LoggedSession):
         participant: dict | None = None,
         monitor: dict | None = None,
         new_session: str | None = None,
+        take_over_lock: str | None = None,
     ) -> Session:
         """Create a session, or resume the subject's unfinished one (same saved schedule).
 
@@ -143,6 +144,9 @@ class Session(LoggedSession):
         new_session : str, optional
             The operator's reason for a further session of a subject who has one (logged as a
             ``new_session`` event). The same reason again resumes or reports that session.
+        take_over_lock : str, optional
+            The operator's reason to take over the unfinished session's lock held on another
+            host (``--take-over-lock REASON``; logged as a ``lock_taken_over`` event).
 
         Raises
         ------
@@ -165,34 +169,40 @@ class Session(LoggedSession):
         clock = clock if clock is not None else PerfCounterClock()
         if observer is None and responder and responder.startswith("sim:"):
             observer = responder[4:]
-        existing = session_to_resume(log, subject, new_session)
-        if existing is not None:
-            return cls._resume(log, protocol, stimset, subject, existing, seed, clock, observer)
-        root_seed = int(seed) if seed is not None else int(np.random.SeedSequence().entropy)
-        schedule = build_schedule(protocol, stimset, _child_rng(root_seed, 0))
-        _verify_files(stimset, schedule)
-        check_implant_fits(protocol.display, stimset, schedule)
-        sid = create_session(
-            log,
-            protocol,
-            subject,
-            clock,
-            seed=root_seed,
-            write_plan=lambda sid: log.write_schedule(sid, schedule),
-            open_note=f"new session: {len(schedule)} trials planned",
-            new_session=new_session,
-            display_json=display_json(protocol.display),
-            stimset_path=str(stimset.root),
-            stimset_manifest_sha256=stimset.manifest_sha256,
-            responder=responder,
-            observer=observer,
-            observer_params=(
-                None if observer is None else json.dumps(observer_params or {}, default=str)
-            ),
-            participant_json=json.dumps(participant, sort_keys=True) if participant else None,
-            monitor_json=json.dumps(monitor, sort_keys=True) if monitor else None,
-        )
-        return cls(log, protocol, stimset, subject, sid, root_seed, schedule, clock)
+
+        def resume(row: dict) -> Session:
+            return cls._resume(
+                log, protocol, stimset, subject, row, seed, clock, observer, take_over_lock
+            )
+
+        def create() -> Session:
+            root_seed = int(seed) if seed is not None else int(np.random.SeedSequence().entropy)
+            schedule = build_schedule(protocol, stimset, _child_rng(root_seed, 0))
+            _verify_files(stimset, schedule)
+            check_implant_fits(protocol.display, stimset, schedule)
+            sid = create_session(
+                log,
+                protocol,
+                subject,
+                clock,
+                seed=root_seed,
+                write_plan=lambda sid: log.write_schedule(sid, schedule),
+                open_note=f"new session: {len(schedule)} trials planned",
+                new_session=new_session,
+                display_json=display_json(protocol.display),
+                stimset_path=str(stimset.root),
+                stimset_manifest_sha256=stimset.manifest_sha256,
+                responder=responder,
+                observer=observer,
+                observer_params=(
+                    None if observer is None else json.dumps(observer_params or {}, default=str)
+                ),
+                participant_json=json.dumps(participant, sort_keys=True) if participant else None,
+                monitor_json=json.dumps(monitor, sort_keys=True) if monitor else None,
+            )
+            return cls(log, protocol, stimset, subject, sid, root_seed, schedule, clock)
+
+        return open_or_create(log, subject, new_session, resume, create)
 
     @classmethod
     def _resume(
@@ -205,6 +215,7 @@ class Session(LoggedSession):
         seed: int | None,
         clock: Clock,
         observer: str | None = None,
+        take_over_lock: str | None = None,
     ) -> Session:
         sid = int(row["session_id"])
         same_display = row["display_json"] == display_json(protocol.display)
@@ -260,7 +271,7 @@ class Session(LoggedSession):
                     clock.now_s(),
                 )
 
-        reopen(log, sid, clock, describe, note_repeat_viewing)
+        reopen(log, sid, clock, describe, note_repeat_viewing, take_over=take_over_lock)
         return cls(log, protocol, stimset, subject, sid, stored, schedule, clock)
 
     # -- the position in the schedule ---------------------------------------------------------

@@ -8,13 +8,18 @@ a session lives in the log:
 2. :func:`session_to_resume` decides between a new session and the subject's unfinished one; a
    complete subject is refused (``SessionComplete``) unless ``--new-session REASON``
    (:func:`check_new_session_reason`) asks for a further session.
-3. A new session: :func:`create_session` writes the ``sessions`` row with its provenance
-   (:func:`software_provenance`), the plan, the lock and the ``new_session`` and ``open`` events
-   in one transaction.
+3. A new session: :func:`create_session` decides again and writes the ``sessions`` row with its
+   provenance (:func:`software_provenance`), the plan, the lock and the ``new_session`` and
+   ``open`` events in one ``BEGIN IMMEDIATE`` transaction. Deciding and creating are one
+   transaction, so two processes started at the same moment make one session: the one that
+   writes second finds the other's session (:class:`SessionAppeared`), and its caller resumes
+   that one instead -- refused while the first process holds it.
 4. A resumed one: :func:`stored_seed` checks the seed, :func:`reopen` takes the lock and logs a
-   ``crash`` (when the last run ended without closing) and the ``resume`` event together.
-5. :class:`LoggedSession` logs events, marks the session complete and closes it (``close``
-   event, lock released).
+   ``crash`` (when the last run ended without closing) and the ``resume`` event together; a
+   lock held on another host is taken over only with the operator's reason
+   (``--take-over-lock REASON``), logged as a ``lock_taken_over`` event.
+5. :class:`LoggedSession` logs events, marks the session complete (dropping its lock in the same
+   transaction) and closes it (``close`` event).
 
 References
 ----------
@@ -35,14 +40,17 @@ import numpy as np
 from experiment.clock import Clock
 from experiment.interfaces import ClosesOnExit
 from experiment.log import ResumeMismatch, SessionComplete, TrialLog, TrialLogError
+from experiment.log.locks import TAKE_OVER_OPTION
 from experiment.protocol import ProtocolSpec
 from stimuli.software import git_commit
 
 __all__ = [
     "LoggedSession",
+    "SessionAppeared",
     "check_new_session_reason",
     "check_subject_and_seed",
     "create_session",
+    "open_or_create",
     "reopen",
     "session_to_resume",
     "software_provenance",
@@ -50,6 +58,14 @@ __all__ = [
 ]
 
 logger = logging.getLogger(__name__)
+
+
+class SessionAppeared(TrialLogError):
+    """Another process wrote a session of the subject between the decision and the creation.
+
+    Raised by :func:`create_session` (nothing is written); the caller decides again, which
+    resumes that session (refused while its process holds it) or reports it complete.
+    """
 
 
 def software_provenance() -> dict[str, str | None]:
@@ -137,13 +153,27 @@ def create_session(
     ``responder``, ...), then the plan (``write_plan(session_id)``), the lock, the
     ``new_session`` event (with the operator's reason, when given) and the ``open`` event.
 
+    The transaction (``BEGIN IMMEDIATE``: no other process writes until it ends) first decides
+    again what running the subject does (:meth:`TrialLog.session_to_open`): a session of the
+    subject written since the caller's decision -- the same subject started twice at once --
+    is never doubled.
+
     Raises
     ------
+    SessionAppeared
+        The subject has a session now that the caller's decision did not see (nothing is
+        written).
     SessionLocked
         Another live process holds the lock (nothing is written).
     """
     prov = software_provenance()
     with log.atomic():
+        decision, row = log.session_to_open(subject, new_session=new_session)
+        if decision != "new":
+            raise SessionAppeared(
+                f"{log.path}: another process started session {row['session_id']} of subject "
+                f"{subject} at the same moment; run the command again to resume or report it"
+            )
         sid = log.create_session(
             subject=subject,
             protocol_name=protocol.name,
@@ -181,18 +211,54 @@ def stored_seed(log: TrialLog, subject: str, row: dict, seed: int | None) -> int
     return stored
 
 
+def open_or_create(
+    log: TrialLog,
+    subject: str,
+    new_session: str | None,
+    resume: Callable[[dict], Any],
+    create: Callable[[], Any],
+) -> Any:
+    """Resume the subject's unfinished session or create one, whatever the timing.
+
+    ``resume(row)`` resumes the unfinished session ``row``; ``create()`` makes a session
+    through :func:`create_session`. When another process created the subject's session between
+    the decision and the creation (:class:`SessionAppeared`), the decision is taken again: that
+    session is resumed (refused with ``SessionLocked`` while its process holds it) or reported
+    complete.
+
+    Raises
+    ------
+    SessionComplete, SessionLocked, TrialLogError
+        As :func:`session_to_resume`, ``resume`` and ``create`` raise them.
+    """
+    existing = session_to_resume(log, subject, new_session)
+    if existing is None:
+        try:
+            return create()
+        except SessionAppeared:
+            existing = session_to_resume(log, subject, new_session)
+            if existing is None:  # created and completed meanwhile under another reason
+                raise
+    return resume(existing)
+
+
 def reopen(
     log: TrialLog,
     session_id: int,
     clock: Clock,
     describe: Callable[[], tuple[str, str]],
     then: Callable[[], None] | None = None,
+    *,
+    take_over: str | None = None,
 ) -> dict | None:
     """Lock an unfinished session to resume it; log the crash it recovers from, and the resume.
 
     One transaction: the lock is taken; ``describe()`` returns what was committed (for the
     ``crash`` event, logged when the previous run ended without closing) and the ``resume``
-    event's note; ``then()`` adds what else the resume writes.
+    event's note; ``then()`` adds what else the resume writes. ``take_over`` (the operator's
+    reason, ``--take-over-lock REASON``) takes over a lock held on another host; the
+    ``lock_taken_over`` event names this process, its host and user, the old holder and the
+    reason.
 
     Returns
     -------
@@ -201,11 +267,27 @@ def reopen(
 
     Raises
     ------
+    SessionComplete
+        Another process completed the session since the caller decided to resume it (the
+        check and the lock are one transaction).
     SessionLocked
-        Another live process has the session open.
+        Another live process has the session open (or one on another host, without
+        ``take_over``).
     """
     with log.atomic():
-        stale = log.acquire_lock(session_id)
+        row = log.session(session_id)
+        if row["status"] != "open":  # completed by another process since the decision
+            raise SessionComplete(log.complete_message(row), row)
+        stale = log.acquire_lock(session_id, take_over=take_over)
+        if stale is not None and stale.get("taken_over") is not None:
+            log.add_event(
+                session_id,
+                "lock_taken_over",
+                f"{TAKE_OVER_OPTION} by {_who()}: lock of pid {stale['pid']} on "
+                f"{stale['host']} (since {stale['acquired_at']}) taken over; reason: "
+                f"{stale['taken_over']}",
+                clock.now_s(),
+            )
         committed, resumed = describe()
         if stale is not None:
             log.add_event(
@@ -221,6 +303,18 @@ def reopen(
     if stale is not None:
         logger.warning("session %s: previous run crashed; %s", session_id, resumed)
     return stale
+
+
+def _who() -> str:
+    """This process, its host and its user, for the ``lock_taken_over`` event."""
+    import getpass
+    import os
+
+    try:
+        user = getpass.getuser()
+    except (KeyError, OSError):  # no user name in a bare container
+        user = f"uid {os.getuid()}"
+    return f"user {user}, pid {os.getpid()} on {socket.gethostname()}"
 
 
 class LoggedSession(ClosesOnExit):
@@ -243,9 +337,10 @@ class LoggedSession(ClosesOnExit):
         self.log.add_event(self.session_id, kind, note, self.clock.now_s())
 
     def _mark_complete(self, t_s: float) -> None:
-        """Mark the session completed, with its ``complete`` event.
+        """Mark the session completed, with its ``complete`` event, and drop its lock.
 
-        Inside the caller's transaction, so that the last answer and the completion commit together.
+        Inside the caller's transaction, so that the last answer, the completion and the lock's
+        end commit together.
         """
         self.log.finish_session(self.session_id)
         self.log.add_event(self.session_id, "complete", "", t_s)

@@ -1,9 +1,9 @@
 """The command-line options and checks that ``session run`` and ``active run`` share.
 
 Both commands run one subject's session in the study's trial log: the same ``--subject``,
-``--data`` and ``--new-session``, the same subject's-screen options (``--presenter``,
-``--screen``, ``--fullscreen/--window``, ``--skip-timing-check``), and the same read-only
-report of a subject whose session is complete (:func:`report_if_complete`).
+``--data``, ``--new-session`` and ``--take-over-lock``, the same subject's-screen options
+(``--presenter``, ``--screen``, ``--fullscreen/--window``, ``--skip-timing-check``), and the same
+read-only report of a subject whose session is complete (:func:`report_if_complete`).
 """
 
 from __future__ import annotations
@@ -24,7 +24,9 @@ __all__ = [
     "ScreenOption",
     "SkipTimingCheckOption",
     "SubjectOption",
+    "TakeOverLockOption",
     "check_presenter",
+    "confirm_take_over",
     "report_if_complete",
 ]
 
@@ -41,6 +43,18 @@ NewSessionOption = Annotated[
         help="Start a further session for a subject whose session is complete; the reason is "
         'logged, e.g. --new-session "re-test after new glasses". Without it a complete '
         "subject's session is reported, not run again.",
+    ),
+]
+TakeOverLockOption = Annotated[
+    str | None,
+    typer.Option(
+        "--take-over-lock",
+        metavar="REASON",
+        help="Resume a subject's unfinished session whose lock names another host (this "
+        "machine was renamed: a laptop on another network, a new container) after making sure "
+        "no program there runs it; asks to confirm on a terminal, and logs who took it over "
+        'and why, e.g. --take-over-lock "laptop renamed on the clinic network". A session '
+        "open in a live process on this host is still refused.",
     ),
 ]
 ScreenOption = Annotated[
@@ -79,6 +93,45 @@ def check_presenter(presenter: str) -> None:
         raise ConfocalError(
             f"--presenter must be one of {', '.join(PRESENTERS)}; got {presenter!r}"
         )
+
+
+def confirm_take_over(data: Path, subject: str, reason: str | None) -> None:
+    """Check a ``--take-over-lock`` reason; on a terminal, show the lock and ask to confirm.
+
+    Reads only. Nothing is asked when ``reason`` is None, the log or the subject's unfinished
+    session does not exist, or it has no lock; without a terminal (stdin or stdout not a tty)
+    the option alone is the operator's confirmation.
+
+    Raises
+    ------
+    TrialLogError
+        A blank or multi-line reason.
+    ConfocalError
+        The operator did not confirm (nothing was changed).
+    """
+    import sys
+
+    from experiment.log import TrialLog
+    from experiment.log.locks import check_take_over_reason
+
+    check_take_over_reason(reason)
+    if reason is None or not data.is_file() or data.stat().st_size == 0:
+        return
+    with TrialLog(data, readonly=True) as log:
+        row = log.unfinished_session(subject)
+        if row is None:
+            return
+        held = [r for r in log.locks() if r["session_id"] == row["session_id"]]
+    if not held or not (sys.stdin.isatty() and sys.stdout.isatty()):
+        return
+    lock = held[0]
+    typer.echo(
+        f"session {row['session_id']} of {subject} is locked by pid {lock['pid']} on host "
+        f"{lock['host']} since {lock['acquired_at']}. Take it over only if no program on "
+        f"{lock['host']} runs it any more; reason: {reason}"
+    )
+    if not typer.confirm("Take over the lock?", default=False):
+        raise ConfocalError("--take-over-lock: not confirmed; nothing was changed")
 
 
 def report_if_complete(data: Path, subject: str, new_session: str | None) -> bool:

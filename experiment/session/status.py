@@ -24,11 +24,15 @@ def status_report(path: Path) -> dict:
     dict
         ``{"sessions": [...], "subjects": [...], "raters": [...], "kappa": [...]}``; each
         session has ``answered``, ``planned``, ``left`` and ``next`` (the first unanswered trial
-        or None; None for active search), and ``new_session`` (the reason for a further
-        session, or None); each subject has ``complete`` (its latest session is), that
-        ``session``, ``sessions`` (how many), ``answered``, ``planned`` and ``ended_at``.
+        or None; None for active search), ``new_session`` (the reason for a further
+        session, or None) and ``lock`` (the process that has it open: ``pid``, ``host``,
+        ``acquired_at`` and ``stale`` -- True when that process is gone, None when it runs on
+        another host; None for a completed session, which no process holds); each subject has
+        ``complete`` (its latest session is), that ``session``, ``sessions`` (how many),
+        ``answered``, ``planned`` and ``ended_at``.
     """
     from experiment.log import TrialLog
+    from experiment.log.locks import lock_is_stale
     from experiment.session.scoring import cohen_kappa
 
     with TrialLog(path, readonly=True) as log:
@@ -64,7 +68,10 @@ def status_report(path: Path) -> dict:
                     "new_session": log.new_session_reason(sid),
                     "lock": (
                         {k: locks[sid][k] for k in ("pid", "host", "acquired_at")}
-                        if sid in locks
+                        | {"stale": lock_is_stale(dict(locks[sid]))}
+                        # a completed session is open in no process: a row left by a run of
+                        # an older version killed after the completion is not a lock
+                        if sid in locks and s["status"] != "completed"
                         else None
                     ),
                 }

@@ -31,6 +31,7 @@ SHARED_OPTIONS = (
     "subject",
     "data",
     "new_session",
+    "take_over_lock",
     "presenter",
     "screen",
     "fullscreen",
