@@ -92,6 +92,50 @@ def _one_line(proc: subprocess.Popen, sig: signal.Signals) -> str:
     return lines[0]
 
 
+LINE = "confocal: stopped by {}; the log is closed, nothing half-written"
+
+
+def _imported(line: str) -> str:
+    """The module a ``-X importtime`` line reports (its import has just ended), or ''."""
+    return line.rsplit("|", 1)[-1].strip() if line.startswith("import time:") else ""
+
+
+@pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGINT])
+def test_stop_signal_during_start_up_imports_ends_with_one_line(tmp_path, sig):
+    """The signal lands while the command imports its modules (typer, the demo's stack)."""
+    env = dict(os.environ, PYTHONPATH=str(ROOT), COLUMNS="200")
+    proc = subprocess.Popen(
+        [sys.executable, "-X", "importtime", "-m", "experiment.cli", "demo", "--out", "demo"],
+        cwd=tmp_path, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),
+    )  # fmt: skip
+    assert proc.stderr is not None
+    try:
+        # the package's first module: its import ends before typer and the command's modules
+        while _imported(proc.stderr.readline()) != "experiment.errors":
+            assert proc.poll() is None, "the command ended before the signal"
+        proc.send_signal(sig)
+        _, err = proc.communicate(timeout=60)
+    finally:
+        proc.kill()
+    lines = [ln for ln in err.splitlines() if ln.strip() and not ln.startswith("import time:")]
+    assert (proc.returncode, lines) == (128 + sig, [LINE.format(sig.name)]), err[-3000:]
+    assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGINT])
+def test_stop_signal_as_the_command_exits_is_one_line_or_ignored(tmp_path, sig):
+    """Sent as soon as the command's output is printed: it lands while the command returns or
+    while Python exits; never a silent death by the signal."""
+    for _ in range(3):
+        proc = _start(["--version"], tmp_path)
+        assert proc.stdout is not None
+        assert proc.stdout.readline().startswith("confocal ")
+        proc.send_signal(sig)
+        _, err = proc.communicate(timeout=60)
+        assert (proc.returncode, err) in ((0, ""), (128 + sig, LINE.format(sig.name) + "\n"))
+
+
 @pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGINT])
 def test_stop_signal_during_a_session_keeps_the_committed_trials(tmp_path, sig):
     stim = make_stimulus_set(tmp_path / "stim", n_main=3, n_training=1, levels=(1, 2))
