@@ -250,3 +250,45 @@ def test_sigkilled_session_takes_its_presenter_with_it(tmp_path):
     if alive:
         os.kill(child, signal.SIGKILL)
     assert not alive, "the presenter outlived its SIGKILLed parent"
+
+
+def test_ctrl_c_in_the_operator_console_saves_and_quits(tmp_path):
+    """The console's terminal is in raw mode, so Ctrl-C arrives as a key, not as SIGINT: it is
+    bound to "save and quit", as Ctrl+Q (the scored trial kept, the one on screen shown again)."""
+    import asyncio
+
+    from experiment.console import OperatorConsole
+    from experiment.presentation.displays import NullDisplay
+    from experiment.session.engine import Session
+    from tests.experiment.conftest import console_session
+
+    with console_session(tmp_path) as (session, clock, log):
+        app = OperatorConsole(session, NullDisplay(clock))
+
+        async def script() -> int:
+            async with app.run_test() as pilot:
+                await pilot.press("enter", "enter", "c", "u", "p", "f1", "enter")
+                pending = app.trial.index  # trial 2 on screen, not scored
+                await pilot.press("h", "a", "l", "f", "ctrl+c")
+                await pilot.pause()
+                assert not app.is_running, "Ctrl-C did not quit the console"
+                return pending
+
+        pending = asyncio.run(asyncio.wait_for(script(), timeout=60))
+        assert app.return_value is not None and app.return_value.answered == 1
+        session.close()
+        assert log.answered_count(session.session_id) == 1
+        assert "abort" in [e["kind"] for e in log.events(session.session_id)]
+        resumed = Session.open(log, session.protocol, session.stimset, "S01", clock=clock)
+        assert resumed.next_trial().index == pending
+        resumed.close()
+
+
+def test_every_console_binds_ctrl_c_as_its_quit_key():
+    from experiment.console import OperatorConsole, ScoringApp
+    from experiment.console.active import ActiveConsole
+
+    for app in (OperatorConsole, ScoringApp, ActiveConsole):
+        keys = {b.key: b for b in app.BINDINGS}
+        assert keys["ctrl+c"].action == keys["ctrl+q"].action, app.__name__
+        assert keys["ctrl+c"].priority, app.__name__  # before the response line's copy key
