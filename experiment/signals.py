@@ -40,6 +40,7 @@ __all__ = [
     "STOP_SIGNALS",
     "Stopped",
     "die_with_parent",
+    "hold_stops",
     "report_stop",
     "stop_line",
     "stop_on_signals",
@@ -83,7 +84,12 @@ SECOND_SIGNAL_GRACE_S = 5.0
 
 #: The first stop signal this process received (None: none yet), when, and whether its line
 #: has been printed.
-_stop: dict[str, float | int | bool | None] = {"signum": None, "at": None, "said": False}
+_stop: dict[str, float | int | bool | None] = {
+    "signum": None,
+    "at": None,
+    "said": False,
+    "raised": False,
+}
 
 
 def stop_line(signum: int) -> str:
@@ -117,6 +123,10 @@ def _exit_now(signum: int) -> None:
     os._exit(128 + first)
 
 
+#: How many :func:`hold_stops` blocks are open in the main thread.
+_held = [0]
+
+
 def _raise_stopped(signum: int, frame: object) -> None:
     if _stop["signum"] is not None:  # a second signal while the first unwinds
         at = _stop["at"]
@@ -124,7 +134,34 @@ def _raise_stopped(signum: int, frame: object) -> None:
             _exit_now(signum)
         return  # the finally blocks (a rollback, a rmtree) must finish
     _stop["signum"], _stop["at"] = int(signum), time.monotonic()
+    if _held[0] > 0:
+        return  # raised where the outermost hold_stops block ends
+    _stop["raised"] = True
     raise Stopped(signum)
+
+
+@contextlib.contextmanager
+def hold_stops() -> Iterator[None]:
+    """Let a stop signal that arrives in the block stop the command only where the block ends.
+
+    For steps that must not be cut in two (renaming a finished output into place, then
+    recording it): :func:`stop_on_signals` raises :class:`Stopped` at any point of the code, and
+    ``finally:`` blocks undo what a step left half done; a step that cannot be undone goes in
+    this block. Blocks nest; the stop is raised when the outermost ends (not if it ends by an
+    exception, which then carries on). Outside the main thread it does nothing.
+    """
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    _held[0] += 1
+    try:
+        yield
+    finally:
+        _held[0] -= 1
+    pending = _stop["signum"]
+    if not _held[0] and pending is not None and not _stop["raised"]:
+        _stop["raised"] = True
+        raise Stopped(int(pending))
 
 
 def _after_the_command(signum: int, frame: object) -> None:
@@ -159,7 +196,7 @@ def stop_on_signals() -> Iterator[None]:
         yield
         return
     old = {s: signal.getsignal(s) for s in STOP_SIGNALS}
-    _stop.update(signum=None, at=None, said=False)  # a new command (in-process callers run many)
+    _stop.update(signum=None, at=None, said=False, raised=False)  # in-process callers run many
     for s in STOP_SIGNALS:
         if old[s] is signal.SIG_IGN and s == signal.SIGINT:
             continue  # started in the background with SIGINT ignored (``cmd &`` in sh): keep it

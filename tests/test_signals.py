@@ -292,3 +292,82 @@ def test_every_console_binds_ctrl_c_as_its_quit_key():
         keys = {b.key: b for b in app.BINDINGS}
         assert keys["ctrl+c"].action == keys["ctrl+q"].action, app.__name__
         assert keys["ctrl+c"].priority, app.__name__  # before the response line's copy key
+
+
+#: Draws "figures" that take a minute in save_all's two worker processes, stopped by a signal.
+_SLOW_FIGURES = """
+import sys, time
+from pathlib import Path
+import analysis.figures as figures
+from experiment.signals import Stopped, stop_on_signals
+
+def slow(result, names, folder):
+    print("drawing", flush=True)
+    time.sleep(60)
+    return []
+
+figures._draw_and_save = slow
+try:
+    with stop_on_signals():
+        figures.save_all(None, Path(sys.argv[1]))
+except Stopped as stop:
+    sys.exit(stop.exit_code)
+"""
+
+
+def test_stop_signal_while_figures_are_drawn_ends_their_workers_at_once(tmp_path):
+    """The analysis step (``analyze run``, the demo's last step) draws its figures in two worker
+    processes; a stop had waited for them to finish drawing (a minute on a busy machine)."""
+    script = tmp_path / "figures.py"
+    script.write_text(_SLOW_FIGURES)
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    proc = subprocess.Popen(
+        [sys.executable, str(script), str(tmp_path)], env=env, stdout=subprocess.PIPE, text=True
+    )
+    assert proc.stdout is not None
+    assert [proc.stdout.readline(), proc.stdout.readline()] == ["drawing\n"] * 2
+    workers = _children(proc.pid)
+    proc.send_signal(signal.SIGTERM)
+    try:
+        proc.wait(timeout=20)
+    finally:
+        proc.kill()
+        left = _left_after(workers, 5.0)
+        for p in left:
+            os.kill(p, signal.SIGKILL)
+    assert proc.returncode == 143
+    assert not left, f"figure workers outlived the stop: {left}"
+
+
+def test_stop_signal_during_the_demo_leaves_no_output_and_no_worker(tmp_path):
+    """Stopped while its knowledge set is made in a worker process and the test set here."""
+    proc = _start(["demo", "--out", "demo"], tmp_path)
+    _wait_for(lambda: len(_children(proc.pid)) >= 1, proc)
+    workers = _children(proc.pid)
+    time.sleep(0.3)
+    proc.send_signal(signal.SIGINT)
+    try:
+        _one_line(proc, signal.SIGINT)
+    finally:
+        left = _left_after(workers, 5.0)
+        for p in left:
+            os.kill(p, signal.SIGKILL)
+    assert not left, f"workers outlived the stopped demo: {left}"
+    assert list(tmp_path.iterdir()) == [], "the demo left an output or temporary folder"
+
+
+def test_a_stop_inside_hold_stops_is_raised_where_the_block_ends():
+    """A step that must not be cut in two finishes; the stop comes right after it."""
+    from experiment.signals import Stopped, hold_stops, stop_on_signals
+
+    steps = []
+    with pytest.raises(Stopped) as stop, stop_on_signals():
+        with hold_stops():
+            with hold_stops():
+                os.kill(os.getpid(), signal.SIGTERM)
+                time.sleep(0.01)  # the handler has run
+                steps.append("renamed")
+            steps.append("recorded")
+        steps.append("after the block")
+    assert steps == ["renamed", "recorded"]
+    assert stop.value.exit_code == 143
