@@ -37,6 +37,7 @@ import time
 from collections.abc import Callable, Iterator
 
 __all__ = [
+    "SECOND_SIGNAL_GRACE_S",
     "STOP_SIGNALS",
     "Stopped",
     "die_with_parent",
@@ -257,3 +258,16 @@ def worker_init(parent_pid: int | None = None) -> None:
     die_with_parent(parent_pid)
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, signal.SIG_DFL)
+
+
+def _forked_child() -> None:
+    """In a child forked by the ``confocal`` command (its worker pools): a pool worker's
+    signal settings from the first instruction, not only once its initializer runs (a Ctrl-C
+    in between raised :class:`Stopped` in the child, whose traceback the pool printed)."""
+    if signal.getsignal(signal.SIGTERM) in (_raise_stopped, _after_the_command):
+        signal.signal(signal.SIGINT, signal.SIG_IGN)
+        signal.signal(signal.SIGTERM, signal.SIG_DFL)
+
+
+if getattr(sys.modules.get("experiment"), "_COMMAND", False) and hasattr(os, "register_at_fork"):
+    os.register_at_fork(after_in_child=_forked_child)

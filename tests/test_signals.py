@@ -371,3 +371,25 @@ def test_a_stop_inside_hold_stops_is_raised_where_the_block_ends():
         steps.append("after the block")
     assert steps == ["renamed", "recorded"]
     assert stop.value.exit_code == 143
+
+
+def test_a_second_signal_ends_a_stop_that_was_lost(monkeypatch):
+    """A stop that a library's ``except BaseException`` swallowed: a second signal within the
+    grace period is ignored (clean-up must finish), one after it ends the process at once."""
+    import experiment.signals as signals
+
+    ended = []
+    monkeypatch.setattr(signals, "_exit_now", ended.append)
+    with signals.stop_on_signals():
+        try:
+            os.kill(os.getpid(), signal.SIGINT)
+            time.sleep(0.01)
+        except signals.Stopped:
+            pass  # swallowed
+        os.kill(os.getpid(), signal.SIGINT)
+        time.sleep(0.01)
+        assert ended == []
+        monkeypatch.setattr(signals, "SECOND_SIGNAL_GRACE_S", 0.0)
+        os.kill(os.getpid(), signal.SIGTERM)
+        time.sleep(0.01)
+    assert ended == [signal.SIGTERM]
