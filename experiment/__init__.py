@@ -10,8 +10,11 @@ written; :func:`experiment.signals.stop_on_signals` takes over once the command 
 
 from __future__ import annotations
 
+# Only modules loaded before any Python code runs, and ``_signal``, the C half of ``signal``:
+# built in and loaded at once, where ``signal`` itself imports enum first (tens of
+# milliseconds on a busy machine, in which a Ctrl-C gave a traceback).
+import _signal
 import os as _os
-import signal as _signal
 import sys as _sys
 
 
@@ -30,7 +33,7 @@ def _is_the_command() -> bool:
 
 def _stop_at_start(signum: int, frame: object) -> None:
     """A stop signal before the command runs: nothing is open or written; one line, exit now."""
-    name = _signal.Signals(signum).name
+    name = {_signal.SIGINT: "SIGINT", _signal.SIGTERM: "SIGTERM"}.get(signum, f"signal {signum}")
     line = f"confocal: stopped by {name}; the log is closed, nothing half-written\n"
     _os.write(2, line.encode())
     _os._exit(128 + signum)
@@ -48,7 +51,7 @@ _COMMAND = _is_the_command()
 if _COMMAND:
     for _sig in (_signal.SIGTERM, _signal.SIGINT):
         # ``cmd &`` in sh starts with SIGINT ignored: keep it ignored
-        if not (_sig == _signal.SIGINT and _signal.getsignal(_sig) is _signal.SIG_IGN):
+        if not (_sig == _signal.SIGINT and _signal.getsignal(_sig) == _signal.SIG_IGN):
             _signal.signal(_sig, _stop_at_start)
     import atexit as _atexit
 
