@@ -393,3 +393,28 @@ def test_a_second_signal_ends_a_stop_that_was_lost(monkeypatch):
         os.kill(os.getpid(), signal.SIGTERM)
         time.sleep(0.01)
     assert ended == [signal.SIGTERM]
+
+
+_FORK_PROBE = """
+import os, signal, sys
+sys.argv[0] = "confocal"  # what the console script's process looks like to the package
+from experiment.signals import stop_on_signals
+
+with stop_on_signals():
+    pid = os.fork()
+    if pid == 0:
+        ign = signal.getsignal(signal.SIGINT) is signal.SIG_IGN
+        dfl = signal.getsignal(signal.SIGTERM) is signal.SIG_DFL
+        os._exit(0 if ign and dfl else 1)
+    print(os.waitstatus_to_exitcode(os.waitpid(pid, 0)[1]))
+"""
+
+
+def test_a_child_the_command_forks_leaves_stop_signals_to_it():
+    """A pool worker ignores Ctrl-C and dies of SIGTERM from its first instruction, before its
+    initializer runs (a Ctrl-C in between raised the parent's stop in it, with a traceback)."""
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    out = subprocess.run(
+        [sys.executable, "-c", _FORK_PROBE], env=env, capture_output=True, text=True, timeout=60
+    )
+    assert out.stdout.strip() == "0", out.stderr
