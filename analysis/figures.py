@@ -461,13 +461,17 @@ def save_all(result: Any, folder: str | Path, *, processes: int = 2) -> list[Pat
         groups = [names[:1], names[1:]]
         try:
             ctx = mp.get_context("fork")
-            from analysis.workers import worker_init
+            from analysis.workers import stop_pool, worker_init
 
             with ProcessPoolExecutor(
                 max_workers=2, mp_context=ctx, initializer=worker_init, initargs=(os.getpid(),)
             ) as ex:
                 futs = [ex.submit(_draw_and_save, result, g, folder) for g in groups]
-                return [p for f in futs for p in f.result()]
+                try:
+                    return [p for f in futs for p in f.result()]
+                except BaseException:  # stopped or failed: no figure is kept; wait for none
+                    stop_pool(ex)
+                    raise
         except (OSError, ValueError, RuntimeError):  # no fork here: draw in this process
             pass
     return _draw_and_save(result, names, folder)

@@ -220,15 +220,13 @@ def main(argv: list[str] | None = None) -> None:
     its ``finally:`` blocks close the trial log and remove temporary folders; it ends with one
     line and status 128 + the signal number (143, 130).
     """
-    from experiment.signals import Stopped, stop_on_signals
+    from experiment.signals import Stopped, report_stop, stop_on_signals
 
     try:
         with stop_on_signals(), _warnings_as_lines():
             app(args=argv, prog_name="confocal")
     except Stopped as stop:
-        typer.echo(
-            f"confocal: stopped by {stop.name}; the log is closed, nothing half-written", err=True
-        )
+        report_stop(stop)
         sys.exit(stop.exit_code)
     except Exception as exc:  # noqa: BLE001 - classified just below
         if getattr(exc, "exit_code", None) == 2:

@@ -14,6 +14,16 @@ because click turns those into "Aborted!" with status 1 before the root could na
 
 :func:`die_with_parent` covers the case no handler can, a SIGKILLed parent: the presenter
 subprocess and the demo's worker pool ask Linux to kill them when their parent dies.
+
+From the first line to the last: when the process is the ``confocal`` command, the top of
+:mod:`experiment` (before any heavy import) makes a stop signal during start-up print the same
+line and exit at once (nothing is open or written yet). Once the command has ended (done,
+failed or stopped), :func:`stop_on_signals` leaves :func:`_after_the_command` in place: a
+signal then ends the process at once with the line (if not yet printed) and 128 + the signal.
+The last exit function (:func:`_at_exit`) skips Python's own teardown after a stop (it frees
+memory only, and takes up to seconds with the scientific stack loaded) and otherwise ignores
+stop signals while the interpreter tears down, where Python's default handling would end the
+process silently with ``-15``.
 """
 
 from __future__ import annotations
@@ -23,9 +33,20 @@ import os
 import signal
 import sys
 import threading
+import time
 from collections.abc import Callable, Iterator
 
-__all__ = ["STOP_SIGNALS", "Stopped", "die_with_parent", "stop_on_signals", "worker_init"]
+__all__ = [
+    "SECOND_SIGNAL_GRACE_S",
+    "STOP_SIGNALS",
+    "Stopped",
+    "die_with_parent",
+    "hold_stops",
+    "report_stop",
+    "stop_line",
+    "stop_on_signals",
+    "worker_init",
+]
 
 #: The signals that stop a command.
 STOP_SIGNALS: tuple[int, ...] = (signal.SIGTERM, signal.SIGINT)
@@ -56,12 +77,111 @@ class Stopped(BaseException):  # noqa: N818 - a stop, like KeyboardInterrupt, no
             return f"signal {self.signum}"
 
 
+#: A second stop signal this many seconds after the first ends the process at once: the clean-up
+#: after a stop takes well under a second, so a stop still running then was lost (a library's
+#: ``except BaseException`` took it) or hangs. Ending then is what SIGKILL does, and the output
+#: folders and the trial log recover from that on their next use.
+SECOND_SIGNAL_GRACE_S = 5.0
+
+#: The first stop signal this process received (None: none yet), when, and whether its line
+#: has been printed.
+_stop: dict[str, float | int | bool | None] = {
+    "signum": None,
+    "at": None,
+    "said": False,
+    "raised": False,
+}
+
+
+def stop_line(signum: int) -> str:
+    """The one line a stopped command prints (without a newline)."""
+    try:
+        name = signal.Signals(signum).name
+    except ValueError:  # pragma: no cover - only the stop signals are handled
+        name = f"signal {signum}"
+    return f"confocal: stopped by {name}; the log is closed, nothing half-written"
+
+
+def report_stop(stop: Stopped) -> None:
+    """Print the stop's one line on stderr, once per process."""
+    if not _stop["said"]:
+        _stop["said"] = True
+        print(stop_line(stop.signum), file=sys.stderr, flush=True)
+
+
+def _exit_now(signum: int) -> None:
+    """End the process at once with the first stop's line (if not printed) and its status."""
+    first = int(_stop["signum"] or signum)
+    for stream in (sys.stdout, sys.stderr):
+        try:  # what the command printed must not be lost; a write cut short raises here
+            stream.flush()
+        except (OSError, ValueError, RuntimeError, AttributeError):
+            pass
+    if not _stop["said"]:
+        _stop["said"] = True
+        with contextlib.suppress(OSError):
+            os.write(2, (stop_line(first) + "\n").encode())
+    os._exit(128 + first)
+
+
+#: How many :func:`hold_stops` blocks are open in the main thread.
+_held = [0]
+
+
 def _raise_stopped(signum: int, frame: object) -> None:
-    # Block a second signal while the first unwinds: finally blocks (a rollback, a rmtree of a
-    # temporary folder) must finish, and a repeated Ctrl-C would otherwise cut them short.
-    for s in STOP_SIGNALS:
-        signal.signal(s, signal.SIG_IGN)
+    if _stop["signum"] is not None:  # a second signal while the first unwinds
+        at = _stop["at"]
+        if at is not None and time.monotonic() - float(at) >= SECOND_SIGNAL_GRACE_S:
+            _exit_now(signum)
+        return  # the finally blocks (a rollback, a rmtree) must finish
+    _stop["signum"], _stop["at"] = int(signum), time.monotonic()
+    if _held[0] > 0:
+        return  # raised where the outermost hold_stops block ends
+    _stop["raised"] = True
     raise Stopped(signum)
+
+
+@contextlib.contextmanager
+def hold_stops() -> Iterator[None]:
+    """Let a stop signal that arrives in the block stop the command only where the block ends.
+
+    For steps that must not be cut in two (renaming a finished output into place, then
+    recording it): :func:`stop_on_signals` raises :class:`Stopped` at any point of the code, and
+    ``finally:`` blocks undo what a step left half done; a step that cannot be undone goes in
+    this block. Blocks nest; the stop is raised when the outermost ends (not if it ends by an
+    exception, which then carries on). Outside the main thread it does nothing.
+    """
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    _held[0] += 1
+    try:
+        yield
+    finally:
+        _held[0] -= 1
+    pending = _stop["signum"]
+    if not _held[0] and pending is not None and not _stop["raised"]:
+        _stop["raised"] = True
+        raise Stopped(int(pending))
+
+
+def _after_the_command(signum: int, frame: object) -> None:
+    """The handler once the command has ended: nothing is being written; end the process."""
+    _exit_now(signum)
+
+
+def _is_start_up_guard(handler: object) -> bool:
+    package = sys.modules.get("experiment")
+    return handler is not None and handler is getattr(package, "_stop_at_start", None)
+
+
+def _at_exit() -> None:
+    """The ``confocal`` command's last exit function (registered by :mod:`experiment`)."""
+    if _stop["signum"] is not None:
+        _exit_now(int(_stop["signum"]))
+    for s in STOP_SIGNALS:
+        if signal.getsignal(s) is not signal.SIG_IGN:
+            signal.signal(s, signal.SIG_IGN)
 
 
 @contextlib.contextmanager
@@ -69,12 +189,15 @@ def stop_on_signals() -> Iterator[None]:
     """Raise :class:`Stopped` in the main thread on SIGTERM or SIGINT while the block runs.
 
     Outside the main thread (an embedding application) it does nothing: Python only runs
-    signal handlers there. The previous handlers are restored on exit.
+    signal handlers there. The previous handlers are restored on exit, except the ``confocal``
+    command's start-up guard, which gives way to :func:`_after_the_command`. A second signal
+    while a stop unwinds is ignored for :data:`SECOND_SIGNAL_GRACE_S` seconds.
     """
     if threading.current_thread() is not threading.main_thread():
         yield
         return
     old = {s: signal.getsignal(s) for s in STOP_SIGNALS}
+    _stop.update(signum=None, at=None, said=False, raised=False)  # in-process callers run many
     for s in STOP_SIGNALS:
         if old[s] is signal.SIG_IGN and s == signal.SIGINT:
             continue  # started in the background with SIGINT ignored (``cmd &`` in sh): keep it
@@ -83,6 +206,8 @@ def stop_on_signals() -> Iterator[None]:
         yield
     finally:
         for s, h in old.items():
+            if _is_start_up_guard(h):
+                h = _after_the_command
             signal.signal(s, h if h is not None else signal.SIG_DFL)
 
 
@@ -136,3 +261,16 @@ def worker_init(parent_pid: int | None = None) -> None:
     die_with_parent(parent_pid)
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, signal.SIG_DFL)
+
+
+def _forked_child() -> None:
+    """In a child forked by the ``confocal`` command (its worker pools): a pool worker's
+    signal settings from the first instruction, not only once its initializer runs (a Ctrl-C
+    in between raised :class:`Stopped` in the child, whose traceback the pool printed)."""
+    if signal.getsignal(signal.SIGTERM) in (_raise_stopped, _after_the_command):
+        signal.signal(signal.SIGINT, signal.SIG_IGN)
+        signal.signal(signal.SIGTERM, signal.SIG_DFL)
+
+
+if getattr(sys.modules.get("experiment"), "_COMMAND", False) and hasattr(os, "register_at_fork"):
+    os.register_at_fork(after_in_child=_forked_child)

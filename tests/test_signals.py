@@ -92,6 +92,50 @@ def _one_line(proc: subprocess.Popen, sig: signal.Signals) -> str:
     return lines[0]
 
 
+LINE = "confocal: stopped by {}; the log is closed, nothing half-written"
+
+
+def _imported(line: str) -> str:
+    """The module a ``-X importtime`` line reports (its import has just ended), or ''."""
+    return line.rsplit("|", 1)[-1].strip() if line.startswith("import time:") else ""
+
+
+@pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGINT])
+def test_stop_signal_during_start_up_imports_ends_with_one_line(tmp_path, sig):
+    """The signal lands while the command imports its modules (typer, the demo's stack)."""
+    env = dict(os.environ, PYTHONPATH=str(ROOT), COLUMNS="200")
+    proc = subprocess.Popen(
+        [sys.executable, "-X", "importtime", "-m", "experiment.cli", "demo", "--out", "demo"],
+        cwd=tmp_path, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),
+    )  # fmt: skip
+    assert proc.stderr is not None
+    try:
+        # the package's first module: its import ends before typer and the command's modules
+        while _imported(proc.stderr.readline()) != "experiment.errors":
+            assert proc.poll() is None, "the command ended before the signal"
+        proc.send_signal(sig)
+        _, err = proc.communicate(timeout=60)
+    finally:
+        proc.kill()
+    lines = [ln for ln in err.splitlines() if ln.strip() and not ln.startswith("import time:")]
+    assert (proc.returncode, lines) == (128 + sig, [LINE.format(sig.name)]), err[-3000:]
+    assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGINT])
+def test_stop_signal_as_the_command_exits_is_one_line_or_ignored(tmp_path, sig):
+    """Sent as soon as the command's output is printed: it lands while the command returns or
+    while Python exits; never a silent death by the signal."""
+    for _ in range(3):
+        proc = _start(["--version"], tmp_path)
+        assert proc.stdout is not None
+        assert proc.stdout.readline().startswith("confocal ")
+        proc.send_signal(sig)
+        _, err = proc.communicate(timeout=60)
+        assert (proc.returncode, err) in ((0, ""), (128 + sig, LINE.format(sig.name) + "\n"))
+
+
 @pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGINT])
 def test_stop_signal_during_a_session_keeps_the_committed_trials(tmp_path, sig):
     stim = make_stimulus_set(tmp_path / "stim", n_main=3, n_training=1, levels=(1, 2))
@@ -206,3 +250,171 @@ def test_sigkilled_session_takes_its_presenter_with_it(tmp_path):
     if alive:
         os.kill(child, signal.SIGKILL)
     assert not alive, "the presenter outlived its SIGKILLed parent"
+
+
+def test_ctrl_c_in_the_operator_console_saves_and_quits(tmp_path):
+    """The console's terminal is in raw mode, so Ctrl-C arrives as a key, not as SIGINT: it is
+    bound to "save and quit", as Ctrl+Q (the scored trial kept, the one on screen shown again)."""
+    import asyncio
+
+    from experiment.console import OperatorConsole
+    from experiment.presentation.displays import NullDisplay
+    from experiment.session.engine import Session
+    from tests.experiment.conftest import console_session
+
+    with console_session(tmp_path) as (session, clock, log):
+        app = OperatorConsole(session, NullDisplay(clock))
+
+        async def script() -> int:
+            async with app.run_test() as pilot:
+                await pilot.press("enter", "enter", "c", "u", "p", "f1", "enter")
+                pending = app.trial.index  # trial 2 on screen, not scored
+                await pilot.press("h", "a", "l", "f", "ctrl+c")
+                await pilot.pause()
+                assert not app.is_running, "Ctrl-C did not quit the console"
+                return pending
+
+        pending = asyncio.run(asyncio.wait_for(script(), timeout=60))
+        assert app.return_value is not None and app.return_value.answered == 1
+        session.close()
+        assert log.answered_count(session.session_id) == 1
+        assert "abort" in [e["kind"] for e in log.events(session.session_id)]
+        resumed = Session.open(log, session.protocol, session.stimset, "S01", clock=clock)
+        assert resumed.next_trial().index == pending
+        resumed.close()
+
+
+def test_every_console_binds_ctrl_c_as_its_quit_key():
+    from experiment.console import OperatorConsole, ScoringApp
+    from experiment.console.active import ActiveConsole
+
+    for app in (OperatorConsole, ScoringApp, ActiveConsole):
+        keys = {b.key: b for b in app.BINDINGS}
+        assert keys["ctrl+c"].action == keys["ctrl+q"].action, app.__name__
+        assert keys["ctrl+c"].priority, app.__name__  # before the response line's copy key
+
+
+#: Draws "figures" that take a minute in save_all's two worker processes, stopped by a signal.
+_SLOW_FIGURES = """
+import sys, time
+from pathlib import Path
+import analysis.figures as figures
+from experiment.signals import Stopped, stop_on_signals
+
+def slow(result, names, folder):
+    print("drawing", flush=True)
+    time.sleep(60)
+    return []
+
+figures._draw_and_save = slow
+try:
+    with stop_on_signals():
+        figures.save_all(None, Path(sys.argv[1]))
+except Stopped as stop:
+    sys.exit(stop.exit_code)
+"""
+
+
+def test_stop_signal_while_figures_are_drawn_ends_their_workers_at_once(tmp_path):
+    """The analysis step (``analyze run``, the demo's last step) draws its figures in two worker
+    processes; a stop had waited for them to finish drawing (a minute on a busy machine)."""
+    script = tmp_path / "figures.py"
+    script.write_text(_SLOW_FIGURES)
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    proc = subprocess.Popen(
+        [sys.executable, str(script), str(tmp_path)], env=env, stdout=subprocess.PIPE, text=True
+    )
+    assert proc.stdout is not None
+    assert [proc.stdout.readline(), proc.stdout.readline()] == ["drawing\n"] * 2
+    workers = _children(proc.pid)
+    proc.send_signal(signal.SIGTERM)
+    try:
+        proc.wait(timeout=20)
+    finally:
+        proc.kill()
+        left = _left_after(workers, 5.0)
+        for p in left:
+            os.kill(p, signal.SIGKILL)
+    assert proc.returncode == 143
+    assert not left, f"figure workers outlived the stop: {left}"
+
+
+def test_stop_signal_during_the_demo_leaves_no_output_and_no_worker(tmp_path):
+    """Stopped while its knowledge set is made in a worker process and the test set here."""
+    proc = _start(["demo", "--out", "demo"], tmp_path)
+    _wait_for(lambda: len(_children(proc.pid)) >= 1, proc)
+    workers = _children(proc.pid)
+    time.sleep(0.3)
+    proc.send_signal(signal.SIGINT)
+    try:
+        _one_line(proc, signal.SIGINT)
+    finally:
+        left = _left_after(workers, 5.0)
+        for p in left:
+            os.kill(p, signal.SIGKILL)
+    assert not left, f"workers outlived the stopped demo: {left}"
+    assert list(tmp_path.iterdir()) == [], "the demo left an output or temporary folder"
+
+
+def test_a_stop_inside_hold_stops_is_raised_where_the_block_ends():
+    """A step that must not be cut in two finishes; the stop comes right after it."""
+    from experiment.signals import Stopped, hold_stops, stop_on_signals
+
+    steps = []
+    with pytest.raises(Stopped) as stop, stop_on_signals():
+        with hold_stops():
+            with hold_stops():
+                os.kill(os.getpid(), signal.SIGTERM)
+                time.sleep(0.01)  # the handler has run
+                steps.append("renamed")
+            steps.append("recorded")
+        steps.append("after the block")
+    assert steps == ["renamed", "recorded"]
+    assert stop.value.exit_code == 143
+
+
+def test_a_second_signal_ends_a_stop_that_was_lost(monkeypatch):
+    """A stop that a library's ``except BaseException`` swallowed: a second signal within the
+    grace period is ignored (clean-up must finish), one after it ends the process at once."""
+    import experiment.signals as signals
+
+    ended = []
+    monkeypatch.setattr(signals, "_exit_now", ended.append)
+    with signals.stop_on_signals():
+        try:
+            os.kill(os.getpid(), signal.SIGINT)
+            time.sleep(0.01)
+        except signals.Stopped:
+            pass  # swallowed
+        os.kill(os.getpid(), signal.SIGINT)
+        time.sleep(0.01)
+        assert ended == []
+        monkeypatch.setattr(signals, "SECOND_SIGNAL_GRACE_S", 0.0)
+        os.kill(os.getpid(), signal.SIGTERM)
+        time.sleep(0.01)
+    assert ended == [signal.SIGTERM]
+
+
+_FORK_PROBE = """
+import os, signal, sys
+sys.argv[0] = "confocal"  # what the console script's process looks like to the package
+from experiment.signals import stop_on_signals
+
+with stop_on_signals():
+    pid = os.fork()
+    if pid == 0:
+        ign = signal.getsignal(signal.SIGINT) is signal.SIG_IGN
+        dfl = signal.getsignal(signal.SIGTERM) is signal.SIG_DFL
+        os._exit(0 if ign and dfl else 1)
+    print(os.waitstatus_to_exitcode(os.waitpid(pid, 0)[1]))
+"""
+
+
+def test_a_child_the_command_forks_leaves_stop_signals_to_it():
+    """A pool worker ignores Ctrl-C and dies of SIGTERM from its first instruction, before its
+    initializer runs (a Ctrl-C in between raised the parent's stop in it, with a traceback)."""
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    out = subprocess.run(
+        [sys.executable, "-c", _FORK_PROBE], env=env, capture_output=True, text=True, timeout=60
+    )
+    assert out.stdout.strip() == "0", out.stderr

@@ -16,6 +16,7 @@ Enter     before a trial: show the implant's view and start the trial; during on
 F1..F5    score named / use / shape / wrong / pass
 Ctrl+Q    save and quit: every scored trial is committed; a trial on screen but not scored is
           restarted (a new attempt) when the session resumes
+Ctrl+C    the same as Ctrl+Q (a terminal's stop key; the console takes it as a key)
 ========  ====================================================================================
 """
 
@@ -52,6 +53,7 @@ class ActiveConsole(TrialConsole):
     BINDINGS = [
         *score_bindings(),
         Binding("ctrl+q", "save_quit", "quit", priority=True),
+        Binding("ctrl+c", "save_quit", "quit", show=False, priority=True),
     ]
 
     def __init__(self, live: LiveSearch) -> None:

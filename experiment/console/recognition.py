@@ -17,6 +17,7 @@ F8       pause / resume (a pause asked for during a trial starts once it is scor
 F9       restart the presenter after it died
 Ctrl+Q   save and quit: every answered trial is already committed; the session resumes later at
          the next unanswered trial (a trial on screen but not scored is shown again)
+Ctrl+C   the same as Ctrl+Q (a terminal's stop key; the console takes it as a key)
 ======== =====================================================================================
 
 Undo, and why nothing logged is ever lost
@@ -112,6 +113,7 @@ class OperatorConsole(TrialConsole):
         Binding("f8", "pause", "pause", priority=True),
         Binding("f9", "restart_presenter", "restart presenter", show=False, priority=True),
         Binding("ctrl+q", "save_quit", "quit", priority=True),
+        Binding("ctrl+c", "save_quit", "quit", show=False, priority=True),
     ]
 
     def __init__(

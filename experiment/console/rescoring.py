@@ -36,6 +36,7 @@ class ScoringApp(App):
         Binding("ctrl+z", "undo", "undo", priority=True),
         Binding("f7", "replay", "replay voice", priority=True),
         Binding("ctrl+q", "done", "save & quit", priority=True),
+        Binding("ctrl+c", "done", "save & quit", show=False, priority=True),
     ]
 
     #: Plays a recording and returns "" or why not (tests replace it).

@@ -389,8 +389,9 @@ def run_demo(
                 _lap(t0, "knowledge_wait", seconds, cpu_seconds)
         except BaseException:
             if pool is not None:  # stopped or failed: do not wait for the exemplars
-                for proc in list((getattr(pool, "_processes", None) or {}).values()):
-                    proc.terminate()
+                from analysis.workers import stop_pool
+
+                stop_pool(pool)
             raise
         finally:
             if pool is not None:
