@@ -7,7 +7,7 @@ proposes mean the same thing in the build.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from skimage.transform import resize
@@ -81,6 +81,10 @@ class ObjectImages:
     valid : ndarray of shape working_shape_px, bool, or None
         With padding: the pixels of the image (not of the padding, nor on its border); edges
         elsewhere are dropped.
+    conditions : dict of str to (ndarray of bool, dict)
+        A build with conditions beyond the paper's pair: each condition's edge image and what
+        its method measured (:func:`stimuli.build.conditions.apply_conditions`); empty for the
+        paper's pair.
     """
 
     info: ObjectInfo
@@ -103,6 +107,7 @@ class ObjectImages:
     declutter: str = ""
     aspect_pad: tuple[int, int, int, int] | None = None
     valid: np.ndarray | None = None
+    conditions: dict = field(default_factory=dict)
 
 
 def _cut(image: np.ndarray, box: Box | None) -> np.ndarray:
