@@ -29,6 +29,7 @@ __all__ = [
     "builtin_methods",
     "available_methods",
     "get_method",
+    "method_names",
     "parse_conditions",
 ]
 
@@ -176,6 +177,15 @@ def available_methods(*, strict: bool = False) -> tuple[dict[str, Method], dict[
                 raise
             failed[name] = str(exc)
     return methods, failed
+
+
+def method_names() -> tuple[str, ...]:
+    """Return every name a condition may use for a method, without loading any plug-in.
+
+    Built-in methods, their aliases, then the plug-ins' entry point names, each once.
+    """
+    names = [*builtin_methods(), *ALIASES, *sorted(_plugin_entry_points())]
+    return tuple(dict.fromkeys(names))
 
 
 def get_method(name: str) -> Method:
