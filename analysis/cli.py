@@ -207,6 +207,14 @@ def run(
             help="Pool simulated observers' sessions with human ones (refused otherwise).",
         ),
     ] = False,
+    reference: Annotated[
+        str,
+        typer.Option(
+            "--reference",
+            help="Data with conditions beyond cluttered/decluttered (a comparison of de-clutter "
+            "methods): the logistic model's reference condition.",
+        ),
+    ] = "cluttered",
 ) -> None:
     """Analyse TRIALS and write REPORT_DIR (results.json, report.md, figures)."""
     from rich.console import Console
@@ -253,7 +261,7 @@ def run(
     ):
         warnings.simplefilter("ignore")  # collected into the report instead
         task = bar.add_task("fitting", total=None)
-        for step in analyze(table, options):
+        for step in analyze(table, options, reference=reference):
             bar.update(task, total=step.total, completed=step.done, description=step.label)
             result = step.result or result
     assert result is not None
@@ -274,6 +282,11 @@ def run(
 def _print_summary(result, folder: Path) -> None:
     from analysis.report import threshold_text
 
+    if getattr(result, "kind", "") == "conditions":  # a comparison of k conditions
+        from analysis.conditions_report import print_conditions_summary
+
+        print_conditions_summary(result, folder, typer.echo)
+        return
     r = result.results_json()
     typer.echo(f"{r['n_trials']} trials, {r['n_recognized']} recognised")
     if r.get("simulated_sessions"):

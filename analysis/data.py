@@ -7,7 +7,7 @@ column          dtype     meaning
 ==============  ========  ==========================================================
 ``subject``     str       subject identifier
 ``object``      str       object identifier (``"1"`` .. ``"20"`` in Jung et al. 2015)
-``condition``   str       ``"cluttered"`` or ``"decluttered"``
+``condition``   str       ``"cluttered"`` or ``"decluttered"`` (or a de-clutter method)
 ``pixels``      float     stimulus resolution, pixels (> 0)
 ``recognized``  int       1 = recognised, 0 = not
 ``source``      str       the file the row came from
@@ -56,6 +56,7 @@ __all__ = [
     "OPTIONAL_COLUMNS",
     "SIMULATED_RATER_PREFIX",
     "CONDITIONS",
+    "METHOD_CONDITIONS",
     "TrialTable",
     "read_trial_file",
     "read_trials",
@@ -85,6 +86,10 @@ SIMULATED_RATER_PREFIX = "sim:"
 #: Background conditions, reference first. Source: Jung et al. 2015, Sec. 3.2.2 (reference:
 #: background cluttered).
 CONDITIONS: tuple[str, str] = ("cluttered", "decluttered")
+
+#: Conditions of a method comparison beyond the paper's two: the built-in de-clutter methods
+#: (``confocal stimuli methods``), analysed by :mod:`analysis.conditions`.
+METHOD_CONDITIONS: tuple[str, ...] = ("sobel", "depth", "mask", "segment", "saliency")
 
 _SQLITE_MAGIC = b"SQLite format 3\x00"
 _PARQUET_MAGIC = b"PAR1"
@@ -259,11 +264,11 @@ def check_trials(df: pd.DataFrame, source: str) -> pd.DataFrame:
             f"{source}: column 'recognized' must be 0 or 1, got {_first_bad(bad, df, 'recognized')}"
         )
     cond = df["condition"].astype(str).str.strip().str.lower().str.replace("-", "", regex=False)
-    bad = ~cond.isin(CONDITIONS)
+    bad = ~cond.isin(CONDITIONS + METHOD_CONDITIONS)
     if bad.any():
         raise DataError(
-            f"{source}: column 'condition' must be 'cluttered' or 'decluttered', got "
-            f"{_first_bad(bad, df, 'condition')}"
+            f"{source}: column 'condition' must be 'cluttered' or 'decluttered' (or a de-clutter "
+            f"method: {', '.join(METHOD_CONDITIONS)}), got {_first_bad(bad, df, 'condition')}"
         )
     out = pd.DataFrame(
         {
