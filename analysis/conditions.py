@@ -33,7 +33,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from analysis.data import CONDITIONS, TrialTable, file_record, object_order
+from analysis.data import CONDITIONS, METHOD_CONDITIONS, TrialTable, file_record, object_order
 from analysis.errors import DataError
 
 __all__ = [
@@ -65,10 +65,12 @@ def has_other_conditions(trials: pd.DataFrame) -> bool:
 
 
 def condition_order(trials: pd.DataFrame) -> tuple[str, ...]:
-    """Return the conditions present: the paper's two first, then the others in order of
-    first appearance."""
-    seen = list(dict.fromkeys(trials["condition"].astype(str)))
-    return tuple([c for c in CONDITIONS if c in seen] + [c for c in seen if c not in CONDITIONS])
+    """Return the conditions present in a fixed order: the paper's two, the built-in methods
+    (:data:`analysis.data.METHOD_CONDITIONS`), then any others by name (not by the order the
+    trials came in, which a Latin square changes from subject to subject)."""
+    seen = set(trials["condition"].astype(str))
+    known = [c for c in (*CONDITIONS, *METHOD_CONDITIONS) if c in seen]
+    return tuple(known + sorted(seen - set(known)))
 
 
 def holm(p: Sequence[float]) -> list[float]:
