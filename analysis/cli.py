@@ -523,6 +523,16 @@ def power(
     frailty_sd: Annotated[
         float | None, _active_option("--frailty-sd", "subject log-hazard SD (0.5).")
     ] = None,
+    conditions: Annotated[
+        int,
+        typer.Option(
+            "--conditions",
+            min=2,
+            max=12,
+            help="Conditions of a method comparison: above 2, power to tell the reference from "
+            "one method among this many, Holm-corrected over every pair (first --objects).",
+        ),
+    ] = 2,
 ) -> None:
     """Estimate power over effect sizes, subjects, objects and levels (simulated studies).
 
@@ -568,6 +578,16 @@ def power(
     _check_power_and_alpha(target, alpha)
     if not 1 <= sims <= MAX_SIMS:
         raise OptionError(f"--sims must be an integer in [1, {MAX_SIMS}], got {sims!r}")
+    if conditions > 2:  # a comparison of methods
+        from analysis.conditions_power import echo_method_power
+
+        ns = sorted(set(_numbers(subjects, "--subjects", int)))
+        n_obj = _numbers(objects, "--objects", int)[0]
+        if min(ns) < 1 or n_obj < 2:
+            raise OptionError(f"--subjects must be >= 1 and --objects >= 2, got {ns}, {n_obj}")
+        args = (effect, sizes, ns, conditions, n_obj, sims, alpha, seed, target)
+        echo_method_power(*args, run=_run_with_progress, echo=typer.echo)
+        return
     ns = sorted(set(_numbers(subjects, "--subjects", int)))
     nos = sorted(set(_numbers(objects, "--objects", int)))
     nls = sorted(set(_numbers(levels, "--levels", int)))

@@ -162,12 +162,13 @@ def plot_condition_ratios(comparisons: list[dict[str, Any]], *, ax: Any = None) 
     import matplotlib.pyplot as plt
 
     if ax is None:
-        _, ax = plt.subplots(figsize=(5.0, 0.4 * len(comparisons) + 1.2))
+        _, ax = plt.subplots(figsize=(6.5, 0.4 * len(comparisons) + 1.2))
     labels = []
     for i, c in enumerate(comparisons):
         labels.append(f"{c['pair'][0]} / {c['pair'][1]}")
         if c["ratio"] is None:
-            ax.text(1.0, i, c.get("note", "not measured"), va="center", fontsize="small")
+            why = c.get("note", "not measured")
+            ax.text(1.0, i, f"no ratio: {why}", va="center", ha="center", fontsize="x-small")
             continue
         lo, hi = c["ratio_ci95"]
         ax.errorbar(c["ratio"], i, xerr=[[c["ratio"] - lo], [hi - c["ratio"]]], fmt="o", color="C0")

@@ -75,3 +75,23 @@ def test_cli_writes_the_comparison(tmp_path, capsys):
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "--reference 'depth'" in err[0]
     assert not bad.exists()
+
+
+def test_threshold_ratio_converts_by_the_papers_slope():
+    """A threshold ratio r shifts log10 threshold by log10(r); the logistic model's 50 % point
+    moves by log(OR) / log(74.5) decades, so OR = 74.5 ** log10(r)."""
+    from analysis.conditions_power import ratio_to_odds_ratio
+
+    for r in (1.0, 2.46, 10.0):
+        o = ratio_to_odds_ratio(r)
+        assert math.isclose(10 ** (math.log(o) / math.log(74.5)), r, rel_tol=1e-12)
+    assert math.isclose(ratio_to_odds_ratio(10.0), 74.5)
+
+
+def test_power_of_a_method_comparison(capsys):
+    argv = ["analyze", "power", "--conditions", "3", "--threshold-ratio", "2.46"]
+    assert run_cli([*argv, "--subjects", "1", "--sims", "2", "--seed", "1"]) == 0
+    out = capsys.readouterr().out
+    assert "method comparison of 3 conditions" in out and "Holm over 3 pairs" in out
+    assert "2.46   5.39        1" in out
+    assert run_cli(["analyze", "power", "--conditions", "1", "--odds-ratio", "2"]) == 2
