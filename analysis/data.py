@@ -57,6 +57,7 @@ __all__ = [
     "SIMULATED_RATER_PREFIX",
     "CONDITIONS",
     "METHOD_CONDITIONS",
+    "plugin_conditions",
     "TrialTable",
     "read_trial_file",
     "read_trials",
@@ -90,6 +91,15 @@ CONDITIONS: tuple[str, str] = ("cluttered", "decluttered")
 #: Conditions of a method comparison beyond the paper's two: the built-in de-clutter methods
 #: (``confocal stimuli methods``), analysed by :mod:`analysis.conditions`.
 METHOD_CONDITIONS: tuple[str, ...] = ("sobel", "depth", "mask", "segment", "saliency")
+
+
+def plugin_conditions() -> tuple[str, ...]:
+    """Return the names of the de-clutter methods installed as plug-ins (entry point group
+    ``confocal.declutter``), which a stimulus set may hold as conditions; nothing is imported."""
+    from importlib.metadata import entry_points
+
+    return tuple(sorted(ep.name for ep in entry_points(group="confocal.declutter")))
+
 
 _SQLITE_MAGIC = b"SQLite format 3\x00"
 _PARQUET_MAGIC = b"PAR1"
@@ -264,7 +274,7 @@ def check_trials(df: pd.DataFrame, source: str) -> pd.DataFrame:
             f"{source}: column 'recognized' must be 0 or 1, got {_first_bad(bad, df, 'recognized')}"
         )
     cond = df["condition"].astype(str).str.strip().str.lower().str.replace("-", "", regex=False)
-    bad = ~cond.isin(CONDITIONS + METHOD_CONDITIONS)
+    bad = ~cond.isin(CONDITIONS + METHOD_CONDITIONS + plugin_conditions())
     if bad.any():
         raise DataError(
             f"{source}: column 'condition' must be 'cluttered' or 'decluttered' (or a de-clutter "

@@ -6,6 +6,7 @@ import json
 import math
 
 import numpy as np
+import pytest
 
 from analysis.conditions import fit_condition_logistic, holm
 from analysis.conditions_sim import simulate_condition_trials
@@ -95,3 +96,22 @@ def test_power_of_a_method_comparison(capsys):
     assert "method comparison of 3 conditions" in out and "Holm over 3 pairs" in out
     assert "2.46   5.39        1" in out
     assert run_cli(["analyze", "power", "--conditions", "1", "--odds-ratio", "2"]) == 2
+
+
+def test_a_plugin_method_is_a_condition(tmp_path, monkeypatch):
+    """Trials of a plug-in method's condition are read (its entry point names it); an unknown
+    condition is still refused."""
+    from analysis.data import read_trials
+    from analysis.errors import DataError
+
+    site = tmp_path / "site"
+    info = site / "toy-1.0.dist-info"
+    info.mkdir(parents=True)
+    (info / "METADATA").write_text("Metadata-Version: 2.1\nName: toy\nVersion: 1.0\n")
+    (info / "entry_points.txt").write_text("[confocal.declutter]\ndeepseg = toy:f\n")
+    csv = tmp_path / "t.csv"
+    csv.write_text("subject,object,condition,pixels,recognized\ns1,1,deepseg,96,0\n")
+    with pytest.raises(DataError, match="'deepseg'"):
+        read_trials([csv])
+    monkeypatch.syspath_prepend(str(site))
+    assert read_trials([csv]).trials["condition"].tolist() == ["deepseg"]
