@@ -173,3 +173,40 @@ def test_plugin_builds_a_set(tmp_path, monkeypatch, capsys):
     full = np.asarray(Image.open(out / "obj00" / "tophalf_L8_w01.png"))
     assert full.any() and not full[40:].any()
     sys.modules.pop("toy_declutter", None)
+
+
+@pytest.mark.slow
+def test_depth_condition_of_a_light_field(tmp_path):
+    """The depth method through the registry gives the build's own depth de-clutter, bit for
+    bit; a light field de-cluttered by Sobel (no in-focus mask) refuses it in one line."""
+    from stimuli.build import BuildParams, build_stimulus_set
+    from stimuli.lfsynth import render_camera_array, three_plane_scene
+
+    field = render_camera_array(
+        three_plane_scene((120, 180)), grid=(1, 5), shape_px=(120, 180), baseline_m=0.03
+    )
+    np.savez(
+        tmp_path / "scene.npz",
+        views=field.views,
+        geometry=json.dumps(field.geometry.to_dict()),
+    )
+    (tmp_path / "pairs.csv").write_text("object,lightfield\ntree,scene.npz\n")
+    (tmp_path / "objects.csv").write_text("object,plane_depth_m\ntree,4.0\n")
+    conds = ("cluttered", "decluttered", "depth")
+    build_stimulus_set(
+        tmp_path / "pairs.csv",
+        tmp_path / "set",
+        params=BuildParams(declutter="depth", conditions=conds, working_shape_px=(80, 120)),
+        workers=1,
+    )
+    for name in ("L8_w01", "L3_w13"):
+        depth = (tmp_path / "set" / "tree" / f"depth_{name}.png").read_bytes()
+        assert depth == (tmp_path / "set" / "tree" / f"decluttered_{name}.png").read_bytes()
+    with pytest.raises(InputError, match="de-cluttered by sobel"):
+        build_stimulus_set(
+            tmp_path / "pairs.csv",
+            tmp_path / "set2",
+            params=BuildParams(declutter="sobel", conditions=conds, working_shape_px=(80, 120)),
+            workers=1,
+        )
+    assert not (tmp_path / "set2").exists()
