@@ -207,6 +207,14 @@ def run(
             help="Pool simulated observers' sessions with human ones (refused otherwise).",
         ),
     ] = False,
+    reference: Annotated[
+        str,
+        typer.Option(
+            "--reference",
+            help="Data with conditions beyond cluttered/decluttered (a comparison of de-clutter "
+            "methods): the logistic model's reference condition.",
+        ),
+    ] = "cluttered",
 ) -> None:
     """Analyse TRIALS and write REPORT_DIR (results.json, report.md, figures)."""
     from rich.console import Console
@@ -253,7 +261,7 @@ def run(
     ):
         warnings.simplefilter("ignore")  # collected into the report instead
         task = bar.add_task("fitting", total=None)
-        for step in analyze(table, options):
+        for step in analyze(table, options, reference=reference):
             bar.update(task, total=step.total, completed=step.done, description=step.label)
             result = step.result or result
     assert result is not None
@@ -274,6 +282,11 @@ def run(
 def _print_summary(result, folder: Path) -> None:
     from analysis.report import threshold_text
 
+    if getattr(result, "kind", "") == "conditions":  # a comparison of k conditions
+        from analysis.conditions_report import print_conditions_summary
+
+        print_conditions_summary(result, folder, typer.echo)
+        return
     r = result.results_json()
     typer.echo(f"{r['n_trials']} trials, {r['n_recognized']} recognised")
     if r.get("simulated_sessions"):
@@ -513,6 +526,16 @@ def power(
     frailty_sd: Annotated[
         float | None, _active_option("--frailty-sd", "subject log-hazard SD (0.5).")
     ] = None,
+    conditions: Annotated[
+        int,
+        typer.Option(
+            "--conditions",
+            min=2,
+            max=12,
+            help="Conditions of a method comparison: above 2, power to tell the reference from "
+            "one method among this many, Holm-corrected over every pair (first --objects).",
+        ),
+    ] = 2,
 ) -> None:
     """Estimate power over effect sizes, subjects, objects and levels (simulated studies).
 
@@ -558,6 +581,16 @@ def power(
     _check_power_and_alpha(target, alpha)
     if not 1 <= sims <= MAX_SIMS:
         raise OptionError(f"--sims must be an integer in [1, {MAX_SIMS}], got {sims!r}")
+    if conditions > 2:  # a comparison of methods
+        from analysis.conditions_power import echo_method_power
+
+        ns = sorted(set(_numbers(subjects, "--subjects", int)))
+        n_obj = _numbers(objects, "--objects", int)[0]
+        if min(ns) < 1 or n_obj < 2:
+            raise OptionError(f"--subjects must be >= 1 and --objects >= 2, got {ns}, {n_obj}")
+        args = (effect, sizes, ns, conditions, n_obj, sims, alpha, seed, target)
+        echo_method_power(*args, run=_run_with_progress, echo=typer.echo)
+        return
     ns = sorted(set(_numbers(subjects, "--subjects", int)))
     nos = sorted(set(_numbers(objects, "--objects", int)))
     nls = sorted(set(_numbers(levels, "--levels", int)))

@@ -7,7 +7,7 @@ column          dtype     meaning
 ==============  ========  ==========================================================
 ``subject``     str       subject identifier
 ``object``      str       object identifier (``"1"`` .. ``"20"`` in Jung et al. 2015)
-``condition``   str       ``"cluttered"`` or ``"decluttered"``
+``condition``   str       ``"cluttered"`` or ``"decluttered"`` (or a de-clutter method)
 ``pixels``      float     stimulus resolution, pixels (> 0)
 ``recognized``  int       1 = recognised, 0 = not
 ``source``      str       the file the row came from
@@ -73,6 +73,8 @@ __all__ = [
     "SIMULATED_RATER_PREFIX",
     "CONDITIONS",
     "MAX_PIXELS",
+    "METHOD_CONDITIONS",
+    "plugin_conditions",
     "TrialTable",
     "read_trial_file",
     "read_trials",
@@ -106,6 +108,19 @@ CONDITIONS: tuple[str, str] = ("cluttered", "decluttered")
 #: Most pixels a stimulus can have (ours: a gigapixel, 7.5 times a 16K display's 15360 x 8640;
 #: a larger value is a typo or a hostile file, and would stretch every fitted pixel axis).
 MAX_PIXELS: float = 1e9
+
+#: Conditions of a method comparison beyond the paper's two: the built-in de-clutter methods
+#: (``confocal stimuli methods``), analysed by :mod:`analysis.conditions`.
+METHOD_CONDITIONS: tuple[str, ...] = ("sobel", "depth", "mask", "segment", "saliency")
+
+
+def plugin_conditions() -> tuple[str, ...]:
+    """Return the names of the de-clutter methods installed as plug-ins (entry point group
+    ``confocal.declutter``), which a stimulus set may hold as conditions; nothing is imported."""
+    from importlib.metadata import entry_points
+
+    return tuple(sorted(ep.name for ep in entry_points(group="confocal.declutter")))
+
 
 _SQLITE_MAGIC = b"SQLite format 3\x00"
 _PARQUET_MAGIC = b"PAR1"
@@ -296,11 +311,11 @@ def check_trials(df: pd.DataFrame, source: str) -> pd.DataFrame:
             f"{source}: column 'recognized' must be 0 or 1, got {_first_bad(bad, df, 'recognized')}"
         )
     cond = df["condition"].astype(str).str.strip().str.lower().str.replace("-", "", regex=False)
-    bad = ~cond.isin(CONDITIONS)
+    bad = ~cond.isin(CONDITIONS + METHOD_CONDITIONS + plugin_conditions())
     if bad.any():
         raise DataError(
-            f"{source}: column 'condition' must be 'cluttered' or 'decluttered', got "
-            f"{_first_bad(bad, df, 'condition')}"
+            f"{source}: column 'condition' must be 'cluttered' or 'decluttered' (or a de-clutter "
+            f"method: {', '.join(METHOD_CONDITIONS)}), got {_first_bad(bad, df, 'condition')}"
         )
     out = pd.DataFrame(
         {

@@ -319,7 +319,9 @@ def _population(
     return out
 
 
-def analyze(table: TrialTable, options: AnalysisOptions | None = None) -> Iterator[AnalysisStep]:
+def analyze(
+    table: TrialTable, options: AnalysisOptions | None = None, *, reference: str = "cluttered"
+) -> Iterator[AnalysisStep]:
     """Run the full analysis, yielding after each fit.
 
     Parameters
@@ -328,6 +330,10 @@ def analyze(table: TrialTable, options: AnalysisOptions | None = None) -> Iterat
         Pooled trials (:func:`analysis.data.read_trials`).
     options : AnalysisOptions, optional
         Defaults when omitted.
+    reference : str
+        Data with conditions beyond the paper's two (a comparison of de-clutter methods) are
+        analysed by :func:`analysis.conditions.analyze_conditions` instead, with this
+        reference condition; the paper's two conditions as the paper did.
 
     Yields
     ------
@@ -347,6 +353,11 @@ def analyze(table: TrialTable, options: AnalysisOptions | None = None) -> Iterat
     trials = table.trials
     if len(trials) == 0:
         raise DataError(f"no trials in {', '.join(table.sources)}")
+    from analysis.conditions import analyze_conditions, has_other_conditions
+
+    if has_other_conditions(trials):
+        yield from analyze_conditions(table, opts, reference=reference)
+        return
     present = [c for c in CONDITIONS if (trials["condition"] == c).any()]
     notes: list[str] = [
         f"no trials in condition '{c}': it is not fitted" for c in CONDITIONS if c not in present

@@ -468,6 +468,10 @@ def write_report(result: AnalysisResult, out_dir: str | Path, *, figures: bool =
     Path
         The report folder.
     """
+    if getattr(result, "kind", "") == "conditions":  # a comparison of k conditions
+        from analysis.conditions_report import write_conditions_report
+
+        return write_conditions_report(result, out_dir, staging=atomic_folder, figures=figures)
     with atomic_folder(out_dir) as tmp:
         r = result.results_json()
         (tmp / "results.json").write_text(results_json_text(r), encoding="utf-8")

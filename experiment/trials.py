@@ -26,7 +26,8 @@ class Trial:
         Block number in the schedule, 1-based; a block is shown without a break in its order.
     object, object_name : str
         Object id (``objects.csv``) and its name.
-    condition : {'cluttered', 'decluttered', 'photo'}
+    condition : str
+        ``'cluttered'``, ``'decluttered'``, ``'photo'``, ... or a de-clutter method's name.
     level : int
         1 = fewest pixels ... 8 = full resolution.
     window : int

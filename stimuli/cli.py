@@ -118,6 +118,15 @@ def build_command(
             "for photo pairs). Photo pairs: sobel.",
         ),
     ] = "auto",
+    conditions: Annotated[
+        str,
+        typer.Option(
+            "--conditions",
+            help="The set's conditions, comma-separated: cluttered and de-clutter methods (see "
+            "'confocal stimuli methods'; decluttered = sobel, the paper's). Every condition "
+            "goes through the same crop, levels and compression.",
+        ),
+    ] = "cluttered,decluttered",
     plane: Annotated[
         str,
         typer.Option(
@@ -222,6 +231,7 @@ def build_command(
     )
     from stimuli.implants import load_implant
     from stimuli.lfbatch import check_pool_options
+    from stimuli.methods import parse_conditions
     from stimuli.resources import check_memory
 
     check_pool_options(processes, cluster)  # one-line error before any work
@@ -241,6 +251,7 @@ def build_command(
         bokeh_guard=bokeh_guard,
         allow_resize=allow_resize,
         fast_decode=fast_decode,
+        conditions=parse_conditions(conditions),
     )
     console = Console(stderr=True)
     # The bar starts at the first progress report, so bad input prints its one line alone.
@@ -401,6 +412,25 @@ def tune_command(
     typer.echo(f"wrote {len(results)} thresholds to {objects_csv}")
 
 
+@stimuli_app.command("methods")
+def methods_command() -> None:
+    """List the de-clutter methods a build's --conditions may name (plug-ins included)."""
+    from stimuli.methods import ALIASES, available_methods
+
+    methods, failed = available_methods()
+    aliases = {m: a for a, m in ALIASES.items()}
+    width = max(len(n) for n in methods)
+    base = "the wide-DOF photo's Sobel edges (no method; the baseline)"
+    typer.echo(f"{'cluttered':<{width}}  {base}")
+    for name, m in methods.items():
+        alias = f" [alias: {aliases[name]}]" if name in aliases else ""
+        typer.echo(f"{name:<{width}}  {m.description}{alias}")
+        typer.echo(f"{'':<{width}}  reference: {m.reference}; {m.source} {m.version}".rstrip())
+    for name, why in failed.items():
+        typer.echo(f"{name:<{width}}  NOT AVAILABLE: {why}")
+
+
 def register(app: typer.Typer) -> None:
-    """Add the ``stimuli`` command group (``build``, ``synth``, ``tune``) to the root app."""
+    """Add the ``stimuli`` command group (``build``, ``synth``, ``tune``, ``methods``) to the
+    root app."""
     app.add_typer(stimuli_app, name="stimuli")

@@ -29,7 +29,8 @@ column          meaning
 ==============  ==============================================================================
 object          object id
 role            ``main`` or ``training``
-condition       ``cluttered`` (wide DOF), ``decluttered`` (narrow DOF) or ``photo``
+condition       ``cluttered`` (wide DOF), ``decluttered`` (narrow DOF), ``photo``, or a
+                de-clutter method's name (``--conditions``, :mod:`stimuli.methods`)
 level           1 (fewest pixels, window 40) ... 8 (full, window 1); ``photo`` rows are 8
 window          compression window, pixels of the working image (1 = none)
 width, height   stimulus size, pixels
@@ -124,6 +125,10 @@ CONDITIONS: tuple[str, ...] = (
 )
 #: Object roles: the 20 test objects and the 3 training objects (Sec. 3.1).
 ROLES: tuple[str, ...] = ("main", "training")
+
+#: A condition named after a de-clutter method (:mod:`stimuli.methods`): lower-case letters,
+#: digits and ``_``, starting with a letter.
+_METHOD_RE = re.compile(r"^[a-z][a-z0-9_]{0,31}$")
 
 _ID_RE = re.compile(r"^[A-Za-z0-9][A-Za-z0-9._-]*$")
 
@@ -438,8 +443,11 @@ class StimulusRecord(ManifestEntry):
     threshold_source: str = ""
 
     def __post_init__(self) -> None:
-        if self.condition not in CONDITIONS:
-            raise InputError(f"condition must be one of {CONDITIONS}, got {self.condition!r}")
+        if self.condition not in CONDITIONS and not _METHOD_RE.match(self.condition):
+            raise InputError(
+                f"condition must be one of {CONDITIONS} or a de-clutter method's name, got "
+                f"{self.condition!r}"
+            )
         if self.pixels != self.width * self.height:
             raise InputError(
                 f"pixels must equal width * height, got {self.pixels} for "

@@ -249,6 +249,7 @@ def run_demo(
     observer: str = DEFAULT_OBSERVER,
     knowledge_seed: int | None = None,
     show_progress: bool = True,
+    protocol: str = "jung2015",
 ) -> DemoResult:
     """Run the whole study on synthetic data and write everything under ``out_dir``.
 
@@ -275,6 +276,9 @@ def run_demo(
         ``seed + 1``.
     show_progress : bool
         Draw progress bars on the terminal.
+    protocol : str
+        A shipped protocol or a file; its blocks' conditions are the set's
+        (:func:`experiment.demos.methods.protocol_conditions`), e.g. ``methods_comparison``.
 
     Returns
     -------
@@ -320,6 +324,12 @@ def run_demo(
             f"--knowledge-seed onwards) are other than --seed ({seed}), got {kseed!r}"
         )
     kseeds = [kseed + i for i in range(n_render)]
+    from experiment.demos.methods import protocol_conditions
+    from stimuli.build import BuildParams
+
+    spec = load_protocol(protocol)  # one line before anything is written
+    conditions = protocol_conditions(spec)
+    build_params = None if conditions is None else BuildParams(conditions=conditions)
     out = Path(out_dir)
     require_missing_or_empty(out)
     out.mkdir(parents=True, exist_ok=True)
@@ -374,7 +384,9 @@ def run_demo(
             def build_progress(stage: str, done: int, total: int) -> None:
                 bars.update(task, done + (total if stage == "write" else 0), 2 * total)
 
-            build_stimulus_set(paths["pairs"], paths["stimuli"], progress=build_progress)
+            build_stimulus_set(
+                paths["pairs"], paths["stimuli"], params=build_params, progress=build_progress
+            )
             _lap(t0, "build", seconds, cpu_seconds)
             if needs_knowledge:
                 t0 = _clock()
@@ -398,9 +410,8 @@ def run_demo(
                 pool.shutdown(cancel_futures=True)
 
         t0 = _clock()
-        protocol = load_protocol("jung2015")
         stimset = StimulusSet.load(paths["stimuli"])
-        params = _observer_params(observer, [f[1] for f in knowledge_folders] or [out], protocol)
+        params = _observer_params(observer, [f[1] for f in knowledge_folders] or [out], spec)
         probe = make_observer(observer, stimset, "probe", rng=0, **params)
         effective_params = json.loads(json.dumps(asdict(probe.params), default=str))
         log = TrialLog(":memory:")
@@ -411,7 +422,7 @@ def run_demo(
             for subject, s in zip(subjects, seeds, strict=True):
                 session = Session.open(
                     log,
-                    protocol,
+                    spec,
                     stimset,
                     subject,
                     seed=int(s),
@@ -724,6 +735,14 @@ def register(app: typer.Typer) -> None:
         active: Annotated[
             bool, typer.Option("--active", help="Draw a simulated active search.")
         ] = False,
+        protocol: Annotated[
+            str,
+            typer.Option(
+                "--protocol",
+                help="Protocol the simulated subjects run: jung2015 (the paper's), "
+                "methods_comparison (every de-clutter method at the same levels) or a file.",
+            ),
+        ] = "jung2015",
     ) -> None:
         """Run the whole study on synthetic data: scenes, stimuli, sessions, analysis, report.
 
@@ -750,6 +769,11 @@ def register(app: typer.Typer) -> None:
             seed=seed,
             observer=observer,
             knowledge_seed=knowledge_seed,
+            protocol=protocol,
         )
-        for line in summary_lines(result):
+        from experiment.demos.methods import methods_summary_lines
+
+        for line in summary_lines(result)[:-3] + methods_summary_lines(result.results):
+            typer.echo(line)
+        for line in summary_lines(result)[-3:]:
             typer.echo(line)

@@ -22,7 +22,7 @@ __all__ = ["Condition", "BlockSpec"]
 PARTS = ("training", "main")
 GROUP_BY = ("level_condition", "level", "condition", "none")
 LEVEL_ORDERS = ("ascending", "descending", "listed", "random")
-CONDITION_ORDERS = ("listed", "random")
+CONDITION_ORDERS = ("listed", "random", "latin_square")
 TRIAL_ORDERS = ("random", "listed")
 BLOCK_ORDERS = ("planned", "random")
 
@@ -37,6 +37,18 @@ class Condition(StrEnum):
     #: confocal images were shown followed by the edge-filtered and compressed images").
     COLOUR_WIDE = "colour_wide"
     COLOUR_CONFOCAL = "colour_confocal"
+
+
+def _condition(value: Any, name: str) -> None:
+    """A paper condition, or a de-clutter method's name (``stimuli build --conditions``; the
+    stimulus set must hold it)."""
+    from stimuli.methods.registry import method_names
+
+    methods = method_names()
+    if value in {c.value for c in Condition} or value in methods:
+        return
+    known = ", ".join([*(c.value for c in Condition), *methods])
+    raise ProtocolError(f"{name} must be one of {known}, got {value!r}")
 
 
 def _level(value: Any, name: str) -> None:
@@ -75,15 +87,20 @@ class BlockSpec(_Spec):
         A role of the stimulus set (``"main"``, ``"training"``) or explicit object ids.
     levels : tuple of int
         Resolution levels (1 = fewest pixels ... 8 = full 492x327).
-    conditions : tuple of {'cluttered', 'decluttered', 'photo'}
+    conditions : tuple of str
+        ``'cluttered'``, ``'decluttered'``, ``'photo'`` (and the colour photos), or the name of
+        any other condition the stimulus set holds (a de-clutter method: ``'mask'``, ...).
     group_by : {'level_condition', 'level', 'condition', 'none'}
         One block per (level, condition) pair (Jung 2015), per level (conditions mixed inside),
         per condition (levels mixed inside) or one block for everything.
     level_order : {'ascending', 'descending', 'listed', 'random'}
         Order of the level blocks. Jung 2015 Sec. 3.2: lowest to highest.
-    condition_order : {'listed', 'random'}
+    condition_order : {'listed', 'random', 'latin_square'}
         Order of the condition blocks at each level (listed: as in ``conditions``; random: drawn
-        per level and subject). Jung 2015: cluttered first.
+        per level and subject; latin_square: the subject's row of a balanced (Williams) Latin
+        square of the conditions, the subject's position in the log choosing the row, the same
+        at every level and recorded in the session's ``counterbalance`` event). Jung 2015:
+        cluttered first.
     trial_order : {'random', 'listed'}
         Order of the trials inside a block (random: seeded per subject, Jung 2015).
     block_order : {'planned', 'random'}
@@ -112,11 +129,7 @@ class BlockSpec(_Spec):
         "levels": partial(
             _need_distinct, noun="a level", item=_level, expected="a non-empty list of integers"
         ),
-        "conditions": partial(
-            _need_distinct,
-            noun="a condition",
-            item=partial(_choice, choices=tuple(c.value for c in Condition)),
-        ),
+        "conditions": partial(_need_distinct, noun="a condition", item=_condition),
         "group_by": partial(_choice, choices=GROUP_BY),
         "level_order": partial(_choice, choices=LEVEL_ORDERS),
         "condition_order": partial(_choice, choices=CONDITION_ORDERS),

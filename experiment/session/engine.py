@@ -31,7 +31,13 @@ from experiment.session.lifecycle import (
     reopen,
     stored_seed,
 )
-from experiment.session.schedule import Schedule, Trial, build_schedule
+from experiment.session.schedule import (
+    Schedule,
+    Trial,
+    build_schedule,
+    counterbalance_record,
+    subject_position,
+)
 from experiment.session.scoring import check_rater, check_score, suggest_score
 from experiment.session.stimset import StimulusSet, StimulusSetError
 from experiment.signals import Stopped
@@ -177,7 +183,10 @@ class Session(LoggedSession):
 
         def create() -> Session:
             root_seed = int(seed) if seed is not None else int(np.random.SeedSequence().entropy)
-            schedule = build_schedule(protocol, stimset, _child_rng(root_seed, 0))
+            index = subject_position(log, subject)
+            schedule = build_schedule(
+                protocol, stimset, _child_rng(root_seed, 0), subject_index=index
+            )
             _verify_files(stimset, schedule)
             check_implant_fits(protocol.display, stimset, schedule)
             sid = create_session(
@@ -200,6 +209,9 @@ class Session(LoggedSession):
                 participant_json=json.dumps(participant, sort_keys=True) if participant else None,
                 monitor_json=json.dumps(monitor, sort_keys=True) if monitor else None,
             )
+            balance = counterbalance_record(protocol, index)
+            if balance is not None:  # the subject's row of the Latin square, with the session
+                log.add_event(sid, "counterbalance", json.dumps(balance), clock.now_s())
             return cls(log, protocol, stimset, subject, sid, root_seed, schedule, clock)
 
         return open_or_create(log, subject, new_session, resume, create)

@@ -16,7 +16,15 @@ from experiment.trials import Schedule, Trial
 
 #: ``Trial`` and ``Schedule`` live in :mod:`experiment.trials` (below the trial log) and are
 #: re-exported here, where schedules are drawn.
-__all__ = ["Trial", "Schedule", "build_schedule", "planned_trials"]
+__all__ = [
+    "Trial",
+    "Schedule",
+    "build_schedule",
+    "planned_trials",
+    "latin_square_order",
+    "counterbalance_record",
+    "subject_position",
+]
 
 
 def _objects_for(entry: BlockSpec, stimset: StimulusSet, where: str) -> tuple[str, ...]:
@@ -67,27 +75,95 @@ def _ordered_levels(entry: BlockSpec, rng: np.random.Generator) -> list[int]:
     return list(entry.levels)
 
 
-def _ordered_conditions(entry: BlockSpec, rng: np.random.Generator) -> list[str]:
+def _ordered_conditions(
+    entry: BlockSpec, rng: np.random.Generator, subject_index: int = 0
+) -> list[str]:
+    if entry.condition_order == "latin_square":
+        return list(latin_square_order(entry.conditions, subject_index))
     if entry.condition_order == "random":
         return [entry.conditions[i] for i in rng.permutation(len(entry.conditions))]
     return list(entry.conditions)
 
 
+def latin_square_order(conditions: tuple[str, ...], subject_index: int) -> tuple[str, ...]:
+    """Return a subject's order of condition blocks: a row of a balanced Latin square.
+
+    Row ``subject_index mod rows`` of the Williams square of ``len(conditions)`` conditions
+    (:func:`experiment.active.task.balanced_latin_square`, the one active search uses), so
+    every condition comes at every position equally often over a full cycle of subjects.
+
+    Parameters
+    ----------
+    conditions : tuple of str
+    subject_index : int >= 0
+        The subject's position in the study (first subject 0).
+
+    Returns
+    -------
+    tuple of str
+
+    Examples
+    --------
+    >>> latin_square_order(("a", "b", "c", "d"), 1)
+    ('b', 'c', 'a', 'd')
+    """
+    from experiment.active.task import balanced_latin_square
+
+    if isinstance(subject_index, bool) or not isinstance(subject_index, int) or subject_index < 0:
+        raise ValueError(f"subject_index must be an integer >= 0, got {subject_index!r}")
+    rows = balanced_latin_square(len(conditions))
+    return tuple(conditions[k] for k in rows[subject_index % len(rows)])
+
+
+def subject_position(log, subject: str) -> int:
+    """Return the subject's position among the subjects of a trial log, 0-based.
+
+    The order in which subjects first appear in ``log.sessions()``; a new subject comes
+    after all of them (the rule active search uses for its Latin square).
+
+    Parameters
+    ----------
+    log : TrialLog
+    subject : str
+    """
+    order: list[str] = []
+    for row in log.sessions():
+        if row["subject"] not in order:
+            order.append(row["subject"])
+    return order.index(subject) if subject in order else len(order)
+
+
+def counterbalance_record(protocol: ProtocolSpec, subject_index: int) -> dict | None:
+    """Return what a session records of its counterbalancing (``None`` without a Latin square).
+
+    ``{"scheme": "latin_square", "subject_index": i, "condition_orders": {entry: [...]}}``, one
+    order per ``[[blocks]]`` entry (by its index) whose ``condition_order`` is ``latin_square``.
+    """
+    orders = {
+        str(e): list(latin_square_order(b.conditions, subject_index))
+        for e, b in enumerate(protocol.blocks)
+        if b.condition_order == "latin_square"
+    }
+    if not orders:
+        return None
+    return {"scheme": "latin_square", "subject_index": subject_index, "condition_orders": orders}
+
+
 def _entry_blocks(
-    entry: BlockSpec, objs: tuple[str, ...], rng: np.random.Generator
+    entry: BlockSpec, objs: tuple[str, ...], rng: np.random.Generator, subject_index: int = 0
 ) -> list[list[tuple[str, str, int]]]:
     """Blocks of one repetition: lists of (object, condition, level), before trial shuffling."""
     levels = _ordered_levels(entry, rng)
     blocks: list[list[tuple[str, str, int]]] = []
     if entry.group_by == "level_condition":
         for lv in levels:
-            for c in _ordered_conditions(entry, rng):
+            for c in _ordered_conditions(entry, rng, subject_index):
                 blocks.append([(o, c, lv) for o in objs])
     elif entry.group_by == "level":
         for lv in levels:
             blocks.append([(o, c, lv) for c in entry.conditions for o in objs])
     elif entry.group_by == "condition":
-        for c in _ordered_conditions(entry, rng):
+        for c in _ordered_conditions(entry, rng, subject_index):
             blocks.append([(o, c, lv) for lv in levels for o in objs])
     else:
         blocks.append([(o, c, lv) for lv in levels for c in entry.conditions for o in objs])
@@ -122,6 +198,8 @@ def build_schedule(
     protocol: ProtocolSpec,
     stimset: StimulusSet,
     rng: np.random.Generator | int | None = None,
+    *,
+    subject_index: int = 0,
 ) -> Schedule:
     """Expand a protocol into one subject's ordered trials.
 
@@ -133,6 +211,9 @@ def build_schedule(
     rng : numpy.random.Generator, int or None
         The only source of randomness (trial order inside blocks, random level, condition and
         block orders). The session passes a child of its stored seed.
+    subject_index : int >= 0
+        The subject's position in the study: picks the row of the Latin square for entries
+        with ``condition_order = "latin_square"`` (:func:`latin_square_order`).
 
     Returns
     -------
@@ -162,7 +243,7 @@ def build_schedule(
         _check_available(entry, objs, stimset, where)
         n_in_entry = 0
         for rep in range(entry.repetitions):
-            for block in _entry_blocks(entry, objs, rng):
+            for block in _entry_blocks(entry, objs, rng, subject_index):
                 block_no += 1
                 brk = (
                     entry.break_every_blocks > 0

@@ -28,9 +28,6 @@ __all__ = [
 #: stays a 624x624 px image).
 IMPLANT_PX_PER_ELECTRODE: int = 16
 
-#: Conditions drawn as implant views: the two edge (or grey) stimuli of every object.
-_IMPLANT_CONDITIONS: tuple[str, ...] = ("cluttered", "decluttered")
-
 
 def check_implants(
     implants: Sequence[ImplantLayout], px_per_electrode: int, params: BuildParams
@@ -91,11 +88,9 @@ def write_implant_views(
     ``tmp/implants/<name>/<object>/``.
     """
     oid = work.info.object
-    images = (
-        {"cluttered": work.wide, "decluttered": work.narrow}
-        if work.wide_edges is None
-        else {"cluttered": work.wide_edges, "decluttered": work.narrow_edges}
-    )
+    from stimuli.build.conditions import object_conditions
+
+    images = {c: grey if edges is None else edges for c, grey, edges in object_conditions(work)}
     kw = {} if edge_ratio is None else {"edge_ratio": edge_ratio}
     entries = []
     for lay in implants:
@@ -103,7 +98,7 @@ def write_implant_views(
         folder.mkdir(parents=True)
         alive = lay.alive_mask()
         shape_px = (lay.rows * px_per_electrode, lay.cols * px_per_electrode)
-        for condition in _IMPLANT_CONDITIONS:
+        for condition in images:
             grid = to_implant_grid(images[condition], lay, **kw)
             drawn = render_phosphenes(
                 grid, shape_px, shape=lay.phosphene_shape, size=lay.phosphene_size, alive=alive

@@ -161,6 +161,9 @@ class BuildParams:
     bokeh_guard : bool
         Photo pairs: drop narrow-DOF edges with no wide-DOF edge nearby
         (:func:`stimuli.declutter.bokeh_guard`; ours, beyond the paper).
+    conditions : tuple of str
+        The set's conditions, in order: ``cluttered`` and de-clutter methods of
+        :mod:`stimuli.methods` (``decluttered`` is ``sobel``); default the paper's pair.
     fast_decode : bool
         Decode JPEG photos at reduced size (1/2, 1/4 or 1/8 in the DCT domain, Pillow's
         ``draft``), just large enough for the working size, before the anti-aliased resize.
@@ -180,6 +183,7 @@ class BuildParams:
     declutter: str = "auto"
     bokeh_guard: bool = False
     plane: str = "auto"
+    conditions: tuple[str, ...] = ("cluttered", "decluttered")
 
     def __post_init__(self) -> None:
         for name in (
@@ -192,6 +196,7 @@ class BuildParams:
             "windows_px",
             "declutter",
             "plane",
+            "conditions",
         ):
             getattr(self, f"_check_{name}")()
 
@@ -221,6 +226,14 @@ class BuildParams:
 
         object.__setattr__(self, "plane", parse_plane_option(self.plane))
 
+    def _check_conditions(self) -> None:
+        from stimuli.methods.registry import parse_conditions
+
+        c = self.conditions
+        if isinstance(c, str) or not all(isinstance(n, str) for n in c):
+            raise InputError(f"conditions must be a sequence of names, got {c!r}")
+        object.__setattr__(self, "conditions", parse_conditions(",".join(c)))
+
     def _check_mode(self) -> None:
         _check_choice(self.mode, MODES, "mode")
 
@@ -243,6 +256,10 @@ class BuildParams:
         d["windows_px"] = list(self.windows_px)
         if self.plane == "auto":  # a set built with the default keeps the id it had before
             del d["plane"]
+        if self.conditions == ("cluttered", "decluttered"):  # likewise the paper's conditions
+            del d["conditions"]
+        else:
+            d["conditions"] = list(self.conditions)
         return d
 
     @classmethod
@@ -251,6 +268,8 @@ class BuildParams:
         d = dict(d)
         d["working_shape_px"] = tuple(d["working_shape_px"])
         d["windows_px"] = tuple(d["windows_px"])
+        if "conditions" in d:
+            d["conditions"] = tuple(d["conditions"])
         return cls(**d)
 
 

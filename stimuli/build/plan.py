@@ -15,6 +15,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass, replace
 from pathlib import Path
 
+from stimuli.build.conditions import check_conditions
 from stimuli.build.implant_views import IMPLANT_PX_PER_ELECTRODE, check_implants
 from stimuli.build.levels import level_ladder
 from stimuli.build.pairs import PairsInput, read_pairs, source_hashes
@@ -106,6 +107,7 @@ def plan_build(
             "rename it or build without --implant"
         )
     params = _check_light_field_options(params, inp)
+    check_conditions(params, inp)
     hashes = tuple(source_hashes(s) for s in inp.sources)
     sid = set_id(params, inp, hashes, implants, implant_px_per_electrode)
     _check_out_dir(out_dir, sid, force, None if replaces is None else Path(replaces))

@@ -7,7 +7,7 @@ proposes mean the same thing in the build.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from skimage.transform import resize
@@ -86,6 +86,10 @@ class ObjectImages:
     visibility : dict or None
         A light-field object's on-plane share and object coverage per level
         (:func:`stimuli.build.visibility.measure_visibility`), once the set's edge ratio is known.
+    conditions : dict of str to (ndarray of bool, dict)
+        A build with conditions beyond the paper's pair: each condition's edge image and what
+        its method measured (:func:`stimuli.build.conditions.apply_conditions`); empty for the
+        paper's pair.
     """
 
     info: ObjectInfo
@@ -109,6 +113,7 @@ class ObjectImages:
     aspect_pad: tuple[int, int, int, int] | None = None
     valid: np.ndarray | None = None
     visibility: dict | None = None
+    conditions: dict = field(default_factory=dict)
 
 
 def _cut(image: np.ndarray, box: Box | None) -> np.ndarray:

@@ -10,6 +10,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from stimuli.build.conditions import apply_conditions
 from stimuli.build.edges import declutter_object, set_edge_ratio
 from stimuli.build.implant_views import IMPLANT_PX_PER_ELECTRODE
 from stimuli.build.pairs import PairSource
@@ -167,7 +168,10 @@ def build_stimulus_set(
         implants=implants,
         implant_px_per_electrode=implant_px_per_electrode,
     )
-    tasks = [(s, o, plan.params) for s, o in zip(plan.inp.sources, plan.inp.objects, strict=True)]
+    tasks = [
+        (s, o, plan.params, plan.inp.root)
+        for s, o in zip(plan.inp.sources, plan.inp.objects, strict=True)
+    ]
     if processes == 1:
         return _build(plan, tasks, progress, None, t0)
     from stimuli.lfbatch import CapturePool
@@ -178,7 +182,7 @@ def build_stimulus_set(
 
 def _build(
     plan: BuildPlan,
-    tasks: list[tuple[PairSource, ObjectInfo, BuildParams]],
+    tasks: list[tuple[PairSource, ObjectInfo, BuildParams, Path]],
     progress: ProgressFn | None,
     pool: CapturePool | None,
     t0: float,
@@ -210,7 +214,12 @@ def _build(
     )
 
 
-def _read_object(src: PairSource, info: ObjectInfo, params: BuildParams) -> ObjectImages:
-    """Prepare one object's pair at the working size and, in edge mode, de-clutter it."""
+def _read_object(
+    src: PairSource, info: ObjectInfo, params: BuildParams, root: Path
+) -> ObjectImages:
+    """Prepare one object's pair at the working size and, in edge mode, de-clutter it (every
+    condition the build names)."""
     work = prepare_object(src, info, params)
-    return declutter_object(work, params) if params.mode == "edges" else work
+    if params.mode != "edges":
+        return work
+    return apply_conditions(declutter_object(work, params), params, root)

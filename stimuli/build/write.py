@@ -16,6 +16,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from stimuli.build.conditions import conditions_record, object_conditions
 from stimuli.build.edges import SetEdgeRatio
 from stimuli.build.implant_views import write_implant_views
 from stimuli.build.levels import edge_ladder, grey_ladder, level_labels
@@ -135,6 +136,9 @@ def write_stimulus_set(
         summaries = tuple(object_summary(w) for w in works)
         notes = build_notes(works, plan.params)
         meta = set_record(plan, ratio, summaries, notes, len(records), tmp / "manifest.csv", views)
+        record = conditions_record(plan.params, works)
+        if record is not None:
+            meta["conditions"] = record
         (tmp / "stimulus_set.json").write_text(json.dumps(meta, indent=2) + "\n", "utf-8")
     return WrittenSet(
         n_stimuli=len(records), objects=summaries, notes=notes, n_implant_views=len(views)
@@ -181,10 +185,7 @@ def render_object(
         out.append(("colour_wide", n_levels, 1, "colour_wide.png", colour_wide))
         out.append(("colour_confocal", n_levels, 1, "colour_confocal.png", colour_confocal))
     rows = []
-    for condition, img, edges in (
-        ("cluttered", work.wide, work.wide_edges),
-        ("decluttered", work.narrow, work.narrow_edges),
-    ):
+    for condition, img, edges in object_conditions(work):
         if grey:
             ladder = grey_ladder(img, levels=params.grey_levels, windows_px=params.windows_px)
         else:
@@ -237,6 +238,8 @@ def _save_rendered(
             "cluttered": (path_in_pairs(src.wide, root), hashes["wide"]),
             "decluttered": (path_in_pairs(src.narrow, root), hashes["narrow"]),
         }
+    for condition in work.conditions:  # every method works on the narrow photo
+        sources.setdefault(condition, sources["decluttered"])
     sources["photo"] = sources["cluttered"]
     sources["colour_wide"] = sources["cluttered"]
     sources["colour_confocal"] = sources["decluttered"]
@@ -281,7 +284,7 @@ def _write_overview(
 
     rows = []
     for w, recs in zip(works, per_object, strict=True):
-        for condition in ("cluttered", "decluttered"):
+        for condition, _, _ in object_conditions(w):
             imgs = [
                 np.asarray(Image.open(tmp / r.path))
                 for r in sorted(recs, key=lambda r: r.level)
@@ -292,6 +295,8 @@ def _write_overview(
         rows,
         cell_shape_px=(65, 98),
         column_labels=labels,
-        title="all objects, every level (cluttered / decluttered)",
+        title="all objects, every level ("
+        + " / ".join(c for c, _, _ in object_conditions(works[0]))
+        + ")",
     )
     save_contact_sheet(sheet, tmp / "contact" / "all.png")
