@@ -271,11 +271,21 @@ def run(
         typer.echo("\n".join(summary_lines(active)))
 
 
+def _ci_text(ci: list) -> str:
+    """An odds-ratio interval as console text: ``95% CI 3.9-8.1``, open ends as 0 / inf."""
+    if ci[0] is None and ci[1] is None:
+        return "no interval: its profile could not be computed"
+    lo = "0" if ci[0] is None else f"{ci[0]:.3g}"
+    hi = "inf" if ci[1] is None else f"{ci[1]:.3g}"
+    return f"95% CI {lo}-{hi}"
+
+
 def _print_summary(result, folder: Path) -> None:
-    from analysis.report import threshold_text
+    from analysis.report import p_text, threshold_text
 
     r = result.results_json()
     typer.echo(f"{r['n_trials']} trials, {r['n_recognized']} recognised")
+    typer.echo(_model_line(r["overdispersion"]))
     if r.get("simulated_sessions"):
         typer.echo(f"SIMULATED (no person answered): {'; '.join(r['simulated_sessions'])}")
     if r["n_training_excluded"]:
@@ -291,13 +301,13 @@ def _print_summary(result, folder: Path) -> None:
     if lo["method"] == "none":
         typer.echo("logistic model: not estimable (" + "; ".join(lo["warnings"]) + ")")
     for term in ("background", "log10_pixels"):
-        o = lo["odds_ratios"].get(term)
-        if o is None:
+        o, iv = lo["odds_ratios"].get(term), lo.get("intervals", {}).get(term)
+        if o is None or iv is None:
             continue
-        sep = " (separated; Firth)" if term in lo["separated"] else ""
+        sep = "; separated in these data, ML infinite" if term in lo["separated"] else ""
         typer.echo(
-            f"odds ratio {term:>12}: {o['or']:.3g} (95% CI {o['ci95'][0]:.3g}-{o['ci95'][1]:.3g}, "
-            f"p = {o['p']:.2g}){sep}"
+            f"odds ratio {term:>12}: {iv['or']:.3g} ({_ci_text(iv['ci95'])}, "
+            f"Wald {p_text(o['p'])}; {iv['estimator']}{sep})"
         )
     cl = lo["classification"]
     if lo["method"] != "none":
@@ -337,11 +347,23 @@ def fit(
         str, typer.Option("--axis", help="auto (the sigmoid's own), log or linear.")
     ] = "auto",
     guess: _Guess = 0.0,
-    pc: Annotated[str, _list_option("--pc", "proportions correct of the thresholds.")] = "0.5",
+    pc: Annotated[
+        str,
+        _list_option(
+            "--pc",
+            "proportions correct of the thresholds (default: the midpoint between the guess "
+            "rate and 1 - lapse, as psignifit).",
+        ),
+    ] = "",
     overdispersion: Annotated[
-        bool, _switch_option("overdispersion", "Beta-binomial posteriors.")
+        bool,
+        _switch_option(
+            "overdispersion", "Beta-binomial posteriors (default binomial, as 'analyze run')."
+        ),
+    ] = False,
+    plots: Annotated[
+        bool, _switch_option("plots", "One plot per group and one of all groups.")
     ] = True,
-    plots: Annotated[bool, _switch_option("plots", "One plot per group.")] = True,
     seed: Annotated[int | None, _seed_option("sampler")] = None,
 ) -> None:
     """Fit psychometric functions to any table: thresholds, intervals, goodness of fit, plots."""
@@ -349,7 +371,13 @@ def fit(
     from rich.progress import Progress
 
     from analysis.errors import OptionError
-    from analysis.psychometric import FitSpec, iter_fit_table, read_table, write_fit_report
+    from analysis.psychometric import (
+        FitSpec,
+        iter_fit_table,
+        read_table,
+        threshold_name,
+        write_fit_report,
+    )
 
     with _refused_as(OptionError, f"--pc must be numbers like 0.5,0.75, got {pc!r}"):
         pcs = tuple(float(v) for v in pc.split(",") if v.strip())
@@ -382,12 +410,21 @@ def fit(
     folder = write_fit_report(result, out, plots=plots)
     r = result.results_json()
     typer.echo(f"{len(r['groups'])} group(s), sigmoid {r['sigmoid']} ({r['axis']} axis)")
+    typer.echo(_model_line(r["overdispersion"]))
+    typer.echo(f"thresholds at the {r['threshold_rule']}")
     for g in r["groups"]:
         for t in g["thresholds"]:
-            typer.echo(f"{g['label']}: {100 * t['pc']:g}% threshold {_threshold_line(t)}")
+            typer.echo(f"{g['label']}: {threshold_name(t)} {_threshold_line(t)}")
     for w in r["warnings"]:
         typer.echo(f"warning: {w}", err=True)
     typer.echo(f"report: {folder / 'report.md'}  (results: {folder / 'results.json'})")
+
+
+def _model_line(overdispersion: bool) -> str:
+    """Say the psychometric fits' likelihood and the switch that changes it."""
+    if overdispersion:
+        return "model: beta-binomial (--overdispersion; --no-overdispersion for binomial)"
+    return "model: binomial (the default; --overdispersion for beta-binomial)"
 
 
 def _threshold_line(t: dict) -> str:

@@ -108,7 +108,12 @@ def binomial_ci95(k: Any, n: Any) -> tuple[np.ndarray, np.ndarray]:
 
 
 def plot_recognition(
-    fits: dict[str, WeibullFit], *, pc: float = 0.5, ax: Axes | None = None, legend: bool = True
+    fits: dict[str, WeibullFit],
+    *,
+    pc: float = 0.5,
+    ax: Axes | None = None,
+    legend: bool = True,
+    midpoint: bool = False,
 ) -> Axes:
     """Plot recognition rate vs pixels per condition: data, fitted curve, 95 % band, thresholds.
 
@@ -124,6 +129,8 @@ def plot_recognition(
         Drawn into when given; a new Figure otherwise.
     legend : bool
         Draw a legend.
+    midpoint : bool
+        Mark the midpoint thresholds (between the guess rate and 1 - lapse) instead of ``pc``.
 
     Returns
     -------
@@ -159,11 +166,12 @@ def plot_recognition(
             capsize=0,
             label=f"{cond}: data, 95 % binomial CI",
         )
-        t = fit.threshold(pc)
+        t = fit.threshold(pc, midpoint=midpoint)
         if t.measured:
             ax.axvline(t.median, color=color, ls="--", lw=0.8)
-            ax.axvspan(*t.ci95, color=color, alpha=0.08, lw=0)
-    ax.axhline(pc, color="0.6", lw=0.5)
+            ax.axvspan(*t.ci95, color=color, alpha=0.08, lw=0, label=f"{cond}: threshold, 95 % CrI")
+    if not midpoint:
+        ax.axhline(pc, color="0.6", lw=0.5)
     if log:
         ax.set_xscale("log")
     ax.set_ylim(-0.02, 1.02)

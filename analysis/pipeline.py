@@ -126,10 +126,14 @@ class AnalysisResult:
     simulated_sessions: tuple[str, ...] = ()
 
     def predictions(self) -> dict[str, Any] | None:
-        """Return Eq. 1 applied with the fitted background odds ratio (None when not estimated)."""
+        """Return Eq. 1 applied with the reported background odds ratio (None when not estimated).
+
+        The reported odds ratio is the one the console and the report print
+        (:meth:`analysis.logistic.LogisticFit.intervals`: Firth's estimate).
+        """
         if not self.logistic.has("background"):
             return None
-        odds = self.logistic.odds_ratios["background"]["or"]
+        odds = self.logistic.intervals("background")["or"]
         ref = [0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9]
         return {
             "background_or": odds,
