@@ -486,11 +486,33 @@ def _echo_power_table(design_heads: str, points: list, design_cells) -> None:
 
 
 def _needed(row: list, target: float) -> str:
-    """Say the fewest simulated subjects in ``row`` (one design) that reach power ``target``."""
-    need = next((p.n_subjects for p in row if p.power >= target), None)
+    """Say the fewest simulated subjects in ``row`` (one design) from which on power reaches
+    ``target``: that number and every larger one simulated, so that a noisy dip in a larger
+    row (power is estimated from a finite number of studies) never sits beside the advice."""
+    row = sorted(row, key=lambda p: p.n_subjects)
+    need = None
+    for i, p in enumerate(row):
+        if all(q.power >= target for q in row[i:]):
+            need = p
+            break
     if need is None:
-        return f"no simulated number of subjects reached power {target:g}"
-    return f"subjects needed for power {target:g}: {need}"
+        return f"no simulated number of subjects reached power {target:g} (and kept it)"
+    return (
+        f"subjects needed for power {target:g}: {need.n_subjects} (power {need.power:.2f}, "
+        f"95% CI {need.ci95[0]:.2f}-{need.ci95[1]:.2f}; every larger number simulated also "
+        f"reached {target:g})"
+    )
+
+
+def _resolved_seed(seed: int | None) -> tuple[int, str]:
+    """Return the seed to simulate with and how it is printed: a drawn one is printed too, so
+    that ``--seed`` reproduces the table."""
+    import numpy as np
+
+    if seed is not None:
+        return seed, f"seed {seed}"
+    drawn = int(np.random.SeedSequence().entropy % _MAX_SEED)
+    return drawn, f"seed {drawn} (drawn; --seed {drawn} reproduces this table)"
 
 
 @analyze_app.command("power")
@@ -607,6 +629,7 @@ def power(
             "available; simulate fewer subjects"
         )
     total = len(sizes) * len(ns) * len(nos) * len(nls) * sims
+    seed, seed_text = _resolved_seed(seed)
     gen = power_grid(
         effect,
         sizes,
@@ -620,7 +643,7 @@ def power(
         cluster=cluster,
     )
     points: list[GridPoint] = _run_with_progress(gen, f"simulating {effect}", total)
-    typer.echo(f"{effect}, alpha = {alpha:g}, {sims} SIMULATED studies per row, seed {seed}")
+    typer.echo(f"{effect}, alpha = {alpha:g}, {sims} SIMULATED studies per row, {seed_text}")
     _echo_power_table(
         f"{'size':>6} {'levels':>6} {'objects':>7} {'subjects':>8}",
         points,
@@ -669,6 +692,7 @@ def _active_power(hazard_ratio, subjects, opts, sims, alpha, target, seed, proce
         field = str(exc).split()[0]
         raise OptionError(f"{_ACTIVE_DESIGN_OPTIONS.get(field, field)}: {exc}") from None
     fixed = {f: getattr(design, f) for f in _ACTIVE_DESIGN_OPTIONS}
+    seed, seed_text = _resolved_seed(seed)
     gen = active_power_grid(
         hrs,
         ns,
@@ -684,7 +708,7 @@ def _active_power(hazard_ratio, subjects, opts, sims, alpha, target, seed, proce
     points: list[ActivePowerPoint] = _run_with_progress(gen, "simulating active search", total)
     typer.echo(
         f"active search, hazard ratio (Cox, stratified by subject, Wald), alpha = {alpha:g}, "
-        f"{sims} SIMULATED studies per row, seed {seed}"
+        f"{sims} SIMULATED studies per row, {seed_text}"
     )
     typer.echo(
         f"targets/scene {fixed['n_targets']}, time limit {fixed['time_limit_s']:g} s, cluttered "

@@ -132,11 +132,15 @@ def plot_recognition(
     midpoint : bool
         Mark the midpoint thresholds (between the guess rate and 1 - lapse) instead of ``pc``.
 
+    A curve whose posterior-predictive p is below :data:`analysis.weibull.summary.POOR_FIT_PPP`
+    says so in its legend entry.
+
     Returns
     -------
     matplotlib.axes.Axes
     """
     from analysis.weibull import is_log_axis
+    from analysis.weibull.summary import POOR_FIT_PPP
 
     ax = _new_ax(ax)
     log = True
@@ -153,7 +157,12 @@ def plot_recognition(
             grid = np.linspace(x.min() - pad, x.max() + pad, 200)
         med, lo, hi = fit.curve_band(grid)
         ax.fill_between(grid, lo, hi, color=color, alpha=0.2, lw=0)
-        ax.plot(grid, med, color=color, label=f"{cond}: fit, 95 % band")
+        gof = fit.goodness_of_fit()
+        poor = gof["deviance_df"] > 0 and gof["ppp"] < POOR_FIT_PPP
+        fit_label = f"{cond}: fit, 95 % band" + (
+            f" - POOR FIT (posterior-predictive p {gof['ppp']:.2f})" if poor else ""
+        )
+        ax.plot(grid, med, color=color, label=fit_label)
         clo, chi = binomial_ci95(k, n)
         ax.errorbar(
             x,
