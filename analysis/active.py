@@ -64,6 +64,7 @@ __all__ = [
     "render_active_markdown",
     "summary_lines",
     "hazard_ratio_text",
+    "ph_text",
     "add_active_results",
     "only_active",
     "write_active_report",
@@ -336,6 +337,9 @@ class ActiveSearchResult:
     survival : SurvivalAnalysis or None
         Censored time to recognition, hazard ratio, mixed model, per-subject results
         (:mod:`analysis.survival`); None without answered trials.
+    proportional_hazards : dict
+        Per compared condition, the check of the hazard ratio's proportional-hazards assumption
+        (:func:`analysis.ph_check.proportional_hazards_check`).
     """
 
     conditions: dict[str, ConditionSummary]
@@ -344,6 +348,7 @@ class ActiveSearchResult:
     searchers: tuple[str, ...] = ()
     sources: tuple[str, ...] = field(default=())
     survival: SurvivalAnalysis | None = None
+    proportional_hazards: dict[str, Any] = field(default_factory=dict)
 
     def to_dict(self) -> dict[str, Any]:
         """Return the ``results.json`` ``active_search`` entry.
@@ -365,6 +370,7 @@ class ActiveSearchResult:
             "sources": list(self.sources),
             "conditions": conds,
             **extra,
+            "proportional_hazards": self.proportional_hazards,
         }
 
     @classmethod
@@ -381,6 +387,7 @@ class ActiveSearchResult:
             searchers=tuple(d.get("searchers", ())),
             sources=tuple(d.get("sources", ())),
             survival=SurvivalAnalysis.from_dict(d) if d.get("censoring") else None,
+            proportional_hazards=dict(d.get("proportional_hazards", {})),
         )
 
 
@@ -407,13 +414,29 @@ def summarize_active(trials: pd.DataFrame, sources: tuple[str, ...] = ()) -> Act
             at_target_plane_rate=float(np.mean(known.astype(bool))) if len(known) else None,
         )
     searchers = tuple(sorted({str(s) for s in trials["searcher"]}))
+    survival = analyze_survival(trials) if len(trials) else None
+    ph: dict[str, Any] = {}
+    if survival is not None:
+        from analysis.ph_check import proportional_hazards_check
+
+        for h in survival.comparisons:
+            if h.hazard_ratio is not None:
+                ph[h.condition] = proportional_hazards_check(
+                    trials["rt_s"].astype(float),
+                    trials["recognized"].astype(bool),
+                    trials["condition"].astype(str),
+                    trials["subject"].astype(str),
+                    treated=h.condition,
+                    reference=h.reference,
+                )
     return ActiveSearchResult(
         conds,
         int(len(trials)),
         any(s.startswith("sim:") for s in searchers),
         searchers,
         sources,
-        analyze_survival(trials) if len(trials) else None,
+        survival,
+        ph,
     )
 
 
@@ -487,6 +510,9 @@ def _survival_markdown(result: ActiveSearchResult) -> list[str]:
             f"{h.condition} recognised sooner): {hazard_ratio_text(h)}; {h.method}; "
             f"{h.n_trials} trials, {h.n_recognized} recognised, {h.n_subjects} subject(s)."
         )
+        ph = result.proportional_hazards.get(h.condition)
+        if ph:
+            lines.append(ph_text(ph))
     m = sv.recognition_model
     if m is not None:
         what = (
@@ -522,6 +548,32 @@ def _survival_markdown(result: ActiveSearchResult) -> list[str]:
         f"conditions in which subjects give up: it drops the censored trials): {naive}.",
     ]
     return lines
+
+
+def ph_text(ph: dict[str, Any]) -> str:
+    """Say whether the hazard ratio's proportional-hazards assumption held, and what replaces it
+    when it did not (the hazard ratio before and after the median event time)."""
+    t = ph["test"]
+    if t.get("p") is None:
+        return "**Proportional hazards**: not tested (too few recognitions or no fit)."
+    head = (
+        f"**Proportional hazards**: {ph['method']}: chi-squared {t['statistic']:.2f}, "
+        f"p = {t['p']:.2g}"
+    )
+    if ph["holds"]:
+        return head + "; no evidence against it, so one hazard ratio summarises the data."
+    alt = ph["alternative"]
+    parts = []
+    for name, when in (("early", "before"), ("late", "after")):
+        a = alt[name]
+        hr = "n/a" if a["hazard_ratio"] is None else f"{a['hazard_ratio']:.2f}"
+        ci = "" if a["hazard_ratio"] is None else f" (95 % CI {_ci(a['ci95'], 2)})"
+        parts.append(f"{when} {alt['split_s']:.1f} s {hr}{ci}")
+    return (
+        head + "; the assumption FAILS, so the single hazard ratio above averages a ratio that "
+        "changes with time. Time-varying alternative (one hazard ratio per period, split at the "
+        "median recognition time, same stratification): " + "; ".join(parts) + "."
+    )
 
 
 def render_active_markdown(result: ActiveSearchResult, *, figure: str | None = None) -> str:

@@ -71,3 +71,36 @@ def test_split_hazard_ratios_recover_the_generating_steps():
     r = split_hazard_ratios(t, e, x, s, split_s=0.5)
     assert r["early"]["ci95"][0] < 3.0 < r["early"]["ci95"][1]
     assert r["late"]["ci95"][0] < 1.0 < r["late"]["ci95"][1]
+
+
+def test_active_report_states_the_check_and_the_mixed_model_prior():
+    """Through the active-search summary: the check is in results.json and the report, with the
+    split alternative when the hazards cross; the mixed model names its priors."""
+    import pandas as pd
+
+    from analysis.active import render_active_markdown, summarize_active
+
+    rng = np.random.default_rng(2)
+    t, e, x, s = _sim(rng, 300, 4.0, 0.25, split=0.3)
+    trials = pd.DataFrame(
+        {
+            "subject": s,
+            "condition": np.where(x == 1, "decluttered", "cluttered"),
+            "rt_s": t,
+            "recognized": e,
+            "planes_visited": 1,
+            "depth_keys": 0,
+            "zoomed": rng.integers(0, 2, t.size).astype(bool),
+            "zooms": 0,
+            "zoom_time_s": 0.0,
+            "at_target_plane": None,
+            "searcher": "sim:test",
+            "session": "x",
+        }
+    )
+    res = summarize_active(trials)
+    ph = res.to_dict()["proportional_hazards"]["decluttered"]
+    assert ph["holds"] is False and ph["alternative"]["early"]["hazard_ratio"] > 1
+    md = "\n".join(render_active_markdown(res).splitlines())
+    assert "**Proportional hazards**" in md and "FAILS" in md and "before" in md
+    assert "N(0, 2^2) on the log-odds scale" in md
