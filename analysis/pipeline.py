@@ -285,15 +285,13 @@ def first_recognized(trials: pd.DataFrame) -> dict[str, dict[str, dict[str, floa
     """
     out: dict[str, dict[str, dict[str, float | None]]] = {}
     objects = object_order(trials["object"])
+    rec = trials[trials["recognized"] == 1]
+    lowest = rec.groupby(
+        [rec["subject"].astype(str), rec["object"].astype(str), rec["condition"].astype(str)]
+    )["pixels"].min()
+    low = {k: float(v) for k, v in lowest.items()}
     for s in object_order(trials["subject"]):
-        ts = trials[trials["subject"] == s]
-        out[s] = {}
-        for o in objects:
-            to = ts[ts["object"] == o]
-            out[s][o] = {}
-            for c in CONDITIONS:
-                rec = to[(to["condition"] == c) & (to["recognized"] == 1)]["pixels"]
-                out[s][o][c] = float(rec.min()) if len(rec) else None
+        out[s] = {o: {c: low.get((str(s), str(o), c)) for c in CONDITIONS} for o in objects}
     return out
 
 
