@@ -174,9 +174,9 @@ def _or_text(
             if "profile" in intervals:
                 ci += f", {_or_ends(intervals['profile'])} profile likelihood"
         wald = "ML Wald" if "ml_or" in intervals else "Wald"
+        what = "Firth's estimate" if "firth_or" in intervals else "ML estimate"
         base = (
-            f"{intervals['or']:.3g} ({intervals['estimator']}: {ci}; {wald} {p_text(o['p'])}; "
-            f"for {QUESTION_SAMPLE})"
+            f"{intervals['or']:.3g} ({what}; {ci}; {wald} {p_text(o['p'])}; for {QUESTION_SAMPLE})"
         )
         if term in separated:
             return f"{base}; separated in these data (the ML odds ratio is infinite)"

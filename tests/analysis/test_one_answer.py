@@ -58,7 +58,8 @@ def test_console_odds_ratio_is_results_json_s_and_the_report_s(run_and_fit):
         assert shown in line and iv["estimator"] in line
         # the one estimate is Firth's, not the ML one the console printed before
         assert iv["or"] == pytest.approx(iv["firth_or"]) and f"{iv['ml_or']:.3g}" not in line
-        assert f"{iv['or']:.3g} ({iv['estimator']}" in report
+        ends = f"{iv['ci95'][0]:.3g}-{iv['ci95'][1]:.3g}"
+        assert f"{iv['or']:.3g} (Firth's estimate; 95 % CI {ends} Firth profile" in report
     bg = r["logistic"]["intervals"]["background"]["or"]
     pr = r["predictions"]["decluttered_if_cluttered_50pct"]
     assert pr == pytest.approx(bg / (1 + bg))  # Eq. 1 uses the same odds ratio
