@@ -354,7 +354,8 @@ def plot_object_difficulty(logistic: LogisticFit, *, ax: Axes | None = None) -> 
 
     The paper's Fig. S3 (Jung et al. 2015; difficulty as the log odds ratio of failure).
     Positive = harder than the reference object. Error bars are 95 % profile-likelihood intervals
-    (Wald intervals when the fit has none).
+    (Wald intervals when the fit has none, said in the title); objects separated in the data
+    (no finite ML estimate) are circled and named in the legend.
 
     Parameters
     ----------
@@ -392,6 +393,18 @@ def plot_object_difficulty(logistic: LogisticFit, *, ax: Axes | None = None) -> 
         mark = "**" if r[4] < 0.01 else "*" if r[4] < 0.05 else ""
         if mark:
             ax.annotate(mark, (xi, hi[xi]), ha="center", va="bottom", fontsize="small")
+    sep = [i + 1 for i, r in enumerate(rows) if r[0] in logistic.separated]
+    if sep:  # no finite ML estimate: the point is Firth's, and is marked as such
+        ax.plot(
+            x[sep],
+            np.asarray(val)[sep],
+            "o",
+            mfc="none",
+            mec="C3",
+            ms=10,
+            label="separated in these data (ML infinite): Firth's estimate",
+        )
+        ax.legend(fontsize="x-small", frameon=False)
     ax.axhline(0, color="0.6", lw=0.5)
     ax.set_xticks(x, names, fontsize="small", rotation=55, ha="right", rotation_mode="anchor")
     ax.set_xlabel(f"object (reference: object {logistic.reference_object})")

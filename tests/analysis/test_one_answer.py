@@ -182,3 +182,19 @@ def test_censored_below_only_when_no_tested_level_is_below_pc():
     assert t.bracket[0] <= t.mle and (math.isnan(t.bracket[1]) or t.mle <= t.bracket[1])
     text = t.text("{:,.0f}", "px")
     assert not text.startswith("<")
+
+
+def test_fig_s3_marks_separated_objects(small_trials):
+    """An object recognised on every trial has no finite ML odds ratio: Fig. S3 circles it."""
+    from analysis.figures import plot_object_difficulty
+
+    keep = sorted(set(small_trials["object"]), key=lambda o: int(o))[:4]
+    t = small_trials[small_trials["object"].isin(keep)].copy()
+    t.loc[t["object"] == keep[-1], "recognized"] = 1
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        f = fit_logistic(t)
+    assert any(s.startswith("object:") for s in f.separated)
+    ax = plot_object_difficulty(f)
+    labels = [ln.get_label() for ln in ax.get_lines()]
+    assert any(lb.startswith("separated in these data") for lb in labels)
