@@ -308,17 +308,22 @@ def profile_interval(
     y, X, n = _binomial_rows(y, X, n)
     free = np.arange(X.shape[1]) != j
 
-    # Each point starts from the estimate with the intercept shifted so that the linear
-    # predictor keeps its mean: moving b_j alone would push every row's p to 0 or 1 far out on
-    # the profile, where the information matrix is singular and Newton's method cannot start.
+    # Each point starts from the estimate with b_j moved. Far out on the profile that can push
+    # every row's p to 0 or 1, where the information matrix is singular and Newton's method
+    # cannot start; the point is then climbed from the same start with the intercept shifted so
+    # that the linear predictor keeps its mean.
     icpt = _intercept_column(X, j)
     centre = float(np.average(X[:, j], weights=n))
 
     def profile(bj: float) -> float:
         b = params.copy()
         b[j] = bj
-        if icpt is not None:
-            b[icpt] -= (bj - params[j]) * centre
+        try:
+            return _maximise(y, X, n, b, free, penalized, max_iter=PROFILE_MAX_ITER, tol=1e-10)[0]
+        except np.linalg.LinAlgError:
+            if icpt is None:
+                raise
+        b[icpt] -= (bj - params[j]) * centre
         return _maximise(y, X, n, b, free, penalized, max_iter=PROFILE_MAX_ITER, tol=1e-10)[0]
 
     l_max = profile(float(params[j]))
