@@ -29,6 +29,8 @@ column                      meaning
 ``at_target_plane``         the answer was given within one depth step of the target's true
                             plane (where ``trial_start`` or the plan records it: synthetic
                             scenes, described recorded ones), else empty
+``ended``                   how the trial ended: ``recognised``, ``pass`` (the subject gave
+                            up), ``wrong`` (an answer not scored recognised) or ``timeout``
 ==========================  =====================================================================
 """
 
@@ -47,6 +49,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from analysis.competing import competing_by_condition
 from analysis.data import connect_readonly
 from analysis.errors import DataError
 from analysis.survival import CENSORING, SurvivalAnalysis, analyze_survival
@@ -64,6 +67,8 @@ __all__ = [
     "render_active_markdown",
     "summary_lines",
     "hazard_ratio_text",
+    "ph_text",
+    "competing_lines",
     "add_active_results",
     "only_active",
     "write_active_report",
@@ -90,6 +95,7 @@ TRIAL_COLUMNS: tuple[str, ...] = (
     "zoomed",
     "zoom_time_s",
     "at_target_plane",
+    "ended",
 )
 
 _DEPTH_ACTIONS = ("depth_near", "depth_far", "plane_next", "plane_prev")
@@ -227,6 +233,15 @@ def _trial_row(rows: pd.DataFrame, plan: dict[str, Any] | None) -> dict[str, Any
             at_plane = bool(abs(float(d_ans) - float(facts["objects_px"][target])) <= tol)
     rt = t1 - t0
     recognized = bool(sc["recognized"])
+    last_key = keys["payload"].iloc[-1] if len(keys) else {}
+    if recognized:
+        ended = "recognised"
+    elif last_key.get("key") == "timeout":
+        ended = "timeout"
+    elif not str(ans["payload"].get("response", "")).strip():
+        ended = "pass"
+    else:
+        ended = "wrong"
     return {
         "subject": ans["subject"],
         "session": int(ans["session"]),
@@ -247,6 +262,7 @@ def _trial_row(rows: pd.DataFrame, plan: dict[str, Any] | None) -> dict[str, Any
         "zoomed": any(a == "zoom" for a in actions),
         "zoom_time_s": zoom_time,
         "at_target_plane": at_plane,
+        "ended": ended,
     }
 
 
@@ -336,6 +352,12 @@ class ActiveSearchResult:
     survival : SurvivalAnalysis or None
         Censored time to recognition, hazard ratio, mixed model, per-subject results
         (:mod:`analysis.survival`); None without answered trials.
+    proportional_hazards : dict
+        Per compared condition, the check of the hazard ratio's proportional-hazards assumption
+        (:func:`analysis.ph_check.proportional_hazards_check`).
+    competing : dict
+        Per condition, the cumulative incidence of recognition and of giving up, giving up a
+        competing outcome (:func:`analysis.competing.cumulative_incidence`).
     """
 
     conditions: dict[str, ConditionSummary]
@@ -344,6 +366,8 @@ class ActiveSearchResult:
     searchers: tuple[str, ...] = ()
     sources: tuple[str, ...] = field(default=())
     survival: SurvivalAnalysis | None = None
+    proportional_hazards: dict[str, Any] = field(default_factory=dict)
+    competing: dict[str, Any] = field(default_factory=dict)
 
     def to_dict(self) -> dict[str, Any]:
         """Return the ``results.json`` ``active_search`` entry.
@@ -365,6 +389,8 @@ class ActiveSearchResult:
             "sources": list(self.sources),
             "conditions": conds,
             **extra,
+            "proportional_hazards": self.proportional_hazards,
+            "competing_outcomes": self.competing,
         }
 
     @classmethod
@@ -381,6 +407,8 @@ class ActiveSearchResult:
             searchers=tuple(d.get("searchers", ())),
             sources=tuple(d.get("sources", ())),
             survival=SurvivalAnalysis.from_dict(d) if d.get("censoring") else None,
+            proportional_hazards=dict(d.get("proportional_hazards", {})),
+            competing=dict(d.get("competing_outcomes", {})),
         )
 
 
@@ -407,13 +435,30 @@ def summarize_active(trials: pd.DataFrame, sources: tuple[str, ...] = ()) -> Act
             at_target_plane_rate=float(np.mean(known.astype(bool))) if len(known) else None,
         )
     searchers = tuple(sorted({str(s) for s in trials["searcher"]}))
+    survival = analyze_survival(trials) if len(trials) else None
+    ph: dict[str, Any] = {}
+    if survival is not None:
+        from analysis.ph_check import proportional_hazards_check
+
+        for h in survival.comparisons:
+            if h.hazard_ratio is not None:
+                ph[h.condition] = proportional_hazards_check(
+                    trials["rt_s"].astype(float),
+                    trials["recognized"].astype(bool),
+                    trials["condition"].astype(str),
+                    trials["subject"].astype(str),
+                    treated=h.condition,
+                    reference=h.reference,
+                )
     return ActiveSearchResult(
         conds,
         int(len(trials)),
         any(s.startswith("sim:") for s in searchers),
         searchers,
         sources,
-        analyze_survival(trials) if len(trials) else None,
+        survival,
+        ph,
+        competing_by_condition(trials) if len(trials) else {},
     )
 
 
@@ -481,12 +526,16 @@ def _survival_markdown(result: ActiveSearchResult) -> list[str]:
         f"{sv.secondary_interval}.",
         "",
     ]
+    lines += competing_lines(result.competing)
     for h in sv.comparisons:
         lines.append(
             f"**Hazard ratio of recognition**, {h.condition} vs {h.reference} (above 1: "
             f"{h.condition} recognised sooner): {hazard_ratio_text(h)}; {h.method}; "
             f"{h.n_trials} trials, {h.n_recognized} recognised, {h.n_subjects} subject(s)."
         )
+        ph = result.proportional_hazards.get(h.condition)
+        if ph:
+            lines.append(ph_text(ph))
     m = sv.recognition_model
     if m is not None:
         what = (
@@ -522,6 +571,53 @@ def _survival_markdown(result: ActiveSearchResult) -> list[str]:
         f"conditions in which subjects give up: it drops the censored trials): {naive}.",
     ]
     return lines
+
+
+def competing_lines(comp: dict[str, Any]) -> list[str]:
+    """Report lines: cumulative incidence of recognition and of giving up per condition."""
+    if not comp:
+        return []
+    parts = []
+    for c, r in comp.items():
+        rec, gave = r["recognised"], r["gave_up"]
+        parts.append(
+            f"{c}: recognised {100 * rec['cif']:.0f} % ({_ci(rec['ci95'], 0, 100, '%')}), gave "
+            f"up {100 * gave['cif']:.0f} % ({_ci(gave['ci95'], 0, 100, '%')}) "
+            f"by {r['at_s']:.1f} s "
+            f"({r['n_gave_up']} passes or wrong answers, {r['n_timeout']} time-outs censored)"
+        )
+    return [
+        "**Giving up as a competing outcome** (Aalen-Johansen cumulative incidence; a pass or a "
+        "wrong answer ends the search, only time-outs are censored; 95 % intervals on the "
+        "log(-log) scale): " + "; ".join(parts) + ".",
+        "",
+    ]
+
+
+def ph_text(ph: dict[str, Any]) -> str:
+    """Say whether the hazard ratio's proportional-hazards assumption held, and what replaces it
+    when it did not (the hazard ratio before and after the median event time)."""
+    t = ph["test"]
+    if t.get("p") is None:
+        return "**Proportional hazards**: not tested (too few recognitions or no fit)."
+    head = (
+        f"**Proportional hazards**: {ph['method']}: chi-squared {t['statistic']:.2f}, "
+        f"p = {t['p']:.2g}"
+    )
+    if ph["holds"]:
+        return head + "; no evidence against it, so one hazard ratio summarises the data."
+    alt = ph["alternative"]
+    parts = []
+    for name, when in (("early", "before"), ("late", "after")):
+        a = alt[name]
+        hr = "n/a" if a["hazard_ratio"] is None else f"{a['hazard_ratio']:.2f}"
+        ci = "" if a["hazard_ratio"] is None else f" (95 % CI {_ci(a['ci95'], 2)})"
+        parts.append(f"{when} {alt['split_s']:.1f} s {hr}{ci}")
+    return (
+        head + "; the assumption FAILS, so the single hazard ratio above averages a ratio that "
+        "changes with time. Time-varying alternative (one hazard ratio per period, split at the "
+        "median recognition time, same stratification): " + "; ".join(parts) + "."
+    )
 
 
 def render_active_markdown(result: ActiveSearchResult, *, figure: str | None = None) -> str:

@@ -279,8 +279,17 @@ def run(
         typer.echo("\n".join(summary_lines(active)))
 
 
+def _ci_text(ci: list) -> str:
+    """An odds-ratio interval as console text: ``95% CI 3.9-8.1``, open ends as 0 / inf."""
+    if ci[0] is None and ci[1] is None:
+        return "no interval: its profile could not be computed"
+    lo = "0" if ci[0] is None else f"{ci[0]:.3g}"
+    hi = "inf" if ci[1] is None else f"{ci[1]:.3g}"
+    return f"95% CI {lo}-{hi}"
+
+
 def _print_summary(result, folder: Path) -> None:
-    from analysis.report import threshold_text
+    from analysis.report import p_text, threshold_text
 
     if getattr(result, "kind", "") == "conditions":  # a comparison of k conditions
         from analysis.conditions_report import print_conditions_summary
@@ -289,6 +298,7 @@ def _print_summary(result, folder: Path) -> None:
         return
     r = result.results_json()
     typer.echo(f"{r['n_trials']} trials, {r['n_recognized']} recognised")
+    typer.echo(_model_line(r["overdispersion"]))
     if r.get("simulated_sessions"):
         typer.echo(f"SIMULATED (no person answered): {'; '.join(r['simulated_sessions'])}")
     if r["n_training_excluded"]:
@@ -304,13 +314,13 @@ def _print_summary(result, folder: Path) -> None:
     if lo["method"] == "none":
         typer.echo("logistic model: not estimable (" + "; ".join(lo["warnings"]) + ")")
     for term in ("background", "log10_pixels"):
-        o = lo["odds_ratios"].get(term)
-        if o is None:
+        o, iv = lo["odds_ratios"].get(term), lo.get("intervals", {}).get(term)
+        if o is None or iv is None:
             continue
-        sep = " (separated; Firth)" if term in lo["separated"] else ""
+        sep = "; separated in these data, ML infinite" if term in lo["separated"] else ""
         typer.echo(
-            f"odds ratio {term:>12}: {o['or']:.3g} (95% CI {o['ci95'][0]:.3g}-{o['ci95'][1]:.3g}, "
-            f"p = {o['p']:.2g}){sep}"
+            f"odds ratio {term:>12}: {iv['or']:.3g} ({_ci_text(iv['ci95'])}, "
+            f"Wald {p_text(o['p'])}; {iv['estimator']}{sep})"
         )
     cl = lo["classification"]
     if lo["method"] != "none":
@@ -350,11 +360,23 @@ def fit(
         str, typer.Option("--axis", help="auto (the sigmoid's own), log or linear.")
     ] = "auto",
     guess: _Guess = 0.0,
-    pc: Annotated[str, _list_option("--pc", "proportions correct of the thresholds.")] = "0.5",
+    pc: Annotated[
+        str,
+        _list_option(
+            "--pc",
+            "proportions correct of the thresholds (default: the midpoint between the guess "
+            "rate and 1 - lapse, as psignifit).",
+        ),
+    ] = "",
     overdispersion: Annotated[
-        bool, _switch_option("overdispersion", "Beta-binomial posteriors.")
+        bool,
+        _switch_option(
+            "overdispersion", "Beta-binomial posteriors (default binomial, as 'analyze run')."
+        ),
+    ] = False,
+    plots: Annotated[
+        bool, _switch_option("plots", "One plot per group and one of all groups.")
     ] = True,
-    plots: Annotated[bool, _switch_option("plots", "One plot per group.")] = True,
     seed: Annotated[int | None, _seed_option("sampler")] = None,
 ) -> None:
     """Fit psychometric functions to any table: thresholds, intervals, goodness of fit, plots."""
@@ -362,7 +384,13 @@ def fit(
     from rich.progress import Progress
 
     from analysis.errors import OptionError
-    from analysis.psychometric import FitSpec, iter_fit_table, read_table, write_fit_report
+    from analysis.psychometric import (
+        FitSpec,
+        iter_fit_table,
+        read_table,
+        threshold_name,
+        write_fit_report,
+    )
 
     with _refused_as(OptionError, f"--pc must be numbers like 0.5,0.75, got {pc!r}"):
         pcs = tuple(float(v) for v in pc.split(",") if v.strip())
@@ -395,12 +423,21 @@ def fit(
     folder = write_fit_report(result, out, plots=plots)
     r = result.results_json()
     typer.echo(f"{len(r['groups'])} group(s), sigmoid {r['sigmoid']} ({r['axis']} axis)")
+    typer.echo(_model_line(r["overdispersion"]))
+    typer.echo(f"thresholds at the {r['threshold_rule']}")
     for g in r["groups"]:
         for t in g["thresholds"]:
-            typer.echo(f"{g['label']}: {100 * t['pc']:g}% threshold {_threshold_line(t)}")
+            typer.echo(f"{g['label']}: {threshold_name(t)} {_threshold_line(t)}")
     for w in r["warnings"]:
         typer.echo(f"warning: {w}", err=True)
     typer.echo(f"report: {folder / 'report.md'}  (results: {folder / 'results.json'})")
+
+
+def _model_line(overdispersion: bool) -> str:
+    """Say the psychometric fits' likelihood and the switch that changes it."""
+    if overdispersion:
+        return "model: beta-binomial (--overdispersion; --no-overdispersion for binomial)"
+    return "model: binomial (the default; --overdispersion for beta-binomial)"
 
 
 def _threshold_line(t: dict) -> str:
@@ -465,11 +502,33 @@ def _echo_power_table(design_heads: str, points: list, design_cells) -> None:
 
 
 def _needed(row: list, target: float) -> str:
-    """Say the fewest simulated subjects in ``row`` (one design) that reach power ``target``."""
-    need = next((p.n_subjects for p in row if p.power >= target), None)
+    """Say the fewest simulated subjects in ``row`` (one design) from which on power reaches
+    ``target``: that number and every larger one simulated, so that a noisy dip in a larger
+    row (power is estimated from a finite number of studies) never sits beside the advice."""
+    row = sorted(row, key=lambda p: p.n_subjects)
+    need = None
+    for i, p in enumerate(row):
+        if all(q.power >= target for q in row[i:]):
+            need = p
+            break
     if need is None:
-        return f"no simulated number of subjects reached power {target:g}"
-    return f"subjects needed for power {target:g}: {need}"
+        return f"no simulated number of subjects reached power {target:g} (and kept it)"
+    return (
+        f"subjects needed for power {target:g}: {need.n_subjects} (power {need.power:.2f}, "
+        f"95% CI {need.ci95[0]:.2f}-{need.ci95[1]:.2f}; every larger number simulated also "
+        f"reached {target:g})"
+    )
+
+
+def _resolved_seed(seed: int | None) -> tuple[int, str]:
+    """Return the seed to simulate with and how it is printed: a drawn one is printed too, so
+    that ``--seed`` reproduces the table."""
+    import numpy as np
+
+    if seed is not None:
+        return seed, f"seed {seed}"
+    drawn = int(np.random.SeedSequence().entropy % _MAX_SEED)
+    return drawn, f"seed {drawn} (drawn; --seed {drawn} reproduces this table)"
 
 
 @analyze_app.command("power")
@@ -606,6 +665,7 @@ def power(
             "available; simulate fewer subjects"
         )
     total = len(sizes) * len(ns) * len(nos) * len(nls) * sims
+    seed, seed_text = _resolved_seed(seed)
     gen = power_grid(
         effect,
         sizes,
@@ -619,7 +679,7 @@ def power(
         cluster=cluster,
     )
     points: list[GridPoint] = _run_with_progress(gen, f"simulating {effect}", total)
-    typer.echo(f"{effect}, alpha = {alpha:g}, {sims} SIMULATED studies per row, seed {seed}")
+    typer.echo(f"{effect}, alpha = {alpha:g}, {sims} SIMULATED studies per row, {seed_text}")
     _echo_power_table(
         f"{'size':>6} {'levels':>6} {'objects':>7} {'subjects':>8}",
         points,
@@ -667,6 +727,7 @@ def _active_power(hazard_ratio, subjects, opts, sims, alpha, target, seed, proce
         field = str(exc).split()[0]
         raise OptionError(f"{_ACTIVE_DESIGN_OPTIONS.get(field, field)}: {exc}") from None
     fixed = {f: getattr(design, f) for f in _ACTIVE_DESIGN_OPTIONS}
+    seed, seed_text = _resolved_seed(seed)
     gen = active_power_grid(
         hrs,
         ns,
@@ -682,7 +743,7 @@ def _active_power(hazard_ratio, subjects, opts, sims, alpha, target, seed, proce
     points: list[ActivePowerPoint] = _run_with_progress(gen, "simulating active search", total)
     typer.echo(
         f"active search, hazard ratio (Cox, stratified by subject, Wald), alpha = {alpha:g}, "
-        f"{sims} SIMULATED studies per row, seed {seed}"
+        f"{sims} SIMULATED studies per row, {seed_text}"
     )
     typer.echo(
         f"targets/scene {fixed['n_targets']}, time limit {fixed['time_limit_s']:g} s, cluttered "

@@ -108,7 +108,12 @@ def binomial_ci95(k: Any, n: Any) -> tuple[np.ndarray, np.ndarray]:
 
 
 def plot_recognition(
-    fits: dict[str, WeibullFit], *, pc: float = 0.5, ax: Axes | None = None, legend: bool = True
+    fits: dict[str, WeibullFit],
+    *,
+    pc: float = 0.5,
+    ax: Axes | None = None,
+    legend: bool = True,
+    midpoint: bool = False,
 ) -> Axes:
     """Plot recognition rate vs pixels per condition: data, fitted curve, 95 % band, thresholds.
 
@@ -124,12 +129,18 @@ def plot_recognition(
         Drawn into when given; a new Figure otherwise.
     legend : bool
         Draw a legend.
+    midpoint : bool
+        Mark the midpoint thresholds (between the guess rate and 1 - lapse) instead of ``pc``.
+
+    A curve whose posterior-predictive p is below :data:`analysis.weibull.summary.POOR_FIT_PPP`
+    says so in its legend entry.
 
     Returns
     -------
     matplotlib.axes.Axes
     """
     from analysis.weibull import is_log_axis
+    from analysis.weibull.summary import POOR_FIT_PPP
 
     ax = _new_ax(ax)
     log = True
@@ -146,7 +157,12 @@ def plot_recognition(
             grid = np.linspace(x.min() - pad, x.max() + pad, 200)
         med, lo, hi = fit.curve_band(grid)
         ax.fill_between(grid, lo, hi, color=color, alpha=0.2, lw=0)
-        ax.plot(grid, med, color=color, label=f"{cond}: fit, 95 % band")
+        gof = fit.goodness_of_fit()
+        poor = gof["deviance_df"] > 0 and gof["ppp"] < POOR_FIT_PPP
+        fit_label = f"{cond}: fit, 95 % band" + (
+            f" - POOR FIT (posterior-predictive p {gof['ppp']:.2f})" if poor else ""
+        )
+        ax.plot(grid, med, color=color, label=fit_label)
         clo, chi = binomial_ci95(k, n)
         ax.errorbar(
             x,
@@ -159,11 +175,12 @@ def plot_recognition(
             capsize=0,
             label=f"{cond}: data, 95 % binomial CI",
         )
-        t = fit.threshold(pc)
+        t = fit.threshold(pc, midpoint=midpoint)
         if t.measured:
             ax.axvline(t.median, color=color, ls="--", lw=0.8)
-            ax.axvspan(*t.ci95, color=color, alpha=0.08, lw=0)
-    ax.axhline(pc, color="0.6", lw=0.5)
+            ax.axvspan(*t.ci95, color=color, alpha=0.08, lw=0, label=f"{cond}: threshold, 95 % CrI")
+    if not midpoint:
+        ax.axhline(pc, color="0.6", lw=0.5)
     if log:
         ax.set_xscale("log")
     ax.set_ylim(-0.02, 1.02)
@@ -337,7 +354,8 @@ def plot_object_difficulty(logistic: LogisticFit, *, ax: Axes | None = None) -> 
 
     The paper's Fig. S3 (Jung et al. 2015; difficulty as the log odds ratio of failure).
     Positive = harder than the reference object. Error bars are 95 % profile-likelihood intervals
-    (Wald intervals when the fit has none).
+    (Wald intervals when the fit has none, said in the title); objects separated in the data
+    (no finite ML estimate) are circled and named in the legend.
 
     Parameters
     ----------
@@ -375,6 +393,18 @@ def plot_object_difficulty(logistic: LogisticFit, *, ax: Axes | None = None) -> 
         mark = "**" if r[4] < 0.01 else "*" if r[4] < 0.05 else ""
         if mark:
             ax.annotate(mark, (xi, hi[xi]), ha="center", va="bottom", fontsize="small")
+    sep = [i + 1 for i, r in enumerate(rows) if r[0] in logistic.separated]
+    if sep:  # no finite ML estimate: the point is Firth's, and is marked as such
+        ax.plot(
+            x[sep],
+            np.asarray(val)[sep],
+            "o",
+            mfc="none",
+            mec="C3",
+            ms=10,
+            label="separated in these data (ML infinite): Firth's estimate",
+        )
+        ax.legend(fontsize="x-small", frameon=False)
     ax.axhline(0, color="0.6", lw=0.5)
     ax.set_xticks(x, names, fontsize="small", rotation=55, ha="right", rotation_mode="anchor")
     ax.set_xlabel(f"object (reference: object {logistic.reference_object})")

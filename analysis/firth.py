@@ -60,8 +60,9 @@ def _objective(
     ll = _log_likelihood(y, X, n, b)
     if not penalized:
         return ll
-    p = special.expit(X @ b)
-    sign, logdet = np.linalg.slogdet(X.T @ ((n * p * (1 - p))[:, None] * X))
+    eta = X @ b
+    w = n * special.expit(eta) * special.expit(-eta)  # exact far out, where 1 - p rounds to 0
+    sign, logdet = np.linalg.slogdet(X.T @ (w[:, None] * X))
     return ll + 0.5 * logdet if sign > 0 else -math.inf
 
 
@@ -88,8 +89,9 @@ def _ascent_step(
     """
     from scipy import linalg, special
 
-    p = special.expit(X @ b)
-    w = n * p * (1 - p)
+    eta = X @ b
+    p = special.expit(eta)
+    w = n * p * special.expit(-eta)  # p (1 - p), exact far out where 1 - p rounds to 0
     hess = X.T @ (w[:, None] * X)
     resid = n * (y - p)
     if penalized:
@@ -214,6 +216,14 @@ def firth_logit(
     return b, np.sqrt(np.diag(cov)), _log_likelihood(y, X, n, b)
 
 
+def _intercept_column(X: np.ndarray, j: int) -> int | None:
+    """Return the column of ``X`` (other than ``j``) that is all ones, or None."""
+    for c in range(X.shape[1]):
+        if c != j and np.all(X[:, c] == 1.0):
+            return c
+    return None
+
+
 #: Newton iterations of one point of a profile. A well-posed point takes about five; near a
 #: separated direction the penalised surface is not concave and the climb can take a few hundred
 #: (a cap of 100 can stop a point with its deviance 1.5 above the profile's true one).
@@ -298,9 +308,22 @@ def profile_interval(
     y, X, n = _binomial_rows(y, X, n)
     free = np.arange(X.shape[1]) != j
 
+    # Each point starts from the estimate with b_j moved. Far out on the profile that can push
+    # every row's p to 0 or 1, where the information matrix is singular and Newton's method
+    # cannot start; the point is then climbed from the same start with the intercept shifted so
+    # that the linear predictor keeps its mean.
+    icpt = _intercept_column(X, j)
+    centre = float(np.average(X[:, j], weights=n))
+
     def profile(bj: float) -> float:
         b = params.copy()
         b[j] = bj
+        try:
+            return _maximise(y, X, n, b, free, penalized, max_iter=PROFILE_MAX_ITER, tol=1e-10)[0]
+        except np.linalg.LinAlgError:
+            if icpt is None:
+                raise
+        b[icpt] -= (bj - params[j]) * centre
         return _maximise(y, X, n, b, free, penalized, max_iter=PROFILE_MAX_ITER, tol=1e-10)[0]
 
     l_max = profile(float(params[j]))

@@ -40,6 +40,7 @@ __all__ = [
     "profile_interval",
     "SEPARATION_LOG_OR",
     "DEFAULT_INTERVAL",
+    "DEFAULT_ESTIMATOR_TEXT",
     "ODDS_RATIO_QUESTION",
     "predict_from_odds_ratio",
 ]
@@ -54,6 +55,9 @@ _COLUMNS = ("term", "odds_ratio", "ci95_low", "ci95_high", "p_value")
 #: error), so the ML Wald and profile intervals cover less than 95 %; Firth's estimate removes
 #: that bias (benchmarks/validate_or_coverage.py).
 DEFAULT_INTERVAL: str = "firth_profile"
+#: The default estimate and interval in one phrase, printed beside each reported odds ratio on
+#: the console and in the report.
+DEFAULT_ESTIMATOR_TEXT: str = "Firth's estimate, profile penalised-likelihood 95 % CI"
 #: Terms whose odds ratios the report states (their Firth profile intervals are computed also
 #: when ML exists; object dummies keep their ML profile intervals, for Fig. S3).
 _REPORTED_TERMS: tuple[str, ...] = ("background", "log10_pixels")
@@ -184,10 +188,15 @@ class LogisticFit:
     def intervals(self, term: str) -> dict[str, Any]:
         """Return the odds ratio of ``term`` with each of its 95 % intervals, by name.
 
-        ``{"interval": name of the default, "or": the default's estimate, "ci95": the default
-        interval, "question": the question it answers, "ml_or": the ML odds ratio (the paper's),
-        "wald", "profile", "firth_or", "firth_profile"}``; what the fit does not have is left
-        out, an unbounded interval end is None (JSON).
+        ``{"interval": name of the default, "estimator": the default in words, "or": the
+        default's estimate, "ci95": the default interval, "question": the question it answers,
+        "ml_or": the ML odds ratio (the paper's), "wald", "profile", "firth_or",
+        "firth_profile"}``; what the fit does not have is left out, an unbounded interval end is
+        None (JSON). One rule for every reported term (:data:`DEFAULT_INTERVAL`): Firth's
+        estimate with its profile penalised-likelihood interval. Where that profile could not be
+        computed the default interval is ``[None, None]`` with a ``note`` saying so, never a
+        Wald interval in its place (Wald ends of a separated term can be orders of magnitude too
+        close to the estimate).
         """
         o = self.odds_ratios[term]
         out: dict[str, Any] = {}
@@ -196,20 +205,30 @@ class LogisticFit:
             out["wald"] = list(o["ci95"])
             if term in self.profile_ci95:
                 out["profile"] = [_finite(v) for v in self.profile_ci95[term]]
-        if term in self.firth_profile_ci95 and term in self.firth_params:
+        if term in self.firth_params:
             out["firth_or"] = math.exp(self.firth_params[term])
+        if term in self.firth_profile_ci95 and term in self.firth_params:
             out["firth_profile"] = [_finite(v) for v in self.firth_profile_ci95[term]]
             name, est, ci = DEFAULT_INTERVAL, out["firth_or"], out["firth_profile"]
-        else:  # no Firth interval: the ML profile, else Wald
-            name = "profile" if "profile" in out else "wald"
-            est, ci = o["or"], out.get(name, list(o["ci95"]))
-        return {
+            note = ""
+        else:
+            name, ci = "none", [None, None]
+            est = out.get("firth_or", o["or"])
+            note = (
+                "the profile interval could not be computed here; no interval is given (a "
+                "Wald interval can be far narrower than these data support)"
+            )
+        res = {
             "interval": name,
+            "estimator": DEFAULT_ESTIMATOR_TEXT if "firth_or" in out else "ML",
             "or": est,
             "ci95": ci,
             "question": ODDS_RATIO_QUESTION,
             **out,
         }
+        if note:
+            res["note"] = note
+        return res
 
     def reported_intervals(self) -> dict[str, dict[str, Any]]:
         """Return :meth:`intervals` of the odds ratios the report states (results.json)."""
@@ -482,18 +501,33 @@ def fit_logistic(
                 )
             )
     y_all = d["recognized"].to_numpy(float)
-    profile = _profiles(y_all, X, names, params, bse, penalized=method == "firth")
+    failed: list[str] = []
+    profile = _profiles(y_all, X, names, params, bse, penalized=method == "firth", failed=failed)
     if method == "firth":
         f_params, f_profile = params, profile
     else:
         try:
             f_params, f_bse, _ = firth_logit(y_all, X)
             f_profile = _profiles(
-                y_all, X, names, f_params, f_bse, penalized=True, only=_REPORTED_TERMS
+                y_all,
+                X,
+                names,
+                f_params,
+                f_bse,
+                penalized=True,
+                only=_REPORTED_TERMS,
+                failed=failed,
             )
         except np.linalg.LinAlgError:
             f_params, f_profile = None, {}
             notes.append("Firth's penalised fit failed: ML intervals only")
+    for term in dict.fromkeys(failed):
+        if term in _REPORTED_TERMS:
+            notes.append(
+                f"the profile interval of the {term} odds ratio could not be computed; no "
+                "interval is reported for it (a Wald interval can be far narrower than the data "
+                "support)"
+            )
     notes = list(dict.fromkeys(notes))
     for n in notes:
         logger.warning("logistic model: %s", n)
@@ -533,11 +567,12 @@ def _profiles(
     *,
     penalized: bool,
     only: tuple[str, ...] | None = None,
+    failed: list[str] | None = None,
 ) -> dict[str, tuple[float, float]]:
     """Return the 95 % profile (penalised if ``penalized``) interval of each term's odds ratio.
 
     Subject dummies are skipped (never reported), and with ``only`` every term not in it; a term
-    whose profile fails is left out.
+    whose profile fails is left out and its name appended to ``failed``.
     """
     out: dict[str, tuple[float, float]] = {}
     for j, name in enumerate(names):
@@ -548,6 +583,8 @@ def _profiles(
         try:
             lo_b, hi_b = profile_interval(y, X, j, params=params, bse=bse, penalized=penalized)
         except (np.linalg.LinAlgError, ValueError, ArithmeticError):
+            if failed is not None:
+                failed.append(_term_name(name))
             continue
         with np.errstate(over="ignore"):
             out[_term_name(name)] = (float(np.exp(lo_b)), float(np.exp(hi_b)))

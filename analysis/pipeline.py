@@ -126,10 +126,14 @@ class AnalysisResult:
     simulated_sessions: tuple[str, ...] = ()
 
     def predictions(self) -> dict[str, Any] | None:
-        """Return Eq. 1 applied with the fitted background odds ratio (None when not estimated)."""
+        """Return Eq. 1 applied with the reported background odds ratio (None when not estimated).
+
+        The reported odds ratio is the one the console and the report print
+        (:meth:`analysis.logistic.LogisticFit.intervals`: Firth's estimate).
+        """
         if not self.logistic.has("background"):
             return None
-        odds = self.logistic.odds_ratios["background"]["or"]
+        odds = self.logistic.intervals("background")["or"]
         ref = [0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9]
         return {
             "background_or": odds,
@@ -281,15 +285,13 @@ def first_recognized(trials: pd.DataFrame) -> dict[str, dict[str, dict[str, floa
     """
     out: dict[str, dict[str, dict[str, float | None]]] = {}
     objects = object_order(trials["object"])
+    rec = trials[trials["recognized"] == 1]
+    lowest = rec.groupby(
+        [rec["subject"].astype(str), rec["object"].astype(str), rec["condition"].astype(str)]
+    )["pixels"].min()
+    low = {k: float(v) for k, v in lowest.items()}
     for s in object_order(trials["subject"]):
-        ts = trials[trials["subject"] == s]
-        out[s] = {}
-        for o in objects:
-            to = ts[ts["object"] == o]
-            out[s][o] = {}
-            for c in CONDITIONS:
-                rec = to[(to["condition"] == c) & (to["recognized"] == 1)]["pixels"]
-                out[s][o][c] = float(rec.min()) if len(rec) else None
+        out[s] = {o: {c: low.get((str(s), str(o), c)) for c in CONDITIONS} for o in objects}
     return out
 
 

@@ -54,6 +54,9 @@ __all__ = [
     "iter_fit_table",
     "write_fit_report",
     "render_fit_markdown",
+    "threshold_name",
+    "y_label",
+    "COMBINED_PLOT",
 ]
 
 _SHAPE_AXIS_TO_SIGMOID = {(shape, axis): name for name, (shape, axis) in SIGMOIDS.items()}
@@ -112,9 +115,11 @@ class FitSpec:
     guess : float
         Guess rate in [0, 1) (0.5 for 2AFC, 1/m for m-AFC).
     pcs : tuple of float
-        Proportions correct of the thresholds, each in (guess, 1).
+        Proportions correct of the thresholds, each in (guess, 1). Empty (the default):
+        psignifit's threshold, where the curve is midway between the guess rate and 1 - lapse,
+        whatever the guess rate.
     overdispersion : bool
-        Beta-binomial posteriors (free scale eta).
+        Beta-binomial posteriors (free scale eta); off by default, as ``analyze run``.
     seed : int or None
         Seed of the sampler.
     """
@@ -128,8 +133,8 @@ class FitSpec:
     sigmoid: str = "auto"
     axis: str = "auto"
     guess: float = 0.0
-    pcs: tuple[float, ...] = (0.5,)
-    overdispersion: bool = True
+    pcs: tuple[float, ...] = ()
+    overdispersion: bool = False
     seed: int | None = None
 
     def __post_init__(self) -> None:
@@ -152,8 +157,6 @@ class FitSpec:
     def _check_guess_pcs(self) -> None:
         if not (0.0 <= self.guess < 1.0):
             raise ValueError(f"--guess must be in [0, 1), got {self.guess!r}")
-        if not self.pcs:
-            raise ValueError("--pc needs at least one proportion correct")
         for pc in self.pcs:
             if not (self.guess < pc < 1.0):
                 raise ValueError(f"--pc values must be in (guess {self.guess:g}, 1), got {pc!r}")
@@ -377,8 +380,14 @@ class GroupFit:
         """``col=value, ...`` (``all`` without groups)."""
         return _label(self.group)
 
+    def thresholds(self, pcs: Sequence[float]) -> list[Any]:
+        """Return the thresholds at ``pcs``, or the midpoint threshold when ``pcs`` is empty."""
+        if not pcs:
+            return [self.fit.threshold(midpoint=True)]
+        return [self.fit.threshold(pc) for pc in pcs]
+
     def to_json(self, pcs: Sequence[float]) -> dict[str, Any]:
-        """Return the results.json entry of this group."""
+        """Return the results.json entry of this group (``pcs`` empty: the midpoint threshold)."""
         f = self.fit
         a, b, lapse = f.parameter_samples()
 
@@ -397,7 +406,7 @@ class GroupFit:
             "levels": list(f.levels),
             "k": list(f.k),
             "n": list(f.n),
-            "thresholds": [f.threshold(pc).to_dict() for pc in pcs],
+            "thresholds": [t.to_dict() for t in self.thresholds(pcs)],
             "parameters": {
                 "alpha": par(a, f.mle.alpha),
                 "beta": par(b, f.mle.beta),
@@ -444,11 +453,29 @@ class TableFit:
             "axis": SIGMOIDS[self.sigmoid][1],
             "guess": s.guess,
             "pcs": list(s.pcs),
+            "threshold_rule": _rule_text(s),
             "overdispersion": s.overdispersion,
             "seed": s.seed,
             "groups": [g.to_json(s.pcs) for g in self.groups],
             "warnings": list(self.warnings),
         }
+
+
+def _rule_text(spec: FitSpec) -> str:
+    """Say in words where the thresholds are taken."""
+    if not spec.pcs:
+        return (
+            "midpoint between the guess rate and 1 - lapse (psignifit's convention; --pc for "
+            "fixed proportions correct)"
+        )
+    return "proportion correct " + ", ".join(f"{pc:g}" for pc in spec.pcs) + " (--pc)"
+
+
+def threshold_name(t: dict[str, Any]) -> str:
+    """Name a threshold of results.json: ``midpoint threshold`` or ``75% threshold``."""
+    if t.get("midpoint"):
+        return "midpoint threshold"
+    return f"{100 * t['pc']:g}% threshold"
 
 
 def _source_record(source: str) -> dict[str, Any]:
@@ -510,7 +537,12 @@ def iter_fit_table(
             fits = prog.fits
     out = []
     for (gv, *_), fit, w in zip(groups, fits, per_group, strict=True):
-        ws = tuple(dict.fromkeys([*w, *[d for pc in spec.pcs for d in fit.diagnostics(pc)]]))
+        diag = (
+            [d for pc in spec.pcs for d in fit.diagnostics(pc)]
+            if spec.pcs
+            else fit.diagnostics(midpoint=True)
+        )
+        ws = tuple(dict.fromkeys([*w, *diag]))
         notes += ws
         out.append(GroupFit(gv, fit, ws))
     yield len(jobs), len(jobs), TableFit(source, spec, sigmoid, tuple(out), tuple(notes))
@@ -544,12 +576,15 @@ def _threshold_md(t: dict[str, Any]) -> str:
         return (
             f"{_fmt(t['median'])} ({_fmt(t['ci95'][0])}-{_fmt(t['ci95'][1])}); ML {_fmt(t['mle'])}"
         )
-    return _unmeasured_text(t, "{:.4g}", below="censored", above="censored", with_reason=True)
+    text = _unmeasured_text(t, "{:.4g}", below="censored", above="censored", with_reason=True)
+    if t["status"] == "unidentified" and t.get("mle") is not None:
+        text += f"; ML {_fmt(t['mle'])}"
+    return text
 
 
 def render_fit_markdown(r: dict[str, Any], plots: Sequence[str]) -> str:
     """Return report.md for a :meth:`TableFit.results_json` dict and its plot file names."""
-    pcs = r["pcs"]
+    heads = [threshold_name(t) for t in r["groups"][0]["thresholds"]] if r["groups"] else []
     lines = [
         "# Psychometric functions",
         "",
@@ -558,16 +593,20 @@ def render_fit_markdown(r: dict[str, Any], plots: Sequence[str]) -> str:
         + (
             "beta-binomial overdispersion (free scale eta, psignifit 4 style)."
             if r["overdispersion"]
-            else "binomial likelihood."
+            else "binomial likelihood (--overdispersion for beta-binomial)."
         ),
         "",
-        "Thresholds: posterior median (95 % credible interval); ML = maximum likelihood. "
-        "A threshold outside the tested levels is given as a bound, not a number.",
+        f"Thresholds at the {r['threshold_rule']}: posterior median (95 % credible interval); "
+        "ML = maximum likelihood. A threshold outside the tested levels is given as a bound, "
+        "an unidentified one by the tested levels that bracket it and its ML value, not as a "
+        "measurement.",
         "",
-        "| group | trials | "
-        + " | ".join(f"threshold at {100 * pc:g} %" for pc in pcs)
-        + " | deviance (df) | PPP | converged |",
-        "|---|---|" + "---|" * len(pcs) + "---|---|---|",
+        "Fit quality: deviance of the ML curve against the saturated model (df = levels - 3) and "
+        "the posterior-predictive p (PPP) of that deviance; a curve with PPP < 0.01 is named in "
+        "the warnings as not describing its data.",
+        "",
+        "| group | trials | " + " | ".join(heads) + " | deviance (df) | PPP | converged |",
+        "|---|---|" + "---|" * len(heads) + "---|---|---|",
     ]
     for g in r["groups"]:
         gof = g["goodness_of_fit"]
@@ -597,32 +636,67 @@ def _plot_name(i: int, label: str) -> str:
     return f"fit_{i + 1:02d}_{slug}.png"
 
 
+def y_label(spec: FitSpec) -> str:
+    """Say what the plotted proportion is, from the column that holds it."""
+    if spec.y is not None:
+        return f"proportion of trials with {spec.y} = 1"
+    if spec.k is not None:
+        return f"{spec.k} / {spec.n}"
+    return f"{spec.p} (proportion)"
+
+
+#: The combined plot of every group (drawn when there are two or more).
+COMBINED_PLOT = "fit_all_groups.png"
+
+
 def write_fit_report(result: TableFit, out_dir: str | Path, *, plots: bool = True) -> Path:
-    """Write ``results.json``, ``report.md`` and one plot per group to ``out_dir``, atomically.
+    """Write ``results.json``, ``report.md`` and the plots to ``out_dir``, atomically.
 
     Like :func:`analysis.report.write_report` (the folder is replaced if it exists, and returned
     resolved), for a :class:`TableFit`; ``plots`` draws a PNG (300 dpi) per group: data with
-    95 % binomial intervals, the fitted curve with its 95 % band, and the measured thresholds.
+    95 % binomial intervals, the fitted curve with its 95 % band, the measured thresholds, and
+    the fit's deviance and posterior-predictive p in the title; with two or more groups also
+    :data:`COMBINED_PLOT`, every group on one axis. The y axis says what the column holds.
     """
     from analysis.pipeline import _clean
     from analysis.report import atomic_folder, results_json_text
 
     r = result.results_json()
     names = [_plot_name(i, g.label) for i, g in enumerate(result.groups)] if plots else []
+    if plots and len(result.groups) > 1:
+        names.append(COMBINED_PLOT)
     with atomic_folder(out_dir) as tmp:
         (tmp / "results.json").write_text(results_json_text(_clean(r)), encoding="utf-8")
         (tmp / "report.md").write_text(render_fit_markdown(r, names), encoding="utf-8")
         if plots:
-            from analysis.figures import plot_recognition
-
-            for name, g in zip(names, result.groups, strict=True):
-                ax = plot_recognition({g.label: g.fit}, pc=result.spec.pcs[0])
-                ax.set_xlabel(result.spec.x)
-                ax.set_ylabel("proportion correct")
-                ax.set_title(g.label, fontsize="small")
-                if any(w.startswith("SIMULATED data") for w in result.warnings):
-                    from analysis.figures import mark_simulated
-
-                    mark_simulated(ax.figure)
-                ax.figure.savefig(tmp / name, dpi=300, bbox_inches="tight", pad_inches=0.04)
+            _draw_plots(result, r, names, tmp)
     return Path(out_dir).resolve()
+
+
+def _draw_plots(result: TableFit, r: dict[str, Any], names: list[str], tmp: Path) -> None:
+    """Draw one plot per group and the combined plot into ``tmp``."""
+    from analysis.figures import mark_simulated, plot_recognition
+    from analysis.weibull.summary import POOR_FIT_PPP
+
+    spec = result.spec
+    pc = spec.pcs[0] if spec.pcs else 0.5
+    sim = any(w.startswith("SIMULATED data") for w in result.warnings)
+    pairs = zip(result.groups, r["groups"], strict=True)
+    jobs = [({g.label: g.fit}, g.label, [gj]) for g, gj in pairs]
+    if len(result.groups) > 1:
+        jobs.append(({g.label: g.fit for g in result.groups}, "all groups", r["groups"]))
+    for name, (fits, title, gjs) in zip(names, jobs, strict=True):
+        ax = plot_recognition(fits, pc=pc, midpoint=not spec.pcs, legend=len(fits) < 8)
+        ax.set_xlabel(spec.x)
+        ax.set_ylabel(y_label(spec))
+        if len(gjs) == 1:
+            gof = gjs[0]["goodness_of_fit"]
+            poor = gof["deviance_df"] > 0 and gof["ppp"] < POOR_FIT_PPP
+            title += (
+                f"\ndeviance {gof['deviance']:.1f} ({gof['deviance_df']} df), PPP "
+                f"{gof['ppp']:.2f}" + (": POOR FIT" if poor else "")
+            )
+        ax.set_title(title, fontsize="small")
+        if sim:
+            mark_simulated(ax.figure)
+        ax.figure.savefig(tmp / name, dpi=300, bbox_inches="tight", pad_inches=0.04)

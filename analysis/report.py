@@ -163,15 +163,21 @@ def _or_text(
     profile: Any = None,
     intervals: dict[str, Any] | None = None,
 ) -> str:
-    if intervals and intervals.get("interval") == "firth_profile":
-        # The default first (simulated coverage 0.95), the paper's ML intervals beside it.
-        ci = f"95 % CI {_or_ends(intervals['firth_profile'])} Firth profile penalised likelihood"
+    if intervals:
+        # The default first (one rule, said beside it), the paper's ML intervals after it.
+        if intervals["interval"] == "none":
+            ci = f"no 95 % CI: {intervals['note']}"
+        else:
+            ci = f"95 % CI {_or_ends(intervals['ci95'])} Firth profile penalised likelihood"
         if "ml_or" in intervals:
             ci += f"; ML {intervals['ml_or']:.3g}, 95 % CI {_or_ends(intervals['wald'])} Wald"
             if "profile" in intervals:
                 ci += f", {_or_ends(intervals['profile'])} profile likelihood"
         wald = "ML Wald" if "ml_or" in intervals else "Wald"
-        base = f"{intervals['or']:.3g} ({ci}; {wald} {p_text(o['p'])}; for {QUESTION_SAMPLE})"
+        what = "Firth's estimate" if "firth_or" in intervals else "ML estimate"
+        base = (
+            f"{intervals['or']:.3g} ({what}; {ci}; {wald} {p_text(o['p'])}; for {QUESTION_SAMPLE})"
+        )
         if term in separated:
             return f"{base}; separated in these data (the ML odds ratio is infinite)"
         return base
@@ -332,7 +338,7 @@ def render_markdown(
                 ", the odds ratio for background was "
                 f"{_or_text(bg, 'background', sep, prof.get('background'), ivs.get('background'))}"
                 ": holding the other variables constant, a de-cluttered image is "
-                f"{bg['or']:.3g} times{' (ML)' if 'background' in ivs else ''} more "
+                f"{ivs.get('background', bg)['or']:.3g} times more "
                 "likely (in odds) to be recognised than a background-cluttered one. By Eq. 1, if "
                 "the cluttered recognition rate is 50 %, the de-cluttered rate is expected to be "
                 f"{100 * pr['decluttered_if_cluttered_50pct']:.1f} %; if the de-cluttered rate is "
@@ -351,7 +357,7 @@ def render_markdown(
             lines += [
                 "",
                 f"The odds ratio per log10 pixels was {lp_text}: the odds of recognition are "
-                f"multiplied by {lp['or']:.3g}{' (ML)' if 'log10_pixels' in ivs else ''} for a "
+                f"multiplied by {ivs.get('log10_pixels', lp)['or']:.3g} for a "
                 f"tenfold increase in resolution (paper: {OR_LOG10_PIXELS}, "
                 f"{OR_LOG10_PIXELS_CI95[0]}-{OR_LOG10_PIXELS_CI95[1]}).",
             ]

@@ -51,6 +51,8 @@ __all__ = [
     "recognition_model",
     "mean_ci95",
     "analyze_survival",
+    "MIXED_FE_PRIOR_SD",
+    "MIXED_VC_PRIOR_SD",
 ]
 
 #: What the analysis censors, in words (report and ``results.json``).
@@ -452,9 +454,17 @@ class RecognitionModel:
         return _from_dict(cls, d, ci95="odds_ratio_ci95")
 
 
+#: The mixed model's priors (statsmodels' defaults, passed explicitly so they are the ones
+#: stated): SD of the normal prior of each fixed effect (log-odds) and of each log random-effect
+#: SD. A N(0, 2^2) prior on the log odds ratio shrinks a large odds ratio towards 1.
+MIXED_FE_PRIOR_SD: float = 2.0
+MIXED_VC_PRIOR_SD: float = 1.0
+
 _MODEL_METHOD = (
     "mixed-effects logistic regression of recognition: condition fixed, subject random "
-    "intercept (statsmodels BinomialBayesMixedGLM, variational Bayes)"
+    "intercept (statsmodels BinomialBayesMixedGLM, variational Bayes; priors: fixed effects "
+    f"N(0, {MIXED_FE_PRIOR_SD:g}^2) on the log-odds scale, log subject SD "
+    f"N(0, {MIXED_VC_PRIOR_SD:g}^2), which shrink a large odds ratio towards 1)"
 )
 
 
@@ -504,7 +514,13 @@ def recognition_model(
     with warnings.catch_warnings(), np.errstate(all="ignore"):
         warnings.simplefilter("ignore")
         try:
-            m = BinomialBayesMixedGLM.from_formula("y ~ x", {"subject": "0 + C(subject)"}, df)
+            m = BinomialBayesMixedGLM.from_formula(
+                "y ~ x",
+                {"subject": "0 + C(subject)"},
+                df,
+                vcp_p=MIXED_VC_PRIOR_SD,
+                fe_p=MIXED_FE_PRIOR_SD,
+            )
             r = m.fit_vb()
         except (np.linalg.LinAlgError, ValueError) as exc:
             return out(note=f"not estimable: the fit failed ({exc})")
@@ -717,6 +733,12 @@ def analyze_survival(trials: pd.DataFrame) -> SurvivalAnalysis:
     units = set()
     for c, g in df.groupby("condition", sort=True):
         for name, col in SECONDARY_MEASURES.items():
+            if name == "zoom_use_rate":  # a share: Wilson, within [0, 1]
+                from analysis.shares import share_ci95
+
+                _, ci, _ = share_ci95(g[col].astype(float), g["subject"])
+                secondary.setdefault(c, {})[name] = ci
+                continue
             _, ci, unit = mean_ci95(g[col].astype(float), g["subject"])
             secondary.setdefault(c, {})[name] = ci
             units.add(unit)
@@ -726,6 +748,9 @@ def analyze_survival(trials: pd.DataFrame) -> SurvivalAnalysis:
         else "mean with a t 95 % interval over trials (one subject: trials treated as independent)"
         if units == {"trials"}
         else "mean with a t 95 % interval over subject means, over trials where one subject"
+    ) + (
+        "; zoom use, a share, has a Wilson 95 % interval (with several subjects on the "
+        "effective number of trials, from the spread of subject shares), within 0-100 %"
     )
     others = [c for c in conds if c != reference]
     comparisons = tuple(

@@ -14,6 +14,7 @@ from analysis.weibull.model import (
     _V_MAX,
     ETA_MAX,
     _core,
+    _core_inverse,
     _p_matrix,
     _params,
     is_log_axis,
@@ -31,7 +32,12 @@ from analysis.weibull.threshold import (
     bracket,
 )
 
-__all__ = ["WeibullFit"]
+__all__ = ["WeibullFit", "POOR_FIT_PPP"]
+
+#: Posterior-predictive p below which a fitted curve is named in the warnings as not describing
+#: its data (ours; the deviance of data simulated from the posterior exceeds the observed
+#: deviance in fewer than 1 % of draws).
+POOR_FIT_PPP: float = 0.01
 
 
 @dataclass(frozen=True)
@@ -134,27 +140,61 @@ class WeibullFit:
             np.asarray(self.levels), np.asarray(self.k), np.asarray(self.n), self.sigmoid
         )
 
-    def threshold(self, pc: float = 0.5) -> Threshold:
-        """Return the threshold at proportion correct ``pc`` with its status (see Threshold)."""
+    def threshold(self, pc: float = 0.5, *, midpoint: bool = False) -> Threshold:
+        """Return the threshold at proportion correct ``pc`` with its status (see Threshold).
+
+        With ``midpoint`` (psignifit's convention) the threshold is where the curve is midway
+        between the guess rate and 1 - lapse, i.e. where the sigmoid itself is 0.5, for each
+        posterior draw and the ML curve; ``pc`` is then ignored and the returned ``pc`` is that
+        midpoint on the ML curve (used for the status and the bracket).
+
+        A censored status must agree with the data: "below the lowest level tested" only when
+        no tested level has a (monotone-smoothed) proportion correct below ``pc``, "above the
+        highest" only when none is above it; otherwise the threshold is unidentified and given
+        by the tested levels that bracket it. The bracket is widened, where needed, to the tested
+        levels around the ML threshold, printed beside it, so that it contains the estimate.
+        """
         a, b, lapse = self.parameter_samples()
-        t = threshold_at(pc, a, b, lapse, guess=self.guess, sigmoid=self.sigmoid)
+        m = self.mle
+        if midpoint:
+            half = np.full(np.shape(a), 0.5)
+            t = _core_inverse(half, a, b, self.sigmoid)
+            t_mle = float(_core_inverse(np.array(0.5), m.alpha, m.beta, self.sigmoid))
+            pc = self.guess + 0.5 * (1.0 - self.guess - m.lapse)
+        else:
+            t = threshold_at(pc, a, b, lapse, guess=self.guess, sigmoid=self.sigmoid)
+            t_mle = float(
+                threshold_at(pc, m.alpha, m.beta, m.lapse, guess=self.guess, sigmoid=self.sigmoid)
+            )
         # 'inverted_cdf' does not interpolate, so +inf samples (curve never reaches pc) are safe.
         q = np.quantile(t, [0.025, 0.5, 0.975], method="inverted_cdf")
-        m = self.mle
-        t_mle = float(
-            threshold_at(pc, m.alpha, m.beta, m.lapse, guess=self.guess, sigmoid=self.sigmoid)
-        )
         lo, hi = min(self.levels), max(self.levels)
-        status, reason = self._status(pc, float(q[1]), (float(q[0]), float(q[2])), t_mle)
-        br = (math.nan, math.nan)
-        if status != "unidentified" or "decreases" not in reason:
-            br = bracket(self.levels, self.k, self.n, pc)
+        br = bracket(self.levels, self.k, self.n, pc)
+        status, reason = self._status(pc, float(q[1]), (float(q[0]), float(q[2])), t_mle, br)
+        if status == "unidentified" and "decreases" in reason:
+            br = (math.nan, math.nan)
+        else:
+            br = _widen(br, self.levels, t_mle)
         return Threshold(
-            float(pc), float(q[1]), (float(q[0]), float(q[2])), t_mle, status, lo, hi, reason, br
+            float(pc),
+            float(q[1]),
+            (float(q[0]), float(q[2])),
+            t_mle,
+            status,
+            lo,
+            hi,
+            reason,
+            br,
+            midpoint,
         )
 
     def _status(
-        self, pc: float, med: float, ci: tuple[float, float], t_mle: float
+        self,
+        pc: float,
+        med: float,
+        ci: tuple[float, float],
+        t_mle: float,
+        br: tuple[float, float] = (math.nan, math.nan),
     ) -> tuple[str, str]:
         k, n = np.asarray(self.k), np.asarray(self.n)
         lo, hi = min(self.levels), max(self.levels)
@@ -172,8 +212,18 @@ class WeibullFit:
         if self.decreasing():
             return "unidentified", "proportion correct decreases with level"
         if not (med <= hi):  # also inf / NaN
+            if math.isfinite(br[1]):  # a tested level is above pc: not censored above
+                return "unidentified", (
+                    f"posterior median above the highest level tested, but the data reach pc at "
+                    f"{_num(br[1])}"
+                )
             return "censored_above", "posterior median above the highest level tested"
         if med < lo:
+            if math.isfinite(br[0]):  # a tested level is below pc: not censored below
+                return "unidentified", (
+                    f"posterior median below the lowest level tested, but the data are below pc "
+                    f"at {_num(br[0])}"
+                )
             return "censored_below", "posterior median below the lowest level tested"
         # Where the data do not identify the curve, an interval would be the prior's, not the
         # data's: each case below is reported by its bracketing levels, with no interval.
@@ -226,13 +276,15 @@ class WeibullFit:
                     return f"{name} on its prior {side} bound ({value:.3g})"
         return ""
 
-    def diagnostics(self, pc: float = 0.5) -> list[str]:
+    def diagnostics(self, pc: float = 0.5, *, midpoint: bool = False) -> list[str]:
         """Return one-line warnings about this fit (unconverged chain, binding prior bound, ...).
 
         Parameters
         ----------
         pc : float
             Proportion correct of the threshold checked for ML/posterior disagreement.
+        midpoint : bool
+            Check the midpoint threshold instead (:meth:`threshold`).
 
         Returns
         -------
@@ -286,7 +338,7 @@ class WeibullFit:
                 f"{name}: proportion correct decreases with level; an increasing psychometric "
                 "function does not describe these data and its thresholds are not reported"
             )
-        t = self.threshold(pc)
+        t = self.threshold(pc, midpoint=midpoint)
         if t.status == "measured" and not (t.ci95[0] <= t.mle <= t.ci95[1]):
             out.append(
                 f"{name}: the ML threshold ({t.mle:.4g}) lies outside the 95 % credible interval "
@@ -303,6 +355,14 @@ class WeibullFit:
             out.append(
                 f"{name}: only {len(self.levels)} level(s) tested; the slope is not "
                 "identified by the data"
+            )
+        g = self.goodness_of_fit()
+        if g["deviance_df"] > 0 and g["ppp"] < POOR_FIT_PPP:
+            out.append(
+                f"{name}: the fitted curve does not describe the data (posterior-predictive "
+                f"p = {g['ppp']:.3f} < {POOR_FIT_PPP:g}; deviance {g['deviance']:.1f} on "
+                f"{g['deviance_df']} df): its thresholds and intervals rest on a model that "
+                "misses the data"
             )
         return out
 
@@ -450,6 +510,25 @@ class WeibullFit:
             prior=PsychometricPrior.from_dict(d["prior"]),
             overdispersion=bool(d.get("overdispersion", False)),
         )
+
+
+def _widen(br: tuple[float, float], levels: Any, t_mle: float) -> tuple[float, float]:
+    """Widen a bracket to the tested levels around ``t_mle`` when it lies outside the bracket.
+
+    A side that is NaN stays NaN only if ``t_mle`` lies on the bracket's open side; an ML
+    threshold outside the tested range leaves that side open (NaN).
+    """
+    lo, hi = br
+    if not math.isfinite(t_mle) or (math.isnan(lo) and math.isnan(hi)):
+        return br
+    x = np.asarray(levels, float)
+    if math.isfinite(lo) and t_mle < lo:
+        below = x[x <= t_mle]
+        lo = float(below.max()) if below.size else math.nan
+    if math.isfinite(hi) and t_mle > hi:
+        above = x[x >= t_mle]
+        hi = float(above.min()) if above.size else math.nan
+    return lo, hi
 
 
 def _num(v: float) -> str:

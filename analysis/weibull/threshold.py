@@ -48,8 +48,12 @@ class Threshold:
         Why the status is not ``measured`` (empty when it is), e.g. ``2 levels with data``.
     bracket : (float, float)
         The tested levels between which the observed proportion correct crosses ``pc``
-        (:func:`bracket`), x units; NaN on a side with no such level, both NaN when the data
-        give no bracket (e.g. proportion correct decreasing with level).
+        (:func:`bracket`), widened to contain the ML threshold, x units; NaN on a side with no
+        such level, both NaN when the data give no bracket (e.g. proportion correct decreasing
+        with level).
+    midpoint : bool
+        The threshold is psignifit's: where the curve is midway between the guess rate and
+        1 - lapse (``pc`` is that midpoint on the ML curve).
     """
 
     pc: float
@@ -61,6 +65,7 @@ class Threshold:
     highest: float = math.nan
     reason: str = ""
     bracket: tuple[float, float] = (math.nan, math.nan)
+    midpoint: bool = False
 
     @property
     def measured(self) -> bool:
@@ -90,6 +95,7 @@ class Threshold:
             "highest_tested": _json_float(self.highest),
             "reason": self.reason,
             "bracket": [_json_float(self.bracket[0]), _json_float(self.bracket[1])],
+            "midpoint": self.midpoint,
         }
 
 

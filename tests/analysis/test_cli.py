@@ -71,7 +71,7 @@ def test_results_json_keys(report, small_trials):
         "cutoff",
     }
     p = r["predictions"]
-    o = ors["background"]["or"]
+    o = r["logistic"]["intervals"]["background"]["or"]  # the reported (Firth) odds ratio
     assert p["decluttered_if_cluttered_50pct"] == pytest.approx(o / (1 + o), rel=1e-12)
 
 

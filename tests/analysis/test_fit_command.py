@@ -293,7 +293,7 @@ def test_fit_command_writes_a_plot_per_group(tmp_path):
         )
     assert exc.value.code in (0, None)
     pngs = sorted(x.name for x in (tmp_path / "r").glob("*.png"))
-    assert pngs == ["fit_01_obs_a.png", "fit_02_obs_b.png"]
+    assert pngs == ["fit_01_obs_a.png", "fit_02_obs_b.png", "fit_all_groups.png"]
     r = json.loads((tmp_path / "r" / "results.json").read_text())
     assert [len(g["thresholds"]) for g in r["groups"]] == [2, 2]
     assert "| obs=a |" in (tmp_path / "r" / "report.md").read_text()

@@ -71,8 +71,7 @@ def test_spec_and_sigmoid_checks():
         resolve_sigmoid("weibull", "ln")
     with pytest.raises(ValueError, match=r"--guess must be in \[0, 1\), got 1.0"):
         FitSpec(x="x", y="y", guess=1.0)
-    with pytest.raises(ValueError, match="--pc needs at least one proportion correct"):
-        FitSpec(x="x", y="y", pcs=())
+    assert FitSpec(x="x", y="y").pcs == ()  # no --pc: psignifit's midpoint threshold
     with pytest.raises(ValueError, match="--axis must be auto, log or linear"):
         FitSpec(x="x", y="y", axis="ln")
 
