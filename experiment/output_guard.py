@@ -329,9 +329,9 @@ class _Output:
             now = identity(self.real)
             if now is not None and now in _published_here(self.real):
                 remove_own_tree(self.real, now)
-            if self.state == "empty":
-                with contextlib.suppress(OSError):
-                    os.mkdir(self.real)  # the user's empty folder, as it was
+        if self.state == "empty" and not os.path.lexists(self.real):
+            with contextlib.suppress(OSError):
+                os.mkdir(self.real)  # the user's empty folder, as it was
         self._restore()
         remove_made(self.made)
 
