@@ -39,6 +39,7 @@ __all__ = [
     "Identity",
     "resolve",
     "is_link_loop",
+    "missing_before_dotdot",
     "identity",
     "rename_noreplace",
     "make_parents",
@@ -65,6 +66,20 @@ def resolve(path: str | os.PathLike) -> Path:
     ``link/..`` before the link is followed).
     """
     return Path(os.path.realpath(os.fspath(path)))
+
+
+def missing_before_dotdot(path: str | os.PathLike) -> str | None:
+    """Return the part of ``path`` up to its last ``..`` when that part does not exist, else None.
+
+    The kernel cannot take ``..`` from a folder that is not there (``new/../x`` fails), whereas
+    :func:`os.path.realpath` drops both words; such a path is refused rather than guessed.
+    """
+    parts = os.fspath(path).split(os.sep)
+    if ".." not in parts:
+        return None
+    last = len(parts) - 1 - parts[::-1].index("..")
+    prefix = os.sep.join(parts[: last + 1]) or os.sep
+    return None if os.path.isdir(prefix) else prefix
 
 
 def is_link_loop(path: str | os.PathLike) -> bool:
@@ -279,11 +294,16 @@ def atomic_file(path: str | os.PathLike, *, refuse: type[Exception] = ValueError
             "give a new file path or remove the link"
         )
     folder = resolve(path.parent)
-    folder.mkdir(parents=True, exist_ok=True)
+    made = make_parents(folder)  # removed again (rmdir, if still empty) on failure
     final = folder / path.name
-    fd, name = tempfile.mkstemp(prefix=f".{path.name}.", suffix=path.suffix, dir=folder)
+    try:
+        fd, name = tempfile.mkstemp(prefix=f".{path.name}.", suffix=path.suffix, dir=folder)
+    except BaseException:
+        remove_made(made)
+        raise
     os.close(fd)
     tmp = Path(name)
+    done = False
     try:
         yield tmp
         if os.path.lexists(tmp):
@@ -296,10 +316,13 @@ def atomic_file(path: str | os.PathLike, *, refuse: type[Exception] = ValueError
         if os.path.islink(final):
             raise refuse(f"{path}: became a symbolic link meanwhile; it was left as it was")
         os.replace(tmp, final)
+        done = True
     finally:
         if os.path.lexists(tmp):
             with contextlib.suppress(OSError):
                 os.unlink(tmp)
+        if not done:
+            remove_made(made)
 
 
 def _umask() -> int:

@@ -278,11 +278,17 @@ def resolve_output(
             f"{flag} {os.fspath(out)}: is a symbolic link (to {target}); confocal never writes "
             f"through a link: give the {kind} itself, or a new path"
         )
-    from stimuli.staging import is_link_loop
+    from stimuli.staging import is_link_loop, missing_before_dotdot
 
     if is_link_loop(real):
         raise OutputFolderError(
             f"{flag} {os.fspath(out)}: is a loop of symbolic links; expected a {kind} path"
+        )
+    missing = missing_before_dotdot(out)
+    if missing is not None:
+        raise OutputFolderError(
+            f"{flag} {os.fspath(out)}: {missing} is not an existing folder, so '..' after it "
+            f"leads nowhere; expected a {kind} path"
         )
     return real
 

@@ -468,7 +468,7 @@ def synth_command(
     seed: Annotated[int, seed_option("Seed of the textures.")] = 0,
 ) -> None:
     """Write the paper's simulated three-plane scene (Fig. 10)."""
-    from stimuli.io import atomic_path, save_png
+    from stimuli.io import atomic_path, save_png, staged_folder
     from stimuli.lfsynth import (
         ground_truth_maps,
         render_elemental_image,
@@ -529,13 +529,13 @@ def synth_command(
         with atomic_path(out.with_suffix(".toml")) as tmp:
             tmp.write_text(gtoml + f"\n[elemental]\npitch_px = {p}\nborder_px = 0\n")
     else:
-        out.mkdir(parents=True, exist_ok=True)
-        for u in range(views.shape[0]):
-            for v in range(views.shape[1]):
-                save_png(views[u, v], out / f"view_{u:02d}_{v:02d}.png")
-        with atomic_path(out / "lightfield.toml") as tmp:
-            tmp.write_text(gtoml)
-        write_truth(out / "disparity.pfm", out / "depth.pfm")
+        with staged_folder(out, what="the light field") as folder:  # whole, or nothing
+            for u in range(views.shape[0]):
+                for v in range(views.shape[1]):
+                    save_png(views[u, v], folder / f"view_{u:02d}_{v:02d}.png")
+            with atomic_path(folder / "lightfield.toml") as tmp:
+                tmp.write_text(gtoml)
+            write_truth(folder / "disparity.pfm", folder / "depth.pfm")
     typer.echo(f"wrote {out} ({views.shape[0]}x{views.shape[1]} views of {shape[1]}x{shape[0]})")
 
 
