@@ -258,9 +258,7 @@ def _shown(path: str | os.PathLike, real: Path) -> str:
     return os.fspath(path) if lexical == os.fspath(real) else f"{os.fspath(path)} (= {real})"
 
 
-def resolve_output(
-    out: str | os.PathLike, *, flag: str = "--out", kind: str = "folder"
-) -> Path:
+def resolve_output(out: str | os.PathLike, *, flag: str = "--out", kind: str = "folder") -> Path:
     """Resolve an output path once and refuse a link at it or a loop of links on the way.
 
     Every check and write then uses the returned path (``os.path.realpath`` on the path as
@@ -435,9 +433,7 @@ def check_folder(
     if not real.exists():
         return "new"
     if not real.is_dir():
-        raise _refuse(
-            flag, shown, "exists and is a file, not a folder; expected a folder to write"
-        )
+        raise _refuse(flag, shown, "exists and is a file, not a folder; expected a folder to write")
     files = folder_files(real)
     manifest = read_manifest(real)
     if manifest is None:
@@ -518,9 +514,7 @@ def check_file(
         if real == inp:
             raise _refuse(flag, shown, "is an input of this command; choose another file")
         if _inside(real, inp) and not in_input:
-            raise _refuse(
-                flag, shown, f"is inside the input {p}; choose a file outside the input"
-            )
+            raise _refuse(flag, shown, f"is inside the input {p}; choose a file outside the input")
     exists = real.exists()
     if exists and not (force or own):
         raise _refuse(flag, shown, "exists; use --force to replace it")
