@@ -511,7 +511,6 @@ def synth_command(
     if suffix == ".npz":
         import numpy as np
 
-        out.parent.mkdir(parents=True, exist_ok=True)
         with atomic_path(out) as tmp, open(tmp, "wb") as f:
             np.savez_compressed(
                 f,

@@ -137,7 +137,7 @@ def make_layout(root: Path, rng: random.Random, manifest_command: str) -> tuple[
     (work / "own" / "r.txt").write_text("earlier output\n")
     write_manifest(work / "own", manifest_command, ["r.txt"])
     names = [n for n in LINKS if n not in ("loop2",)]
-    chosen = [n for n in names if rng.random() < 0.8]
+    chosen = [n for n in names if n == "link" or rng.random() < 0.8]
     if "loop1" in chosen:
         chosen.append("loop2")
     for n in chosen:
@@ -456,7 +456,8 @@ def check_case(case: Case, root: Path, run, *extra_roots: Path) -> Outcome:
             problems.append(f"the message does not name the path typed: {message!r}")
         if ran and "appeared while" not in message:
             problems.append(f"refused after the work started: {message!r}")
-    if ".tmp-" in message or ".old-" in message:
+    said = message.replace(".own.old-1-dead", "")  # a user-visible leftover the layout plants
+    if ".tmp-" in said or ".old-" in said:
         problems.append(f"a staging name in the message: {message!r}")
     link_at_out = os.path.islink(os.path.join(root / "work", typed))
     if code == 0 and link_at_out:
@@ -467,3 +468,191 @@ def check_case(case: Case, root: Path, run, *extra_roots: Path) -> Outcome:
     if left:
         problems.append(f"staging left: {left}")
     return Outcome(case, code, message, problems)
+
+
+# -- the real commands --------------------------------------------------------------------------
+
+SYNTH = "stimuli synth --objects 1 --training 0 --size 64x48"
+
+#: Each command at its cheapest; ``{out}`` and the inputs (``{db}``, ``{lf}``, ...) filled in.
+REAL = {
+    ("analyze run", "folder"): "analyze {db} --out {out} --no-figures --seed 1",
+    ("analyze fit", "folder"): "analyze fit {table} --x level --y correct --out {out} --no-plots",
+    ("stimuli build", "folder"): "stimuli build {pairs} --out {out} --working-size 64x48",
+    ("stimuli synth", "folder"): SYNTH + " --out {out}",
+    ("stimuli tune", "file"): "stimuli tune {pairs} --sheet {out} --working-size 64x48 --dry-run",
+    ("lightfield scan", "folder"): "lightfield scan {lf} --out {out} --planes 4",
+    ("lightfield refocus", "folder"): "lightfield refocus {lf} --stack --planes 3 --out {out}",
+    ("lightfield refocus", "file"): "lightfield refocus {lf} --disparity 0 --out {out}",
+    ("lightfield synth", "folder"): "lightfield synth --size 40x32 --out {out}",
+    ("lightfield synth", "file"): "lightfield synth --size 40x32 --out {out}",
+    ("session export", "folder"): "session export {db} --out {out}",
+    ("demo", "folder"): "demo --out {out}",
+    ("view", "file"): "view {lf} --cpu --planes 4 --screenshot {out}",
+    ("present", "file"): "present --stimulus {stim_png} --screenshot {out}",
+}
+
+
+def _tiny_run_demo(out_dir, **_):
+    """The whole demo study takes ~25 s: a stand-in that writes straight into --out like it."""
+    from experiment.outputs import require_missing_or_empty
+
+    out = Path(out_dir)
+    require_missing_or_empty(out)
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "report.md").write_text("# demo\n")
+
+
+def tiny_demo(setattr_=setattr) -> None:
+    """Put the stand-in demo in place (``setattr_``: pytest's ``monkeypatch.setattr`` in tests)."""
+    import experiment.demos.study as study
+
+    setattr_(study, "run_demo", _tiny_run_demo)
+    setattr_(study, "summary_lines", lambda result: ["demo written"])
+
+
+def real_argv(case: Case, root: Path, world: dict) -> list[str]:
+    """The real command line of ``case``."""
+    line = REAL[(case.command, case.kind)]
+    argv = [w.format(out=typed_out(case, root), **world) for w in line.split()]
+    spec_force = case.spec.force is not None
+    return [*argv, "--force"] if case.force and spec_force else argv
+
+
+def make_world(root: Path) -> dict[str, Path]:
+    """Write the inputs of every real command under ``root``; return them by name."""
+    from tests.conftest import make_study_inputs
+
+    inputs = make_study_inputs(root, *SYNTH.split()[2:])
+    table = root / "table.csv"
+    rows = ["level,correct"] + [
+        f"{lv},{int((i * 7 + lv) % 6 < lv)}" for lv in range(1, 6) for i in range(8)
+    ]
+    table.write_text("\n".join(rows) + "\n")
+    fields = dict(vars(inputs), table=table, stim_png=inputs.pairs / "obj01_cup" / "wide.png")
+    return {k: v for k, v in fields.items() if isinstance(v, Path)}
+
+
+def real_cases(command: str, kind: str, n: int, seed: int = 0) -> list[Case]:
+    """``n`` generated cases of a real command; the first writes a new name beside a link's
+    target (``link/../new``), so the command runs."""
+    rng = random.Random(f"{command} {kind} {seed}")
+    cases: list[Case] = []
+    while len(cases) < n:
+        case = generate(rng, command)
+        if case.kind != kind or case.spec.out == "shots":
+            continue
+        if not cases:
+            new = "new.npz" if case.command == "lightfield synth" and kind == "file" else "new"
+            case.out = f"link/../{new}.png" if kind == "file" and new == "new" else f"link/../{new}"
+            case.force = False
+        case.fail = False
+        cases.append(case)
+    return cases
+
+
+def run_real(case: Case, root: Path, world: dict) -> tuple[int, str, bool]:
+    """Run the real command of ``case`` in ``root/work``; return (status, error line, False)."""
+    from contextlib import redirect_stderr
+    from io import StringIO
+
+    from tests.conftest import run_cli
+
+    here = os.getcwd()
+    os.chdir(root / "work")
+    buf = StringIO()
+    try:
+        with redirect_stderr(buf):
+            code = run_cli(real_argv(case, root, world))
+    finally:
+        os.chdir(here)
+    lines = [ln for ln in buf.getvalue().splitlines() if ln.startswith("confocal: error:")]
+    return code, "\n".join(lines), False
+
+
+# -- two writers at once ---------------------------------------------------------------------------
+
+
+def race(argvs: list[list[str]], cwd: Path, *, setup=None) -> list[tuple[int, str]]:
+    """Start ``confocal ARGV`` for each of ``argvs`` at the same moment in forked processes (the
+    parent's imports reused: no start-up cost) from ``cwd``; return each (status, stderr).
+
+    ``setup`` runs in each child before the command (a stand-in demo, say).
+    """
+    import multiprocessing as mp
+    import tempfile
+
+    ctx = mp.get_context("fork")
+    go = ctx.Event()
+    logs = [tempfile.NamedTemporaryFile(prefix="race-", suffix=".err", delete=False) for _ in argvs]
+
+    def child(argv: list[str], log: str) -> None:
+        import sys
+
+        fd = os.open(log, os.O_WRONLY | os.O_TRUNC)
+        os.dup2(fd, 2)
+        sys.stderr = open(2, "w", closefd=False)  # noqa: SIM115 - the child ends with os._exit
+        os.chdir(cwd)
+        if setup is not None:
+            setup()
+        from tests.conftest import run_cli
+
+        go.wait(30)
+        try:
+            code = run_cli(argv)
+        except BaseException:  # noqa: BLE001 - a traceback is a finding: status 99
+            import traceback
+
+            traceback.print_exc()
+            code = 99
+        sys.stderr.flush()
+        os._exit(code)
+
+    procs = [ctx.Process(target=child, args=(a, f.name)) for a, f in zip(argvs, logs, strict=True)]
+    for p in procs:
+        p.start()
+    go.set()
+    out = []
+    for p, f in zip(procs, logs, strict=True):
+        p.join(300)
+        if p.is_alive():
+            p.kill()
+            p.join()
+        with open(f.name, encoding="utf-8", errors="replace") as fh:
+            err = fh.read()
+        os.unlink(f.name)
+        out.append((p.exitcode if p.exitcode is not None else -1, err))
+    return out
+
+
+def output_complete(folder: Path) -> bool:
+    """Whether ``folder`` holds a finished output: a manifest and every file it lists."""
+    import json
+
+    m = folder / MANIFEST_NAME
+    if not m.is_file():
+        return False
+    files = json.loads(m.read_text()).get("files", [])
+    return bool(files) and all((folder / f).exists() for f in files if not f.endswith("/"))
+
+
+def judge_race(results: list[tuple[int, str]], out: Path, kind: str) -> list[str]:
+    """Name what is wrong after two writers raced to ``out``: a finished output lost, a loser
+    that did not refuse with one line and status 2, or a staging folder left."""
+    problems = []
+    won = [c for c, _ in results if c == 0]
+    for code, err in results:
+        if code == 0:
+            continue
+        lines = [ln for ln in err.splitlines() if ln.startswith("confocal: error:")]
+        if code != 2 or len(lines) != 1 or "Traceback" in err:
+            problems.append(f"the loser ended with status {code}: {err.strip()[-300:]!r}")
+    if won:
+        if kind == "folder" and not output_complete(out):
+            problems.append(f"a finished output was lost: {out} is not complete")
+        if kind == "file" and not out.is_file():
+            problems.append(f"a finished output was lost: {out} is missing")
+    left = [p.name for p in out.parent.iterdir() if ".tmp-" in p.name or ".old-" in p.name]
+    if left:
+        problems.append(f"left beside the output: {left}")
+    return problems
