@@ -97,7 +97,13 @@ def _races(n: int, top: Path, world: dict) -> tuple[collections.Counter, list[st
             argv = [w.format(out=name, **world) for w in line.split()]
             if command in ("view", "present", "stimuli tune"):
                 argv.append("--force")
-            results = race([argv, argv], cwd, setup=tiny_demo if command == "demo" else None)
+            gl = command in ("view", "present")  # a GL context: not in a forked child
+            results = race(
+                [argv, argv],
+                cwd,
+                setup=tiny_demo if command == "demo" else None,
+                start="spawn" if gl else "fork",
+            )
             problems = judge_race(results, cwd / name, kind)
             codes = sorted(c for c, _ in results)
             counts["races"] += 1

@@ -573,51 +573,61 @@ def run_real(case: Case, root: Path, world: dict) -> tuple[int, str, bool]:
 # -- two writers at once ---------------------------------------------------------------------------
 
 
-def race(argvs: list[list[str]], cwd: Path, *, setup=None) -> list[tuple[int, str]]:
-    """Start ``confocal ARGV`` for each of ``argvs`` at the same moment in forked processes (the
-    parent's imports reused: no start-up cost) from ``cwd``; return each (status, stderr).
+def _race_child(argv: list[str], log: str, cwd: Path, setup, go) -> None:
+    import sys
 
-    ``setup`` runs in each child before the command (a stand-in demo, say).
+    fd = os.open(log, os.O_WRONLY | os.O_TRUNC)
+    os.dup2(fd, 2)
+    sys.stderr = open(2, "w", closefd=False)  # noqa: SIM115 - the child ends with os._exit
+    os.chdir(cwd)
+    if setup is not None:
+        setup()
+    from tests.conftest import run_cli
+
+    try:
+        go.wait(120)
+    except Exception:  # noqa: BLE001 - a broken barrier: start anyway
+        pass
+    try:
+        code = run_cli(argv)
+    except BaseException:  # noqa: BLE001 - a traceback is a finding: status 99
+        import traceback
+
+        traceback.print_exc()
+        code = 99
+    sys.stderr.flush()
+    os._exit(code)
+
+
+def race(
+    argvs: list[list[str]], cwd: Path, *, setup=None, start: str = "fork"
+) -> list[tuple[int, str]]:
+    """Start ``confocal ARGV`` for each of ``argvs`` at the same moment in child processes from
+    ``cwd``; return each (status, stderr).
+
+    ``start='fork'`` reuses the parent's imports (no start-up cost); ``'spawn'`` starts fresh
+    interpreters (for commands that open a GL context, which a forked child cannot). ``setup``
+    (a module-level function) runs in each child before the command (a stand-in demo, say).
     """
     import multiprocessing as mp
     import tempfile
 
-    ctx = mp.get_context("fork")
-    go = ctx.Event()
+    ctx = mp.get_context(start)
+    go = ctx.Barrier(len(argvs))  # every child ready, then all start at once
     logs = [tempfile.NamedTemporaryFile(prefix="race-", suffix=".err", delete=False) for _ in argvs]
-
-    def child(argv: list[str], log: str) -> None:
-        import sys
-
-        fd = os.open(log, os.O_WRONLY | os.O_TRUNC)
-        os.dup2(fd, 2)
-        sys.stderr = open(2, "w", closefd=False)  # noqa: SIM115 - the child ends with os._exit
-        os.chdir(cwd)
-        if setup is not None:
-            setup()
-        from tests.conftest import run_cli
-
-        go.wait(30)
-        try:
-            code = run_cli(argv)
-        except BaseException:  # noqa: BLE001 - a traceback is a finding: status 99
-            import traceback
-
-            traceback.print_exc()
-            code = 99
-        sys.stderr.flush()
-        os._exit(code)
-
-    procs = [ctx.Process(target=child, args=(a, f.name)) for a, f in zip(argvs, logs, strict=True)]
+    procs = [
+        ctx.Process(target=_race_child, args=(a, f.name, cwd, setup, go))
+        for a, f in zip(argvs, logs, strict=True)
+    ]
     for p in procs:
         p.start()
-    go.set()
     out = []
     for p, f in zip(procs, logs, strict=True):
         p.join(300)
         if p.is_alive():
             p.kill()
             p.join()
+        f.close()
         with open(f.name, encoding="utf-8", errors="replace") as fh:
             err = fh.read()
         os.unlink(f.name)
