@@ -91,6 +91,7 @@ def _races(n: int, top: Path, world: dict) -> tuple[collections.Counter, list[st
         line = REAL[(command, kind)]
         if kind == "file":
             line += " --force" if command in ("lightfield refocus", "lightfield synth") else ""
+        mine: collections.Counter = collections.Counter(harms=0)
         for i in range(n):
             cwd = top / f"race-{command.replace(' ', '-')}-{kind}-{i}"
             cwd.mkdir()
@@ -107,10 +108,14 @@ def _races(n: int, top: Path, world: dict) -> tuple[collections.Counter, list[st
             problems = judge_race(results, cwd / name, kind)
             codes = sorted(c for c, _ in results)
             counts["races"] += 1
-            counts["one refused" if codes == [0, 2] else f"exits {codes}"] += 1
+            outcome = "one refused" if codes == [0, 2] else f"exits {codes}"
+            counts[outcome] += 1
+            mine[outcome] += 1
             if problems:
                 harms.append(f"{command} ({kind}) race {i}: {problems} {results}")
+                mine["harms"] += 1
             shutil.rmtree(cwd, ignore_errors=True)
+        print(f"  races {command} ({kind}): {dict(mine)}", file=sys.stderr, flush=True)
     return counts, harms
 
 
