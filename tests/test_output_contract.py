@@ -194,3 +194,89 @@ def test_two_writers_at_once_lose_no_finished_output(line, world, tmp_path):
     results = race([argv, argv], tmp_path)
     assert not judge_race(results, out, "folder"), results
     assert any(code == 0 for code, _ in results), results
+
+
+# -- single files: never through a link, nothing partial -----------------------------------------
+
+SHOTS = {
+    "present": "present --stimulus {stim_png} --screenshot {out} --force",
+    "view": "view {lf} --cpu --planes 4 --screenshot {out} --force",
+}
+
+
+@pytest.mark.parametrize("command", sorted(SHOTS))
+@pytest.mark.parametrize("target", ["a file", "dangling"])
+def test_a_screenshot_is_never_written_through_a_link(command, target, world, tmp_path, capsys):
+    """A link at --screenshot is refused before the work, even with --force: the file it points
+    to is not overwritten, and a dangling link does not create a file outside the folder."""
+    (tmp_path / "data").mkdir()
+    victim = tmp_path / "data" / "victim.png"
+    if target == "a file":
+        victim.write_bytes(b"the user's picture\n")
+    shot = tmp_path / "shot.png"
+    shot.symlink_to(victim)
+    before = snapshot(tmp_path)
+    capsys.readouterr()
+    code = run_cli([w.format(out=shot, **world) for w in SHOTS[command].split()])
+    err = capsys.readouterr().err
+    assert code == 2 and err.count("\n") == 1 and "symbolic link" in err and str(shot) in err, err
+    assert snapshot(tmp_path) == before
+
+
+class _DiskFillsWhileWriting:
+    """``open`` for writing returns a file whose writes stop with ENOSPC after ``room`` bytes."""
+
+    def __init__(self, real_open, room: int) -> None:
+        self.real_open, self.room = real_open, room
+
+    def __call__(self, file, mode="r", *args, **kwargs):
+        fh = self.real_open(file, mode, *args, **kwargs)
+        if not any(c in mode for c in "wax+") or isinstance(file, int):
+            return fh
+        outer = self
+        write = fh.write
+
+        def limited(data):
+            if len(data) > outer.room:
+                write(data[: outer.room])
+                outer.room = 0
+                raise OSError(28, "No space left on device", str(file))
+            outer.room -= len(data)
+            return write(data)
+
+        fh.write = limited
+        return fh
+
+
+@pytest.mark.parametrize("command", sorted(SHOTS))
+def test_a_full_disk_leaves_no_partial_screenshot(command, world, tmp_path, monkeypatch, capsys):
+    """The disk fills up while the PNG is written: one line, exit 2, no truncated file (which
+    would block the next run without --force), an earlier screenshot kept whole, and the next
+    run writes it."""
+    import builtins
+    import io
+
+    shot = tmp_path / "shot.png"
+    argv = [w.format(out=shot, **world) for w in SHOTS[command].split()]
+    plain = [a for a in argv if a != "--force"]
+
+    def full_disk_run(args: list[str]) -> int:
+        full = _DiskFillsWhileWriting(builtins.open, 100)
+        monkeypatch.setattr(builtins, "open", full)
+        monkeypatch.setattr(io, "open", full)
+        capsys.readouterr()
+        try:
+            return run_cli(args)
+        finally:
+            monkeypatch.undo()
+
+    code = full_disk_run(plain)
+    err = capsys.readouterr().err
+    assert code == 2 and "Traceback" not in err, err
+    assert [p.name for p in tmp_path.iterdir()] == [], "a partial file was left"
+    assert run_cli(plain) == 0
+    earlier = shot.read_bytes()
+    assert earlier[:4] == b"\x89PNG"
+    assert full_disk_run(argv) == 2  # --force: replacing it fails half-way
+    assert [p.name for p in tmp_path.iterdir()] == ["shot.png"]
+    assert shot.read_bytes() == earlier, "the earlier screenshot was truncated"
