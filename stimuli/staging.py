@@ -190,9 +190,14 @@ def remove_own_tree(path: str | os.PathLike, ident: Identity | None) -> bool:
     """
     if ident is None:
         return False
+    if not shutil.rmtree.avoids_symlink_attacks or os.rmdir not in os.supports_dir_fd:
+        if identity(path) != ident or not os.path.isdir(path):  # no dir_fd here (Windows)
+            return False
+        shutil.rmtree(path, ignore_errors=True)
+        return True
     parent, name = os.path.split(os.fspath(path))
     try:
-        pfd = os.open(parent or ".", os.O_RDONLY | os.O_DIRECTORY)
+        pfd = os.open(parent or ".", os.O_RDONLY | getattr(os, "O_DIRECTORY", 0))
     except OSError:
         return False
     try:

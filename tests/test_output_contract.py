@@ -61,6 +61,36 @@ def test_staging_twins_are_the_same_code():
     assert a == b
 
 
+def test_a_staging_folder_is_removed_only_while_it_is_the_one_made(tmp_path):
+    """Removal goes by device and inode: a folder put at the same path meanwhile is kept."""
+    from stimuli.staging import new_staging, remove_own_tree
+
+    tmp, ident = new_staging(tmp_path / "out")
+    os.rename(tmp, tmp_path / "moved")
+    tmp.mkdir()
+    (tmp / "theirs.txt").write_text("someone else's\n")
+    assert not remove_own_tree(tmp, ident)
+    assert (tmp / "theirs.txt").is_file()
+    assert remove_own_tree(tmp_path / "moved", ident)
+    assert not (tmp_path / "moved").exists()
+
+
+def test_publishing_never_replaces_a_target_that_appeared(tmp_path):
+    from stimuli.staging import new_staging, publish
+
+    out = tmp_path / "out"
+    tmp, ident = new_staging(out)
+    (tmp / "a.txt").write_text("new\n")
+    out.mkdir()
+    (out / "theirs.txt").write_text("appeared meanwhile\n")
+    with pytest.raises(FileExistsError):
+        publish(tmp, ident, out)
+    assert (out / "theirs.txt").is_file() and (tmp / "a.txt").is_file()
+    (out / "theirs.txt").unlink()  # an empty folder is taken (the kernel checks it is empty)
+    publish(tmp, ident, out)
+    assert (out / "a.txt").is_file() and not tmp.exists()
+
+
 def test_a_link_then_dotdot_never_deletes_the_folder_it_leads_to(tmp_path, monkeypatch, capsys):
     """``work/link -> ../data/deep``: ``--out link/../thesis`` is ``data/thesis``, a user's folder:
     refused, and nothing of it is deleted (it was deleted, with everything in it)."""
