@@ -155,7 +155,14 @@ def world(tmp_path_factory):
     return make_world(tmp_path_factory.mktemp("contract-inputs"))
 
 
-@pytest.mark.parametrize(("command", "kind"), sorted(REAL), ids=[" ".join(k) for k in sorted(REAL)])
+#: The real commands; the analyses take ~11 s for their cases on 2 busy cores (slow).
+REAL_PARAMS = [
+    pytest.param(c, k, id=f"{c} {k}", marks=[pytest.mark.slow] if c.startswith("analyze") else [])
+    for c, k in sorted(REAL)
+]
+
+
+@pytest.mark.parametrize(("command", "kind"), REAL_PARAMS)
 def test_generated_cases_with_every_real_command(command, kind, world, tmp_path, monkeypatch):
     """Three generated cases a command (the first one accepted), the real command running."""
     monkeypatch.setenv("COLUMNS", "250")
