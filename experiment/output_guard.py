@@ -20,7 +20,7 @@ but only while its device and inode are the ones recorded; on failure it is rena
 over anything (a target that appeared meanwhile is left, and so is the folder aside). The guard
 itself never removes an output by its path: it removes only a folder it made and recorded by
 device and inode (the folder it creates for the commands that write straight into ``--out``:
-``demo`` and ``view --shots``), and only while they still match.
+``demo``, ``view --shots``, ``lightfield scan``), and only while they still match.
 """
 
 from __future__ import annotations
@@ -56,10 +56,11 @@ __all__ = ["DIRECT_WRITERS", "guard_command", "lock_path", "output_lock"]
 
 logger = logging.getLogger(__name__)
 
-#: Commands whose body writes straight into ``--out`` rather than a staging folder of its own:
-#: the guard makes the folder (recording its device and inode) and, if the command fails,
+#: Commands whose body writes straight into ``--out`` rather than a staging folder of its own
+#: (``lightfield scan`` of several captures: a staged folder for each inside it): the guard
+#: makes the folder (recording its device and inode) and, if the command fails,
 #: removes that folder only while it is still the one it made.
-DIRECT_WRITERS = frozenset({"demo", "view"})
+DIRECT_WRITERS = frozenset({"demo", "view", "lightfield scan"})
 
 
 def lock_path(real: str | os.PathLike) -> Path:

@@ -267,7 +267,8 @@ def resolve_output(out: str | os.PathLike, *, flag: str = "--out", kind: str = "
     Raises
     ------
     OutputFolderError
-        ``out`` itself is a symbolic link (dangling or not), or a loop of links.
+        ``out`` itself is a symbolic link (dangling or not), a loop of links, or a path with
+        ``..`` after a folder that does not exist.
     """
     real = _real(out)
     if _is_link(out):
@@ -368,6 +369,15 @@ def _umask() -> int:
     return mask
 
 
+def _refuse_below_a_file(real: Path, flag: str, shown: str, kind: str) -> None:
+    """Refuse a path whose nearest existing folder on the way is a file (nothing can go there)."""
+    above = real.parent
+    while not os.path.lexists(above) and above != above.parent:
+        above = above.parent
+    if not os.path.isdir(above):
+        raise _refuse(flag, shown, f"{above} is a file, not a folder; expected a {kind} path")
+
+
 def _refuse(flag: str, out: Path | str, reason: str) -> OutputFolderError:
     return OutputFolderError(f"{flag} {out}: {reason}")
 
@@ -430,6 +440,7 @@ def check_folder(
             raise _refuse(flag, shown, f"is inside the input {p}; choose a new or empty folder")
         if _inside(inp, real):
             raise _refuse(flag, shown, f"holds the input {p}; choose a new or empty folder")
+    _refuse_below_a_file(real, flag, shown, "folder")
     if not real.exists():
         return "new"
     if not real.is_dir():
@@ -515,6 +526,7 @@ def check_file(
             raise _refuse(flag, shown, "is an input of this command; choose another file")
         if _inside(real, inp) and not in_input:
             raise _refuse(flag, shown, f"is inside the input {p}; choose a file outside the input")
+    _refuse_below_a_file(real, flag, shown, "file")
     exists = real.exists()
     if exists and not (force or own):
         raise _refuse(flag, shown, "exists; use --force to replace it")

@@ -386,7 +386,7 @@ def refocus_command(
     """Write the confocal image at one plane (or a focal stack); optionally zoom and compress."""
     from stimuli.declutter import in_focus_mask
     from stimuli.edgegrid import declutter_and_compress
-    from stimuli.io import save_png
+    from stimuli.io import save_png, staged_folder
     from stimuli.refocus import iter_focal_stack, refocus
 
     # every option is checked before the light field is read or anything is written
@@ -409,9 +409,9 @@ def refocus_command(
         if depth is not None or disparity is not None:
             raise InputError("--stack scans --near/--far or --disparities, not --depth/--disparity")
         ds = scan_disparities(lf, planes, near, far, disparities)
-        out.mkdir(parents=True, exist_ok=True)
-        for k, (d, img) in enumerate(iter_focal_stack(lf, ds)):
-            save_png(img, out / f"plane{k:03d}_{d:+.3f}px.png")
+        with staged_folder(out, what="the focal stack") as folder:  # whole, or nothing
+            for k, (d, img) in enumerate(iter_focal_stack(lf, ds)):
+                save_png(img, folder / f"plane{k:03d}_{d:+.3f}px.png")
         typer.echo(f"wrote {len(ds)} planes to {out}")
         return
     if (depth is None) == (disparity is None):

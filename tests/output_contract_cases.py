@@ -40,6 +40,8 @@ FORMS = (
     "{n}/",
     "link/../{n}/",
     "dlink/{n}",
+    "flink/{n}",
+    "../data/file.txt/{n}",
 )
 #: Output paths that are a link, a loop, or a folder the contract refuses, whatever the name.
 WHOLE = (
