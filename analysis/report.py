@@ -7,11 +7,8 @@ half-written report; an existing report at the same path is replaced.
 from __future__ import annotations
 
 import contextlib
-import errno
 import json
 import os
-import shutil
-import tempfile
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -26,6 +23,16 @@ from analysis.jung2015 import (
     THRESHOLD_P50_PX,
 )
 from analysis.pipeline import AnalysisResult
+from analysis.staging import STAGING_MARKER as _STAGING_MARKER
+from analysis.staging import (
+    is_link_loop,
+    make_parents,
+    new_staging,
+    publish,
+    remove_made,
+    remove_own_tree,
+    resolve,
+)
 from analysis.weibull.threshold import _unmeasured_text
 
 __all__ = [
@@ -451,13 +458,6 @@ def results_json_text(data: dict[str, Any]) -> str:
     return json.dumps(data, indent=2, allow_nan=False) + "\n"
 
 
-def _folder_mode() -> int:
-    """Return the mode ``mkdir`` would give a new folder under the user's umask."""
-    mask = os.umask(0o022)
-    os.umask(mask)
-    return 0o777 & ~mask
-
-
 def write_report(result: AnalysisResult, out_dir: str | Path, *, figures: bool = True) -> Path:
     """Write ``results.json``, ``report.md`` and figures to ``out_dir``, atomically.
 
@@ -488,23 +488,26 @@ def write_report(result: AnalysisResult, out_dir: str | Path, *, figures: bool =
             from analysis.figures import save_all
 
             save_all(result, tmp)
-    return Path(out_dir).resolve()
+    return resolve(out_dir)
 
 
 #: Name of the marker file inside a staging folder (``.NAME.tmp-*``): ``{"pid": N}``, the process
 #: that fills it (the same convention as ``stimuli.io.STAGING_MARKER``). It proves confocal made
 #: the folder, so a later run may delete it once that process is gone; it is removed before the
 #: rename.
-STAGING_MARKER = ".confocal-staging.json"
+STAGING_MARKER = _STAGING_MARKER
 
 
 @contextlib.contextmanager
 def atomic_folder(out_dir: str | Path) -> Iterator[Path]:
     """Yield a staging folder beside ``out_dir`` that becomes ``out_dir`` when the block succeeds.
 
-    ``out_dir`` must be missing or an empty folder: a non-empty folder is never replaced (this
-    checks before the block, and the kernel's rename refuses a non-empty target). On any
-    exception the staging folder is removed and ``out_dir`` is left as it was.
+    ``out_dir`` is resolved once (:func:`analysis.staging.resolve`: links, then ``..``); a link at
+    ``out_dir`` itself is refused. It must be missing or an empty folder: a non-empty folder is
+    never replaced (checked before the block; the final rename replaces nothing but an empty
+    folder, and a target that appeared meanwhile is refused). On any exception only the staging
+    folder this call made is removed (checked by device and inode), and ``out_dir`` is left as
+    it was.
 
     Parameters
     ----------
@@ -519,32 +522,48 @@ def atomic_folder(out_dir: str | Path) -> Iterator[Path]:
     Raises
     ------
     DataError
-        ``out_dir`` is an existing file or a non-empty folder.
+        ``out_dir`` is a link, a loop of links, an existing file or a non-empty folder.
     """
-    out = Path(out_dir).resolve()
-    _check_missing_or_empty(out)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.tmp-", dir=out.parent))
+    given = Path(out_dir)
+    real = resolve(given)
+    if os.path.islink(given):
+        raise DataError(
+            f"--out {given} is a symbolic link; confocal never writes through a link: give the "
+            "folder itself, or a new one"
+        )
+    if is_link_loop(real):
+        raise DataError(f"--out {given} is a loop of symbolic links; expected a report folder")
+    _check_missing_or_empty(real, given)
+    made: list = []
+    tmp, ident = None, None
     try:
-        (tmp / STAGING_MARKER).write_text(json.dumps({"pid": os.getpid()}) + "\n", "utf-8")
+        made = make_parents(real.parent)
+        tmp, ident = new_staging(real)
         yield tmp
-        (tmp / STAGING_MARKER).unlink(missing_ok=True)
-        os.chmod(tmp, _folder_mode())  # mkdtemp makes it private (0700)
         try:
-            os.replace(tmp, out)  # onto a missing or empty folder only: the kernel checks
-        except OSError as exc:
-            if exc.errno in (errno.ENOTEMPTY, errno.EEXIST, errno.ENOTDIR, errno.EISDIR):
-                _check_missing_or_empty(out)
-            raise
+            publish(tmp, ident, real)
+        except FileExistsError:
+            _check_missing_or_empty(real, given)
+            raise DataError(
+                f"--out {given} appeared while the report was written; it was left as it was"
+            ) from None
+        tmp = None  # it is the report now
     except BaseException:
-        shutil.rmtree(tmp, ignore_errors=True)
+        if tmp is not None:
+            remove_own_tree(tmp, ident)
+            tmp = None
+        remove_made(made)
         raise
+    finally:
+        if tmp is not None:
+            remove_own_tree(tmp, ident)
 
 
-def _check_missing_or_empty(out: Path) -> None:
+def _check_missing_or_empty(out: Path, given: Path) -> None:
     if out.exists() and not out.is_dir():
-        raise DataError(f"--out {out} exists and is not a folder; expected a report folder")
+        raise DataError(f"--out {given} exists and is not a folder; expected a report folder")
     if out.is_dir() and any(out.iterdir()):
         raise DataError(
-            f"--out {out}: folder is not empty; a report is written only into a new or empty folder"
+            f"--out {given}: folder is not empty; a report is written only into a new or empty "
+            "folder"
         )

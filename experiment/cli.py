@@ -116,7 +116,7 @@ def load_subcommand(name: str) -> object:
 
 def _guard_outputs(cmd: object, path: str) -> None:
     """Wrap each command that writes a folder or file in the contract of experiment.outputs."""
-    from experiment.outputs import guard_command
+    from experiment.output_guard import guard_command
 
     for sub_name, sub in getattr(cmd, "commands", {}).items():
         _guard_outputs(sub, f"{path} {sub_name}")

@@ -13,34 +13,40 @@ The rule, in plain words:
   compared after resolving symlinks and ``..``.
 * A single-file output (``--screenshot``, ``lightfield refocus --out x.png``) is never an input
   file nor inside an input folder, and an existing file is replaced only with ``--force``.
+* Every path is resolved **once** (:func:`resolve_output`: ``os.path.realpath`` on the path as
+  given, so ``link/../x`` is the ``x`` beside the link's target, as the kernel sees it) and
+  every check and write uses that path. An output that is itself a symbolic link (dangling or
+  not) is refused, for every command, before the work; a path through a link is written where
+  it leads, and messages name it as typed (and where it leads).
 * ``session export`` merges into its own dataset, and ``stimuli tune`` writes ``objects.csv`` and
   ``tune_sheet.png`` into the PAIRS folder it reads: both update their own files in place, by
   design ("update-in-place"): they are checked the same way, but nothing is moved aside.
 * Staging leftovers of killed runs beside an output (``.NAME.tmp-*``, ``.NAME.old-*``) are
   cleaned at the next run writing there: an ``.old-*`` folder whose original is missing is
   renamed back (never deleted); a ``.tmp-*`` folder is deleted only if its marker file
-  (:data:`STAGING_MARKER`) names a process that is gone.
+  (:data:`STAGING_MARKER`) names a process that is gone; a leftover name that is a link is
+  removed as a link, never followed.
 
 A refusal is one line and exit status 2 (:class:`OutputFolderError`). The root command
 (:mod:`experiment.cli`) wraps each writing command listed in :data:`WRITING_COMMANDS` with
-:func:`guard_command`: check, move an own folder aside (``.NAME.old-*``), run the command, write
-the manifest, then delete the aside folder, or put it back if the command failed or wrote
-nothing. The library functions are safe on their own too: they fill a staging folder and rename
-it only onto a missing or empty folder (``stimuli.io.staged_folder``,
-``analysis.report.atomic_folder``), never replacing a non-empty one.
+:func:`experiment.output_guard.guard_command`: resolve, lock (a second writer to the same output
+is refused), check, move an own folder aside (``.NAME.old-*``), run the command, write the
+manifest, then delete the aside folder, or put it back if the command failed or wrote nothing.
+Nothing is removed by a path resolved again: only folders this run made, identified by device
+and inode (:mod:`stimuli.staging`). The library functions are safe on their own too: they fill
+a staging folder and rename it only onto a missing or empty folder
+(``stimuli.io.staged_folder``, ``analysis.report.atomic_folder``), never replacing anything
+else.
 """
 
 from __future__ import annotations
 
 import contextlib
-import errno
-import functools
 import json
 import logging
 import os
-import shutil
 import tempfile
-from collections.abc import Callable, Iterable, Iterator, Mapping
+from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Literal
@@ -57,7 +63,7 @@ __all__ = [
     "check_file",
     "clean_leftovers",
     "folder_files",
-    "guard_command",
+    "resolve_output",
     "read_manifest",
     "require_missing_or_empty",
     "write_manifest",
@@ -247,7 +253,54 @@ WRITING_COMMANDS: tuple[WritingCommand, ...] = (
 
 
 def _real(path: str | os.PathLike) -> Path:
-    return Path(os.path.realpath(os.path.abspath(path)))
+    """The one real path of ``path``: links followed before ``..``, as the kernel does."""
+    return Path(os.path.realpath(os.fspath(path)))
+
+
+def _is_link(path: str | os.PathLike) -> bool:
+    """Whether ``path`` itself (trailing slashes ignored) is a symbolic link, dangling or not."""
+    text = os.fspath(path).rstrip("/" + os.sep) or os.sep
+    return os.path.islink(text)
+
+
+def _shown(path: str | os.PathLike, real: Path) -> str:
+    """The path as the user typed it, and where it leads when links or ``..`` change that."""
+    lexical = os.path.normpath(os.path.abspath(os.fspath(path)))
+    return os.fspath(path) if lexical == os.fspath(real) else f"{os.fspath(path)} (= {real})"
+
+
+def resolve_output(out: str | os.PathLike, *, flag: str = "--out", kind: str = "folder") -> Path:
+    """Resolve an output path once and refuse a link at it or a loop of links on the way.
+
+    Every check and write then uses the returned path (``os.path.realpath`` on the path as
+    given: ``link/../x`` is the ``x`` beside the link's target, as the kernel sees it).
+
+    Raises
+    ------
+    OutputFolderError
+        ``out`` itself is a symbolic link (dangling or not), a loop of links, or a path with
+        ``..`` after a folder that does not exist.
+    """
+    real = _real(out)
+    if _is_link(out):
+        target = os.readlink(os.fspath(out).rstrip("/" + os.sep) or os.sep)
+        raise OutputFolderError(
+            f"{flag} {os.fspath(out)}: is a symbolic link (to {target}); confocal never writes "
+            f"through a link: give the {kind} itself, or a new path"
+        )
+    from stimuli.staging import is_link_loop, missing_before_dotdot
+
+    if is_link_loop(real):
+        raise OutputFolderError(
+            f"{flag} {os.fspath(out)}: is a loop of symbolic links; expected a {kind} path"
+        )
+    missing = missing_before_dotdot(out)
+    if missing is not None:
+        raise OutputFolderError(
+            f"{flag} {os.fspath(out)}: {missing} is not an existing folder, so '..' after it "
+            f"leads nowhere; expected a {kind} path"
+        )
+    return real
 
 
 def _inside(child: Path, parent: Path) -> bool:
@@ -327,7 +380,16 @@ def _umask() -> int:
     return mask
 
 
-def _refuse(flag: str, out: Path, reason: str) -> OutputFolderError:
+def _refuse_below_a_file(real: Path, flag: str, shown: str, kind: str) -> None:
+    """Refuse a path whose nearest existing folder on the way is a file (nothing can go there)."""
+    above = real.parent
+    while not os.path.lexists(above) and above != above.parent:
+        above = above.parent
+    if not os.path.isdir(above):
+        raise _refuse(flag, shown, f"{above} is a file, not a folder; expected a {kind} path")
+
+
+def _refuse(flag: str, out: Path | str, reason: str) -> OutputFolderError:
     return OutputFolderError(f"{flag} {out}: {reason}")
 
 
@@ -375,32 +437,28 @@ def check_folder(
         is a file, holds files confocal did not write, was written by another command, or is an
         own folder to be replaced without ``--force`` where that is needed.
     """
-    real = _real(out)
+    real = resolve_output(out, flag=flag)
+    shown = _shown(out, real)
     here = _real(os.getcwd() if cwd is None else cwd)
     if real == here:
-        raise _refuse(
-            flag, Path(out), "is the current working folder; choose a new or empty folder"
-        )
+        raise _refuse(flag, shown, "is the current working folder; choose a new or empty folder")
     if _inside(here, real):
         raise _refuse(
-            flag,
-            Path(out),
-            f"holds the current working folder {here}; choose a new or empty folder",
+            flag, shown, f"holds the current working folder {here}; choose a new or empty folder"
         )
     for p in _paths(inputs):
         inp = _real(p)
         if real == inp:
-            raise _refuse(flag, Path(out), f"is the input {p}; choose a new or empty folder")
+            raise _refuse(flag, shown, f"is the input {p}; choose a new or empty folder")
         if _inside(real, inp):
-            raise _refuse(flag, Path(out), f"is inside the input {p}; choose a new or empty folder")
+            raise _refuse(flag, shown, f"is inside the input {p}; choose a new or empty folder")
         if _inside(inp, real):
-            raise _refuse(flag, Path(out), f"holds the input {p}; choose a new or empty folder")
+            raise _refuse(flag, shown, f"holds the input {p}; choose a new or empty folder")
+    _refuse_below_a_file(real, flag, shown, "folder")
     if not real.exists():
         return "new"
     if not real.is_dir():
-        raise _refuse(
-            flag, Path(out), "exists and is a file, not a folder; expected a folder to write"
-        )
+        raise _refuse(flag, shown, "exists and is a file, not a folder; expected a folder to write")
     files = folder_files(real)
     manifest = read_manifest(real)
     if manifest is None:
@@ -408,13 +466,13 @@ def check_folder(
             return "empty"
         raise _refuse(
             flag,
-            Path(out),
+            shown,
             f"holds files confocal did not write: {_names(files)}; choose a new or empty folder",
         )
     if manifest["command"] != command:
         raise _refuse(
             flag,
-            Path(out),
+            shown,
             f"was written by 'confocal {manifest['command']}', not 'confocal {command}'; "
             "choose a new or empty folder",
         )
@@ -423,13 +481,13 @@ def check_folder(
     if foreign:
         raise _refuse(
             flag,
-            Path(out),
+            shown,
             f"holds files confocal did not write: {_names(foreign)}; choose a new or empty folder",
         )
     if needs_force and not force:
         raise _refuse(
             flag,
-            Path(out),
+            shown,
             f"holds the output of an earlier 'confocal {command}'; use --force to replace it",
         )
     return "own"
@@ -472,20 +530,20 @@ def check_file(
         The path is a folder, an input file or inside an input folder, or an existing file
         without ``force``.
     """
-    real = _real(out)
+    real = resolve_output(out, flag=flag, kind="file")
+    shown = _shown(out, real)
     if real.is_dir():
-        raise _refuse(flag, Path(out), "is a folder; expected a file path")
+        raise _refuse(flag, shown, "is a folder; expected a file path")
     for p in _paths(inputs):
         inp = _real(p)
         if real == inp:
-            raise _refuse(flag, Path(out), "is an input of this command; choose another file")
+            raise _refuse(flag, shown, "is an input of this command; choose another file")
         if _inside(real, inp) and not in_input:
-            raise _refuse(
-                flag, Path(out), f"is inside the input {p}; choose a file outside the input"
-            )
-    exists = real.exists() or real.is_symlink()
+            raise _refuse(flag, shown, f"is inside the input {p}; choose a file outside the input")
+    _refuse_below_a_file(real, flag, shown, "file")
+    exists = real.exists()
     if exists and not (force or own):
-        raise _refuse(flag, Path(out), "exists; use --force to replace it")
+        raise _refuse(flag, shown, "exists; use --force to replace it")
     return exists
 
 
@@ -535,38 +593,53 @@ def _name_pid(suffix: str) -> int | None:
 def clean_leftovers(out: str | os.PathLike) -> list[str]:
     """Clean staging leftovers of killed runs beside ``out``; return what was done, one per line.
 
-    ``.NAME.old-*`` (an output moved aside): renamed back when ``NAME`` is missing; deleted only
-    when ``NAME`` exists again and the aside folder holds nothing but its own manifest's files;
-    left alone while the process in its marker runs. ``.NAME.tmp-*`` (a staging folder):
-    deleted only when its marker names a process that is gone; without a marker it is left.
+    ``out`` is resolved once (links, then ``..``) and its folder listed. ``.NAME.old-*`` (an
+    output moved aside): renamed back when ``NAME`` is missing; deleted only when ``NAME``
+    exists again and the aside folder holds nothing but its own manifest's files; left alone
+    while the process in its marker runs. ``.NAME.tmp-*`` (a staging folder): deleted only when
+    its marker names a process that is gone; without a marker it is left. A leftover name that
+    is a symbolic link is removed as a link (its target is never followed nor touched).
     """
-    out = Path(os.path.abspath(out))
+    from stimuli.staging import identity, remove_own_tree, rename_noreplace
+
+    out = _real(out)
     parent = out.parent
     done: list[str] = []
     if not parent.is_dir():
         return done
+    old, tmp = f".{out.name}.old-", f".{out.name}.tmp-"
     for entry in sorted(parent.iterdir()):
         name = entry.name
-        if not entry.is_dir() or entry.is_symlink():
+        if not name.startswith((old, tmp)):
             continue
-        if name.startswith(f".{out.name}.old-"):
-            pid = _name_pid(name[len(f".{out.name}.old-") :]) or _marker_pid(entry)
+        if entry.is_symlink():
+            with contextlib.suppress(OSError):
+                entry.unlink()  # the link only, never what it points to
+                done.append(f"removed {name}, a link where confocal keeps its staging folders")
+            continue
+        if not entry.is_dir():
+            continue
+        ident = identity(entry)
+        if name.startswith(old):
+            pid = _name_pid(name[len(old) :]) or _marker_pid(entry)
             if pid is not None and _pid_alive(pid):
                 continue
-            if not out.exists() and not out.is_symlink():
+            if not os.path.lexists(out):
                 (entry / STAGING_MARKER).unlink(missing_ok=True)
-                os.replace(entry, out)
+                try:
+                    rename_noreplace(entry, out)
+                except FileExistsError:
+                    continue
                 done.append(f"restored {out} from {name}, left by an interrupted run")
                 logger.warning("restored %s from %s, left by an interrupted run", out, name)
-            elif _all_own(entry):
-                shutil.rmtree(entry)
+            elif _all_own(entry) and remove_own_tree(entry, ident):
                 done.append(f"removed {name}, an earlier output already replaced")
-        elif name.startswith(f".{out.name}.tmp-"):
+        else:
             pid = _marker_pid(entry)
             if pid is None or _pid_alive(pid):
                 continue
-            shutil.rmtree(entry)
-            done.append(f"removed {name}, a staging folder of an interrupted run")
+            if remove_own_tree(entry, ident):
+                done.append(f"removed {name}, a staging folder of an interrupted run")
     return done
 
 
@@ -576,219 +649,3 @@ def _all_own(folder: Path) -> bool:
         return False
     own = {str(f) for f in manifest["files"]} | {STAGING_MARKER}
     return all(f in own for f in folder_files(folder))
-
-
-# -- wrapping the commands -----------------------------------------------------------------------
-
-
-class _Output:
-    """One output of one run: checked, moved aside, committed or rolled back."""
-
-    def __init__(self, spec: WritingCommand, params: Mapping[str, Any], flag: str) -> None:
-        self.spec = spec
-        self.params = params
-        self.flag = flag
-        self.path = spec.path_of(params)
-        self.kind = spec.kind_of(params) if self.path is not None else "file"
-        self.state: State | None = None
-        self.aside: Path | None = None
-        self.before: list[str] = []
-
-    @property
-    def force(self) -> bool:
-        return bool(self.spec.force and self.params.get(self.spec.force))
-
-    def inputs(self) -> list[Any]:
-        return [self.params.get(name) for name in self.spec.inputs]
-
-    def check(self) -> None:
-        if self.path is None:
-            return
-        if self.kind == "file":
-            own = self.spec.default_is_own and self.params.get(self.spec.out) is None
-            check_file(
-                self.path,
-                inputs=self.inputs(),
-                force=self.force,
-                own=own,
-                in_input=self.spec.mode == "update-in-place",
-                flag=self.flag,
-            )
-            return
-        clean_leftovers(self.path)
-        self.state = check_folder(
-            self.path,
-            command=self.spec.name_of(self.params),
-            inputs=self.inputs(),
-            force=self.force,
-            needs_force=self.spec.folder_needs_force,
-            flag=self.flag,
-            user_files=self.spec.user_files,
-        )
-        if self.spec.mode == "update-in-place" and self.state != "new":
-            self.before = folder_files(self.path)
-
-    def move_aside(self) -> Path | None:
-        import secrets  # hashlib and hmac: not at import (--help)
-
-        if self.kind != "folder" or self.state != "own" or self.spec.mode != "replace":
-            return None
-        out = Path(os.path.abspath(self.path))
-        # the pid in the name (no file to write: a full disk cannot stop it) tells a later run
-        # whether this run still owns the folder
-        aside = out.parent / f".{out.name}.old-{os.getpid()}-{secrets.token_hex(4)}"
-        os.replace(out, aside)
-        self.aside = aside
-        return aside
-
-    def commit(self) -> None:
-        try:
-            self._commit()
-        except OSError as exc:  # the manifest could not be written: undo, say where
-            self.rollback()
-            if exc.errno in (errno.ENOSPC, errno.EDQUOT):
-                raise OutputFolderError(
-                    f"{self.path}: the disk is full ({exc.strerror or exc}) while finishing the "
-                    f"output; the new output was removed and {self.path} was left as it was"
-                ) from None
-            raise
-
-    def _commit(self) -> None:
-        if self.path is None:
-            return
-        out = Path(self.path)
-        if self.kind == "file":
-            if self.spec.mode == "update-in-place":
-                _adopt(out)
-            return
-        if out.is_dir():
-            if self.spec.mode == "update-in-place" and self.state == "own":
-                manifest = read_manifest(out) or {"files": []}
-                files = set(manifest["files"]) | set(folder_files(out))
-            else:
-                files = set(folder_files(out))
-            if self.spec.user_files is not None:  # a person's README is never the command's
-                files = {f for f in files if not self.spec.user_files(f)}
-            write_manifest(out, self.spec.name_of(self.params), files)
-            if self.aside is not None:
-                shutil.rmtree(self.aside, ignore_errors=True)
-                self.aside = None
-        else:
-            self.rollback()
-
-    def rollback(self) -> None:
-        if self.path is None or self.kind != "folder" or self.spec.mode != "replace":
-            return
-        out = Path(self.path)
-        if self.state in ("new", "own") and out.is_dir() and not out.is_symlink():
-            shutil.rmtree(out, ignore_errors=True)  # made by this run: nothing else is there
-        elif self.state == "empty" and out.is_dir() and any(out.iterdir()):
-            shutil.rmtree(out, ignore_errors=True)
-            out.mkdir(exist_ok=True)
-        if self.aside is not None and not out.exists():
-            (self.aside / STAGING_MARKER).unlink(missing_ok=True)
-            os.replace(self.aside, out)
-            self.aside = None
-
-
-def _adopt(path: Path) -> None:
-    """List a file an update-in-place command wrote in the manifest of the folder holding it."""
-    folder = path.parent
-    manifest = read_manifest(folder)
-    if manifest is None or not path.exists():
-        return
-    files = set(manifest["files"]) | {path.name}
-    if files != set(manifest["files"]):
-        write_manifest(folder, manifest["command"], files)
-
-
-def _flag_of(cmd: Any, name: str) -> str:
-    for p in getattr(cmd, "params", ()):
-        if p.name == name:
-            longs = [o for o in p.opts if o.startswith("--")]
-            return longs[0] if longs else name
-    return f"--{name}"
-
-
-@functools.cache
-def _force_option() -> Any:
-    """Return a ``--force`` flag made by typer itself (help and parsing match the other options)."""
-    import typer
-
-    holder = typer.Typer()
-
-    @holder.command()
-    def _cmd(
-        force: bool = typer.Option(
-            False, "--force", help="Replace an existing output file (never an input)."
-        ),
-    ) -> None:
-        """Hold the flag."""
-
-    return typer.main.get_command(holder).params[0]
-
-
-def guard_command(cmd: Any, command: str) -> Any:
-    """Wrap the click command ``cmd`` (``command``, e.g. ``'analyze run'``) in the contract.
-
-    Does nothing for a command not in :data:`WRITING_COMMANDS`. Adds ``--force`` where a row
-    asks for it. Returns ``cmd``.
-    """
-    specs = [s for s in WRITING_COMMANDS if s.command == command]
-    if not specs or getattr(cmd, "_confocal_outputs", False):
-        return cmd
-    names = {p.name for p in cmd.params}
-    added = False
-    if any(s.add_force for s in specs) and "force" not in names:
-        cmd.params.append(_force_option())
-        added = True
-    original = cmd.callback
-    flags = {s.out: _flag_of(cmd, s.out) for s in specs}
-    accepts = names  # the parameters the command itself takes
-
-    @functools.wraps(original)
-    def callback(**kwargs: Any) -> Any:
-        params = dict(kwargs)
-        if added:
-            kwargs.pop("force", None)
-        outputs = [_Output(s, params, flags[s.out]) for s in specs]
-        for o in outputs:
-            o.check()
-        with _running(outputs):
-            for o in outputs:
-                aside = o.move_aside()
-                if o.spec.passes_aside and o.spec.passes_aside in accepts:
-                    kwargs[o.spec.passes_aside] = aside
-            return original(**kwargs)
-
-    cmd.callback = callback
-    cmd._confocal_outputs = True
-    return cmd
-
-
-def _succeeded(exc: BaseException) -> bool:
-    code = getattr(exc, "exit_code", getattr(exc, "code", 1))
-    return (
-        type(exc).__name__ == "Exit"
-        and code in (0, None)
-        or (isinstance(exc, SystemExit) and exc.code in (0, None))
-    )
-
-
-@contextlib.contextmanager
-def _running(outputs: list[_Output]) -> Iterator[None]:
-    try:
-        yield
-    except BaseException as exc:
-        if _succeeded(exc):
-            for o in outputs:
-                o.commit()
-        else:
-            for o in outputs:
-                try:
-                    o.rollback()
-                except OSError as err:  # the original error matters more; say where it is
-                    logger.error("could not restore %s: %s", o.path, err)
-        raise
-    for o in outputs:
-        o.commit()

@@ -9,10 +9,7 @@ from __future__ import annotations
 
 import errno
 import hashlib
-import json
 import os
-import shutil
-import tempfile
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
@@ -21,6 +18,18 @@ import numpy as np
 from PIL import Image, ImageOps, UnidentifiedImageError
 
 from stimuli.errors import InputError
+from stimuli.staging import STAGING_MARKER as _STAGING_MARKER
+from stimuli.staging import (
+    atomic_file,
+    identity,
+    is_link_loop,
+    make_parents,
+    new_staging,
+    publish,
+    remove_made,
+    remove_own_tree,
+    resolve,
+)
 
 __all__ = [
     "load_gray",
@@ -295,29 +304,34 @@ def default_mode(*, directory: bool = False) -> int:
 def atomic_path(path: str | os.PathLike) -> Iterator[Path]:
     """Yield a temporary path beside ``path``; rename it onto ``path`` only if the block succeeds.
 
-    Readers never see a half-written file: on any exception the temporary file is removed and
-    ``path`` is left as it was. The file gets the user's umask (:func:`default_mode`), not
+    Readers never see a half-written file: on any exception (a full disk included) the temporary
+    file is removed and ``path`` is left as it was; on success the file is flushed to disk
+    (``fsync``) before the rename. The file gets the user's umask (:func:`default_mode`), not
     ``mkstemp``'s private ``0600``.
+
+    Raises
+    ------
+    InputError
+        ``path`` is a symbolic link (dangling or not): nothing is written through a link.
     """
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=path.suffix, dir=path.parent)
-    os.close(fd)
-    tmp_path = Path(tmp)
-    try:
-        yield tmp_path
-        if tmp_path.exists():
-            os.chmod(tmp_path, default_mode())
-        os.replace(tmp_path, path)
-    finally:
-        if tmp_path.exists():
-            tmp_path.unlink()
+    with atomic_file(path, refuse=InputError) as tmp:
+        yield tmp
 
 
 #: Name of the marker file inside a staging folder (``.NAME.tmp-*``): ``{"pid": N}``, the process
 #: that fills it. It proves confocal made the folder, so a later run may delete it once that
 #: process is gone (``experiment.outputs`` does); it is removed before the folder is renamed.
-STAGING_MARKER = ".confocal-staging.json"
+STAGING_MARKER = _STAGING_MARKER
+
+
+def _refuse_link_or_loop(given: Path, real: Path) -> None:
+    if os.path.islink(given):
+        raise InputError(
+            f"{given}: --out is a symbolic link; confocal never writes through a link: "
+            "give the folder itself, or a new one"
+        )
+    if is_link_loop(real):
+        raise InputError(f"{given}: --out is a loop of symbolic links; expected a folder path")
 
 
 @contextmanager
@@ -329,11 +343,14 @@ def staged_folder(
     A command that writes several files (a scan's ``scan.json`` with its images) writes them
     here first, so a failure (a full disk, a stop signal, a bug) leaves ``out_dir`` as it was,
     and no folder when it did not exist: neither a ``scan.json`` without its images nor an empty
-    folder. Without ``merge``, ``out_dir`` must be missing or an empty folder: an existing
-    non-empty folder is never replaced (checked before any work; the kernel's rename refuses a
-    non-empty target too), and the new folder appears whole in one rename. With ``merge`` (a
-    dataset that an export updates), each staged file is renamed into the existing folder and
-    the folder's other files are kept.
+    folder. ``out_dir`` is resolved once (:func:`stimuli.staging.resolve`: links, then ``..``)
+    and a link at ``out_dir`` itself is refused. Without ``merge``, ``out_dir`` must be missing
+    or an empty folder: an existing non-empty folder is never replaced (checked before any work;
+    the final rename never replaces anything but an empty folder: a target that appeared
+    meanwhile is refused). With ``merge`` (a dataset that an export updates), each staged file is
+    renamed into the existing folder and the folder's other files are kept. On failure only the
+    staging folder this call made is removed (checked by device and inode), and the parent
+    folders it made, if still empty.
 
     Parameters
     ----------
@@ -347,62 +364,70 @@ def staged_folder(
     Raises
     ------
     InputError
-        ``out_dir`` is a file, or (without ``merge``) a folder that is not empty; or the disk
-        filled up (ENOSPC, EDQUOT), with a message naming ``out_dir``.
+        ``out_dir`` is a link, a file, or (without ``merge``) a folder that is not empty; or the
+        disk filled up (ENOSPC, EDQUOT), with a message naming ``out_dir``.
     """
-    out = Path(out_dir)
+    given = Path(out_dir)
+    real = resolve(given)
+    _refuse_link_or_loop(given, real)
     if merge:
-        if out.exists() and not out.is_dir():
-            raise InputError(f"{out}: --out exists and is not a folder")
+        if real.exists() and not real.is_dir():
+            raise InputError(f"{given}: --out exists and is not a folder")
     else:
-        check_missing_or_empty(out)
-    created = None  # the top-most missing parent: removed again if nothing was written
-    for parent in [out.parent, *out.parent.parents]:
-        if parent.exists():
-            break
-        created = parent
-    tmp = None
+        _check_missing_or_empty(real, given)
+    made = []
+    tmp, ident = None, None
     try:
-        tmp = new_staging_folder(out)  # its marker file is the first write: inside the try
+        made = make_parents(real.parent)  # removed again (rmdir, if still empty) on failure
+        tmp, ident = new_staging(real)  # its marker file is the first write: inside the try
         yield tmp
-        if merge and out.exists():
+        if merge and real.is_dir():
             (tmp / STAGING_MARKER).unlink(missing_ok=True)
             staged = sorted(p for p in tmp.rglob("*") if not p.is_dir())
             for f in staged:  # make every folder first (that needs space), then rename the files
-                (out / f.relative_to(tmp)).parent.mkdir(parents=True, exist_ok=True)
+                (real / f.relative_to(tmp)).parent.mkdir(parents=True, exist_ok=True)
             for f in staged:
-                os.replace(f, out / f.relative_to(tmp))
+                os.replace(f, real / f.relative_to(tmp))
         else:
-            swap_in(tmp, out)
+            _publish(tmp, ident, real, given)
+            tmp = None  # it is the output now
     except BaseException as exc:
-        if created is not None and not out.exists():
-            shutil.rmtree(created, ignore_errors=True)
+        if tmp is not None:
+            remove_own_tree(tmp, ident)
+            tmp = None
+        remove_made(made)
         if isinstance(exc, OSError) and exc.errno in (errno.ENOSPC, errno.EDQUOT):
             raise InputError(
-                f"{out}: the disk is full ({exc.strerror or exc}) while writing {what}; the "
-                f"partial output was removed and {out} was left as it was"
+                f"{given}: the disk is full ({exc.strerror or exc}) while writing {what}; the "
+                f"partial output was removed and {given} was left as it was"
             ) from None
         raise
     finally:
         if tmp is not None:
-            shutil.rmtree(tmp, ignore_errors=True)
+            remove_own_tree(tmp, ident)
+
+
+def _publish(tmp: Path, ident: tuple[int, int], real: Path, given: Path) -> None:
+    try:
+        publish(tmp, ident, real)
+    except FileExistsError:
+        _check_missing_or_empty(real, given)
+        raise InputError(
+            f"{given}: --out appeared while this command ran; it was left as it was: "
+            "choose a new or empty folder"
+        ) from None
 
 
 def new_staging_folder(out_dir: str | os.PathLike) -> Path:
     """Create the private staging folder ``.NAME.tmp-*`` beside ``out_dir``, with its marker.
 
-    The marker (:data:`STAGING_MARKER`) names this process, so a later run can tell a folder
-    left by a killed run from one still being filled.
+    ``out_dir`` is resolved once (links, then ``..``) and its missing parents are made. The
+    marker (:data:`STAGING_MARKER`) names this process, so a later run can tell a folder left
+    by a killed run from one still being filled.
     """
-    out = Path(out_dir)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.tmp-", dir=out.parent))
-    try:
-        (tmp / STAGING_MARKER).write_text(json.dumps({"pid": os.getpid()}) + "\n", "utf-8")
-    except BaseException:
-        shutil.rmtree(tmp, ignore_errors=True)
-        raise
-    return tmp
+    real = resolve(out_dir)
+    make_parents(real.parent)
+    return new_staging(real)[0]
 
 
 def swap_in(tmp: str | os.PathLike, out_dir: str | os.PathLike) -> None:
@@ -414,31 +439,35 @@ def swap_in(tmp: str | os.PathLike, out_dir: str | os.PathLike) -> None:
         ``out_dir`` became a file or a non-empty folder meanwhile (``tmp`` is left in place
         for the caller to remove).
     """
-    tmp, out = Path(tmp), Path(out_dir)
-    (tmp / STAGING_MARKER).unlink(missing_ok=True)
-    os.chmod(tmp, default_mode(directory=True))  # mkdtemp makes it private
-    try:
-        os.replace(tmp, out)  # the kernel refuses a non-empty target folder: keep it that way
-    except OSError as exc:
-        if exc.errno in (errno.ENOTEMPTY, errno.EEXIST, errno.ENOTDIR, errno.EISDIR):
-            check_missing_or_empty(out)
-        raise
+    ident = identity(tmp)
+    if ident is None:
+        raise InputError(f"{tmp}: the staging folder is gone")
+    _publish(Path(tmp), ident, resolve(out_dir), Path(out_dir))
 
 
 def check_missing_or_empty(out_dir: str | os.PathLike) -> None:
     """Refuse an ``out_dir`` that is a file or a non-empty folder (confocal never replaces one).
+
+    The path is resolved once (links, then ``..``) and checked there; messages name it as given.
 
     Raises
     ------
     InputError
         Naming the folder and what was expected.
     """
-    out = Path(out_dir)
-    if out.exists() and not out.is_dir():
-        raise InputError(f"{out}: --out exists and is not a folder")
-    if out.is_dir() and any(out.iterdir()):
+    given = Path(out_dir)
+    real = resolve(given)
+    if is_link_loop(real):
+        raise InputError(f"{given}: --out is a loop of symbolic links; expected a folder path")
+    _check_missing_or_empty(real, given)
+
+
+def _check_missing_or_empty(real: Path, given: Path) -> None:
+    if real.exists() and not real.is_dir():
+        raise InputError(f"{given}: --out exists and is not a folder")
+    if real.is_dir() and any(real.iterdir()):
         raise InputError(
-            f"{out}: --out folder is not empty; confocal never replaces a folder's contents "
+            f"{given}: --out folder is not empty; confocal never replaces a folder's contents "
             "here: choose a new or empty folder"
         )
 

@@ -405,7 +405,7 @@ def refocus_command(
     """
     from stimuli.declutter import in_focus_evidence
     from stimuli.edgegrid import declutter_and_compress
-    from stimuli.io import save_png
+    from stimuli.io import save_png, staged_folder
     from stimuli.refocus import iter_focal_stack, refocus
 
     # every option is checked before the light field is read or anything is written
@@ -428,9 +428,9 @@ def refocus_command(
         if depth is not None or disparity is not None:
             raise InputError("--stack scans --near/--far or --disparities, not --depth/--disparity")
         ds = scan_disparities(lf, planes, near, far, disparities)
-        out.mkdir(parents=True, exist_ok=True)
-        for k, (d, img) in enumerate(iter_focal_stack(lf, ds)):
-            save_png(img, out / f"plane{k:03d}_{d:+.3f}px.png")
+        with staged_folder(out, what="the focal stack") as folder:  # whole, or nothing
+            for k, (d, img) in enumerate(iter_focal_stack(lf, ds)):
+                save_png(img, folder / f"plane{k:03d}_{d:+.3f}px.png")
         typer.echo(f"wrote {len(ds)} planes to {out}")
         return
     if (depth is None) == (disparity is None):
@@ -506,7 +506,7 @@ def synth_command(
     seed: Annotated[int, seed_option("Seed of the textures.")] = 0,
 ) -> None:
     """Write the paper's simulated three-plane scene (Fig. 10)."""
-    from stimuli.io import atomic_path, save_png
+    from stimuli.io import atomic_path, save_png, staged_folder
     from stimuli.lfsynth import (
         ground_truth_maps,
         render_elemental_image,
@@ -549,7 +549,6 @@ def synth_command(
     if suffix == ".npz":
         import numpy as np
 
-        out.parent.mkdir(parents=True, exist_ok=True)
         with atomic_path(out) as tmp, open(tmp, "wb") as f:
             np.savez_compressed(
                 f,
@@ -567,13 +566,13 @@ def synth_command(
         with atomic_path(out.with_suffix(".toml")) as tmp:
             tmp.write_text(gtoml + f"\n[elemental]\npitch_px = {p}\nborder_px = 0\n")
     else:
-        out.mkdir(parents=True, exist_ok=True)
-        for u in range(views.shape[0]):
-            for v in range(views.shape[1]):
-                save_png(views[u, v], out / f"view_{u:02d}_{v:02d}.png")
-        with atomic_path(out / "lightfield.toml") as tmp:
-            tmp.write_text(gtoml)
-        write_truth(out / "disparity.pfm", out / "depth.pfm")
+        with staged_folder(out, what="the light field") as folder:  # whole, or nothing
+            for u in range(views.shape[0]):
+                for v in range(views.shape[1]):
+                    save_png(views[u, v], folder / f"view_{u:02d}_{v:02d}.png")
+            with atomic_path(folder / "lightfield.toml") as tmp:
+                tmp.write_text(gtoml)
+            write_truth(folder / "disparity.pfm", folder / "depth.pfm")
     typer.echo(f"wrote {out} ({views.shape[0]}x{views.shape[1]} views of {shape[1]}x{shape[0]})")
 
 

@@ -410,7 +410,11 @@ def test_check_folder_resolves_symlinks_and_dots(tmp_path):
     (tmp_path / "data").mkdir()
     (tmp_path / "link").symlink_to(tmp_path / "data")
     with pytest.raises(OutputFolderError, match="is the input"):
-        check_folder(tmp_path / "link", command="c", inputs=[tmp_path / "data"], cwd="/")
+        check_folder(f"{tmp_path}/link/.", command="c", inputs=[tmp_path / "data"], cwd="/")
+    with pytest.raises(OutputFolderError, match="is inside the input"):
+        check_folder(tmp_path / "link" / "x", command="c", inputs=[tmp_path / "data"], cwd="/")
+    with pytest.raises(OutputFolderError, match="is a symbolic link"):  # the link itself
+        check_folder(tmp_path / "link", command="c", cwd="/")
     with pytest.raises(OutputFolderError, match="holds the input"):
         check_folder(tmp_path / "data" / "..", command="c", inputs=[tmp_path / "data"], cwd="/")
 

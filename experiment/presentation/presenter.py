@@ -395,8 +395,12 @@ class Presenter(ClosesOnExit):
         """Write the current frame to a PNG at the screen's full resolution; return the path."""
         from PIL import Image
 
+        from stimuli.io import atomic_path  # a link at the path is refused; no partial file
+
         path = Path(path)
-        Image.fromarray(self.read_pixels(), "RGB").save(path)
+        pixels = self.read_pixels()
+        with atomic_path(path) as tmp:
+            Image.fromarray(pixels, "RGB").save(tmp, format="PNG")
         return path
 
     def measure_refresh(self, n_frames: int = 60, *, check: bool = True) -> float | None:

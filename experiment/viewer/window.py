@@ -188,4 +188,9 @@ def _window_shot(window: Any, path: Path) -> None:
 
     rows, cols = window.buffer_height, window.buffer_width
     raw = window.fbo.read(components=3)
-    Image.fromarray(np.frombuffer(raw, np.uint8).reshape(rows, cols, 3)[::-1]).save(path)
+    from stimuli.io import atomic_path  # a link at the path is refused; no partial file
+
+    with atomic_path(path) as tmp:
+        Image.fromarray(np.frombuffer(raw, np.uint8).reshape(rows, cols, 3)[::-1]).save(
+            tmp, format="PNG"
+        )
