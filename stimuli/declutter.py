@@ -385,7 +385,9 @@ def _agreement_numpy(centre, nb, axis, side, ds):
     return out
 
 
-def declutter_depth(image: np.ndarray, focus_mask: np.ndarray, *, threshold: float) -> np.ndarray:
+def declutter_depth(
+    image: np.ndarray, focus_mask: np.ndarray, *, threshold: float, compiled: bool = True
+) -> np.ndarray:
     """Return the depth-mode edge image: Sobel edges that the light field says are in focus.
 
     An edge pixel of :func:`declutter` is kept when at least half of the edge pixels in the
@@ -401,13 +403,14 @@ def declutter_depth(image: np.ndarray, focus_mask: np.ndarray, *, threshold: flo
         In focus (bool), or :data:`FOCUS_OUT` / :data:`FOCUS_IN` / :data:`FOCUS_DROP` (uint8).
     threshold : float >= 0
         Sobel threshold, as :func:`declutter`.
+    compiled : bool
+        The vote in one compiled call (:func:`stimuli.kernels.focus_vote`, the default) or
+        its numpy twin (two box filters of full images); the same edges to the bit.
 
     Returns
     -------
     ndarray of shape (rows, cols), bool
     """
-    from scipy.ndimage import uniform_filter
-
     edges = declutter(image, threshold=threshold)
     m = np.asarray(focus_mask)
     if m.dtype not in (np.bool_, np.uint8) or m.shape != edges.shape:
@@ -415,6 +418,19 @@ def declutter_depth(image: np.ndarray, focus_mask: np.ndarray, *, threshold: flo
             f"focus_mask must be a bool image (or in_focus_evidence's uint8) of shape "
             f"{edges.shape}, got {m.dtype} {m.shape}"
         )
+    if not compiled:
+        return _vote_numpy(edges, m)
+    from stimuli.kernels import focus_vote
+
+    out = np.empty(edges.shape, bool)
+    focus_vote(edges.view(np.uint8), np.ascontiguousarray(m).view(np.uint8), VOTE_WINDOW_PX, out)
+    return out
+
+
+def _vote_numpy(edges: np.ndarray, m: np.ndarray) -> np.ndarray:
+    """The numpy twin of :func:`stimuli.kernels.focus_vote` (two box filters of full images)."""
+    from scipy.ndimage import uniform_filter
+
     drop = None
     if m.dtype == np.uint8:
         m, drop = m == FOCUS_IN, m == FOCUS_DROP

@@ -14,7 +14,9 @@ cached on disk (``cache=True``), so only the first run on a machine pays for the
 * :func:`agreement_sweep`: the agreement scan's plane sweep (:mod:`stimuli.agreementscan`),
   every plane's view differences, box filter and running best in one call;
 * :func:`focus_agreement`: the in-focus test of :func:`stimuli.declutter.agreement_mask` for
-  one neighbouring view, every disparity of the tolerance in one call.
+  one neighbouring view, every disparity of the tolerance in one call;
+* :func:`focus_vote`: the local majority of :func:`stimuli.declutter.declutter_depth` (two
+  box means and the comparison in one call).
 
 Importing this module imports numba (about 0.3 s), so the modules that use it import it inside
 the functions that need it.
@@ -31,6 +33,7 @@ __all__ = [
     "count_blocks",
     "agreement_sweep",
     "focus_agreement",
+    "focus_vote",
     "ROW_BLOCK",
     "COST_BOX_PX",
 ]
@@ -390,3 +393,86 @@ def focus_agreement(centre, nb, axis, side, ds, ratio, noise, out):  # pragma: n
                 s = np.float64(b[y, xa]) + np.float64(b[y, x]) + np.float64(b[y, xb])
                 if np.float32(s / 3.0) < limit[y, x]:
                     out[y, x] = True
+
+
+@njit(nogil=True, cache=True)
+def _running_mean_rows(src, size, dst):  # pragma: no cover - compiled
+    """``scipy.ndimage.uniform_filter1d(src, size, axis=0, mode='constant')`` step for step.
+
+    A running sum in float64 over the window (zeros beyond the image), updated by
+    ``(entering - leaving) / size`` as scipy does, rounded to float32; every column at once.
+    """
+    rows, cols = src.shape
+    half = size // 2
+    tmp = np.zeros(cols, dtype=np.float64)
+    for k in range(size):  # the first window, summed in order
+        y = k - half
+        if 0 <= y < rows:
+            s = src[y]
+            for x in range(cols):
+                tmp[x] += s[x]
+    for y in range(rows):
+        if y > 0:
+            y_in = y + size - 1 - half
+            y_out = y - 1 - half
+            for x in range(cols):
+                a = np.float64(src[y_in, x]) if y_in < rows else 0.0
+                b = np.float64(src[y_out, x]) if y_out >= 0 else 0.0
+                tmp[x] += a - b
+        d = dst[y]
+        for x in range(cols):
+            d[x] = np.float32(tmp[x] / size)
+
+
+@njit(nogil=True, cache=True)
+def _running_mean_line(src, size, dst):  # pragma: no cover - compiled
+    """The same along one line (``axis=-1``), float32 in and out, float64 running sum."""
+    n = src.shape[0]
+    half = size // 2
+    tmp = 0.0
+    for k in range(size):
+        x = k - half
+        if 0 <= x < n:
+            tmp += src[x]
+    dst[0] = np.float32(tmp / size)
+    for x in range(1, n):
+        x_in = x + size - 1 - half
+        x_out = x - 1 - half
+        a = np.float64(src[x_in]) if x_in < n else 0.0
+        b = np.float64(src[x_out]) if x_out >= 0 else 0.0
+        tmp += a - b
+        dst[x] = np.float32(tmp / size)
+
+
+@njit(nogil=True, cache=True)
+def focus_vote(edges, focus, size, out):  # pragma: no cover - compiled
+    """The local majority of :func:`stimuli.declutter.declutter_depth` in one call.
+
+    ``edges`` (uint8 0/1) and ``focus`` (uint8: 1 in focus, 2 dropped, else out of focus);
+    ``out[y, x]`` (bool) is set where ``edges`` and ``agree >= 0.5 * total`` and ``focus`` is
+    not 2, ``agree`` and ``total`` the ``size`` x ``size`` means (zeros beyond the image) of
+    the in-focus edges and of the edges, made as ``scipy.ndimage.uniform_filter`` makes them
+    (rows first, each pass a float64 running sum rounded to float32), so the same to the bit.
+    """
+    rows, cols = edges.shape
+    e_in = np.empty((rows, cols), dtype=np.float32)
+    e_all = np.empty((rows, cols), dtype=np.float32)
+    for y in range(rows):
+        for x in range(cols):
+            e = np.float32(edges[y, x])
+            e_all[y, x] = e
+            e_in[y, x] = e if focus[y, x] == 1 else np.float32(0.0)
+    a_rows = np.empty((rows, cols), dtype=np.float32)
+    t_rows = np.empty((rows, cols), dtype=np.float32)
+    _running_mean_rows(e_in, size, a_rows)
+    _running_mean_rows(e_all, size, t_rows)
+    agree = np.empty(cols, dtype=np.float32)
+    total = np.empty(cols, dtype=np.float32)
+    for y in range(rows):
+        _running_mean_line(a_rows[y], size, agree)
+        _running_mean_line(t_rows[y], size, total)
+        o = out[y]
+        e = edges[y]
+        f = focus[y]
+        for x in range(cols):
+            o[x] = e[x] != 0 and f[x] != 2 and agree[x] >= np.float32(0.5) * total[x]
