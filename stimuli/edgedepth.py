@@ -148,8 +148,13 @@ def edge_confidence(image: np.ndarray, axes: tuple[int, ...]) -> np.ndarray:
     (0.0, 1.0)
     """
     img = np.asarray(image, dtype=np.float32)
+    return _confidence([ndimage.sobel(img, axis=a) for a in (0, 1)], axes)
+
+
+def _confidence(grads, axes):
+    """:func:`edge_confidence` from the image's Sobel gradients along axes 0 and 1."""
     w = CONFIDENCE_WINDOW_PX
-    energy = [ndimage.uniform_filter(ndimage.sobel(img, axis=a) ** 2, w) for a in (0, 1)]
+    energy = [ndimage.uniform_filter(g**2, w) for g in grads]
     total = energy[0] + energy[1]
     along = np.max([energy[a] for a in axes], axis=0) if axes else np.zeros_like(total)
     with np.errstate(invalid="ignore", divide="ignore"):
@@ -158,7 +163,7 @@ def edge_confidence(image: np.ndarray, axes: tuple[int, ...]) -> np.ndarray:
 
 
 def resolve_edge_depth(
-    confocal: np.ndarray, focus: np.ndarray, grid: tuple[int, int]
+    confocal: np.ndarray, focus, grid: tuple[int, int]
 ) -> tuple[np.ndarray, EdgeDepthStats]:
     """Give the edges the views cannot measure the depth of what they end on (module notes).
 
@@ -166,8 +171,11 @@ def resolve_edge_depth(
     ----------
     confocal : ndarray of shape (rows, cols), float32 in [0, 1]
         The confocal image at the plane.
-    focus : ndarray of shape (rows, cols), bool
-        The views' agreement at the plane (:func:`stimuli.declutter.in_focus_mask`'s raw test).
+    focus : ndarray of shape (rows, cols), bool, or callable
+        The views' agreement at the plane (:func:`stimuli.declutter.in_focus_mask`'s raw test),
+        or a function that takes the edge pixels this function reads it at (bool image) and
+        returns it, right at least there (:func:`stimuli.declutter.agreement_mask`'s
+        ``where``).
     grid : (n_u, n_v)
         The light field's views.
 
@@ -178,18 +186,27 @@ def resolve_edge_depth(
         (dropped: :data:`stimuli.declutter.FOCUS_DROP`).
     stats : EdgeDepthStats
     """
-    focus = np.asarray(focus, dtype=bool)
+    img = np.asarray(confocal, dtype=np.float32)
+    if callable(focus):
+        at = focus
+    else:
+        mask = np.asarray(focus, dtype=bool)
+
+        def at(_pixels):
+            return mask
+
     axes = baseline_axes(grid)
     if len(axes) != 1:  # a 2-D grid measures every direction
-        return focus.astype(np.uint8), EdgeDepthStats()
-    img = np.asarray(confocal, dtype=np.float32)
-    mag = np.hypot(ndimage.sobel(img, axis=0), ndimage.sobel(img, axis=1))
+        return at(np.zeros(img.shape, bool)).astype(np.uint8), EdgeDepthStats()
+    grads = [ndimage.sobel(img, axis=a) for a in (0, 1)]
+    mag = np.hypot(*grads)
     if float(mag.max()) <= 0.0:
-        return focus.astype(np.uint8), EdgeDepthStats()
+        return at(np.zeros(img.shape, bool)).astype(np.uint8), EdgeDepthStats()
     from skimage.filters import threshold_otsu
 
     edges = mag > 0.5 * float(threshold_otsu(mag, nbins=256))
-    conf = edge_confidence(img, axes)
+    focus = np.asarray(at(edges), dtype=bool)
+    conf = _confidence(grads, axes)
     low_all = (conf < MIN_CONFIDENCE) & (mag > 0)
     low = edges & low_all
     measured = edges & ~low_all
@@ -232,12 +249,8 @@ def _vote(low: np.ndarray, measured: np.ndarray, focus: np.ndarray):
         return none
     rows = np.broadcast_to(np.arange(low.shape[0])[:, None], low.shape)
     cols = np.broadcast_to(np.arange(low.shape[1])[None, :], low.shape)
-    boxes = ndimage.find_objects(comp)  # bounding boxes: extents without sorting the pixels
-    top = np.array([b[0].start for b in boxes])
-    bottom = np.array([b[0].stop - 1 for b in boxes])
-    boxes = ndimage.find_objects(seg)
-    left = np.array([b[1].start for b in boxes])
-    right = np.array([b[1].stop - 1 for b in boxes])
+    top, bottom, _, _ = _extents(comp, n_comp)  # bounding boxes: extents in one pass each
+    _, _, left, right = _extents(seg, n_seg)
     # each measured pixel near a segment: which segment (the largest label nearby)
     near = ndimage.grey_dilation(seg, size=2 * (r + 1) + 1)
     touch = measured & (near > 0)
@@ -276,6 +289,18 @@ def _vote(low: np.ndarray, measured: np.ndarray, focus: np.ndarray):
     kept |= junction & _grow(kept, 2 * r + 3)
     dropped |= junction & ~kept & _grow(dropped, 2 * r + 3)
     return kept, dropped
+
+
+def _extents(labels: np.ndarray, n: int):
+    """Top, bottom, left and right (last row and column included) of labels ``1..n``, as
+    ``scipy.ndimage.find_objects`` gives them (:func:`stimuli.kernels.label_extents`)."""
+    from stimuli.kernels import label_extents
+
+    big = np.iinfo(np.int64).max
+    top, left = np.full(n, big, np.int64), np.full(n, big, np.int64)
+    bottom, right = np.full(n, -1, np.int64), np.full(n, -1, np.int64)
+    label_extents(np.ascontiguousarray(labels), n, top, bottom, left, right)
+    return top, bottom, left, right
 
 
 def _grow(mask: np.ndarray, size: int) -> np.ndarray:

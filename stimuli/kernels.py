@@ -34,6 +34,8 @@ __all__ = [
     "agreement_sweep",
     "focus_agreement",
     "focus_vote",
+    "focus_agreement_at",
+    "label_extents",
     "ROW_BLOCK",
     "COST_BOX_PX",
 ]
@@ -476,3 +478,82 @@ def focus_vote(edges, focus, size, out):  # pragma: no cover - compiled
         f = focus[y]
         for x in range(cols):
             o[x] = e[x] != 0 and f[x] != 2 and agree[x] >= np.float32(0.5) * total[x]
+
+
+@njit(nogil=True, cache=True)
+def _box3_at(src, centre, axis, k, f, y, x):  # pragma: no cover - compiled
+    """The 3x3 mean at ``(y, x)`` of ``|src sampled at x - k - f along axis - centre|``.
+
+    Sampled as :func:`focus_agreement` samples (edge pixels repeated, linear interpolation) and
+    averaged as it averages (each column of three in float64 rounded to float32, then the
+    three columns), so the value it compares, to the bit.
+    """
+    rows, cols = centre.shape
+    n = cols if axis == 1 else rows
+    s = 0.0
+    for dx in range(-1, 2):
+        xx = min(max(x + dx, 0), cols - 1)
+        c = 0.0
+        for dy in range(-1, 2):
+            yy = min(max(y + dy, 0), rows - 1)
+            if axis == 1:
+                ja = min(max(xx - k, 0), n - 1)
+                jb = min(max(xx - k - 1, 0), n - 1)
+                va, vb = src[yy, ja], src[yy, jb]
+            else:
+                ja = min(max(yy - k, 0), n - 1)
+                jb = min(max(yy - k - 1, 0), n - 1)
+                va, vb = src[ja, xx], src[jb, xx]
+            c += np.float64(abs((va + f * (vb - va)) - centre[yy, xx]))
+        s += np.float64(np.float32(c / 3.0))
+    return np.float32(s / 3.0)
+
+
+@njit(nogil=True, cache=True)
+def focus_agreement_at(centre, nb, axis, side, ds, ratio, noise, ys, xs, out):  # pragma: no cover
+    """:func:`focus_agreement` at the listed pixels ``(ys[i], xs[i])`` only, the same verdict.
+
+    Each pixel not yet in focus in ``out`` is tested disparity by disparity (the plane's own
+    first: ``ds`` in the caller's order) and left at the first that agrees, so a pixel in focus
+    costs one test and only the pixels off the plane cost them all.
+    """
+    for i in range(ys.shape[0]):
+        y = ys[i]
+        x = xs[i]
+        if out[y, x]:
+            continue
+        limit = np.float32(ratio) * _box3_at(
+            centre, centre, axis, side, np.float32(0.0), y, x
+        ) + np.float32(noise)
+        for di in range(ds.shape[0]):
+            sh = ds[di] * side
+            k = int(np.floor(sh))
+            f = np.float32(sh - k)
+            if _box3_at(nb, centre, axis, k, f, y, x) < limit:
+                out[y, x] = True
+                break
+
+
+@njit(nogil=True, cache=True)
+def label_extents(labels, n, top, bottom, left, right):  # pragma: no cover - compiled
+    """The bounding box of each label ``1..n`` of a label image, in one pass.
+
+    ``top[i - 1]``, ``bottom[i - 1]`` (the last row), ``left[i - 1]`` and ``right[i - 1]`` (the
+    last column) of label ``i``: the extents of ``scipy.ndimage.find_objects``; labels that do
+    not occur keep the values the caller filled in.
+    """
+    rows, cols = labels.shape
+    for y in range(rows):
+        row = labels[y]
+        for x in range(cols):
+            v = row[x]
+            if 0 < v <= n:
+                i = v - 1
+                if y < top[i]:
+                    top[i] = y
+                if y > bottom[i]:
+                    bottom[i] = y
+                if x < left[i]:
+                    left[i] = x
+                if x > right[i]:
+                    right[i] = x

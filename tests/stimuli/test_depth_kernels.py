@@ -30,3 +30,45 @@ def test_compiled_vote_is_the_numpy_twin(seed):
     fast = declutter_depth(img, focus, threshold=0.1)
     assert np.array_equal(fast, declutter_depth(img, focus, threshold=0.1, compiled=False))
     assert 0 < fast.sum() < img.size
+
+
+@pytest.mark.parametrize("grid", [(1, 7), (3, 3), (7, 1)])
+def test_evidence_at_the_edges_is_the_full_evidence_there(grid):
+    """The in-focus test run only where it is read (the edge pixels, and on 1-D light fields
+    the edges the unmeasured ones take their depth from) gives the depth edges of the full
+    test, to the bit, and its evidence equals the full evidence at those edges."""
+    from stimuli.declutter import agreement_mask, auto_threshold, declutter, in_focus_evidence
+    from stimuli.refocus import refocus
+    from tests.stimuli.test_edge_depth import D_BOX, _box_scene
+
+    lf, _ = _box_scene(grid)
+    for d in (D_BOX, 1.3):
+        img = refocus(lf, d)
+        t = auto_threshold(img)
+        edges = declutter(img, threshold=t)
+        full, stats = in_focus_evidence(lf, d, confocal=img)
+        part, stats_part = in_focus_evidence(lf, d, confocal=img, where=edges)
+        assert stats == stats_part
+        assert np.array_equal(full[edges], part[edges])
+        assert np.array_equal(
+            declutter_depth(img, full, threshold=t), declutter_depth(img, part, threshold=t)
+        )
+        at = agreement_mask(lf, d, where=edges)
+        assert np.array_equal(at, agreement_mask(lf, d) & edges)
+        assert at.any() and not at.all()
+
+
+def test_label_extents_are_find_objects():
+    from scipy import ndimage
+
+    from stimuli.edgedepth import _extents
+
+    rng = np.random.default_rng(0)
+    lab, n = ndimage.label(rng.random((120, 170)) < 0.3, np.ones((3, 3), bool))
+    boxes = ndimage.find_objects(lab)
+    top, bottom, left, right = _extents(lab, n)
+    assert n > 10
+    assert top.tolist() == [b[0].start for b in boxes]
+    assert bottom.tolist() == [b[0].stop - 1 for b in boxes]
+    assert left.tolist() == [b[1].start for b in boxes]
+    assert right.tolist() == [b[1].stop - 1 for b in boxes]
