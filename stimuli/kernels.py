@@ -36,6 +36,7 @@ __all__ = [
     "focus_vote",
     "focus_agreement_at",
     "label_extents",
+    "box_max",
     "ROW_BLOCK",
     "COST_BOX_PX",
 ]
@@ -557,3 +558,37 @@ def label_extents(labels, n, top, bottom, left, right):  # pragma: no cover - co
                     left[i] = x
                 if x > right[i]:
                     right[i] = x
+
+
+@njit(nogil=True, cache=True)
+def box_max(src, size, out):  # pragma: no cover - compiled
+    """``out`` = the largest value of ``src`` in the ``size`` x ``size`` box around each pixel
+    (odd ``size``; the box clipped to the image), columns first, then along the rows.
+
+    For values >= 0 it is ``scipy.ndimage.maximum_filter`` with ``mode='constant'`` (zeros
+    beyond the image) and ``grey_dilation``'s default ``mode='reflect'`` (whose reflected
+    pixels lie inside the clipped box), to the bit.
+    """
+    rows, cols = src.shape
+    half = size // 2
+    tmp = np.empty((rows, cols), dtype=src.dtype)
+    for y in range(rows):
+        t = tmp[y]
+        t[:] = src[y]
+        for yy in range(max(y - half, 0), min(y + half + 1, rows)):
+            s = src[yy]
+            for x in range(cols):
+                t[x] = max(t[x], s[x])
+    for y in range(rows):
+        t = tmp[y]
+        o = out[y]
+        o[:] = t
+        for dx in range(1, min(half, cols - 1) + 1):
+            lo = o[: cols - dx]  # from the right, then from the left
+            hi = t[dx:]
+            for x in range(cols - dx):
+                lo[x] = max(lo[x], hi[x])
+            lo = o[dx:]
+            hi = t[: cols - dx]
+            for x in range(cols - dx):
+                lo[x] = max(lo[x], hi[x])

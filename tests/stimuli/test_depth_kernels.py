@@ -72,3 +72,18 @@ def test_label_extents_are_find_objects():
     assert bottom.tolist() == [b[0].stop - 1 for b in boxes]
     assert left.tolist() == [b[1].start for b in boxes]
     assert right.tolist() == [b[1].stop - 1 for b in boxes]
+
+
+@pytest.mark.parametrize("shape", [(1, 1), (7, 3), (3, 50), (90, 130)])
+def test_box_max_is_scipys_dilation(shape):
+    from scipy import ndimage
+
+    from stimuli.edgedepth import _box_max, _grow
+
+    rng = np.random.default_rng(1)
+    mask = rng.random(shape) < 0.1
+    labels, _ = ndimage.label(mask, np.ones((3, 3), bool))
+    for size in (5, 7):
+        assert np.array_equal(_box_max(labels, size), ndimage.grey_dilation(labels, size=size))
+        ref = ndimage.maximum_filter(mask.view(np.uint8), size=size, mode="constant") > 0
+        assert np.array_equal(_grow(mask, size), ref)
