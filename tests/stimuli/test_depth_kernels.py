@@ -87,3 +87,40 @@ def test_box_max_is_scipys_dilation(shape):
         assert np.array_equal(_box_max(labels, size), ndimage.grey_dilation(labels, size=size))
         ref = ndimage.maximum_filter(mask.view(np.uint8), size=size, mode="constant") > 0
         assert np.array_equal(_grow(mask, size), ref)
+
+
+@pytest.mark.parametrize("grid", [(1, 7), (3, 3)])
+def test_scan_and_refocus_depth_edges_are_those_of_the_full_test(grid):
+    """``depth_evidence`` (what ``lightfield scan`` and ``refocus`` run) gives the edges and
+    cells of the evidence tested at every pixel, with and without a zoom box, for the Otsu and
+    the retention threshold."""
+    from stimuli.declutter import in_focus_evidence
+    from stimuli.edgegrid import declutter_and_compress, depth_evidence
+    from stimuli.refocus import refocus
+    from tests.stimuli.test_edge_depth import D_BOX, _box_scene
+
+    lf, _ = _box_scene(grid)
+    img = refocus(lf, D_BOX)
+    centre = lf.centre_view()
+    full, _ = in_focus_evidence(lf, D_BOX, confocal=img)
+    rows, cols = img.shape
+    for box in (None, (slice(3, rows - 5), slice(7, cols - 2))):
+        rs, cs = box or (slice(None), slice(None))
+        for c in (None, centre):
+            ev, _, t = depth_evidence(lf, D_BOX, img, centre_view=c, box=box)
+            cc = None if c is None else np.ascontiguousarray(c[rs, cs])
+            z = np.ascontiguousarray(img[rs, cs])
+            a = declutter_and_compress(
+                z, (8, 8), edge_ratio=1 / 13, focus_mask=full[rs, cs], centre_view=cc
+            )
+            b = declutter_and_compress(
+                z,
+                (8, 8),
+                threshold=t,
+                edge_ratio=1 / 13,
+                focus_mask=np.ascontiguousarray(ev[rs, cs]),
+                centre_view=cc,
+            )
+            assert a[2] == b[2]
+            assert np.array_equal(a[0], b[0]) and np.array_equal(a[1], b[1])
+            assert a[0].any()
