@@ -154,7 +154,7 @@ def edge_confidence(image: np.ndarray, axes: tuple[int, ...]) -> np.ndarray:
 def _confidence(grads, axes):
     """:func:`edge_confidence` from the image's Sobel gradients along axes 0 and 1."""
     w = CONFIDENCE_WINDOW_PX
-    energy = [ndimage.uniform_filter(g**2, w) for g in grads]
+    energy = [_box_mean(g**2, w) for g in grads]
     total = energy[0] + energy[1]
     along = np.max([energy[a] for a in axes], axis=0) if axes else np.zeros_like(total)
     with np.errstate(invalid="ignore", divide="ignore"):
@@ -198,7 +198,7 @@ def resolve_edge_depth(
     axes = baseline_axes(grid)
     if len(axes) != 1:  # a 2-D grid measures every direction
         return at(np.zeros(img.shape, bool)).astype(np.uint8), EdgeDepthStats()
-    grads = [ndimage.sobel(img, axis=a) for a in (0, 1)]
+    grads = _sobel_pair(img)
     mag = np.hypot(*grads)
     if float(mag.max()) <= 0.0:
         return at(np.zeros(img.shape, bool)).astype(np.uint8), EdgeDepthStats()
@@ -289,6 +289,29 @@ def _vote(low: np.ndarray, measured: np.ndarray, focus: np.ndarray):
     kept |= junction & _grow(kept, 2 * r + 3)
     dropped |= junction & ~kept & _grow(dropped, 2 * r + 3)
     return kept, dropped
+
+
+def _sobel_pair(img: np.ndarray) -> list[np.ndarray]:
+    """``[ndimage.sobel(img, axis=a) for a in (0, 1)]`` in one compiled call, to the bit
+    (:func:`stimuli.kernels.sobel_pair`)."""
+    from stimuli.kernels import sobel_pair
+
+    img = np.ascontiguousarray(img, dtype=np.float32)
+    gy, gx = np.empty_like(img), np.empty_like(img)
+    sobel_pair(img, gy, gx)
+    return [gy, gx]
+
+
+def _box_mean(a: np.ndarray, size: int) -> np.ndarray:
+    """``ndimage.uniform_filter(a, size)`` of a float32 image, compiled where every side is
+    longer than ``size`` (:func:`stimuli.kernels.box_mean_reflect`, to the bit)."""
+    if min(a.shape) <= size:
+        return ndimage.uniform_filter(a, size)
+    from stimuli.kernels import box_mean_reflect
+
+    out = np.empty_like(a)
+    box_mean_reflect(np.ascontiguousarray(a), size, out)
+    return out
 
 
 def _extents(labels: np.ndarray, n: int):

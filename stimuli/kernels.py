@@ -37,6 +37,8 @@ __all__ = [
     "focus_agreement_at",
     "label_extents",
     "box_max",
+    "sobel_pair",
+    "box_mean_reflect",
     "ROW_BLOCK",
     "COST_BOX_PX",
 ]
@@ -592,3 +594,84 @@ def box_max(src, size, out):  # pragma: no cover - compiled
             hi = t[: cols - dx]
             for x in range(cols - dx):
                 lo[x] = max(lo[x], hi[x])
+
+
+@njit(nogil=True, cache=True)
+def _reflect(i, n):  # pragma: no cover - compiled
+    """Index ``i`` reflected into ``range(n)`` (``d c b a | a b c d``, ``i`` within ``n``)."""
+    if i < 0:
+        return -i - 1
+    if i >= n:
+        return 2 * n - i - 1
+    return i
+
+
+@njit(nogil=True, cache=True)
+def sobel_pair(img, gy, gx):  # pragma: no cover - compiled
+    """``scipy.ndimage.sobel(img, axis=0)`` into ``gy`` and ``axis=1`` into ``gx``, to the bit.
+
+    As scipy makes each: the difference ``[-1, 0, 1]`` along the axis, rounded to float32, then
+    the smoothing ``[1, 2, 1]`` across it (``2 mid + (before + after)`` in float64, rounded),
+    the image reflected at its borders.
+    """
+    rows, cols = img.shape
+    dy = np.empty((rows, cols), dtype=np.float32)
+    dx = np.empty((rows, cols), dtype=np.float32)
+    for y in range(rows):
+        ya = _reflect(y - 1, rows)
+        yb = _reflect(y + 1, rows)
+        for x in range(cols):
+            dy[y, x] = np.float32(np.float64(img[yb, x]) - np.float64(img[ya, x]))
+            xa = _reflect(x - 1, cols)
+            xb = _reflect(x + 1, cols)
+            dx[y, x] = np.float32(np.float64(img[y, xb]) - np.float64(img[y, xa]))
+    for y in range(rows):
+        ya = _reflect(y - 1, rows)
+        yb = _reflect(y + 1, rows)
+        for x in range(cols):
+            xa = _reflect(x - 1, cols)
+            xb = _reflect(x + 1, cols)
+            gy[y, x] = np.float32(
+                np.float64(dy[y, x]) * 2.0 + (np.float64(dy[y, xa]) + np.float64(dy[y, xb]))
+            )
+            gx[y, x] = np.float32(
+                np.float64(dx[y, x]) * 2.0 + (np.float64(dx[ya, x]) + np.float64(dx[yb, x]))
+            )
+
+
+@njit(nogil=True, cache=True)
+def box_mean_reflect(src, size, out):  # pragma: no cover - compiled
+    """``scipy.ndimage.uniform_filter(src, size)`` (``mode='reflect'``) of a float32 image,
+    step for step: along rows, then columns, each a float64 running sum (``+ entering -
+    leaving``) divided by ``size`` and rounded to float32. Odd ``size``, at most one
+    reflection: every side at least ``size // 2`` pixels.
+    """
+    rows, cols = src.shape
+    half = size // 2
+    tmp = np.empty((rows, cols), dtype=np.float32)
+    acc = np.zeros(cols, dtype=np.float64)
+    for k in range(size):
+        s = src[_reflect(k - half, rows)]
+        for x in range(cols):
+            acc[x] += s[x]
+    for y in range(rows):
+        if y > 0:
+            a = src[_reflect(y + half, rows)]
+            b = src[_reflect(y - 1 - half, rows)]
+            for x in range(cols):
+                acc[x] += np.float64(a[x]) - np.float64(b[x])
+        t = tmp[y]
+        for x in range(cols):
+            t[x] = np.float32(acc[x] / size)
+    for y in range(rows):
+        t = tmp[y]
+        o = out[y]
+        run = 0.0
+        for k in range(size):
+            run += t[_reflect(k - half, cols)]
+        o[0] = np.float32(run / size)
+        for x in range(1, cols):
+            run += np.float64(t[_reflect(x + half, cols)]) - np.float64(
+                t[_reflect(x - 1 - half, cols)]
+            )
+            o[x] = np.float32(run / size)

@@ -124,3 +124,20 @@ def test_scan_and_refocus_depth_edges_are_those_of_the_full_test(grid):
             assert a[2] == b[2]
             assert np.array_equal(a[0], b[0]) and np.array_equal(a[1], b[1])
             assert a[0].any()
+
+
+@pytest.mark.parametrize("shape", [(1, 1), (2, 9), (6, 7), (40, 57)])
+def test_edge_depth_filters_are_scipys(shape):
+    """The compiled Sobel pair and 5x5 box mean of the edge confidence are scipy's, to the
+    bit (small images take scipy itself)."""
+    from scipy import ndimage
+
+    from stimuli.edgedepth import _box_mean, _sobel_pair
+
+    rng = np.random.default_rng(2)
+    img = rng.random(shape).astype(np.float32)
+    gy, gx = _sobel_pair(img)
+    assert np.array_equal(gy, ndimage.sobel(img, axis=0))
+    assert np.array_equal(gx, ndimage.sobel(img, axis=1))
+    for g in (gy, gx):
+        assert np.array_equal(_box_mean(g**2, 5), ndimage.uniform_filter(g**2, 5))
