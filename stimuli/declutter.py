@@ -366,7 +366,7 @@ def agreement_mask(
             raise InputError(
                 f"where must be a bool image of shape {centre.shape}, got {w.dtype} {w.shape}"
             )
-        ys, xs = (a.astype(np.int32) for a in np.nonzero(w))
+        w8 = np.ascontiguousarray(w).view(np.uint8)
         ds = ds[np.argsort(np.abs(ds - d0), kind="stable")]  # the plane's own first
     if compiled or where is not None:
         from stimuli.kernels import focus_agreement, focus_agreement_at
@@ -383,7 +383,7 @@ def agreement_mask(
             if where is not None:  # the listed pixels only: the same verdict there
                 nb32 = np.ascontiguousarray(nb, dtype=np.float32)
                 dd = ds.astype(np.float64)
-                focus_agreement_at(c32, nb32, axis, side, dd, r, noise, ys, xs, out)
+                focus_agreement_at(c32, nb32, axis, side, dd, r, noise, w8, out)
             elif compiled:  # one compiled call per neighbour: the same mask to the bit
                 nb32 = np.ascontiguousarray(nb, dtype=np.float32)
                 focus_agreement(c32, nb32, axis, side, ds.astype(np.float64), r, noise, out)

@@ -484,19 +484,16 @@ def focus_vote(edges, focus, size, out):  # pragma: no cover - compiled
 
 
 @njit(nogil=True, cache=True)
-def _box3_at(src, centre, axis, k, f, y, x):  # pragma: no cover - compiled
-    """The 3x3 mean at ``(y, x)`` of ``|src sampled at x - k - f along axis - centre|``.
-
-    Sampled as :func:`focus_agreement` samples (edge pixels repeated, linear interpolation) and
-    averaged as it averages (each column of three in float64 rounded to float32, then the
-    three columns), so the value it compares, to the bit.
+def _column_means(src, centre, axis, k, f, y, x0, x1, c):  # pragma: no cover - compiled
+    """``c[i]`` = the mean over rows ``y - 1 .. y + 1`` of ``|src sampled at - k - f along axis
+    - centre|`` at column ``x0 - 1 + i`` (columns and rows clamped to the image), for the
+    columns ``x0 - 1 .. x1``; each sum in float64 rounded to float32, as :func:`_box3_cols`.
     """
     rows, cols = centre.shape
     n = cols if axis == 1 else rows
-    s = 0.0
-    for dx in range(-1, 2):
-        xx = min(max(x + dx, 0), cols - 1)
-        c = 0.0
+    for i in range(x1 - x0 + 2):
+        xx = min(max(x0 - 1 + i, 0), cols - 1)
+        s = 0.0
         for dy in range(-1, 2):
             yy = min(max(y + dy, 0), rows - 1)
             if axis == 1:
@@ -507,34 +504,55 @@ def _box3_at(src, centre, axis, k, f, y, x):  # pragma: no cover - compiled
                 ja = min(max(yy - k, 0), n - 1)
                 jb = min(max(yy - k - 1, 0), n - 1)
                 va, vb = src[ja, xx], src[jb, xx]
-            c += np.float64(abs((va + f * (vb - va)) - centre[yy, xx]))
-        s += np.float64(np.float32(c / 3.0))
-    return np.float32(s / 3.0)
+            s += np.float64(abs((va + f * (vb - va)) - centre[yy, xx]))
+        c[i] = np.float32(s / 3.0)
 
 
 @njit(nogil=True, cache=True)
-def focus_agreement_at(centre, nb, axis, side, ds, ratio, noise, ys, xs, out):  # pragma: no cover
-    """:func:`focus_agreement` at the listed pixels ``(ys[i], xs[i])`` only, the same verdict.
+def focus_agreement_at(centre, nb, axis, side, ds, ratio, noise, where, out):  # pragma: no cover
+    """:func:`focus_agreement` at the pixels of ``where`` (uint8) only, the same verdict.
 
-    Each pixel not yet in focus in ``out`` is tested disparity by disparity (the plane's own
-    first: ``ds`` in the caller's order) and left at the first that agrees, so a pixel in focus
-    costs one test and only the pixels off the plane cost them all.
+    Row by row, each run of consecutive pixels of ``where`` is tested disparity by disparity
+    (the plane's own first: ``ds`` in the caller's order), the column means shared by the
+    run's pixels, until every pixel of the run agrees: a run in focus costs one test, and only
+    the pixels off the plane cost them all. Pixels already in focus in ``out`` stay so.
     """
-    for i in range(ys.shape[0]):
-        y = ys[i]
-        x = xs[i]
-        if out[y, x]:
-            continue
-        limit = np.float32(ratio) * _box3_at(
-            centre, centre, axis, side, np.float32(0.0), y, x
-        ) + np.float32(noise)
-        for di in range(ds.shape[0]):
-            sh = ds[di] * side
-            k = int(np.floor(sh))
-            f = np.float32(sh - k)
-            if _box3_at(nb, centre, axis, k, f, y, x) < limit:
-                out[y, x] = True
-                break
+    rows, cols = centre.shape
+    c = np.empty(cols + 2, dtype=np.float32)
+    limit = np.empty(cols, dtype=np.float32)
+    for y in range(rows):
+        w = where[y]
+        o = out[y]
+        x0 = 0
+        while x0 < cols:
+            if w[x0] == 0 or o[x0]:
+                x0 += 1
+                continue
+            x1 = x0
+            while x1 < cols and w[x1] != 0 and not o[x1]:
+                x1 += 1
+            _column_means(centre, centre, axis, side, np.float32(0.0), y, x0, x1, c)
+            for x in range(x0, x1):
+                i = x - x0 + 1
+                s = np.float64(c[i - 1]) + np.float64(c[i]) + np.float64(c[i + 1])
+                limit[x] = np.float32(ratio) * np.float32(s / 3.0) + np.float32(noise)
+            left = x1 - x0
+            for di in range(ds.shape[0]):
+                sh = ds[di] * side
+                k = int(np.floor(sh))
+                f = np.float32(sh - k)
+                _column_means(nb, centre, axis, k, f, y, x0, x1, c)
+                for x in range(x0, x1):
+                    if o[x]:
+                        continue
+                    i = x - x0 + 1
+                    s = np.float64(c[i - 1]) + np.float64(c[i]) + np.float64(c[i + 1])
+                    if np.float32(s / 3.0) < limit[x]:
+                        o[x] = True
+                        left -= 1
+                if left == 0:
+                    break
+            x0 = x1
 
 
 @njit(nogil=True, cache=True)
