@@ -205,17 +205,23 @@ def resolve_edge_depth(
     from skimage.filters import threshold_otsu
 
     edges = mag > 0.5 * float(threshold_otsu(mag, nbins=256))
-    focus = np.asarray(at(edges), dtype=bool)
     conf = _confidence(grads, axes)
     low_all = (conf < MIN_CONFIDENCE) & (mag > 0)
     low = edges & low_all
     measured = edges & ~low_all
-    f = focus
+
+    def at_t(pixels):  # the views' verdict, read where the vote reads it
+        return np.asarray(at(pixels), dtype=bool)
+
     if axes[0] == 0:  # work with the baseline along the columns
-        low, measured, f = low.T, measured.T, f.T
-    seg_in, seg_off = _vote(low, measured, f)
+        low, measured = low.T, measured.T
+
+        def at_t(pixels):
+            return np.asarray(at(np.ascontiguousarray(pixels.T)), dtype=bool).T
+
+    seg_in, seg_off, focus = _vote(low, measured, at_t)
     if axes[0] == 0:
-        seg_in, seg_off, low = seg_in.T, seg_off.T, low.T
+        seg_in, seg_off, low, focus = seg_in.T, seg_off.T, low.T, focus.T
     out = focus.astype(np.uint8)
     out[seg_off] = 2  # resolved off the plane: dropped; the rest keeps the views' verdict
     n_low = int(low.sum())
@@ -231,11 +237,13 @@ def resolve_edge_depth(
     return out, stats
 
 
-def _vote(low: np.ndarray, measured: np.ndarray, focus: np.ndarray):
+def _vote(low: np.ndarray, measured: np.ndarray, at):
     """Segments of ``low`` voted in focus by the measured edges they end on (baseline = x).
 
-    Returns the mask of the segments resolved in focus, and the pixel counts of the segments
-    resolved in focus and off the plane.
+    ``at(pixels)`` returns the views' verdict (bool image), right at least at ``pixels``: it
+    is asked only where the measured edges touch a segment.
+
+    Returns the masks of the segments resolved in focus and off the plane, and the verdict.
     """
     eight = np.ones((3, 3), bool)
     r = CONTACT_RADIUS_PX
@@ -244,9 +252,8 @@ def _vote(low: np.ndarray, measured: np.ndarray, focus: np.ndarray):
     junction = low & _grow(measured, 2 * r + 1)
     seg, n_seg = ndimage.label(low & ~junction, eight)
     comp, n_comp = ndimage.label(measured, eight)
-    none = (np.zeros_like(low), np.zeros_like(low))
     if n_seg == 0 or n_comp == 0:
-        return none
+        return np.zeros_like(low), np.zeros_like(low), at(np.zeros_like(low))
     rows = np.broadcast_to(np.arange(low.shape[0])[:, None], low.shape)
     cols = np.broadcast_to(np.arange(low.shape[1])[None, :], low.shape)
     top, bottom, _, _ = _extents(comp, n_comp)  # bounding boxes: extents in one pass each
@@ -254,8 +261,9 @@ def _vote(low: np.ndarray, measured: np.ndarray, focus: np.ndarray):
     # each measured pixel near a segment: which segment (the largest label nearby)
     near = _box_max(seg, 2 * (r + 1) + 1)
     touch = measured & (near > 0)
+    focus = at(touch)
     if not touch.any():
-        return none
+        return np.zeros_like(low), np.zeros_like(low), focus
     s, c, y, x = near[touch], comp[touch], rows[touch], cols[touch]
     key = s.astype(np.int64) * (n_comp + 1) + c
     uniq, inv = np.unique(key, return_inverse=True)
@@ -288,7 +296,7 @@ def _vote(low: np.ndarray, measured: np.ndarray, focus: np.ndarray):
     # first
     kept |= junction & _grow(kept, 2 * r + 3)
     dropped |= junction & ~kept & _grow(dropped, 2 * r + 3)
-    return kept, dropped
+    return kept, dropped, focus
 
 
 def _sobel_pair(img: np.ndarray) -> list[np.ndarray]:
