@@ -21,7 +21,8 @@ and ``--capture FOLDER`` (repeatable) per real capture, read as ``lightfield sca
 ``--repeat`` runs with ratios to the floor measured in the same process: refocus (goal <= 1.5x
 the floor), refocus + Sobel de-clutter + compress (``sobel``, goal <= 2x), refocus + depth
 de-clutter (views' agreement, and on 1-D light fields the depth of the edges the views cannot
-measure: ``stimuli.declutter.in_focus_evidence``) + compress (``depth``, goal <= 3x), and the
+measure: ``stimuli.declutter.in_focus_evidence``, tested at the edge pixels only) + compress
+(``depth``, goal <= 3x), and the
 200-plane scan with detection (goals < 0.1 s on the 9x9, < 0.5 s on the 1024x1024 3x3), with
 the factor ``f`` by which the scan downsampled the views (``stimuli.planes.scan_downsample``: 2
 on the 1024x1024 3x3, 1 elsewhere) and the planes it found. The scan is timed with the compiled
@@ -171,7 +172,8 @@ def _one_layout(grid, shape, baseline, repeat, lf=None, d=None) -> dict:
 
     def pipe_depth():
         img = refocus(lf, d)
-        evidence, _ = in_focus_evidence(lf, d, confocal=img)
+        at = declutter(img, threshold=threshold)  # the in-focus test is read at the edges only
+        evidence, _ = in_focus_evidence(lf, d, confocal=img, where=at)
         edges = declutter_depth(img, evidence, threshold=threshold)
         return compress(edges, cells, edge_ratio=1 / 13)
 

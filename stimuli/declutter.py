@@ -258,6 +258,7 @@ def in_focus_evidence(
     *,
     tolerance_px: float = FOCUS_TOLERANCE_PX,
     confocal: np.ndarray | None = None,
+    where: np.ndarray | None = None,
 ):
     """Return where a light field is in focus at one plane, and what its edges' depth cost.
 
@@ -268,6 +269,11 @@ def in_focus_evidence(
 
     ``confocal``: the confocal image at the plane, if the caller has it (refocused otherwise,
     on 1-D light fields).
+
+    ``where``: the pixels the caller will read (bool image; :func:`declutter_depth` reads only
+    its edge pixels): the views' agreement is then tested there and at the edge pixels the
+    depth of unmeasured edges is taken from (:func:`agreement_mask`'s ``where``), the same
+    evidence at those pixels, to the bit, as without it.
 
     Returns
     -------
@@ -282,14 +288,18 @@ def in_focus_evidence(
     from stimuli.lfload import as_lightfield
 
     lf = as_lightfield(lightfield).gray()
-    mask = agreement_mask(lf, slope_px_per_view, tolerance_px=tolerance_px)
+
+    def mask(pixels=None):
+        w = None if where is None else (where if pixels is None else where | pixels)
+        return agreement_mask(lf, slope_px_per_view, tolerance_px=tolerance_px, where=w)
+
     if len(baseline_axes(lf.grid)) != 1:
-        return mask.astype(np.uint8), EdgeDepthStats()
+        return mask().astype(np.uint8), EdgeDepthStats()
     if confocal is None:
         from stimuli.refocus import refocus
 
         confocal = np.clip(refocus(lf, float(slope_px_per_view)), 0.0, 1.0).astype(np.float32)
-    return resolve_edge_depth(confocal, mask, lf.grid)
+    return resolve_edge_depth(confocal, mask if where is not None else mask(), lf.grid)
 
 
 def agreement_mask(
@@ -298,6 +308,7 @@ def agreement_mask(
     *,
     tolerance_px: float = FOCUS_TOLERANCE_PX,
     compiled: bool = True,
+    where: np.ndarray | None = None,
 ) -> np.ndarray:
     """Return where a light field's views agree at one plane.
 
@@ -319,6 +330,11 @@ def agreement_mask(
         One compiled pass per neighbour (:func:`stimuli.kernels.focus_agreement`, the
         default) or the numpy twin (a chain of full-image temporaries per disparity); the
         same mask to the bit.
+    where : ndarray of shape (rows, cols), bool, optional
+        Test only these pixels (the rest are False): the same verdict there, to the bit, at a
+        cost that grows with their number (:func:`stimuli.kernels.focus_agreement_at`, each
+        pixel left at the first neighbour and disparity that agree). The depth de-clutter
+        reads the test only at edge pixels.
 
     Returns
     -------
@@ -344,8 +360,16 @@ def agreement_mask(
     steps = max(1, int(np.ceil(2 * tol * _FOCUS_STEPS_PER_PX)))
     ds = np.linspace(d0 - tol, d0 + tol, steps + 1) if tol > 0 else np.array([d0])
     out = np.zeros(centre.shape, bool)
-    if compiled:
-        from stimuli.kernels import focus_agreement
+    if where is not None:
+        w = np.asarray(where)
+        if w.dtype != np.bool_ or w.shape != centre.shape:
+            raise InputError(
+                f"where must be a bool image of shape {centre.shape}, got {w.dtype} {w.shape}"
+            )
+        w8 = np.ascontiguousarray(w).view(np.uint8)
+        ds = ds[np.argsort(np.abs(ds - d0), kind="stable")]  # the plane's own first
+    if compiled or where is not None:
+        from stimuli.kernels import focus_agreement, focus_agreement_at
 
         c32 = np.ascontiguousarray(centre, dtype=np.float32)
     for axis, n, c in ((0, n_u, cu), (1, n_v, cv)):
@@ -355,9 +379,13 @@ def agreement_mask(
             if not 0 <= c + side < n:
                 continue
             nb = views[cu + side, cv] if axis == 0 else views[cu, cv + side]
-            if compiled:  # one compiled call per neighbour: the same mask to the bit
+            r, noise = FOCUS_AGREEMENT_RATIO, FOCUS_NOISE
+            if where is not None:  # the listed pixels only: the same verdict there
                 nb32 = np.ascontiguousarray(nb, dtype=np.float32)
-                r, noise = FOCUS_AGREEMENT_RATIO, FOCUS_NOISE
+                dd = ds.astype(np.float64)
+                focus_agreement_at(c32, nb32, axis, side, dd, r, noise, w8, out)
+            elif compiled:  # one compiled call per neighbour: the same mask to the bit
+                nb32 = np.ascontiguousarray(nb, dtype=np.float32)
                 focus_agreement(c32, nb32, axis, side, ds.astype(np.float64), r, noise, out)
             else:
                 out |= _agreement_numpy(centre, nb, axis, side, ds)
@@ -385,7 +413,9 @@ def _agreement_numpy(centre, nb, axis, side, ds):
     return out
 
 
-def declutter_depth(image: np.ndarray, focus_mask: np.ndarray, *, threshold: float) -> np.ndarray:
+def declutter_depth(
+    image: np.ndarray, focus_mask: np.ndarray, *, threshold: float, compiled: bool = True
+) -> np.ndarray:
     """Return the depth-mode edge image: Sobel edges that the light field says are in focus.
 
     An edge pixel of :func:`declutter` is kept when at least half of the edge pixels in the
@@ -401,13 +431,14 @@ def declutter_depth(image: np.ndarray, focus_mask: np.ndarray, *, threshold: flo
         In focus (bool), or :data:`FOCUS_OUT` / :data:`FOCUS_IN` / :data:`FOCUS_DROP` (uint8).
     threshold : float >= 0
         Sobel threshold, as :func:`declutter`.
+    compiled : bool
+        The vote in one compiled call (:func:`stimuli.kernels.focus_vote`, the default) or
+        its numpy twin (two box filters of full images); the same edges to the bit.
 
     Returns
     -------
     ndarray of shape (rows, cols), bool
     """
-    from scipy.ndimage import uniform_filter
-
     edges = declutter(image, threshold=threshold)
     m = np.asarray(focus_mask)
     if m.dtype not in (np.bool_, np.uint8) or m.shape != edges.shape:
@@ -415,6 +446,19 @@ def declutter_depth(image: np.ndarray, focus_mask: np.ndarray, *, threshold: flo
             f"focus_mask must be a bool image (or in_focus_evidence's uint8) of shape "
             f"{edges.shape}, got {m.dtype} {m.shape}"
         )
+    if not compiled:
+        return _vote_numpy(edges, m)
+    from stimuli.kernels import focus_vote
+
+    out = np.empty(edges.shape, bool)
+    focus_vote(edges.view(np.uint8), np.ascontiguousarray(m).view(np.uint8), VOTE_WINDOW_PX, out)
+    return out
+
+
+def _vote_numpy(edges: np.ndarray, m: np.ndarray) -> np.ndarray:
+    """The numpy twin of :func:`stimuli.kernels.focus_vote` (two box filters of full images)."""
+    from scipy.ndimage import uniform_filter
+
     drop = None
     if m.dtype == np.uint8:
         m, drop = m == FOCUS_IN, m == FOCUS_DROP

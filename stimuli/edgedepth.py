@@ -148,8 +148,13 @@ def edge_confidence(image: np.ndarray, axes: tuple[int, ...]) -> np.ndarray:
     (0.0, 1.0)
     """
     img = np.asarray(image, dtype=np.float32)
+    return _confidence([ndimage.sobel(img, axis=a) for a in (0, 1)], axes)
+
+
+def _confidence(grads, axes):
+    """:func:`edge_confidence` from the image's Sobel gradients along axes 0 and 1."""
     w = CONFIDENCE_WINDOW_PX
-    energy = [ndimage.uniform_filter(ndimage.sobel(img, axis=a) ** 2, w) for a in (0, 1)]
+    energy = [_box_mean(g**2, w) for g in grads]
     total = energy[0] + energy[1]
     along = np.max([energy[a] for a in axes], axis=0) if axes else np.zeros_like(total)
     with np.errstate(invalid="ignore", divide="ignore"):
@@ -158,7 +163,7 @@ def edge_confidence(image: np.ndarray, axes: tuple[int, ...]) -> np.ndarray:
 
 
 def resolve_edge_depth(
-    confocal: np.ndarray, focus: np.ndarray, grid: tuple[int, int]
+    confocal: np.ndarray, focus, grid: tuple[int, int]
 ) -> tuple[np.ndarray, EdgeDepthStats]:
     """Give the edges the views cannot measure the depth of what they end on (module notes).
 
@@ -166,8 +171,11 @@ def resolve_edge_depth(
     ----------
     confocal : ndarray of shape (rows, cols), float32 in [0, 1]
         The confocal image at the plane.
-    focus : ndarray of shape (rows, cols), bool
-        The views' agreement at the plane (:func:`stimuli.declutter.in_focus_mask`'s raw test).
+    focus : ndarray of shape (rows, cols), bool, or callable
+        The views' agreement at the plane (:func:`stimuli.declutter.in_focus_mask`'s raw test),
+        or a function that takes the edge pixels this function reads it at (bool image) and
+        returns it, right at least there (:func:`stimuli.declutter.agreement_mask`'s
+        ``where``).
     grid : (n_u, n_v)
         The light field's views.
 
@@ -178,27 +186,42 @@ def resolve_edge_depth(
         (dropped: :data:`stimuli.declutter.FOCUS_DROP`).
     stats : EdgeDepthStats
     """
-    focus = np.asarray(focus, dtype=bool)
+    img = np.asarray(confocal, dtype=np.float32)
+    if callable(focus):
+        at = focus
+    else:
+        mask = np.asarray(focus, dtype=bool)
+
+        def at(_pixels):
+            return mask
+
     axes = baseline_axes(grid)
     if len(axes) != 1:  # a 2-D grid measures every direction
-        return focus.astype(np.uint8), EdgeDepthStats()
-    img = np.asarray(confocal, dtype=np.float32)
-    mag = np.hypot(ndimage.sobel(img, axis=0), ndimage.sobel(img, axis=1))
+        return at(np.zeros(img.shape, bool)).astype(np.uint8), EdgeDepthStats()
+    grads = _sobel_pair(img)
+    mag = np.hypot(*grads)
     if float(mag.max()) <= 0.0:
-        return focus.astype(np.uint8), EdgeDepthStats()
+        return at(np.zeros(img.shape, bool)).astype(np.uint8), EdgeDepthStats()
     from skimage.filters import threshold_otsu
 
     edges = mag > 0.5 * float(threshold_otsu(mag, nbins=256))
-    conf = edge_confidence(img, axes)
+    conf = _confidence(grads, axes)
     low_all = (conf < MIN_CONFIDENCE) & (mag > 0)
     low = edges & low_all
     measured = edges & ~low_all
-    f = focus
+
+    def at_t(pixels):  # the views' verdict, read where the vote reads it
+        return np.asarray(at(pixels), dtype=bool)
+
     if axes[0] == 0:  # work with the baseline along the columns
-        low, measured, f = low.T, measured.T, f.T
-    seg_in, seg_off = _vote(low, measured, f)
+        low, measured = low.T, measured.T
+
+        def at_t(pixels):
+            return np.asarray(at(np.ascontiguousarray(pixels.T)), dtype=bool).T
+
+    seg_in, seg_off, focus = _vote(low, measured, at_t)
     if axes[0] == 0:
-        seg_in, seg_off, low = seg_in.T, seg_off.T, low.T
+        seg_in, seg_off, low, focus = seg_in.T, seg_off.T, low.T, focus.T
     out = focus.astype(np.uint8)
     out[seg_off] = 2  # resolved off the plane: dropped; the rest keeps the views' verdict
     n_low = int(low.sum())
@@ -214,11 +237,13 @@ def resolve_edge_depth(
     return out, stats
 
 
-def _vote(low: np.ndarray, measured: np.ndarray, focus: np.ndarray):
+def _vote(low: np.ndarray, measured: np.ndarray, at):
     """Segments of ``low`` voted in focus by the measured edges they end on (baseline = x).
 
-    Returns the mask of the segments resolved in focus, and the pixel counts of the segments
-    resolved in focus and off the plane.
+    ``at(pixels)`` returns the views' verdict (bool image), right at least at ``pixels``: it
+    is asked only where the measured edges touch a segment.
+
+    Returns the masks of the segments resolved in focus and off the plane, and the verdict.
     """
     eight = np.ones((3, 3), bool)
     r = CONTACT_RADIUS_PX
@@ -227,22 +252,18 @@ def _vote(low: np.ndarray, measured: np.ndarray, focus: np.ndarray):
     junction = low & _grow(measured, 2 * r + 1)
     seg, n_seg = ndimage.label(low & ~junction, eight)
     comp, n_comp = ndimage.label(measured, eight)
-    none = (np.zeros_like(low), np.zeros_like(low))
     if n_seg == 0 or n_comp == 0:
-        return none
+        return np.zeros_like(low), np.zeros_like(low), at(np.zeros_like(low))
     rows = np.broadcast_to(np.arange(low.shape[0])[:, None], low.shape)
     cols = np.broadcast_to(np.arange(low.shape[1])[None, :], low.shape)
-    boxes = ndimage.find_objects(comp)  # bounding boxes: extents without sorting the pixels
-    top = np.array([b[0].start for b in boxes])
-    bottom = np.array([b[0].stop - 1 for b in boxes])
-    boxes = ndimage.find_objects(seg)
-    left = np.array([b[1].start for b in boxes])
-    right = np.array([b[1].stop - 1 for b in boxes])
+    top, bottom, _, _ = _extents(comp, n_comp)  # bounding boxes: extents in one pass each
+    _, _, left, right = _extents(seg, n_seg)
     # each measured pixel near a segment: which segment (the largest label nearby)
-    near = ndimage.grey_dilation(seg, size=2 * (r + 1) + 1)
+    near = _box_max(seg, 2 * (r + 1) + 1)
     touch = measured & (near > 0)
+    focus = at(touch)
     if not touch.any():
-        return none
+        return np.zeros_like(low), np.zeros_like(low), focus
     s, c, y, x = near[touch], comp[touch], rows[touch], cols[touch]
     key = s.astype(np.int64) * (n_comp + 1) + c
     uniq, inv = np.unique(key, return_inverse=True)
@@ -275,9 +296,56 @@ def _vote(low: np.ndarray, measured: np.ndarray, focus: np.ndarray):
     # first
     kept |= junction & _grow(kept, 2 * r + 3)
     dropped |= junction & ~kept & _grow(dropped, 2 * r + 3)
-    return kept, dropped
+    return kept, dropped, focus
+
+
+def _sobel_pair(img: np.ndarray) -> list[np.ndarray]:
+    """``[ndimage.sobel(img, axis=a) for a in (0, 1)]`` in one compiled call, to the bit
+    (:func:`stimuli.kernels.sobel_pair`)."""
+    from stimuli.kernels import sobel_pair
+
+    img = np.ascontiguousarray(img, dtype=np.float32)
+    gy, gx = np.empty_like(img), np.empty_like(img)
+    sobel_pair(img, gy, gx)
+    return [gy, gx]
+
+
+def _box_mean(a: np.ndarray, size: int) -> np.ndarray:
+    """``ndimage.uniform_filter(a, size)`` of a float32 image, compiled where every side is
+    longer than ``size`` (:func:`stimuli.kernels.box_mean_reflect`, to the bit)."""
+    if min(a.shape) <= size:
+        return ndimage.uniform_filter(a, size)
+    from stimuli.kernels import box_mean_reflect
+
+    out = np.empty_like(a)
+    box_mean_reflect(np.ascontiguousarray(a), size, out)
+    return out
+
+
+def _extents(labels: np.ndarray, n: int):
+    """Top, bottom, left and right (last row and column included) of labels ``1..n``, as
+    ``scipy.ndimage.find_objects`` gives them (:func:`stimuli.kernels.label_extents`)."""
+    from stimuli.kernels import label_extents
+
+    big = np.iinfo(np.int64).max
+    top, left = np.full(n, big, np.int64), np.full(n, big, np.int64)
+    bottom, right = np.full(n, -1, np.int64), np.full(n, -1, np.int64)
+    label_extents(np.ascontiguousarray(labels), n, top, bottom, left, right)
+    return top, bottom, left, right
 
 
 def _grow(mask: np.ndarray, size: int) -> np.ndarray:
     """``mask`` dilated by a ``size`` x ``size`` square (two separable running maxima)."""
-    return ndimage.maximum_filter(mask.view(np.uint8), size=size, mode="constant") > 0
+    return _box_max(mask.view(np.uint8), size) > 0
+
+
+def _box_max(a: np.ndarray, size: int) -> np.ndarray:
+    """The largest value in the ``size`` x ``size`` box around each pixel (values >= 0):
+    ``scipy.ndimage.maximum_filter`` / ``grey_dilation`` in one compiled call
+    (:func:`stimuli.kernels.box_max`)."""
+    from stimuli.kernels import box_max
+
+    a = np.ascontiguousarray(a)
+    out = np.empty_like(a)
+    box_max(a, size, out)
+    return out

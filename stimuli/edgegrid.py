@@ -8,7 +8,60 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["declutter_and_compress"]
+__all__ = ["declutter_and_compress", "edge_threshold", "depth_evidence"]
+
+
+def edge_threshold(
+    image: np.ndarray, threshold: str | float = "auto", centre_view: np.ndarray | None = None
+) -> float:
+    """The Sobel threshold :func:`declutter_and_compress` uses (its parameters, same names)."""
+    from stimuli.build.params import parse_threshold
+    from stimuli.declutter import auto_threshold
+
+    t = parse_threshold(threshold)
+    if t is None and centre_view is not None:
+        from stimuli.retention import retention_threshold
+
+        t = retention_threshold(centre_view, image)
+    elif t is None:
+        t = auto_threshold(image)
+    return t
+
+
+def depth_evidence(
+    lightfield,
+    slope_px_per_view: float,
+    image: np.ndarray,
+    *,
+    threshold: str | float = "auto",
+    centre_view: np.ndarray | None = None,
+    box: tuple[slice, slice] | None = None,
+):
+    """The in-focus evidence :func:`declutter_and_compress` reads, tested only where it reads.
+
+    :func:`stimuli.declutter.in_focus_evidence` with ``where`` = the Sobel edges of ``image``
+    (cut to ``box``, rows and columns, if given) at :func:`edge_threshold`: the depth edges
+    are those of the evidence tested everywhere, to the bit, at a cost that grows with the
+    edges, not the image.
+
+    Returns
+    -------
+    evidence : ndarray of shape (rows, cols), uint8
+        Of the whole image (right at the edge pixels inside ``box``; cut it to ``box``).
+    stats : stimuli.edgedepth.EdgeDepthStats
+    threshold : float
+        The threshold: pass it on to :func:`declutter_and_compress`.
+    """
+    from stimuli.declutter import declutter, in_focus_evidence
+
+    rs, cs = box if box is not None else (slice(None), slice(None))
+    img = np.ascontiguousarray(image[rs, cs])
+    centre = None if centre_view is None else np.ascontiguousarray(centre_view[rs, cs])
+    t = edge_threshold(img, threshold, centre)
+    at = np.zeros(np.shape(image), bool)
+    at[rs, cs] = declutter(img, threshold=t)
+    evidence, stats = in_focus_evidence(lightfield, slope_px_per_view, confocal=image, where=at)
+    return evidence, stats, t
 
 
 def declutter_and_compress(
@@ -47,17 +100,10 @@ def declutter_and_compress(
     threshold : float
         The threshold used.
     """
-    from stimuli.build.params import parse_threshold
     from stimuli.compress import compress
-    from stimuli.declutter import auto_threshold, declutter, declutter_depth
+    from stimuli.declutter import declutter, declutter_depth
 
-    t = parse_threshold(threshold)
-    if t is None and centre_view is not None:
-        from stimuli.retention import retention_threshold
-
-        t = retention_threshold(centre_view, image)
-    elif t is None:
-        t = auto_threshold(image)
+    t = edge_threshold(image, threshold, centre_view)
     if focus_mask is None:
         edges = declutter(image, threshold=t)
     else:

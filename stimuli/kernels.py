@@ -14,7 +14,9 @@ cached on disk (``cache=True``), so only the first run on a machine pays for the
 * :func:`agreement_sweep`: the agreement scan's plane sweep (:mod:`stimuli.agreementscan`),
   every plane's view differences, box filter and running best in one call;
 * :func:`focus_agreement`: the in-focus test of :func:`stimuli.declutter.agreement_mask` for
-  one neighbouring view, every disparity of the tolerance in one call.
+  one neighbouring view, every disparity of the tolerance in one call;
+* :func:`focus_vote`: the local majority of :func:`stimuli.declutter.declutter_depth` (two
+  box means and the comparison in one call).
 
 Importing this module imports numba (about 0.3 s), so the modules that use it import it inside
 the functions that need it.
@@ -31,6 +33,12 @@ __all__ = [
     "count_blocks",
     "agreement_sweep",
     "focus_agreement",
+    "focus_vote",
+    "focus_agreement_at",
+    "label_extents",
+    "box_max",
+    "sobel_pair",
+    "box_mean_reflect",
     "ROW_BLOCK",
     "COST_BOX_PX",
 ]
@@ -392,3 +400,298 @@ def focus_agreement(centre, nb, axis, side, ds, ratio, noise, out):  # pragma: n
                 s = np.float64(b[y, xa]) + np.float64(b[y, x]) + np.float64(b[y, xb])
                 if np.float32(s / 3.0) < limit[y, x]:
                     out[y, x] = True
+
+
+@njit(nogil=True, cache=True)
+def _running_mean_rows(src, size, dst):  # pragma: no cover - compiled
+    """``scipy.ndimage.uniform_filter1d(src, size, axis=0, mode='constant')`` step for step.
+
+    A running sum in float64 over the window (zeros beyond the image), updated by
+    ``(entering - leaving) / size`` as scipy does, rounded to float32; every column at once.
+    """
+    rows, cols = src.shape
+    half = size // 2
+    tmp = np.zeros(cols, dtype=np.float64)
+    for k in range(size):  # the first window, summed in order
+        y = k - half
+        if 0 <= y < rows:
+            s = src[y]
+            for x in range(cols):
+                tmp[x] += s[x]
+    for y in range(rows):
+        if y > 0:
+            y_in = y + size - 1 - half
+            y_out = y - 1 - half
+            for x in range(cols):
+                a = np.float64(src[y_in, x]) if y_in < rows else 0.0
+                b = np.float64(src[y_out, x]) if y_out >= 0 else 0.0
+                tmp[x] += a - b
+        d = dst[y]
+        for x in range(cols):
+            d[x] = np.float32(tmp[x] / size)
+
+
+@njit(nogil=True, cache=True)
+def _running_mean_line(src, size, dst):  # pragma: no cover - compiled
+    """The same along one line (``axis=-1``), float32 in and out, float64 running sum."""
+    n = src.shape[0]
+    half = size // 2
+    tmp = 0.0
+    for k in range(size):
+        x = k - half
+        if 0 <= x < n:
+            tmp += src[x]
+    dst[0] = np.float32(tmp / size)
+    for x in range(1, n):
+        x_in = x + size - 1 - half
+        x_out = x - 1 - half
+        a = np.float64(src[x_in]) if x_in < n else 0.0
+        b = np.float64(src[x_out]) if x_out >= 0 else 0.0
+        tmp += a - b
+        dst[x] = np.float32(tmp / size)
+
+
+@njit(nogil=True, cache=True)
+def focus_vote(edges, focus, size, out):  # pragma: no cover - compiled
+    """The local majority of :func:`stimuli.declutter.declutter_depth` in one call.
+
+    ``edges`` (uint8 0/1) and ``focus`` (uint8: 1 in focus, 2 dropped, else out of focus);
+    ``out[y, x]`` (bool) is set where ``edges`` and ``agree >= 0.5 * total`` and ``focus`` is
+    not 2, ``agree`` and ``total`` the ``size`` x ``size`` means (zeros beyond the image) of
+    the in-focus edges and of the edges, made as ``scipy.ndimage.uniform_filter`` makes them
+    (rows first, each pass a float64 running sum rounded to float32), so the same to the bit.
+    """
+    rows, cols = edges.shape
+    e_in = np.empty((rows, cols), dtype=np.float32)
+    e_all = np.empty((rows, cols), dtype=np.float32)
+    for y in range(rows):
+        for x in range(cols):
+            e = np.float32(edges[y, x])
+            e_all[y, x] = e
+            e_in[y, x] = e if focus[y, x] == 1 else np.float32(0.0)
+    a_rows = np.empty((rows, cols), dtype=np.float32)
+    t_rows = np.empty((rows, cols), dtype=np.float32)
+    _running_mean_rows(e_in, size, a_rows)
+    _running_mean_rows(e_all, size, t_rows)
+    agree = np.empty(cols, dtype=np.float32)
+    total = np.empty(cols, dtype=np.float32)
+    for y in range(rows):
+        _running_mean_line(a_rows[y], size, agree)
+        _running_mean_line(t_rows[y], size, total)
+        o = out[y]
+        e = edges[y]
+        f = focus[y]
+        for x in range(cols):
+            o[x] = e[x] != 0 and f[x] != 2 and agree[x] >= np.float32(0.5) * total[x]
+
+
+@njit(nogil=True, cache=True)
+def _column_means(src, centre, axis, k, f, y, x0, x1, c):  # pragma: no cover - compiled
+    """``c[i]`` = the mean over rows ``y - 1 .. y + 1`` of ``|src sampled at - k - f along axis
+    - centre|`` at column ``x0 - 1 + i`` (columns and rows clamped to the image), for the
+    columns ``x0 - 1 .. x1``; each sum in float64 rounded to float32, as :func:`_box3_cols`.
+    """
+    rows, cols = centre.shape
+    n = cols if axis == 1 else rows
+    for i in range(x1 - x0 + 2):
+        xx = min(max(x0 - 1 + i, 0), cols - 1)
+        s = 0.0
+        for dy in range(-1, 2):
+            yy = min(max(y + dy, 0), rows - 1)
+            if axis == 1:
+                ja = min(max(xx - k, 0), n - 1)
+                jb = min(max(xx - k - 1, 0), n - 1)
+                va, vb = src[yy, ja], src[yy, jb]
+            else:
+                ja = min(max(yy - k, 0), n - 1)
+                jb = min(max(yy - k - 1, 0), n - 1)
+                va, vb = src[ja, xx], src[jb, xx]
+            s += np.float64(abs((va + f * (vb - va)) - centre[yy, xx]))
+        c[i] = np.float32(s / 3.0)
+
+
+@njit(nogil=True, cache=True)
+def focus_agreement_at(centre, nb, axis, side, ds, ratio, noise, where, out):  # pragma: no cover
+    """:func:`focus_agreement` at the pixels of ``where`` (uint8) only, the same verdict.
+
+    Row by row, each run of consecutive pixels of ``where`` is tested disparity by disparity
+    (the plane's own first: ``ds`` in the caller's order), the column means shared by the
+    run's pixels, until every pixel of the run agrees: a run in focus costs one test, and only
+    the pixels off the plane cost them all. Pixels already in focus in ``out`` stay so.
+    """
+    rows, cols = centre.shape
+    c = np.empty(cols + 2, dtype=np.float32)
+    limit = np.empty(cols, dtype=np.float32)
+    for y in range(rows):
+        w = where[y]
+        o = out[y]
+        x0 = 0
+        while x0 < cols:
+            if w[x0] == 0 or o[x0]:
+                x0 += 1
+                continue
+            x1 = x0
+            while x1 < cols and w[x1] != 0 and not o[x1]:
+                x1 += 1
+            _column_means(centre, centre, axis, side, np.float32(0.0), y, x0, x1, c)
+            for x in range(x0, x1):
+                i = x - x0 + 1
+                s = np.float64(c[i - 1]) + np.float64(c[i]) + np.float64(c[i + 1])
+                limit[x] = np.float32(ratio) * np.float32(s / 3.0) + np.float32(noise)
+            left = x1 - x0
+            for di in range(ds.shape[0]):
+                sh = ds[di] * side
+                k = int(np.floor(sh))
+                f = np.float32(sh - k)
+                _column_means(nb, centre, axis, k, f, y, x0, x1, c)
+                for x in range(x0, x1):
+                    if o[x]:
+                        continue
+                    i = x - x0 + 1
+                    s = np.float64(c[i - 1]) + np.float64(c[i]) + np.float64(c[i + 1])
+                    if np.float32(s / 3.0) < limit[x]:
+                        o[x] = True
+                        left -= 1
+                if left == 0:
+                    break
+            x0 = x1
+
+
+@njit(nogil=True, cache=True)
+def label_extents(labels, n, top, bottom, left, right):  # pragma: no cover - compiled
+    """The bounding box of each label ``1..n`` of a label image, in one pass.
+
+    ``top[i - 1]``, ``bottom[i - 1]`` (the last row), ``left[i - 1]`` and ``right[i - 1]`` (the
+    last column) of label ``i``: the extents of ``scipy.ndimage.find_objects``; labels that do
+    not occur keep the values the caller filled in.
+    """
+    rows, cols = labels.shape
+    for y in range(rows):
+        row = labels[y]
+        for x in range(cols):
+            v = row[x]
+            if 0 < v <= n:
+                i = v - 1
+                if y < top[i]:
+                    top[i] = y
+                if y > bottom[i]:
+                    bottom[i] = y
+                if x < left[i]:
+                    left[i] = x
+                if x > right[i]:
+                    right[i] = x
+
+
+@njit(nogil=True, cache=True)
+def box_max(src, size, out):  # pragma: no cover - compiled
+    """``out`` = the largest value of ``src`` in the ``size`` x ``size`` box around each pixel
+    (odd ``size``; the box clipped to the image), columns first, then along the rows.
+
+    For values >= 0 it is ``scipy.ndimage.maximum_filter`` with ``mode='constant'`` (zeros
+    beyond the image) and ``grey_dilation``'s default ``mode='reflect'`` (whose reflected
+    pixels lie inside the clipped box), to the bit.
+    """
+    rows, cols = src.shape
+    half = size // 2
+    tmp = np.empty((rows, cols), dtype=src.dtype)
+    for y in range(rows):
+        t = tmp[y]
+        t[:] = src[y]
+        for yy in range(max(y - half, 0), min(y + half + 1, rows)):
+            s = src[yy]
+            for x in range(cols):
+                t[x] = max(t[x], s[x])
+    for y in range(rows):
+        t = tmp[y]
+        o = out[y]
+        o[:] = t
+        for dx in range(1, min(half, cols - 1) + 1):
+            lo = o[: cols - dx]  # from the right, then from the left
+            hi = t[dx:]
+            for x in range(cols - dx):
+                lo[x] = max(lo[x], hi[x])
+            lo = o[dx:]
+            hi = t[: cols - dx]
+            for x in range(cols - dx):
+                lo[x] = max(lo[x], hi[x])
+
+
+@njit(nogil=True, cache=True)
+def _reflect(i, n):  # pragma: no cover - compiled
+    """Index ``i`` reflected into ``range(n)`` (``d c b a | a b c d``, ``i`` within ``n``)."""
+    if i < 0:
+        return -i - 1
+    if i >= n:
+        return 2 * n - i - 1
+    return i
+
+
+@njit(nogil=True, cache=True)
+def sobel_pair(img, gy, gx):  # pragma: no cover - compiled
+    """``scipy.ndimage.sobel(img, axis=0)`` into ``gy`` and ``axis=1`` into ``gx``, to the bit.
+
+    As scipy makes each: the difference ``[-1, 0, 1]`` along the axis, rounded to float32, then
+    the smoothing ``[1, 2, 1]`` across it (``2 mid + (before + after)`` in float64, rounded),
+    the image reflected at its borders.
+    """
+    rows, cols = img.shape
+    dy = np.empty((rows, cols), dtype=np.float32)
+    dx = np.empty((rows, cols), dtype=np.float32)
+    for y in range(rows):
+        ya = _reflect(y - 1, rows)
+        yb = _reflect(y + 1, rows)
+        for x in range(cols):
+            dy[y, x] = np.float32(np.float64(img[yb, x]) - np.float64(img[ya, x]))
+            xa = _reflect(x - 1, cols)
+            xb = _reflect(x + 1, cols)
+            dx[y, x] = np.float32(np.float64(img[y, xb]) - np.float64(img[y, xa]))
+    for y in range(rows):
+        ya = _reflect(y - 1, rows)
+        yb = _reflect(y + 1, rows)
+        for x in range(cols):
+            xa = _reflect(x - 1, cols)
+            xb = _reflect(x + 1, cols)
+            gy[y, x] = np.float32(
+                np.float64(dy[y, x]) * 2.0 + (np.float64(dy[y, xa]) + np.float64(dy[y, xb]))
+            )
+            gx[y, x] = np.float32(
+                np.float64(dx[y, x]) * 2.0 + (np.float64(dx[ya, x]) + np.float64(dx[yb, x]))
+            )
+
+
+@njit(nogil=True, cache=True)
+def box_mean_reflect(src, size, out):  # pragma: no cover - compiled
+    """``scipy.ndimage.uniform_filter(src, size)`` (``mode='reflect'``) of a float32 image,
+    step for step: along rows, then columns, each a float64 running sum (``+ entering -
+    leaving``) divided by ``size`` and rounded to float32. Odd ``size``, at most one
+    reflection: every side at least ``size // 2`` pixels.
+    """
+    rows, cols = src.shape
+    half = size // 2
+    tmp = np.empty((rows, cols), dtype=np.float32)
+    acc = np.zeros(cols, dtype=np.float64)
+    for k in range(size):
+        s = src[_reflect(k - half, rows)]
+        for x in range(cols):
+            acc[x] += s[x]
+    for y in range(rows):
+        if y > 0:
+            a = src[_reflect(y + half, rows)]
+            b = src[_reflect(y - 1 - half, rows)]
+            for x in range(cols):
+                acc[x] += np.float64(a[x]) - np.float64(b[x])
+        t = tmp[y]
+        for x in range(cols):
+            t[x] = np.float32(acc[x] / size)
+    for y in range(rows):
+        t = tmp[y]
+        o = out[y]
+        run = 0.0
+        for k in range(size):
+            run += t[_reflect(k - half, cols)]
+        o[0] = np.float32(run / size)
+        for x in range(1, cols):
+            run += np.float64(t[_reflect(x + half, cols)]) - np.float64(
+                t[_reflect(x - 1 - half, cols)]
+            )
+            o[x] = np.float32(run / size)

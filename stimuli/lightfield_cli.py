@@ -403,8 +403,7 @@ def refocus_command(
     vignette crop, ``--declutter auto`` rule and threshold rule), so the same plane gives the
     same edge image.
     """
-    from stimuli.declutter import in_focus_evidence
-    from stimuli.edgegrid import declutter_and_compress
+    from stimuli.edgegrid import declutter_and_compress, depth_evidence
     from stimuli.io import save_png, staged_folder
     from stimuli.refocus import iter_focal_stack, refocus
 
@@ -446,9 +445,11 @@ def refocus_command(
 
     img = np.clip(refocus(lf, d), 0.0, 1.0).astype(np.float32)
     mode = resolve_declutter_mode(declutter_mode, lf)
-    focus = None
-    if mode == "depth" and grid_px is not None:
-        focus, stats = in_focus_evidence(lf, d, confocal=img)
+    focus, t = None, threshold
+    if mode == "depth" and grid_px is not None:  # tested at the edge pixels only
+        focus, stats, t = depth_evidence(
+            lf, d, img, threshold=threshold, centre_view=lf.centre_view(), box=zoom_box
+        )
         if stats.unmeasured:
             typer.echo(
                 f"edges the views cannot measure: {stats.unmeasured} px; dropped "
@@ -470,7 +471,7 @@ def refocus_command(
         edges, cells, t = declutter_and_compress(
             img,
             grid_px,
-            threshold=threshold,
+            threshold=t,
             edge_ratio=edge_ratio,
             focus_mask=focus,
             centre_view=centre,

@@ -229,8 +229,7 @@ def scan_one(
     import numpy as np
 
     from stimuli.agreementscan import answer_before_compiled_code, scan_views
-    from stimuli.declutter import in_focus_evidence
-    from stimuli.edgegrid import declutter_and_compress
+    from stimuli.edgegrid import declutter_and_compress, depth_evidence
     from stimuli.io import atomic_path, save_png, staged_folder
     from stimuli.planechoice import choose_plane, detect_planes
     from stimuli.planes import (
@@ -305,15 +304,17 @@ def scan_one(
     edge_depth: dict = {}  # per plane: the edges the views could not measure (1-D, depth mode)
     for k, p in enumerate(scan.peaks):
         img = np.clip(refocus(lf, p.disparity_px), 0.0, 1.0).astype(np.float32)
-        focus = None
-        if mode == "depth":
-            focus, stats = in_focus_evidence(lf, p.disparity_px, confocal=img)
+        focus, t = None, threshold
+        if mode == "depth":  # tested at the edge pixels only (the same edges)
+            focus, stats, t = depth_evidence(
+                lf, p.disparity_px, img, threshold=threshold, centre_view=centre
+            )
             if stats.unmeasured:
                 edge_depth[f"plane{k + 1:02d}"] = stats.to_dict()
         edges, cells, t = declutter_and_compress(
             img,
             shape,
-            threshold=threshold,
+            threshold=t,
             edge_ratio=edge_ratio,
             focus_mask=focus,
             centre_view=centre,

@@ -62,8 +62,12 @@ __all__ = [
 #: numpy call overhead dominates small views, cache misses large ones).
 _BLOCK_MAX_PIXELS = 1 << 16
 
-#: Below this many pixels per pass the threads cost more than they save (ours, measured roughly).
-_THREAD_MIN_PIXELS = 1 << 20
+#: Light fields of fewer pixels than this are refocused on one thread (ours, measured on the
+#: shared 2-core machine under load, medians in one process: the 1x7 of 555x620 took 1.25 ms on
+#: one thread against 5.4 ms on two, the 9x9 of 327x492 15 ms against 21 ms, the 3x3 of
+#: 1024x1024 12.4 ms against 12.7 ms: the pass is bound by memory, and handing a strip to a
+#: second thread costs more than it saves until the light field is well past the cache).
+_THREAD_MIN_PIXELS = 1 << 24
 
 #: Grey float32 views take the compiled kernel (:mod:`stimuli.kernels`); the numpy-slice path
 #: serves colour and other dtypes, and the tests compare the two.
