@@ -46,9 +46,9 @@ from PIL import Image
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
-from stimuli.build import BuildParams, build_stimulus_set  # noqa: E402
 from stimuli.io import load_gray  # noqa: E402
 from stimuli.methods import MethodInput, get_method  # noqa: E402
+from stimuli.stimset import BuildParams, build_stimulus_set  # noqa: E402
 from stimuli.synth import write_pairs  # noqa: E402
 
 __all__ = ["score", "main"]

@@ -59,7 +59,7 @@ def build_sets(work: Path, seeds: list[int]) -> list[tuple[Path, list[Path]]]:
     """Synthesise and build each calibration test set (seed s) and its knowledge: the
     renderings with seeds s + 1 .. s + KNOWLEDGE_RENDERINGS, pooled (as the demo's)."""
     from experiment.demos.study import KNOWLEDGE_RENDERINGS, make_knowledge_set
-    from stimuli.build import build_stimulus_set
+    from stimuli.stimset import build_stimulus_set
     from stimuli.synth import write_pairs
 
     out = []

@@ -39,15 +39,15 @@ SUBCOMMANDS: dict[str, tuple[str, str]] = {
         "Light fields (Jung et al. 2015, Sec. 4): scan depth planes, refocus, zoom, synthesise.",
     ),
     "session": (
-        "experiment.session.cli",
+        "experiment.commands.session",
         "Run recognition sessions and inspect or export the study's trial log.",
     ),
     "present": (
-        "experiment.presentation.cli",
+        "experiment.commands.present",
         "Show one stimulus as the subject would see it, or render it offscreen (--screenshot).",
     ),
     "score": (
-        "experiment.presentation.cli",
+        "experiment.commands.score",
         "Score logged responses as a second rater, blind to the first rater's scores.",
     ),
     "analyze": (
@@ -55,12 +55,12 @@ SUBCOMMANDS: dict[str, tuple[str, str]] = {
         "Analyse trial logs (Jung et al. 2015, Sec. 3.2.2) or plan a study.",
     ),
     "active": (
-        "experiment.active.cli",
+        "experiment.commands.active",
         "Active search (Jung et al. 2015, Sec. 5): a subject drives the confocal viewer to "
         "find and name objects; every key and displayed state is logged.",
     ),
     "view": (
-        "experiment.viewer.cli",
+        "experiment.commands.view",
         "Scan depth, jump to object planes, zoom and see the implant's view, live.",
     ),
     "demo": (

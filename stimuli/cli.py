@@ -222,17 +222,17 @@ def build_command(
     from rich.console import Console
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn
 
-    from stimuli.build import (
+    from stimuli.implants import load_implant
+    from stimuli.lfbatch import check_pool_options
+    from stimuli.methods import parse_conditions
+    from stimuli.resources import check_memory
+    from stimuli.stimset import (
         BuildParams,
         build_stimulus_set,
         parse_edge_ratio,
         parse_threshold,
         parse_working_size,
     )
-    from stimuli.implants import load_implant
-    from stimuli.lfbatch import check_pool_options
-    from stimuli.methods import parse_conditions
-    from stimuli.resources import check_memory
 
     check_pool_options(processes, cluster)  # one-line error before any work
     shape = parse_working_size(working_size)
@@ -327,9 +327,9 @@ def synth_command(
     force: Annotated[bool, force_option("a PAIRS folder this command wrote before")] = False,
 ) -> None:
     """Write synthetic wide/narrow-DOF photo pairs of named objects in front of clutter."""
-    from stimuli.build import parse_working_size
     from stimuli.errors import InputError
     from stimuli.resources import check_memory
+    from stimuli.stimset import parse_working_size
     from stimuli.synth import write_pairs
 
     try:
@@ -368,9 +368,9 @@ def tune_command(
     ] = False,
 ) -> None:
     """Propose each object's Sobel threshold, draw the candidates, write them to objects.csv."""
-    from stimuli.build import parse_working_size, read_pairs
     from stimuli.contact import save_contact_sheet
     from stimuli.errors import InputError
+    from stimuli.stimset import parse_working_size, read_pairs
     from stimuli.tune import tune_pairs, tuning_sheet, write_thresholds
 
     shape = parse_working_size(working_size)

@@ -15,8 +15,8 @@ def edge_threshold(
     image: np.ndarray, threshold: str | float = "auto", centre_view: np.ndarray | None = None
 ) -> float:
     """The Sobel threshold :func:`declutter_and_compress` uses (its parameters, same names)."""
-    from stimuli.build.params import parse_threshold
     from stimuli.declutter import auto_threshold
+    from stimuli.stimset.params import parse_threshold
 
     t = parse_threshold(threshold)
     if t is None and centre_view is not None:

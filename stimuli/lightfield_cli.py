@@ -61,7 +61,7 @@ __all__ = [
 
 def parse_threshold(text: str | float | None) -> float | None:
     """Return the build's Sobel threshold rule (imported when used: ``--help`` stays light)."""
-    from stimuli.build.params import parse_threshold as parse
+    from stimuli.stimset.params import parse_threshold as parse
 
     return parse(text)
 

@@ -175,7 +175,7 @@ def scan_disparities(
 
 def check_declutter_mode(declutter_mode: str) -> str:
     """Return ``--declutter`` if it is one of the build's modes; refuse it otherwise."""
-    from stimuli.build.params import BUILD_DECLUTTER_MODES
+    from stimuli.stimset.params import BUILD_DECLUTTER_MODES
 
     if declutter_mode not in BUILD_DECLUTTER_MODES:
         raise InputError(

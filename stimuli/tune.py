@@ -21,13 +21,13 @@ import numpy as np
 from PIL import Image, ImageDraw, ImageFont
 
 from stimuli import jung2015
-from stimuli.build.pairs import read_pairs
-from stimuli.build.parallel import ProgressFn, map_objects, thread_count
-from stimuli.build.params import BuildParams
-from stimuli.build.prepare import prepare_object
 from stimuli.errors import InputError
 from stimuli.manifest import OBJECTS_COLUMNS, read_objects_csv
 from stimuli.retention import RetentionCurve, pair_magnitudes, retention_curve
+from stimuli.stimset.pairs import read_pairs
+from stimuli.stimset.parallel import ProgressFn, map_objects, thread_count
+from stimuli.stimset.params import BuildParams
+from stimuli.stimset.prepare import prepare_object
 from stimuli.tables import unescape_row, write_table
 
 __all__ = [
@@ -100,7 +100,7 @@ def tune_pairs(
     Parameters
     ----------
     pairs : str or path-like
-        PAIRS folder or CSV (:func:`stimuli.build.pairs.read_pairs`).
+        PAIRS folder or CSV (:func:`stimuli.stimset.pairs.read_pairs`).
     working_shape_px : (rows, cols)
         Working size (paper: 327x492).
     workers : int, optional
@@ -116,7 +116,7 @@ def tune_pairs(
     Raises
     ------
     InputError
-        Bad PAIRS input (see :func:`stimuli.build.pairs.read_pairs`), unreadable photos, or photos
+        Bad PAIRS input (see :func:`stimuli.stimset.pairs.read_pairs`), unreadable photos, or photos
         of one pair with different pixel sizes.
     """
     params = BuildParams(working_shape_px=tuple(int(v) for v in working_shape_px))

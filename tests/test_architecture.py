@@ -358,20 +358,6 @@ def _room_graph(
     return rooms, behind
 
 
-#: The module imports that tie experiment/'s rooms into one circle, and that the planned moves
-#: remove: the command modules move out of the library rooms into a room of their own (every
-#: import they make then runs from that room, above the others).
-EXPERIMENT_KNOT: frozenset[tuple[str, str]] = frozenset(
-    {
-        ("experiment.active.cli", "*"),
-        ("experiment.session.cli", "*"),
-        ("experiment.session.run_options", "*"),
-        ("experiment.presentation.cli", "*"),
-        ("experiment.viewer.cli", "*"),
-    }
-)
-
-
 def _knot_report(tower: str) -> str:
     rooms, behind = _room_graph(tower)
     lines = []
@@ -388,14 +374,7 @@ def _knot_report(tower: str) -> str:
     [
         "stimuli",
         "analysis",
-        pytest.param(
-            "experiment",
-            marks=pytest.mark.xfail(
-                strict=True,
-                reason="experiment/'s rooms form one circle until the command modules move to a "
-                "room of their own (EXPERIMENT_KNOT lists the imports that tie it)",
-            ),
-        ),
+        "experiment",
     ],
 )
 def test_no_room_cycles(tower: str) -> None:
@@ -404,18 +383,6 @@ def test_no_room_cycles(tower: str) -> None:
     assert not _cycles(rooms), f"{tower}: rooms import each other in a circle:\n" + _knot_report(
         tower
     )
-
-
-def test_experiment_knot_is_only_the_known_imports() -> None:
-    """Without the listed imports, experiment/'s rooms have no circle: no new import joins it."""
-    rooms, behind = _room_graph("experiment", EXPERIMENT_KNOT)
-    cycles = _cycles(rooms)
-    detail = [
-        f"{ra} -> {rb}: {pairs}"
-        for (ra, rb), pairs in sorted(behind.items())
-        if any(ra in c and rb in c for c in cycles)
-    ]
-    assert not cycles, "imports that tie experiment/'s rooms in a circle:\n" + "\n".join(detail)
 
 
 def test_rooms_and_named_imports_are_seen() -> None:

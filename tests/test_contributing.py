@@ -46,7 +46,7 @@ def test_house_rules_are_numbered_once_and_in_order() -> None:
 def test_changelog_names_every_current_format_version() -> None:
     from experiment.log.schema import MIGRATIONS, latest_version
     from experiment.viewer.events import SCHEMA_VERSION
-    from stimuli.build.provenance import SET_FORMAT_VERSION
+    from stimuli.stimset.provenance import SET_FORMAT_VERSION
 
     text = (ROOT / "CHANGELOG.md").read_text(encoding="utf-8")
     assert "## [Unreleased]" in text

@@ -11,7 +11,7 @@ import importlib
 __all__ = ["ActiveSession", "ActiveSearchSpec", "ViewerState", "apply_action"]
 
 #: The module each public name comes from. They are imported on first use, so that
-#: ``confocal active --help`` (which imports :mod:`experiment.active.cli`) does not load numpy,
+#: ``confocal active --help`` (which imports :mod:`experiment.commands.active`) does not load numpy,
 #: Pillow and the trial log.
 _HOME = {
     "ActiveSession": "experiment.active.session",

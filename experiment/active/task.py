@@ -17,6 +17,7 @@ import numpy as np
 
 # ActiveSearchSpec is also imported from here by the active session.
 from experiment.protocol.task import ActiveSearchSpec
+from experiment.trials import balanced_latin_square
 
 __all__ = [
     "ActiveSearchSpec",
@@ -84,39 +85,6 @@ class ActiveTrial:
             data.get("layout"),
             None if seed is None else int(seed),
         )
-
-
-def balanced_latin_square(n: int) -> list[list[int]]:
-    """Return the rows of a balanced (Williams) Latin square of ``n`` conditions.
-
-    Every condition comes at every position equally often and, for even ``n``, follows every
-    other condition once; odd ``n`` needs the mirrored rows too (``2 n`` rows).
-
-    References
-    ----------
-    Williams, E. J. (1949). Experimental designs balanced for the estimation of residual
-    effects of treatments. Australian Journal of Chemistry, 2(2), 149-168.
-
-    Examples
-    --------
-    >>> balanced_latin_square(2)
-    [[0, 1], [1, 0]]
-    >>> balanced_latin_square(4)[1]
-    [1, 2, 0, 3]
-    """
-    if isinstance(n, bool) or not isinstance(n, int) or n < 1:
-        raise ValueError(f"n must be an integer >= 1, got {n!r}")
-    first, lo, hi = [0], 1, n - 1
-    while len(first) < n:
-        first.append(lo)
-        lo += 1
-        if len(first) < n:
-            first.append(hi)
-            hi -= 1
-    rows = [[(c + r) % n for c in first] for r in range(n)]
-    if n % 2:
-        rows += [row[::-1] for row in rows]
-    return rows
 
 
 def condition_order(task: ActiveSearchSpec, subject_index: int) -> tuple[str, ...]:

@@ -28,7 +28,7 @@ class ScoringApp(App):
     log : experiment.log.TrialLog
     rater : str
     pending : list of dict
-        Trials to score, from :func:`experiment.presentation.cli.pending_for_rater`.
+        Trials to score, from :func:`experiment.commands.score.pending_for_rater`.
     """
 
     BINDINGS = [

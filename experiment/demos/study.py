@@ -5,7 +5,7 @@ Stages (each with a progress bar):
 1. **synth**: the 20 main + 3 training objects as narrow/wide depth-of-field photo pairs, rendered
    from the layered-scene model (:func:`stimuli.synth.write_pairs`);
 2. **build**: the stimulus set at the paper's eight resolutions in both conditions
-   (:func:`stimuli.build.build_stimulus_set`);
+   (:func:`stimuli.stimset.build_stimulus_set`);
    With the default ``exemplar`` observer, a second rendering of the same kinds (another seed:
    other pose, size, colour, background and lens draw) is synthesised and built too: it is the
    observer's *knowledge* of the categories, and none of its images is a test stimulus;
@@ -201,7 +201,7 @@ def make_knowledge_set(pairs: Path, out: Path, seed: int) -> Path:
     Path
         ``out``.
     """
-    from stimuli.build import BuildParams, build_stimulus_set
+    from stimuli.stimset import BuildParams, build_stimulus_set
     from stimuli.synth import write_pairs
 
     write_pairs(pairs, n_objects=20, n_training=3, seed=seed)
@@ -300,7 +300,7 @@ def run_demo(
     from experiment.protocol import load_protocol
     from experiment.session.engine import Session
     from experiment.session.stimset import StimulusSet
-    from stimuli.build import build_stimulus_set
+    from stimuli.stimset import build_stimulus_set
     from stimuli.synth import write_pairs
 
     if isinstance(n_subjects, bool) or not isinstance(n_subjects, int) or n_subjects < 1:
@@ -325,7 +325,7 @@ def run_demo(
         )
     kseeds = [kseed + i for i in range(n_render)]
     from experiment.demos.methods import protocol_conditions
-    from stimuli.build import BuildParams
+    from stimuli.stimset import BuildParams
 
     spec = load_protocol(protocol)  # one line before anything is written
     conditions = protocol_conditions(spec)

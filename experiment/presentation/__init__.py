@@ -1,7 +1,8 @@
 """The subject's screen.
 
-The moderngl presenter, its separate process, display twins, and the ``confocal present`` /
-``confocal score`` commands.
+The moderngl presenter, its separate process and display twins.
+Its commands (``confocal present``, ``confocal score``) live in
+:mod:`experiment.commands`.
 
 - :mod:`experiment.presentation.presenter`: the GL presenter (window, offscreen, headless).
 - :mod:`experiment.presentation.geometry`: the screen's physical geometry and colours (GL-free).
@@ -13,7 +14,6 @@ The moderngl presenter, its separate process, display twins, and the ``confocal 
 - :mod:`experiment.presentation.process`: the presenter in its own process (JSON-lines protocol).
 - :mod:`experiment.presentation.displays`: the ``Display`` twins used without a screen.
 - :mod:`experiment.presentation.implant`: an implant layout as the presenter's phosphenes.
-- :mod:`experiment.presentation.cli`: ``confocal present`` and ``confocal score``.
 """
 
 __all__: list[str] = []

@@ -9,10 +9,7 @@ A newcomer's map of this room:
   locked, completed and closed; shared with active search (:mod:`experiment.active.session`).
 - :mod:`~experiment.session.engine`: :class:`~experiment.session.engine.Session`, one subject's
   position in a saved schedule, and its headless loop.
-- :mod:`~experiment.session.run_options`: the command-line options and checks that
-  ``confocal session run`` and ``confocal active run`` share.
 - :mod:`~experiment.session.status`: the study's status read from its trial log.
-- :mod:`~experiment.session.cli`: ``confocal session run | status | export``.
 
 Import from the modules themselves: the package re-exports nothing, so that importing one module
 does not load the session engine. A schedule's :class:`~experiment.trials.Trial` and

@@ -89,7 +89,7 @@ def latin_square_order(conditions: tuple[str, ...], subject_index: int) -> tuple
     """Return a subject's order of condition blocks: a row of a balanced Latin square.
 
     Row ``subject_index mod rows`` of the Williams square of ``len(conditions)`` conditions
-    (:func:`experiment.active.task.balanced_latin_square`, the one active search uses), so
+    (:func:`experiment.trials.balanced_latin_square`, the one active search uses), so
     every condition comes at every position equally often over a full cycle of subjects.
 
     Parameters
@@ -107,7 +107,7 @@ def latin_square_order(conditions: tuple[str, ...], subject_index: int) -> tuple
     >>> latin_square_order(("a", "b", "c", "d"), 1)
     ('b', 'c', 'a', 'd')
     """
-    from experiment.active.task import balanced_latin_square
+    from experiment.trials import balanced_latin_square
 
     if isinstance(subject_index, bool) or not isinstance(subject_index, int) or subject_index < 0:
         raise ValueError(f"subject_index must be an integer >= 0, got {subject_index!r}")

@@ -1,6 +1,6 @@
 """The study's status, read from its trial log: sessions, subjects, progress, locks, agreement.
 
-``confocal session status`` prints it (:mod:`experiment.session.cli`), as text or JSON.
+``confocal session status`` prints it (:mod:`experiment.commands.session`), as text or JSON.
 """
 
 from __future__ import annotations

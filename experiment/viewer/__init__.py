@@ -15,7 +15,7 @@ __all__ = ["ViewerEvent", "ViewerEventLog"]
 def __getattr__(name: str) -> object:
     """Return a public name, importing :mod:`experiment.viewer.events` on first use.
 
-    ``confocal view --help`` imports :mod:`experiment.viewer.cli` without the event log (and
+    ``confocal view --help`` imports :mod:`experiment.commands.view` without the event log (and
     sqlite3).
     """
     if name not in __all__:

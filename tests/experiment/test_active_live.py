@@ -314,7 +314,7 @@ def test_display_implant_sets_the_search_grid_and_refuses_a_conflict(tmp_path) -
 def test_a_search_through_argus_ii_logs_its_grid_and_draws_its_phosphenes(tmp_path) -> None:
     """States carry the 6x10 grid the stimuli pipeline gives; the subject's screen draws it as
     Argus II's phosphenes across its 19.97 deg field of view."""
-    from experiment.active.cli import subject_phosphenes
+    from experiment.commands.active import subject_phosphenes
     from experiment.presentation.presenter import PhospheneSpec, ScreenGeometry, stimulus_rect_px
     from experiment.presentation.process import PresenterDied, RemoteDisplay
     from experiment.protocol import load_protocol

@@ -168,8 +168,8 @@ def test_console_records_each_answer_and_its_voice_onset(session) -> None:
             con.execute("UPDATE audio SET voice_rt_s = 0")
 
     # the second rater replays the recorded answer (F7)
+    from experiment.commands.score import pending_for_rater
     from experiment.console import ScoringApp
-    from experiment.presentation.cli import pending_for_rater
 
     played: list[Path] = []
     rater_app = ScoringApp(log, "B", pending_for_rater(log, "B"))
@@ -211,8 +211,8 @@ def test_without_a_microphone_the_session_says_so_once(session, monkeypatch) -> 
     assert log.execute("SELECT count(*) FROM audio")[0][0] == 0
     assert log.execute("SELECT count(*) FROM trials")[0][0] == 1
 
+    from experiment.commands.score import pending_for_rater
     from experiment.console import ScoringApp
-    from experiment.presentation.cli import pending_for_rater
 
     rater_app = ScoringApp(log, "B", pending_for_rater(log, "B"))
     rater_app.player = lambda path: pytest.fail("nothing to play")

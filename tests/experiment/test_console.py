@@ -273,8 +273,8 @@ def _answer_all(session, clock, responses: list[str]) -> None:
 
 def test_second_rater_scores_blind(mini) -> None:
     """``confocal score``'s app shows object and words, never the first rater's scores."""
+    from experiment.commands.score import pending_for_rater
     from experiment.console import ScoringApp
-    from experiment.presentation.cli import pending_for_rater
 
     session, clock, log, _ = mini
     _answer_all(session, clock, ["a cup", "clip thing", "no idea"])

@@ -9,6 +9,7 @@ import re
 
 import pytest
 
+from experiment.commands.present import geometry_from_options
 from experiment.data.monitors import (
     MONITORS_DIR,
     MonitorError,
@@ -18,7 +19,6 @@ from experiment.data.monitors import (
     shipped_monitors,
 )
 from experiment.log import TrialLog
-from experiment.presentation.cli import geometry_from_options
 from experiment.protocol import DisplaySpec, load_protocol
 from experiment.session.engine import Session
 from experiment.session.stimset import StimulusSet

@@ -382,7 +382,7 @@ def _x50_px(px: list[float], rate: list[float]) -> float:
 def synth_sets(tmp_path_factory):
     """A synthetic test set (seed 10) and the observer's knowledge: the same kinds rendered
     with another seed (11), built at full resolution only. 10 main + 3 training objects."""
-    from stimuli.build import BuildParams, build_stimulus_set
+    from stimuli.stimset import BuildParams, build_stimulus_set
     from stimuli.synth import write_pairs
 
     root = tmp_path_factory.mktemp("synth")

@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 
 from experiment import cli
+from experiment.commands.score import pending_for_rater
 from experiment.log import TrialLog
-from experiment.presentation.cli import pending_for_rater
 from experiment.session.scoring import (
     KAPPA_MIN_TRIALS,
     cohen_kappa,

@@ -2,7 +2,7 @@
 
 ``experiment/session/`` holds the recognition session; :mod:`experiment.session.lifecycle` opens,
 resumes, locks and closes a subject's session for it and for active search alike, and
-:mod:`experiment.session.run_options` declares the options ``session run`` and ``active run``
+:mod:`experiment.commands.run_options` declares the options ``session run`` and ``active run``
 share.
 """
 
@@ -26,7 +26,7 @@ from tests.conftest import REPO_ROOT
 from tests.experiment.test_active import small_protocol
 from tests.experiment.test_session import PROTOCOL
 
-#: The options both commands take, declared once in experiment.session.run_options.
+#: The options both commands take, declared once in experiment.commands.run_options.
 SHARED_OPTIONS = (
     "subject",
     "data",

@@ -344,8 +344,8 @@ class _Terminal(io.StringIO):
 def test_taking_over_asks_on_a_terminal_and_no_changes_nothing(study, monkeypatch) -> None:
     import typer
 
+    from experiment.commands.run_options import confirm_take_over
     from experiment.errors import ConfocalError
-    from experiment.session.run_options import confirm_take_over
 
     stim, proto, db = study
     with TrialLog(db) as log:

@@ -30,9 +30,9 @@ from experiment.protocol import (
 from experiment.session.engine import Session
 from experiment.session.stimset import StimulusSet
 from experiment.testing import make_stimulus_set
-from stimuli.build import aspect_crop_box, build_stimulus_set
 from stimuli.io import load_gray
 from stimuli.manifest import read_manifest
+from stimuli.stimset import aspect_crop_box, build_stimulus_set
 
 
 def _jung_dict() -> dict:

@@ -13,17 +13,6 @@ from PIL import Image
 
 from experiment.cli import main
 from stimuli import jung2015
-from stimuli.build import (
-    BuildParams,
-    aspect_crop_box,
-    build_stimulus_set,
-    edge_fraction,
-    edge_ladder,
-    grey_ladder,
-    read_pairs,
-    to_working_size,
-    zoom_crop,
-)
 from stimuli.compress import block_mean
 from stimuli.contact import contact_sheet
 from stimuli.declutter import auto_threshold, declutter
@@ -36,6 +25,17 @@ from stimuli.manifest import (
     read_objects_csv,
     write_manifest,
     write_objects_csv,
+)
+from stimuli.stimset import (
+    BuildParams,
+    aspect_crop_box,
+    build_stimulus_set,
+    edge_fraction,
+    edge_ladder,
+    grey_ladder,
+    read_pairs,
+    to_working_size,
+    zoom_crop,
 )
 from tests.stimuli._build_fixtures import make_pair, write_pairs_folder, write_png
 
@@ -280,8 +280,8 @@ def test_grey_mode_quantizes_the_photos(tmp_path: Path) -> None:
 
 def test_lightfield_object_goes_through_confocal_pair(tmp_path: Path, monkeypatch) -> None:
     """A lightfield column: centre view = cluttered, confocal image = de-cluttered."""
-    import stimuli.build.prepare
-    from stimuli.build.lightfield import ConfocalPairImages
+    import stimuli.stimset.prepare
+    from stimuli.stimset.lightfield import ConfocalPairImages
 
     wide, narrow, _ = make_pair(1, (200, 300))
     calls = []
@@ -290,7 +290,7 @@ def test_lightfield_object_goes_through_confocal_pair(tmp_path: Path, monkeypatc
         calls.append((Path(src.lightfield).name, info.plane_depth_m, info.plane_disparity_px))
         return ConfocalPairImages(wide, narrow, "disparity=1.5px,disparity_px", None)
 
-    monkeypatch.setattr(stimuli.build.prepare, "load_confocal_pair", fake)
+    monkeypatch.setattr(stimuli.stimset.prepare, "load_confocal_pair", fake)
     (tmp_path / "lf.npz").write_bytes(b"not read by the fake")
     (tmp_path / "pairs.csv").write_text("object,lightfield\nbust,lf.npz\n")
     (tmp_path / "objects.csv").write_text("object,plane_disparity_px\nbust,1.5\n")
@@ -489,12 +489,12 @@ def test_synthetic_set_end_to_end(tmp_path: Path) -> None:
 
 def test_lightfield_subfolder_in_a_pairs_folder(tmp_path: Path, monkeypatch) -> None:
     """Folder form: an object folder holding lightfield.npz (or lightfield/) is a light field."""
-    import stimuli.build.prepare
-    from stimuli.build.lightfield import ConfocalPairImages
+    import stimuli.stimset.prepare
+    from stimuli.stimset.lightfield import ConfocalPairImages
 
     wide, narrow, _ = make_pair(2, (200, 300))
     monkeypatch.setattr(
-        stimuli.build.prepare,
+        stimuli.stimset.prepare,
         "load_confocal_pair",
         lambda src, info, params: ConfocalPairImages(wide, narrow, "disparity=0px,auto", None),
     )

@@ -18,17 +18,6 @@ import numpy as np
 import pytest
 
 from experiment.cli import main
-from stimuli.build import (
-    BuildParams,
-    PairSource,
-    build_stimulus_set,
-    edge_fraction,
-    parse_edge_ratio,
-    parse_threshold,
-    parse_working_size,
-    read_pairs,
-    zoom_crop,
-)
 from stimuli.contact import contact_sheet
 from stimuli.declutter import auto_threshold, declutter
 from stimuli.errors import InputError
@@ -39,6 +28,17 @@ from stimuli.manifest import (
     parse_crop,
     read_manifest,
     read_objects_csv,
+)
+from stimuli.stimset import (
+    BuildParams,
+    PairSource,
+    build_stimulus_set,
+    edge_fraction,
+    parse_edge_ratio,
+    parse_threshold,
+    parse_working_size,
+    read_pairs,
+    zoom_crop,
 )
 from tests.stimuli._build_fixtures import make_pair, write_pairs_folder, write_png
 

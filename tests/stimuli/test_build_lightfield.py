@@ -16,11 +16,11 @@ import pytest
 from PIL import Image
 from scipy import ndimage
 
-from stimuli.build import build_stimulus_set
 from stimuli.confocal import confocal_pair
 from stimuli.errors import InputError
 from stimuli.io import sha256_file
 from stimuli.manifest import read_manifest
+from stimuli.stimset import build_stimulus_set
 
 
 def _write_lightfield(path: Path, d_near: float = 3.0, shape=(200, 300), grid=(5, 5)) -> Path:
@@ -128,8 +128,8 @@ def test_depth_declutter_mode_is_used_and_recorded(tmp_path):
     cameras, focused on the tree: the pedestrian and building leave horizontal ghost edges that
     Sobel keeps and the depth mode drops. The mode is in stimulus_set.json and each row's
     source."""
-    from stimuli.build import BuildParams
     from stimuli.lfsynth import render_camera_array, three_plane_scene
+    from stimuli.stimset import BuildParams
 
     field = render_camera_array(
         three_plane_scene((164, 246)), grid=(1, 7), shape_px=(164, 246), baseline_m=0.03

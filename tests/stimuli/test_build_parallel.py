@@ -19,10 +19,10 @@ import numpy as np
 import pytest
 
 from experiment.cli import main
-from stimuli.build import BuildParams, build_stimulus_set
 from stimuli.errors import InputError
 from stimuli.lfbatch import run_per_capture
 from stimuli.lfsynth import render_camera_array, three_plane_scene
+from stimuli.stimset import BuildParams, build_stimulus_set
 from tests.stimuli._build_fixtures import make_pair, write_png
 
 _SMALL = ["--working-size", "123x82"]
@@ -120,7 +120,7 @@ def test_a_corrupt_capture_is_one_line_naming_it_and_nothing_is_written(pairs, t
 
 
 def test_a_full_disk_while_workers_run_removes_the_partial_set(pairs, tmp_path, monkeypatch):
-    import stimuli.build.write as write
+    import stimuli.stimset.write as write
 
     real = write._save_rendered
     saved: list[str] = []

@@ -20,7 +20,6 @@ from PIL import Image
 
 from experiment.cli import main
 from stimuli import jung2015
-from stimuli.build import IMPLANT_PX_PER_ELECTRODE, BuildParams, build_stimulus_set
 from stimuli.compress import block_mean, compress, compress_grey
 from stimuli.datadirs import PROTOCOLS_DIR
 from stimuli.errors import InputError
@@ -34,6 +33,7 @@ from stimuli.implants import (
 )
 from stimuli.io import load_gray
 from stimuli.manifest import read_manifest
+from stimuli.stimset import IMPLANT_PX_PER_ELECTRODE, BuildParams, build_stimulus_set
 from tests.stimuli._build_fixtures import write_pairs_folder
 
 #: Photo size of the test pairs (3:2, as in tests/stimuli/test_build.py).
@@ -106,7 +106,7 @@ def test_shipped_folders_are_found_beside_the_packages() -> None:
 
 def test_stimuli_implants_import_without_experiment_or_gl() -> None:
     code = (
-        "import sys, stimuli.implants, stimuli.build, stimuli.cli\n"
+        "import sys, stimuli.implants, stimuli.stimset, stimuli.cli\n"
         "print(sorted(m for m in sys.modules if m.split('.')[0] in ('experiment', 'moderngl')))"
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)

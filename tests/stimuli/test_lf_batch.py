@@ -70,7 +70,7 @@ def test_processes_below_one_is_refused():
 
 
 def test_build_reads_a_folder_of_captures_as_objects(captures):
-    from stimuli.build.pairs import read_pairs
+    from stimuli.stimset.pairs import read_pairs
 
     pairs = read_pairs(captures)
     assert [s.object for s in pairs.sources] == ["far", "near"]

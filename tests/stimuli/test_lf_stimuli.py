@@ -26,10 +26,10 @@ import pytest
 from PIL import Image
 from scipy.ndimage import binary_dilation
 
-from stimuli.build import BuildParams, build_stimulus_set
-from stimuli.build.prepare import to_working_size
 from stimuli.compress import block_mean
 from stimuli.lfsynth import ground_truth_maps, render_camera_array, three_plane_scene
+from stimuli.stimset import BuildParams, build_stimulus_set
+from stimuli.stimset.prepare import to_working_size
 from tests.conftest import require_data
 from tests.stimuli._lf_truth import TRUTH_CAPTURES, centre_truth
 

@@ -179,8 +179,8 @@ def test_plugin_builds_a_set(tmp_path, monkeypatch, capsys):
 def test_depth_condition_of_a_light_field(tmp_path):
     """The depth method through the registry gives the build's own depth de-clutter, bit for
     bit; a light field de-cluttered by Sobel (no in-focus mask) refuses it in one line."""
-    from stimuli.build import BuildParams, build_stimulus_set
     from stimuli.lfsynth import render_camera_array, three_plane_scene
+    from stimuli.stimset import BuildParams, build_stimulus_set
 
     field = render_camera_array(
         three_plane_scene((120, 180)), grid=(1, 5), shape_px=(120, 180), baseline_m=0.03

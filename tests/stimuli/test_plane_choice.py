@@ -16,11 +16,11 @@ import numpy as np
 import pytest
 from scipy import ndimage
 
-from stimuli.build import BuildParams, build_stimulus_set
-from stimuli.build.prepare import aspect_crop_box, content_crop_box
 from stimuli.errors import InputError
 from stimuli.lightfield import LightField
 from stimuli.planechoice import choose_plane
+from stimuli.stimset import BuildParams, build_stimulus_set
+from stimuli.stimset.prepare import aspect_crop_box, content_crop_box
 
 SHAPE = (480, 640)
 

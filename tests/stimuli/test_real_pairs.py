@@ -18,11 +18,11 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from stimuli.build import aspect_crop_box, build_stimulus_set, to_working_size
 from stimuli.compress import block_mean
 from stimuli.declutter import auto_threshold, declutter
 from stimuli.io import load_gray
 from stimuli.manifest import read_manifest
+from stimuli.stimset import aspect_crop_box, build_stimulus_set, to_working_size
 from tests.conftest import require_data
 
 pytestmark = pytest.mark.data

@@ -38,7 +38,7 @@ def test_session_and_set_records_use_the_one_reader(monkeypatch: pytest.MonkeyPa
     """The sessions row and stimulus_set.json take the commit from this reader, and no other
     module of the project runs git itself."""
     from experiment.session import lifecycle
-    from stimuli.build import provenance
+    from stimuli.stimset import provenance
 
     monkeypatch.setattr(lifecycle, "git_commit", lambda: "f" * 40)
     assert lifecycle.software_provenance()["git_commit"] == "f" * 40

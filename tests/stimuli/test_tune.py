@@ -22,12 +22,12 @@ import pytest
 from scipy.ndimage import binary_dilation, gaussian_filter
 
 from experiment.cli import main
-from stimuli.build import BuildParams, aspect_crop_box, build_stimulus_set, to_working_size
 from stimuli.declutter import auto_threshold, sobel_magnitude
 from stimuli.errors import InputError
 from stimuli.io import load_gray
 from stimuli.manifest import read_objects_csv
 from stimuli.retention import UPPER_QUANTILE, retention_curve, retention_threshold
+from stimuli.stimset import BuildParams, aspect_crop_box, build_stimulus_set, to_working_size
 from stimuli.tune import tune_pairs, tuning_sheet, write_thresholds
 from tests.conftest import require_data
 from tests.stimuli._build_fixtures import make_pair, write_pairs_folder
@@ -259,7 +259,7 @@ def test_build_does_not_import_the_tuner() -> None:
     """The builder and the tuner share the retention threshold and the photo preparation
     without importing each other: the build alone leaves ``stimuli.tune`` unloaded."""
     code = (
-        "import sys, stimuli.build\n"
+        "import sys, stimuli.stimset\n"
         "print(sorted(m for m in sys.modules if m in ('stimuli.tune', 'stimuli.cli')))"
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)

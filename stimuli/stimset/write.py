@@ -16,26 +16,26 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from stimuli.build.conditions import conditions_record, object_conditions
-from stimuli.build.edges import SetEdgeRatio
-from stimuli.build.implant_views import write_implant_views
-from stimuli.build.levels import edge_ladder, grey_ladder, level_labels
-from stimuli.build.pairs import path_in_pairs
-from stimuli.build.parallel import ProgressFn, map_objects, map_on_pool
-from stimuli.build.params import BuildParams
-from stimuli.build.plan import BuildPlan
-from stimuli.build.prepare import ObjectImages, colour_photos
-from stimuli.build.provenance import (
+from stimuli.contact import contact_sheet, save_contact_sheet
+from stimuli.io import save_png, sha256_file, staged_folder
+from stimuli.manifest import StimulusRecord, format_crop, write_manifest, write_objects_csv
+from stimuli.stimset.conditions import conditions_record, object_conditions
+from stimuli.stimset.edges import SetEdgeRatio
+from stimuli.stimset.implant_views import write_implant_views
+from stimuli.stimset.levels import edge_ladder, grey_ladder, level_labels
+from stimuli.stimset.pairs import path_in_pairs
+from stimuli.stimset.parallel import ProgressFn, map_objects, map_on_pool
+from stimuli.stimset.params import BuildParams
+from stimuli.stimset.plan import BuildPlan
+from stimuli.stimset.prepare import ObjectImages, colour_photos
+from stimuli.stimset.provenance import (
     ObjectSummary,
     build_notes,
     object_summary,
     object_warnings,
     set_record,
 )
-from stimuli.build.visibility import visibility_line
-from stimuli.contact import contact_sheet, save_contact_sheet
-from stimuli.io import save_png, sha256_file, staged_folder
-from stimuli.manifest import StimulusRecord, format_crop, write_manifest, write_objects_csv
+from stimuli.stimset.visibility import visibility_line
 
 if TYPE_CHECKING:
     from stimuli.lfbatch import CapturePool

@@ -1,6 +1,6 @@
 """Implant views of a build: each object's stimuli as an implant shows them.
 
-Module docstring of :mod:`stimuli.build`, step 7: grid and phosphene PNGs under
+Module docstring of :mod:`stimuli.stimset`, step 7: grid and phosphene PNGs under
 ``implants/<name>/<object>/``, recorded with the implant's whole layout in ``stimulus_set.json``.
 """
 
@@ -10,11 +10,11 @@ import re
 from collections.abc import Sequence
 from pathlib import Path
 
-from stimuli.build.params import BuildParams
-from stimuli.build.prepare import ObjectImages
 from stimuli.errors import InputError
 from stimuli.implants import ImplantError, ImplantLayout, render_phosphenes, to_implant_grid
 from stimuli.io import save_png, sha256_file
+from stimuli.stimset.params import BuildParams
+from stimuli.stimset.prepare import ObjectImages
 
 __all__ = [
     "IMPLANT_PX_PER_ELECTRODE",
@@ -88,7 +88,7 @@ def write_implant_views(
     ``tmp/implants/<name>/<object>/``.
     """
     oid = work.info.object
-    from stimuli.build.conditions import object_conditions
+    from stimuli.stimset.conditions import object_conditions
 
     images = {c: grey if edges is None else edges for c, grey, edges in object_conditions(work)}
     kw = {} if edge_ratio is None else {"edge_ratio": edge_ratio}

@@ -169,8 +169,8 @@ def view_command(
     from experiment.viewer.events import ViewerEventLog
     from experiment.viewer.source import open_source, read_script
     from experiment.viewer.state import GREY_LEVELS
-    from stimuli.build import parse_threshold
     from stimuli.implants import implant_names, load_implant
+    from stimuli.stimset import parse_threshold
 
     shape = _size(size)
     names = list(implant) if implant else sorted(implant_names(), key=lambda n: n != "argus2")

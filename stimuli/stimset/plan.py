@@ -1,6 +1,6 @@
 """Plan of a build: every argument checked and resolved once, before any image is read.
 
-:func:`plan_build` turns the arguments of :func:`stimuli.build.build_stimulus_set` into a frozen
+:func:`plan_build` turns the arguments of :func:`stimuli.stimset.build_stimulus_set` into a frozen
 :class:`BuildPlan`: the parameters, the implant layouts, the thread count, the PAIRS input with
 its source hashes, the set id and the levels. The output folder is checked here too, so that a
 refused build has read no photo and written nothing.
@@ -15,16 +15,16 @@ from collections.abc import Sequence
 from dataclasses import dataclass, replace
 from pathlib import Path
 
-from stimuli.build.conditions import check_conditions
-from stimuli.build.implant_views import IMPLANT_PX_PER_ELECTRODE, check_implants
-from stimuli.build.levels import level_ladder
-from stimuli.build.pairs import PairsInput, read_pairs, source_hashes
-from stimuli.build.parallel import thread_count
-from stimuli.build.params import BuildParams
 from stimuli.errors import InputError
 from stimuli.implants import ImplantLayout
 from stimuli.io import check_missing_or_empty
 from stimuli.manifest import format_crop
+from stimuli.stimset.conditions import check_conditions
+from stimuli.stimset.implant_views import IMPLANT_PX_PER_ELECTRODE, check_implants
+from stimuli.stimset.levels import level_ladder
+from stimuli.stimset.pairs import PairsInput, read_pairs, source_hashes
+from stimuli.stimset.parallel import thread_count
+from stimuli.stimset.params import BuildParams
 
 __all__ = ["BuildPlan", "plan_build", "set_id"]
 
@@ -43,7 +43,7 @@ class BuildPlan:
     inp : PairsInput
         The objects and their sources.
     hashes : tuple of dict
-        Each source's sha256 (:func:`stimuli.build.pairs.source_hashes`), in object order.
+        Each source's sha256 (:func:`stimuli.stimset.pairs.source_hashes`), in object order.
     set_id : str
         SHA-256 of the parameters, object table, source hashes and implant layouts.
     workers : int >= 1
@@ -51,7 +51,7 @@ class BuildPlan:
     implants : tuple of ImplantLayout
     implant_px_per_electrode : int in [1, 256]
     ladder : tuple of (level, window_px, (rows, cols))
-        The set's levels (:func:`stimuli.build.levels.level_ladder`).
+        The set's levels (:func:`stimuli.stimset.levels.level_ladder`).
     """
 
     pairs: Path
@@ -79,7 +79,7 @@ def plan_build(
 ) -> BuildPlan:
     """Check the arguments of a build and resolve them into a :class:`BuildPlan`.
 
-    Parameters are those of :func:`stimuli.build.build_stimulus_set`, all given.
+    Parameters are those of :func:`stimuli.stimset.build_stimulus_set`, all given.
 
     Returns
     -------

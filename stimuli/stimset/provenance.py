@@ -12,15 +12,15 @@ from dataclasses import asdict, dataclass
 from datetime import UTC, datetime
 from pathlib import Path
 
-from stimuli.build.edges import SetEdgeRatio, edge_fraction
-from stimuli.build.implant_views import implants_record
-from stimuli.build.pairs import pairs_record, path_in_pairs
-from stimuli.build.params import BuildParams
-from stimuli.build.plan import BuildPlan
-from stimuli.build.prepare import MIN_KEPT_SHARE, ObjectImages
-from stimuli.build.visibility import visibility_warnings
 from stimuli.io import sha256_file
 from stimuli.software import git_commit
+from stimuli.stimset.edges import SetEdgeRatio, edge_fraction
+from stimuli.stimset.implant_views import implants_record
+from stimuli.stimset.pairs import pairs_record, path_in_pairs
+from stimuli.stimset.params import BuildParams
+from stimuli.stimset.plan import BuildPlan
+from stimuli.stimset.prepare import MIN_KEPT_SHARE, ObjectImages
+from stimuli.stimset.visibility import visibility_warnings
 
 __all__ = [
     "NEARLY_EMPTY_SHARE",
@@ -76,7 +76,7 @@ class ObjectSummary:
     no aspect crop keeps the plane, ``aspect_pad`` (top, bottom, left, right padding, px); these
     are ``None`` (and absent from the record) for photo pairs. ``visibility``: the share of
     the de-cluttered stimulus's white pixels on the plane's support and the object's coverage,
-    per level (:mod:`stimuli.build.visibility`).
+    per level (:mod:`stimuli.stimset.visibility`).
     """
 
     object: str
@@ -174,7 +174,7 @@ def set_record(
     manifest : Path
         The ``manifest.csv`` written (its sha256 is recorded).
     implant_views : list of dict
-        Entries from :func:`stimuli.build.implant_views.write_implant_views`.
+        Entries from :func:`stimuli.stimset.implant_views.write_implant_views`.
     """
     params, inp = plan.params, plan.inp
     meta = {

@@ -32,7 +32,7 @@ THRESHOLD_METHODS: tuple[str, ...] = ("retention", *AUTO_THRESHOLD_METHODS)
 #: De-cluttering modes of the build: ``'auto'`` (the default, ours) is ``'depth'`` for a light
 #: field whose views lie along one axis (1-D) or mostly along one
 #: (:func:`stimuli.lfviews.is_one_dimensional`), ``'sobel'`` otherwise and for photo
-#: pairs; see :mod:`stimuli.build.lightfield`.
+#: pairs; see :mod:`stimuli.stimset.lightfield`.
 BUILD_DECLUTTER_MODES: tuple[str, ...] = ("auto", *DECLUTTER_MODES)
 
 #: Kinds of stimuli: binary edge images, or grey-level compression of the photos (Fig. 2).

@@ -1,6 +1,6 @@
 """De-clutter step of a build: each object's threshold and edge images, and the set's edge ratio.
 
-Module docstring of :mod:`stimuli.build`, steps 4 and 5 (Jung et al. 2015, Sec. 2.2 and 3.1).
+Module docstring of :mod:`stimuli.stimset`, steps 4 and 5 (Jung et al. 2015, Sec. 2.2 and 3.1).
 """
 
 from __future__ import annotations
@@ -10,11 +10,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from stimuli.build.params import BuildParams
-from stimuli.build.prepare import ObjectImages
 from stimuli.declutter import auto_threshold, bokeh_guard, declutter, declutter_depth
 from stimuli.errors import InputError
 from stimuli.retention import retention_threshold
+from stimuli.stimset.params import BuildParams
+from stimuli.stimset.prepare import ObjectImages
 
 __all__ = [
     "SetEdgeRatio",

@@ -1,6 +1,6 @@
 """Photo preparation of a build: read a pair, zoom, centre-crop to the aspect, resize.
 
-Paper Sec. 3.1 and 4.1, and the module docstring of :mod:`stimuli.build` (steps 1-3). The
+Paper Sec. 3.1 and 4.1, and the module docstring of :mod:`stimuli.stimset` (steps 1-3). The
 threshold tuner (``confocal stimuli tune``) prepares its pairs here too, so that the thresholds it
 proposes mean the same thing in the build.
 """
@@ -12,12 +12,12 @@ from dataclasses import dataclass, field
 import numpy as np
 from skimage.transform import resize
 
-from stimuli.build.lightfield import ConfocalPairImages, field_crop_in_crop, load_confocal_pair
-from stimuli.build.pairs import PairSource
-from stimuli.build.params import BuildParams, min_photo_shape_px
 from stimuli.errors import InputError
 from stimuli.io import check_gray, image_shape_px, load_gray, load_rgb
 from stimuli.manifest import ObjectInfo, format_crop
+from stimuli.stimset.lightfield import ConfocalPairImages, field_crop_in_crop, load_confocal_pair
+from stimuli.stimset.pairs import PairSource
+from stimuli.stimset.params import BuildParams, min_photo_shape_px
 
 __all__ = [
     "ObjectImages",
@@ -38,7 +38,7 @@ Box = tuple[int, int, int, int]
 class ObjectImages:
     """One object's images at the working size and what was done to them.
 
-    Mutable: the de-clutter step of :mod:`stimuli.build.edges` fills the edge fields.
+    Mutable: the de-clutter step of :mod:`stimuli.stimset.edges` fills the edge fields.
 
     Parameters
     ----------
@@ -85,10 +85,10 @@ class ObjectImages:
         elsewhere are dropped.
     visibility : dict or None
         A light-field object's on-plane share and object coverage per level
-        (:func:`stimuli.build.visibility.measure_visibility`), once the set's edge ratio is known.
+        (:func:`stimuli.stimset.visibility.measure_visibility`), once the set's edge ratio is known.
     conditions : dict of str to (ndarray of bool, dict)
         A build with conditions beyond the paper's pair: each condition's edge image and what
-        its method measured (:func:`stimuli.build.conditions.apply_conditions`); empty for the
+        its method measured (:func:`stimuli.stimset.conditions.apply_conditions`); empty for the
         paper's pair.
     """
 
@@ -372,13 +372,13 @@ def prepare_object(src: PairSource, info: ObjectInfo, params: BuildParams) -> Ob
     Returns
     -------
     ObjectImages
-        Without edges (see :func:`stimuli.build.edges.declutter_object`).
+        Without edges (see :func:`stimuli.stimset.edges.declutter_object`).
 
     Raises
     ------
     InputError
         An unreadable photo, photos of one pair with different sizes without
-        ``allow_resize``, a photo smaller than :func:`~stimuli.build.params.min_photo_shape_px`,
+        ``allow_resize``, a photo smaller than :func:`~stimuli.stimset.params.min_photo_shape_px`,
         or a crop box outside the photo.
     """
     crop = info.crop if info.crop is not None else src.crop

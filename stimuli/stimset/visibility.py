@@ -25,8 +25,8 @@ from __future__ import annotations
 import numpy as np
 from scipy import ndimage
 
-from stimuli.build.params import BuildParams
-from stimuli.build.prepare import ObjectImages, to_working_size, zoom_crop
+from stimuli.stimset.params import BuildParams
+from stimuli.stimset.prepare import ObjectImages, to_working_size, zoom_crop
 
 __all__ = [
     "LOW_LEVELS",
@@ -112,7 +112,7 @@ def object_visibility(
         A de-cluttered light-field object.
     params : BuildParams
     ladder : list of (level, window_px, ndarray of bool)
-        Its de-cluttered stimuli (:func:`stimuli.build.levels.edge_ladder`).
+        Its de-cluttered stimuli (:func:`stimuli.stimset.levels.edge_ladder`).
 
     Returns
     -------
@@ -195,7 +195,7 @@ def measure_visibility(work: ObjectImages, params: BuildParams, edge_ratio: floa
 
     None for photo pairs, grey mode and objects without edges.
     """
-    from stimuli.build.levels import edge_ladder
+    from stimuli.stimset.levels import edge_ladder
 
     if work.plane_choice is None or work.narrow_edges is None or edge_ratio is None:
         return None

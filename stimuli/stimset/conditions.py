@@ -5,7 +5,7 @@ any list: ``cluttered`` (the wide-DOF photo's edges) and de-clutter methods of
 :mod:`stimuli.methods` (``decluttered`` and ``sobel`` are the build's de-clutter step, the
 paper's; the others run their method on the object's images at the working size, with the
 object's own threshold). Every condition then goes through the same compression ladder
-(:mod:`stimuli.build.levels`). A method that needs the object's mask reads ``OBJECT/mask.png``
+(:mod:`stimuli.stimset.levels`). A method that needs the object's mask reads ``OBJECT/mask.png``
 in the PAIRS folder (non-zero = object, the photos' pixel size), cut, cropped and resized as
 the photos were.
 """
@@ -16,12 +16,12 @@ from pathlib import Path
 
 import numpy as np
 
-from stimuli.build.pairs import PairsInput, PairSource
-from stimuli.build.params import BuildParams
-from stimuli.build.prepare import ObjectImages, _scale_crop, to_working_size, zoom_crop
 from stimuli.errors import InputError
 from stimuli.methods.base import MethodInput
 from stimuli.methods.registry import ALIASES, BASELINE_CONDITION, PAPER_CONDITIONS, get_method
+from stimuli.stimset.pairs import PairsInput, PairSource
+from stimuli.stimset.params import BuildParams
+from stimuli.stimset.prepare import ObjectImages, _scale_crop, to_working_size, zoom_crop
 
 __all__ = [
     "MASK_NAME",
@@ -116,7 +116,7 @@ def _load_mask(work: ObjectImages, root: Path, params: BuildParams) -> np.ndarra
 def apply_conditions(work: ObjectImages, params: BuildParams, root: Path) -> ObjectImages:
     """Fill ``work.conditions``: each named condition's edge image and what its method measured.
 
-    Run after :func:`stimuli.build.edges.declutter_object` (the object's threshold and the two
+    Run after :func:`stimuli.stimset.edges.declutter_object` (the object's threshold and the two
     paper images); does nothing for the paper's pair.
 
     Parameters

@@ -1,6 +1,6 @@
 """Compression levels of a build: each stimulus at every window (Jung et al. 2015, Sec. 2.2, 3.1).
 
-Module docstring of :mod:`stimuli.build`, step 6.
+Module docstring of :mod:`stimuli.stimset`, step 6.
 """
 
 from __future__ import annotations

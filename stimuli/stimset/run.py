@@ -1,4 +1,4 @@
-"""Build a stimulus set: every object through the steps of :mod:`stimuli.build`, then the folder."""
+"""Build a stimulus set: every object through :mod:`stimuli.stimset`'s steps, then the folder."""
 
 from __future__ import annotations
 
@@ -10,24 +10,24 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from stimuli.build.conditions import apply_conditions
-from stimuli.build.edges import declutter_object, set_edge_ratio
-from stimuli.build.implant_views import IMPLANT_PX_PER_ELECTRODE
-from stimuli.build.pairs import PairSource
-from stimuli.build.parallel import ProgressFn, map_objects, map_on_pool
-from stimuli.build.params import (
+from stimuli.implants import ImplantLayout
+from stimuli.manifest import ObjectInfo
+from stimuli.stimset.conditions import apply_conditions
+from stimuli.stimset.edges import declutter_object, set_edge_ratio
+from stimuli.stimset.implant_views import IMPLANT_PX_PER_ELECTRODE
+from stimuli.stimset.pairs import PairSource
+from stimuli.stimset.parallel import ProgressFn, map_objects, map_on_pool
+from stimuli.stimset.params import (
     BuildParams,
 )
-from stimuli.build.plan import BuildPlan, plan_build
-from stimuli.build.prepare import (
+from stimuli.stimset.plan import BuildPlan, plan_build
+from stimuli.stimset.prepare import (
     ObjectImages,
     prepare_object,
 )
-from stimuli.build.provenance import ObjectSummary
-from stimuli.build.visibility import measure_visibility
-from stimuli.build.write import write_stimulus_set
-from stimuli.implants import ImplantLayout
-from stimuli.manifest import ObjectInfo
+from stimuli.stimset.provenance import ObjectSummary
+from stimuli.stimset.visibility import measure_visibility
+from stimuli.stimset.write import write_stimulus_set
 
 if TYPE_CHECKING:
     from stimuli.lfbatch import CapturePool

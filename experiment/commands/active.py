@@ -20,9 +20,9 @@ from typing import Annotated
 
 import typer
 
+from experiment.commands import run_options
 from experiment.data.subjects import check_subject_code
 from experiment.errors import ConfocalError
-from experiment.session import run_options
 from stimuli.resources import MAX_ID_CHARS, MAX_SEED
 
 __all__ = ["register", "active_app", "SEARCHERS", "subject_phosphenes"]

@@ -26,11 +26,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from stimuli.build.pairs import PairSource
-from stimuli.build.params import BuildParams
 from stimuli.io import check_gray
 from stimuli.lfviews import ANISOTROPY_RATIO, is_one_dimensional
 from stimuli.manifest import ObjectInfo
+from stimuli.stimset.pairs import PairSource
+from stimuli.stimset.params import BuildParams
 
 __all__ = [
     "ANISOTROPY_RATIO",

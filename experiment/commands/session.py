@@ -22,9 +22,7 @@ from typing import Annotated
 
 import typer
 
-from experiment.data.subjects import check_subject_code
-from experiment.errors import ConfocalError
-from experiment.session.run_options import (
+from experiment.commands.run_options import (
     DataOption,
     FullscreenOption,
     NewSessionOption,
@@ -37,6 +35,8 @@ from experiment.session.run_options import (
     confirm_take_over,
     report_if_complete,
 )
+from experiment.data.subjects import check_subject_code
+from experiment.errors import ConfocalError
 from stimuli.cli import seed_option
 from stimuli.resources import check_memory, finite_option
 
