@@ -595,8 +595,11 @@ def competing_lines(comp: dict[str, Any]) -> list[str]:
 
 
 def ph_text(ph: dict[str, Any]) -> str:
-    """Say whether the hazard ratio's proportional-hazards assumption held, and what replaces it
-    when it did not (the hazard ratio before and after the median event time)."""
+    """Say whether the hazard ratio's proportional-hazards assumption held, and what replaces it.
+
+    When it did not hold, it is replaced by the hazard ratio before and after the median event
+    time.
+    """
     t = ph["test"]
     if t.get("p") is None:
         return "**Proportional hazards**: not tested (too few recognitions or no fit)."

@@ -280,7 +280,7 @@ def run(
 
 
 def _ci_text(ci: list) -> str:
-    """An odds-ratio interval as console text: ``95% CI 3.9-8.1``, open ends as 0 / inf."""
+    """Format an odds-ratio interval as console text: ``95% CI 3.9-8.1``, open ends as 0 / inf."""
     if ci[0] is None and ci[1] is None:
         return "no interval: its profile could not be computed"
     lo = "0" if ci[0] is None else f"{ci[0]:.3g}"
@@ -502,9 +502,12 @@ def _echo_power_table(design_heads: str, points: list, design_cells) -> None:
 
 
 def _needed(row: list, target: float) -> str:
-    """Say the fewest simulated subjects in ``row`` (one design) from which on power reaches
-    ``target``: that number and every larger one simulated, so that a noisy dip in a larger
-    row (power is estimated from a finite number of studies) never sits beside the advice."""
+    """Say the fewest simulated subjects in ``row`` (one design) from which on power reaches target.
+
+    Power must reach ``target`` at that number and every larger one simulated, so that a noisy
+    dip in a larger row (power is estimated from a finite number of studies) never sits beside
+    the advice.
+    """
     row = sorted(row, key=lambda p: p.n_subjects)
     need = None
     for i, p in enumerate(row):
@@ -521,8 +524,10 @@ def _needed(row: list, target: float) -> str:
 
 
 def _resolved_seed(seed: int | None) -> tuple[int, str]:
-    """Return the seed to simulate with and how it is printed: a drawn one is printed too, so
-    that ``--seed`` reproduces the table."""
+    """Return the seed to simulate with and how it is printed.
+
+    A drawn seed is printed too, so that ``--seed`` reproduces the table.
+    """
     import numpy as np
 
     if seed is not None:

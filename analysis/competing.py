@@ -80,8 +80,11 @@ def cumulative_incidence(time_s: Any, ended: Any) -> dict[str, Any]:
 
 
 def competing_by_condition(trials: Any) -> dict[str, dict[str, Any]]:
-    """Return :func:`cumulative_incidence` per condition of an active-trials table
-    (:func:`analysis.active.active_trials`; needs ``condition``, ``rt_s``, ``ended``)."""
+    """Return :func:`cumulative_incidence` per condition of an active-trials table.
+
+    The table is :func:`analysis.active.active_trials`'s; it needs ``condition``, ``rt_s`` and
+    ``ended``.
+    """
     if "ended" not in trials.columns or trials["ended"].isna().any():
         return {}
     return {

@@ -65,9 +65,12 @@ def has_other_conditions(trials: pd.DataFrame) -> bool:
 
 
 def condition_order(trials: pd.DataFrame) -> tuple[str, ...]:
-    """Return the conditions present in a fixed order: the paper's two, the built-in methods
-    (:data:`analysis.data.METHOD_CONDITIONS`), then any others by name (not by the order the
-    trials came in, which a Latin square changes from subject to subject)."""
+    """Return the conditions present in a fixed order.
+
+    The order is the paper's two, the built-in methods (:data:`analysis.data.METHOD_CONDITIONS`),
+    then any others by name (not by the order the trials came in, which a Latin square changes
+    from subject to subject).
+    """
     seen = set(trials["condition"].astype(str))
     known = [c for c in (*CONDITIONS, *METHOD_CONDITIONS) if c in seen]
     return tuple(known + sorted(seen - set(known)))
@@ -410,8 +413,10 @@ def _clean(v: Any) -> Any:
 
 @dataclass(frozen=True)
 class ConditionsStep:
-    """Progress of :func:`analyze_conditions` (the fields of the pipeline's ``AnalysisStep``):
-    ``done`` of ``total`` steps, ``label`` the one just finished, ``result`` on the last."""
+    """Progress of :func:`analyze_conditions` (the fields of the pipeline's ``AnalysisStep``).
+
+    ``done`` of ``total`` steps, ``label`` the one just finished, ``result`` on the last.
+    """
 
     done: int
     total: int

@@ -115,8 +115,11 @@ METHOD_CONDITIONS: tuple[str, ...] = ("sobel", "depth", "mask", "segment", "sali
 
 
 def plugin_conditions() -> tuple[str, ...]:
-    """Return the names of the de-clutter methods installed as plug-ins (entry point group
-    ``confocal.declutter``), which a stimulus set may hold as conditions; nothing is imported."""
+    """Return the names of the de-clutter methods installed as plug-ins; nothing is imported.
+
+    The plug-ins are those of the entry point group ``confocal.declutter``; a stimulus set may
+    hold these methods as conditions.
+    """
     from importlib.metadata import entry_points
 
     return tuple(sorted(ep.name for ep in entry_points(group="confocal.declutter")))
@@ -471,8 +474,11 @@ def read_trials(paths: Iterable[str | Path], *, include_simulated: bool = False)
 
 
 def _check_no_repeats(trials: pd.DataFrame) -> None:
-    """Refuse the same trial twice: a repeated (subject, session, trial_index), within a file or
-    across files (a file given twice would count every trial twice)."""
+    """Refuse the same trial twice: a repeated (subject, session, trial_index).
+
+    A repeat is refused within a file or across files (a file given twice would count every
+    trial twice).
+    """
     key = [c for c in ("subject", "session", "trial_index") if c in trials.columns]
     if "trial_index" not in key:
         return  # a table without trial numbers: repeated conditions are not repeated trials

@@ -260,8 +260,11 @@ def read_log_trials(path: Path) -> pd.DataFrame:
 
 
 def _join(sessions, schedule, trials, scores) -> pd.DataFrame:
-    """The ``tidy_trials`` view's join, done here: trials with their session, schedule row and
-    latest primary score (trials without one are left out, as the view's inner join does)."""
+    """Do the ``tidy_trials`` view's join here: trials with their session, schedule row and score.
+
+    The score is the latest primary score; trials without one are left out, as the view's inner
+    join does.
+    """
     key = ["session_id", "trial_index"]
     primary = scores[scores["is_primary"] == 1]
     latest = primary.loc[primary.groupby(key, sort=False)["score_id"].idxmax()]

@@ -139,8 +139,10 @@ def split_hazard_ratios(
 def proportional_hazards_check(
     time_s: Any, recognized: Any, condition: Any, subject: Any, *, treated: str, reference: str
 ) -> dict[str, Any]:
-    """Return the Schoenfeld test of the condition's hazard ratio, and the split alternative
-    when it fails (``alternative``, else None); stratified by subject when there are several.
+    """Return the Schoenfeld test of the condition's hazard ratio, and an alternative if it fails.
+
+    The split alternative is given when the test fails (``alternative``, else None); the test is
+    stratified by subject when there are several.
 
     Returns
     -------

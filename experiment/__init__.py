@@ -32,7 +32,10 @@ def _is_the_command() -> bool:
 
 
 def _stop_at_start(signum: int, frame: object) -> None:
-    """A stop signal before the command runs: nothing is open or written; one line, exit now."""
+    """Handle a stop signal before the command runs.
+
+    Nothing is open or written yet: print one line and exit now.
+    """
     name = {_signal.SIGINT: "SIGINT", _signal.SIGTERM: "SIGTERM"}.get(signum, f"signal {signum}")
     line = f"confocal: stopped by {name}; the log is closed, nothing half-written\n"
     _os.write(2, line.encode())
@@ -40,7 +43,7 @@ def _stop_at_start(signum: int, frame: object) -> None:
 
 
 def _last_exit_function() -> None:
-    """Registered first, so run last of the exit functions (see :mod:`experiment.signals`)."""
+    """Run last of the exit functions, being registered first (see :mod:`experiment.signals`)."""
     signals = _sys.modules.get("experiment.signals")
     if signals is not None:
         signals._at_exit()

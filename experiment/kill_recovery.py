@@ -127,8 +127,10 @@ class KillReport:
 
     @property
     def ok(self) -> bool:
-        """Whether nothing was lost, duplicated, added or run again, no completed session kept
-        a lock, and no command failed."""
+        """Whether nothing was lost, duplicated, added or run again, and nothing else went wrong.
+
+        That is also: no completed session kept a lock, and no command failed.
+        """
         return not (
             self.lost
             or self.duplicated

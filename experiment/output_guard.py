@@ -221,8 +221,10 @@ class _Output:
         self.before_id = identity(self.real)
 
     def prepare(self) -> Path | None:
-        """Move an own folder aside and, for a direct writer, make the folder; return the
-        folder moved aside."""
+        """Move an own folder aside and, for a direct writer, make the folder.
+
+        Return the folder moved aside.
+        """
         if not self.replaces or self.real is None:
             return None
         import secrets  # hashlib and hmac: not at import (--help)
@@ -369,7 +371,7 @@ def _flag_of(cmd: Any, name: str) -> str:
 
 @functools.cache
 def _force_option() -> Any:
-    """A ``--force`` flag made by typer itself (so help and parsing match the other options)."""
+    """Make a ``--force`` flag by typer itself (so help and parsing match the other options)."""
     import typer
 
     holder = typer.Typer()

@@ -253,7 +253,7 @@ WRITING_COMMANDS: tuple[WritingCommand, ...] = (
 
 
 def _real(path: str | os.PathLike) -> Path:
-    """The one real path of ``path``: links followed before ``..``, as the kernel does."""
+    """Return the one real path of ``path``: links followed before ``..``, as the kernel does."""
     return Path(os.path.realpath(os.fspath(path)))
 
 
@@ -264,7 +264,7 @@ def _is_link(path: str | os.PathLike) -> bool:
 
 
 def _shown(path: str | os.PathLike, real: Path) -> str:
-    """The path as the user typed it, and where it leads when links or ``..`` change that."""
+    """Show the path as the user typed it, and where it leads when links or ``..`` change that."""
     lexical = os.path.normpath(os.path.abspath(os.fspath(path)))
     return os.fspath(path) if lexical == os.fspath(real) else f"{os.fspath(path)} (= {real})"
 

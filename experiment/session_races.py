@@ -49,8 +49,11 @@ class RaceReport:
 
     @property
     def ok(self) -> bool:
-        """Whether every subject has one whole session, nothing is lost or doubled, no lock is
-        left on a completed session and every command ended as expected."""
+        """Whether every subject has one whole session and nothing else went wrong.
+
+        That is also: nothing is lost or doubled, no lock is left on a completed session and
+        every command ended as expected.
+        """
         return not (
             self.lost or self.duplicated or self.extra_sessions or self.stale_locks or self.failures
         )
@@ -83,8 +86,10 @@ class _Subject:
 
 
 def _race(argv: list[str], outs: list[Path]) -> list[int]:
-    """Fork one child per output file, each running ``confocal ARGV`` once the parent releases
-    them together; return their exit statuses."""
+    """Fork one child per output file and return their exit statuses.
+
+    Each child runs ``confocal ARGV`` once the parent releases them together.
+    """
     r, w = os.pipe()
     try:
         pids = [_fork_command(argv, out, release=(r, w)) for out in outs]

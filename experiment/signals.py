@@ -94,7 +94,7 @@ _stop: dict[str, float | int | bool | None] = {
 
 
 def stop_line(signum: int) -> str:
-    """The one line a stopped command prints (without a newline)."""
+    """Return the one line a stopped command prints (without a newline)."""
     try:
         name = signal.Signals(signum).name
     except ValueError:  # pragma: no cover - only the stop signals are handled
@@ -166,7 +166,7 @@ def hold_stops() -> Iterator[None]:
 
 
 def _after_the_command(signum: int, frame: object) -> None:
-    """The handler once the command has ended: nothing is being written; end the process."""
+    """Handle a signal once the command has ended: nothing is being written; end the process."""
     _exit_now(signum)
 
 
@@ -176,7 +176,7 @@ def _is_start_up_guard(handler: object) -> bool:
 
 
 def _at_exit() -> None:
-    """The ``confocal`` command's last exit function (registered by :mod:`experiment`)."""
+    """Run as the ``confocal`` command's last exit function (registered by :mod:`experiment`)."""
     if _stop["signum"] is not None:
         _exit_now(int(_stop["signum"]))
     for s in STOP_SIGNALS:
@@ -264,9 +264,12 @@ def worker_init(parent_pid: int | None = None) -> None:
 
 
 def _forked_child() -> None:
-    """In a child forked by the ``confocal`` command (its worker pools): a pool worker's
-    signal settings from the first instruction, not only once its initializer runs (a Ctrl-C
-    in between raised :class:`Stopped` in the child, whose traceback the pool printed)."""
+    """Give a child forked by the ``confocal`` command a pool worker's signal settings.
+
+    In a child forked by the ``confocal`` command (its worker pools): a pool worker's signal
+    settings from the first instruction, not only once its initializer runs (a Ctrl-C in
+    between raised :class:`Stopped` in the child, whose traceback the pool printed).
+    """
     if signal.getsignal(signal.SIGTERM) in (_raise_stopped, _after_the_command):
         signal.signal(signal.SIGINT, signal.SIG_IGN)
         signal.signal(signal.SIGTERM, signal.SIG_DFL)

@@ -431,6 +431,8 @@ def methods_command() -> None:
 
 
 def register(app: typer.Typer) -> None:
-    """Add the ``stimuli`` command group (``build``, ``synth``, ``tune``, ``methods``) to the
-    root app."""
+    """Add the ``stimuli`` command group to the root app.
+
+    The group holds ``build``, ``synth``, ``tune`` and ``methods``.
+    """
     app.add_typer(stimuli_app, name="stimuli")

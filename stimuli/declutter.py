@@ -247,8 +247,10 @@ def in_focus_mask(
     *,
     tolerance_px: float = FOCUS_TOLERANCE_PX,
 ) -> np.ndarray:
-    """Return where a light field is in focus at one plane (bool): :func:`in_focus_evidence`
-    equal to :data:`FOCUS_IN`."""
+    """Return where a light field is in focus at one plane (bool).
+
+    That is where :func:`in_focus_evidence` equals :data:`FOCUS_IN`.
+    """
     return in_focus_evidence(lightfield, slope_px_per_view, tolerance_px=tolerance_px)[0] == 1
 
 
@@ -393,7 +395,7 @@ def agreement_mask(
 
 
 def _agreement_numpy(centre, nb, axis, side, ds):
-    """The numpy twin of :func:`stimuli.kernels.focus_agreement` (a chain of full images)."""
+    """Compute :func:`stimuli.kernels.focus_agreement` in numpy (a chain of full images)."""
     from scipy.ndimage import uniform_filter
 
     pad = int(np.ceil(np.abs(ds).max())) + 2
@@ -456,7 +458,7 @@ def declutter_depth(
 
 
 def _vote_numpy(edges: np.ndarray, m: np.ndarray) -> np.ndarray:
-    """The numpy twin of :func:`stimuli.kernels.focus_vote` (two box filters of full images)."""
+    """Compute :func:`stimuli.kernels.focus_vote` in numpy (two box filters of full images)."""
     from scipy.ndimage import uniform_filter
 
     drop = None

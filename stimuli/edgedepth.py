@@ -102,8 +102,11 @@ class EdgeDepthStats:
     unresolved: int = 0
 
     def to_dict(self) -> dict:
-        """Return the counts with the share of the edge pixels dropped (``dropped_share``:
-        resolved off the plane) and left unresolved (``unresolved_share``)."""
+        """Return the counts with the shares of the edge pixels dropped and left unresolved.
+
+        ``dropped_share`` is the share resolved off the plane, ``unresolved_share`` the share
+        left unresolved.
+        """
         d = asdict(self)
         n = self.edge_pixels
         d["dropped_share"] = self.resolved_off_plane / n if n else 0.0
@@ -124,8 +127,9 @@ def baseline_axes(grid: tuple[int, int]) -> tuple[int, ...]:
 
 
 def edge_confidence(image: np.ndarray, axes: tuple[int, ...]) -> np.ndarray:
-    """Return each pixel's depth confidence: the share of its neighbourhood's gradient along
-    the baseline.
+    """Return each pixel's depth confidence.
+
+    The confidence is the share of its neighbourhood's gradient along the baseline.
 
     Parameters
     ----------
@@ -300,8 +304,10 @@ def _vote(low: np.ndarray, measured: np.ndarray, at):
 
 
 def _sobel_pair(img: np.ndarray) -> list[np.ndarray]:
-    """``[ndimage.sobel(img, axis=a) for a in (0, 1)]`` in one compiled call, to the bit
-    (:func:`stimuli.kernels.sobel_pair`)."""
+    """Compute ``[ndimage.sobel(img, axis=a) for a in (0, 1)]`` in one compiled call.
+
+    The result is the same to the bit (:func:`stimuli.kernels.sobel_pair`).
+    """
     from stimuli.kernels import sobel_pair
 
     img = np.ascontiguousarray(img, dtype=np.float32)
@@ -311,8 +317,11 @@ def _sobel_pair(img: np.ndarray) -> list[np.ndarray]:
 
 
 def _box_mean(a: np.ndarray, size: int) -> np.ndarray:
-    """``ndimage.uniform_filter(a, size)`` of a float32 image, compiled where every side is
-    longer than ``size`` (:func:`stimuli.kernels.box_mean_reflect`, to the bit)."""
+    """Compute ``ndimage.uniform_filter(a, size)`` of a float32 image.
+
+    It is compiled where every side is longer than ``size``
+    (:func:`stimuli.kernels.box_mean_reflect`, to the bit).
+    """
     if min(a.shape) <= size:
         return ndimage.uniform_filter(a, size)
     from stimuli.kernels import box_mean_reflect
@@ -323,8 +332,11 @@ def _box_mean(a: np.ndarray, size: int) -> np.ndarray:
 
 
 def _extents(labels: np.ndarray, n: int):
-    """Top, bottom, left and right (last row and column included) of labels ``1..n``, as
-    ``scipy.ndimage.find_objects`` gives them (:func:`stimuli.kernels.label_extents`)."""
+    """Return top, bottom, left and right (last row and column included) of labels ``1..n``.
+
+    They are as ``scipy.ndimage.find_objects`` gives them
+    (:func:`stimuli.kernels.label_extents`).
+    """
     from stimuli.kernels import label_extents
 
     big = np.iinfo(np.int64).max
@@ -340,9 +352,11 @@ def _grow(mask: np.ndarray, size: int) -> np.ndarray:
 
 
 def _box_max(a: np.ndarray, size: int) -> np.ndarray:
-    """The largest value in the ``size`` x ``size`` box around each pixel (values >= 0):
-    ``scipy.ndimage.maximum_filter`` / ``grey_dilation`` in one compiled call
-    (:func:`stimuli.kernels.box_max`)."""
+    """Return the largest value in the ``size`` x ``size`` box around each pixel (values >= 0).
+
+    It is ``scipy.ndimage.maximum_filter`` / ``grey_dilation`` in one compiled call
+    (:func:`stimuli.kernels.box_max`).
+    """
     from stimuli.kernels import box_max
 
     a = np.ascontiguousarray(a)

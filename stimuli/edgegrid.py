@@ -14,7 +14,7 @@ __all__ = ["declutter_and_compress", "edge_threshold", "depth_evidence"]
 def edge_threshold(
     image: np.ndarray, threshold: str | float = "auto", centre_view: np.ndarray | None = None
 ) -> float:
-    """The Sobel threshold :func:`declutter_and_compress` uses (its parameters, same names)."""
+    """Get the Sobel threshold :func:`declutter_and_compress` uses (its parameters, same names)."""
     from stimuli.declutter import auto_threshold
     from stimuli.stimset.params import parse_threshold
 
@@ -37,7 +37,7 @@ def depth_evidence(
     centre_view: np.ndarray | None = None,
     box: tuple[slice, slice] | None = None,
 ):
-    """The in-focus evidence :func:`declutter_and_compress` reads, tested only where it reads.
+    """Return the in-focus evidence :func:`declutter_and_compress` reads, tested only there.
 
     :func:`stimuli.declutter.in_focus_evidence` with ``where`` = the Sobel edges of ``image``
     (cut to ``box``, rows and columns, if given) at :func:`edge_threshold`: the depth edges

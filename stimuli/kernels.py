@@ -349,7 +349,7 @@ def _box3_cols(src, dst):  # pragma: no cover - compiled
 
 @njit(nogil=True, cache=True)
 def focus_agreement(centre, nb, axis, side, ds, ratio, noise, out):  # pragma: no cover
-    """The views' agreement test of :func:`stimuli.declutter.agreement_mask` for one neighbour.
+    """Run the views' agreement test of :func:`stimuli.declutter.agreement_mask` for one neighbour.
 
     ``out |= box3(|nb sampled at x - d * side - centre|) < ratio * box3(|centre at x - side -
     centre|) + noise`` for every ``d`` of ``ds``, along image ``axis`` (0 rows, 1 columns),
@@ -433,7 +433,7 @@ def _running_mean_rows(src, size, dst):  # pragma: no cover - compiled
 
 @njit(nogil=True, cache=True)
 def _running_mean_line(src, size, dst):  # pragma: no cover - compiled
-    """The same along one line (``axis=-1``), float32 in and out, float64 running sum."""
+    """Do the same along one line (``axis=-1``), float32 in and out, float64 running sum."""
     n = src.shape[0]
     half = size // 2
     tmp = 0.0
@@ -453,7 +453,7 @@ def _running_mean_line(src, size, dst):  # pragma: no cover - compiled
 
 @njit(nogil=True, cache=True)
 def focus_vote(edges, focus, size, out):  # pragma: no cover - compiled
-    """The local majority of :func:`stimuli.declutter.declutter_depth` in one call.
+    """Take the local majority of :func:`stimuli.declutter.declutter_depth` in one call.
 
     ``edges`` (uint8 0/1) and ``focus`` (uint8: 1 in focus, 2 dropped, else out of focus);
     ``out[y, x]`` (bool) is set where ``edges`` and ``agree >= 0.5 * total`` and ``focus`` is
@@ -487,7 +487,9 @@ def focus_vote(edges, focus, size, out):  # pragma: no cover - compiled
 
 @njit(nogil=True, cache=True)
 def _column_means(src, centre, axis, k, f, y, x0, x1, c):  # pragma: no cover - compiled
-    """``c[i]`` = the mean over rows ``y - 1 .. y + 1`` of ``|src sampled at - k - f along axis
+    """Set ``c[i]`` to a mean over rows ``y - 1 .. y + 1``, for the columns ``x0 - 1 .. x1``.
+
+    ``c[i]`` = the mean over rows ``y - 1 .. y + 1`` of ``|src sampled at - k - f along axis
     - centre|`` at column ``x0 - 1 + i`` (columns and rows clamped to the image), for the
     columns ``x0 - 1 .. x1``; each sum in float64 rounded to float32, as :func:`_box3_cols`.
     """
@@ -559,7 +561,7 @@ def focus_agreement_at(centre, nb, axis, side, ds, ratio, noise, where, out):  #
 
 @njit(nogil=True, cache=True)
 def label_extents(labels, n, top, bottom, left, right):  # pragma: no cover - compiled
-    """The bounding box of each label ``1..n`` of a label image, in one pass.
+    """Find the bounding box of each label ``1..n`` of a label image, in one pass.
 
     ``top[i - 1]``, ``bottom[i - 1]`` (the last row), ``left[i - 1]`` and ``right[i - 1]`` (the
     last column) of label ``i``: the extents of ``scipy.ndimage.find_objects``; labels that do
@@ -584,8 +586,9 @@ def label_extents(labels, n, top, bottom, left, right):  # pragma: no cover - co
 
 @njit(nogil=True, cache=True)
 def box_max(src, size, out):  # pragma: no cover - compiled
-    """``out`` = the largest value of ``src`` in the ``size`` x ``size`` box around each pixel
-    (odd ``size``; the box clipped to the image), columns first, then along the rows.
+    """Set ``out`` to the largest value of ``src`` in the ``size`` x ``size`` box around each pixel.
+
+    ``size`` is odd and the box clipped to the image; columns first, then along the rows.
 
     For values >= 0 it is ``scipy.ndimage.maximum_filter`` with ``mode='constant'`` (zeros
     beyond the image) and ``grey_dilation``'s default ``mode='reflect'`` (whose reflected
@@ -661,8 +664,9 @@ def sobel_pair(img, gy, gx):  # pragma: no cover - compiled
 
 @njit(nogil=True, cache=True)
 def box_mean_reflect(src, size, out):  # pragma: no cover - compiled
-    """``scipy.ndimage.uniform_filter(src, size)`` (``mode='reflect'``) of a float32 image,
-    step for step: along rows, then columns, each a float64 running sum (``+ entering -
+    """Compute ``scipy.ndimage.uniform_filter(src, size)`` (``mode='reflect'``) of a float32 image.
+
+    Step for step: along rows, then columns, each a float64 running sum (``+ entering -
     leaving``) divided by ``size`` and rounded to float32. Odd ``size``, at most one
     reflection: every side at least ``size // 2`` pixels.
     """

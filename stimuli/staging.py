@@ -174,8 +174,11 @@ def make_parents(folder: str | os.PathLike) -> list[tuple[Path, Identity]]:
 
 
 def remove_made(made: list[tuple[Path, Identity]]) -> None:
-    """Remove the folders :func:`make_parents` made, deepest first, each only while it is empty
-    and still the same folder (``os.rmdir``: never a tree)."""
+    """Remove the folders :func:`make_parents` made, deepest first.
+
+    Each is removed only while it is empty and still the same folder (``os.rmdir``: never a
+    tree).
+    """
     for d, ident in reversed(made):
         if identity(d) == ident:
             with contextlib.suppress(OSError):
@@ -239,9 +242,11 @@ _PUBLISHED: dict[str, Identity] = {}
 
 
 def published(target: str | os.PathLike) -> Identity | None:
-    """Return the identity of the staging folder this process published at the resolved path
-    ``target`` (the last one), or None: a caller rolling back may remove that folder, and only
-    while it is still there."""
+    """Return the identity of the staging folder this process published at ``target``, or None.
+
+    ``target`` is the resolved path and the folder the last one published there; a caller
+    rolling back may remove that folder, and only while it is still there.
+    """
     return _PUBLISHED.get(os.fspath(target))
 
 
@@ -282,8 +287,10 @@ def publish(tmp: str | os.PathLike, ident: Identity, target: str | os.PathLike) 
 
 @contextlib.contextmanager
 def atomic_file(path: str | os.PathLike, *, refuse: type[Exception] = ValueError) -> Iterator[Path]:
-    """Yield a temporary file beside ``path``; on success flush it to disk and rename it onto
-    ``path``. On any exception the temporary file is removed and ``path`` left as it was.
+    """Yield a temporary file beside ``path``, to be renamed onto ``path`` on success.
+
+    On success the file is flushed to disk and renamed onto ``path``. On any exception the
+    temporary file is removed and ``path`` left as it was.
 
     The folder is resolved once; the file gets the user's umask, not ``mkstemp``'s ``0600``.
 
@@ -331,7 +338,7 @@ def atomic_file(path: str | os.PathLike, *, refuse: type[Exception] = ValueError
 
 
 def _umask() -> int:
-    """The process's umask: from ``/proc`` where the kernel offers it (thread-safe)."""
+    """Return the process's umask: from ``/proc`` where the kernel offers it (thread-safe)."""
     with contextlib.suppress(OSError, ValueError, IndexError):
         with open("/proc/self/status", encoding="ascii") as f:
             for line in f:

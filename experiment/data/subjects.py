@@ -1,4 +1,4 @@
-"""The one rule for subject codes: what ``session run`` and ``active run`` accept as ``--subject``.
+r"""The one rule for subject codes: what ``session run`` and ``active run`` accept as ``--subject``.
 
 A subject code leaves the lab: it is a column of every exported data file, a row of
 ``participants.tsv`` and part of each data file's name. So a code must name nobody and be safe
@@ -7,7 +7,7 @@ as a file-name part. :func:`check_subject_code` refuses, with one line naming ``
 * an empty code, or one with spaces around it;
 * a code longer than :data:`stimuli.resources.MAX_ID_CHARS` characters;
 * control characters (tabs, newlines, escape sequences: anything not printable);
-* path characters: ``/``, ``\\`` or ``..``;
+* path characters: ``/``, ``\`` or ``..``;
 * a space inside the code (a full name such as ``Ann Smith``), or a name-shaped code of
   capitalised words (``Ann_Smith``, ``Ann.Smith``);
 * what ``--participant`` refuses in a value (:func:`experiment.data.identifying.identifying_value`):
@@ -36,14 +36,14 @@ class SubjectCodeError(ConfocalError):
 
 
 def subject_code_problem(code: str) -> str | None:
-    """Return why ``code`` is not an acceptable subject code, or None when it is.
+    r"""Return why ``code`` is not an acceptable subject code, or None when it is.
 
     Examples
     --------
     >>> subject_code_problem("S01") is None
     True
     >>> subject_code_problem("a/b")
-    'holds a path character (/, \\\\ or ..); subject codes become file names'
+    'holds a path character (/, \\ or ..); subject codes become file names'
     """
     text = str(code)
     if not text.strip():

@@ -41,8 +41,11 @@ def protocol_conditions(protocol: Any) -> tuple[str, ...] | None:
 
 
 def methods_summary_lines(results: dict[str, Any]) -> list[str]:
-    """Return the console lines of a method comparison: each condition's threshold and every
-    pair's threshold ratio and Holm-adjusted p (computed, never asserted)."""
+    """Return the console lines of a method comparison.
+
+    The lines give each condition's threshold and every pair's threshold ratio and Holm-adjusted
+    p (computed, never asserted).
+    """
     if "comparisons" not in results:
         return []
     lines = [f"conditions: {', '.join(results['conditions'])} (reference {results['reference']})"]

@@ -59,8 +59,10 @@ def check_take_over_reason(reason: str | None) -> None:
 
 
 def lock_is_stale(row: dict[str, Any]) -> bool | None:
-    """Return whether a lock row's process is gone: True/False on this host, None on another
-    (its liveness cannot be checked from here)."""
+    """Return whether a lock row's process is gone: True/False on this host, None on another.
+
+    On another host its liveness cannot be checked from here.
+    """
     if row["host"] != socket.gethostname():
         return None
     return not pid_alive(row["pid"], row["proc_start"])

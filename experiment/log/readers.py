@@ -29,8 +29,10 @@ class LogQueries:
     _con: sqlite3.Connection
 
     def _reopen_after_write(self) -> bool:
-        """Reopen a read-only connection that may have read the file while a writer changed it;
-        return whether it was reopened (then the query is run again). None here."""
+        """Reopen a read-only connection that may have read the file while a writer changed it.
+
+        Return whether it was reopened (then the query is run again). None here.
+        """
         return False
 
     def _fetch(self, sql: str, params: tuple | dict = ()) -> list[sqlite3.Row]:

@@ -137,9 +137,12 @@ class TrialLog(ClosesOnExit, LogQueries):
         self._con.execute("PRAGMA busy_timeout = 10000")
 
     def _reopen_after_write(self) -> bool:
-        """An ``immutable`` connection assumes nobody writes the file; a writer that opened it
+        """Reopen once, through the writer's WAL, after a read failed as "malformed".
+
+        An ``immutable`` connection assumes nobody writes the file; a writer that opened it
         since (the same subject started twice at once) can make a read fail as "malformed".
-        Reopen once -- through the WAL the writer keeps now -- and let the query run again."""
+        Reopen once -- through the WAL the writer keeps now -- and let the query run again.
+        """
         if not getattr(self, "_immutable", False) or getattr(self, "_reopened", False):
             return False
         self._reopened = True

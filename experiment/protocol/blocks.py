@@ -40,8 +40,10 @@ class Condition(StrEnum):
 
 
 def _condition(value: Any, name: str) -> None:
-    """A paper condition, or a de-clutter method's name (``stimuli build --conditions``; the
-    stimulus set must hold it)."""
+    """Check that ``value`` is a paper condition or a de-clutter method's name.
+
+    A method is named as in ``stimuli build --conditions``; the stimulus set must hold it.
+    """
     from stimuli.methods.registry import method_names
 
     methods = method_names()

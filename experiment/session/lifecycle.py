@@ -306,7 +306,7 @@ def reopen(
 
 
 def _who() -> str:
-    """This process, its host and its user, for the ``lock_taken_over`` event."""
+    """Name this process, its host and its user, for the ``lock_taken_over`` event."""
     import getpass
     import os
 

@@ -43,7 +43,7 @@ __all__ = [
 
 
 def sobel_method(images: MethodInput) -> MethodResult:
-    """The paper's de-clutter: Sobel edges of the narrow-DOF photo above the threshold.
+    """Apply the paper's de-clutter: Sobel edges of the narrow-DOF photo above the threshold.
 
     References
     ----------
@@ -147,7 +147,10 @@ RW_BETA: float = 130.0
 
 
 def _segment_region(images: MethodInput) -> tuple[np.ndarray, int, int]:
-    """The object's region by a random walker; also the numbers of object and clutter seeds."""
+    """Segment the object's region by a random walker; also return the numbers of seeds.
+
+    The numbers are those of the object seeds and of the clutter seeds.
+    """
     from scipy.ndimage import binary_fill_holes, label
     from skimage.segmentation import random_walker
     from skimage.transform import resize

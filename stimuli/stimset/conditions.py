@@ -87,7 +87,7 @@ def check_conditions(params: BuildParams, inp: PairsInput) -> None:
 
 
 def _load_mask(work: ObjectImages, root: Path, params: BuildParams) -> np.ndarray:
-    """The object's mask through the photos' zoom crop, aspect crop and resize, at 0.5."""
+    """Load the object's mask through the photos' zoom crop, aspect crop and resize, at 0.5."""
     from stimuli.io import load_gray
 
     path = mask_path(root, work.source)

@@ -217,8 +217,10 @@ def _build(
 def _read_object(
     src: PairSource, info: ObjectInfo, params: BuildParams, root: Path
 ) -> ObjectImages:
-    """Prepare one object's pair at the working size and, in edge mode, de-clutter it (every
-    condition the build names)."""
+    """Prepare one object's pair at the working size and, in edge mode, de-clutter it.
+
+    In edge mode every condition the build names is made.
+    """
     work = prepare_object(src, info, params)
     if params.mode != "edges":
         return work

@@ -1,5 +1,6 @@
-"""Does a light-field stimulus show its object? Measured per object and level from the depth
-evidence.
+"""Does a light-field stimulus show its object? Measured per object and level.
+
+The measure is taken from the depth evidence.
 
 The plane a light-field object is built at comes with its *support*: the pixels whose views
 agree best on that plane (:attr:`stimuli.planechoice.PlaneChoice.on_plane`, from the depth scan,
