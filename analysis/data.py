@@ -201,7 +201,10 @@ def _read_parquet(path: Path) -> pd.DataFrame:
     try:
         import pyarrow.parquet as pq
     except ImportError as exc:
-        raise DataError(f"{path}: reading Parquet needs pyarrow ({exc})") from exc
+        raise DataError(
+            f"{path}: reading Parquet needs pyarrow "
+            "(python -m pip install 'active-confocal[parquet]')"
+        ) from exc
     try:
         meta = pq.read_metadata(path)
         _check_rows(path, meta.num_rows)

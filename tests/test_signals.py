@@ -380,13 +380,14 @@ def test_a_second_signal_ends_a_stop_that_was_lost(monkeypatch):
 
     ended = []
     monkeypatch.setattr(signals, "_exit_now", ended.append)
+    # SIGTERM throughout: a test worker may run with SIGINT ignored, which the block keeps
     with signals.stop_on_signals():
         try:
-            os.kill(os.getpid(), signal.SIGINT)
+            os.kill(os.getpid(), signal.SIGTERM)
             time.sleep(0.01)
         except signals.Stopped:
             pass  # swallowed
-        os.kill(os.getpid(), signal.SIGINT)
+        os.kill(os.getpid(), signal.SIGTERM)
         time.sleep(0.01)
         assert ended == []
         monkeypatch.setattr(signals, "SECOND_SIGNAL_GRACE_S", 0.0)

@@ -176,7 +176,7 @@ def _recorded(desc):
     from stimuli.vignette import apply_view_crop
 
     lf = load_lightfield(desc.lightfield).gray()
-    rows, cols = lf.shape_px
+    rows, cols = load_rows_cols = lf.shape_px
     ox = oy = 0
     auto = desc.crop_xywh is None
     if auto:  # the vignette crop every command finds (scan, build, the viewer)
@@ -194,8 +194,14 @@ def _recorded(desc):
         lf, ox, oy = lf.cropped(desc.crop_xywh), x, y
         rows, cols = lf.shape_px
     objects, masks, looks, words = {}, {}, {}, {}
+    full_rows, full_cols = load_rows_cols
     for i, t in enumerate(desc.targets):
         x, y, w, h = t.box_xywh
+        if x + w > full_cols or y + h > full_rows:  # outside the capture itself, crop or not
+            raise InputError(
+                f"{desc.path}: targets[{i}].box_xywh {list(t.box_xywh)} must lie inside the "
+                f"{full_cols}x{full_rows} views of {desc.lightfield}"
+            )
         x, y = x - ox, y - oy
         if auto:  # a box reaching into the rim the crop left out keeps its part inside
             x0, y0, x1, y1 = max(x, 0), max(y, 0), min(x + w, cols), min(y + h, rows)

@@ -689,6 +689,9 @@ def summary_lines(result: DemoResult) -> list[str]:
             lines.append(
                 f"odds ratio {label}: {o['or']:.2f} (95% CI {lo:.2f}-{hi:.2f})   paper: {paper}"
             )
+    from experiment.demos.methods import methods_summary_lines
+
+    lines += methods_summary_lines(r)  # a method comparison's conditions and ratios
     lines.append(f"report:  {result.paths['report'] / 'report.md'}")
     lines.append(f"figures: {result.paths['report']}")
     lines.append(f"trial log: {result.paths['data']}")
@@ -771,9 +774,5 @@ def register(app: typer.Typer) -> None:
             knowledge_seed=knowledge_seed,
             protocol=protocol,
         )
-        from experiment.demos.methods import methods_summary_lines
-
-        for line in summary_lines(result)[:-3] + methods_summary_lines(result.results):
-            typer.echo(line)
-        for line in summary_lines(result)[-3:]:
+        for line in summary_lines(result):
             typer.echo(line)
