@@ -354,7 +354,7 @@ def _csv(tmp_path: Path, name: str, text: str | bytes) -> Path:
         ),
         (
             lambda: StimulusRecord(
-                "a", "main", "Blurred photo", 1, 1, 2, 2, 4, "p", "s", None, None, "src", "h", "edges"
+                "a", "main", "Blurred", 1, 1, 2, 2, 4, "p", "s", None, None, "src", "h", "edges"
             ),
             r"condition must be one of",
         ),
