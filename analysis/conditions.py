@@ -346,6 +346,9 @@ class ConditionsResult:
         Pooled fit per condition.
     subject_thresholds : dict of str to dict of str to WeibullFit
     logistic : ConditionsLogistic
+    logistic_mixed : ConditionsMixed or None
+        The mixed model (random subject and object intercepts), when asked for (``--mixed``)
+        and estimable.
     comparisons : list of dict
         Every pair: ``pair``, ``ratio``, ``ratio_ci95`` (thresholds) with the logistic
         contrast's ``odds_ratio``, ``odds_ratio_ci95``, ``p`` and ``p_adjusted`` (Holm).
@@ -366,6 +369,7 @@ class ConditionsResult:
     comparisons: list[dict[str, Any]]
     warnings: tuple[str, ...] = field(default_factory=tuple)
     simulated_sessions: tuple[str, ...] = ()
+    logistic_mixed: Any = None
 
     #: Tells the report and the command line which result this is.
     kind = "conditions"
@@ -373,6 +377,7 @@ class ConditionsResult:
     def results_json(self) -> dict[str, Any]:
         """Return ``results.json`` (strict JSON; file names and sha256, never host paths)."""
         pc = self.options.pc
+        mixed = {} if self.logistic_mixed is None else {"logistic_mixed": self.logistic_mixed}
         return _clean(
             {
                 "analysis": "conditions",
@@ -393,6 +398,7 @@ class ConditionsResult:
                 },
                 "comparisons": self.comparisons,
                 "logistic": self.logistic.to_dict(),
+                **{k: v.to_dict() for k, v in mixed.items()},
                 "warnings": list(self.warnings),
             }
         )
@@ -450,7 +456,8 @@ def analyze_conditions(
     ----------
     table : TrialTable
     options : analysis.pipeline.AnalysisOptions
-        ``pc``, ``guess``, ``seed``, ``by_subject``, ``prior`` and ``lapse_prior`` are used.
+        ``pc``, ``guess``, ``seed``, ``by_subject``, ``prior``, ``lapse_prior`` and ``mixed``
+        (also fit :func:`analysis.conditions_mixed.fit_condition_mixed`) are used.
     reference : str
         The logistic model's reference condition.
 
@@ -480,7 +487,7 @@ def analyze_conditions(
         )
     subjects = object_order(trials["subject"]) if opts.by_subject else []
     jobs = [(None, c) for c in conds] + [(s, c) for s in subjects for c in conds]
-    total = len(jobs) + 1
+    total = len(jobs) + 1 + int(bool(getattr(opts, "mixed", False)))
     notes: list[str] = []
     fit_jobs, keys = [], []
     for subject, cond in jobs:
@@ -521,6 +528,15 @@ def analyze_conditions(
     yield ConditionsStep(len(jobs), total, "psychometric fits")
     logistic = fit_condition_logistic(trials, conds, reference)
     notes += [f"logistic model: {w}" for w in logistic.warnings]
+    mixed = None
+    if getattr(opts, "mixed", False):
+        from analysis.conditions_mixed import fit_condition_mixed
+
+        try:
+            mixed = fit_condition_mixed(trials, conds, reference)
+        except DataError as exc:
+            notes.append(f"mixed model not fitted: {' '.join(str(exc).split())}")
+        yield ConditionsStep(len(jobs) + 1, total, "mixed model")
     ratio_seed = int(seeds[1].generate_state(1)[0])
     comparisons = _merge(threshold_ratios(pooled, conds, seed=ratio_seed), logistic)
     result = ConditionsResult(
@@ -537,5 +553,6 @@ def analyze_conditions(
         comparisons=comparisons,
         warnings=tuple(dict.fromkeys(notes)),
         simulated_sessions=table.simulated_sessions,
+        logistic_mixed=mixed,
     )
     yield ConditionsStep(total, total, "done", result)

@@ -111,6 +111,28 @@ def render_conditions_markdown(result: Any, *, figures: bool = True) -> str:
         lines.append(
             f"- per log10 pixels: OR {_num(px['or'])} ({_num(px['ci95'][0])}-{_num(px['ci95'][1])})"
         )
+    mx = r.get("logistic_mixed")
+    if mx:
+        ors = ", ".join(
+            f"{c} {_num(o['or'])} ({_num(o['ci95'][0])}-{_num(o['ci95'][1])})"
+            for c, o in mx["odds_ratios"].items()
+        )
+        hits = [
+            c for c in mx["contrasts"] if c["p_adjusted"] is not None and c["p_adjusted"] < 0.05
+        ]
+        pairs = "; ".join(
+            f"{c['pair'][1]} / {c['pair'][0]} OR {_num(c['or'])}, Holm p {_p(c['p_adjusted'])}"
+            for c in hits
+        )
+        lines += [
+            "",
+            f"A mixed model with random subject and object intercepts ({mx['method']}) gives odds "
+            f"ratios against {mx['reference']} (95 % CI Wald) {ors}; random-intercept SDs "
+            f"{mx['subject_sd']:.2f} (subjects) and {mx['object_sd']:.2f} (objects), log-odds "
+            "units. Pairs that differ at a familywise error of 0.05 (Holm): "
+            + (pairs or "none")
+            + ".",
+        ]
     differ = [c for c in r["comparisons"] if c["p_adjusted"] is not None and c["p_adjusted"] < 0.05]
     lines += ["", "## Which methods differ", ""]
     if not differ:

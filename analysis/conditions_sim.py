@@ -43,6 +43,7 @@ def simulate_condition_trials(
     intercept: float = _INTERCEPT,
     slope: float = _SLOPE,
     object_sd: float = 0.5,
+    subject_sd: float = 0.0,
     rng: np.random.Generator | int | None = None,
 ) -> pd.DataFrame:
     """Return one simulated study's tidy trials: every subject x object x condition x level.
@@ -58,6 +59,8 @@ def simulate_condition_trials(
         Log odds at 1 pixel, and per log10 pixel.
     object_sd : float >= 0
         SD of the objects' log-odds effects.
+    subject_sd : float >= 0
+        SD of the subjects' log-odds effects (random intercepts; none by default).
     rng : numpy Generator, int or None
 
     Returns
@@ -76,6 +79,8 @@ def simulate_condition_trials(
     s, o, c, p = s.ravel(), o.ravel(), c.ravel(), p.ravel()
     log_or = np.log(np.asarray([odds_ratios[k] for k in conds], float))
     eta = intercept + log_or[c] + slope * np.log10(p) + obj_eff[o]
+    if subject_sd > 0:
+        eta = eta + rng.normal(0.0, subject_sd, n_subjects)[s]
     y = (rng.random(len(eta)) < 1.0 / (1.0 + np.exp(-eta))).astype(int)
     return pd.DataFrame(
         {

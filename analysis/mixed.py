@@ -24,7 +24,7 @@ from analysis.logistic import (
     firth_logit,
 )
 
-__all__ = ["MixedFit", "fit_mixed", "laplace_glmm"]
+__all__ = ["MixedFit", "fit_mixed", "laplace_glmm", "random_groups", "check_mixed_terms"]
 
 
 @dataclass(frozen=True)
@@ -79,7 +79,7 @@ class MixedFit:
 
 
 def laplace_glmm(
-    y: np.ndarray, X: np.ndarray, groups: Sequence[np.ndarray]
+    y: np.ndarray, X: np.ndarray, groups: Sequence[np.ndarray], *, cov: bool = False
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
     """Fit a logistic GLMM with crossed random intercepts by the Laplace approximation.
 
@@ -96,11 +96,16 @@ def laplace_glmm(
         Fixed-effect design (with the intercept column).
     groups : sequence of ndarray of shape (n,)
         Integer codes 0..m_g-1 of each grouping factor (e.g. subject, object).
+    cov : bool
+        Return the fixed effects' covariance matrix in place of their standard errors (for
+        Wald tests of contrasts between fixed effects).
 
     Returns
     -------
     beta : ndarray of shape (p,)
-    se : ndarray of shape (p,)
+    se : ndarray of shape (p,), or of shape (p, p) with ``cov``
+        Standard errors of ``beta`` (the square roots of the covariance's diagonal), or the
+        covariance itself.
     sd : ndarray of shape (len(groups),)
         Random-intercept standard deviations, log-odds units.
     log_likelihood : float
@@ -176,13 +181,14 @@ def laplace_glmm(
     theta = r.x
     hess = _num_hessian(neg_loglik, theta)
     try:
-        cov = np.linalg.inv(hess)
-        if np.any(np.diag(cov)[:p] <= 0):
+        vcov = np.linalg.inv(hess)
+        if np.any(np.diag(vcov)[:p] <= 0):
             raise np.linalg.LinAlgError
     except np.linalg.LinAlgError:
         # A variance on its boundary: condition on the SDs (fixed-effect block only).
-        cov = np.linalg.inv(hess[:p, :p])
-    return theta[:p], np.sqrt(np.diag(cov)[:p]), np.exp(theta[p:]), float(-r.fun)
+        vcov = np.linalg.inv(hess[:p, :p])
+    second = vcov[:p, :p] if cov else np.sqrt(np.diag(vcov)[:p])
+    return theta[:p], second, np.exp(theta[p:]), float(-r.fun)
 
 
 def _num_hessian(f, x: np.ndarray, h: float = 1e-4) -> np.ndarray:
@@ -195,6 +201,74 @@ def _num_hessian(f, x: np.ndarray, h: float = 1e-4) -> np.ndarray:
             v = (f(x + ei + ej) - f(x + ei - ej) - f(x - ei + ej) + f(x - ei - ej)) / (4 * h * h)
             H[i, j] = H[j, i] = v
     return H
+
+
+def random_groups(d: pd.DataFrame) -> tuple[list[np.ndarray], list[str]]:
+    """Return the random-intercept grouping factors of the mixed model: subject and object.
+
+    A factor with one level is left out.
+
+    Parameters
+    ----------
+    d : pandas.DataFrame
+        Trials with ``subject`` and ``object`` columns.
+
+    Returns
+    -------
+    groups : list of ndarray
+        Integer codes of each factor kept, for :func:`laplace_glmm`.
+    names : list of str
+        The names of the factors kept.
+
+    Raises
+    ------
+    DataError
+        One subject and one object only.
+    """
+    groups, used = [], []
+    for nm in ("subject", "object"):
+        codes = pd.Categorical(d[nm]).codes
+        if codes.max() >= 1:
+            groups.append(codes)
+            used.append(nm)
+    if not groups:
+        raise DataError("one subject and one object only: there is no random effect to fit")
+    return groups, used
+
+
+def check_mixed_terms(
+    beta: np.ndarray, se: np.ndarray, terms: Sequence[tuple[int, str]], see: str
+) -> None:
+    """Refuse a mixed fit whose fixed effects ran off (separation) or have no standard error.
+
+    Parameters
+    ----------
+    beta, se : ndarray
+        Fixed effects and their standard errors (:func:`laplace_glmm`).
+    terms : sequence of (int, str)
+        Index into ``beta`` and name of each term to check.
+    see : str
+        The fit the message points to instead (e.g. ``'the fixed-effects model'``).
+
+    Raises
+    ------
+    DataError
+        A term with |log odds ratio| above :data:`analysis.logistic.SEPARATION_LOG_OR`, or one
+        without a finite positive standard error.
+    """
+    separated = [t for i, t in terms if not abs(beta[i]) <= SEPARATION_LOG_OR]
+    if separated:  # the fit ran off along the separated term: no other term's SE means anything
+        raise DataError(
+            f"{', '.join(separated)} separated in these data (|log odds ratio| > "
+            f"{SEPARATION_LOG_OR:g}): the mixed model's odds ratios are not estimable; see "
+            f"{see}"
+        )
+    no_se = [t for i, t in terms if not (math.isfinite(se[i]) and se[i] > 0)]
+    if no_se:
+        raise DataError(
+            f"{', '.join(no_se)}: no finite standard error in the mixed model (nearly separated "
+            f"data): its odds ratios are not estimable; see {see}"
+        )
 
 
 def fit_mixed(trials: pd.DataFrame) -> MixedFit:
@@ -223,30 +297,10 @@ def fit_mixed(trials: pd.DataFrame) -> MixedFit:
     d = design_frame(trials)
     _check_model_data(d)
     X = np.column_stack([np.ones(len(d)), d["background"], d["log10_pixels"]])
-    names = ["subject", "object"]
-    groups, used = [], []
-    for nm in names:
-        codes = pd.Categorical(d[nm]).codes
-        if codes.max() >= 1:
-            groups.append(codes)
-            used.append(nm)
-    if not groups:
-        raise DataError("one subject and one object only: there is no random effect to fit")
+    groups, used = random_groups(d)
     beta, se, sd, _ = laplace_glmm(d["recognized"].to_numpy(), X, groups)
     terms = ((1, "background"), (2, "log10_pixels"))
-    separated = [t for i, t in terms if not abs(beta[i]) <= SEPARATION_LOG_OR]
-    if separated:  # the fit ran off along the separated term: no other term's SE means anything
-        raise DataError(
-            f"{', '.join(separated)} separated in these data (|log odds ratio| > "
-            f"{SEPARATION_LOG_OR:g}): the mixed model's odds ratios are not estimable; see the "
-            "Firth fit of the fixed-effects model"
-        )
-    no_se = [t for i, t in terms if not (math.isfinite(se[i]) and se[i] > 0)]
-    if no_se:
-        raise DataError(
-            f"{', '.join(no_se)}: no finite standard error in the mixed model (nearly separated "
-            "data): its odds ratios are not estimable; see the Firth fit of the fixed-effects model"
-        )
+    check_mixed_terms(beta, se, terms, "the Firth fit of the fixed-effects model")
     rows = []
     for i, term in ((1, "background"), (2, "log10_pixels")):
         z = beta[i] / se[i]
