@@ -25,7 +25,7 @@ from __future__ import annotations
 
 import math
 import warnings
-from collections.abc import Iterator, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass, field
 from itertools import combinations
 from typing import Any
@@ -448,7 +448,11 @@ def _merge(ratios: list[dict], logistic: ConditionsLogistic) -> list[dict[str, A
 
 
 def analyze_conditions(
-    table: TrialTable, options: Any, *, reference: str = DEFAULT_REFERENCE
+    table: TrialTable,
+    options: Any,
+    *,
+    reference: str = DEFAULT_REFERENCE,
+    mixed_model: Callable[..., Any] | None = None,
 ) -> Iterator[ConditionsStep]:
     """Analyse a trial table of k conditions, yielding progress steps as the pipeline does.
 
@@ -456,10 +460,13 @@ def analyze_conditions(
     ----------
     table : TrialTable
     options : analysis.pipeline.AnalysisOptions
-        ``pc``, ``guess``, ``seed``, ``by_subject``, ``prior``, ``lapse_prior`` and ``mixed``
-        (also fit :func:`analysis.conditions_mixed.fit_condition_mixed`) are used.
+        ``pc``, ``guess``, ``seed``, ``by_subject``, ``prior`` and ``lapse_prior`` are used.
     reference : str
         The logistic model's reference condition.
+    mixed_model : callable or None
+        Also fit this mixed model, ``f(trials, conditions, reference)``
+        (:func:`analysis.conditions_mixed.fit_condition_mixed` for ``--mixed``); a
+        :class:`DataError` it raises becomes a warning.
 
     Yields
     ------
@@ -487,7 +494,7 @@ def analyze_conditions(
         )
     subjects = object_order(trials["subject"]) if opts.by_subject else []
     jobs = [(None, c) for c in conds] + [(s, c) for s in subjects for c in conds]
-    total = len(jobs) + 1 + int(bool(getattr(opts, "mixed", False)))
+    total = len(jobs) + 1 + int(mixed_model is not None)
     notes: list[str] = []
     fit_jobs, keys = [], []
     for subject, cond in jobs:
@@ -529,11 +536,9 @@ def analyze_conditions(
     logistic = fit_condition_logistic(trials, conds, reference)
     notes += [f"logistic model: {w}" for w in logistic.warnings]
     mixed = None
-    if getattr(opts, "mixed", False):
-        from analysis.conditions_mixed import fit_condition_mixed
-
+    if mixed_model is not None:
         try:
-            mixed = fit_condition_mixed(trials, conds, reference)
+            mixed = mixed_model(trials, conds, reference)
         except DataError as exc:
             notes.append(f"mixed model not fitted: {' '.join(str(exc).split())}")
         yield ConditionsStep(len(jobs) + 1, total, "mixed model")

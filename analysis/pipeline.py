@@ -358,7 +358,10 @@ def analyze(
     from analysis.conditions import analyze_conditions, has_other_conditions
 
     if has_other_conditions(trials):
-        yield from analyze_conditions(table, opts, reference=reference)
+        mixed_model = None
+        if opts.mixed:
+            from analysis.conditions_mixed import fit_condition_mixed as mixed_model
+        yield from analyze_conditions(table, opts, reference=reference, mixed_model=mixed_model)
         return
     present = [c for c in CONDITIONS if (trials["condition"] == c).any()]
     notes: list[str] = [
