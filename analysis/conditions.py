@@ -33,7 +33,14 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from analysis.data import CONDITIONS, METHOD_CONDITIONS, TrialTable, file_record, object_order
+from analysis.data import (
+    CONDITIONS,
+    METHOD_CONDITIONS,
+    TrialTable,
+    file_record,
+    json_safe,
+    object_order,
+)
 from analysis.errors import DataError
 
 __all__ = [
@@ -378,7 +385,7 @@ class ConditionsResult:
         """Return ``results.json`` (strict JSON; file names and sha256, never host paths)."""
         pc = self.options.pc
         mixed = {} if self.logistic_mixed is None else {"logistic_mixed": self.logistic_mixed}
-        return _clean(
+        return json_safe(
             {
                 "analysis": "conditions",
                 "conditions": list(self.conditions),
@@ -402,19 +409,6 @@ class ConditionsResult:
                 "warnings": list(self.warnings),
             }
         )
-
-
-def _clean(v: Any) -> Any:
-    """Make a value strict JSON: inf/NaN -> None, numpy scalars -> Python."""
-    if isinstance(v, dict):
-        return {str(k): _clean(x) for k, x in v.items()}
-    if isinstance(v, list | tuple):
-        return [_clean(x) for x in v]
-    if isinstance(v, np.generic):
-        v = v.item()
-    if isinstance(v, float) and not math.isfinite(v):
-        return None
-    return v
 
 
 @dataclass(frozen=True)

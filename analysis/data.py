@@ -48,6 +48,7 @@ across the files pooled (the same file given twice, say).
 
 from __future__ import annotations
 
+import math
 import sqlite3
 from collections.abc import Iterable
 from dataclasses import dataclass
@@ -76,6 +77,7 @@ __all__ = [
     "METHOD_CONDITIONS",
     "plugin_conditions",
     "TrialTable",
+    "json_safe",
     "read_trial_file",
     "read_trials",
     "check_trials",
@@ -543,3 +545,16 @@ def object_order(objects: Iterable[str]) -> list[str]:
             return (1, 0.0, s)
 
     return sorted(uniq, key=key)
+
+
+def json_safe(v: Any) -> Any:
+    """Return ``v`` as strict JSON values: inf/NaN -> None, numpy scalars -> Python, keys str."""
+    if isinstance(v, dict):
+        return {str(k): json_safe(x) for k, x in v.items()}
+    if isinstance(v, list | tuple):
+        return [json_safe(x) for x in v]
+    if isinstance(v, np.generic):
+        v = v.item()
+    if isinstance(v, float) and not math.isfinite(v):
+        return None
+    return v

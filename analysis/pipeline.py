@@ -7,7 +7,6 @@ fit, so the command line can draw a progress bar; the last step carries the
 
 from __future__ import annotations
 
-import math
 import warnings
 from collections.abc import Iterator
 from dataclasses import dataclass, field
@@ -16,7 +15,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from analysis.data import CONDITIONS, TrialTable, file_record, object_order
+from analysis.data import CONDITIONS, TrialTable, file_record, json_safe, object_order
 from analysis.errors import DataError
 from analysis.logistic import LogisticFit, fit_logistic, predict_from_odds_ratio
 from analysis.mixed import MixedFit, fit_mixed
@@ -184,7 +183,7 @@ class AnalysisResult:
         }
         if self.mixed is not None:
             out["logistic"]["mixed"] = self.mixed.to_dict()
-        return _clean(out)
+        return json_safe(out)
 
     def to_dict(self) -> dict[str, Any]:
         """Return a JSON-ready dict from which :meth:`from_dict` rebuilds the result."""
@@ -242,19 +241,6 @@ class AnalysisResult:
             population_ci=d.get("population_ci", {}),
             simulated_sessions=tuple(d.get("simulated_sessions", ())),
         )
-
-
-def _clean(v: Any) -> Any:
-    """Make a value strict JSON: inf/NaN -> None, numpy scalars -> Python."""
-    if isinstance(v, dict):
-        return {str(k): _clean(x) for k, x in v.items()}
-    if isinstance(v, list | tuple):
-        return [_clean(x) for x in v]
-    if isinstance(v, np.generic):
-        v = v.item()
-    if isinstance(v, float) and not math.isfinite(v):
-        return None
-    return v
 
 
 @dataclass(frozen=True)

@@ -658,7 +658,7 @@ def write_fit_report(result: TableFit, out_dir: str | Path, *, plots: bool = Tru
     the fit's deviance and posterior-predictive p in the title; with two or more groups also
     :data:`COMBINED_PLOT`, every group on one axis. The y axis says what the column holds.
     """
-    from analysis.pipeline import _clean
+    from analysis.data import json_safe
     from analysis.report import atomic_folder, results_json_text
 
     r = result.results_json()
@@ -666,7 +666,7 @@ def write_fit_report(result: TableFit, out_dir: str | Path, *, plots: bool = Tru
     if plots and len(result.groups) > 1:
         names.append(COMBINED_PLOT)
     with atomic_folder(out_dir) as tmp:
-        (tmp / "results.json").write_text(results_json_text(_clean(r)), encoding="utf-8")
+        (tmp / "results.json").write_text(results_json_text(json_safe(r)), encoding="utf-8")
         (tmp / "report.md").write_text(render_fit_markdown(r, names), encoding="utf-8")
         if plots:
             _draw_plots(result, r, names, tmp)
