@@ -472,9 +472,8 @@ def analyze_conditions(
     DataError
         No trials, or ``reference`` not among the conditions.
     """
-    from analysis.weibull import aggregate, default_prior, fit_mle
-    from analysis.weibull.batch import FitJob, sample_batch
-    from analysis.weibull.model import _data_warnings
+    from analysis.weibull.batch import sample_batch
+    from analysis.weibull.fit import group_fit_jobs
 
     opts = options
     trials = table.trials
@@ -490,27 +489,10 @@ def analyze_conditions(
     jobs = [(None, c) for c in conds] + [(s, c) for s in subjects for c in conds]
     total = len(jobs) + 1 + int(mixed_model is not None)
     notes: list[str] = []
-    fit_jobs, keys = [], []
-    for subject, cond in jobs:
-        m = trials["condition"] == cond
-        if subject is not None:
-            m &= trials["subject"] == subject
-        sel = trials[m]
-        label = cond if subject is None else f"subject {subject}, {cond}"
-        if len(sel) == 0:
-            notes.append(f"{label}: no trials, not fitted")
-            continue
-        with warnings.catch_warnings(record=True) as caught:
-            warnings.simplefilter("always")
-            levels, k, n = aggregate(sel["pixels"].to_numpy(), sel["recognized"].to_numpy())
-            _data_warnings(label, k, n)
-            prior = opts.prior or default_prior(
-                levels, guess=opts.guess, lapse_a=opts.lapse_prior[0], lapse_b=opts.lapse_prior[1]
-            )
-            mle = fit_mle(levels, k, n, guess=opts.guess, prior=prior)
-        notes += [" ".join(str(w.message).split()) for w in caught]
-        fit_jobs.append(FitJob(label, levels, k, n, opts.guess, prior, mle, False))
-        keys.append((subject, cond))
+    fit_jobs, keys, fit_notes = group_fit_jobs(
+        trials, jobs, guess=opts.guess, prior=opts.prior, lapse_prior=opts.lapse_prior
+    )
+    notes += fit_notes
     seeds = np.random.SeedSequence(opts.seed).spawn(2)
     fits = []
     for prog in sample_batch(fit_jobs, sigmoid="weibull", rng=np.random.default_rng(seeds[0])):

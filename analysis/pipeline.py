@@ -7,7 +7,6 @@ fit, so the command line can draw a progress bar; the last step carries the
 
 from __future__ import annotations
 
-import warnings
 from collections.abc import Iterator
 from dataclasses import dataclass, field
 from typing import Any
@@ -19,9 +18,9 @@ from analysis.data import CONDITIONS, TrialTable, file_record, json_safe, object
 from analysis.errors import DataError
 from analysis.logistic import LogisticFit, fit_logistic, predict_from_odds_ratio
 from analysis.mixed import MixedFit, fit_mixed
-from analysis.weibull import PsychometricPrior, WeibullFit, aggregate, default_prior, fit_mle
-from analysis.weibull.batch import FitJob, sample_batch
-from analysis.weibull.model import _data_warnings
+from analysis.weibull import PsychometricPrior, WeibullFit
+from analysis.weibull.batch import sample_batch
+from analysis.weibull.fit import group_fit_jobs
 
 __all__ = ["AnalysisOptions", "AnalysisStep", "AnalysisResult", "analyze", "first_recognized"]
 
@@ -361,32 +360,15 @@ def analyze(
     pooled: dict[str, WeibullFit] = {}
     per_subject: dict[str, dict[str, WeibullFit]] = {}
     done = 0
-    fit_jobs: list[FitJob] = []
-    keys: list[tuple[str | None, str]] = []
-    for subject, cond in jobs:
-        m = trials["condition"] == cond
-        if subject is not None:
-            m &= trials["subject"] == subject
-        sel = trials[m]
-        label = cond if subject is None else f"subject {subject}, {cond}"
-        if len(sel) == 0:
-            notes.append(f"{label}: no trials, not fitted")
-            continue
-        with warnings.catch_warnings(record=True) as caught:
-            warnings.simplefilter("always")
-            levels, k, n = aggregate(sel["pixels"].to_numpy(), sel["recognized"].to_numpy())
-            _data_warnings(label, k, n)
-            prior = opts.prior or default_prior(
-                levels,
-                guess=opts.guess,
-                lapse_a=opts.lapse_prior[0],
-                lapse_b=opts.lapse_prior[1],
-            )
-            mle = fit_mle(levels, k, n, guess=opts.guess, prior=prior)
-        notes += [" ".join(str(w.message).split()) for w in caught]
-        od = opts.overdispersion and subject is None
-        fit_jobs.append(FitJob(label, levels, k, n, opts.guess, prior, mle, od))
-        keys.append((subject, cond))
+    fit_jobs, keys, fit_notes = group_fit_jobs(
+        trials,
+        jobs,
+        guess=opts.guess,
+        prior=opts.prior,
+        lapse_prior=opts.lapse_prior,
+        overdispersion=opts.overdispersion,
+    )
+    notes += fit_notes
     # One batch for all posteriors: one vectorised step moves every fit's walkers.
     fits: list[WeibullFit] = []
     if fit_jobs:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import logging
+import warnings
 from typing import Any
 
 import numpy as np
@@ -21,7 +22,7 @@ from analysis.weibull.posterior import MAX_STEPS, N_WALKERS
 from analysis.weibull.priors import PsychometricPrior, default_prior
 from analysis.weibull.summary import WeibullFit
 
-__all__ = ["fit_weibull", "fit_counts"]
+__all__ = ["fit_weibull", "fit_counts", "group_fit_jobs"]
 
 logger = logging.getLogger(__name__)
 
@@ -164,3 +165,65 @@ def _finish(
     )
     _log_unconverged(fit)
     return fit
+
+
+def group_fit_jobs(
+    trials: Any,
+    groups: list[tuple[str | None, str]],
+    *,
+    guess: float,
+    prior: PsychometricPrior | None,
+    lapse_prior: tuple[float, float],
+    overdispersion: bool = False,
+) -> tuple[list[FitJob], list[tuple[str | None, str]], list[str]]:
+    """Prepare one batch-sampler job per (subject, condition) group of tidy trials.
+
+    Parameters
+    ----------
+    trials : pandas.DataFrame
+        Tidy trials with ``subject``, ``condition``, ``pixels`` and ``recognized``.
+    groups : list of (subject or None, condition)
+        The fits wanted; ``None``: all subjects pooled.
+    guess : float
+        The guess rate of every fit.
+    prior : PsychometricPrior or None
+        One prior for every fit; None: :func:`default_prior` of each group's levels.
+    lapse_prior : (float, float)
+        The default prior's Beta lapse parameters.
+    overdispersion : bool
+        Beta-binomial for the pooled fits (per-subject fits stay binomial).
+
+    Returns
+    -------
+    jobs : list of FitJob
+        The groups with trials, in order (label ``condition`` or ``subject S, condition``).
+    keys : list of (subject or None, condition)
+        The group of each job.
+    notes : list of str
+        A line per group without trials, and each warning the data or the ML fit gave.
+    """
+    jobs: list[FitJob] = []
+    keys: list[tuple[str | None, str]] = []
+    notes: list[str] = []
+    for subject, cond in groups:
+        m = trials["condition"] == cond
+        if subject is not None:
+            m &= trials["subject"] == subject
+        sel = trials[m]
+        label = cond if subject is None else f"subject {subject}, {cond}"
+        if len(sel) == 0:
+            notes.append(f"{label}: no trials, not fitted")
+            continue
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            levels, k, n = aggregate(sel["pixels"].to_numpy(), sel["recognized"].to_numpy())
+            _data_warnings(label, k, n)
+            p = prior or default_prior(
+                levels, guess=guess, lapse_a=lapse_prior[0], lapse_b=lapse_prior[1]
+            )
+            mle = fit_mle(levels, k, n, guess=guess, prior=p)
+        notes += [" ".join(str(w.message).split()) for w in caught]
+        od = overdispersion and subject is None
+        jobs.append(FitJob(label, levels, k, n, guess, p, mle, od))
+        keys.append((subject, cond))
+    return jobs, keys, notes
