@@ -66,7 +66,7 @@ def main(argv: list[str] | None = None) -> int:
         display = NullDisplay(session.clock)
     live = LiveSearch(session, display)
     lf = session.scene.lightfield
-    ctx = session.context
+    ctx = session.model
     try:
         base = []
         for k in range(args.repeat):
@@ -87,7 +87,7 @@ def main(argv: list[str] | None = None) -> int:
         live.cue()
         live.begin()
         for _ in range(args.repeat):
-            if live.session.state.depth_px - ctx.depth_step_px < ctx.far_px:
+            if live.session.state.disparity_px - ctx.step_px < ctx.far_px:
                 live.handle({"key": "PageUp"})  # back near (the planes are refocused already)
             cases["depth key"].append(timed({"key": "Down"}))
             cases["revisit"].append(timed({"key": "Up"}))

@@ -16,8 +16,8 @@ __all__ = ["ActiveSession", "ActiveSearchSpec", "ViewerState", "apply_action"]
 _HOME = {
     "ActiveSession": "experiment.active.session",
     "ActiveSearchSpec": "experiment.protocol.task",
-    "ViewerState": "experiment.active.engine",
-    "apply_action": "experiment.active.engine",
+    "ViewerState": "experiment.viewer.state",
+    "apply_action": "experiment.viewer.state",
 }
 
 

@@ -2,8 +2,10 @@
 
 Every call into ``stimuli`` (scene synthesis, loading, refocus, de-clutter, compress, plane
 detection) goes through a function here, so a rename in ``stimuli`` is a one-line fix. Only
-public ``stimuli`` functions are used. Nothing here needs OpenGL: this is the CPU reference
-pipeline the GL viewer is compared against.
+public ``stimuli`` functions are used. Nothing here needs OpenGL. What the subject sees is drawn
+by the viewer's one CPU renderer (:class:`experiment.viewer.reference.CpuRenderer`, built by
+:func:`search_renderer`), and the keys move the viewer's state machine
+(:mod:`experiment.viewer.state`, with the model :func:`search_model` builds).
 """
 
 from __future__ import annotations
@@ -14,6 +16,9 @@ from pathlib import Path
 import numpy as np
 
 __all__ = [
+    "CONDITIONS",
+    "search_model",
+    "search_renderer",
     "SYNTHETIC_PREFIX",
     "FIXED_SCENE",
     "RANDOM_SCENE",
@@ -41,6 +46,16 @@ RANDOM_SCENE = "synthetic:random_three_plane"
 SYNTHETIC_SCENES: tuple[str, ...] = (FIXED_SCENE, RANDOM_SCENE)
 #: The objects of both synthetic scenes.
 SYNTHETIC_OBJECTS: tuple[str, ...] = ("pedestrian", "tree", "building")
+
+#: Conditions of a search: the implant path starts from the confocal image (de-cluttered) or
+#: from the all-in-focus centre view (cluttered).
+CONDITIONS: tuple[str, ...] = ("decluttered", "cluttered")
+
+#: A search's depth is on a detected plane only when it is that plane (float noise aside).
+PLANE_TOLERANCE_PX: float = 1e-6
+
+#: A search's smallest zoom box either way, view pixels (ours).
+MIN_ZOOM_PX: int = 2
 
 
 @dataclass(frozen=True, eq=False)
@@ -422,3 +437,60 @@ def detect_planes(scene: Scene, *, n_planes: int) -> tuple[np.ndarray, tuple[flo
         scan = find_object_planes(lf, ds, binning=auto_binning(lf), workers=1)
     ds = np.sort(np.asarray(scan.disparities_px, dtype=np.float64))[::-1]
     return ds, tuple(float(p.disparity_px) for p in scan.peaks)
+
+
+def search_model(
+    planes_px: tuple[float, ...],
+    near_px: float,
+    far_px: float,
+    depth_step_px: float,
+    shape_px: tuple[int, int],
+    *,
+    zoom_allowed: bool = True,
+):
+    """Return the viewer model of a search: what its keys (actions) work on.
+
+    Parameters
+    ----------
+    planes_px : tuple of float
+        Detected object planes, nearest first (decreasing disparity).
+    near_px, far_px : float
+        Ends of the depth range the keys can reach (``near_px > far_px``).
+    depth_step_px : float > 0
+        Disparity change per depth key.
+    shape_px : (rows, cols)
+        View size (zoom boxes must lie inside it).
+    zoom_allowed : bool
+
+    Returns
+    -------
+    experiment.viewer.state.ViewerModel
+    """
+    from experiment.viewer.state import ViewerModel
+
+    return ViewerModel(
+        shape_px=tuple(int(v) for v in shape_px),  # type: ignore[arg-type]
+        disparity_range_px=(float(far_px), float(near_px)),
+        step_px=float(depth_step_px),
+        planes_px=tuple(float(p) for p in planes_px),
+        implants=("",),
+        plane_tolerance_px=PLANE_TOLERANCE_PX,
+        min_zoom_px=MIN_ZOOM_PX,
+        zoom_allowed=bool(zoom_allowed),
+    )
+
+
+def search_renderer(scene: Scene, grid_px: tuple[int, int], condition: str):
+    """Return the viewer's CPU renderer for a search's scene, implant grid and condition.
+
+    Raises
+    ------
+    ValueError
+        A condition not in :data:`CONDITIONS`.
+    """
+    from experiment.viewer.reference import CpuRenderer
+
+    if condition not in CONDITIONS:
+        raise ValueError(f"condition must be decluttered or cluttered, got {condition!r}")
+    lf = scene.lightfield
+    return CpuRenderer(lf, tuple(grid_px), cluttered=condition == "cluttered", workers=1)  # type: ignore[arg-type]

@@ -171,14 +171,14 @@ def run_active_demo(
     Jung et al. (2015), Sec. 4-5 (confocal scan, zoom, free search) and Fig. 10 (the scene).
     """
     from analysis.active import add_active_results
-    from experiment.active.adapter import implant_view
-    from experiment.active.engine import Renderer, ViewerState
+    from experiment.active.adapter import search_renderer
     from experiment.active.eventlog import ActiveEventLog
     from experiment.active.searcher import EdgeRecogniser, SimulatedSearcher
     from experiment.active.session import ActiveSession, _grid_hex
     from experiment.clock import FakeClock
     from experiment.log import TrialLog
     from experiment.protocol import load_protocol
+    from experiment.viewer.state import ViewerState
     from stimuli.io import atomic_path
 
     if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
@@ -214,7 +214,7 @@ def run_active_demo(
     finally:
         log.close()
 
-    renderer = Renderer(scene, task.grid_px, "decluttered")
+    renderer = search_renderer(scene, task.grid_px, "decluttered")
     centre = scene.centre_view()
     frames, captions, durations, lines = [], [], [], []
     n_trials = len(task.targets)
@@ -243,12 +243,12 @@ def run_active_demo(
             continue
         p = r["payload"]
         zoom = tuple(p["zoom"]) if p["zoom"] is not None else None
-        view = renderer.render(ViewerState(p["depth_px"], p["plane"], zoom))
+        view = renderer.render(ViewerState(p["depth_px"], plane=p["plane"], zoom=zoom))
         if _grid_hex(view.grid) != p["implant"]:
             raise RuntimeError(
                 f"event {r['seq']}: re-rendered implant view differs from the logged one"
             )
-        _, grid = implant_view(view.source, task.grid_px, zoom_box_xywh=zoom)
+        confocal = renderer.confocal(p["depth_px"])
         depth = f"{p['depth_px']:.2f} px/view"
         if p.get("depth_m") is not None:
             depth += f" = {p['depth_m']:.2f} m"
@@ -258,7 +258,7 @@ def run_active_demo(
             f"zoom {'x'.join(map(str, zoom[2:])) if zoom else 'off'} | "
             f"t = {r['t_s']:.1f} s (SIMULATED) | key: {last_key.get(r['trial'], '-')}"
         )
-        frames.append(render_frame(centre, view.confocal, view.edges, grid, status, zoom=zoom))
+        frames.append(render_frame(centre, confocal, view.edges, view.grid, status, zoom=zoom))
         captions.append(f"t{r['trial'] + 1} {depth} {'zoom' if zoom else ''}")
         nxt = next((s for s in rows[i + 1 :] if s["kind"] in ("state", "answer")), None)
         dt = (nxt["t_s"] - r["t_s"]) if nxt is not None else 1.0

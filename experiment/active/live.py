@@ -30,21 +30,19 @@ import logging
 from dataclasses import dataclass
 from typing import Any
 
-from experiment.active.engine import KEYMAP
+from experiment.active.adapter import MIN_ZOOM_PX  # a smaller drag is a click, not a zoom
 from experiment.active.session import ActiveSession, auto_scorer
 from experiment.active.task import ActiveTrial
+from experiment.viewer.state import KEYMAP
 
 __all__ = ["INPUT_ACTIONS", "LiveSearch", "zoom_box_px"]
 
 logger = logging.getLogger(__name__)
 
 #: Subject inputs (as the presenter names them) and the actions they send. The viewer's keys
-#: (:data:`experiment.active.engine.KEYMAP`) plus the mouse wheel; ``drag`` sends ``zoom``.
+#: (:data:`experiment.viewer.state.KEYMAP`) plus the mouse wheel; ``drag`` sends ``zoom``.
 INPUT_ACTIONS: dict[str, str] = {**KEYMAP, "WheelUp": "depth_near", "WheelDown": "depth_far"}
 
-#: A drag smaller than this many view pixels either way is a click, not a zoom box (ours: the
-#: engine's smallest box is 2x2 px).
-MIN_ZOOM_PX: int = 2
 
 
 def zoom_box_px(

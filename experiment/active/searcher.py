@@ -17,7 +17,8 @@ from typing import Protocol, runtime_checkable
 import numpy as np
 
 from experiment.active import adapter
-from experiment.active.engine import SearchContext, View, ViewerState
+from experiment.viewer.reference import Panes
+from experiment.viewer.state import ViewerModel, ViewerState
 
 __all__ = [
     "Action",
@@ -43,7 +44,7 @@ class Action:
     key : str
         The key (or input) pressed, as logged (``PageDown``, ``Up``, ``drag``, ``Enter``...).
     action : str
-        One of :data:`experiment.active.engine.ACTIONS`.
+        One of :data:`experiment.viewer.state.ACTIONS`.
     delay_s : float >= 0
         Time since the previous input (simulated searchers) or 0 (live input: the clock moves
         by itself).
@@ -70,8 +71,10 @@ class Observation:
         The cued object.
     condition : str
     state : ViewerState
-    view : View
-    context : SearchContext
+    view : Panes
+        What the panes show (``view.grid``: the implant's lit electrodes).
+    model : ViewerModel
+        The depth range, planes and view size the keys work on.
     elapsed_s : float
         Time since the trial's onset, seconds.
     zoom_allowed : bool
@@ -82,8 +85,8 @@ class Observation:
     target: str
     condition: str
     state: ViewerState
-    view: View
-    context: SearchContext
+    view: Panes
+    model: ViewerModel
     elapsed_s: float
     zoom_allowed: bool
     scene: adapter.Scene | None = None
@@ -302,13 +305,13 @@ class SimulatedSearcher:
         return float(median_s * np.exp(0.3 * self.rng.standard_normal()))
 
     def _move(self, obs: Observation) -> Action:
-        ctx, st = obs.context, obs.state
+        m, st = obs.model, obs.state
         if self.strategy == "planes":
             # jump between the detected planes; past the last one, sweep the rest by depth keys
-            last = ctx.planes_px[-1] if ctx.planes_px else ctx.near_px
-            if st.depth_px > last + 1e-9:
+            last = m.planes_px[-1] if m.planes_px else m.near_px
+            if st.disparity_px > last + 1e-9:
                 return Action("PageDown", "plane_next", self._t(self.key_s))
-        if st.depth_px <= ctx.far_px + 1e-9:
+        if st.disparity_px <= m.far_px + 1e-9:
             return Action("Escape", "pass", self._t(self.key_s))
         return Action("Down", "depth_far", self._t(self.key_s))
 
@@ -328,7 +331,7 @@ class SimulatedSearcher:
             and obs.zoom_allowed
             and not self._zoomed_here
         ):
-            box = self.recogniser.suspect_box(obs.target, obs.view.grid, obs.context.shape_px)
+            box = self.recogniser.suspect_box(obs.target, obs.view.grid, obs.model.shape_px)
             if box is not None:
                 self._zoomed_here = True
                 return Action("drag", "zoom", look + self._t(self.key_s), box=box)

@@ -32,7 +32,6 @@ from typing import Any
 import numpy as np
 
 from experiment.active import adapter
-from experiment.active.engine import Renderer, SearchContext, View, ViewerState, apply_action
 from experiment.active.eventlog import ActiveEventLog
 from experiment.active.searcher import Action, Observation, Searcher
 from experiment.active.task import ActiveSearchSpec, ActiveTrial, condition_order, plan_trials
@@ -41,6 +40,8 @@ from experiment.log import ResumeMismatch, TrialLog
 from experiment.protocol import ProtocolError, ProtocolSpec
 from experiment.session import lifecycle
 from experiment.session.scoring import check_rater, check_score, suggest_score
+from experiment.viewer.reference import CpuRenderer, Panes
+from experiment.viewer.state import ViewerModel, ViewerState, apply_action
 from stimuli.errors import InputError
 from stimuli.manifest import ObjectInfo, check_object_id
 
@@ -117,19 +118,15 @@ class _SceneState:
         self.planes_px = tuple(float(p) for p in info["planes_px"])
         near, far = info["scan_px"]
         self.depth_step_px = float(info["depth_step_px"])
-        self.ctx = SearchContext(
-            self.planes_px,
-            float(near),
-            float(far),
-            self.depth_step_px,
-            scene.shape_px,
-            task.zoom_allowed,
+        self.model = search_model(
+            self.planes_px, float(near), float(far), self.depth_step_px, scene.shape_px,
+            zoom_allowed=task.zoom_allowed,
         )
-        self.renderers: dict[str, Renderer] = {}
+        self.renderers: dict[str, CpuRenderer] = {}
 
-    def renderer(self, condition: str, grid_px) -> Renderer:
+    def renderer(self, condition: str, grid_px) -> CpuRenderer:
         if condition not in self.renderers:
-            self.renderers[condition] = Renderer(self.scene, grid_px, condition)
+            self.renderers[condition] = search_renderer(self.scene, grid_px, condition)
         return self.renderers[condition]
 
 
@@ -224,7 +221,7 @@ class ActiveSession(lifecycle.LoggedSession):
         self._shown: _SceneState | None = None
         self._current: tuple[ActiveTrial, int, float] | None = None
         self.state: ViewerState | None = None
-        self.view: View | None = None
+        self.view: Panes | None = None
 
     def _fixed_info(self, name: str) -> dict[str, Any]:
         info = self.plan.get("scenes", {}).get(name)
@@ -480,19 +477,19 @@ class ActiveSession(lifecycle.LoggedSession):
         return len(self.events.committed_trials()), len(self.trials)
 
     @property
-    def context(self) -> SearchContext:
+    def model(self) -> ViewerModel:
         """The depth range, planes and step the keys work on (the running trial's scene)."""
-        return self._shown_state().ctx
+        return self._shown_state().model
 
-    def _renderer(self, condition: str) -> Renderer:
+    def _renderer(self, condition: str) -> CpuRenderer:
         return self._shown_state().renderer(condition, self.task.grid_px)
 
     def _state_payload(self) -> dict[str, Any]:
         s, v = self.state, self.view
         assert s is not None and v is not None
         return {
-            "depth_px": s.depth_px,
-            "depth_m": self.scene.depth_m(s.depth_px),
+            "depth_px": s.disparity_px,
+            "depth_m": self.scene.depth_m(s.disparity_px),
             "plane": s.plane,
             "zoom": None if s.zoom is None else list(s.zoom),
             "grid_px": list(self.task.grid_px),
@@ -510,10 +507,10 @@ class ActiveSession(lifecycle.LoggedSession):
         attempt = self.events.attempts(trial.index)
         shown = self._scene_state(trial)
         self._shown = shown
-        ctx = shown.ctx
+        m = shown.model
         onset = self.clock.now_s()
         self._current = (trial, attempt, onset)
-        self.state = ViewerState(ctx.near_px, ctx.plane_at(ctx.near_px))
+        self.state = ViewerState(m.near_px, plane=m.plane_of(m.near_px))
         self.view = self._renderer(trial.condition).render(self.state)
         start: dict[str, Any] = {
             "target": trial.target,
@@ -568,7 +565,7 @@ class ActiveSession(lifecycle.LoggedSession):
             raise ValueError("no trial is running; call start_trial() first")
         if action in ("answer", "pass"):
             raise ValueError("use answer() for answer and pass")
-        new = apply_action(self.state, action, self.context, box=box)
+        new = apply_action(self.model, self.state, action, box=box)
         t = self.clock.now_s() if t_s is None else float(t_s)
         payload: dict[str, Any] = {"key": key, "action": action}
         if box is not None:
@@ -701,7 +698,7 @@ class ActiveSession(lifecycle.LoggedSession):
                     trial.condition,
                     self.state,
                     self.view,
-                    self.context,
+                    self.model,
                     self.elapsed_s(),
                     self.task.zoom_allowed,
                     self.scene,

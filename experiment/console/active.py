@@ -91,8 +91,8 @@ class ActiveConsole(TrialConsole):
             ]
         if live.running and s.state is not None:
             st = s.state
-            depth_m = s.scene.depth_m(st.depth_px)
-            where = f"depth {st.depth_px:.3g} px/view"
+            depth_m = s.scene.depth_m(st.disparity_px)
+            where = f"depth {st.disparity_px:.3g} px/view"
             if depth_m is not None:
                 where += f" ({depth_m:.2f} m)"
             plane = "-" if st.plane is None else f"{st.plane + 1} of {len(s.planes_px)}"

@@ -16,7 +16,7 @@ __all__ = ["INPUT_KEYS", "open_window", "bind_subject_input"]
 
 #: Keys of the subject's window reported as input when input is on
 #: (:meth:`~experiment.presentation.presenter.Presenter.enable_input`): moderngl-window key name
-#: -> the name sent to the console (the names of :data:`experiment.active.engine.KEYMAP`). The
+#: -> the name sent to the console (the names of :data:`experiment.viewer.state.KEYMAP`). The
 #: wheel is reported as ``WheelUp``/``WheelDown`` and a mouse drag as ``drag`` with its box.
 INPUT_KEYS: dict[str, str] = {
     "UP": "Up",

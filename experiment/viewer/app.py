@@ -32,7 +32,7 @@ from experiment.viewer.reference import (
     brightest_point,
     cpu_panes,
     depth_map,
-    effective_levels,
+    effective_grey_levels,
     obstacle_mask,
     otsu_threshold,
     track_point,
@@ -193,7 +193,7 @@ class Viewer:
             step_px=(hi - lo) / STEPS_PER_RANGE,
             planes_px=tuple(p.disparity_px for p in scan.peaks if lo <= p.disparity_px <= hi),
             implants=tuple(names),
-            implant_levels=tuple(self.layouts[n].levels for n in names),
+            implant_grey_levels=tuple(self.layouts[n].levels for n in names),
             auto_threshold=0.0,
             n_frames=source.n_frames,
             depth_at=self._depth_at,
@@ -357,7 +357,7 @@ class Viewer:
             depth,
             plane,
             f"{lay.label} {lay.cols}x{lay.rows}",
-            f"levels {effective_levels(s, lay)}",
+            f"grey levels {effective_grey_levels(s, lay)}",
             f"threshold {t}",
         ]
         parts.append(
@@ -397,7 +397,7 @@ class Viewer:
         # An average over the last AVERAGING_FRAMES *video frames*: redrawing the same frame
         # (a depth step, a key) replaces its entry instead of adding one.
         s = self.state
-        key = (s.implant, s.levels, s.zoom)
+        key = (s.implant, s.grey_levels, s.zoom)
         if not s.averaging or key != self._hist_key:
             self._history.clear()
             self._hist_key = key
@@ -465,7 +465,7 @@ class Viewer:
         overlay = self.help_overlay()
         if self.gpu is None:
             depth_key = s.disparity_px if src is None else ("obstacle", s.obstacle_px)
-            levels = effective_levels(s, lay)
+            levels = effective_grey_levels(s, lay)
             key = (s.frame, depth_key, s.zoom, s.threshold, lay.name, levels)
             if key != self._panes_key:
                 depth = self.depth() if s.mode == "obstacle" else None
@@ -511,7 +511,7 @@ class Viewer:
             g.refocus(s.disparity_px)
         else:
             g.set_source(*src)
-        levels = effective_levels(s, lay)
+        levels = effective_grey_levels(s, lay)
         depth_key = s.disparity_px if src is None else ("obstacle", s.obstacle_px)
         key = (s.frame, depth_key, s.zoom, s.threshold, lay.name, levels, s.averaging)
         if key != self._memo_key:  # else the edges and electrodes on the GPU are current

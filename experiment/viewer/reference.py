@@ -1,18 +1,23 @@
-"""The viewer's CPU pipeline: what each pane shows for a state, with numpy and ``stimuli``.
+"""The one CPU renderer: what each pane shows for a state, with numpy and ``stimuli``.
 
 This is the reference the GPU pipeline (:mod:`experiment.viewer.gpu`) is tested against, the
-baseline of ``benchmarks/bench_viewer.py``, and the pipeline that headless tools (the active
-search study, the demo) use without a GL context. For a :class:`ViewerState`:
+baseline of ``benchmarks/bench_viewer.py``, and the renderer of active search (its sessions,
+simulated searchers and demo), which has no GL context. :func:`cpu_panes` draws a
+:class:`ViewerState`; :class:`CpuRenderer` adds the cache of confocal images by disparity that
+both callers keep. For a state:
 
 1. the *source* image: the confocal image at the state's disparity
    (:func:`stimuli.refocus.refocus`), or in obstacle mode the centre view kept only where the
-   per-pixel depth lies in the obstacle range (:func:`obstacle_mask`);
+   per-pixel depth lies in the obstacle range (:func:`obstacle_mask`), or in active search's
+   cluttered condition the centre view itself;
 2. crop to the zoom box (before de-clutter and compress, Jung et al. 2015, Fig. 14);
 3. de-clutter: Sobel magnitude (:func:`stimuli.declutter.sobel_magnitude`) above the threshold
    (the state's, or :func:`stimuli.declutter.auto_threshold`);
-4. compress to the implant's electrode grid: with 2 levels the binary compression of the edges
-   (:func:`stimuli.compress.compress`, edge ratio 1/13), with more the grey compression of the
-   source (:func:`stimuli.compress.compress_grey`) at ``min(state levels, implant levels)``.
+4. compress to the implant's electrode grid: with 2 grey levels the binary compression of the
+   edges (:func:`stimuli.compress.compress`, edge ratio 1/13), with more the grey compression of
+   the source (:func:`stimuli.compress.compress_grey`) at
+   ``min(state grey levels, implant grey levels)``. An implant given as a bare grid
+   ``(rows, cols)`` (active search's task grid) is on/off.
 
 Per-pixel depth ("agreement across views", for obstacle avoidance and confocal extension) is
 the disparity at which the views agree best: the smallest variance across the shifted views,
@@ -24,6 +29,7 @@ disparity is the first or last candidate (the true one may lie beyond the range)
 
 from __future__ import annotations
 
+from collections import OrderedDict
 from dataclasses import dataclass
 
 import numpy as np
@@ -38,11 +44,12 @@ __all__ = [
     "DEPTH_CONFIDENCE_FRACTION",
     "OBSTACLE_ALERT_FRACTION",
     "Panes",
+    "CpuRenderer",
     "DepthMap",
     "depth_map",
     "obstacle_mask",
     "cpu_panes",
-    "effective_levels",
+    "effective_grey_levels",
     "compress_for_implant",
     "track_point",
     "brightest_point",
@@ -77,8 +84,8 @@ class Panes:
     edges : ndarray (h, w), bool
     cells : ndarray (implant rows, cols), float32 in [0, 1]
         Electrode values before dropout.
-    levels : int
-        Levels used for ``cells``.
+    grey_levels : int
+        Grey levels used for ``cells``.
     alert : bool
         Obstacle alert (obstacle mode only).
     """
@@ -89,8 +96,13 @@ class Panes:
     threshold: float
     edges: np.ndarray
     cells: np.ndarray
-    levels: int
+    grey_levels: int
     alert: bool = False
+
+    @property
+    def grid(self) -> np.ndarray:
+        """The lit electrodes, bool (implant rows, cols): ``cells`` above half brightness."""
+        return self.cells >= 0.5
 
 
 @dataclass(frozen=True)
@@ -174,38 +186,50 @@ def obstacle_mask(depth: DepthMap, near_px: float, far_px: float) -> np.ndarray:
     return depth.valid & (depth.disparity_px >= lo) & (depth.disparity_px <= hi)
 
 
-def effective_levels(state: ViewerState, layout: ImplantLayout) -> int:
-    """Levels used for the implant view: 2 stays binary; otherwise at most the implant's."""
-    return 2 if state.levels <= 2 else max(2, min(state.levels, layout.levels))
+def _grid(layout: ImplantLayout | tuple[int, int]) -> tuple[tuple[int, int], int]:
+    # (electrode grid, grey levels) of a layout, or of a bare grid (on/off)
+    if isinstance(layout, ImplantLayout):
+        return layout.shape, layout.levels
+    rows, cols = (int(v) for v in layout)
+    return (rows, cols), 2
+
+
+def effective_grey_levels(state: ViewerState, layout: ImplantLayout | tuple[int, int]) -> int:
+    """Grey levels used for the implant view: 2 stays binary; otherwise at most the implant's."""
+    g = state.grey_levels
+    return 2 if g <= 2 else max(2, min(g, _grid(layout)[1]))
 
 
 def compress_for_implant(
     source: np.ndarray,
     edges: np.ndarray,
-    layout: ImplantLayout,
-    levels: int,
+    layout: ImplantLayout | tuple[int, int],
+    grey_levels: int,
     *,
     grey: np.ndarray | None = None,
 ) -> np.ndarray:
-    """Compress to the implant's grid: binary edges (2 levels) or the grey source (more).
+    """Compress to the implant's grid: binary edges (2 grey levels) or the grey source (more).
 
-    ``grey`` replaces ``source`` for the grey compression (obstacle mode: the share of each
-    electrode's window that lies in the depth range).
+    ``layout`` is an implant layout or a bare electrode grid ``(rows, cols)``. ``grey``
+    replaces ``source`` for the grey compression (obstacle mode: the share of each electrode's
+    window that lies in the depth range).
     """
     from stimuli.compress import compress, compress_grey
 
-    if levels <= 2:
-        return compress(edges, layout.shape, edge_ratio=EDGE_RATIO).astype(np.float32)
-    return compress_grey(source if grey is None else grey, layout.shape, levels=levels)
+    shape = _grid(layout)[0]
+    if grey_levels <= 2:
+        return compress(edges, shape, edge_ratio=EDGE_RATIO).astype(np.float32)
+    return compress_grey(source if grey is None else grey, shape, levels=grey_levels)
 
 
 def cpu_panes(
     lightfield: LightField,
     state: ViewerState,
-    layout: ImplantLayout,
+    layout: ImplantLayout | tuple[int, int],
     *,
     depth: DepthMap | None = None,
     confocal: np.ndarray | None = None,
+    cluttered: bool = False,
 ) -> Panes:
     """Compute the four panes' images for a state with the CPU pipeline (the reference).
 
@@ -213,11 +237,15 @@ def cpu_panes(
     ----------
     lightfield : LightField, grey
     state : ViewerState
-    layout : ImplantLayout
+    layout : ImplantLayout or (rows, cols)
+        The implant, or a bare on/off electrode grid.
     depth : DepthMap, optional
         Needed in obstacle mode.
     confocal : ndarray (rows, cols), float32, optional
         The confocal image at the state's disparity, if already refocused (a cache).
+    cluttered : bool
+        The implant path starts from the centre view, not the confocal image (active search's
+        cluttered condition; ignored in obstacle mode).
 
     Returns
     -------
@@ -243,6 +271,8 @@ def cpu_panes(
         source = np.where(mask, centre, np.float32(0)).astype(np.float32)
         grey = mask.astype(np.float32)
         alert = bool(mask.mean() > OBSTACLE_ALERT_FRACTION)
+    elif cluttered:
+        source = centre
     elif confocal is not None:
         source = confocal
     else:
@@ -255,9 +285,86 @@ def cpu_panes(
     mag = sobel_magnitude(source)
     t = float(state.threshold) if state.threshold is not None else otsu_threshold(mag)
     edges = mag > t
-    levels = effective_levels(state, layout)
-    cells = compress_for_implant(source, edges, layout, levels, grey=grey)
-    return Panes(centre, source, mag, t, edges, cells, levels, alert)
+    grey_levels = effective_grey_levels(state, layout)
+    cells = compress_for_implant(source, edges, layout, grey_levels, grey=grey)
+    return Panes(centre, source, mag, t, edges, cells, grey_levels, alert)
+
+
+class CpuRenderer:
+    """The panes of a state, with the confocal images kept by disparity (most recent first).
+
+    Parameters
+    ----------
+    lightfield : LightField, grey
+        The views (a video's current frame: replace it with :meth:`set_frame`).
+    layout : ImplantLayout or (rows, cols)
+        The implant, or a bare on/off electrode grid (active search).
+    cluttered : bool
+        Draw the implant path from the centre view (active search's cluttered condition).
+    cache : int >= 1
+        Confocal images kept.
+    workers : int, optional
+        Threads of each refocus (None: the default; active search: 1).
+    """
+
+    def __init__(
+        self,
+        lightfield: LightField,
+        layout: ImplantLayout | tuple[int, int],
+        *,
+        cluttered: bool = False,
+        cache: int = 48,
+        workers: int | None = None,
+    ) -> None:
+        self.lightfield = lightfield
+        self.layout = layout
+        self.cluttered = bool(cluttered)
+        self.cache = int(cache)
+        self.workers = workers
+        self.frame = 0
+        self._confocal: OrderedDict[tuple[int, float], np.ndarray] = OrderedDict()
+
+    def set_frame(self, frame: int, lightfield: LightField) -> None:
+        """Show video frame ``frame`` (its confocal images are cached apart from others)."""
+        self.frame, self.lightfield = int(frame), lightfield
+
+    def has(self, disparity_px: float) -> bool:
+        """Whether the confocal image at a disparity of the current frame is cached."""
+        return (self.frame, float(disparity_px)) in self._confocal
+
+    def confocal(self, disparity_px: float) -> np.ndarray:
+        """Return the confocal image of the current frame at a disparity (cached)."""
+        from stimuli.refocus import refocus
+
+        key = (self.frame, float(disparity_px))
+        img = self._confocal.get(key)
+        if img is None:
+            img = refocus(self.lightfield, key[1], workers=self.workers)
+            self._confocal[key] = img
+            while len(self._confocal) > self.cache:
+                self._confocal.popitem(last=False)
+        else:
+            self._confocal.move_to_end(key)
+        return img
+
+    def render(
+        self,
+        state: ViewerState,
+        *,
+        layout: ImplantLayout | None = None,
+        depth: DepthMap | None = None,
+    ) -> Panes:
+        """Return the panes of ``state`` (:func:`cpu_panes`; ``layout`` overrides the renderer's)."""
+        obstacle = state.mode == "obstacle" and state.obstacle_px is not None
+        conf = None if obstacle or self.cluttered else self.confocal(state.disparity_px)
+        return cpu_panes(
+            self.lightfield,
+            state,
+            self.layout if layout is None else layout,
+            depth=depth,
+            confocal=conf,
+            cluttered=self.cluttered,
+        )
 
 
 def otsu_threshold(magnitude: np.ndarray) -> float:
