@@ -182,7 +182,7 @@ def run_active_demo(
     from stimuli.io import atomic_path
 
     if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
-        raise ConfocalError(f"--seed must be an integer >= 0, got {seed!r}")
+        raise ConfocalError(f"seed must be an integer >= 0, got {seed!r}")
     out = Path(out_dir)
     require_missing_or_empty(out)
     out.mkdir(parents=True, exist_ok=True)

@@ -44,7 +44,6 @@ logger = logging.getLogger(__name__)
 INPUT_ACTIONS: dict[str, str] = {**KEYMAP, "WheelUp": "depth_near", "WheelDown": "depth_far"}
 
 
-
 def zoom_box_px(
     fraction_box: Any, shape_px: tuple[int, int], zoom: tuple[int, int, int, int] | None
 ) -> tuple[int, int, int, int] | None:

@@ -118,15 +118,19 @@ class _SceneState:
         self.planes_px = tuple(float(p) for p in info["planes_px"])
         near, far = info["scan_px"]
         self.depth_step_px = float(info["depth_step_px"])
-        self.model = search_model(
-            self.planes_px, float(near), float(far), self.depth_step_px, scene.shape_px,
+        self.model = adapter.search_model(
+            self.planes_px,
+            float(near),
+            float(far),
+            self.depth_step_px,
+            scene.shape_px,
             zoom_allowed=task.zoom_allowed,
         )
         self.renderers: dict[str, CpuRenderer] = {}
 
     def renderer(self, condition: str, grid_px) -> CpuRenderer:
         if condition not in self.renderers:
-            self.renderers[condition] = search_renderer(self.scene, grid_px, condition)
+            self.renderers[condition] = adapter.search_renderer(self.scene, grid_px, condition)
         return self.renderers[condition]
 
 

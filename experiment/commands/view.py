@@ -3,15 +3,19 @@
 Without ``--screenshot`` it opens a window (moderngl-window); with ``--screenshot OUT.png`` it
 renders one state offscreen (EGL, or ``--cpu`` with numpy only) and exits, so the viewer runs in
 scripts and tests with no display. Options set the first state (``--disparity``, ``--plane``,
-``--zoom``, ``--implant``, ``--levels``, ``--threshold``, ``--obstacle``, ``--marker``); a
+``--zoom``, ``--implant``, ``--grey-levels``, ``--threshold``, ``--obstacle``, ``--marker``); a
 ``--script`` file of JSON-lines events is then applied through the same handler as keys and
 mouse; ``--log`` appends every event and displayed state to an SQLite file. ``--help`` groups
 the options (Input, View, Implant, Modes, Output) and lists the window's keys.
+
+The checks of the start options are the library's
+(:meth:`experiment.viewer.app.Viewer.from_options`); this module parses the options and maps
+the library's parameter names to the flags (:data:`FLAGS`). ``--levels`` is the old spelling of
+``--grey-levels``, still read and hidden from ``--help``.
 """
 
 from __future__ import annotations
 
-from dataclasses import replace
 from functools import partial
 from pathlib import Path
 from typing import Annotated
@@ -21,7 +25,30 @@ import typer
 from experiment.errors import ConfocalError
 from stimuli.resources import MAX_PLANES, finite_option, parse_pair
 
-__all__ = ["register", "view_command"]
+__all__ = ["FLAGS", "register", "view_command"]
+
+#: The flag of each parameter of :meth:`experiment.viewer.app.Viewer.from_options`.
+FLAGS: dict[str, str] = {
+    "implants": "--implant",
+    "grey_levels": "--grey-levels",
+    "threshold": "--threshold",
+    "disparity_px": "--disparity",
+    "plane": "--plane",
+    "zoom": "--zoom",
+    "obstacle_px": "--obstacle",
+    "marker": "--marker",
+    "extension_px": "--extension",
+    "compute": "--compute",
+}
+
+
+def _as_flag(exc: Exception, parameter: str) -> ConfocalError:
+    # the library's one line, its parameter name replaced by the flag
+    msg = str(exc)
+    flag = FLAGS.get(parameter)
+    if flag is not None and msg.startswith(parameter):
+        msg = flag + msg[len(parameter) :]
+    return ConfocalError(msg)
 
 
 def _ints(text: str, n: int, option: str) -> tuple[int, ...]:
@@ -83,7 +110,12 @@ def view_command(
         int | None, _view_option(min=1, help="Start at detected plane N (1 = nearest).")
     ] = None,
     zoom: Annotated[str | None, _view_option(help="Zoom box x,y,w,h (view pixels).")] = None,
-    levels: Annotated[int, _view_option(help="2: binary edges; 4 or 8: grey levels.")] = 2,
+    grey_levels: Annotated[
+        int, _view_option("--grey-levels", help="2: binary edges; 4 or 8: grey levels.")
+    ] = 2,
+    old_levels: Annotated[
+        int | None, typer.Option("--levels", hidden=True, help="Old name of --grey-levels.")
+    ] = None,
     threshold: Annotated[str, _view_option(help="Sobel threshold: auto or a number.")] = "auto",
     obstacle: Annotated[
         str | None, _modes_option(help="Obstacle mode: FAR:NEAR disparity range, px per view.")
@@ -159,26 +191,24 @@ def view_command(
     ] = "auto",
 ) -> None:
     """Scan depth, jump to object planes, zoom and see the implant's view, live."""
-    from experiment.viewer.app import COMPUTE_CHOICES
-
-    if compute not in COMPUTE_CHOICES:
-        raise ConfocalError(
-            f"--compute must be one of {', '.join(COMPUTE_CHOICES)}, got {compute!r}"
-        )
     from experiment.viewer.app import Viewer
     from experiment.viewer.events import ViewerEventLog
+    from experiment.viewer.options import ViewerOptionError, check_options
     from experiment.viewer.source import open_source, read_script
-    from experiment.viewer.state import GREY_LEVELS
-    from stimuli.implants import implant_names, load_implant
     from stimuli.stimset import parse_threshold
 
+    if old_levels is not None:
+        if grey_levels not in (2, old_levels):
+            raise ConfocalError("--levels is the old name of --grey-levels: give one of them")
+        grey_levels = old_levels
     shape = _size(size)
-    names = list(implant) if implant else sorted(implant_names(), key=lambda n: n != "argus2")
-    for n in names:
-        load_implant(n)  # one-line error before anything is opened
-    if levels not in GREY_LEVELS:
-        raise ConfocalError(f"--levels must be one of {GREY_LEVELS}, got {levels}")
     t = parse_threshold(threshold)
+    try:  # one-line errors before anything is opened
+        names = check_options(
+            implant, grey_levels=grey_levels, threshold=t, compute=compute, extension_px=extension
+        )
+    except ViewerOptionError as exc:
+        raise _as_flag(exc, exc.parameter) from None
     events = read_script(script) if script is not None else []
     if log is not None and not log.parent.is_dir():
         raise ConfocalError(f"--log {log}: folder {log.parent} does not exist")
@@ -199,7 +229,7 @@ def view_command(
             far, near = (float(x) for x in obstacle.split(":"))
         except ValueError:
             raise ConfocalError(f"--obstacle must be FAR:NEAR, got {obstacle!r}") from None
-        obstacle_px = (max(far, near), min(far, near))
+        obstacle_px = (far, near)
     crop: tuple[int, ...] | str | None
     if view_crop in ("auto", "none"):
         crop = None if view_crop == "none" else "auto"
@@ -217,47 +247,29 @@ def view_command(
     )
 
     def make(ctx):
-        ev_log = ViewerEventLog(log) if log is not None else None
-        v = Viewer(
-            source,
-            names,
-            screen_shape_px=shape,
-            ctx=ctx,
-            compute=compute,
-            event_log=ev_log,
-            px_per_deg=px_per_deg,
-            n_planes=planes,
-            track_bright=track_bright,
-        )
-        m, s = v.model, v.state
-        if plane is not None:
-            if not 1 <= plane <= len(m.planes_px):
-                raise ConfocalError(
-                    f"--plane must be in 1..{len(m.planes_px)} (planes found), got {plane}"
-                )
-            s = replace(s, disparity_px=m.planes_px[plane - 1], plane=plane - 1)
-        if disparity is not None:
-            lo, hi = m.disparity_range_px
-            if not lo <= disparity <= hi:
-                raise ConfocalError(f"--disparity must be in [{lo:.4g}, {hi:.4g}], got {disparity}")
-            s = replace(s, disparity_px=disparity, plane=m.plane_of(disparity))
-        if zoom_box is not None:
-            x, y, w, h = zoom_box
-            rows, cols = m.shape_px
-            if w < 8 or h < 8 or x < 0 or y < 0 or x + w > cols or y + h > rows:
-                raise ConfocalError(f"--zoom {zoom!r} must be at least 8x8 inside {cols}x{rows}")
-            s = replace(s, zoom=(x, y, w, h))
-        s = replace(s, levels=levels, threshold=t, averaging=average, extension_px=extension)
-        if obstacle_px is not None:
-            s = replace(s, mode="obstacle", obstacle_px=obstacle_px)
-        if marker_xy is not None:
-            mx, my = marker_xy
-            s = replace(s, mode="extension", marker=(mx, my))
-            d = m.clamp(v.depth().at(mx, my) + extension)
-            s = replace(s, disparity_px=d, plane=m.plane_of(d))
-        v.state = s
-        v.log.append(v.clock(), "state", s.to_dict())
-        return v
+        try:
+            return Viewer.from_options(
+                source,
+                names,
+                grey_levels=grey_levels,
+                threshold=t,
+                disparity_px=disparity,
+                plane=plane,
+                zoom=zoom_box,  # type: ignore[arg-type]
+                obstacle_px=obstacle_px,
+                marker=marker_xy,  # type: ignore[arg-type]
+                extension_px=extension,
+                averaging=average,
+                compute=compute,
+                screen_shape_px=shape,
+                ctx=ctx,
+                event_log=ViewerEventLog(log) if log is not None else None,
+                px_per_deg=px_per_deg,
+                n_planes=planes,
+                track_bright=track_bright,
+            )
+        except ViewerOptionError as exc:
+            raise _as_flag(exc, exc.parameter) from None
 
     if screenshot is None:
         from experiment.viewer.window import run_window
@@ -289,11 +301,10 @@ def view_command(
         line = f"{v.status_text()} -> {screenshot}"
         if p2p is not None:
             from experiment.viewer.p2p import p2p_percept
-            from experiment.viewer.reference import cpu_panes
             from stimuli.io import save_png
 
             depth = v.depth() if v.state.mode == "obstacle" else None
-            cells = cpu_panes(v.lf, v.state, v.layout, depth=depth).cells
+            cells = v.renderer.render(v.state, layout=v.layout, depth=depth).cells
             percept = p2p_percept(cells * v.layout.alive_mask(), v.layout, model=p2p)
             out = save_png(percept, screenshot.with_name(screenshot.stem + "_p2p.png"))
             line += f"; pulse2percept {p2p} -> {out}"

@@ -16,7 +16,6 @@ from __future__ import annotations
 import logging
 import sys
 import time
-from collections import OrderedDict, deque
 from dataclasses import replace
 from pathlib import Path
 from typing import Any
@@ -25,16 +24,17 @@ import numpy as np
 
 from experiment.errors import ConfocalError
 from experiment.viewer.events import ViewerEventLog
+from experiment.viewer.glview import GlFrames
+from experiment.viewer.memo import FrameAverage, LruCache
 from experiment.viewer.reference import (
-    EDGE_RATIO,
     OBSTACLE_ALERT_FRACTION,
+    CpuRenderer,
     DepthMap,
+    Panes,
     brightest_point,
-    cpu_panes,
     depth_map,
     effective_grey_levels,
     obstacle_mask,
-    otsu_threshold,
     track_point,
 )
 from experiment.viewer.screen import (
@@ -202,31 +202,24 @@ class Viewer:
         t0 = auto_threshold(refocus(lf, first.disparity_px))
         self.model = replace(self.model, auto_threshold=t0)
         self.state = first
+        #: the one CPU renderer (numpy pipeline), its confocal images cached by depth
+        self.renderer = CpuRenderer(lf, self.layouts[names[0]], cache=REFOCUS_CACHE)
         self._depth: dict[int, DepthMap] = {}
-        self._history: deque[np.ndarray] = deque(maxlen=AVERAGING_FRAMES)
-        self._hist_key: tuple | None = None
-        self._hist_frame = -1
-        self._memo_key: tuple | None = None
-        self._memo_t = 0.0
-        self._auto_t: dict[tuple, float] = {}
-        self._alert = False
+        self._average = FrameAverage(AVERAGING_FRAMES)
+        #: the obstacle alert is on (more than OBSTACLE_ALERT_FRACTION of the view in range)
+        self.alert = False
         self.frame_ms = 0.0
         #: one line shown before the status (why a key did nothing, a question); cleared by
         #: the next input event
         self.message = ""
         self._painter = FramePainter()
-        self._confocal: OrderedDict[tuple, np.ndarray] = OrderedDict()
-        self._panes_key: tuple | None = None
-        self._panes = None
-        self._implant_img: OrderedDict[tuple, np.ndarray] = OrderedDict()
+        self._panes: tuple[tuple, Panes] | None = None  # (state key, CPU panes)
+        self._implant_img = LruCache(64)
         self._help_img: np.ndarray | None = None
         self.gpu = None
-        self._composite = None
-        self._pane0_key: tuple | None = None
         if compute not in COMPUTE_CHOICES:
             raise ConfocalError(f"compute must be one of {COMPUTE_CHOICES}, got {compute!r}")
         self.ctx = ctx
-        self._blit = None
         if ctx is not None:
             if compute == "auto":
                 compute = "cpu" if is_software_renderer(ctx) else "gpu"
@@ -235,7 +228,7 @@ class Viewer:
 
                 self.gpu = GpuPipeline(ctx, lf.views)
         self.compute = "cpu" if self.gpu is None else "gpu"
-        self._gpu_frame = 0
+        self._gl = None if ctx is None else GlFrames(ctx, self.gpu)
         if track_bright:
             self.state = replace(self.state, marker=brightest_point(lf.centre_view()))
         self.log.append(
@@ -249,6 +242,93 @@ class Viewer:
             },
         )
         self.log.append(self.clock(), "state", self.state.to_dict())
+
+    @classmethod
+    def from_options(
+        cls,
+        source: LightFieldSource,
+        implants: list[str] | None = None,
+        *,
+        grey_levels: int = 2,
+        threshold: float | None = None,
+        disparity_px: float | None = None,
+        plane: int | None = None,
+        zoom: tuple[int, int, int, int] | None = None,
+        obstacle_px: tuple[float, float] | None = None,
+        marker: tuple[int, int] | None = None,
+        extension_px: float = 0.0,
+        averaging: bool = False,
+        compute: str = "auto",
+        **kwargs: Any,
+    ) -> Viewer:
+        """Check the options, build the viewer and set (and log) its first state.
+
+        The checks of ``confocal view``, for Python callers: a refusal is an
+        :class:`~experiment.viewer.options.ViewerOptionError` naming the parameter.
+
+        Parameters
+        ----------
+        source : LightFieldSource
+        implants : list of str, optional
+            Implant names or ``.toml`` paths (default: every shipped implant, argus2 first).
+        grey_levels : {2, 4, 8}
+            2: binary edges; more: the grey compression (as many as the implant shows).
+        threshold : float >= 0, optional
+            Sobel threshold (None: automatic).
+        disparity_px : float, optional
+            Start depth, px per view step, inside the scanned range.
+        plane : int >= 1, optional
+            Start at detected plane ``plane`` (1 = nearest).
+        zoom : (x, y, w, h), optional
+            Zoom box, at least 8x8 view pixels inside the view.
+        obstacle_px : (far, near), optional
+            Obstacle mode over this disparity range.
+        marker : (x, y), optional
+            Confocal-extension mode with the marker here (view pixels).
+        extension_px : float
+            Extension: focus this many px per view step nearer than the marker.
+        averaging : bool
+            Temporal averaging of the implant view.
+        compute : {'auto', 'gpu', 'cpu'}
+        **kwargs
+            The other parameters of :class:`Viewer` (``ctx``, ``event_log``, ...).
+
+        Returns
+        -------
+        Viewer
+
+        Raises
+        ------
+        experiment.viewer.options.ViewerOptionError
+        """
+        from experiment.viewer.options import check_options, start_state
+
+        names = check_options(
+            implants,
+            grey_levels=grey_levels,
+            threshold=threshold,
+            compute=compute,
+            extension_px=extension_px,
+        )
+        v = cls(source, names, compute=compute, **kwargs)
+        try:
+            v.state = start_state(
+                v,
+                disparity_px=disparity_px,
+                plane=plane,
+                zoom=zoom,
+                grey_levels=grey_levels,
+                threshold=threshold,
+                obstacle_px=obstacle_px,
+                marker=marker,
+                extension_px=extension_px,
+                averaging=averaging,
+            )
+        except BaseException:
+            v.close()
+            raise
+        v.log.append(v.clock(), "state", v.state.to_dict())
+        return v
 
     # -- data-dependent helpers ----------------------------------------------------------------
 
@@ -320,6 +400,7 @@ class Viewer:
         elif s.marker is not None:
             s = replace(s, marker=track_point(prev, cur, s.marker))
         self.lf = lf
+        self.renderer.set_frame(s.frame, lf)
         if s.mode == "extension" and s.marker is not None:
             d = self.model.clamp(self.depth().at(*s.marker) + s.extension_px)
             s = replace(s, disparity_px=d, plane=self.model.plane_of(d))
@@ -333,14 +414,14 @@ class Viewer:
         if s.mode == "obstacle" and s.obstacle_px is not None:
             mask = obstacle_mask(self.depth(), *s.obstacle_px)
             alert = bool(mask.mean() > OBSTACLE_ALERT_FRACTION)
-            if alert and not self._alert:
+            if alert and not self.alert:
                 sys.stderr.write("\a")  # audible alert: the terminal bell (no sound library)
                 sys.stderr.flush()
                 self.log.append(self.clock(), "alert", {"fraction": float(mask.mean())})
-            self._alert = alert
+            self.alert = alert
             masked = np.where(mask, self.lf.centre_view(), np.float32(0)).astype(np.float32)
             return masked, mask.astype(np.float32)
-        self._alert = False
+        self.alert = False
         return None
 
     def status_text(self) -> str:
@@ -367,14 +448,14 @@ class Viewer:
         )
         if s.mode == "obstacle" and s.obstacle_px is not None:
             parts.append(f"OBSTACLE {s.obstacle_px[1]:+.2f}..{s.obstacle_px[0]:+.2f} px/view")
-            if self._alert:
+            if self.alert:
                 parts.append("ALERT")
         if s.mode == "extension" or s.marker is not None or s.extension_px != 0:
             on = "extension ON" if s.mode == "extension" else "extension off"
             mark = f"marker {s.marker[0]},{s.marker[1]}" if s.marker is not None else "no marker"
             parts.append(f"{on} {s.extension_px:+.2f} px/view, {mark}")
         if s.averaging:
-            parts.append(f"averaging {len(self._history)}/{AVERAGING_FRAMES} frames")
+            parts.append(f"averaging {len(self._average)}/{AVERAGING_FRAMES} frames")
         if s.percept != "phosphenes":
             parts.append(f"percept {s.percept} (pulse2percept)")
         if self.source.n_frames > 1:
@@ -393,44 +474,33 @@ class Viewer:
             px_per_deg=self.px_per_deg,
         )
 
-    def _averaged(self, cells: np.ndarray) -> np.ndarray:
-        # An average over the last AVERAGING_FRAMES *video frames*: redrawing the same frame
-        # (a depth step, a key) replaces its entry instead of adding one.
+    def averaged_frames(self) -> int:
+        """Return how many video frames the implant view's average holds now."""
+        return len(self._average)
+
+    def average_cells(self, cells: np.ndarray) -> np.ndarray:
+        """Add electrode values to the average over the last :data:`AVERAGING_FRAMES` frames.
+
+        Redrawing the same video frame (a depth step, a key) replaces its entry instead of
+        adding one; with averaging off the average is the values themselves.
+        """
         s = self.state
         key = (s.implant, s.grey_levels, s.zoom)
-        if not s.averaging or key != self._hist_key:
-            self._history.clear()
-            self._hist_key = key
-        if self._history and self._hist_frame == s.frame:
-            self._history[-1] = cells
-        else:
-            self._history.append(cells)
-        self._hist_frame = s.frame
-        return np.mean(np.stack(self._history), axis=0).astype(np.float32)
+        return self._average.add(key, s.frame, cells, on=s.averaging)
 
     def confocal(self, disparity_px: float) -> np.ndarray:
         """Return the confocal image of the current frame at a disparity (numpy; cached)."""
-        from stimuli.refocus import refocus
+        return self.renderer.confocal(disparity_px)
 
-        key = (self.state.frame, float(disparity_px))
-        img = self._confocal.get(key)
-        if img is None:
-            img = refocus(self.lf, float(disparity_px))
-            self._confocal[key] = img
-            while len(self._confocal) > REFOCUS_CACHE:
-                self._confocal.popitem(last=False)
-        else:
-            self._confocal.move_to_end(key)
-        return img
+    def implant_image(self, cells: np.ndarray, shape_px: tuple[int, int]) -> np.ndarray:
+        """Return the implant pane's picture of electrode values (uint8), remembered by value.
 
-    def _implant_image(self, cells: np.ndarray, shape_px: tuple[int, int]) -> np.ndarray:
-        # The implant pane's picture for these electrode values, remembered by value: a depth
-        # scan on a 60-electrode implant keeps meeting the same few patterns.
+        A depth scan on a 60-electrode implant keeps meeting the same few patterns.
+        """
         s, lay = self.state, self.layout
         key = (cells.tobytes(), cells.shape, shape_px, lay, s.percept)
         img = self._implant_img.get(key)
         if img is not None:
-            self._implant_img.move_to_end(key)
             return img
         if s.percept == "phosphenes":
             img = draw_implant(cells, shape_px, lay)
@@ -441,9 +511,7 @@ class Viewer:
             p = p2p_percept(cells * lay.electrode_gain(), lay, model=s.percept)
             rows = nearest_cells(shape_px[0], p.shape[0])
             img = p[np.ix_(rows, nearest_cells(shape_px[1], p.shape[1]))]
-        self._implant_img[key] = img
-        while len(self._implant_img) > 64:
-            self._implant_img.popitem(last=False)
+        self._implant_img.put(key, img)
         return img
 
     def help_overlay(self) -> np.ndarray | None:
@@ -467,13 +535,11 @@ class Viewer:
             depth_key = s.disparity_px if src is None else ("obstacle", s.obstacle_px)
             levels = effective_grey_levels(s, lay)
             key = (s.frame, depth_key, s.zoom, s.threshold, lay.name, levels)
-            if key != self._panes_key:
+            if self._panes is None or key != self._panes[0]:
                 depth = self.depth() if s.mode == "obstacle" else None
-                confocal = self.confocal(s.disparity_px) if src is None else None
-                self._panes = cpu_panes(self.lf, s, lay, depth=depth, confocal=confocal)
-                self._panes_key = key
-            p = self._panes
-            cells = self._averaged(p.cells)
+                self._panes = (key, self.renderer.render(s, layout=lay, depth=depth))
+            p = self._panes[1]
+            cells = self.average_cells(p.cells)
             screen = self.screen(p.source.shape)
             rect = screen.images[3]
             keys = (
@@ -495,74 +561,15 @@ class Viewer:
                 marker=s.marker,
                 overlay=overlay,
                 keys=keys,
-                phosphenes=self._implant_image(cells, (rect[3], rect[2])),
+                phosphenes=self.implant_image(cells, (rect[3], rect[2])),
             )
             if fbo is not None and self.ctx is not None:
-                self._draw_frame(frame, fbo, self._painter.dirty)
+                self._gl.upload(frame, fbo, self._painter.dirty)
                 self.frame_ms = (time.perf_counter() - t0) * 1e3
                 return frame[..., :3]  # the painter's own frame: valid until the next render
             self.frame_ms = (time.perf_counter() - t0) * 1e3
             return frame[..., :3].copy()
-        g = self.gpu
-        if self._gpu_frame != s.frame:
-            g.set_views(self.lf.views)
-            self._gpu_frame = s.frame
-        if src is None:
-            g.refocus(s.disparity_px)
-        else:
-            g.set_source(*src)
-        levels = effective_grey_levels(s, lay)
-        depth_key = s.disparity_px if src is None else ("obstacle", s.obstacle_px)
-        key = (s.frame, depth_key, s.zoom, s.threshold, lay.name, levels, s.averaging)
-        if key != self._memo_key:  # else the edges and electrodes on the GPU are current
-            g.sobel(s.zoom)
-            if s.threshold is None:
-                # the automatic threshold of an image already seen is remembered (no readback)
-                tkey = (s.frame, depth_key, s.zoom)
-                if tkey not in self._auto_t:
-                    if len(self._auto_t) > 4096:
-                        self._auto_t.clear()
-                    self._auto_t[tkey] = otsu_threshold(g.read_magnitude())
-                t = self._auto_t[tkey]
-            else:
-                t = float(s.threshold)
-            g.compress(lay.shape, t, levels, EDGE_RATIO)
-            if s.averaging or self._history:
-                g.write_cells(self._averaged(g.read_cells()))
-            self._memo_key, self._memo_t = key, t
-        t = self._memo_t
-        zoom_shape = (s.zoom[3], s.zoom[2]) if s.zoom is not None else self.lf.shape_px
-        # Draw into a persistent frame and copy it out: the centre-view pane, which only
-        # changes with the zoom box or the video frame, is not redrawn on a depth step.
-        rows, cols = self.screen_shape_px
-        if self._composite is None or self._composite.size != (cols, rows):
-            if self._composite is not None:
-                self._composite.release()
-            self._composite = self.ctx.simple_framebuffer((cols, rows))
-            self._pane0_key = None
-        pane0_key = (s.zoom, s.frame, s.marker, self.screen_shape_px, overlay is None)
-        full = pane0_key != self._pane0_key or overlay is not None
-        screen = self.screen(zoom_shape)
-        implant_image = None
-        if s.percept != "phosphenes":
-            rect = screen.images[3]
-            implant_image = self._implant_image(g.read_cells(), (rect[3], rect[2]))
-        g.draw(
-            self._composite,
-            screen,
-            lay,
-            threshold=t,
-            zoom=s.zoom,
-            alert=self._alert,
-            status=status,
-            panes=(True, True, True, True) if full else (False, True, True, True),
-            marker=s.marker,
-            overlay=overlay,
-            implant_image=implant_image,
-        )
-        self._pane0_key = pane0_key
-        self.ctx.copy_framebuffer(fbo, self._composite)
-        self.last_threshold = t
+        self._gl.draw(self, fbo, src, status, overlay)
         self.frame_ms = (time.perf_counter() - t0) * 1e3
         return None
 
@@ -585,7 +592,7 @@ class Viewer:
                 up, down = m.clamp(up + m.step_px), m.clamp(down - m.step_px)
                 near += [up, down]
             for x in [*near, *m.planes_px]:
-                if (self.state.frame, float(x)) not in self._confocal:
+                if not self.renderer.has(x):
                     self.confocal(x)
                     return True
             return False
@@ -595,19 +602,7 @@ class Viewer:
         for _ in range(PREFETCH_STEPS):
             up, down = m.clamp(up + m.step_px), m.clamp(down - m.step_px)
             ahead += [up, down]
-        if self._gpu_frame != self.state.frame:
-            return False
-        s = self.state
-        for x in ahead:
-            if self.gpu.prefetch(x):
-                return True
-            tkey = (s.frame, x, s.zoom)
-            if s.threshold is None and tkey not in self._auto_t:
-                mag = self.gpu.magnitude_at(x, s.zoom)
-                if mag is not None:
-                    self._auto_t[tkey] = otsu_threshold(mag)
-                    return True
-        return False
+        return self._gl.prefetch(self, ahead)
 
     def screenshot(self, path: Path | None = None) -> np.ndarray:
         """Render the current state offscreen and return (and optionally save) the RGB frame."""
@@ -643,37 +638,9 @@ class Viewer:
             return None
         return int(((2 * px + 1) * cols) // (2 * w)), int(((2 * py + 1) * rows) // (2 * h))
 
-    def _draw_frame(
-        self, frame: np.ndarray, fbo: Any, dirty: list[tuple[int, int, int, int]] | None = None
-    ) -> None:
-        """Copy a CPU frame (rows, cols, 3 or 4 uint8, top row first) into ``fbo``.
-
-        ``dirty``: the rectangles ``(left, top, cols, rows)`` that changed since the last call
-        (only those are uploaded); None uploads the whole frame.
-        """
-        rows, cols, n = frame.shape
-        old = self._blit[0] if self._blit is not None else None
-        if old is None or old.size != (cols, rows) or old.components != n:
-            if self._blit is not None:
-                for obj in self._blit[::-1]:
-                    obj.release()
-            tex = self.ctx.texture((cols, rows), n)
-            self._blit = (tex, self.ctx.framebuffer(color_attachments=[tex]))
-            dirty = None
-        tex, src = self._blit
-        for left, top, w, h in dirty if dirty is not None else [(0, 0, cols, rows)]:
-            part = np.ascontiguousarray(frame[top : top + h, left : left + w][::-1])
-            tex.write(part, viewport=(left, rows - (top + h), w, h))  # GL rows run bottom-up
-        self.ctx.copy_framebuffer(fbo, src)
-
     def close(self) -> None:
         """Release the GPU objects and close the event log."""
-        if self._blit is not None:
-            for obj in self._blit[::-1]:
-                obj.release()
-        if self.gpu is not None:
-            self.gpu.release()
-        if self._composite is not None:
-            self._composite.release()
+        if self._gl is not None:
+            self._gl.release()
         self.log.append(self.clock(), "close", {})
         self.log.close()

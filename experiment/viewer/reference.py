@@ -354,7 +354,7 @@ class CpuRenderer:
         layout: ImplantLayout | None = None,
         depth: DepthMap | None = None,
     ) -> Panes:
-        """Return the panes of ``state`` (:func:`cpu_panes`; ``layout`` overrides the renderer's)."""
+        """Return the panes of ``state`` (:func:`cpu_panes`); ``layout`` overrides the own."""
         obstacle = state.mode == "obstacle" and state.obstacle_px is not None
         conf = None if obstacle or self.cluttered else self.confocal(state.disparity_px)
         return cpu_panes(

@@ -446,7 +446,7 @@ def apply_event(
 def apply_action(
     model: ViewerModel, state: ViewerState, action: str, *, box: Any = None
 ) -> ViewerState:
-    """Return the state after one active-search action: its viewer event through :func:`apply_event`.
+    """Return the state after one active-search action (its viewer event, :func:`apply_event`).
 
     Parameters
     ----------

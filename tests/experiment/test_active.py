@@ -16,7 +16,7 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from experiment.active.engine import SearchContext, ViewerState, apply_action
+from experiment.active.adapter import search_model, search_renderer
 from experiment.active.eventlog import ActiveEventLog
 from experiment.active.searcher import Action, EdgeRecogniser, ScriptedSearcher, SimulatedSearcher
 from experiment.active.session import ActiveSession
@@ -25,6 +25,7 @@ from experiment.clock import FakeClock
 from experiment.log import ResumeMismatch, TrialLog, TrialLogError
 from experiment.protocol import ProtocolError, ProtocolSpec, load_protocol
 from experiment.protocol.task import ActiveSearchSpec, task_from_table
+from experiment.viewer.state import ACTIONS, KEYMAP, ViewerState, apply_action
 from tests.analysis.conftest import active_session
 
 #: A small scene keeps every test in seconds (the shipped protocol uses the paper's 308x385).
@@ -138,24 +139,24 @@ def test_plan_is_every_target_by_condition_and_seeded() -> None:
 
 # -- the viewer's state machine -----------------------------------------------------------------
 
-CTX = SearchContext((8.0, 4.0, 1.0), 10.0, 0.5, 0.5, (40, 50), True)
+CTX = search_model((8.0, 4.0, 1.0), 10.0, 0.5, 0.5, (40, 50))
 
 
 def test_plane_jumps_and_depth_keys() -> None:
     s = ViewerState(10.0)
-    s = apply_action(s, "plane_next", CTX)
-    assert (s.depth_px, s.plane) == (8.0, 0)
-    s = apply_action(s, "plane_next", CTX)
-    assert (s.depth_px, s.plane) == (4.0, 1)
-    s = apply_action(s, "depth_near", CTX)  # between planes: no plane index
-    assert (s.depth_px, s.plane) == (4.5, None)
-    assert apply_action(s, "plane_prev", CTX).plane == 0  # nearer: 8.0
-    assert apply_action(s, "plane_next", CTX).plane == 1  # farther: 4.0 (first < 4.5)
-    end = ViewerState(1.0, 2)
-    assert apply_action(end, "plane_next", CTX) == end  # no plane beyond the last
-    assert apply_action(ViewerState(0.5), "depth_far", CTX).depth_px == 0.5  # clamped
-    assert apply_action(ViewerState(10.0), "depth_near", CTX).depth_px == 10.0
-    assert apply_action(ViewerState(7.5), "depth_near", CTX).plane == 0  # lands on a plane
+    s = apply_action(CTX, s, "plane_next")
+    assert (s.disparity_px, s.plane) == (8.0, 0)
+    s = apply_action(CTX, s, "plane_next")
+    assert (s.disparity_px, s.plane) == (4.0, 1)
+    s = apply_action(CTX, s, "depth_near")  # between planes: no plane index
+    assert (s.disparity_px, s.plane) == (4.5, None)
+    assert apply_action(CTX, s, "plane_prev").plane == 0  # nearer: 8.0
+    assert apply_action(CTX, s, "plane_next").plane == 1  # farther: 4.0 (first < 4.5)
+    end = ViewerState(1.0, plane=2)
+    assert apply_action(CTX, end, "plane_next") == end  # no plane beyond the last
+    assert apply_action(CTX, ViewerState(0.5), "depth_far").disparity_px == 0.5  # clamped
+    assert apply_action(CTX, ViewerState(10.0), "depth_near").disparity_px == 10.0
+    assert apply_action(CTX, ViewerState(7.5), "depth_near").plane == 0  # lands on a plane
 
 
 @given(
@@ -166,27 +167,27 @@ def test_plane_jumps_and_depth_keys() -> None:
     st.floats(0.5, 10.0),
 )
 def test_state_stays_in_range_and_plane_matches_depth(actions, start) -> None:
-    s = ViewerState(start, CTX.plane_at(start))
+    s = ViewerState(start, plane=CTX.plane_of(start))
     for a in actions:
-        s = apply_action(s, a, CTX)
-        assert CTX.far_px <= s.depth_px <= CTX.near_px
-        assert s.plane == CTX.plane_at(s.depth_px)
+        s = apply_action(CTX, s, a)
+        assert CTX.far_px <= s.disparity_px <= CTX.near_px
+        assert s.plane == CTX.plane_of(s.disparity_px)
 
 
 def test_zoom_and_its_errors() -> None:
-    s = apply_action(ViewerState(8.0, 0), "zoom", CTX, box=(5, 6, 20, 10))
+    s = apply_action(CTX, ViewerState(8.0, plane=0), "zoom", box=(5, 6, 20, 10))
     assert s.zoom == (5, 6, 20, 10)
-    assert apply_action(s, "unzoom", CTX).zoom is None
+    assert apply_action(CTX, s, "unzoom").zoom is None
     off = replace(CTX, zoom_allowed=False)
-    assert apply_action(ViewerState(8.0), "zoom", off, box=(0, 0, 4, 4)).zoom is None
+    assert apply_action(off, ViewerState(8.0), "zoom", box=(0, 0, 4, 4)).zoom is None
     with pytest.raises(ValueError, match=r"zoom needs a box"):
-        apply_action(ViewerState(8.0), "zoom", CTX)
+        apply_action(CTX, ViewerState(8.0), "zoom")
     with pytest.raises(ValueError, match=r"must be at least 2x2 px inside the 50x40 view"):
-        apply_action(ViewerState(8.0), "zoom", CTX, box=(40, 0, 20, 10))
+        apply_action(CTX, ViewerState(8.0), "zoom", box=(40, 0, 20, 10))
     with pytest.raises(ValueError, match=r"box must be \(x, y, w, h\)"):
-        apply_action(ViewerState(8.0), "zoom", CTX, box="big")
+        apply_action(CTX, ViewerState(8.0), "zoom", box="big")
     with pytest.raises(ValueError, match=r"action must be one of"):
-        apply_action(ViewerState(8.0), "jump", CTX)
+        apply_action(CTX, ViewerState(8.0), "jump")
 
 
 # -- the event log -------------------------------------------------------------------------------
@@ -238,16 +239,15 @@ def test_headless_session_log_matches_generated_events(tmp_path, protocol) -> No
         if e["kind"] == "trial_start":
             assert e["payload"]["searcher"] == "sim:planes"  # labelled simulated
     # every displayed state is what the CPU pipeline shows for it (re-rendered from the log)
-    from experiment.active.engine import Renderer
     from experiment.active.session import _grid_hex
 
     plan = {t.index: t for t in s.trials}
     for e in events:
         if e["kind"] == "state":
             p = e["payload"]
-            r = Renderer(s.scene, protocol.task.grid_px, plan[e["trial"]].condition)
+            r = search_renderer(s.scene, protocol.task.grid_px, plan[e["trial"]].condition)
             zoom = tuple(p["zoom"]) if p["zoom"] else None
-            v = r.render(ViewerState(p["depth_px"], p["plane"], zoom))
+            v = r.render(ViewerState(p["depth_px"], plane=p["plane"], zoom=zoom))
             assert _grid_hex(v.grid) == p["implant"]
             assert int(v.grid.sum()) == p["on_cells"]
     log.close()
@@ -306,12 +306,12 @@ def test_scripted_search_logs_each_key_and_state(protocol) -> None:
     keys = [e["payload"]["action"] for e in events if e["kind"] == "key"]
     assert keys == ["plane_next", "depth_far", "zoom", "unzoom", "answer"]
     states = [e["payload"] for e in events if e["kind"] == "state"]
-    ctx = s.context
-    expect = [ViewerState(ctx.near_px, ctx.plane_at(ctx.near_px))]
+    ctx = s.model
+    expect = [ViewerState(ctx.near_px, plane=ctx.plane_of(ctx.near_px))]
     for a in script[:-1]:
-        expect.append(apply_action(expect[-1], a.action, ctx, box=a.box))
+        expect.append(apply_action(ctx, expect[-1], a.action, box=a.box))
     assert [(st["depth_px"], st["plane"], st["zoom"]) for st in states] == [
-        (e.depth_px, e.plane, list(e.zoom) if e.zoom else None) for e in expect
+        (e.disparity_px, e.plane, list(e.zoom) if e.zoom else None) for e in expect
     ]
     zoomed = states[3]
     img = refocus(s.scene.lightfield, zoomed["depth_px"])[20:80, 10:90]
@@ -369,7 +369,8 @@ def test_open_refuses_bad_protocols_and_mismatched_resume(tmp_path) -> None:
 _CHILD = textwrap.dedent(
     """
     import json, os, signal, sys
-    from experiment.active.eventlog import ActiveEventLog
+    from experiment.active.adapter import search_model, search_renderer
+from experiment.active.eventlog import ActiveEventLog
     from experiment.active.searcher import EdgeRecogniser, SimulatedSearcher
     from experiment.active.session import ActiveSession
     from experiment.clock import FakeClock
@@ -454,7 +455,6 @@ def test_resume_after_kill_keeps_events_exact(tmp_path, protocol) -> None:
 
 def test_scene_and_component_errors(tmp_path) -> None:
     from experiment.active import adapter
-    from experiment.active.engine import ACTIONS, KEYMAP, Renderer
     from stimuli.errors import InputError
 
     assert set(KEYMAP.values()) <= set(ACTIONS)
@@ -469,7 +469,7 @@ def test_scene_and_component_errors(tmp_path) -> None:
     with pytest.raises(ValueError, match=r"needs a synthetic scene or a light field with a scene"):
         EdgeRecogniser(plain, (4, 5))
     with pytest.raises(ValueError, match=r"condition must be decluttered or cluttered"):
-        Renderer(plain, (4, 5), "photo")
+        search_renderer(plain, (4, 5), "photo")
     scene = adapter.load_scene("synthetic:three_plane", shape_px=(40, 50), grid=(3, 3))
     with pytest.raises(ValueError, match=r"strategy must be one of planes, ordered"):
         SimulatedSearcher(EdgeRecogniser(scene, (4, 5)), "random")

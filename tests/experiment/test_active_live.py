@@ -183,8 +183,8 @@ def test_operator_scores_without_an_answer_key_and_time_limit_passes(live) -> No
 
 
 def test_input_names_are_the_viewer_keymap_plus_the_wheel() -> None:
-    from experiment.active.engine import ACTIONS, KEYMAP
     from experiment.presentation.presenter import INPUT_KEYS
+    from experiment.viewer.state import ACTIONS, KEYMAP
 
     assert set(INPUT_ACTIONS.values()) <= set(ACTIONS)
     # every key the presenter reports maps to an action, and every mapped key can be reported

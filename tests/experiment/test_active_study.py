@@ -308,10 +308,11 @@ def test_simulated_searcher_searches_a_described_light_field(tmp_path) -> None:
     by_target = {t.target: answers[t.index] for t in s.trials if t.scene == "scene.toml"}
     assert by_target["figure"] == "figure" and "tree" in by_target
     # its templates come from the description: at the tree's plane the tree is what it sees
-    from experiment.active.engine import Renderer, ViewerState
+    from experiment.active.adapter import search_renderer
+    from experiment.viewer.state import ViewerState
 
     scene = next(st.scene for k, st in s._states.items() if k[0] == "scene.toml")
-    view = Renderer(scene, (28, 35), "decluttered").render(ViewerState(3.0))
+    view = search_renderer(scene, (28, 35), "decluttered").render(ViewerState(3.0))
     assert EdgeRecogniser(scene, (28, 35), rng=0).judge(view.grid, None)[0] == "tree"
     starts = [e["payload"] for e in events if e["kind"] == "trial_start"]
     assert {st["scene"] for st in starts} == {"scene.toml", "synthetic:random_three_plane"}

@@ -27,7 +27,9 @@ from stimuli.implants import ImplantError, ImplantLayout, load_implant, render_p
 from stimuli.vignette import vignette_crop
 from tests.experiment.conftest import viewer_model
 
-MODEL = viewer_model(planes_px=(12.0, 3.0), implants=("argus2", "brainport"), implant_levels=(2, 4))
+MODEL = viewer_model(
+    planes_px=(12.0, 3.0), implants=("argus2", "brainport"), implant_grey_levels=(2, 4)
+)
 
 
 @pytest.fixture(scope="module")
@@ -66,7 +68,7 @@ def test_g_on_an_on_off_implant_keeps_the_state_and_says_why(scene) -> None:
     s = MODEL.initial_state("argus2")
     assert apply_event(MODEL, s, "key", {"key": "g"}) == s
     s4 = apply_event(MODEL, replace(s, implant="brainport"), "key", {"key": "g"})
-    assert s4.levels == 4
+    assert s4.grey_levels == 4
     v = _viewer(scene)
     try:
         before = v.state
@@ -178,12 +180,12 @@ def test_obstacle_mode_with_grey_levels_lights_the_implant(scene) -> None:
     v = _viewer(scene, implants=("brainport",))
     try:
         lo, hi = v.model.disparity_range_px
-        v.state = replace(v.state, mode="obstacle", obstacle_px=(hi, lo), levels=4)
+        v.state = replace(v.state, mode="obstacle", obstacle_px=(hi, lo), grey_levels=4)
         frame = v.render()
         left, top, w, h = v.screen(v.lf.shape_px).images[3]
         pane = frame[top : top + h, left : left + w]
         assert (pane > BACKGROUND_RGB[0]).any(axis=2).mean() > 0.05, "implant pane is dark"
-        assert v._panes.cells.max() > 0
+        assert v._panes[1].cells.max() > 0
     finally:
         v.close()
 
@@ -333,7 +335,7 @@ def test_gpu_draws_rotation_gain_marker_and_help_as_the_cpu(scene, tmp_path) -> 
             v = Viewer(
                 scene, [str(path)], screen_shape_px=(240, 320), ctx=c, n_planes=30, compute=compute
             )
-            v.state = replace(v.state, marker=(30, 20), levels=4, help=True)
+            v.state = replace(v.state, marker=(30, 20), grey_levels=4, help=True)
             views.append(v)
         gpu, cpu = views[0].screenshot(), views[1].render()
         diff = np.abs(gpu.astype(int) - cpu.astype(int))[:-STATUS_ROWS_PX]

@@ -119,20 +119,21 @@ def test_panes_and_screen_match_cpu(ctx, pipeline, scene, implant, levels) -> No
     lf = scene.gray()
     layout = load_implant(implant)
     state = ViewerState(
-        disparity_px=3.7, implant=implant, zoom=(8, 6, 100, 80), levels=levels, threshold=None
+        disparity_px=3.7, implant=implant, zoom=(8, 6, 100, 80), grey_levels=levels, threshold=None
     )
     p = cpu_panes(lf, state, layout)
     pipeline.refocus(state.disparity_px)
     pipeline.sobel(state.zoom)
-    pipeline.compress(layout.shape, p.threshold, p.levels, EDGE_RATIO)
+    pipeline.compress(layout.shape, p.threshold, p.grey_levels, EDGE_RATIO)
     cells = pipeline.read_cells()
-    if p.levels == 2:
+    if p.grey_levels == 2:
         np.testing.assert_array_equal(cells, p.cells)
     else:
         from stimuli.compress import block_mean
 
         mean = block_mean(p.source, layout.shape)
-        near = np.abs(mean * p.levels - np.round(mean * p.levels)) < 1e-5 * p.levels
+        g = p.grey_levels
+        near = np.abs(mean * g - np.round(mean * g)) < 1e-5 * g
         assert not ((cells != p.cells) & ~near).any()
     screen = screen_layout((360, 480), lf.shape_px, p.source.shape, layout)
     status = status_image(f"test {implant} {levels}", (STATUS_ROWS_PX, 480))
@@ -261,7 +262,7 @@ def test_prefetch_fills_the_cache_without_changing_the_shown_image(ctx, scene) -
         # Otsu on a 256-bin histogram: the GPU magnitude (a few ulps off) may move it one bin
         mag = sobel_magnitude(refocus(scene.gray(), d_next))
         bin_w = float(mag.max() - mag.min()) / 256
-        assert v._auto_t[(0, d_next, None)] == pytest.approx(t_cpu, abs=bin_w)
+        assert v._gl.auto_t.get((0, d_next, None)) == pytest.approx(t_cpu, abs=bin_w)
         v.render(fbo)
         np.testing.assert_allclose(v.gpu.read_source(), refocus(scene.gray(), d_next), atol=1e-6)
         fbo.release()

@@ -50,7 +50,9 @@ def test_old_active_search_log_analyses_the_same(old_log, tmp_path) -> None:
     log = TrialLog(db)
     events = ActiveEventLog(log, active_session(log))
     for r in old_log["rows"]:
-        seq = events.append(r["kind"], r["payload"], r["t_s"], trial=r["trial"], attempt=r["attempt"])
+        seq = events.append(
+            r["kind"], r["payload"], r["t_s"], trial=r["trial"], attempt=r["attempt"]
+        )
         assert seq == r["seq"]
     log.close()
     result, trials = analyze_active([db])
@@ -89,7 +91,11 @@ def test_one_model_replays_the_old_search_exactly(old_log) -> None:
             n_keys += 1
         elif r["kind"] == "state":
             zoom = None if p["zoom"] is None else tuple(p["zoom"])
-            assert (state.disparity_px, state.plane, state.zoom) == (p["depth_px"], p["plane"], zoom)
+            assert (state.disparity_px, state.plane, state.zoom) == (
+                p["depth_px"],
+                p["plane"],
+                zoom,
+            )
             panes = renderers[conditions[r["trial"]]].render(state)
             assert _grid_hex(panes.grid) == p["implant"]
             assert int(panes.grid.sum()) == p["on_cells"]

@@ -76,8 +76,8 @@ def test_implant_levels_threshold_keys_cycle() -> None:
     s = MODEL.initial_state()
     names = [run(s, *[("key", {"key": "i"})] * k).implant for k in range(4)]
     assert names == ["argus2", "alpha_ims", "brainport", "argus2"]
-    levels = [run(s, *[("key", {"key": "g"})] * k).levels for k in range(len(GREY_LEVELS) + 1)]
-    assert levels == [*GREY_LEVELS, GREY_LEVELS[0]]
+    grey = [run(s, *[("key", {"key": "g"})] * k).grey_levels for k in range(len(GREY_LEVELS) + 1)]
+    assert grey == [*GREY_LEVELS, GREY_LEVELS[0]]
     t = run(s, ("key", {"key": "]"})).threshold
     assert t == pytest.approx(0.08 * 1.25)
     assert run(s, ("key", {"key": "]"}), ("key", {"key": "a"})).threshold is None
@@ -376,9 +376,11 @@ def test_video_folder_plays_frames_tracks_marker_and_averages(video_dir) -> None
             assert s.frame == k and s.marker == (40 + 4 * k, 30)  # followed frame to frame
             singles.append(cpu_panes(src.frame(k), s, v.layout).cells)
             v.render()
-        np.testing.assert_allclose(v._history[-1], singles[-1])
+        np.testing.assert_allclose(v._average.frames[-1], singles[-1])
         averaged = np.mean(np.stack(singles), axis=0)
-        np.testing.assert_allclose(np.mean(np.stack(v._history), axis=0), averaged, atol=1e-7)
+        np.testing.assert_allclose(
+            np.mean(np.stack(v._average.frames), axis=0), averaged, atol=1e-7
+        )
         kinds = [e.kind for e in v.log.events()]
         assert kinds.count("key") == 3 and kinds.count("click") == 1
     finally:
