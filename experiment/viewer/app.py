@@ -16,6 +16,7 @@ from __future__ import annotations
 import logging
 import sys
 import time
+import warnings
 from dataclasses import replace
 from pathlib import Path
 from typing import Any
@@ -46,6 +47,7 @@ from experiment.viewer.screen import (
     help_rect,
     screen_layout,
     status_image,
+    status_line,
 )
 from experiment.viewer.source import LightFieldSource
 from experiment.viewer.state import KEY_HELP, ViewerModel, ViewerState, apply_event
@@ -90,18 +92,6 @@ DEPTH_CANDIDATES: int = 48
 
 #: Where the viewer's image pipeline runs (see :class:`Viewer`).
 COMPUTE_CHOICES: tuple[str, ...] = ("auto", "gpu", "cpu")
-
-
-class _quiet_warnings:
-    def __enter__(self):
-        import warnings
-
-        self._w = warnings.catch_warnings()
-        self._w.__enter__()
-        warnings.simplefilter("ignore", UserWarning)
-
-    def __exit__(self, *exc):
-        self._w.__exit__(*exc)
 
 
 _SOFTWARE_RENDERERS = ("llvmpipe", "softpipe", "swrast", "software rasterizer")
@@ -179,7 +169,8 @@ class Viewer:
         lf = source.frame(0)
         self.lf = lf
         dmax = lf.max_disparity_px()
-        with _quiet_warnings():
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", UserWarning)
             if n_planes == DEFAULT_N_PLANES:
                 scan = detect_planes(lf)
             else:
@@ -275,20 +266,8 @@ class Viewer:
             2: binary edges; more: the grey compression (as many as the implant shows).
         threshold : float >= 0, optional
             Sobel threshold (None: automatic).
-        disparity_px : float, optional
-            Start depth, px per view step, inside the scanned range.
-        plane : int >= 1, optional
-            Start at detected plane ``plane`` (1 = nearest).
-        zoom : (x, y, w, h), optional
-            Zoom box, at least 8x8 view pixels inside the view.
-        obstacle_px : (far, near), optional
-            Obstacle mode over this disparity range.
-        marker : (x, y), optional
-            Confocal-extension mode with the marker here (view pixels).
-        extension_px : float
-            Extension: focus this many px per view step nearer than the marker.
-        averaging : bool
-            Temporal averaging of the implant view.
+        disparity_px, plane, zoom, obstacle_px, marker, extension_px, averaging
+            The first state, as :func:`~experiment.viewer.options.start_state` takes them.
         compute : {'auto', 'gpu', 'cpu'}
         **kwargs
             The other parameters of :class:`Viewer` (``ctx``, ``event_log``, ...).
@@ -425,44 +404,8 @@ class Viewer:
         return None
 
     def status_text(self) -> str:
-        """Return the status line for the current state."""
-        s, lay = self.state, self.layout
-        z = self.lf.depth_m(s.disparity_px)
-        depth = f"depth {s.disparity_px:+.3f} px/view" + (
-            f" ({z:.2f} m)" if z is not None and np.isfinite(z) and z > 0 else ""
-        )
-        n = len(self.model.planes_px)
-        plane = f"plane {s.plane + 1}/{n}" if s.plane is not None else f"plane -/{n}"
-        t = "auto" if s.threshold is None else f"{s.threshold:.3g}"
-        parts = [
-            depth,
-            plane,
-            f"{lay.label} {lay.cols}x{lay.rows}",
-            f"grey levels {effective_grey_levels(s, lay)}",
-            f"threshold {t}",
-        ]
-        parts.append(
-            f"zoom {s.zoom[2]}x{s.zoom[3]} at {s.zoom[0]},{s.zoom[1]}"
-            if s.zoom is not None
-            else "zoom off"
-        )
-        if s.mode == "obstacle" and s.obstacle_px is not None:
-            parts.append(f"OBSTACLE {s.obstacle_px[1]:+.2f}..{s.obstacle_px[0]:+.2f} px/view")
-            if self.alert:
-                parts.append("ALERT")
-        if s.mode == "extension" or s.marker is not None or s.extension_px != 0:
-            on = "extension ON" if s.mode == "extension" else "extension off"
-            mark = f"marker {s.marker[0]},{s.marker[1]}" if s.marker is not None else "no marker"
-            parts.append(f"{on} {s.extension_px:+.2f} px/view, {mark}")
-        if s.averaging:
-            parts.append(f"averaging {len(self._average)}/{AVERAGING_FRAMES} frames")
-        if s.percept != "phosphenes":
-            parts.append(f"percept {s.percept} (pulse2percept)")
-        if self.source.n_frames > 1:
-            parts.append(f"frame {s.frame + 1}/{self.source.n_frames}")
-        parts.append(f"{self.frame_ms:.1f} ms | ? help")
-        text = " | ".join(parts)
-        return f"{self.message}  || {text}" if self.message else text
+        """Return the status line for the current state (:func:`~.screen.status_line`)."""
+        return status_line(self, AVERAGING_FRAMES)
 
     def screen(self, zoom_shape: tuple[int, int]) -> ScreenLayout:
         """Return the screen layout for the current implant and zoom."""

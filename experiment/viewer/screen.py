@@ -29,6 +29,7 @@ import numpy as np
 from stimuli.implants import ImplantLayout, render_phosphenes
 
 __all__ = [
+    "status_line",
     "STATUS_ROWS_PX",
     "BACKGROUND_RGB",
     "BOX_RGB",
@@ -375,3 +376,50 @@ def expected_screen(*panes: Any, **options: Any) -> np.ndarray:
     difference to a fresh painter) and returns its frame's RGB.
     """
     return FramePainter().paint(*panes, **options)[..., :3].copy()
+
+
+def status_line(viewer: Any, averaging_frames: int) -> str:
+    """Return the viewer's status line: depth, plane, implant, grey levels, threshold, zoom...
+
+    ``viewer`` is a :class:`~experiment.viewer.app.Viewer`; ``averaging_frames`` the length of
+    its temporal average.
+    """
+    from experiment.viewer.reference import effective_grey_levels
+
+    s, lay = viewer.state, viewer.layout
+    z = viewer.lf.depth_m(s.disparity_px)
+    depth = f"depth {s.disparity_px:+.3f} px/view" + (
+        f" ({z:.2f} m)" if z is not None and np.isfinite(z) and z > 0 else ""
+    )
+    n = len(viewer.model.planes_px)
+    plane = f"plane {s.plane + 1}/{n}" if s.plane is not None else f"plane -/{n}"
+    t = "auto" if s.threshold is None else f"{s.threshold:.3g}"
+    parts = [
+        depth,
+        plane,
+        f"{lay.label} {lay.cols}x{lay.rows}",
+        f"grey levels {effective_grey_levels(s, lay)}",
+        f"threshold {t}",
+    ]
+    parts.append(
+        f"zoom {s.zoom[2]}x{s.zoom[3]} at {s.zoom[0]},{s.zoom[1]}"
+        if s.zoom is not None
+        else "zoom off"
+    )
+    if s.mode == "obstacle" and s.obstacle_px is not None:
+        parts.append(f"OBSTACLE {s.obstacle_px[1]:+.2f}..{s.obstacle_px[0]:+.2f} px/view")
+        if viewer.alert:
+            parts.append("ALERT")
+    if s.mode == "extension" or s.marker is not None or s.extension_px != 0:
+        on = "extension ON" if s.mode == "extension" else "extension off"
+        mark = f"marker {s.marker[0]},{s.marker[1]}" if s.marker is not None else "no marker"
+        parts.append(f"{on} {s.extension_px:+.2f} px/view, {mark}")
+    if s.averaging:
+        parts.append(f"averaging {viewer.averaged_frames()}/{averaging_frames} frames")
+    if s.percept != "phosphenes":
+        parts.append(f"percept {s.percept} (pulse2percept)")
+    if viewer.source.n_frames > 1:
+        parts.append(f"frame {s.frame + 1}/{viewer.source.n_frames}")
+    parts.append(f"{viewer.frame_ms:.1f} ms | ? help")
+    text = " | ".join(parts)
+    return f"{viewer.message}  || {text}" if viewer.message else text
