@@ -6,6 +6,7 @@ All GL-free except the CLI screenshot test, which uses ``--cpu``.
 from __future__ import annotations
 
 import math
+import re
 
 import numpy as np
 import pytest
@@ -262,7 +263,8 @@ def _confocal_in_process(capsys, *args) -> tuple[int, str]:
     [
         (["--implant", "argus9"], "unknown implant 'argus9'"),
         (["--size", "10x10"], "--size must be at least"),
-        (["--levels", "3"], "--levels must be one of"),
+        (["--grey-levels", "3"], "--grey-levels must be one of (2, 4, 8), got 3"),
+        (["--levels", "3"], "--grey-levels must be one of"),  # the old spelling, still read
         (["--zoom", "1,2,3"], "--zoom must be 4 comma-separated integers"),
         (["--plane", "99"], "--plane must be in 1.."),
         (["--obstacle", "near"], "--obstacle must be FAR:NEAR"),
@@ -277,6 +279,46 @@ def test_view_bad_options_one_line_exit_2(small_lf, tmp_path, capsys, args, matc
     assert match in err and "Traceback" not in err
     assert len(err.strip().splitlines()) == 1
     assert not shot.exists()
+
+
+def test_view_levels_is_a_hidden_alias_of_grey_levels(small_lf, tmp_path, capsys) -> None:
+    shot = tmp_path / "s.png"
+    args = ("view", str(small_lf), "--cpu", "--implant", "brainport", "--screenshot", str(shot))
+    from tests.conftest import run_cli
+
+    assert run_cli([*args, "--levels", "4"]) == 0
+    assert shot.exists()
+    assert "grey levels 4" in capsys.readouterr().out  # the status line of the screenshot
+    assert run_cli(["view", "--help"]) == 0
+    out = capsys.readouterr().out
+    assert "--grey-levels" in out and "--levels" not in out
+
+
+def test_viewer_from_options_names_parameters_not_flags(small_lf) -> None:
+    """A Python caller gets the viewer's checks, in its own words."""
+    from experiment.viewer.app import Viewer
+    from experiment.viewer.options import ViewerOptionError
+    from experiment.viewer.source import open_source
+
+    src = open_source(small_lf)
+    bad = [
+        ({"grey_levels": 3}, "grey_levels", "grey_levels must be one of (2, 4, 8), got 3"),
+        ({"threshold": -1.0}, "threshold", "threshold must be None (automatic) or >= 0"),
+        ({"compute": "tpu"}, "compute", "compute must be one of auto, gpu, cpu"),
+        ({"plane": 99}, "plane", "plane must be in 1.."),
+        ({"zoom": (0, 0, 4, 4)}, "zoom", "must be at least 8x8 inside "),
+        ({"marker": (500, 1)}, "marker", "marker (500, 1) must lie inside the "),
+    ]
+    for kwargs, parameter, match in bad:
+        with pytest.raises(ViewerOptionError, match=re.escape(match)) as exc:
+            Viewer.from_options(src, ["argus2"], n_planes=24, **kwargs)
+        assert exc.value.parameter == parameter and "--" not in str(exc.value)
+    v = Viewer.from_options(src, ["brainport"], grey_levels=4, plane=1, n_planes=24)
+    try:
+        assert v.state.grey_levels == 4 and v.state.plane == 0
+        assert [e.kind for e in v.log.events()][-1] == "state"
+    finally:
+        v.close()
 
 
 def test_view_missing_lightfield_and_bad_script(small_lf, tmp_path, capsys) -> None:
