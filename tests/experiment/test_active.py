@@ -369,8 +369,7 @@ def test_open_refuses_bad_protocols_and_mismatched_resume(tmp_path) -> None:
 _CHILD = textwrap.dedent(
     """
     import json, os, signal, sys
-    from experiment.active.adapter import search_model, search_renderer
-from experiment.active.eventlog import ActiveEventLog
+    from experiment.active.eventlog import ActiveEventLog
     from experiment.active.searcher import EdgeRecogniser, SimulatedSearcher
     from experiment.active.session import ActiveSession
     from experiment.clock import FakeClock

@@ -80,6 +80,6 @@ def test_demo_refuses_non_empty_folder(tmp_path) -> None:
     (tmp_path / "x.txt").write_text("keep")
     with pytest.raises(ConfocalError, match=r"--out folder is not empty; confocal never replaces"):
         active_demo.run_active_demo(tmp_path)
-    with pytest.raises(ConfocalError, match=r"--seed must be an integer >= 0"):
+    with pytest.raises(ConfocalError, match=r"^seed must be an integer >= 0"):
         active_demo.run_active_demo(tmp_path / "new", seed=-1)
     assert (tmp_path / "x.txt").read_text() == "keep"
