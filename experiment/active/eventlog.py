@@ -26,7 +26,8 @@ Payloads (JSON objects) by kind
 ``key``                ``key`` (the key or input pressed), ``action`` (``depth_near``,
                        ``depth_far``, ``plane_next``, ``plane_prev``, ``zoom``, ``unzoom``,
                        ``answer``, ``pass``), ``box`` ([x, y, w, h], zoom only).
-``state``              the displayed state: ``depth_px``, ``depth_m`` (or null), ``plane`` (index
+``state``              the displayed state: ``depth_px`` (the viewer state's ``disparity_px``;
+                       the log keeps its field name), ``depth_m`` (or null), ``plane`` (index
                        of the detected plane shown, or null), ``zoom`` ([x, y, w, h] or null),
                        ``grid_px``, ``on_cells`` (implant cells on), ``implant`` (hex of the
                        packed grid bits).
