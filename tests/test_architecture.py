@@ -396,4 +396,4 @@ def test_rooms_and_named_imports_are_seen() -> None:
     analysis = _imports_of("analysis", mods["analysis"], mods)
     assert {"analysis.pipeline", "analysis.report"} <= analysis  # lazy_loader.attach
     active = _named_imports_of("experiment.active", mods["experiment.active"], mods)
-    assert "experiment.active.engine" in active  # a lazy table of names
+    assert "experiment.viewer.state" in active  # a lazy table of names

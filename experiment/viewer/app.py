@@ -27,6 +27,7 @@ from experiment.errors import ConfocalError
 from experiment.viewer.events import ViewerEventLog
 from experiment.viewer.glview import GlFrames
 from experiment.viewer.memo import FrameAverage, LruCache
+from experiment.viewer.options import COMPUTE_CHOICES, check_options, start_state
 from experiment.viewer.reference import (
     OBSTACLE_ALERT_FRACTION,
     CpuRenderer,
@@ -88,10 +89,6 @@ PERCEPTS: tuple[str, ...] = ("phosphenes", "scoreboard", "axonmap")
 #: Candidate disparities of the per-pixel depth map, spread over the viewer's depth range
 #: (ours: about two per detected-plane width on the shipped light fields).
 DEPTH_CANDIDATES: int = 48
-
-
-#: Where the viewer's image pipeline runs (see :class:`Viewer`).
-COMPUTE_CHOICES: tuple[str, ...] = ("auto", "gpu", "cpu")
 
 
 _SOFTWARE_RENDERERS = ("llvmpipe", "softpipe", "swrast", "software rasterizer")
@@ -280,8 +277,6 @@ class Viewer:
         ------
         experiment.viewer.options.ViewerOptionError
         """
-        from experiment.viewer.options import check_options, start_state
-
         names = check_options(
             implants,
             grey_levels=grey_levels,

@@ -17,7 +17,10 @@ from typing import Any
 from experiment.errors import ConfocalError
 from experiment.viewer.state import GREY_LEVELS, ViewerState, check_zoom_box
 
-__all__ = ["ViewerOptionError", "check_options", "start_state"]
+__all__ = ["COMPUTE_CHOICES", "ViewerOptionError", "check_options", "start_state"]
+
+#: Where the viewer's image pipeline runs (see :class:`experiment.viewer.app.Viewer`).
+COMPUTE_CHOICES: tuple[str, ...] = ("auto", "gpu", "cpu")
 
 
 class ViewerOptionError(ConfocalError):
@@ -52,7 +55,6 @@ def check_options(
         An unknown implant (``implants``), a grey-level count not in :data:`GREY_LEVELS`, a
         negative or non-finite threshold or extension, an unknown ``compute``.
     """
-    from experiment.viewer.app import COMPUTE_CHOICES
     from stimuli.implants import ImplantError, implant_names, load_implant
 
     names = list(implants) if implants else sorted(implant_names(), key=lambda n: n != "argus2")
