@@ -28,9 +28,6 @@ __all__ = [
     "draw_layout",
     "Scene",
     "load_scene",
-    "refocus_image",
-    "implant_view",
-    "edge_image",
     "detect_planes",
     "object_edge_template",
 ]
@@ -323,59 +320,11 @@ def load_scene(
     return Scene(name, lf, objects, masks, looks, sha, words, layout, scan, edge_masks)
 
 
-def refocus_image(scene: Scene, disparity_px: float) -> np.ndarray:
-    """Return the confocal image at a disparity (float32 (rows, cols) in [0, 1]); Ng 2005."""
-    from stimuli.refocus import refocus
-
-    return refocus(scene.lightfield, float(disparity_px), workers=1)
-
-
 def _crop(image: np.ndarray, box_xywh: tuple[int, int, int, int] | None) -> np.ndarray:
     if box_xywh is None:
         return image
     x, y, w, h = box_xywh
     return np.ascontiguousarray(image[y : y + h, x : x + w])
-
-
-def edge_image(image: np.ndarray, *, threshold: float | None = None) -> tuple[np.ndarray, float]:
-    """De-clutter: Sobel edges above a threshold (Otsu when None). Returns (edges, threshold)."""
-    from stimuli.declutter import auto_threshold, declutter
-
-    t = auto_threshold(image) if threshold is None else float(threshold)
-    return declutter(image, threshold=t), t
-
-
-def implant_view(
-    image: np.ndarray,
-    grid_px: tuple[int, int],
-    *,
-    zoom_box_xywh: tuple[int, int, int, int] | None = None,
-    edge_ratio: float | None = None,
-) -> tuple[np.ndarray, np.ndarray]:
-    """Crop (zoom), de-clutter and compress an image to the implant grid (Figs. 12-14).
-
-    Parameters
-    ----------
-    image : ndarray of shape (rows, cols), float32 in [0, 1]
-        The confocal image (de-cluttered condition) or the centre view (cluttered).
-    grid_px : (rows, cols)
-        The implant's electrode grid.
-    zoom_box_xywh : (x, y, w, h), optional
-        Crop applied before de-clutter and compression (zoom, Fig. 14).
-    edge_ratio : float in [0, 1), optional
-        Compression edge ratio (default: the paper's 1/13).
-
-    Returns
-    -------
-    edges : ndarray of shape (h, w), bool
-    grid : ndarray of shape ``grid_px``, bool
-    """
-    from stimuli import jung2015
-    from stimuli.compress import compress
-
-    ratio = jung2015.EDGE_RATIO if edge_ratio is None else edge_ratio
-    edges, _ = edge_image(_crop(image, zoom_box_xywh))
-    return edges, compress(edges, tuple(grid_px), edge_ratio=ratio)
 
 
 def object_edge_template(
@@ -387,18 +336,18 @@ def object_edge_template(
 ) -> np.ndarray:
     """Return an object's implant view when it is alone and in focus (a recogniser template).
 
-    ``mask`` (rows, cols) bool keeps only the de-cluttered edges inside it before compression:
-    a recorded target is its whole view refocused at its plane, cut to its box after edge
+    The viewer's pipeline (:func:`experiment.viewer.reference.implant_cells`) on the object's
+    appearance cropped to the zoom box; the lit electrodes, bool ``grid_px``. ``mask``
+    (rows, cols) bool keeps only the de-cluttered edges inside it before compression: a
+    recorded target is its whole view refocused at its plane, cut to its box after edge
     detection so that the box's border makes no edges of its own.
     """
-    if mask is None:
-        return implant_view(appearance, grid_px, zoom_box_xywh=zoom_box_xywh)[1]
-    from stimuli import jung2015
-    from stimuli.compress import compress
+    from experiment.viewer.reference import implant_cells
 
-    edges, _ = edge_image(_crop(appearance, zoom_box_xywh))
-    edges = edges & _crop(np.asarray(mask, dtype=bool), zoom_box_xywh)
-    return compress(edges, tuple(grid_px), edge_ratio=jung2015.EDGE_RATIO)
+    img = _crop(np.asarray(appearance, dtype=np.float32), zoom_box_xywh)
+    keep = None if mask is None else _crop(np.asarray(mask, dtype=bool), zoom_box_xywh)
+    cells = implant_cells(img, tuple(grid_px), edge_mask=keep)[3]  # type: ignore[arg-type]
+    return cells >= 0.5
 
 
 def detect_planes(scene: Scene, *, n_planes: int) -> tuple[np.ndarray, tuple[float, ...]]:

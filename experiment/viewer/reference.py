@@ -51,6 +51,7 @@ __all__ = [
     "cpu_panes",
     "effective_grey_levels",
     "compress_for_implant",
+    "implant_cells",
     "track_point",
     "brightest_point",
     "otsu_threshold",
@@ -258,7 +259,6 @@ def cpu_panes(
     the masked view is mostly black, so its window means quantise to 0 and the implant pane
     would stay dark however close the obstacle came.
     """
-    from stimuli.declutter import sobel_magnitude
     from stimuli.refocus import refocus
 
     centre = lightfield.centre_view()
@@ -282,12 +282,55 @@ def cpu_panes(
         source = np.ascontiguousarray(source[y : y + h, x : x + w])
         if grey is not None:
             grey = np.ascontiguousarray(grey[y : y + h, x : x + w])
-    mag = sobel_magnitude(source)
-    t = float(state.threshold) if state.threshold is not None else otsu_threshold(mag)
-    edges = mag > t
     grey_levels = effective_grey_levels(state, layout)
-    cells = compress_for_implant(source, edges, layout, grey_levels, grey=grey)
+    mag, t, edges, cells = implant_cells(
+        source, layout, threshold=state.threshold, grey_levels=grey_levels, grey=grey
+    )
     return Panes(centre, source, mag, t, edges, cells, grey_levels, alert)
+
+
+def implant_cells(
+    image: np.ndarray,
+    layout: ImplantLayout | tuple[int, int],
+    *,
+    threshold: float | None = None,
+    grey_levels: int = 2,
+    grey: np.ndarray | None = None,
+    edge_mask: np.ndarray | None = None,
+) -> tuple[np.ndarray, float, np.ndarray, np.ndarray]:
+    """De-clutter an image (already cropped to the zoom box) and compress it to the implant.
+
+    Steps 3 and 4 of the pipeline (module docstring), for :func:`cpu_panes` and for any image
+    that is not a light field's (active search's recogniser templates).
+
+    Parameters
+    ----------
+    image : ndarray (h, w), float32 in [0, 1]
+    layout : ImplantLayout or (rows, cols)
+    threshold : float, optional
+        Sobel threshold (None: Otsu on the magnitude).
+    grey_levels : int
+        2: binary compression of the edges; more: grey compression of ``image`` (or ``grey``).
+    grey : ndarray (h, w), float32, optional
+        What the grey compression compresses instead of ``image`` (obstacle mode's coverage).
+    edge_mask : ndarray (h, w), bool, optional
+        Keep only the edges inside it before compressing.
+
+    Returns
+    -------
+    magnitude : ndarray (h, w), float32
+    threshold : float
+    edges : ndarray (h, w), bool
+    cells : ndarray (implant rows, cols), float32 in [0, 1]
+    """
+    from stimuli.declutter import sobel_magnitude
+
+    mag = sobel_magnitude(image)
+    t = float(threshold) if threshold is not None else otsu_threshold(mag)
+    edges = mag > t
+    if edge_mask is not None:
+        edges &= np.asarray(edge_mask, dtype=bool)
+    return mag, t, edges, compress_for_implant(image, edges, layout, grey_levels, grey=grey)
 
 
 class CpuRenderer:
