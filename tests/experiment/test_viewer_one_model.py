@@ -144,3 +144,11 @@ def test_actions_are_viewer_events() -> None:
             assert got == apply_event(model, s, ev[0], payload)
     off = ViewerModel((40, 50), (0.5, 10.0), 0.5, zoom_allowed=False)
     assert apply_event(off, s, "drag", {"box": [0, 0, 20, 20]}) == s
+
+
+def test_viewer_log_states_written_before_grey_levels_still_read() -> None:
+    """The viewer's logged states called the grey-level count ``levels``; they still read."""
+    old = {"disparity_px": 3.0, "implant": "brainport", "levels": 4, "zoom": [1, 2, 30, 40]}
+    s = ViewerState.from_dict(old)
+    assert (s.grey_levels, s.zoom) == (4, (1, 2, 30, 40))
+    assert "levels" not in s.to_dict() and s.to_dict()["grey_levels"] == 4
