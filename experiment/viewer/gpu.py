@@ -373,7 +373,9 @@ class GpuPipeline:
         x, y, w, h = self._crop
         return full[y : y + h, x : x + w].copy()
 
-    def compress(self, grid_px: tuple[int, int], threshold: float, levels: int, edge_ratio: float):
+    def compress(
+        self, grid_px: tuple[int, int], threshold: float, grey_levels: int, edge_ratio: float
+    ):
         """Compress the zoomed edges (or grey source) to a ``grid_px`` electrode grid."""
         from stimuli.compress import window_bounds
 
@@ -405,7 +407,7 @@ class GpuPipeline:
             p[name].value = unit
         p["u_crop"].value = self._crop
         p["u_t"].value = float(threshold)
-        p["u_levels"].value = int(levels)
+        p["u_levels"].value = int(grey_levels)
         self._cells_fbo.use()
         self._vaos["compress"].render(moderngl.TRIANGLES, vertices=3)
 
