@@ -2,7 +2,8 @@
 
 The task, its event log, a person searching (:mod:`~experiment.active.live`, with the operator's
 :mod:`~experiment.console.active`), simulated searchers, and the ``confocal demo --active``
-rendering. GL-free: the views come from the CPU pipeline of :mod:`stimuli`; a person's screen is the
+rendering. GL-free: the keys move the viewer's state machine (:mod:`experiment.viewer.state`) and
+the views come from its CPU renderer (:mod:`experiment.viewer.reference`); a person's screen is the
 presenter process.
 """
 
