@@ -20,14 +20,13 @@ import numpy as np
 from scipy import stats
 
 from analysis.weibull import MLEstimate, is_log_axis, threshold_at
-from analysis.weibull.mle import _theta_of_mle
-from analysis.weibull.model import _p_matrix
+from analysis.weibull.kernel import p_matrix, theta_of_mle
 
 __all__ = ["cluster_threshold_ci"]
 
 
 def _loglik_levels(theta: np.ndarray, levels: np.ndarray, guess: float, sigmoid: str):
-    p = _p_matrix(theta[None, :], levels, guess, sigmoid)[0]
+    p = p_matrix(theta[None, :], levels, guess, sigmoid)[0]
     return np.log(p), np.log1p(-p)
 
 
@@ -71,7 +70,7 @@ def cluster_threshold_ci(
     x = np.asarray(x, float)
     y = np.asarray(correct, float)
     levels, lev = np.unique(x, return_inverse=True)
-    theta0 = _theta_of_mle(mle, sigmoid)
+    theta0 = theta_of_mle(mle, sigmoid)
     # A lapse rate on its bound 0 is not a free parameter locally: hold it there.
     free = [0, 1] if mle.lapse <= 1e-6 else [0, 1, 2]
     k = len(free)

@@ -8,16 +8,10 @@ from typing import Any
 
 import numpy as np
 
-from analysis.weibull.batch import FitJob, _fit_of_chain, fit_batch
+from analysis.weibull.batch import FitJob, fit_batch, fit_of_chain
+from analysis.weibull.kernel import Sigmoid, check_guess, check_sigmoid, data_warnings, is_log_axis
 from analysis.weibull.mle import fit_mle
-from analysis.weibull.model import (
-    Sigmoid,
-    _check_guess,
-    _check_sigmoid,
-    _data_warnings,
-    aggregate,
-    is_log_axis,
-)
+from analysis.weibull.model import aggregate
 from analysis.weibull.posterior import MAX_STEPS, N_WALKERS
 from analysis.weibull.priors import PsychometricPrior, default_prior
 from analysis.weibull.summary import WeibullFit
@@ -109,8 +103,8 @@ def fit_counts(
     FitWarning
         All or no trials correct, or fewer than 5 trials at most levels.
     """
-    _check_sigmoid(sigmoid)
-    _check_guess(guess)
+    check_sigmoid(sigmoid)
+    check_guess(guess)
     lv = np.asarray(levels, float).ravel()
     kk = np.asarray(k, float).ravel()
     nn = np.asarray(n, float).ravel()
@@ -128,7 +122,7 @@ def fit_counts(
     n = np.bincount(inv, weights=nn).astype(float)
     if is_log_axis(sigmoid) and levels[0] <= 0:
         raise ValueError(f"x must be > 0 for the {sigmoid} (log axis), got {float(levels[0])!r}")
-    _data_warnings(label, k, n)
+    data_warnings(label, k, n)
     rng = np.random.default_rng(rng)
     prior = prior or default_prior(levels, guess=guess, sigmoid=sigmoid)
     mle = fit_mle(levels, k, n, guess=guess, sigmoid=sigmoid, prior=prior)
@@ -154,7 +148,7 @@ def _finish(
 ) -> WeibullFit:
     """Return the fit of the last :class:`SamplerProgress` of :func:`sample_posterior`."""
     job = FitJob(label, levels, k, n, float(guess), prior, mle, bool(overdispersion))
-    fit = _fit_of_chain(
+    fit = fit_of_chain(
         job,
         sigmoid,
         progress.sampler.get_chain(),
@@ -217,7 +211,7 @@ def group_fit_jobs(
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
             levels, k, n = aggregate(sel["pixels"].to_numpy(), sel["recognized"].to_numpy())
-            _data_warnings(label, k, n)
+            data_warnings(label, k, n)
             p = prior or default_prior(
                 levels, guess=guess, lapse_a=lapse_prior[0], lapse_b=lapse_prior[1]
             )

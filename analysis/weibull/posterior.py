@@ -23,8 +23,8 @@ from typing import Any
 import emcee
 import numpy as np
 
-from analysis.weibull.mle import MLEstimate, _theta_of_mle, fit_mle
-from analysis.weibull.model import Sigmoid, _log_likelihood
+from analysis.weibull.kernel import Sigmoid, log_likelihood, theta_of_mle
+from analysis.weibull.mle import MLEstimate, fit_mle
 from analysis.weibull.priors import PsychometricPrior, default_prior
 
 __all__ = [
@@ -77,7 +77,7 @@ class _LogPosterior:
         ok = np.isfinite(lp)
         out = np.full(theta.shape[0], -np.inf)
         if ok.any():
-            out[ok] = lp[ok] + _log_likelihood(
+            out[ok] = lp[ok] + log_likelihood(
                 theta[ok], self.x, self.k, self.n, self.guess, self.sigmoid
             )
         return out
@@ -158,7 +158,7 @@ def sample_posterior(
     start = start or fit_mle(x, k, n, guess=guess, sigmoid=sigmoid, prior=prior)
     logp = _LogPosterior(x, k, n, guess, sigmoid, prior)
 
-    centre = _theta_of_mle(start, sigmoid)
+    centre = theta_of_mle(start, sigmoid)
     if overdispersion:
         centre = np.append(centre, 0.02)
     box = np.array(prior.bounds(ndim))

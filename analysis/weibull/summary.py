@@ -8,29 +8,26 @@ from typing import Any
 
 import numpy as np
 
-from analysis.weibull.mle import MLEstimate, _theta_of_mle
-from analysis.weibull.model import (
-    _EPS,
-    _V_MAX,
+from analysis.weibull.kernel import (
+    EPS,
     ETA_MAX,
-    _core,
-    _core_inverse,
-    _p_matrix,
-    _params,
+    V_MAX,
+    axis_value,
+    decreasing,
     is_log_axis,
-    psychometric,
-    threshold_at,
+    json_float,
+    p_matrix,
+    separated,
+    sigmoid_cdf,
+    sigmoid_ppf,
+    theta_of_mle,
+    theta_params,
 )
+from analysis.weibull.mle import MLEstimate
+from analysis.weibull.model import psychometric, threshold_at
 from analysis.weibull.posterior import TAU_MULTIPLE
 from analysis.weibull.priors import PsychometricPrior
-from analysis.weibull.threshold import (
-    Threshold,
-    _axis_value,
-    _decreasing,
-    _json_float,
-    _separated,
-    bracket,
-)
+from analysis.weibull.threshold import Threshold, bracket
 
 __all__ = ["WeibullFit", "POOR_FIT_PPP"]
 
@@ -101,7 +98,7 @@ class WeibullFit:
 
     def parameter_samples(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Return posterior samples of (alpha, beta, lapse) in natural units."""
-        return _params(self.samples, self.sigmoid)
+        return theta_params(self.samples, self.sigmoid)
 
     @property
     def alpha(self) -> float:
@@ -136,7 +133,7 @@ class WeibullFit:
 
         Tested by a two-parameter binomial logistic regression of correct on the stimulus axis.
         """
-        return _decreasing(
+        return decreasing(
             np.asarray(self.levels), np.asarray(self.k), np.asarray(self.n), self.sigmoid
         )
 
@@ -158,8 +155,8 @@ class WeibullFit:
         m = self.mle
         if midpoint:
             half = np.full(np.shape(a), 0.5)
-            t = _core_inverse(half, a, b, self.sigmoid)
-            t_mle = float(_core_inverse(np.array(0.5), m.alpha, m.beta, self.sigmoid))
+            t = sigmoid_ppf(half, a, b, self.sigmoid)
+            t_mle = float(sigmoid_ppf(np.array(0.5), m.alpha, m.beta, self.sigmoid))
             pc = self.guess + 0.5 * (1.0 - self.guess - m.lapse)
         else:
             t = threshold_at(pc, a, b, lapse, guess=self.guess, sigmoid=self.sigmoid)
@@ -229,7 +226,7 @@ class WeibullFit:
         # data's: each case below is reported by its bracketing levels, with no interval.
         if len(self.levels) < 3:
             return "unidentified", f"{len(self.levels)} levels with data"
-        step = _separated(k, n)
+        step = separated(k, n)
         if step is not None:
             x = self.levels
             return "unidentified", (
@@ -246,7 +243,7 @@ class WeibullFit:
                 else f"up to {_num(ci[1])}, above the highest level {_num(hi)}"
             )
             return "unidentified", f"95 % interval runs beyond the tested range ({side})"
-        a_lo, a_hi = (_axis_value(c, self.sigmoid) for c in ci)
+        a_lo, a_hi = (axis_value(c, self.sigmoid) for c in ci)
         prior_width = self.prior.loc_range[1] - self.prior.loc_range[0]
         if not math.isfinite(a_hi - a_lo) or (a_hi - a_lo) > 0.8 * prior_width:
             return "unidentified", "95 % interval spans most of the prior range"
@@ -260,7 +257,7 @@ class WeibullFit:
         The lapse rate's lower bound 0 is a natural limit, not a prior choice, and is not counted.
         """
         box = self.prior.bounds(3)
-        theta_ml = _theta_of_mle(self.mle, self.sigmoid)
+        theta_ml = theta_of_mle(self.mle, self.sigmoid)
         for j, name in ((1, "slope"), (2, "lapse rate")):
             lo, hi = box[j]
             w = hi - lo
@@ -299,7 +296,7 @@ class WeibullFit:
             )
         box = self.prior.bounds(4)
         names = ("threshold location", "slope", "lapse rate", "overdispersion")
-        theta_ml = _theta_of_mle(self.mle, self.sigmoid)
+        theta_ml = theta_of_mle(self.mle, self.sigmoid)
         for j in range(3):
             lo, hi = box[j]
             w = hi - lo
@@ -393,13 +390,13 @@ class WeibullFit:
         x, k, n = (np.asarray(v, float) for v in (self.levels, self.k, self.n))
         m = self.mle
         p_ml = psychometric(x, m.alpha, m.beta, m.lapse, guess=self.guess, sigmoid=self.sigmoid)
-        dev = float(_deviance(k, n, np.clip(p_ml, _EPS, 1 - _EPS)))
+        dev = float(_deviance(k, n, np.clip(p_ml, EPS, 1 - EPS)))
         idx = np.linspace(0, len(self.samples) - 1, min(n_draws, len(self.samples))).astype(int)
         th = self.samples[idx]
-        p = _p_matrix(th[:, :3], x, self.guess, self.sigmoid)
+        p = p_matrix(th[:, :3], x, self.guess, self.sigmoid)
         p_draw = p
         if th.shape[1] > 3 and self.overdispersion:
-            v = np.minimum(1.0 / np.maximum(th[:, 3], 1e-6) ** 2 - 1.0, _V_MAX)[:, None]
+            v = np.minimum(1.0 / np.maximum(th[:, 3], 1e-6) ** 2 - 1.0, V_MAX)[:, None]
             p_draw = rng.beta(np.maximum(p * v, 1e-9), np.maximum((1 - p) * v, 1e-9))
         k_rep = rng.binomial(n.astype(int)[None, :], np.clip(p_draw, 0.0, 1.0))
         d_obs = _deviance(k[None, :], n[None, :], p)
@@ -417,7 +414,7 @@ class WeibullFit:
         a, b, lapse = self.parameter_samples()
         idx = np.linspace(0, len(a) - 1, min(max_samples, len(a))).astype(int)
         x = np.asarray(x, float)
-        p = self.guess + (1 - self.guess - lapse[idx, None]) * _core(
+        p = self.guess + (1 - self.guess - lapse[idx, None]) * sigmoid_cdf(
             x[None, :], a[idx, None], b[idx, None], self.sigmoid
         )
         lo, med, hi = np.quantile(p, [(1 - level) / 2, 0.5, (1 + level) / 2], axis=0)
@@ -436,9 +433,9 @@ class WeibullFit:
         ok = t50.measured
         d: dict[str, Any] = {
             "status": t50.status,
-            "p50_pixels": _json_float(t50.median) if ok else None,
-            "ci95": [_json_float(t50.ci95[0]), _json_float(t50.ci95[1])] if ok else [None, None],
-            "mle_p50_pixels": _json_float(t50.mle) if ok else None,
+            "p50_pixels": json_float(t50.median) if ok else None,
+            "ci95": [json_float(t50.ci95[0]), json_float(t50.ci95[1])] if ok else [None, None],
+            "mle_p50_pixels": json_float(t50.mle) if ok else None,
             "threshold_50": t50.to_dict(),
             "alpha": self.alpha,
             "beta": self.beta,
@@ -447,7 +444,7 @@ class WeibullFit:
             "eta": self.eta,
             "eta_ci95": list(self.eta_ci95),
             "converged": bool(self.converged),
-            "tau_max": _json_float(self.tau_max),
+            "tau_max": json_float(self.tau_max),
             "n_trials": self.n_trials,
             "n_recognized": self.n_correct,
             "mle": self.mle.to_dict(),
@@ -459,11 +456,11 @@ class WeibullFit:
             ok = t.measured
             d.update(
                 pc=pc,
-                threshold=_json_float(t.median) if ok else None,
-                threshold_ci95=[_json_float(t.ci95[0]), _json_float(t.ci95[1])]
+                threshold=json_float(t.median) if ok else None,
+                threshold_ci95=[json_float(t.ci95[0]), json_float(t.ci95[1])]
                 if ok
                 else [None, None],
-                mle_threshold=_json_float(t.mle) if ok else None,
+                mle_threshold=json_float(t.mle) if ok else None,
                 threshold_pc=t.to_dict(),
             )
         return d
@@ -480,7 +477,7 @@ class WeibullFit:
             "mle": self.mle.to_dict(),
             "samples": self.samples.tolist(),
             "converged": self.converged,
-            "tau_max": _json_float(self.tau_max),
+            "tau_max": json_float(self.tau_max),
             "n_steps": self.n_steps,
             "n_walkers": self.n_walkers,
             "prior": self.prior.to_dict(),
