@@ -265,7 +265,7 @@ def _numeric(df: pd.DataFrame, col: str, source: str, option: str) -> np.ndarray
 def counts_by_group(
     df: pd.DataFrame, spec: FitSpec, source: str = "table"
 ) -> list[tuple[dict[str, str], np.ndarray, np.ndarray, np.ndarray]]:
-    """Return ``(group values, levels, k, n)`` per group, levels merged and sorted.
+    """Return ``(group values, x values, k, n)`` per group, x values merged and sorted.
 
     Parameters
     ----------
@@ -404,7 +404,7 @@ class GroupFit:
             "group": dict(self.group),
             "label": self.label,
             "n_trials": float(sum(f.n)),
-            "levels": list(f.levels),
+            "levels": list(f.pixels),  # the fit table's JSON key stays
             "k": list(f.k),
             "n": list(f.n),
             "thresholds": [t.to_dict() for t in self.thresholds(pcs)],
@@ -507,14 +507,14 @@ def iter_fit_table(
     Raises
     ------
     DataError
-        Bad columns or values; levels <= 0 for a log-axis sigmoid.
+        Bad columns or values; x values <= 0 for a log-axis sigmoid.
     """
     groups = counts_by_group(df, spec, source)
     all_x = np.concatenate([g[1] for g in groups])
     sigmoid = resolve_sigmoid(spec.sigmoid, spec.axis, all_x)
     if is_log_axis(sigmoid) and np.any(all_x <= 0):
         raise DataError(
-            f"{source}: --x column {spec.x!r} has levels <= 0 ({all_x.min():g}), which the "
+            f"{source}: --x column {spec.x!r} has values <= 0 ({all_x.min():g}), which the "
             f"{sigmoid} (log axis) cannot take; use --sigmoid logistic, normal or gumbel "
             "(linear axis)"
         )

@@ -117,7 +117,7 @@ def main() -> None:
 
         base_t, n_base, base_ok = 0.0, 0, 0
         for f in fits:
-            lv, k, n = np.asarray(f.levels), np.asarray(f.k), np.asarray(f.n)
+            lv, k, n = np.asarray(f.pixels), np.asarray(f.k), np.asarray(f.n)
             bt, bs, btau = baseline_fit(lv, k, n, a.seed)
             base_t += bt
             n_base += 1

@@ -61,8 +61,9 @@ class FitJob:
     ----------
     label : str
         Name used in warnings and reports.
-    levels, k, n : ndarray of shape (n_levels,)
-        Distinct levels (x units), number correct, number of trials (n > 0).
+    pixels, k, n : ndarray of shape (n_levels,)
+        Distinct stimulus values (x units: pixels for the paper's data), number correct, number
+        of trials (n > 0). ``levels`` is a deprecated alias of ``pixels``.
     guess : float
         Guess rate in [0, 1).
     prior : PsychometricPrior
@@ -73,13 +74,18 @@ class FitJob:
     """
 
     label: str
-    levels: np.ndarray
+    pixels: np.ndarray
     k: np.ndarray
     n: np.ndarray
     guess: float
     prior: PsychometricPrior
     mle: MLEstimate
     overdispersion: bool = False
+
+    @property
+    def levels(self) -> np.ndarray:
+        """Deprecated alias of :attr:`pixels` (the fitted stimulus values), kept for a while."""
+        return self.pixels
 
 
 @dataclass(frozen=True)
@@ -103,15 +109,15 @@ class _Batch:
         self.sigmoid = sigmoid
         self.shape, axis = SIGMOIDS[sigmoid]
         self.log = axis == "log"
-        n_lv = max(len(j.levels) for j in jobs)
+        n_lv = max(len(j.pixels) for j in jobs)
         f = len(jobs)
         self.x = np.ones((f, n_lv))
         self.k = np.zeros((f, n_lv))
         self.n = np.zeros((f, n_lv))
         for i, j in enumerate(jobs):
-            m = len(j.levels)
+            m = len(j.pixels)
             # Padding repeats a real level with n = k = 0: it adds exactly 0 to the likelihood.
-            self.x[i, :m], self.x[i, m:] = j.levels, j.levels[0]
+            self.x[i, :m], self.x[i, m:] = j.pixels, j.pixels[0]
             self.k[i, :m], self.n[i, :m] = j.k, j.n
         self.u = np.log(self.x) if self.log else self.x
         self.guess = np.array([j.guess for j in jobs])
@@ -292,7 +298,7 @@ def fit_of_chain(
         label=job.label,
         sigmoid=sigmoid,
         guess=float(job.guess),
-        levels=tuple(float(v) for v in job.levels),
+        pixels=tuple(float(v) for v in job.pixels),
         k=tuple(float(v) for v in job.k),
         n=tuple(float(v) for v in job.n),
         mle=job.mle,

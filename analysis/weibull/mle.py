@@ -52,7 +52,7 @@ class MLEstimate:
 
 
 def fit_mle(
-    levels: Any,
+    pixels: Any,
     k: Any,
     n: Any,
     *,
@@ -66,8 +66,9 @@ def fit_mle(
 
     Parameters
     ----------
-    levels, k, n : array_like of shape (n_levels,)
-        Distinct stimulus levels, number correct and number of trials (see :func:`aggregate`).
+    pixels, k, n : array_like of shape (n_levels,)
+        Distinct stimulus values (pixels for the paper's data), number correct and number of
+        trials (see :func:`aggregate`).
     guess : float
         Guess rate in [0, 1).
     sigmoid : {'weibull', 'logistic'}
@@ -80,7 +81,7 @@ def fit_mle(
     """
     check_sigmoid(sigmoid)
     check_guess(guess)
-    x = np.asarray(levels, float)
+    x = np.asarray(pixels, float)
     k = np.asarray(k, float)
     n = np.asarray(n, float)
     prior = prior or default_prior(x, guess=guess, sigmoid=sigmoid)

@@ -72,12 +72,12 @@ def psychometric(
     guess: float = 0.0,
     sigmoid: Sigmoid = "weibull",
 ) -> np.ndarray:
-    """Return the probability correct at stimulus levels ``x``.
+    """Return the probability correct at stimulus values ``x``.
 
     Parameters
     ----------
     x : array_like
-        Stimulus levels (pixels for the Weibull: > 0; any unit for the logistic).
+        Stimulus values (pixels for the paper's Weibull: > 0; any unit for the logistic).
     alpha : float
         Scale (Weibull, x units, > 0) or midpoint (logistic, x units).
     beta : float
@@ -153,18 +153,19 @@ def threshold_at(
 
 
 def aggregate(x: Any, correct: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Return the distinct levels, the number correct and the number of trials at each.
+    """Return the distinct stimulus values, the number correct and the number of trials at each.
 
     Parameters
     ----------
     x : array_like of shape (n_trials,)
-        Stimulus level per trial.
+        Stimulus value per trial (pixels for the paper's data).
     correct : array_like of shape (n_trials,)
         1 (correct/recognised) or 0 per trial.
 
     Returns
     -------
-    levels, k, n : ndarray of shape (n_levels,)
+    pixels, k, n : ndarray of shape (n_levels,)
+        The distinct values, increasing; number correct and number of trials at each.
     """
     x = np.asarray(x, dtype=float).ravel()
     c = np.asarray(correct, dtype=float).ravel()
@@ -176,7 +177,7 @@ def aggregate(x: Any, correct: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray]
         raise ValueError("x must be finite, got NaN or inf")
     if not np.all((c == 0) | (c == 1)):
         raise ValueError("correct must be 0 or 1 for every trial")
-    levels, inv = np.unique(x, return_inverse=True)
+    pixels, inv = np.unique(x, return_inverse=True)
     n = np.bincount(inv).astype(float)
     k = np.bincount(inv, weights=c).astype(float)
-    return levels, k, n
+    return pixels, k, n

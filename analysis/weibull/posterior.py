@@ -99,7 +99,7 @@ class SamplerProgress:
 
 
 def sample_posterior(
-    levels: Any,
+    pixels: Any,
     k: Any,
     n: Any,
     *,
@@ -120,8 +120,9 @@ def sample_posterior(
 
     Parameters
     ----------
-    levels, k, n : array_like of shape (n_levels,)
-        Distinct levels, number correct, number of trials.
+    pixels, k, n : array_like of shape (n_levels,)
+        Distinct stimulus values (pixels for the paper's data), number correct, number of
+        trials.
     guess : float
         Guess rate in [0, 1).
     sigmoid : str
@@ -151,7 +152,7 @@ def sample_posterior(
             f"n_walkers must be >= {2 * ndim} (2 x {ndim} parameters), got {n_walkers!r}"
         )
     rng = np.random.default_rng(rng)
-    x = np.asarray(levels, float)
+    x = np.asarray(pixels, float)
     k = np.asarray(k, float)
     n = np.asarray(n, float)
     prior = prior or default_prior(x, guess=guess, sigmoid=sigmoid)

@@ -142,19 +142,19 @@ class PsychometricPrior:
 
 
 def default_prior(
-    levels: Any,
+    pixels: Any,
     *,
     guess: float = 0.0,
     sigmoid: Sigmoid = "weibull",
     lapse_a: float = 1.0,
     lapse_b: float = 10.0,
 ) -> PsychometricPrior:
-    """Return the default prior for stimulus levels ``levels`` (see the module docstring).
+    """Return the default prior for the tested stimulus values ``pixels`` (module docstring).
 
     Parameters
     ----------
-    levels : array_like
-        Stimulus levels tested (> 0 for the Weibull).
+    pixels : array_like
+        Stimulus values tested (pixels for the paper's data; > 0 for the Weibull).
     guess : float
         Guess rate in [0, 1).
     sigmoid : {'weibull', 'logistic'}
@@ -167,9 +167,9 @@ def default_prior(
     """
     check_sigmoid(sigmoid)
     check_guess(guess)
-    lv = np.asarray(levels, dtype=float)
+    lv = np.asarray(pixels, dtype=float)
     if is_log_axis(sigmoid) and np.any(lv <= 0):
-        raise ValueError(f"levels must be > 0 for the {sigmoid} (log axis), got a value <= 0")
+        raise ValueError(f"pixels must be > 0 for the {sigmoid} (log axis), got a value <= 0")
     a = to_axis(lv, sigmoid)
     lo, hi = float(a.min()), float(a.max())
     span = hi - lo

@@ -51,8 +51,9 @@ class WeibullFit:
         One of :data:`SIGMOIDS`.
     guess : float
         Guess rate (fixed).
-    levels, k, n : tuple of float
-        Distinct stimulus levels (x units), number correct and number of trials at each.
+    pixels, k, n : tuple of float
+        Distinct stimulus values (x units: pixels per object for the paper's data), number
+        correct and number of trials at each. ``levels`` is a deprecated alias of ``pixels``.
     mle : MLEstimate
         Maximum-likelihood parameters (binomial likelihood).
     samples : ndarray of shape (n_samples, 4)
@@ -74,7 +75,7 @@ class WeibullFit:
     label: str
     sigmoid: str
     guess: float
-    levels: tuple[float, ...]
+    pixels: tuple[float, ...]
     k: tuple[float, ...]
     n: tuple[float, ...]
     mle: MLEstimate
@@ -85,6 +86,11 @@ class WeibullFit:
     n_walkers: int
     prior: PsychometricPrior
     overdispersion: bool = False
+
+    @property
+    def levels(self) -> tuple[float, ...]:
+        """Deprecated alias of :attr:`pixels` (the fitted stimulus values), kept for a while."""
+        return self.pixels
 
     @property
     def n_trials(self) -> int:
@@ -134,7 +140,7 @@ class WeibullFit:
         Tested by a two-parameter binomial logistic regression of correct on the stimulus axis.
         """
         return decreasing(
-            np.asarray(self.levels), np.asarray(self.k), np.asarray(self.n), self.sigmoid
+            np.asarray(self.pixels), np.asarray(self.k), np.asarray(self.n), self.sigmoid
         )
 
     def threshold(self, pc: float = 0.5, *, midpoint: bool = False) -> Threshold:
@@ -165,13 +171,13 @@ class WeibullFit:
             )
         # 'inverted_cdf' does not interpolate, so +inf samples (curve never reaches pc) are safe.
         q = np.quantile(t, [0.025, 0.5, 0.975], method="inverted_cdf")
-        lo, hi = min(self.levels), max(self.levels)
-        br = bracket(self.levels, self.k, self.n, pc)
+        lo, hi = min(self.pixels), max(self.pixels)
+        br = bracket(self.pixels, self.k, self.n, pc)
         status, reason = self._status(pc, float(q[1]), (float(q[0]), float(q[2])), t_mle, br)
         if status == "unidentified" and "decreases" in reason:
             br = (math.nan, math.nan)
         else:
-            br = _widen(br, self.levels, t_mle)
+            br = _widen(br, self.pixels, t_mle)
         return Threshold(
             float(pc),
             float(q[1]),
@@ -194,12 +200,12 @@ class WeibullFit:
         br: tuple[float, float] = (math.nan, math.nan),
     ) -> tuple[str, str]:
         k, n = np.asarray(self.k), np.asarray(self.n)
-        lo, hi = min(self.levels), max(self.levels)
+        lo, hi = min(self.pixels), max(self.pixels)
         if k.sum() == n.sum():
             return "censored_below", "every trial correct"
         if k.sum() == 0:
             return "censored_above", "no trial correct"
-        if len(self.levels) < 2:
+        if len(self.pixels) < 2:
             rate = k.sum() / n.sum()
             if rate > pc:
                 return "censored_below", "one level tested, above pc there"
@@ -224,11 +230,11 @@ class WeibullFit:
             return "censored_below", "posterior median below the lowest level tested"
         # Where the data do not identify the curve, an interval would be the prior's, not the
         # data's: each case below is reported by its bracketing levels, with no interval.
-        if len(self.levels) < 3:
-            return "unidentified", f"{len(self.levels)} levels with data"
+        if len(self.pixels) < 3:
+            return "unidentified", f"{len(self.pixels)} levels with data"
         step = separated(k, n)
         if step is not None:
-            x = self.levels
+            x = self.pixels
             return "unidentified", (
                 f"step response (none correct at {_num(x[step[0]])} or below, all from "
                 f"{_num(x[step[1]])}): the data are separated and set no slope"
@@ -330,7 +336,7 @@ class WeibullFit:
             frac = float(np.mean(self.samples[:, 3] > ETA_MAX - 0.02))
             if frac > 0.10:
                 out.append(f"{name}: the overdispersion scale presses on its upper bound")
-        if len(self.levels) >= 2 and self.decreasing():
+        if len(self.pixels) >= 2 and self.decreasing():
             out.append(
                 f"{name}: proportion correct decreases with level; an increasing psychometric "
                 "function does not describe these data and its thresholds are not reported"
@@ -348,9 +354,9 @@ class WeibullFit:
                     f"{name}: posterior median ({t.median:.4g}) and ML threshold ({t.mle:.4g}) "
                     f"differ by {100 * abs(ratio - 1):.0f} %; the data barely constrain it"
                 )
-        if 0 < len(self.levels) < 3:
+        if 0 < len(self.pixels) < 3:
             out.append(
-                f"{name}: only {len(self.levels)} level(s) tested; the slope is not "
+                f"{name}: only {len(self.pixels)} level(s) tested; the slope is not "
                 "identified by the data"
             )
         g = self.goodness_of_fit()
@@ -387,7 +393,7 @@ class WeibullFit:
             ``deviance``, ``deviance_df`` (levels - 3), ``ppp``.
         """
         rng = np.random.default_rng(rng)
-        x, k, n = (np.asarray(v, float) for v in (self.levels, self.k, self.n))
+        x, k, n = (np.asarray(v, float) for v in (self.pixels, self.k, self.n))
         m = self.mle
         p_ml = psychometric(x, m.alpha, m.beta, m.lapse, guess=self.guess, sigmoid=self.sigmoid)
         dev = float(_deviance(k, n, np.clip(p_ml, EPS, 1 - EPS)))
@@ -471,7 +477,7 @@ class WeibullFit:
             "label": self.label,
             "sigmoid": self.sigmoid,
             "guess": self.guess,
-            "levels": list(self.levels),
+            "levels": list(self.pixels),  # the results.json key stays
             "k": list(self.k),
             "n": list(self.n),
             "mle": self.mle.to_dict(),
@@ -495,7 +501,7 @@ class WeibullFit:
             label=str(d["label"]),
             sigmoid=str(d["sigmoid"]),
             guess=float(d["guess"]),
-            levels=tuple(float(v) for v in d["levels"]),
+            pixels=tuple(float(v) for v in d["levels"]),
             k=tuple(float(v) for v in d["k"]),
             n=tuple(float(v) for v in d["n"]),
             mle=MLEstimate.from_dict(d["mle"]),
@@ -509,7 +515,7 @@ class WeibullFit:
         )
 
 
-def _widen(br: tuple[float, float], levels: Any, t_mle: float) -> tuple[float, float]:
+def _widen(br: tuple[float, float], pixels: Any, t_mle: float) -> tuple[float, float]:
     """Widen a bracket to the tested levels around ``t_mle`` when it lies outside the bracket.
 
     A side that is NaN stays NaN only if ``t_mle`` lies on the bracket's open side; an ML
@@ -518,7 +524,7 @@ def _widen(br: tuple[float, float], levels: Any, t_mle: float) -> tuple[float, f
     lo, hi = br
     if not math.isfinite(t_mle) or (math.isnan(lo) and math.isnan(hi)):
         return br
-    x = np.asarray(levels, float)
+    x = np.asarray(pixels, float)
     if math.isfinite(lo) and t_mle < lo:
         below = x[x <= t_mle]
         lo = float(below.max()) if below.size else math.nan

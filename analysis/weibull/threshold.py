@@ -79,8 +79,8 @@ class Threshold:
                 f"{fmt.format(self.median)}{u} (95 % CrI {fmt.format(self.ci95[0])}-"
                 f"{fmt.format(self.ci95[1])}; ML {fmt.format(self.mle)})"
             )
-        levels = {"lowest_tested": self.lowest, "highest_tested": self.highest}  # nan, inf kept
-        return unmeasured_text({**self.to_dict(), **levels}, fmt, unit)
+        tested = {"lowest_tested": self.lowest, "highest_tested": self.highest}  # nan, inf kept
+        return unmeasured_text({**self.to_dict(), **tested}, fmt, unit)
 
     def to_dict(self) -> dict[str, Any]:
         """Return a JSON-ready dict (inf -> None)."""
@@ -164,7 +164,7 @@ def _bracket_text(br: Any, fmt: str, u: str) -> str:
     return ""
 
 
-def bracket(levels: Any, k: Any, n: Any, pc: float) -> tuple[float, float]:
+def bracket(pixels: Any, k: Any, n: Any, pc: float) -> tuple[float, float]:
     """Return the tested levels that bracket where proportion correct crosses ``pc``.
 
     The observed proportions are made non-decreasing in level first (pool-adjacent-violators,
@@ -175,8 +175,9 @@ def bracket(levels: Any, k: Any, n: Any, pc: float) -> tuple[float, float]:
 
     Parameters
     ----------
-    levels, k, n : array_like of shape (n_levels,)
-        Distinct levels in increasing order (x units), number correct, number of trials (> 0).
+    pixels, k, n : array_like of shape (n_levels,)
+        Distinct stimulus values in increasing order (x units), number correct, number of
+        trials (> 0).
     pc : float
         Proportion correct, in (0, 1).
 
@@ -192,7 +193,7 @@ def bracket(levels: Any, k: Any, n: Any, pc: float) -> tuple[float, float]:
     >>> bracket([96.0, 486.0, 950.0], [0, 0, 3], [2, 2, 3], 0.5)
     (486.0, 950.0)
     """
-    x = np.asarray(levels, float)
+    x = np.asarray(pixels, float)
     p = _pava(np.asarray(k, float) / np.asarray(n, float), np.asarray(n, float))
     below, above = x[p < pc], x[p > pc]
     lo = float(below.max()) if below.size else math.nan

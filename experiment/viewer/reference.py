@@ -196,7 +196,7 @@ def compress_for_implant(
 
     if levels <= 2:
         return compress(edges, layout.shape, edge_ratio=EDGE_RATIO).astype(np.float32)
-    return compress_grey(source if grey is None else grey, layout.shape, levels=levels)
+    return compress_grey(source if grey is None else grey, layout.shape, grey_levels=levels)
 
 
 def cpu_panes(
