@@ -20,7 +20,7 @@ sigmoid         axis    F(z)                         note
 ``normal``      linear  Phi(z)                       cumulative normal
 ==============  ======  ===========================  ==========================================
 
-The likelihood is binomial over the distinct stimulus levels, or, with ``overdispersion=True``,
+The likelihood is binomial over the distinct stimulus values, or, with ``overdispersion=True``,
 beta-binomial: each level's P is itself drawn from a Beta distribution with mean P and
 ``Var = eta ** 2 * P * (1 - P)``, so the level's count has variance
 ``n P (1 - P) (1 + (n - 1) eta ** 2)`` (Schuett, Harmeling, Macke & Wichmann 2016, psignifit 4).
@@ -29,8 +29,9 @@ default, as we read it; ours to adopt). Pooling subjects and objects whose thres
 binomial-only intervals too narrow; eta absorbs that extra variance. Maximum-likelihood estimates
 are always binomial (as Psychtoolbox's fit in the paper).
 
-This module also aggregates trials into counts per level and warns (:class:`FitWarning`) about
-data that are legal but suspicious for a fit.
+This module also aggregates trials into counts per stimulus value (:func:`aggregate`). The
+sigmoid table, :class:`FitWarning` and the likelihood live in :mod:`analysis.weibull.kernel`
+and are re-exported here.
 """
 
 from __future__ import annotations
