@@ -441,9 +441,9 @@ def _model_line(overdispersion: bool) -> str:
 
 
 def _threshold_line(t: dict) -> str:
-    from analysis.psychometric import _threshold_md
+    from analysis.psychometric import threshold_md
 
-    return _threshold_md(t)
+    return threshold_md(t)
 
 
 class Effect(StrEnum):

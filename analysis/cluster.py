@@ -20,14 +20,13 @@ import numpy as np
 from scipy import stats
 
 from analysis.weibull import MLEstimate, is_log_axis, threshold_at
-from analysis.weibull.mle import _theta_of_mle
-from analysis.weibull.model import _p_matrix
+from analysis.weibull.kernel import p_matrix, theta_of_mle
 
 __all__ = ["cluster_threshold_ci"]
 
 
-def _loglik_levels(theta: np.ndarray, levels: np.ndarray, guess: float, sigmoid: str):
-    p = _p_matrix(theta[None, :], levels, guess, sigmoid)[0]
+def _loglik_pixels(theta: np.ndarray, pixels: np.ndarray, guess: float, sigmoid: str):
+    p = p_matrix(theta[None, :], pixels, guess, sigmoid)[0]
     return np.log(p), np.log1p(-p)
 
 
@@ -70,8 +69,8 @@ def cluster_threshold_ci(
     """
     x = np.asarray(x, float)
     y = np.asarray(correct, float)
-    levels, lev = np.unique(x, return_inverse=True)
-    theta0 = _theta_of_mle(mle, sigmoid)
+    pixels, lev = np.unique(x, return_inverse=True)
+    theta0 = theta_of_mle(mle, sigmoid)
     # A lapse rate on its bound 0 is not a free parameter locally: hold it there.
     free = [0, 1] if mle.lapse <= 1e-6 else [0, 1, 2]
     k = len(free)
@@ -84,19 +83,19 @@ def cluster_threshold_ci(
 
     v0 = theta0[free]
     # Per-level scores of a correct and of an incorrect trial (central differences).
-    s1 = np.empty((len(levels), k))
-    s0 = np.empty((len(levels), k))
+    s1 = np.empty((len(pixels), k))
+    s0 = np.empty((len(pixels), k))
     for j in range(k):
         e = np.zeros(k)
         e[j] = steps[j]
-        a1, a0 = _loglik_levels(full(v0 + e), levels, guess, sigmoid)
-        b1, b0 = _loglik_levels(full(v0 - e), levels, guess, sigmoid)
+        a1, a0 = _loglik_pixels(full(v0 + e), pixels, guess, sigmoid)
+        b1, b0 = _loglik_pixels(full(v0 - e), pixels, guess, sigmoid)
         s1[:, j] = (a1 - b1) / (2 * steps[j])
         s0[:, j] = (a0 - b0) / (2 * steps[j])
     scores = np.where(y[:, None] == 1, s1[lev], s0[lev])
 
     def total(v: np.ndarray) -> float:
-        l1, l0 = _loglik_levels(full(v), levels, guess, sigmoid)
+        l1, l0 = _loglik_pixels(full(v), pixels, guess, sigmoid)
         return float(np.sum(np.where(y == 1, l1[lev], l0[lev])))
 
     hess = np.empty((k, k))

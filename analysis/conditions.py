@@ -49,6 +49,7 @@ __all__ = [
     "has_other_conditions",
     "condition_order",
     "holm",
+    "wald_odds_ratio",
     "ConditionsLogistic",
     "fit_condition_logistic",
     "threshold_ratios",
@@ -168,7 +169,11 @@ def _glm(x: pd.DataFrame, y: np.ndarray):
         return sm.GLM(y, x, family=sm.families.Binomial()).fit()
 
 
-def _wald(b: float, se: float) -> tuple[float, list[float | None], float]:
+def wald_odds_ratio(b: float, se: float) -> tuple[float, list[float | None], float]:
+    """Return ``(odds ratio, 95 % Wald interval, p)`` of a log odds ratio ``b`` with SE ``se``.
+
+    An estimate or SE that is not finite (or SE <= 0) gives no interval and a NaN p.
+    """
     from scipy.stats import norm
 
     if not (math.isfinite(b) and math.isfinite(se) and se > 0):
@@ -248,16 +253,16 @@ def fit_condition_logistic(
 
     ors: dict[str, dict[str, Any]] = {}
     for c in others:
-        o, ci, p = _wald(beta[c], math.sqrt(max(var(c), 0.0)))
+        o, ci, p = wald_odds_ratio(beta[c], math.sqrt(max(var(c), 0.0)))
         ors[c] = {"or": o, "ci95": ci, "p": None if c in sep else p, "separated": c in sep}
     se_px = math.sqrt(max(float(cov.loc["log10_pixels", "log10_pixels"]), 0.0))
-    o, ci, p = _wald(float(params["log10_pixels"]), se_px)
+    o, ci, p = wald_odds_ratio(float(params["log10_pixels"]), se_px)
     per_px = {"or": o, "ci95": ci, "p": p}
     contrasts: list[dict[str, Any]] = []
     for a, b in combinations(conds, 2):
         d = beta[b] - beta[a]
         se = math.sqrt(max(var(a) + var(b) - 2 * covar(a, b), 0.0))
-        o, ci, p = _wald(d, se)
+        o, ci, p = wald_odds_ratio(d, se)
         bad = bool({a, b} & sep)
         contrasts.append(
             {"pair": [a, b], "or": o, "ci95": ci, "p": None if bad else p, "separated": bad}

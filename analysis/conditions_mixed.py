@@ -20,7 +20,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from analysis.conditions import DEFAULT_REFERENCE, _wald, holm
+from analysis.conditions import DEFAULT_REFERENCE, holm, wald_odds_ratio
 from analysis.errors import DataError
 from analysis.mixed import check_mixed_terms, laplace_glmm, random_groups
 
@@ -133,13 +133,13 @@ def fit_condition_mixed(
 
     ors = {}
     for c in others:
-        o, ci, p = _wald(coef(c), float(se[col[c]]))
+        o, ci, p = wald_odds_ratio(coef(c), float(se[col[c]]))
         ors[c] = {"or": o, "ci95": ci, "p": p}
-    o, ci, p = _wald(float(beta[px]), float(se[px]))
+    o, ci, p = wald_odds_ratio(float(beta[px]), float(se[px]))
     per_px = {"or": o, "ci95": ci, "p": p}
     contrasts = []
     for a, b in combinations(conds, 2):
-        o, ci, p = _wald(coef(b) - coef(a), diff_se(a, b))
+        o, ci, p = wald_odds_ratio(coef(b) - coef(a), diff_se(a, b))
         contrasts.append({"pair": [a, b], "or": o, "ci95": ci, "p": p})
     family = [i for i, c in enumerate(contrasts) if math.isfinite(c["p"])]
     adj = holm([contrasts[i]["p"] for i in family])

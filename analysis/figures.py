@@ -147,7 +147,7 @@ def plot_recognition(
     for i, (cond, fit) in enumerate(fits.items()):
         color = COLORS.get(cond, f"C{i % 10}")
         log = is_log_axis(fit.sigmoid)
-        x = np.asarray(fit.levels)
+        x = np.asarray(fit.pixels)
         k, n = np.asarray(fit.k), np.asarray(fit.n)
         rate = k / n
         if log:

@@ -36,6 +36,7 @@ __all__ = [
     "LogisticFit",
     "design_frame",
     "fit_logistic",
+    "check_model_data",
     "firth_logit",
     "profile_interval",
     "SEPARATION_LOG_OR",
@@ -325,7 +326,8 @@ def _term_name(name: str) -> str:
     return name
 
 
-def _check_model_data(d: pd.DataFrame) -> None:
+def check_model_data(d: pd.DataFrame) -> None:
+    """Raise DataError (one line) when trials cannot identify the logistic model."""
     if d["recognized"].nunique() < 2:
         what = "recognised" if d["recognized"].iloc[0] == 1 else "not recognised"
         raise DataError(

@@ -19,7 +19,7 @@ from analysis.errors import DataError
 from analysis.logistic import (
     SEPARATION_LOG_OR,
     OddsRatioTable,
-    _check_model_data,
+    check_model_data,
     design_frame,
     firth_logit,
 )
@@ -295,7 +295,7 @@ def fit_mixed(trials: pd.DataFrame) -> MixedFit:
     from scipy import stats
 
     d = design_frame(trials)
-    _check_model_data(d)
+    check_model_data(d)
     X = np.column_stack([np.ones(len(d)), d["background"], d["log10_pixels"]])
     groups, used = random_groups(d)
     beta, se, sd, _ = laplace_glmm(d["recognized"].to_numpy(), X, groups)

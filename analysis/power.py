@@ -33,7 +33,7 @@ from analysis.simulate import (
     simulate_logistic_trials,
     simulate_weibull_trials,
 )
-from analysis.weibull.model import _log_likelihood
+from analysis.weibull.kernel import log_likelihood
 
 __all__ = [
     "CLUSTER_CONNECT_TIMEOUT_S",
@@ -206,7 +206,7 @@ def _nll_joint(theta, xs, ks, ns, shared_loc: bool) -> float:
         loc_c, loc_d, lb, lapse = theta
     total = 0.0
     for loc, x, k, n in ((loc_c, xs[0], ks[0], ns[0]), (loc_d, xs[1], ks[1], ns[1])):
-        total += float(_log_likelihood(np.array([[loc, lb, lapse]]), x, k, n, 0.0, "weibull")[0])
+        total += float(log_likelihood(np.array([[loc, lb, lapse]]), x, k, n, 0.0, "weibull")[0])
     return -total
 
 

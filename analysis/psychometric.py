@@ -40,8 +40,8 @@ import pandas as pd
 from analysis.errors import DataError
 from analysis.weibull import SIGMOIDS, WeibullFit, default_prior, fit_mle, is_log_axis
 from analysis.weibull.batch import FitJob, sample_batch
-from analysis.weibull.model import _data_warnings
-from analysis.weibull.threshold import _json_float, _unmeasured_text
+from analysis.weibull.kernel import data_warnings, json_float
+from analysis.weibull.threshold import unmeasured_text
 
 __all__ = [
     "FitSpec",
@@ -52,6 +52,7 @@ __all__ = [
     "counts_by_group",
     "fit_table",
     "iter_fit_table",
+    "threshold_md",
     "write_fit_report",
     "render_fit_markdown",
     "threshold_name",
@@ -264,7 +265,7 @@ def _numeric(df: pd.DataFrame, col: str, source: str, option: str) -> np.ndarray
 def counts_by_group(
     df: pd.DataFrame, spec: FitSpec, source: str = "table"
 ) -> list[tuple[dict[str, str], np.ndarray, np.ndarray, np.ndarray]]:
-    """Return ``(group values, levels, k, n)`` per group, levels merged and sorted.
+    """Return ``(group values, x values, k, n)`` per group, x values merged and sorted.
 
     Parameters
     ----------
@@ -396,14 +397,14 @@ class GroupFit:
             return {
                 "median": float(q[1]),
                 "ci95": [float(q[0]), float(q[2])],
-                "mle": _json_float(ml),
+                "mle": json_float(ml),
             }
 
         return {
             "group": dict(self.group),
             "label": self.label,
             "n_trials": float(sum(f.n)),
-            "levels": list(f.levels),
+            "levels": list(f.pixels),  # the fit table's JSON key stays
             "k": list(f.k),
             "n": list(f.n),
             "thresholds": [t.to_dict() for t in self.thresholds(pcs)],
@@ -416,7 +417,7 @@ class GroupFit:
             "mle_log_likelihood": f.mle.log_likelihood,
             "goodness_of_fit": f.goodness_of_fit(),
             "converged": f.converged,
-            "tau_max": _json_float(f.tau_max),
+            "tau_max": json_float(f.tau_max),
             "n_steps": f.n_steps,
             "prior": f.prior.to_dict(),
             "warnings": list(self.warnings),
@@ -506,14 +507,14 @@ def iter_fit_table(
     Raises
     ------
     DataError
-        Bad columns or values; levels <= 0 for a log-axis sigmoid.
+        Bad columns or values; x values <= 0 for a log-axis sigmoid.
     """
     groups = counts_by_group(df, spec, source)
     all_x = np.concatenate([g[1] for g in groups])
     sigmoid = resolve_sigmoid(spec.sigmoid, spec.axis, all_x)
     if is_log_axis(sigmoid) and np.any(all_x <= 0):
         raise DataError(
-            f"{source}: --x column {spec.x!r} has levels <= 0 ({all_x.min():g}), which the "
+            f"{source}: --x column {spec.x!r} has values <= 0 ({all_x.min():g}), which the "
             f"{sigmoid} (log axis) cannot take; use --sigmoid logistic, normal or gumbel "
             "(linear axis)"
         )
@@ -524,7 +525,7 @@ def iter_fit_table(
         label = _label(gv)
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
-            _data_warnings(label, k, n)
+            data_warnings(label, k, n)
             prior = default_prior(lv, guess=spec.guess, sigmoid=sigmoid)
             mle = fit_mle(lv, k, n, guess=spec.guess, sigmoid=sigmoid, prior=prior)
         per_group.append([" ".join(str(w.message).split()) for w in caught])
@@ -571,12 +572,13 @@ def _fmt(v: float | None) -> str:
     return "n/a" if v is None else f"{v:.4g}"
 
 
-def _threshold_md(t: dict[str, Any]) -> str:
+def threshold_md(t: dict[str, Any]) -> str:
+    """Return one threshold of a fit table's JSON as a Markdown cell (median, CrI, ML or status)."""
     if t["status"] == "measured":
         return (
             f"{_fmt(t['median'])} ({_fmt(t['ci95'][0])}-{_fmt(t['ci95'][1])}); ML {_fmt(t['mle'])}"
         )
-    text = _unmeasured_text(t, "{:.4g}", below="censored", above="censored", with_reason=True)
+    text = unmeasured_text(t, "{:.4g}", below="censored", above="censored", with_reason=True)
     if t["status"] == "unidentified" and t.get("mle") is not None:
         text += f"; ML {_fmt(t['mle'])}"
     return text
@@ -610,7 +612,7 @@ def render_fit_markdown(r: dict[str, Any], plots: Sequence[str]) -> str:
     ]
     for g in r["groups"]:
         gof = g["goodness_of_fit"]
-        cells = [_threshold_md(t) for t in g["thresholds"]]
+        cells = [threshold_md(t) for t in g["thresholds"]]
         lines.append(
             f"| {g['label']} | {g['n_trials']:g} | "
             + " | ".join(cells)

@@ -33,7 +33,7 @@ from analysis.staging import (
     remove_own_tree,
     resolve,
 )
-from analysis.weibull.threshold import _unmeasured_text
+from analysis.weibull.threshold import unmeasured_text
 
 __all__ = [
     "render_markdown",
@@ -135,7 +135,7 @@ def threshold_text(t: dict[str, Any], *, side: bool = False, question: str = "")
         extra = f"{_side(t['median'])}; " if side else ""
         q = f" for {question}" if question else ""
         return f"{_px(t['median'])} px ({extra}95 % CrI {_ci(t['ci95'])}{q}; ML {_px(t['mle'])})"
-    return _unmeasured_text(
+    return unmeasured_text(
         t, "{:,.0f}", "px", with_reason=True, unidentified_note="; no interval is given"
     )
 

@@ -31,7 +31,7 @@ from analysis.pipeline import AnalysisOptions, analyze
 from analysis.report import write_report
 from analysis.simulate import WeibullObserver, simulate_weibull_trials
 from analysis.weibull import default_prior
-from analysis.weibull.model import _log_likelihood
+from analysis.weibull.kernel import log_likelihood
 
 #: Simulated observers (ours), near the paper's Fig. 8 curves, with subjects spread by 0.15 log10.
 TRUTH = {
@@ -49,7 +49,7 @@ def baseline_fit(levels, k, n, seed: int) -> tuple[float, int, float]:
         lp = float(prior.log_prob(theta))
         if not np.isfinite(lp):
             return -np.inf
-        return lp + float(_log_likelihood(theta[None, :], levels, k, n, 0.0, "weibull")[0])
+        return lp + float(log_likelihood(theta[None, :], levels, k, n, 0.0, "weibull")[0])
 
     rng = np.random.default_rng(seed)
     box = np.array(prior.bounds())
@@ -117,7 +117,7 @@ def main() -> None:
 
         base_t, n_base, base_ok = 0.0, 0, 0
         for f in fits:
-            lv, k, n = np.asarray(f.levels), np.asarray(f.k), np.asarray(f.n)
+            lv, k, n = np.asarray(f.pixels), np.asarray(f.k), np.asarray(f.n)
             bt, bs, btau = baseline_fit(lv, k, n, a.seed)
             base_t += bt
             n_base += 1

@@ -134,40 +134,41 @@ def compress(edges: np.ndarray, shape_px: tuple[int, int], *, edge_ratio: float)
     return block_mean(e, shape_px) > np.float32(edge_ratio)
 
 
-def quantize(image: np.ndarray, levels: int) -> np.ndarray:
-    """Quantize a [0, 1] image to ``levels`` equally spaced grey levels (0 and 1 included).
+def quantize(image: np.ndarray, grey_levels: int) -> np.ndarray:
+    """Quantize a [0, 1] image to ``grey_levels`` equally spaced grey levels (0 and 1 included).
 
     Parameters
     ----------
     image : ndarray, float in [0, 1]
-    levels : int >= 2
+    grey_levels : int >= 2
 
     Returns
     -------
     ndarray, float32
-        Values ``k / (levels - 1)``, ``k = min(floor(x * levels), levels - 1)``.
+        Values ``k / (grey_levels - 1)``, ``k = min(floor(x * grey_levels), grey_levels - 1)``.
     """
-    if isinstance(levels, bool) or not isinstance(levels, (int, np.integer)) or levels < 2:
-        raise InputError(f"levels must be an integer >= 2, got {levels!r}")
+    n = grey_levels
+    if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 2:
+        raise InputError(f"grey_levels must be an integer >= 2, got {n!r}")
     a = np.asarray(image, dtype=np.float32)
-    k = np.minimum(np.floor(a * levels), levels - 1)
-    return (k / (levels - 1)).astype(np.float32)
+    k = np.minimum(np.floor(a * n), n - 1)
+    return (k / (n - 1)).astype(np.float32)
 
 
-def compress_grey(image: np.ndarray, shape_px: tuple[int, int], *, levels: int) -> np.ndarray:
-    """Compress a grey photo to a ``shape_px`` grid of ``levels`` grey levels (Fig. 2).
+def compress_grey(image: np.ndarray, shape_px: tuple[int, int], *, grey_levels: int) -> np.ndarray:
+    """Compress a grey photo to a ``shape_px`` grid of ``grey_levels`` grey levels (Fig. 2).
 
     Parameters
     ----------
     image : ndarray of shape (rows, cols), float32 in [0, 1]
     shape_px : (rows, cols)
-    levels : int >= 2
+    grey_levels : int >= 2
 
     Returns
     -------
     ndarray of shape ``shape_px``, float32 in [0, 1]
     """
-    return quantize(block_mean(image, shape_px), levels)
+    return quantize(block_mean(image, shape_px), grey_levels)
 
 
 def resolution_ladder(

@@ -550,4 +550,4 @@ def to_implant_grid(
         )
     if a.dtype == bool:
         return compress(a, layout.shape, edge_ratio=edge_ratio)
-    return compress_grey(check_gray(a), layout.shape, levels=layout.levels)
+    return compress_grey(check_gray(a), layout.shape, grey_levels=layout.levels)

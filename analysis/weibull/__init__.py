@@ -1,4 +1,4 @@
-"""Psychometric functions: maximum likelihood and posteriors, thresholds at any level.
+"""Psychometric functions: maximum likelihood and posteriors, thresholds at any proportion correct.
 
 The model (Jung et al. 2015, Sec. 3.2.2; Wichmann & Hill 2001) is
 ``P(x) = g + (1 - g - l) * F(beta * (s(x) - s(alpha)))``, with guess rate ``g``, a free lapse rate
@@ -8,8 +8,10 @@ importing only the ones above it in this list:
 =============  ==================================================================================
 module         what it does
 =============  ==================================================================================
-``model``      sigmoids, the curve, thresholds, counts per level, (beta-)binomial likelihood,
-               data warnings
+``kernel``     internal, not re-exported: the pieces the modules below share (sigmoid shapes,
+               parameter vectors, (beta-)binomial likelihood, Beta density, data checks and
+               warnings); no other module of the package imports a private name of a sibling
+``model``      sigmoids, the curve, thresholds, counts per stimulus value (``pixels``)
 ``priors``     the box-and-Beta prior of the sampled parameters and its default
 ``mle``        the maximum-likelihood fit
 ``posterior``  emcee sampling chunk by chunk until converged (the reference sampler); the

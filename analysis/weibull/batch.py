@@ -30,22 +30,24 @@ from typing import Any
 import emcee
 import numpy as np
 
-from analysis.weibull.mle import MLEstimate, _theta_of_mle
-from analysis.weibull.model import (
-    _EPS,
+from analysis.weibull.kernel import (
+    EPS,
     ETA_MAX,
     SIGMOIDS,
-    _beta_binomial_ll,
-    _binomial_ll,
-    _check_guess,
-    _check_sigmoid,
-    _shape_cdf,
+    beta_binomial_ll,
+    binomial_ll,
+    check_guess,
+    check_sigmoid,
+    log_beta_density,
+    shape_cdf,
+    theta_of_mle,
 )
+from analysis.weibull.mle import MLEstimate
 from analysis.weibull.posterior import CHUNK_STEPS, KEEP_SAMPLES, MAX_STEPS, TAU_MULTIPLE
-from analysis.weibull.priors import PsychometricPrior, _log_beta_density
+from analysis.weibull.priors import PsychometricPrior
 from analysis.weibull.summary import WeibullFit
 
-__all__ = ["FitJob", "BatchProgress", "sample_batch", "fit_batch", "BATCH_WALKERS"]
+__all__ = ["FitJob", "BatchProgress", "sample_batch", "fit_batch", "fit_of_chain", "BATCH_WALKERS"]
 
 #: Walkers per fit (ours): 16 = 8 per half, so each half offers 56 difference vectors.
 BATCH_WALKERS: int = 16
@@ -59,8 +61,9 @@ class FitJob:
     ----------
     label : str
         Name used in warnings and reports.
-    levels, k, n : ndarray of shape (n_levels,)
-        Distinct levels (x units), number correct, number of trials (n > 0).
+    pixels, k, n : ndarray of shape (n_levels,)
+        Distinct stimulus values (x units: pixels for the paper's data), number correct, number
+        of trials (n > 0). ``levels`` is a deprecated alias of ``pixels``.
     guess : float
         Guess rate in [0, 1).
     prior : PsychometricPrior
@@ -71,13 +74,18 @@ class FitJob:
     """
 
     label: str
-    levels: np.ndarray
+    pixels: np.ndarray
     k: np.ndarray
     n: np.ndarray
     guess: float
     prior: PsychometricPrior
     mle: MLEstimate
     overdispersion: bool = False
+
+    @property
+    def levels(self) -> np.ndarray:
+        """Deprecated alias of :attr:`pixels` (the fitted stimulus values), kept for a while."""
+        return self.pixels
 
 
 @dataclass(frozen=True)
@@ -101,15 +109,15 @@ class _Batch:
         self.sigmoid = sigmoid
         self.shape, axis = SIGMOIDS[sigmoid]
         self.log = axis == "log"
-        n_lv = max(len(j.levels) for j in jobs)
+        n_lv = max(len(j.pixels) for j in jobs)
         f = len(jobs)
         self.x = np.ones((f, n_lv))
         self.k = np.zeros((f, n_lv))
         self.n = np.zeros((f, n_lv))
         for i, j in enumerate(jobs):
-            m = len(j.levels)
+            m = len(j.pixels)
             # Padding repeats a real level with n = k = 0: it adds exactly 0 to the likelihood.
-            self.x[i, :m], self.x[i, m:] = j.levels, j.levels[0]
+            self.x[i, :m], self.x[i, m:] = j.pixels, j.pixels[0]
             self.k[i, :m], self.n[i, :m] = j.k, j.n
         self.u = np.log(self.x) if self.log else self.x
         self.guess = np.array([j.guess for j in jobs])
@@ -133,13 +141,13 @@ class _Batch:
             s_alpha = loc * math.log(10.0) if self.log else loc
             z = np.exp(lb)[..., None] * (self.u[idx][:, None, :] - s_alpha[..., None])
             g = self.guess[idx][:, None, None]
-            p = g + (1.0 - g - lapse[..., None]) * _shape_cdf(z, self.shape)
-            p = np.clip(p, _EPS, 1.0 - _EPS)
+            p = g + (1.0 - g - lapse[..., None]) * shape_cdf(z, self.shape)
+            p = np.clip(p, EPS, 1.0 - EPS)
             k, n = self.k[idx][:, None, :], self.n[idx][:, None, :]
-            ll = _binomial_ll(k, n, p).sum(-1)
+            ll = binomial_ll(k, n, p).sum(-1)
             od = self.od[idx]
             if od.any():
-                bb = _beta_binomial_ll(k, n, p, eta[..., None]).sum(-1)
+                bb = beta_binomial_ll(k, n, p, eta[..., None]).sum(-1)
                 ll = np.where(od[:, None], bb, ll)
         out = np.where(inside, lp + ll, -np.inf)
         return np.where(np.isnan(out), -np.inf, out)
@@ -147,7 +155,7 @@ class _Batch:
 
 def _beta_lp(v: np.ndarray, ab: np.ndarray) -> np.ndarray:
     """Log Beta density of v (fits, walkers), one (a, b) row of ``ab`` per fit."""
-    return _log_beta_density(v, ab[:, 0][:, None], ab[:, 1][:, None])
+    return log_beta_density(v, ab[:, 0][:, None], ab[:, 1][:, None])
 
 
 def sample_batch(
@@ -181,13 +189,13 @@ def sample_batch(
     BatchProgress
         The last one carries the fits, in job order.
     """
-    _check_sigmoid(sigmoid)
+    check_sigmoid(sigmoid)
     if not jobs:
         raise ValueError("jobs must hold at least one FitJob, got none")
     if n_walkers < 8 or n_walkers % 2:
         raise ValueError(f"n_walkers must be even and >= 8, got {n_walkers!r}")
     for j in jobs:
-        _check_guess(j.guess)
+        check_guess(j.guess)
     rng = np.random.default_rng(rng)
     batch = _Batch(jobs, sigmoid)
     nf, w, h = len(jobs), n_walkers, n_walkers // 2
@@ -197,7 +205,7 @@ def sample_batch(
     gamma0 = 2.38 / np.sqrt(2.0 * ndim)
 
     # Start: a small ball around the ML estimate, reflected into the box.
-    centre = np.array([[*_theta_of_mle(j.mle, sigmoid), 0.0] for j in jobs])
+    centre = np.array([[*theta_of_mle(j.mle, sigmoid), 0.0] for j in jobs])
     width = batch.hi - batch.lo
     p0 = centre[:, None, :] + 1e-3 * width[:, None, :] * rng.standard_normal((nf, w, 4))
     p0[:, :, 3] = np.where(batch.od[:, None], rng.uniform(0.001, 0.05, (nf, w)), 0.0)
@@ -249,7 +257,7 @@ def sample_batch(
         if not done.all():
             yield BatchProgress(total, int(done.sum()), nf)
     fits = [
-        _fit_of_chain(
+        fit_of_chain(
             j,
             sigmoid,
             np.concatenate(chains[f]),
@@ -263,7 +271,7 @@ def sample_batch(
     yield BatchProgress(total, nf, nf, fits)
 
 
-def _fit_of_chain(
+def fit_of_chain(
     job: FitJob,
     sigmoid: str,
     chain: np.ndarray,
@@ -290,7 +298,7 @@ def _fit_of_chain(
         label=job.label,
         sigmoid=sigmoid,
         guess=float(job.guess),
-        levels=tuple(float(v) for v in job.levels),
+        pixels=tuple(float(v) for v in job.pixels),
         k=tuple(float(v) for v in job.k),
         n=tuple(float(v) for v in job.n),
         mle=job.mle,

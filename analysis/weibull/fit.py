@@ -8,16 +8,10 @@ from typing import Any
 
 import numpy as np
 
-from analysis.weibull.batch import FitJob, _fit_of_chain, fit_batch
+from analysis.weibull.batch import FitJob, fit_batch, fit_of_chain
+from analysis.weibull.kernel import Sigmoid, check_guess, check_sigmoid, data_warnings, is_log_axis
 from analysis.weibull.mle import fit_mle
-from analysis.weibull.model import (
-    Sigmoid,
-    _check_guess,
-    _check_sigmoid,
-    _data_warnings,
-    aggregate,
-    is_log_axis,
-)
+from analysis.weibull.model import aggregate
 from analysis.weibull.posterior import MAX_STEPS, N_WALKERS
 from analysis.weibull.priors import PsychometricPrior, default_prior
 from analysis.weibull.summary import WeibullFit
@@ -47,12 +41,12 @@ def fit_weibull(x: Any, correct: Any, **options: Any) -> WeibullFit:
     ----------
     Jung et al. 2015, Sec. 3.2.2 (Weibull fits not forced to 100 %); Wichmann & Hill 2001.
     """
-    levels, k, n = aggregate(x, correct)
-    return fit_counts(levels, k, n, **options)
+    pixels, k, n = aggregate(x, correct)
+    return fit_counts(pixels, k, n, **options)
 
 
 def fit_counts(
-    levels: Any,
+    pixels: Any,
     k: Any,
     n: Any,
     *,
@@ -73,8 +67,9 @@ def fit_counts(
 
     Parameters
     ----------
-    levels : array_like of shape (n_levels,)
-        Stimulus levels (repeated levels are merged).
+    pixels : array_like of shape (n_levels,)
+        Stimulus values: pixels per object for the paper's data, any unit on a linear axis
+        (repeated values are merged).
     k, n : array_like of shape (n_levels,)
         Number correct and number of trials at each level (0 <= k <= n, n > 0).
     guess : float
@@ -101,7 +96,7 @@ def fit_counts(
     Raises
     ------
     ValueError
-        Bad counts or arguments (mismatched lengths, non-positive levels for a log axis, bad
+        Bad counts or arguments (mismatched lengths, non-positive pixels for a log axis, bad
         guess rate).
 
     Warns
@@ -109,30 +104,30 @@ def fit_counts(
     FitWarning
         All or no trials correct, or fewer than 5 trials at most levels.
     """
-    _check_sigmoid(sigmoid)
-    _check_guess(guess)
-    lv = np.asarray(levels, float).ravel()
+    check_sigmoid(sigmoid)
+    check_guess(guess)
+    lv = np.asarray(pixels, float).ravel()
     kk = np.asarray(k, float).ravel()
     nn = np.asarray(n, float).ravel()
     if not (lv.shape == kk.shape == nn.shape) or lv.size == 0:
         raise ValueError(
-            f"levels, k and n must be non-empty and of equal length, got {lv.size}, {kk.size}, "
+            f"pixels, k and n must be non-empty and of equal length, got {lv.size}, {kk.size}, "
             f"{nn.size}"
         )
     if not (np.all(np.isfinite(lv)) and np.all(np.isfinite(kk)) and np.all(np.isfinite(nn))):
-        raise ValueError("levels, k and n must be finite, got NaN or inf")
+        raise ValueError("pixels, k and n must be finite, got NaN or inf")
     if np.any(nn <= 0) or np.any(kk < 0) or np.any(kk > nn):
         raise ValueError("counts must satisfy 0 <= k <= n and n > 0 at every level")
-    levels, inv = np.unique(lv, return_inverse=True)
+    pixels, inv = np.unique(lv, return_inverse=True)
     k = np.bincount(inv, weights=kk).astype(float)
     n = np.bincount(inv, weights=nn).astype(float)
-    if is_log_axis(sigmoid) and levels[0] <= 0:
-        raise ValueError(f"x must be > 0 for the {sigmoid} (log axis), got {float(levels[0])!r}")
-    _data_warnings(label, k, n)
+    if is_log_axis(sigmoid) and pixels[0] <= 0:
+        raise ValueError(f"x must be > 0 for the {sigmoid} (log axis), got {float(pixels[0])!r}")
+    data_warnings(label, k, n)
     rng = np.random.default_rng(rng)
-    prior = prior or default_prior(levels, guess=guess, sigmoid=sigmoid)
-    mle = fit_mle(levels, k, n, guess=guess, sigmoid=sigmoid, prior=prior)
-    job = FitJob(label, levels, k, n, float(guess), prior, mle, bool(overdispersion))
+    prior = prior or default_prior(pixels, guess=guess, sigmoid=sigmoid)
+    mle = fit_mle(pixels, k, n, guess=guess, sigmoid=sigmoid, prior=prior)
+    job = FitJob(label, pixels, k, n, float(guess), prior, mle, bool(overdispersion))
     walkers = max(n_walkers + n_walkers % 2, 8)
     (fit,) = fit_batch([job], sigmoid=sigmoid, n_walkers=walkers, max_steps=max_steps, rng=rng)
     _log_unconverged(fit)
@@ -150,11 +145,11 @@ def _log_unconverged(fit: WeibullFit) -> None:
 
 
 def _finish(
-    label, sigmoid, guess, levels, k, n, mle, prior, progress, overdispersion=False
+    label, sigmoid, guess, pixels, k, n, mle, prior, progress, overdispersion=False
 ) -> WeibullFit:
     """Return the fit of the last :class:`SamplerProgress` of :func:`sample_posterior`."""
-    job = FitJob(label, levels, k, n, float(guess), prior, mle, bool(overdispersion))
-    fit = _fit_of_chain(
+    job = FitJob(label, pixels, k, n, float(guess), prior, mle, bool(overdispersion))
+    fit = fit_of_chain(
         job,
         sigmoid,
         progress.sampler.get_chain(),
@@ -187,7 +182,7 @@ def group_fit_jobs(
     guess : float
         The guess rate of every fit.
     prior : PsychometricPrior or None
-        One prior for every fit; None: :func:`default_prior` of each group's levels.
+        One prior for every fit; None: :func:`default_prior` of each group's pixels.
     lapse_prior : (float, float)
         The default prior's Beta lapse parameters.
     overdispersion : bool
@@ -216,14 +211,14 @@ def group_fit_jobs(
             continue
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
-            levels, k, n = aggregate(sel["pixels"].to_numpy(), sel["recognized"].to_numpy())
-            _data_warnings(label, k, n)
+            pixels, k, n = aggregate(sel["pixels"].to_numpy(), sel["recognized"].to_numpy())
+            data_warnings(label, k, n)
             p = prior or default_prior(
-                levels, guess=guess, lapse_a=lapse_prior[0], lapse_b=lapse_prior[1]
+                pixels, guess=guess, lapse_a=lapse_prior[0], lapse_b=lapse_prior[1]
             )
-            mle = fit_mle(levels, k, n, guess=guess, prior=p)
+            mle = fit_mle(pixels, k, n, guess=guess, prior=p)
         notes += [" ".join(str(w.message).split()) for w in caught]
         od = overdispersion and subject is None
-        jobs.append(FitJob(label, levels, k, n, guess, p, mle, od))
+        jobs.append(FitJob(label, pixels, k, n, guess, p, mle, od))
         keys.append((subject, cond))
     return jobs, keys, notes

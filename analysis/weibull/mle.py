@@ -2,20 +2,18 @@
 
 from __future__ import annotations
 
-import math
 from dataclasses import asdict, dataclass
 from typing import Any
 
 import numpy as np
 from scipy import optimize
 
-from analysis.weibull.model import (
+from analysis.weibull.kernel import (
     Sigmoid,
-    _check_guess,
-    _check_sigmoid,
-    _log_likelihood,
-    _params,
-    is_log_axis,
+    check_guess,
+    check_sigmoid,
+    log_likelihood,
+    theta_params,
 )
 from analysis.weibull.priors import PsychometricPrior, default_prior
 
@@ -54,7 +52,7 @@ class MLEstimate:
 
 
 def fit_mle(
-    levels: Any,
+    pixels: Any,
     k: Any,
     n: Any,
     *,
@@ -68,8 +66,9 @@ def fit_mle(
 
     Parameters
     ----------
-    levels, k, n : array_like of shape (n_levels,)
-        Distinct stimulus levels, number correct and number of trials (see :func:`aggregate`).
+    pixels, k, n : array_like of shape (n_levels,)
+        Distinct stimulus values (pixels for the paper's data), number correct and number of
+        trials (see :func:`aggregate`).
     guess : float
         Guess rate in [0, 1).
     sigmoid : {'weibull', 'logistic'}
@@ -80,16 +79,16 @@ def fit_mle(
     -------
     MLEstimate
     """
-    _check_sigmoid(sigmoid)
-    _check_guess(guess)
-    x = np.asarray(levels, float)
+    check_sigmoid(sigmoid)
+    check_guess(guess)
+    x = np.asarray(pixels, float)
     k = np.asarray(k, float)
     n = np.asarray(n, float)
     prior = prior or default_prior(x, guess=guess, sigmoid=sigmoid)
     bounds = prior.bounds()
 
     def nll(theta: np.ndarray) -> float:
-        return -float(_log_likelihood(theta[None, :], x, k, n, guess, sigmoid)[0])
+        return -float(log_likelihood(theta[None, :], x, k, n, guess, sigmoid)[0])
 
     # Coarse vectorised grid over the whole box, then local polishing: robust
     # against the flat regions and local optima of lapse-rate models, and cheap.
@@ -103,7 +102,7 @@ def fit_mle(
         ),
         axis=-1,
     ).reshape(-1, 3)
-    ll = _log_likelihood(g, x, k, n, guess, sigmoid)
+    ll = log_likelihood(g, x, k, n, guess, sigmoid)
     # The likelihood can be multimodal in the slope (a local maximum with lapse 0 and a ridge
     # towards steep curves with a lapse, as in the MPDiR staircase), so polish the best grid point
     # of each of several slopes and keep the best result.
@@ -123,10 +122,5 @@ def fit_mle(
             r = optimize.OptimizeResult(x=start, fun=nll(start))
         if best is None or r.fun < best.fun:
             best = r
-    alpha, beta, lapse = _params(best.x[None, :], sigmoid)
+    alpha, beta, lapse = theta_params(best.x[None, :], sigmoid)
     return MLEstimate(float(alpha[0]), float(beta[0]), float(lapse[0]), float(-best.fun))
-
-
-def _theta_of_mle(mle: MLEstimate, sigmoid: str) -> np.ndarray:
-    loc = math.log10(mle.alpha) if is_log_axis(sigmoid) else mle.alpha
-    return np.array([loc, math.log(mle.beta), mle.lapse])

@@ -23,8 +23,8 @@ from typing import Any
 import emcee
 import numpy as np
 
-from analysis.weibull.mle import MLEstimate, _theta_of_mle, fit_mle
-from analysis.weibull.model import Sigmoid, _log_likelihood
+from analysis.weibull.kernel import Sigmoid, log_likelihood, theta_of_mle
+from analysis.weibull.mle import MLEstimate, fit_mle
 from analysis.weibull.priors import PsychometricPrior, default_prior
 
 __all__ = [
@@ -77,7 +77,7 @@ class _LogPosterior:
         ok = np.isfinite(lp)
         out = np.full(theta.shape[0], -np.inf)
         if ok.any():
-            out[ok] = lp[ok] + _log_likelihood(
+            out[ok] = lp[ok] + log_likelihood(
                 theta[ok], self.x, self.k, self.n, self.guess, self.sigmoid
             )
         return out
@@ -99,7 +99,7 @@ class SamplerProgress:
 
 
 def sample_posterior(
-    levels: Any,
+    pixels: Any,
     k: Any,
     n: Any,
     *,
@@ -120,8 +120,9 @@ def sample_posterior(
 
     Parameters
     ----------
-    levels, k, n : array_like of shape (n_levels,)
-        Distinct levels, number correct, number of trials.
+    pixels, k, n : array_like of shape (n_levels,)
+        Distinct stimulus values (pixels for the paper's data), number correct, number of
+        trials.
     guess : float
         Guess rate in [0, 1).
     sigmoid : str
@@ -151,14 +152,14 @@ def sample_posterior(
             f"n_walkers must be >= {2 * ndim} (2 x {ndim} parameters), got {n_walkers!r}"
         )
     rng = np.random.default_rng(rng)
-    x = np.asarray(levels, float)
+    x = np.asarray(pixels, float)
     k = np.asarray(k, float)
     n = np.asarray(n, float)
     prior = prior or default_prior(x, guess=guess, sigmoid=sigmoid)
     start = start or fit_mle(x, k, n, guess=guess, sigmoid=sigmoid, prior=prior)
     logp = _LogPosterior(x, k, n, guess, sigmoid, prior)
 
-    centre = _theta_of_mle(start, sigmoid)
+    centre = theta_of_mle(start, sigmoid)
     if overdispersion:
         centre = np.append(centre, 0.02)
     box = np.array(prior.bounds(ndim))

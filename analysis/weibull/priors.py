@@ -27,14 +27,15 @@ from typing import Any
 
 import numpy as np
 
-from analysis.weibull.model import (
+from analysis.weibull.kernel import (
     ETA_MAX,
     FitWarning,
     Sigmoid,
-    _axis,
-    _check_guess,
-    _check_sigmoid,
+    check_guess,
+    check_sigmoid,
     is_log_axis,
+    log_beta_density,
+    to_axis,
 )
 
 __all__ = ["PsychometricPrior", "default_prior"]
@@ -115,11 +116,11 @@ class PsychometricPrior:
             & (lapse >= 0.0)
             & (lapse <= self.lapse_max)
         )
-        lp = _log_beta_density(lapse, self.lapse_a, self.lapse_b)
+        lp = log_beta_density(lapse, self.lapse_a, self.lapse_b)
         if theta.shape[-1] == 4:
             eta = theta[..., 3]
             inside &= (eta >= 0.0) & (eta <= ETA_MAX)
-            lp = lp + _log_beta_density(eta, self.eta_a, self.eta_b)
+            lp = lp + log_beta_density(eta, self.eta_a, self.eta_b)
         return np.where(inside, lp, -np.inf)
 
     def to_dict(self) -> dict[str, Any]:
@@ -140,31 +141,20 @@ class PsychometricPrior:
         )
 
 
-def _log_beta_density(v: np.ndarray, a: Any, b: Any) -> np.ndarray:
-    """Unnormalised log Beta(a, b) density, a and b broadcast with v (the box is the caller's)."""
-    with np.errstate(divide="ignore", invalid="ignore"):
-        lp = (a - 1.0) * np.log(np.where(v > 0, v, 1.0)) + (b - 1.0) * np.log1p(
-            -np.clip(v, 0.0, 0.999999)
-        )
-        if np.any(np.asarray(a) < 1.0):
-            lp = np.where((v > 0) | (np.asarray(a) >= 1.0), lp, np.inf)
-    return lp
-
-
 def default_prior(
-    levels: Any,
+    pixels: Any,
     *,
     guess: float = 0.0,
     sigmoid: Sigmoid = "weibull",
     lapse_a: float = 1.0,
     lapse_b: float = 10.0,
 ) -> PsychometricPrior:
-    """Return the default prior for stimulus levels ``levels`` (see the module docstring).
+    """Return the default prior for the tested stimulus values ``pixels`` (module docstring).
 
     Parameters
     ----------
-    levels : array_like
-        Stimulus levels tested (> 0 for the Weibull).
+    pixels : array_like
+        Stimulus values tested (pixels for the paper's data; > 0 for the Weibull).
     guess : float
         Guess rate in [0, 1).
     sigmoid : {'weibull', 'logistic'}
@@ -175,12 +165,12 @@ def default_prior(
     -------
     PsychometricPrior
     """
-    _check_sigmoid(sigmoid)
-    _check_guess(guess)
-    lv = np.asarray(levels, dtype=float)
+    check_sigmoid(sigmoid)
+    check_guess(guess)
+    lv = np.asarray(pixels, dtype=float)
     if is_log_axis(sigmoid) and np.any(lv <= 0):
-        raise ValueError(f"levels must be > 0 for the {sigmoid} (log axis), got a value <= 0")
-    a = _axis(lv, sigmoid)
+        raise ValueError(f"pixels must be > 0 for the {sigmoid} (log axis), got a value <= 0")
+    a = to_axis(lv, sigmoid)
     lo, hi = float(a.min()), float(a.max())
     span = hi - lo
     if span <= 0:

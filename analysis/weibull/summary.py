@@ -8,29 +8,26 @@ from typing import Any
 
 import numpy as np
 
-from analysis.weibull.mle import MLEstimate, _theta_of_mle
-from analysis.weibull.model import (
-    _EPS,
-    _V_MAX,
+from analysis.weibull.kernel import (
+    EPS,
     ETA_MAX,
-    _core,
-    _core_inverse,
-    _p_matrix,
-    _params,
+    V_MAX,
+    axis_value,
+    decreasing,
     is_log_axis,
-    psychometric,
-    threshold_at,
+    json_float,
+    p_matrix,
+    separated,
+    sigmoid_cdf,
+    sigmoid_ppf,
+    theta_of_mle,
+    theta_params,
 )
+from analysis.weibull.mle import MLEstimate
+from analysis.weibull.model import psychometric, threshold_at
 from analysis.weibull.posterior import TAU_MULTIPLE
 from analysis.weibull.priors import PsychometricPrior
-from analysis.weibull.threshold import (
-    Threshold,
-    _axis_value,
-    _decreasing,
-    _json_float,
-    _separated,
-    bracket,
-)
+from analysis.weibull.threshold import Threshold, bracket
 
 __all__ = ["WeibullFit", "POOR_FIT_PPP"]
 
@@ -54,8 +51,9 @@ class WeibullFit:
         One of :data:`SIGMOIDS`.
     guess : float
         Guess rate (fixed).
-    levels, k, n : tuple of float
-        Distinct stimulus levels (x units), number correct and number of trials at each.
+    pixels, k, n : tuple of float
+        Distinct stimulus values (x units: pixels per object for the paper's data), number
+        correct and number of trials at each. ``levels`` is a deprecated alias of ``pixels``.
     mle : MLEstimate
         Maximum-likelihood parameters (binomial likelihood).
     samples : ndarray of shape (n_samples, 4)
@@ -77,7 +75,7 @@ class WeibullFit:
     label: str
     sigmoid: str
     guess: float
-    levels: tuple[float, ...]
+    pixels: tuple[float, ...]
     k: tuple[float, ...]
     n: tuple[float, ...]
     mle: MLEstimate
@@ -88,6 +86,11 @@ class WeibullFit:
     n_walkers: int
     prior: PsychometricPrior
     overdispersion: bool = False
+
+    @property
+    def levels(self) -> tuple[float, ...]:
+        """Deprecated alias of :attr:`pixels` (the fitted stimulus values), kept for a while."""
+        return self.pixels
 
     @property
     def n_trials(self) -> int:
@@ -101,7 +104,7 @@ class WeibullFit:
 
     def parameter_samples(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Return posterior samples of (alpha, beta, lapse) in natural units."""
-        return _params(self.samples, self.sigmoid)
+        return theta_params(self.samples, self.sigmoid)
 
     @property
     def alpha(self) -> float:
@@ -136,8 +139,8 @@ class WeibullFit:
 
         Tested by a two-parameter binomial logistic regression of correct on the stimulus axis.
         """
-        return _decreasing(
-            np.asarray(self.levels), np.asarray(self.k), np.asarray(self.n), self.sigmoid
+        return decreasing(
+            np.asarray(self.pixels), np.asarray(self.k), np.asarray(self.n), self.sigmoid
         )
 
     def threshold(self, pc: float = 0.5, *, midpoint: bool = False) -> Threshold:
@@ -158,8 +161,8 @@ class WeibullFit:
         m = self.mle
         if midpoint:
             half = np.full(np.shape(a), 0.5)
-            t = _core_inverse(half, a, b, self.sigmoid)
-            t_mle = float(_core_inverse(np.array(0.5), m.alpha, m.beta, self.sigmoid))
+            t = sigmoid_ppf(half, a, b, self.sigmoid)
+            t_mle = float(sigmoid_ppf(np.array(0.5), m.alpha, m.beta, self.sigmoid))
             pc = self.guess + 0.5 * (1.0 - self.guess - m.lapse)
         else:
             t = threshold_at(pc, a, b, lapse, guess=self.guess, sigmoid=self.sigmoid)
@@ -168,13 +171,13 @@ class WeibullFit:
             )
         # 'inverted_cdf' does not interpolate, so +inf samples (curve never reaches pc) are safe.
         q = np.quantile(t, [0.025, 0.5, 0.975], method="inverted_cdf")
-        lo, hi = min(self.levels), max(self.levels)
-        br = bracket(self.levels, self.k, self.n, pc)
+        lo, hi = min(self.pixels), max(self.pixels)
+        br = bracket(self.pixels, self.k, self.n, pc)
         status, reason = self._status(pc, float(q[1]), (float(q[0]), float(q[2])), t_mle, br)
         if status == "unidentified" and "decreases" in reason:
             br = (math.nan, math.nan)
         else:
-            br = _widen(br, self.levels, t_mle)
+            br = _widen(br, self.pixels, t_mle)
         return Threshold(
             float(pc),
             float(q[1]),
@@ -197,12 +200,12 @@ class WeibullFit:
         br: tuple[float, float] = (math.nan, math.nan),
     ) -> tuple[str, str]:
         k, n = np.asarray(self.k), np.asarray(self.n)
-        lo, hi = min(self.levels), max(self.levels)
+        lo, hi = min(self.pixels), max(self.pixels)
         if k.sum() == n.sum():
             return "censored_below", "every trial correct"
         if k.sum() == 0:
             return "censored_above", "no trial correct"
-        if len(self.levels) < 2:
+        if len(self.pixels) < 2:
             rate = k.sum() / n.sum()
             if rate > pc:
                 return "censored_below", "one level tested, above pc there"
@@ -227,11 +230,11 @@ class WeibullFit:
             return "censored_below", "posterior median below the lowest level tested"
         # Where the data do not identify the curve, an interval would be the prior's, not the
         # data's: each case below is reported by its bracketing levels, with no interval.
-        if len(self.levels) < 3:
-            return "unidentified", f"{len(self.levels)} levels with data"
-        step = _separated(k, n)
+        if len(self.pixels) < 3:
+            return "unidentified", f"{len(self.pixels)} levels with data"
+        step = separated(k, n)
         if step is not None:
-            x = self.levels
+            x = self.pixels
             return "unidentified", (
                 f"step response (none correct at {_num(x[step[0]])} or below, all from "
                 f"{_num(x[step[1]])}): the data are separated and set no slope"
@@ -246,7 +249,7 @@ class WeibullFit:
                 else f"up to {_num(ci[1])}, above the highest level {_num(hi)}"
             )
             return "unidentified", f"95 % interval runs beyond the tested range ({side})"
-        a_lo, a_hi = (_axis_value(c, self.sigmoid) for c in ci)
+        a_lo, a_hi = (axis_value(c, self.sigmoid) for c in ci)
         prior_width = self.prior.loc_range[1] - self.prior.loc_range[0]
         if not math.isfinite(a_hi - a_lo) or (a_hi - a_lo) > 0.8 * prior_width:
             return "unidentified", "95 % interval spans most of the prior range"
@@ -260,7 +263,7 @@ class WeibullFit:
         The lapse rate's lower bound 0 is a natural limit, not a prior choice, and is not counted.
         """
         box = self.prior.bounds(3)
-        theta_ml = _theta_of_mle(self.mle, self.sigmoid)
+        theta_ml = theta_of_mle(self.mle, self.sigmoid)
         for j, name in ((1, "slope"), (2, "lapse rate")):
             lo, hi = box[j]
             w = hi - lo
@@ -299,7 +302,7 @@ class WeibullFit:
             )
         box = self.prior.bounds(4)
         names = ("threshold location", "slope", "lapse rate", "overdispersion")
-        theta_ml = _theta_of_mle(self.mle, self.sigmoid)
+        theta_ml = theta_of_mle(self.mle, self.sigmoid)
         for j in range(3):
             lo, hi = box[j]
             w = hi - lo
@@ -333,7 +336,7 @@ class WeibullFit:
             frac = float(np.mean(self.samples[:, 3] > ETA_MAX - 0.02))
             if frac > 0.10:
                 out.append(f"{name}: the overdispersion scale presses on its upper bound")
-        if len(self.levels) >= 2 and self.decreasing():
+        if len(self.pixels) >= 2 and self.decreasing():
             out.append(
                 f"{name}: proportion correct decreases with level; an increasing psychometric "
                 "function does not describe these data and its thresholds are not reported"
@@ -351,9 +354,9 @@ class WeibullFit:
                     f"{name}: posterior median ({t.median:.4g}) and ML threshold ({t.mle:.4g}) "
                     f"differ by {100 * abs(ratio - 1):.0f} %; the data barely constrain it"
                 )
-        if 0 < len(self.levels) < 3:
+        if 0 < len(self.pixels) < 3:
             out.append(
-                f"{name}: only {len(self.levels)} level(s) tested; the slope is not "
+                f"{name}: only {len(self.pixels)} level(s) tested; the slope is not "
                 "identified by the data"
             )
         g = self.goodness_of_fit()
@@ -390,16 +393,16 @@ class WeibullFit:
             ``deviance``, ``deviance_df`` (levels - 3), ``ppp``.
         """
         rng = np.random.default_rng(rng)
-        x, k, n = (np.asarray(v, float) for v in (self.levels, self.k, self.n))
+        x, k, n = (np.asarray(v, float) for v in (self.pixels, self.k, self.n))
         m = self.mle
         p_ml = psychometric(x, m.alpha, m.beta, m.lapse, guess=self.guess, sigmoid=self.sigmoid)
-        dev = float(_deviance(k, n, np.clip(p_ml, _EPS, 1 - _EPS)))
+        dev = float(_deviance(k, n, np.clip(p_ml, EPS, 1 - EPS)))
         idx = np.linspace(0, len(self.samples) - 1, min(n_draws, len(self.samples))).astype(int)
         th = self.samples[idx]
-        p = _p_matrix(th[:, :3], x, self.guess, self.sigmoid)
+        p = p_matrix(th[:, :3], x, self.guess, self.sigmoid)
         p_draw = p
         if th.shape[1] > 3 and self.overdispersion:
-            v = np.minimum(1.0 / np.maximum(th[:, 3], 1e-6) ** 2 - 1.0, _V_MAX)[:, None]
+            v = np.minimum(1.0 / np.maximum(th[:, 3], 1e-6) ** 2 - 1.0, V_MAX)[:, None]
             p_draw = rng.beta(np.maximum(p * v, 1e-9), np.maximum((1 - p) * v, 1e-9))
         k_rep = rng.binomial(n.astype(int)[None, :], np.clip(p_draw, 0.0, 1.0))
         d_obs = _deviance(k[None, :], n[None, :], p)
@@ -417,7 +420,7 @@ class WeibullFit:
         a, b, lapse = self.parameter_samples()
         idx = np.linspace(0, len(a) - 1, min(max_samples, len(a))).astype(int)
         x = np.asarray(x, float)
-        p = self.guess + (1 - self.guess - lapse[idx, None]) * _core(
+        p = self.guess + (1 - self.guess - lapse[idx, None]) * sigmoid_cdf(
             x[None, :], a[idx, None], b[idx, None], self.sigmoid
         )
         lo, med, hi = np.quantile(p, [(1 - level) / 2, 0.5, (1 + level) / 2], axis=0)
@@ -436,9 +439,9 @@ class WeibullFit:
         ok = t50.measured
         d: dict[str, Any] = {
             "status": t50.status,
-            "p50_pixels": _json_float(t50.median) if ok else None,
-            "ci95": [_json_float(t50.ci95[0]), _json_float(t50.ci95[1])] if ok else [None, None],
-            "mle_p50_pixels": _json_float(t50.mle) if ok else None,
+            "p50_pixels": json_float(t50.median) if ok else None,
+            "ci95": [json_float(t50.ci95[0]), json_float(t50.ci95[1])] if ok else [None, None],
+            "mle_p50_pixels": json_float(t50.mle) if ok else None,
             "threshold_50": t50.to_dict(),
             "alpha": self.alpha,
             "beta": self.beta,
@@ -447,7 +450,7 @@ class WeibullFit:
             "eta": self.eta,
             "eta_ci95": list(self.eta_ci95),
             "converged": bool(self.converged),
-            "tau_max": _json_float(self.tau_max),
+            "tau_max": json_float(self.tau_max),
             "n_trials": self.n_trials,
             "n_recognized": self.n_correct,
             "mle": self.mle.to_dict(),
@@ -459,11 +462,11 @@ class WeibullFit:
             ok = t.measured
             d.update(
                 pc=pc,
-                threshold=_json_float(t.median) if ok else None,
-                threshold_ci95=[_json_float(t.ci95[0]), _json_float(t.ci95[1])]
+                threshold=json_float(t.median) if ok else None,
+                threshold_ci95=[json_float(t.ci95[0]), json_float(t.ci95[1])]
                 if ok
                 else [None, None],
-                mle_threshold=_json_float(t.mle) if ok else None,
+                mle_threshold=json_float(t.mle) if ok else None,
                 threshold_pc=t.to_dict(),
             )
         return d
@@ -474,13 +477,13 @@ class WeibullFit:
             "label": self.label,
             "sigmoid": self.sigmoid,
             "guess": self.guess,
-            "levels": list(self.levels),
+            "levels": list(self.pixels),  # the results.json key stays
             "k": list(self.k),
             "n": list(self.n),
             "mle": self.mle.to_dict(),
             "samples": self.samples.tolist(),
             "converged": self.converged,
-            "tau_max": _json_float(self.tau_max),
+            "tau_max": json_float(self.tau_max),
             "n_steps": self.n_steps,
             "n_walkers": self.n_walkers,
             "prior": self.prior.to_dict(),
@@ -498,7 +501,7 @@ class WeibullFit:
             label=str(d["label"]),
             sigmoid=str(d["sigmoid"]),
             guess=float(d["guess"]),
-            levels=tuple(float(v) for v in d["levels"]),
+            pixels=tuple(float(v) for v in d["levels"]),
             k=tuple(float(v) for v in d["k"]),
             n=tuple(float(v) for v in d["n"]),
             mle=MLEstimate.from_dict(d["mle"]),
@@ -512,7 +515,7 @@ class WeibullFit:
         )
 
 
-def _widen(br: tuple[float, float], levels: Any, t_mle: float) -> tuple[float, float]:
+def _widen(br: tuple[float, float], pixels: Any, t_mle: float) -> tuple[float, float]:
     """Widen a bracket to the tested levels around ``t_mle`` when it lies outside the bracket.
 
     A side that is NaN stays NaN only if ``t_mle`` lies on the bracket's open side; an ML
@@ -521,7 +524,7 @@ def _widen(br: tuple[float, float], levels: Any, t_mle: float) -> tuple[float, f
     lo, hi = br
     if not math.isfinite(t_mle) or (math.isnan(lo) and math.isnan(hi)):
         return br
-    x = np.asarray(levels, float)
+    x = np.asarray(pixels, float)
     if math.isfinite(lo) and t_mle < lo:
         below = x[x <= t_mle]
         lo = float(below.max()) if below.size else math.nan

@@ -7,11 +7,10 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-from scipy import special
 
-from analysis.weibull.model import _axis, is_log_axis
+from analysis.weibull.kernel import json_float
 
-__all__ = ["STATUSES", "Threshold", "bracket"]
+__all__ = ["STATUSES", "Threshold", "bracket", "unmeasured_text"]
 
 
 #: Threshold statuses (see :class:`Threshold`).
@@ -80,26 +79,26 @@ class Threshold:
                 f"{fmt.format(self.median)}{u} (95 % CrI {fmt.format(self.ci95[0])}-"
                 f"{fmt.format(self.ci95[1])}; ML {fmt.format(self.mle)})"
             )
-        levels = {"lowest_tested": self.lowest, "highest_tested": self.highest}  # nan, inf kept
-        return _unmeasured_text({**self.to_dict(), **levels}, fmt, unit)
+        tested = {"lowest_tested": self.lowest, "highest_tested": self.highest}  # nan, inf kept
+        return unmeasured_text({**self.to_dict(), **tested}, fmt, unit)
 
     def to_dict(self) -> dict[str, Any]:
         """Return a JSON-ready dict (inf -> None)."""
         return {
             "pc": self.pc,
             "status": self.status,
-            "median": _json_float(self.median),
-            "ci95": [_json_float(self.ci95[0]), _json_float(self.ci95[1])],
-            "mle": _json_float(self.mle),
-            "lowest_tested": _json_float(self.lowest),
-            "highest_tested": _json_float(self.highest),
+            "median": json_float(self.median),
+            "ci95": [json_float(self.ci95[0]), json_float(self.ci95[1])],
+            "mle": json_float(self.mle),
+            "lowest_tested": json_float(self.lowest),
+            "highest_tested": json_float(self.highest),
             "reason": self.reason,
-            "bracket": [_json_float(self.bracket[0]), _json_float(self.bracket[1])],
+            "bracket": [json_float(self.bracket[0]), json_float(self.bracket[1])],
             "midpoint": self.midpoint,
         }
 
 
-def _unmeasured_text(
+def unmeasured_text(
     t: dict[str, Any],
     fmt: str,
     unit: str = "",
@@ -165,7 +164,7 @@ def _bracket_text(br: Any, fmt: str, u: str) -> str:
     return ""
 
 
-def bracket(levels: Any, k: Any, n: Any, pc: float) -> tuple[float, float]:
+def bracket(pixels: Any, k: Any, n: Any, pc: float) -> tuple[float, float]:
     """Return the tested levels that bracket where proportion correct crosses ``pc``.
 
     The observed proportions are made non-decreasing in level first (pool-adjacent-violators,
@@ -176,8 +175,9 @@ def bracket(levels: Any, k: Any, n: Any, pc: float) -> tuple[float, float]:
 
     Parameters
     ----------
-    levels, k, n : array_like of shape (n_levels,)
-        Distinct levels in increasing order (x units), number correct, number of trials (> 0).
+    pixels, k, n : array_like of shape (n_levels,)
+        Distinct stimulus values in increasing order (x units), number correct, number of
+        trials (> 0).
     pc : float
         Proportion correct, in (0, 1).
 
@@ -193,7 +193,7 @@ def bracket(levels: Any, k: Any, n: Any, pc: float) -> tuple[float, float]:
     >>> bracket([96.0, 486.0, 950.0], [0, 0, 3], [2, 2, 3], 0.5)
     (486.0, 950.0)
     """
-    x = np.asarray(levels, float)
+    x = np.asarray(pixels, float)
     p = _pava(np.asarray(k, float) / np.asarray(n, float), np.asarray(n, float))
     below, above = x[p < pc], x[p > pc]
     lo = float(below.max()) if below.size else math.nan
@@ -217,58 +217,3 @@ def _pava(y: np.ndarray, w: np.ndarray) -> np.ndarray:
             del vals[-1], wts[-1], sizes[-1]
             vals[-1], wts[-1], sizes[-1] = v, wsum, s
     return np.repeat(vals, sizes)
-
-
-def _separated(k: np.ndarray, n: np.ndarray) -> tuple[int, int] | None:
-    """Return ``(i, j)`` when the data are a step: none correct at levels <= i, all from j.
-
-    At most one level between the two (``j - i <= 2``) may be mixed (quasi-complete separation,
-    as in logistic regression): no finite slope fits such data better than a vertical step.
-    None when the data are not separated.
-    """
-    none = k == 0
-    every = k == n
-    m = len(k)
-    for i in range(m - 1):
-        if not none[: i + 1].all():
-            break
-        for j in (i + 1, i + 2):
-            if j < m and every[j:].all() and (j == i + 1 or 0 < k[i + 1] < n[i + 1]):
-                return i, j
-    return None
-
-
-def _axis_value(v: float, sigmoid: str) -> float:
-    if is_log_axis(sigmoid):
-        return math.log10(v) if v > 0 else -math.inf
-    return v
-
-
-def _decreasing(levels: np.ndarray, k: np.ndarray, n: np.ndarray, sigmoid: str) -> bool:
-    """Logistic regression of correct on the axis: slope < 0 with z < -1.96 (lightly ridged)."""
-    if len(levels) < 2 or k.sum() in (0, n.sum()):
-        return False
-    u = _axis(np.asarray(levels, float), sigmoid)
-    u = (u - u.mean()) / (u.std() or 1.0)
-    X = np.column_stack([np.ones_like(u), u])
-    b = np.zeros(2)
-    ridge = np.diag([0.0, 1e-3])
-    for _ in range(50):
-        p = special.expit(X @ b)
-        w = n * p * (1 - p)
-        H = X.T @ (w[:, None] * X) + ridge
-        g = X.T @ (k - n * p) - ridge @ b
-        step = np.linalg.solve(H, g)
-        b = b + step
-        if np.max(np.abs(step)) < 1e-10:
-            break
-    p = special.expit(X @ b)
-    H = X.T @ ((n * p * (1 - p))[:, None] * X) + ridge
-    se = math.sqrt(max(np.linalg.inv(H)[1, 1], 1e-300))
-    return bool(b[1] / se < -1.96)
-
-
-def _json_float(v: float) -> float | None:
-    """JSON has no inf/NaN: those become None (null)."""
-    v = float(v)
-    return v if math.isfinite(v) else None

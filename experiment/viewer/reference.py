@@ -220,7 +220,7 @@ def compress_for_implant(
     shape = _grid(layout)[0]
     if grey_levels <= 2:
         return compress(edges, shape, edge_ratio=EDGE_RATIO).astype(np.float32)
-    return compress_grey(source if grey is None else grey, shape, levels=grey_levels)
+    return compress_grey(source if grey is None else grey, shape, grey_levels=grey_levels)
 
 
 def cpu_panes(

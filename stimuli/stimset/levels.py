@@ -62,14 +62,14 @@ def edge_ladder(
 
 
 def grey_ladder(
-    image: np.ndarray, *, levels: int, windows_px: Sequence[int] = jung2015.WINDOWS_PX
+    image: np.ndarray, *, grey_levels: int, windows_px: Sequence[int] = jung2015.WINDOWS_PX
 ) -> list[tuple[int, int, np.ndarray]]:
     """Grey-level compression of a photo at every window (Fig. 2): ``[(level, window, img)]``.
 
     Parameters
     ----------
     image : ndarray of shape (rows, cols), float32 in [0, 1]
-    levels : int >= 2
+    grey_levels : int >= 2
         Number of grey levels.
     windows_px : sequence of int
 
@@ -79,7 +79,7 @@ def grey_ladder(
     """
     img = check_gray(image)
     return [
-        (level, w, compress_grey(img, shape, levels=levels))
+        (level, w, compress_grey(img, shape, grey_levels=grey_levels))
         for level, w, shape in level_ladder(img.shape, windows_px)
     ]
 

@@ -187,7 +187,7 @@ def render_object(
     rows = []
     for condition, img, edges in object_conditions(work):
         if grey:
-            ladder = grey_ladder(img, levels=params.grey_levels, windows_px=params.windows_px)
+            ladder = grey_ladder(img, grey_levels=params.grey_levels, windows_px=params.windows_px)
         else:
             ladder = edge_ladder(edges, edge_ratio=edge_ratio, windows_px=params.windows_px)
         for level, window, stim in ladder:

@@ -248,7 +248,7 @@ def test_fit_command_bad_input_is_one_line(tmp_path, capsys):
         (p, ["--x", "level", "--k", "c"], "give either --y, or --k with --n"),
         (p, ["--x", "level", "--y", "c", "--pc", "1.5"], "--pc values must be in"),
         (p, ["--x", "level", "--y", "c", "--sigmoid", "probit"], "--sigmoid must be auto or"),
-        (q, ["--x", "x", "--y", "y", "--sigmoid", "weibull"], "levels <= 0"),
+        (q, ["--x", "x", "--y", "y", "--sigmoid", "weibull"], "values <= 0"),
     ]
     for table, args, needle in cases:
         with pytest.raises(SystemExit) as exc:

@@ -122,9 +122,9 @@ def test_bad_arguments():
         next(sample_posterior(PX, PX * 0 + 5, PX * 0 + 10, n_walkers=6, overdispersion=True))
     with pytest.raises(ValueError, match="counts must satisfy 0 <= k <= n and n > 0"):
         fit_counts([1.0, 2.0], [3, 1], [2, 2])
-    with pytest.raises(ValueError, match="levels, k and n must be non-empty and of equal length"):
+    with pytest.raises(ValueError, match="pixels, k and n must be non-empty and of equal length"):
         fit_counts([1.0, 2.0], [1], [2, 2])
-    with pytest.raises(ValueError, match="levels, k and n must be finite"):
+    with pytest.raises(ValueError, match="pixels, k and n must be finite"):
         fit_counts([1.0, np.nan], [1, 1], [2, 2])
 
 
@@ -232,7 +232,7 @@ def test_default_prior_bounds():
     p = default_prior(PX)
     assert p.loc_range[0] < math.log10(96) and p.loc_range[1] > math.log10(160884)
     assert default_prior(PX, guess=0.5).lapse_max == 0.25
-    with pytest.raises(ValueError, match=r"levels must be > 0 for the weibull \(log axis\)"):
+    with pytest.raises(ValueError, match=r"pixels must be > 0 for the weibull \(log axis\)"):
         default_prior([0.0, 1.0])
 
 

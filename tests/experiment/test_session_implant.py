@@ -103,7 +103,7 @@ def test_headless_session_shows_the_implant_grid_and_logs_the_layout(stim_dir, t
             continue
         assert shown.shape == (6, 10), trial
         if trial.condition == "photo":
-            expected = compress_grey(load_gray(path), (6, 10), levels=lay.levels)
+            expected = compress_grey(load_gray(path), (6, 10), grey_levels=lay.levels)
         else:  # edges: the paper's rule, window edge fraction > 1/13
             expected = compress(load_gray(path) > 0.5, (6, 10), edge_ratio=1 / 13)
         np.testing.assert_array_equal(shown, expected)

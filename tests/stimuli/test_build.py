@@ -312,7 +312,7 @@ def test_pure_steps_do_not_modify_input() -> None:
     zoom_crop(args[0], (1, 2, 30, 20))
     to_working_size(args[0], (40, 60))
     edge_ladder(args[2], edge_ratio=0.05)
-    grey_ladder(args[1], levels=4)
+    grey_ladder(args[1], grey_levels=4)
     auto_threshold(args[1])
     edge_fraction(args[2])
     for a, b in zip(args, [wide, narrow, edges], strict=True):

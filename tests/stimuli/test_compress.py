@@ -102,7 +102,7 @@ def test_quantize_levels() -> None:
     for n in jung2015.GREY_LEVELS:
         q = quantize(x, n)
         np.testing.assert_allclose(np.unique(q), np.arange(n) / (n - 1), atol=1e-7)
-    g = compress_grey(np.full((20, 30), 0.3, np.float32), (4, 6), levels=2)
+    g = compress_grey(np.full((20, 30), 0.3, np.float32), (4, 6), grey_levels=2)
     assert g.shape == (4, 6) and np.all(g == 0.0)
 
 
@@ -115,7 +115,7 @@ def test_quantize_levels() -> None:
         (lambda: grid_shape((10, 10), 2.5), "window_px must be a positive integer"),
         (lambda: block_mean(np.zeros((4, 4)), (8, 2)), "cannot split 4 px into 8"),
         (lambda: block_mean(np.zeros(4), (1, 1)), "must be 2-D"),
-        (lambda: quantize(np.zeros(3), 1), "levels must be an integer >= 2"),
+        (lambda: quantize(np.zeros(3), 1), "grey_levels must be an integer >= 2"),
     ],
 )
 def test_compress_errors(call, match) -> None:

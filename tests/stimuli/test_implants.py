@@ -76,7 +76,7 @@ def test_grey_stimulus_gets_the_implants_levels() -> None:
     # independent: window means, level k = min(floor(4 * mean), 3), shown as k / 3
     k = np.minimum(np.floor(block_mean(img, (6, 10)).astype(np.float64) * 4), 3)
     np.testing.assert_allclose(grid, k / 3, atol=1e-6)
-    np.testing.assert_array_equal(grid, compress_grey(img, (6, 10), levels=4))
+    np.testing.assert_array_equal(grid, compress_grey(img, (6, 10), grey_levels=4))
 
 
 def test_grid_finer_than_the_stimulus_and_bad_images_are_refused() -> None:
@@ -221,7 +221,7 @@ def test_grey_mode_views_are_window_means_at_the_implants_levels(pairs, tmp_path
         # boundary k / 4 (quantize: floor(4 * mean)) must agree exactly.
         photo = load_gray(r.out_dir / f["object"] / "photo.png")
         means = block_mean(photo, lay.shape)
-        expected = compress_grey(photo, lay.shape, levels=4)
+        expected = compress_grey(photo, lay.shape, grey_levels=4)
         far = np.abs(means * 4 - np.round(means * 4)) > 4 * 0.6 / 255
         got = load_gray(r.out_dir / f["grid"]["path"])
         np.testing.assert_allclose(got[far], expected[far], atol=0.5 / 255)
