@@ -276,19 +276,22 @@ def build_command(
             tasks[stage] = bar.add_task(label, total=total)
         bar.update(tasks[stage], completed=done)
 
+    from stimuli.flagnames import cli_flags
+
     try:
-        result = build_stimulus_set(
-            pairs,
-            out,
-            params=params,
-            force=force,
-            replaces=replaces,
-            progress=progress,
-            implants=layouts,
-            implant_px_per_electrode=implant_px,
-            processes=processes if processes is not None or cluster is not None else 1,
-            cluster=cluster,
-        )
+        with cli_flags(_BUILD_FLAGS):  # the library names parameters; this command its flags
+            result = build_stimulus_set(
+                pairs,
+                out,
+                params=params,
+                force=force,
+                replaces=replaces,
+                progress=progress,
+                implants=layouts,
+                implant_px_per_electrode=implant_px,
+                processes=processes if processes is not None or cluster is not None else 1,
+                cluster=cluster,
+            )
     finally:
         if bar is not None:
             bar.stop()
@@ -311,6 +314,15 @@ def build_command(
         f"wrote {result.n_stimuli} stimuli{views} for {n} objects to {result.out_dir}{ratio}; "
         f"{result.seconds['total']:.1f} s ({per_object_ms:.0f} ms per object)"
     )
+
+
+#: ``stimuli build``'s flags whose spelling is not the library's parameter's.
+_BUILD_FLAGS = {
+    "implants": "--implant",
+    "implant_px_per_electrode": "--implant-px",
+    "working_shape_px": "--working-size",
+    "out_dir": "--out",
+}
 
 
 @stimuli_app.command("synth")

@@ -18,6 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from stimuli.errors import InputError
+from stimuli.flagnames import param
 from stimuli.methods.base import MethodInput
 from stimuli.methods.registry import ALIASES, BASELINE_CONDITION, PAPER_CONDITIONS, get_method
 from stimuli.stimset.pairs import PairsInput, PairSource
@@ -73,8 +74,8 @@ def check_conditions(params: BuildParams, inp: PairsInput) -> None:
         return
     if params.mode != "edges":
         raise InputError(
-            f"--conditions {','.join(conds)}: conditions beyond cluttered,decluttered need "
-            "--mode edges"
+            f"{param('conditions', ','.join(conds))}: conditions beyond cluttered,decluttered "
+            f"need {param('mode', 'edges')}"
         )
     for name in conds:
         if name == BASELINE_CONDITION or name in _OWN_STEP:

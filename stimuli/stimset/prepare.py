@@ -14,6 +14,7 @@ import numpy as np
 from skimage.transform import resize
 
 from stimuli.errors import InputError
+from stimuli.flagnames import param
 from stimuli.io import check_gray, gray_of, image_shape_px, load_float, rgb_of
 from stimuli.manifest import ObjectInfo, format_crop
 from stimuli.stimset.lightfield import ConfocalPairImages, field_crop_in_crop, load_confocal_pair
@@ -465,7 +466,7 @@ def prepare_object(
         if not params.allow_resize:
             raise InputError(
                 f"{msg}; the two photos of a pair must have the same pixel size "
-                "(use --allow-resize to resize each on its own)"
+                f"(use {param('allow_resize', True)} to resize each on its own)"
             )
         notes.append(msg + "; resized each on its own (--allow-resize)")
     min_px = min_photo_shape_px(params)

@@ -145,7 +145,7 @@ def test_resume_refuses_another_protocol_seed_or_stimulus_set(tmp_path, log, pro
     other.write_text(PROTOCOL.replace("levels = [1, 2, 3]", "levels = [1, 2]"))
     with pytest.raises(ResumeMismatch, match=r"S01 has unfinished session 1 with protocol 'tiny'"):
         Session.open(log, load_protocol(other), stimset, "S01")
-    with pytest.raises(ResumeMismatch, match=r"with seed 7, not 8; omit --seed"):
+    with pytest.raises(ResumeMismatch, match=r"with seed 7, not 8; omit `seed`"):
         Session.open(log, protocol, stimset, "S01", seed=8)
     other_set = StimulusSet.load(
         make_stimulus_set(tmp_path / "s2", n_main=3, n_training=1, levels=(1, 2, 3, 8), rng=99)
