@@ -39,6 +39,7 @@ __all__ = [
     "rgb_of",
     "image_shape_px",
     "save_png",
+    "to_uint8",
     "sha256_file",
     "atomic_path",
     "staged_folder",
@@ -532,6 +533,33 @@ def _check_missing_or_empty(real: Path, given: Path) -> None:
         )
 
 
+def to_uint8(image: np.ndarray) -> np.ndarray:
+    """Return an image as :func:`save_png` writes its pixels: ``uint8``, ``True``/1.0 as 255.
+
+    Parameters
+    ----------
+    image : ndarray of shape (rows, cols) or (rows, cols, 3|4), bool, uint8 or float in [0, 1]
+
+    Returns
+    -------
+    ndarray of uint8
+        What reading the PNG back gives.
+
+    Raises
+    ------
+    InputError
+        Another shape, or a float image outside [0, 1].
+    """
+    a = np.asarray(image)
+    if a.ndim != 2 and not (a.ndim == 3 and a.shape[2] in (3, 4)):
+        raise InputError(f"image must be (rows, cols) or (rows, cols, 3|4), got shape {a.shape}")
+    if a.dtype == bool:
+        return a.astype(np.uint8) * 255
+    if a.dtype == np.uint8:
+        return a
+    return np.round(to_float01(a) * 255.0).astype(np.uint8)
+
+
 def save_png(image: np.ndarray, path: str | os.PathLike) -> Path:
     """Write a grey or binary image as an 8-bit PNG, atomically.
 
@@ -546,15 +574,7 @@ def save_png(image: np.ndarray, path: str | os.PathLike) -> Path:
     Path
         The written file.
     """
-    a = np.asarray(image)
-    if a.ndim != 2 and not (a.ndim == 3 and a.shape[2] in (3, 4)):
-        raise InputError(f"image must be (rows, cols) or (rows, cols, 3|4), got shape {a.shape}")
-    if a.dtype == bool:
-        u8 = a.astype(np.uint8) * 255
-    elif a.dtype == np.uint8:
-        u8 = a
-    else:
-        u8 = np.round(to_float01(a) * 255.0).astype(np.uint8)
+    u8 = to_uint8(image)
     path = Path(path)
     with atomic_path(path) as tmp:
         Image.fromarray(u8).save(tmp, format="PNG")

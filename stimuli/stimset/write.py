@@ -17,7 +17,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from stimuli.contact import contact_sheet, save_contact_sheet
-from stimuli.io import save_png, sha256_file, staged_folder
+from stimuli.io import save_png, sha256_file, staged_folder, to_uint8
 from stimuli.manifest import StimulusRecord, format_crop, write_manifest, write_objects_csv
 from stimuli.stimset.conditions import conditions_record, object_conditions
 from stimuli.stimset.edges import SetEdgeRatio
@@ -102,13 +102,14 @@ def write_stimulus_set(
         (tmp / "contact").mkdir()
         tasks = [(w, plan.params, edge_ratio, plan.ladder) for w in works]
 
-        def save(i: int, rendered: RenderedObject) -> list[StimulusRecord]:
-            return _save_rendered(
+        def save(i: int, rendered: RenderedObject) -> tuple[list[StimulusRecord], list]:
+            records = _save_rendered(
                 rendered, works[i], tmp, plan.params, edge_ratio, plan.inp.root, plan.hashes[i]
             )
+            return records, _overview_rows(rendered, works[i])
 
         if pool is None or pool.is_local:
-            per_object = map_objects(
+            saved = map_objects(
                 lambda i: save(i, render_object(*tasks[i])),
                 range(len(works)),
                 plan.workers,
@@ -116,8 +117,8 @@ def write_stimulus_set(
                 "write",
             )
         else:
-            per_object = map_on_pool(pool, render_object, tasks, progress, "write", then=save)
-        records = [r for recs in per_object for r in recs]
+            saved = map_on_pool(pool, render_object, tasks, progress, "write", then=save)
+        records = [r for recs, _ in saved for r in recs]
         views: list[dict] = []
         if plan.implants:
             per_object_views = map_objects(
@@ -132,7 +133,7 @@ def write_stimulus_set(
             views = [v for vs in per_object_views for v in vs]
         write_manifest(records, tmp / "manifest.csv")
         write_objects_csv(plan.inp.objects, tmp / "objects.csv")
-        _write_overview(works, per_object, tmp, labels)
+        _write_overview(works, [rows for _, rows in saved], tmp, labels)
         summaries = tuple(object_summary(w) for w in works)
         notes = build_notes(works, plan.params)
         meta = set_record(plan, ratio, summaries, notes, len(records), tmp / "manifest.csv", views)
@@ -278,20 +279,22 @@ def _save_rendered(
     return records
 
 
-def _write_overview(
-    works: list[ObjectImages], per_object: list[list[StimulusRecord]], tmp: Path, labels: list[str]
-) -> None:
-    from PIL import Image
+def _overview_rows(rendered: RenderedObject, work: ObjectImages) -> list:
+    """Return one object's rows of the overview sheet: each condition's stimuli by level.
 
+    As the PNGs hold them (:func:`stimuli.io.to_uint8`), from memory: nothing is read back.
+    """
     rows = []
-    for w, recs in zip(works, per_object, strict=True):
-        for condition, _, _ in object_conditions(w):
-            imgs = [
-                np.asarray(Image.open(tmp / r.path))
-                for r in sorted(recs, key=lambda r: r.level)
-                if r.condition == condition
-            ]
-            rows.append((f"{w.info.object} {condition[:5]}", imgs))
+    for condition, _, _ in object_conditions(work):
+        stims = sorted((s for s in rendered.stimuli if s[0] == condition), key=lambda s: s[1])
+        rows.append((f"{work.info.object} {condition[:5]}", [to_uint8(s[4]) for s in stims]))
+    return rows
+
+
+def _write_overview(
+    works: list[ObjectImages], per_object: list[list], tmp: Path, labels: list[str]
+) -> None:
+    rows = [row for object_rows in per_object for row in object_rows]
     sheet = contact_sheet(
         rows,
         cell_shape_px=(65, 98),

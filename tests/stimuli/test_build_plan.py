@@ -101,3 +101,29 @@ def test_step_results_are_frozen_and_pickle(pairs: Path) -> None:
     back = pickle.loads(pickle.dumps(edged))
     assert np.array_equal(back.narrow_edges, edged.narrow_edges)
     assert back.info == edged.info and back.threshold == edged.threshold
+
+
+def test_the_library_names_the_parameter_and_the_command_its_flag(pairs, tmp_path, capsys):
+    """``declutter='depth'`` on photo pairs: the same refusal, in Python's words and the CLI's."""
+    from stimuli.errors import InputError
+    from tests.conftest import run_cli
+
+    with pytest.raises(InputError) as caught:
+        plan_build(
+            pairs,
+            tmp_path / "set",
+            params=dataclasses.replace(_PARAMS, declutter="depth"),
+            force=False,
+            replaces=None,
+            workers=1,
+            implants=(),
+            implant_px_per_electrode=8,
+        )
+    said = str(caught.value)
+    assert "`declutter='depth'` needs light fields" in said and "--" not in said
+    assert "use `declutter='auto'` or `declutter='sobel'`" in said
+    argv = ["stimuli", "build", pairs, "--out", tmp_path / "cli", "--declutter", "depth"]
+    assert run_cli(argv) == 2
+    err = capsys.readouterr().err
+    assert "--declutter depth needs light fields" in err and "`" not in err
+    assert "use --declutter auto or --declutter sobel" in err
