@@ -279,7 +279,7 @@ def build_command(
     from stimuli.flagnames import cli_flags
 
     try:
-        with cli_flags(_BUILD_FLAGS):  # the library names parameters; this command its flags
+        with cli_flags():  # the library names parameters; the command line its flags
             result = build_stimulus_set(
                 pairs,
                 out,
@@ -314,15 +314,6 @@ def build_command(
         f"wrote {result.n_stimuli} stimuli{views} for {n} objects to {result.out_dir}{ratio}; "
         f"{result.seconds['total']:.1f} s ({per_object_ms:.0f} ms per object)"
     )
-
-
-#: ``stimuli build``'s flags whose spelling is not the library's parameter's.
-_BUILD_FLAGS = {
-    "implants": "--implant",
-    "implant_px_per_electrode": "--implant-px",
-    "working_shape_px": "--working-size",
-    "out_dir": "--out",
-}
 
 
 @stimuli_app.command("synth")

@@ -25,7 +25,18 @@ import shlex
 from collections.abc import Iterator, Mapping
 from contextlib import contextmanager
 
-__all__ = ["param", "flag_of", "flag_text", "cli_flags"]
+__all__ = ["FLAG_SPELLINGS", "param", "flag_of", "flag_text", "cli_flags"]
+
+#: The flags not spelled as their parameter (``--`` and the name with dashes), the same in
+#: every command that takes them. A tower that may not import this module (``analysis``) writes
+#: its spans literally; the root command maps them with this table.
+FLAG_SPELLINGS: dict[str, str] = {
+    "implants": "--implant",
+    "implant_px_per_electrode": "--implant-px",
+    "working_shape_px": "--working-size",
+    "out_dir": "--out",
+    "pcs": "--pc",
+}
 
 _NO_VALUE = object()
 
@@ -54,17 +65,23 @@ def param(name: str, value: object = _NO_VALUE) -> str:
 
 
 def flag_of(name: str, flags: Mapping[str, str] | None = None) -> str:
-    """Return the flag of a parameter: from ``flags``, else ``--`` and the name with dashes.
+    """Return the flag of a parameter: from ``flags``, :data:`FLAG_SPELLINGS`, else ``--name``.
+
+    The default is ``--`` and the parameter's name with dashes for underscores.
 
     Examples
     --------
     >>> flag_of("allow_resize")
     '--allow-resize'
-    >>> flag_of("implant_px_per_electrode", {"implant_px_per_electrode": "--implant-px"})
+    >>> flag_of("implant_px_per_electrode")
     '--implant-px'
+    >>> flag_of("seed", {"seed": "--knowledge-seed"})
+    '--knowledge-seed'
     """
     if flags and name in flags:
         return flags[name]
+    if name in FLAG_SPELLINGS:
+        return FLAG_SPELLINGS[name]
     return "--" + name.rsplit(".", 1)[-1].replace("_", "-")
 
 
@@ -76,7 +93,8 @@ def flag_text(message: str, flags: Mapping[str, str] | None = None) -> str:
     message : str
         A message whose parameters are :func:`param` spans.
     flags : mapping of str to str, optional
-        Parameter name -> flag, for the flags not spelled as the parameter (:func:`flag_of`).
+        Parameter name -> flag, for this command's flags not spelled as the parameter
+        (:func:`flag_of`).
 
     Examples
     --------
@@ -108,7 +126,7 @@ def flag_text(message: str, flags: Mapping[str, str] | None = None) -> str:
 def cli_flags(flags: Mapping[str, str] | None = None) -> Iterator[None]:
     """Rewrite the parameter spans of a user error raised inside as the command's flags.
 
-    For a command: ``with cli_flags({"implant_px_per_electrode": "--implant-px"}): build(...)``.
+    For a command: ``with cli_flags({"seed": "--knowledge-seed"}): make(...)``.
     The error keeps its type (and ``exit_code``); only its message changes. Errors that are
     not user errors (no ``exit_code`` of 2) pass unchanged.
     """
