@@ -38,7 +38,7 @@ def test_percent_and_groups(tmp_path):
         ("x,k,n\n1,3,2\n", {"x": "x", "k": "k", "n": "n"}, "need 0 <= correct <= trials"),
         ("x,p,n\n1,300,2\n", {"x": "x", "p": "p", "n": "n"}, "must be in 0-1 or 0-100"),
         ("x,y\n1,1\n", {"x": "x", "y": "y", "group": ("g",)}, "`group` column 'g' not found"),
-        ("x,y\nabc,1\n", {"x": "x", "y": "y"}, "--x column 'x' must be numeric, got 'abc'"),
+        ("x,y\nabc,1\n", {"x": "x", "y": "y"}, "`x` column 'x' must be numeric, got 'abc'"),
     ],
 )
 def test_bad_tables(tmp_path, text, spec, needle):
