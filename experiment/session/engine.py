@@ -114,6 +114,9 @@ class Session(LoggedSession):
     ) -> Session:
         """Create a session, or resume the subject's unfinished one (same saved schedule).
 
+        Plans the start (:func:`~experiment.session.plan.plan_session`: every check once, the
+        schedule once), then opens it (:meth:`open_planned`).
+
         A subject whose session is complete is not run again unless ``new_session`` gives the
         reason for a further session (:meth:`TrialLog.session_to_open`).
 
@@ -164,6 +167,9 @@ class Session(LoggedSession):
         ProtocolError
             The protocol asks for objects or levels the stimulus set lacks, or its
             ``display.implant`` grid is finer than a planned stimulus.
+        SubjectCodeError, SubjectCollision
+            A subject code the subject-code rule refuses, or one an export could not tell from
+            a subject already in the log (the checks of ``session run``: :func:`plan_session`).
         """
         plan = plan_session(
             protocol,
