@@ -294,7 +294,7 @@ def _check_subject_is_new_or_same(log: TrialLog, subject: str) -> None:
     for other in sorted({s["subject"] for s in log.sessions()}):
         if other != subject and subject_key(other) == key:
             raise SubjectCollision(
-                f"{param('subject', subject)}: the log already has subject {other!r}, and both "
+                f"{param('subject')} {subject!r}: the log already has subject {other!r}, and both "
                 f"would be exported as subject-{keyword_value(subject)}; use {other!r} or another "
                 "code"
             )
