@@ -36,6 +36,7 @@ FLAG_SPELLINGS: dict[str, str] = {
     "working_shape_px": "--working-size",
     "out_dir": "--out",
     "pcs": "--pc",
+    "n_subjects": "--subjects",
 }
 
 _NO_VALUE = object()

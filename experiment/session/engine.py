@@ -216,10 +216,12 @@ class Session(LoggedSession):
             return cls._resume(log, plan, row, clock)
 
         def create() -> Session:
-            index, schedule = subject_position(log, subject), plan.schedule
+            index, schedule, root_seed = subject_position(log, subject), plan.schedule, plan.seed
+            if plan.resumes is not None and not plan.seed_given:  # not the old session's seed
+                root_seed = int(np.random.SeedSequence().entropy)
             if plan.resumes is not None or index != plan.subject_index:  # the log moved on
                 schedule = build_schedule(
-                    protocol, stimset, child_rng(plan.seed, 0), subject_index=index
+                    protocol, stimset, child_rng(root_seed, 0), subject_index=index
                 )
                 verify_files(stimset, schedule)
                 check_implant_fits(protocol.display, stimset, schedule)
@@ -228,7 +230,7 @@ class Session(LoggedSession):
                 protocol,
                 subject,
                 clock,
-                seed=plan.seed,
+                seed=root_seed,
                 write_plan=lambda sid: log.write_schedule(sid, schedule),
                 open_note=f"new session: {len(schedule)} trials planned",
                 new_session=plan.new_session,
@@ -250,7 +252,7 @@ class Session(LoggedSession):
             balance = counterbalance_record(protocol, index)
             if balance is not None:  # the subject's row of the Latin square, with the session
                 log.add_event(sid, "counterbalance", json.dumps(balance), clock.now_s())
-            return cls(log, protocol, stimset, subject, sid, plan.seed, schedule, clock)
+            return cls(log, protocol, stimset, subject, sid, root_seed, schedule, clock)
 
         return open_or_create(log, subject, plan.new_session, resume, create)
 
