@@ -176,8 +176,9 @@ def plan_session(
     from experiment.log.locks import check_take_over_reason
     from stimuli.resources import check_memory
 
+    if isinstance(subject, str):  # the subject-code rule first, as the command line says it
+        check_subject_code(subject, option=param("subject"))
     check_subject_and_seed(subject, seed)
-    check_subject_code(subject, option=param("subject"))
     check_new_session_reason(new_session)
     check_take_over_reason(take_over_lock)
     if observer is None and responder and responder.startswith("sim:"):

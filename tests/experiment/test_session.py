@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 from experiment.clock import FakeClock
+from experiment.data.subjects import SubjectCodeError
 from experiment.interfaces import Answer, FlipRecord
 from experiment.log import ResumeMismatch, SessionComplete, SessionLocked, TrialLog
 from experiment.presentation.displays import NullDisplay
@@ -259,8 +260,10 @@ def test_suggest_score_and_rescore(log, protocol, stimset):
 
 
 def test_bad_arguments(log, protocol, stimset):
-    with pytest.raises(ValueError, match="subject must be a non-empty string"):
+    with pytest.raises(SubjectCodeError, match="`subject` ' ' is empty"):  # as session run
         Session.open(log, protocol, stimset, " ")
+    with pytest.raises(ValueError, match="subject must be a non-empty string"):
+        Session.open(log, protocol, stimset, None)
     with pytest.raises(ValueError, match="seed must be a non-negative integer"):
         Session.open(log, protocol, stimset, "S01", seed=-1)
     with pytest.raises(ValueError, match="hold_s must be >= 0"):
