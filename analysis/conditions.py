@@ -206,7 +206,7 @@ def fit_condition_logistic(
     conds = list(conditions)
     if reference not in conds:
         raise DataError(
-            f"--reference {reference!r}: no trials in that condition; expected one of "
+            f"`reference` {reference!r}: no trials in that condition; expected one of "
             f"{', '.join(conds)}"
         )
     y = trials["recognized"].astype(int).to_numpy()
@@ -487,7 +487,7 @@ def analyze_conditions(
     conds = condition_order(trials)
     if reference not in conds:
         raise DataError(
-            f"--reference {reference!r}: no trials in that condition; the data hold "
+            f"`reference` {reference!r}: no trials in that condition; the data hold "
             f"{', '.join(conds)}"
         )
     subjects = object_order(trials["subject"]) if opts.by_subject else []

@@ -96,7 +96,7 @@ def fit_condition_mixed(
     conds = list(conditions)
     if reference not in conds:
         raise DataError(
-            f"--reference {reference!r}: no trials in that condition; expected one of "
+            f"`reference` {reference!r}: no trials in that condition; expected one of "
             f"{', '.join(conds)}"
         )
     y = trials["recognized"].astype(int).to_numpy()

@@ -471,7 +471,7 @@ def read_trials(paths: Iterable[str | Path], *, include_simulated: bool = False)
     if simulated and human and not include_simulated:
         raise DataError(
             f"refusing to pool simulated session(s) {'; '.join(simulated)} with human "
-            f"session(s) {'; '.join(human)}: analyse them apart, or pass --include-simulated"
+            f"session(s) {'; '.join(human)}: analyse them apart, or pass `include_simulated=True`"
         )
     trials = pd.concat(frames, ignore_index=True)
     _check_no_repeats(trials)

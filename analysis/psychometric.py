@@ -143,24 +143,24 @@ class FitSpec:
         self._check_guess_pcs()
         if self.sigmoid != "auto" and self.sigmoid not in SIGMOIDS:
             raise ValueError(
-                f"--sigmoid must be auto or one of {', '.join(SIGMOIDS)}, got {self.sigmoid!r}"
+                f"`sigmoid` must be auto or one of {', '.join(SIGMOIDS)}, got {self.sigmoid!r}"
             )
         if self.axis not in ("auto", "log", "linear"):
-            raise ValueError(f"--axis must be auto, log or linear, got {self.axis!r}")
+            raise ValueError(f"`axis` must be auto, log or linear, got {self.axis!r}")
 
     def _check_outcome(self) -> None:
         if self.y is not None:
             if self.k is not None or self.n is not None or self.p is not None:
-                raise ValueError("give either --y, or --k with --n, or --p with --n; not both")
+                raise ValueError("give either `y`, or `k` with `n`, or `p` with `n`; not both")
         elif self.n is None or (self.k is None) == (self.p is None):
-            raise ValueError("give either --y, or --k with --n, or --p with --n")
+            raise ValueError("give either `y`, or `k` with `n`, or `p` with `n`")
 
     def _check_guess_pcs(self) -> None:
         if not (0.0 <= self.guess < 1.0):
-            raise ValueError(f"--guess must be in [0, 1), got {self.guess!r}")
+            raise ValueError(f"`guess` must be in [0, 1), got {self.guess!r}")
         for pc in self.pcs:
             if not (self.guess < pc < 1.0):
-                raise ValueError(f"--pc values must be in (guess {self.guess:g}, 1), got {pc!r}")
+                raise ValueError(f"`pcs` values must be in (guess {self.guess:g}, 1), got {pc!r}")
 
 
 def read_table(path: str | Path) -> pd.DataFrame:
@@ -284,34 +284,34 @@ def counts_by_group(
     DataError
         Unknown column, non-numeric values, outcomes out of range.
     """
-    x = _numeric(df, spec.x, source, "--x")
+    x = _numeric(df, spec.x, source, "`x`")
     if spec.y is not None:
-        k = _numeric(df, spec.y, source, "--y")
+        k = _numeric(df, spec.y, source, "`y`")
         if not np.all((k == 0) | (k == 1)):
             i = int(np.flatnonzero((k != 0) & (k != 1))[0])
             raise DataError(
-                f"{source}: --y column {spec.y!r} must be 0 or 1 per trial, got "
-                f"{df[spec.y].iloc[i]!r} at data row {i + 1} (aggregated counts: use --k and --n)"
+                f"{source}: `y` column {spec.y!r} must be 0 or 1 per trial, got "
+                f"{df[spec.y].iloc[i]!r} at data row {i + 1} (aggregated counts: use `k` and `n`)"
             )
         n = np.ones_like(k)
     else:
-        n = _numeric(df, spec.n, source, "--n")
+        n = _numeric(df, spec.n, source, "`n`")
         if np.any(n <= 0):
             i = int(np.flatnonzero(n <= 0)[0])
             raise DataError(
-                f"{source}: --n column {spec.n!r} must be > 0, got {n[i]:g} at row {i + 1}"
+                f"{source}: `n` column {spec.n!r} must be > 0, got {n[i]:g} at row {i + 1}"
             )
         if spec.k is not None:
-            k = _numeric(df, spec.k, source, "--k")
+            k = _numeric(df, spec.k, source, "`k`")
         else:
-            p = _numeric(df, spec.p, source, "--p")
+            p = _numeric(df, spec.p, source, "`p`")
             if np.any(p < 0) or np.any(p > 100):
-                raise DataError(f"{source}: --p column {spec.p!r} must be in 0-1 or 0-100")
+                raise DataError(f"{source}: `p` column {spec.p!r} must be in 0-1 or 0-100")
             above, inside = p > 1, (p > 0) & (p < 1)
             if above.any() and inside.any():  # 1.5 among proportions: a typo, not 1.5 %
                 i, j = int(np.flatnonzero(above)[0]), int(np.flatnonzero(inside)[0])
                 raise DataError(
-                    f"{source}: --p column {spec.p!r} mixes proportions and percentages "
+                    f"{source}: `p` column {spec.p!r} mixes proportions and percentages "
                     f"({p[i]:g} at data row {i + 1} is above 1, {p[j]:g} at data row {j + 1} is "
                     "a fraction): give proportions in 0-1 or percentages in 0-100"
                 )
@@ -327,7 +327,7 @@ def counts_by_group(
     for g in spec.group:
         if g not in df.columns:
             raise DataError(
-                f"{source}: --group column {g!r} not found (columns: {', '.join(df.columns)})"
+                f"{source}: `group` column {g!r} not found (columns: {', '.join(df.columns)})"
             )
     keys = (
         df[list(spec.group)].astype(str).apply(lambda r: tuple(r), axis=1)
@@ -514,8 +514,8 @@ def iter_fit_table(
     sigmoid = resolve_sigmoid(spec.sigmoid, spec.axis, all_x)
     if is_log_axis(sigmoid) and np.any(all_x <= 0):
         raise DataError(
-            f"{source}: --x column {spec.x!r} has values <= 0 ({all_x.min():g}), which the "
-            f"{sigmoid} (log axis) cannot take; use --sigmoid logistic, normal or gumbel "
+            f"{source}: `x` column {spec.x!r} has values <= 0 ({all_x.min():g}), which the "
+            f"{sigmoid} (log axis) cannot take; use `sigmoid='logistic'`, 'normal' or 'gumbel' "
             "(linear axis)"
         )
     jobs, per_group = [], []

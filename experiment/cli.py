@@ -230,7 +230,9 @@ def main(argv: list[str] | None = None) -> None:
         sys.exit(stop.exit_code)
     except Exception as exc:  # noqa: BLE001 - classified just below
         if getattr(exc, "exit_code", None) == 2:
-            typer.echo(f"confocal: error: {_one_line(exc)}", err=True)
+            from stimuli.flagnames import flag_text  # library messages name parameters
+
+            typer.echo(f"confocal: error: {_one_line(flag_text(str(exc)))}", err=True)
             sys.exit(2)
         if isinstance(exc, OSError) and exc.errno in (errno.ENOSPC, errno.EDQUOT):
             where = f"{exc.filename}: " if exc.filename is not None else ""

@@ -52,6 +52,7 @@ from pathlib import Path
 from typing import Any, Literal
 
 from experiment.errors import ConfocalError
+from stimuli.flagnames import param
 
 __all__ = [
     "MANIFEST_NAME",
@@ -488,7 +489,8 @@ def check_folder(
         raise _refuse(
             flag,
             shown,
-            f"holds the output of an earlier 'confocal {command}'; use --force to replace it",
+            f"holds the output of an earlier 'confocal {command}'; use {param('force', True)} "
+            "to replace it",
         )
     return "own"
 
@@ -543,7 +545,7 @@ def check_file(
     _refuse_below_a_file(real, flag, shown, "file")
     exists = real.exists()
     if exists and not (force or own):
-        raise _refuse(flag, shown, "exists; use --force to replace it")
+        raise _refuse(flag, shown, f"exists; use {param('force', True)} to replace it")
     return exists
 
 

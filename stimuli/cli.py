@@ -276,19 +276,22 @@ def build_command(
             tasks[stage] = bar.add_task(label, total=total)
         bar.update(tasks[stage], completed=done)
 
+    from stimuli.flagnames import cli_flags
+
     try:
-        result = build_stimulus_set(
-            pairs,
-            out,
-            params=params,
-            force=force,
-            replaces=replaces,
-            progress=progress,
-            implants=layouts,
-            implant_px_per_electrode=implant_px,
-            processes=processes if processes is not None or cluster is not None else 1,
-            cluster=cluster,
-        )
+        with cli_flags():  # the library names parameters; the command line its flags
+            result = build_stimulus_set(
+                pairs,
+                out,
+                params=params,
+                force=force,
+                replaces=replaces,
+                progress=progress,
+                implants=layouts,
+                implant_px_per_electrode=implant_px,
+                processes=processes if processes is not None or cluster is not None else 1,
+                cluster=cluster,
+            )
     finally:
         if bar is not None:
             bar.stop()

@@ -34,8 +34,12 @@ from stimuli.staging import (
 __all__ = [
     "load_gray",
     "load_rgb",
+    "load_float",
+    "gray_of",
+    "rgb_of",
     "image_shape_px",
     "save_png",
+    "to_uint8",
     "sha256_file",
     "atomic_path",
     "staged_folder",
@@ -190,7 +194,67 @@ def load_rgb(path: str | os.PathLike) -> np.ndarray:
     InputError
         If the file is missing, unreadable or truncated.
     """
-    a = to_float01(_pil_to_array(_open(path)))
+    return rgb_of(load_float(path))
+
+
+def load_float(
+    path: str | os.PathLike, *, draft_shape_px: tuple[int, int] | None = None
+) -> np.ndarray:
+    """Decode an image file once, as stored: ``float32`` in [0, 1], EXIF orientation applied.
+
+    :func:`gray_of` and :func:`rgb_of` make of it what :func:`load_gray` and :func:`load_rgb`
+    return, to the bit, so a caller that needs both reads the file once.
+
+    Parameters
+    ----------
+    path : str or path-like
+        Any format Pillow reads.
+    draft_shape_px : (rows, cols), optional
+        JPEG only: decode at a reduced size (see :func:`load_gray`).
+
+    Returns
+    -------
+    ndarray of shape (rows, cols) or (rows, cols, channels), float32 in [0, 1]
+
+    Raises
+    ------
+    InputError
+        If the file is missing, unreadable or truncated.
+    """
+    return to_float01(_pil_to_array(_open(path, draft_shape_px)))
+
+
+def gray_of(image: np.ndarray) -> np.ndarray:
+    """Return the luminance of a decoded image (:func:`load_float`), as :func:`load_gray` does.
+
+    Parameters
+    ----------
+    image : ndarray of shape (rows, cols) or (rows, cols, channels), float32 in [0, 1]
+
+    Returns
+    -------
+    ndarray of shape (rows, cols), float32 in [0, 1]
+        Rec. 709 luma of the first three channels; a grey (or grey-and-alpha) image's grey.
+    """
+    a = image
+    if a.ndim == 3:
+        a = a[..., :3] @ _LUMA_WEIGHTS if a.shape[2] >= 3 else a[..., 0]
+    return np.ascontiguousarray(np.clip(a, 0.0, 1.0).astype(np.float32))
+
+
+def rgb_of(image: np.ndarray) -> np.ndarray:
+    """Return a decoded image (:func:`load_float`) as RGB, as :func:`load_rgb` does.
+
+    Parameters
+    ----------
+    image : ndarray of shape (rows, cols) or (rows, cols, channels), float32 in [0, 1]
+
+    Returns
+    -------
+    ndarray of shape (rows, cols, 3), float32 in [0, 1]
+        Grey repeated on the three channels; alpha dropped.
+    """
+    a = image
     if a.ndim == 2:
         a = np.repeat(a[..., None], 3, axis=2)
     return np.ascontiguousarray(a[..., :3])
@@ -244,10 +308,7 @@ def load_gray(
     InputError
         If the file is missing, unreadable or truncated.
     """
-    a = to_float01(_pil_to_array(_open(path, draft_shape_px)))
-    if a.ndim == 3:
-        a = a[..., :3] @ _LUMA_WEIGHTS if a.shape[2] >= 3 else a[..., 0]
-    return np.ascontiguousarray(np.clip(a, 0.0, 1.0).astype(np.float32))
+    return gray_of(load_float(path, draft_shape_px=draft_shape_px))
 
 
 def check_gray(image: np.ndarray, name: str = "image") -> np.ndarray:
@@ -472,6 +533,33 @@ def _check_missing_or_empty(real: Path, given: Path) -> None:
         )
 
 
+def to_uint8(image: np.ndarray) -> np.ndarray:
+    """Return an image as :func:`save_png` writes its pixels: ``uint8``, ``True``/1.0 as 255.
+
+    Parameters
+    ----------
+    image : ndarray of shape (rows, cols) or (rows, cols, 3|4), bool, uint8 or float in [0, 1]
+
+    Returns
+    -------
+    ndarray of uint8
+        What reading the PNG back gives.
+
+    Raises
+    ------
+    InputError
+        Another shape, or a float image outside [0, 1].
+    """
+    a = np.asarray(image)
+    if a.ndim != 2 and not (a.ndim == 3 and a.shape[2] in (3, 4)):
+        raise InputError(f"image must be (rows, cols) or (rows, cols, 3|4), got shape {a.shape}")
+    if a.dtype == bool:
+        return a.astype(np.uint8) * 255
+    if a.dtype == np.uint8:
+        return a
+    return np.round(to_float01(a) * 255.0).astype(np.uint8)
+
+
 def save_png(image: np.ndarray, path: str | os.PathLike) -> Path:
     """Write a grey or binary image as an 8-bit PNG, atomically.
 
@@ -486,15 +574,7 @@ def save_png(image: np.ndarray, path: str | os.PathLike) -> Path:
     Path
         The written file.
     """
-    a = np.asarray(image)
-    if a.ndim != 2 and not (a.ndim == 3 and a.shape[2] in (3, 4)):
-        raise InputError(f"image must be (rows, cols) or (rows, cols, 3|4), got shape {a.shape}")
-    if a.dtype == bool:
-        u8 = a.astype(np.uint8) * 255
-    elif a.dtype == np.uint8:
-        u8 = a
-    else:
-        u8 = np.round(to_float01(a) * 255.0).astype(np.uint8)
+    u8 = to_uint8(image)
     path = Path(path)
     with atomic_path(path) as tmp:
         Image.fromarray(u8).save(tmp, format="PNG")

@@ -16,6 +16,7 @@ from pathlib import Path
 from typing import Any
 
 from stimuli.errors import InputError
+from stimuli.flagnames import param
 from stimuli.lfload import _IMAGE_SUFFIXES
 
 __all__ = [
@@ -82,7 +83,7 @@ def discover_captures(folder: str | os.PathLike) -> list[Path]:
 
 
 def check_pool_options(processes: int | None, cluster: str | None) -> None:
-    """Refuse bad ``--processes`` / ``--cluster`` options before any work is done.
+    """Refuse bad ``processes`` / ``cluster`` values before any work is done.
 
     Raises
     ------
@@ -91,20 +92,21 @@ def check_pool_options(processes: int | None, cluster: str | None) -> None:
         optional ``dask`` extra).
     """
     if processes is not None and (isinstance(processes, bool) or processes < 1):
-        raise InputError(f"--processes must be >= 1, got {processes}")
+        raise InputError(f"{param('processes')} must be >= 1, got {processes}")
     if cluster is not None and processes is not None:
         raise InputError(
-            f"--processes {processes} and --cluster {cluster} exclude each other: give one "
+            f"{param('processes', processes)} and {param('cluster', cluster)} exclude each other: "
+            "give one "
             "(local worker processes, or the workers of a Dask scheduler)"
         )
     if cluster is not None:
         if not str(cluster).strip():
-            raise InputError("--cluster must be a Dask scheduler address, got ''")
+            raise InputError(f"{param('cluster')} must be a Dask scheduler address, got ''")
         try:
             import dask.distributed  # noqa: F401
         except ImportError:
             raise InputError(
-                "--cluster needs Dask: install the 'dask' extra (pip install .[dask])"
+                f"{param('cluster')} needs Dask: install the 'dask' extra (pip install .[dask])"
             ) from None
 
 

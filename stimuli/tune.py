@@ -125,7 +125,7 @@ def tune_pairs(
 
     def one(item) -> TuneResult:
         src, info = item
-        work = prepare_object(src, info, params)
+        work = prepare_object(src, info, params, colour=False)
         curve = retention_curve(work.wide, work.narrow)
         t = curve.best_threshold()
         sw, sn = pair_magnitudes(work.wide, work.narrow)

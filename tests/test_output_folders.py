@@ -373,7 +373,7 @@ def _with(path: Path, name: str) -> Path:
             "was written by 'confocal stimuli build', not 'confocal analyze run'",
         ),
         (lambda t: _with(_own(t / "o"), "mine.txt"), {}, "did not write: mine.txt"),
-        (lambda t: _own(t / "o"), {"needs_force": True}, "use --force to replace it"),
+        (lambda t: _own(t / "o"), {"needs_force": True}, "use `force=True` to replace it"),
     ],
     ids=[
         "cwd",
@@ -429,7 +429,7 @@ def test_check_file_refuses(tmp_path):
         check_file(tmp_path / "b.png", inputs=[tmp_path / "b.png"], force=True)
     with pytest.raises(OutputFolderError, match="is inside the input"):
         check_file(tmp_path / "in" / "new.png", inputs=[tmp_path / "in"], force=True)
-    with pytest.raises(OutputFolderError, match="exists; use --force to replace it"):
+    with pytest.raises(OutputFolderError, match="exists; use `force=True` to replace it"):
         check_file(tmp_path / "b.png")
     assert check_file(tmp_path / "b.png", force=True) is True
     assert check_file(tmp_path / "c.png") is False

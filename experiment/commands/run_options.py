@@ -113,8 +113,10 @@ def confirm_take_over(data: Path, subject: str, reason: str | None) -> None:
 
     from experiment.log import TrialLog
     from experiment.log.locks import check_take_over_reason
+    from stimuli.flagnames import cli_flags
 
-    check_take_over_reason(reason)
+    with cli_flags():  # the library names the parameter; the command line its flag
+        check_take_over_reason(reason)
     if reason is None or not data.is_file() or data.stat().st_size == 0:
         return
     with TrialLog(data, readonly=True) as log:

@@ -14,6 +14,7 @@ What the export leaves out (identifying participant fields, wall-clock times) is
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import logging
 import math
@@ -35,10 +36,9 @@ from experiment.commands.run_options import (
     confirm_take_over,
     report_if_complete,
 )
-from experiment.data.subjects import check_subject_code
 from experiment.errors import ConfocalError
 from stimuli.cli import seed_option
-from stimuli.resources import check_memory, finite_option
+from stimuli.resources import finite_option
 
 __all__ = [
     "register",
@@ -51,10 +51,6 @@ logger = logging.getLogger(__name__)
 
 #: Longest headless hold, seconds (ours: one day; longer is a typo, and inf overflows sleep()).
 _MAX_HOLD_S = 86400.0
-#: Memory per planned trial, bytes: the Trial object, its schedule row and its index entries
-#: (ours, rounded up; the check only has to catch absurd repetition counts before allocating).
-_BYTES_PER_TRIAL = 4096
-
 session_app = typer.Typer(
     name="session",
     help="Run recognition sessions and inspect or export the study's trial log.",
@@ -166,11 +162,8 @@ def run_command(
     from experiment.log import SessionComplete, TrialLog
     from experiment.observers import OBSERVERS, describe_observer, make_observer
     from experiment.presentation.displays import NullDisplay
-    from experiment.protocol import load_protocol
     from experiment.session.engine import Session
-    from experiment.session.lifecycle import check_new_session_reason
-    from experiment.session.schedule import planned_trials
-    from experiment.session.stimset import StimulusSet
+    from experiment.session.plan import plan_session
 
     check_presenter(presenter)
     if observer is not None and not headless:
@@ -193,10 +186,8 @@ def run_command(
                 f"the operator console is unavailable ({exc}); use --headless --observer NAME "
                 "for a simulated session"
             ) from None
-    check_subject_code(subject)  # the one rule for what leaves the lab as a subject code
     if data.is_dir():
         raise ConfocalError(f"--data {data} is a folder; expected the study's .sqlite file")
-    check_new_session_reason(new_session)
     meta = None
     if participant is not None:
         from experiment.data.psychds import check_not_identifying, parse_participant
@@ -204,24 +195,22 @@ def run_command(
         meta = parse_participant(participant)
         if not allow_identifying:
             check_not_identifying(meta)
-    _check_subject_is_new_or_same(data, subject)
-    spec = load_protocol(protocol)
-    monitor_record = None
-    if monitor is not None:
-        import dataclasses
-
-        from experiment.data.monitors import apply_monitor, load_monitor
-
-        profile, monitor_record = load_monitor(monitor)
-        spec = dataclasses.replace(spec, display=apply_monitor(spec.display, profile))
-    stimset = StimulusSet.load(stimuli)
-    # the whole plan is checked before the trial log is created or touched
-    check_memory(planned_trials(spec, stimset) * _BYTES_PER_TRIAL, f"protocol {protocol}")
-    if spec.display.implant_layout is not None:
-        from experiment.session.engine import check_implant_fits
-        from experiment.session.schedule import build_schedule
-
-        check_implant_fits(spec.display, stimset, build_schedule(spec, stimset, 0))
+    # the whole plan (subject, protocol, set, implant, memory, schedule) is checked once, before
+    # the trial log is created or touched
+    plan = plan_session(
+        protocol,
+        stimuli,
+        subject,
+        log=data,
+        seed=seed,
+        responder=f"sim:{observer}" if headless else "console",
+        observer=observer if headless else None,
+        participant=meta,
+        monitor=monitor,
+        new_session=new_session,
+        take_over_lock=take_over_lock,
+    )
+    stimset = plan.stimset
     effective_params = None
     if headless:
         try:  # check the parameters before anything is written
@@ -229,26 +218,14 @@ def run_command(
         except (TypeError, ValueError) as exc:
             raise ConfocalError(f"--observer-param: {exc}") from None
         effective_params = _params_dict(getattr(probe, "params", None), params)
+        plan = dataclasses.replace(plan, observer_params=effective_params)
     if report_if_complete(data, subject, new_session):
         return
     confirm_take_over(data, subject, take_over_lock)
     log = TrialLog(data)
     try:
         try:
-            session = Session.open(
-                log,
-                spec,
-                stimset,
-                subject,
-                seed=seed,
-                responder=f"sim:{observer}" if headless else "console",
-                observer=observer if headless else None,
-                observer_params=effective_params,
-                participant=meta,
-                monitor=monitor_record,
-                new_session=new_session,
-                take_over_lock=take_over_lock,
-            )
+            session = Session.open_planned(log, plan)
         except SessionComplete as exc:  # completed by another process since the check above
             typer.echo(str(exc))
             return
@@ -280,27 +257,6 @@ def run_command(
             session.close()
     finally:
         log.close()
-
-
-def _check_subject_is_new_or_same(data: Path, subject: str) -> None:
-    """Refuse a subject code that an export could not tell from one already in the log."""
-    from experiment.data.psychds import SubjectCollision, keyword_value, subject_key
-    from experiment.log import TrialLog
-
-    try:
-        key = subject_key(subject)
-    except SubjectCollision as exc:
-        raise SubjectCollision(f"--subject: {exc}") from None
-    if not data.is_file() or data.stat().st_size == 0:
-        return
-    with TrialLog(data, readonly=True) as log:
-        known = {s["subject"] for s in log.sessions()}
-    for other in sorted(known):
-        if other != subject and subject_key(other) == key:
-            raise SubjectCollision(
-                f"--subject {subject!r}: the log already has subject {other!r}, and both would "
-                f"be exported as subject-{keyword_value(subject)}; use {other!r} or another code"
-            )
 
 
 def _params_dict(spec: object, given: dict[str, object]) -> dict[str, object]:

@@ -300,16 +300,17 @@ def run_demo(
     from experiment.protocol import load_protocol
     from experiment.session.engine import Session
     from experiment.session.stimset import StimulusSet
+    from stimuli.flagnames import param
     from stimuli.stimset import build_stimulus_set
     from stimuli.synth import write_pairs
 
     if isinstance(n_subjects, bool) or not isinstance(n_subjects, int) or n_subjects < 1:
-        raise ConfocalError(f"--subjects must be an integer >= 1, got {n_subjects!r}")
+        raise ConfocalError(f"{param('n_subjects')} must be an integer >= 1, got {n_subjects!r}")
     if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
-        raise ConfocalError(f"--seed must be an integer >= 0, got {seed!r}")
+        raise ConfocalError(f"{param('seed')} must be an integer >= 0, got {seed!r}")
     if observer not in OBSERVERS:
         raise ConfocalError(
-            f"--observer must be one of {', '.join(sorted(OBSERVERS))}, got {observer!r}"
+            f"{param('observer')} must be one of {', '.join(sorted(OBSERVERS))}, got {observer!r}"
         )
     kseed = seed + 1 if knowledge_seed is None else knowledge_seed
     n_render = KNOWLEDGE_RENDERINGS if observer == "calibrated" else 1
@@ -320,8 +321,9 @@ def run_demo(
         or 0 <= seed - kseed < n_render
     ):
         raise ConfocalError(
-            f"--knowledge-seed must be an integer >= 0 whose {n_render} rendering(s) (seeds "
-            f"--knowledge-seed onwards) are other than --seed ({seed}), got {kseed!r}"
+            f"{param('knowledge_seed')} must be an integer >= 0 whose {n_render} rendering(s) "
+            f"(seeds {param('knowledge_seed')} onwards) are other than {param('seed')} ({seed}), "
+            f"got {kseed!r}"
         )
     kseeds = [kseed + i for i in range(n_render)]
     from experiment.demos.methods import protocol_conditions

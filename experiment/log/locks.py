@@ -26,6 +26,7 @@ from typing import Any
 
 from experiment.log.errors import SessionLocked, TrialLogError
 from experiment.log.schema import utc_now
+from stimuli.flagnames import param
 
 __all__ = [
     "TAKE_OVER_OPTION",
@@ -53,8 +54,8 @@ def check_take_over_reason(reason: str | None) -> None:
         return
     if not isinstance(reason, str) or not reason.strip() or not reason.isprintable():
         raise TrialLogError(
-            f"{TAKE_OVER_OPTION} needs the reason on one line, e.g. {TAKE_OVER_OPTION} "
-            f'"laptop renamed on the clinic network"; got {reason!r}'
+            f"{param('take_over_lock')} needs the reason on one line, e.g. "
+            f"{param('take_over_lock', 'laptop renamed on the clinic network')}; got {reason!r}"
         )
 
 
@@ -117,7 +118,7 @@ def claim_session(
                     f"{path}: session {session_id} is open on host {row['host']} "
                     f"(pid {row['pid']}, since {row['acquired_at']}); refusing to open it "
                     f"twice. If no program on {row['host']} runs it any more (e.g. this "
-                    f"machine was renamed), add {TAKE_OVER_OPTION} REASON"
+                    f"machine was renamed), add {param('take_over_lock', 'REASON')}"
                 )
             if row["host"] == host and pid_alive(row["pid"], row["proc_start"]):
                 raise SessionLocked(

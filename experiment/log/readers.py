@@ -14,6 +14,7 @@ from typing import Any
 from experiment.log.errors import TrialLogError
 from experiment.log.schema import SCHEDULE_COLUMNS
 from experiment.trials import Schedule, Trial
+from stimuli.flagnames import param
 
 __all__ = ["LogQueries"]
 
@@ -146,7 +147,7 @@ class LogQueries:
             raise TrialLogError(
                 f"{self.path}: subject {subject} has unfinished session {sid} ({answered}/"
                 f"{planned} trials answered); finish it first: run the command without "
-                "--new-session to resume it"
+                f"{param('new_session')} to resume it"
             )
         done = self.execute(
             "SELECT * FROM sessions WHERE subject = ? AND status = 'completed' "

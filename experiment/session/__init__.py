@@ -4,6 +4,8 @@ A newcomer's map of this room:
 
 - :mod:`~experiment.session.stimset`: a stimulus set folder read back (manifest, objects, files).
 - :mod:`~experiment.session.schedule`: the protocol and stimulus set drawn into a trial order.
+- :mod:`~experiment.session.plan`: a session start checked once and its schedule built once
+  (:func:`~experiment.session.plan.plan_session`), for ``Session.open`` and ``session run``.
 - :mod:`~experiment.session.scoring`: suggested scores for spoken answers; rater agreement.
 - :mod:`~experiment.session.lifecycle`: a subject's session in the trial log, opened or resumed,
   locked, completed and closed; shared with active search (:mod:`experiment.active.session`).

@@ -21,15 +21,22 @@ import numpy as np
 
 from experiment.clock import Clock, PerfCounterClock
 from experiment.interfaces import Answer, Display, FlipRecord, Responder, combine_flips
-from experiment.log import ResumeMismatch, TrialLog
-from experiment.protocol import DisplaySpec, ProtocolError, ProtocolSpec
+from experiment.log import TrialLog
+from experiment.protocol import ProtocolSpec
 from experiment.session.lifecycle import (
     LoggedSession,
-    check_subject_and_seed,
     create_session,
     open_or_create,
     reopen,
-    stored_seed,
+)
+from experiment.session.plan import (
+    SessionPlan,
+    check_implant_fits,
+    check_resumable,
+    child_rng,
+    display_json,
+    plan_session,
+    verify_files,
 )
 from experiment.session.schedule import (
     Schedule,
@@ -43,19 +50,6 @@ from experiment.session.stimset import StimulusSet, StimulusSetError
 from experiment.signals import Stopped
 
 __all__ = ["Session", "Trial", "check_implant_fits", "display_json"]
-
-
-def display_json(display: DisplaySpec) -> str:
-    """Return the display spec as the session row logs it (``sessions.display_json``).
-
-    The spec's fields (:meth:`DisplaySpec.to_dict`), plus, when ``display.implant`` is set, the
-    whole implant layout under ``implant_layout`` (:meth:`stimuli.implants.ImplantLayout.to_dict`),
-    so that the log says what the subject saw even for a user's own layout file.
-    """
-    d = display.to_dict()
-    if display.implant_layout is not None:
-        d["implant_layout"] = display.implant_layout.to_dict()
-    return json.dumps(d, sort_keys=True)
 
 
 class Session(LoggedSession):
@@ -120,6 +114,9 @@ class Session(LoggedSession):
     ) -> Session:
         """Create a session, or resume the subject's unfinished one (same saved schedule).
 
+        Plans the start (:func:`~experiment.session.plan.plan_session`: every check once, the
+        schedule once), then opens it (:meth:`open_planned`).
+
         A subject whose session is complete is not run again unless ``new_session`` gives the
         reason for a further session (:meth:`TrialLog.session_to_open`).
 
@@ -170,25 +167,64 @@ class Session(LoggedSession):
         ProtocolError
             The protocol asks for objects or levels the stimulus set lacks, or its
             ``display.implant`` grid is finer than a planned stimulus.
+        SubjectCodeError, SubjectCollision
+            A subject code the subject-code rule refuses, or one an export could not tell from
+            a subject already in the log (the checks of ``session run``: :func:`plan_session`).
         """
-        check_subject_and_seed(subject, seed)
+        plan = plan_session(
+            protocol,
+            stimset,
+            subject,
+            log=log,
+            seed=seed,
+            responder=responder,
+            observer=observer,
+            observer_params=observer_params,
+            participant=participant,
+            monitor=monitor,
+            new_session=new_session,
+            take_over_lock=take_over_lock,
+        )
+        return cls.open_planned(log, plan, clock=clock)
+
+    @classmethod
+    def open_planned(
+        cls, log: TrialLog, plan: SessionPlan, *, clock: Clock | None = None
+    ) -> Session:
+        """Create the planned session, or resume the subject's unfinished one.
+
+        Parameters
+        ----------
+        log : TrialLog
+            The log the plan read (:func:`~experiment.session.plan.plan_session`).
+        plan : SessionPlan
+            Its schedule is the one written for a new session (rebuilt only if another subject
+            joined the log since, moving this one's row of the Latin square), or the saved one
+            it read for a resume.
+        clock : Clock, optional
+            Session clock for events (``PerfCounterClock`` if omitted).
+
+        Raises
+        ------
+        SessionComplete, TrialLogError, ResumeMismatch, SessionLocked, StimulusSetError
+            As :meth:`open`.
+        """
         clock = clock if clock is not None else PerfCounterClock()
-        if observer is None and responder and responder.startswith("sim:"):
-            observer = responder[4:]
+        protocol, stimset, subject = plan.protocol, plan.stimset, plan.subject
 
         def resume(row: dict) -> Session:
-            return cls._resume(
-                log, protocol, stimset, subject, row, seed, clock, observer, take_over_lock
-            )
+            return cls._resume(log, plan, row, clock)
 
         def create() -> Session:
-            root_seed = int(seed) if seed is not None else int(np.random.SeedSequence().entropy)
-            index = subject_position(log, subject)
-            schedule = build_schedule(
-                protocol, stimset, _child_rng(root_seed, 0), subject_index=index
-            )
-            _verify_files(stimset, schedule)
-            check_implant_fits(protocol.display, stimset, schedule)
+            index, schedule, root_seed = subject_position(log, subject), plan.schedule, plan.seed
+            if plan.resumes is not None and not plan.seed_given:  # not the old session's seed
+                root_seed = int(np.random.SeedSequence().entropy)
+            if plan.resumes is not None or index != plan.subject_index:  # the log moved on
+                schedule = build_schedule(
+                    protocol, stimset, child_rng(root_seed, 0), subject_index=index
+                )
+                verify_files(stimset, schedule)
+                check_implant_fits(protocol.display, stimset, schedule)
             sid = create_session(
                 log,
                 protocol,
@@ -197,71 +233,46 @@ class Session(LoggedSession):
                 seed=root_seed,
                 write_plan=lambda sid: log.write_schedule(sid, schedule),
                 open_note=f"new session: {len(schedule)} trials planned",
-                new_session=new_session,
+                new_session=plan.new_session,
                 display_json=display_json(protocol.display),
                 stimset_path=str(stimset.root),
                 stimset_manifest_sha256=stimset.manifest_sha256,
-                responder=responder,
-                observer=observer,
+                responder=plan.responder,
+                observer=plan.observer,
                 observer_params=(
-                    None if observer is None else json.dumps(observer_params or {}, default=str)
+                    None
+                    if plan.observer is None
+                    else json.dumps(plan.observer_params or {}, default=str)
                 ),
-                participant_json=json.dumps(participant, sort_keys=True) if participant else None,
-                monitor_json=json.dumps(monitor, sort_keys=True) if monitor else None,
+                participant_json=(
+                    json.dumps(plan.participant, sort_keys=True) if plan.participant else None
+                ),
+                monitor_json=json.dumps(plan.monitor, sort_keys=True) if plan.monitor else None,
             )
             balance = counterbalance_record(protocol, index)
             if balance is not None:  # the subject's row of the Latin square, with the session
                 log.add_event(sid, "counterbalance", json.dumps(balance), clock.now_s())
             return cls(log, protocol, stimset, subject, sid, root_seed, schedule, clock)
 
-        return open_or_create(log, subject, new_session, resume, create)
+        return open_or_create(log, subject, plan.new_session, resume, create)
 
     @classmethod
-    def _resume(
-        cls,
-        log: TrialLog,
-        protocol: ProtocolSpec,
-        stimset: StimulusSet,
-        subject: str,
-        row: dict,
-        seed: int | None,
-        clock: Clock,
-        observer: str | None = None,
-        take_over_lock: str | None = None,
-    ) -> Session:
+    def _resume(cls, log: TrialLog, plan: SessionPlan, row: dict, clock: Clock) -> Session:
+        protocol, stimset, subject, observer = (
+            plan.protocol,
+            plan.stimset,
+            plan.subject,
+            plan.observer,
+        )
         sid = int(row["session_id"])
-        same_display = row["display_json"] == display_json(protocol.display)
-        if row["protocol_sha256"] != protocol.content_sha256() and not same_display:
-            raise ResumeMismatch(
-                f"{log.path}: subject {subject} has unfinished session {sid} with another "
-                f"display geometry ({row['display_json']}); resume it with the same protocol "
-                "and --monitor"
-            )
-        if row["protocol_sha256"] != protocol.content_sha256():
-            raise ResumeMismatch(
-                f"{log.path}: subject {subject} has unfinished session {sid} with protocol "
-                f"{row['protocol_name']!r} ({row['protocol_path']}); resume it with that "
-                "protocol, unchanged"
-            )
-        if row["stimset_manifest_sha256"] != stimset.manifest_sha256:
-            raise ResumeMismatch(
-                f"{log.path}: subject {subject} has unfinished session {sid} with stimulus set "
-                f"{row['stimset_path']} (manifest sha256 {row['stimset_manifest_sha256'][:12]}...);"
-                f" {stimset.root}/manifest.csv differs"
-            )
-        stored = stored_seed(log, subject, row, seed)
-        if (row.get("observer") or None) != observer:
-
-            def who(o: str | None) -> str:
-                return f"simulated observer {o!r}" if o else "a person"
-
-            raise ResumeMismatch(
-                f"{log.path}: subject {subject} has unfinished session {sid} answered by "
-                f"{who(row.get('observer'))}, not {who(observer)}; use another subject code"
-            )
-        schedule = log.read_schedule(sid)
-        _verify_files(stimset, schedule)
-        check_implant_fits(protocol.display, stimset, schedule)
+        if plan.resumes == sid:  # the plan checked the session and read its saved schedule
+            stored, schedule = plan.seed, plan.schedule
+        else:  # another process started the subject's session after the plan was made
+            given = plan.seed if plan.seed_given else None
+            stored = check_resumable(log, protocol, stimset, subject, row, given, observer)
+            schedule = log.read_schedule(sid)
+            verify_files(stimset, schedule)
+            check_implant_fits(protocol.display, stimset, schedule)
 
         def describe() -> tuple[str, str]:
             done = log.answered_count(sid)
@@ -283,7 +294,7 @@ class Session(LoggedSession):
                     clock.now_s(),
                 )
 
-        reopen(log, sid, clock, describe, note_repeat_viewing, take_over=take_over_lock)
+        reopen(log, sid, clock, describe, note_repeat_viewing, take_over=plan.take_over_lock)
         return cls(log, protocol, stimset, subject, sid, stored, schedule, clock)
 
     # -- the position in the schedule ---------------------------------------------------------
@@ -303,7 +314,7 @@ class Session(LoggedSession):
 
     def child_rng(self, k: int = 1) -> np.random.Generator:
         """Return the generator of child ``k`` of ``SeedSequence(seed)`` (1: simulated observer)."""
-        return _child_rng(self.seed, k)
+        return child_rng(self.seed, k)
 
     def image_for(self, trial: Trial) -> np.ndarray:
         """Return the trial's stimulus as the subject is shown it.
@@ -437,60 +448,3 @@ class Session(LoggedSession):
             self.log_event("abort", f"interrupted at trial {self._next}")
             raise
         display.show_text(self.protocol.instructions.end)
-
-
-def _child_rng(seed: int, k: int) -> np.random.Generator:
-    return np.random.default_rng(np.random.SeedSequence(seed).spawn(k + 1)[k])
-
-
-def check_implant_fits(display: DisplaySpec, stimset: StimulusSet, schedule: Schedule) -> None:
-    """Refuse a schedule holding a stimulus coarser than the protocol's implant grid.
-
-    Called when a session opens or resumes, and by ``confocal session run`` before the trial log
-    is created, so a protocol whose ``[display] implant`` cannot show a planned level fails with
-    one line and writes nothing.
-
-    Raises
-    ------
-    ProtocolError
-        Naming ``display.implant``, the grid, the stimulus and its level.
-    """
-    layout = display.implant_layout
-    if layout is None:
-        return
-    from experiment.session.stimset import COLOUR_CONDITIONS
-    from stimuli.errors import InputError
-    from stimuli.io import image_shape_px
-
-    seen: set[str] = set()
-    for t in schedule.trials:
-        if t.path in seen or t.condition in COLOUR_CONDITIONS:
-            continue
-        seen.add(t.path)
-        try:
-            rows, cols = image_shape_px(stimset.root / t.path)
-        except InputError as exc:
-            raise StimulusSetError(str(exc)) from None
-        if layout.rows > rows or layout.cols > cols:
-            raise ProtocolError(
-                f"display.implant {display.implant!r}: its {layout.cols}x{layout.rows} grid is "
-                f"finer than the {cols}x{rows} stimulus {t.path} ({t.condition}, level "
-                f"{t.level}); plan only levels with at least as many pixels as the implant"
-            )
-
-
-def _verify_files(stimset: StimulusSet, schedule: Schedule) -> None:
-    """Check every stimulus file of the schedule against the sha256 it was planned with."""
-    seen: dict[str, str] = {}
-    for t in schedule.trials:
-        seen.setdefault(t.path, t.sha256)
-    for path, sha in seen.items():
-        p = stimset.root / path
-        if not p.is_file():
-            raise StimulusSetError(f"{p}: stimulus file is missing; refusing to start")
-        h = hashlib.sha256(p.read_bytes()).hexdigest()
-        if h != sha:
-            raise StimulusSetError(
-                f"{p}: stimulus file changed: sha256 {h[:12]}... does not match manifest.csv "
-                f"({sha[:12]}...); refusing to start"
-            )

@@ -42,6 +42,7 @@ from experiment.interfaces import ClosesOnExit
 from experiment.log import ResumeMismatch, SessionComplete, TrialLog, TrialLogError
 from experiment.log.locks import TAKE_OVER_OPTION
 from experiment.protocol import ProtocolSpec
+from stimuli.flagnames import param
 from stimuli.software import git_commit
 
 __all__ = [
@@ -83,19 +84,19 @@ def software_provenance() -> dict[str, str | None]:
 
 
 def check_new_session_reason(reason: str | None) -> None:
-    """Refuse a blank or multi-line ``--new-session`` reason (None: no new session asked for).
+    """Refuse a blank or multi-line ``new_session`` reason (None: no new session asked for).
 
     Raises
     ------
     TrialLogError
-        Naming ``--new-session`` and what is expected.
+        Naming ``new_session`` (``--new-session`` on the command line) and what is expected.
     """
     if reason is None:
         return
     if not isinstance(reason, str) or not reason.strip() or not reason.isprintable():
         raise TrialLogError(
-            "--new-session needs the reason for another session on one line, e.g. "
-            f'--new-session "re-test after new glasses"; got {reason!r}'
+            f"{param('new_session')} needs the reason for another session on one line, e.g. "
+            f"{param('new_session', 're-test after new glasses')}; got {reason!r}"
         )
 
 
@@ -206,7 +207,7 @@ def stored_seed(log: TrialLog, subject: str, row: dict, seed: int | None) -> int
     if seed is not None and int(seed) != stored:
         raise ResumeMismatch(
             f"{log.path}: subject {subject} has unfinished session {row['session_id']} with "
-            f"seed {stored}, not {seed}; omit --seed to resume it"
+            f"seed {stored}, not {seed}; omit {param('seed')} to resume it"
         )
     return stored
 

@@ -25,6 +25,7 @@ import numpy as np
 
 from stimuli.declutter import declutter, declutter_depth, sobel_magnitude
 from stimuli.errors import InputError
+from stimuli.flagnames import param
 from stimuli.methods.base import MethodInput, MethodResult
 
 __all__ = [
@@ -60,13 +61,13 @@ def depth_method(images: MethodInput) -> MethodResult:
     ------
     InputError
         For a photo pair (no views to compare), or a light field built without its in-focus
-        mask (``--declutter sobel``).
+        mask (``declutter='sobel'``).
     """
     if images.focus is None:
         what = (
             "is a photo pair; depth needs a light field (views to compare)"
             if images.kind == "photos"
-            else "was de-cluttered by sobel; build with --declutter depth"
+            else f"was de-cluttered by sobel; build with {param('declutter', 'depth')}"
         )
         raise InputError(f"condition depth: object {images.object!r} {what}")
     edges = declutter_depth(images.narrow, images.focus, threshold=images.threshold)

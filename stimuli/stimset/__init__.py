@@ -44,7 +44,8 @@ The modules, one per step
 ``provenance``     object summaries, notes and ``stimulus_set.json``
 ``parallel``       one step over every object on a thread pool or on worker processes (or a
                    Dask cluster: :class:`stimuli.lfbatch.CapturePool`), with progress
-``run``            :func:`build_stimulus_set`: the steps in order, then the folder
+``run``            :func:`build_stimulus_set`: the plan, then its steps in order (:func:`run_plan`);
+                   each step returns a new frozen result, and nothing is read twice
 
 The public names below are loaded when first used (``lazy_loader``), so that a command that
 needs only ``params`` (``--threshold`` checks, ``--help``) does not import the whole pipeline.
@@ -69,6 +70,7 @@ __getattr__, __dir__, __all__ = lazy_loader.attach(
         ],
         "prepare": ["aspect_crop_box", "to_working_size", "zoom_crop"],
         "provenance": ["ObjectSummary"],
-        "run": ["BuildResult", "build_stimulus_set"],
+        "plan": ["BuildPlan", "plan_build"],
+        "run": ["BuildResult", "build_stimulus_set", "run_plan"],
     },
 )

@@ -12,16 +12,24 @@ the photos were.
 
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 
 from stimuli.errors import InputError
+from stimuli.flagnames import param
 from stimuli.methods.base import MethodInput
 from stimuli.methods.registry import ALIASES, BASELINE_CONDITION, PAPER_CONDITIONS, get_method
 from stimuli.stimset.pairs import PairsInput, PairSource
 from stimuli.stimset.params import BuildParams
-from stimuli.stimset.prepare import ObjectImages, _scale_crop, to_working_size, zoom_crop
+from stimuli.stimset.prepare import (
+    ConditionEdges,
+    ObjectImages,
+    _scale_crop,
+    to_working_size,
+    zoom_crop,
+)
 
 __all__ = [
     "MASK_NAME",
@@ -66,8 +74,8 @@ def check_conditions(params: BuildParams, inp: PairsInput) -> None:
         return
     if params.mode != "edges":
         raise InputError(
-            f"--conditions {','.join(conds)}: conditions beyond cluttered,decluttered need "
-            "--mode edges"
+            f"{param('conditions', ','.join(conds))}: conditions beyond cluttered,decluttered "
+            f"need {param('mode', 'edges')}"
         )
     for name in conds:
         if name == BASELINE_CONDITION or name in _OWN_STEP:
@@ -114,7 +122,7 @@ def _load_mask(work: ObjectImages, root: Path, params: BuildParams) -> np.ndarra
 
 
 def apply_conditions(work: ObjectImages, params: BuildParams, root: Path) -> ObjectImages:
-    """Fill ``work.conditions``: each named condition's edge image and what its method measured.
+    """Return the object with its conditions: each one's edge image and what its method measured.
 
     Run after :func:`stimuli.stimset.edges.declutter_object` (the object's threshold and the two
     paper images); does nothing for the paper's pair.
@@ -129,18 +137,19 @@ def apply_conditions(work: ObjectImages, params: BuildParams, root: Path) -> Obj
     Returns
     -------
     ObjectImages
-        The same object.
+        A new result with :attr:`~ObjectImages.conditions` set (``work`` itself for the paper's
+        pair; ``work`` is unchanged).
     """
     if params.conditions == PAPER_CONDITIONS:
         return work
     mask = None
-    out: dict[str, tuple[np.ndarray, dict]] = {}
+    out: dict[str, ConditionEdges] = {}
     for name in params.conditions:
         if name == BASELINE_CONDITION:
-            out[name] = (work.wide_edges, {"threshold": work.threshold})
+            out[name] = ConditionEdges(name, work.wide_edges, {"threshold": work.threshold})
             continue
         if name in _OWN_STEP:
-            out[name] = (work.narrow_edges, {"threshold": work.threshold})
+            out[name] = ConditionEdges(name, work.narrow_edges, {"threshold": work.threshold})
             continue
         method = get_method(name)
         if "mask" in method.needs and mask is None:
@@ -156,9 +165,8 @@ def apply_conditions(work: ObjectImages, params: BuildParams, root: Path) -> Obj
         )
         res = method.run(images)
         edges = res.edges if work.valid is None else res.edges & work.valid
-        out[name] = (edges, dict(res.measured))
-    work.conditions = out
-    return work
+        out[name] = ConditionEdges(name, edges, dict(res.measured))
+    return replace(work, conditions=tuple(out.values()))
 
 
 def object_conditions(work: ObjectImages) -> list[tuple[str, np.ndarray, np.ndarray | None]]:
@@ -173,8 +181,8 @@ def object_conditions(work: ObjectImages) -> list[tuple[str, np.ndarray, np.ndar
             ("decluttered", work.narrow, work.narrow_edges),
         ]
     return [
-        (name, work.wide if name == BASELINE_CONDITION else work.narrow, edges)
-        for name, (edges, _) in work.conditions.items()
+        (c.name, work.wide if c.name == BASELINE_CONDITION else work.narrow, c.edges)
+        for c in work.conditions
     ]
 
 
@@ -211,7 +219,7 @@ def conditions_record(params: BuildParams, works) -> dict | None:
                 },
             }
         entry["measured"] = {
-            w.info.object: {k: _jsonable(v) for k, v in w.conditions[name][1].items()}
+            w.info.object: {k: _jsonable(v) for k, v in w.condition(name).measured.items()}
             for w in works
         }
         rec[name] = entry

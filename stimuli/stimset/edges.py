@@ -6,7 +6,7 @@ Module docstring of :mod:`stimuli.stimset`, steps 4 and 5 (Jung et al. 2015, Sec
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -49,26 +49,31 @@ def choose_threshold(work: ObjectImages, params: BuildParams) -> tuple[float, st
 
 
 def declutter_object(work: ObjectImages, params: BuildParams) -> ObjectImages:
-    """Fill an object's threshold and edge images; return the same object.
+    """Return the object with its threshold and edge images (a new result; ``work`` is unchanged).
 
     The same threshold de-clutters both images, as in the paper. A light field's confocal image
     is de-cluttered by depth when it carries an in-focus mask
     (:func:`stimuli.declutter.declutter_depth`); a photo pair's narrow edges pass the bokeh
     guard when ``params.bokeh_guard`` is set.
     """
-    t, work.threshold_source = choose_threshold(work, params)
-    work.threshold = t
-    work.wide_edges = declutter(work.wide, threshold=t)
+    t, source = choose_threshold(work, params)
+    wide_edges = declutter(work.wide, threshold=t)
     if work.focus is not None:
-        work.narrow_edges = declutter_depth(work.narrow, work.focus, threshold=t)
+        narrow_edges = declutter_depth(work.narrow, work.focus, threshold=t)
     else:
-        work.narrow_edges = declutter(work.narrow, threshold=t)
+        narrow_edges = declutter(work.narrow, threshold=t)
         if params.bokeh_guard and work.source.lightfield is None:
-            work.narrow_edges = bokeh_guard(work.narrow_edges, work.wide_edges)
+            narrow_edges = bokeh_guard(narrow_edges, wide_edges)
     if work.valid is not None:  # a padded light field: no edges in the padding
-        work.wide_edges &= work.valid
-        work.narrow_edges &= work.valid
-    return work
+        wide_edges = wide_edges & work.valid
+        narrow_edges = narrow_edges & work.valid
+    return replace(
+        work,
+        threshold=t,
+        threshold_source=source,
+        wide_edges=wide_edges,
+        narrow_edges=narrow_edges,
+    )
 
 
 def edge_fraction(edges: np.ndarray) -> float:

@@ -11,6 +11,7 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from stimuli.errors import InputError
+from stimuli.flagnames import param
 from stimuli.implants import ImplantError, ImplantLayout, render_phosphenes, to_implant_grid
 from stimuli.io import save_png, sha256_file
 from stimuli.stimset.params import BuildParams
@@ -49,15 +50,16 @@ def check_implants(
     for lay in out:
         if not re.fullmatch(r"[A-Za-z0-9][A-Za-z0-9._-]*", lay.name):
             raise ImplantError(
-                f"--implant: layout name {lay.name!r} cannot name a folder in the set; use "
+                f"{param('implants')}: layout name {lay.name!r} cannot name a folder in the set; "
+                "use "
                 "letters, digits, '.', '_' or '-' (starting with a letter or digit)"
             )
     names = [lay.name for lay in out]
     twice = sorted({n for n in names if names.count(n) > 1})
     if twice:
         raise ImplantError(
-            f"--implant: two layouts are named {twice[0]!r} (a layout's name is its file stem, "
-            "which names its folder in the set); rename one file"
+            f"{param('implants')}: two layouts are named {twice[0]!r} (a layout's name is its "
+            "file stem, which names its folder in the set); rename one file"
         )
     p = px_per_electrode
     if isinstance(p, bool) or not isinstance(p, int) or not 1 <= p <= 256:
@@ -66,8 +68,8 @@ def check_implants(
     for lay in out:
         if lay.rows > rows or lay.cols > cols:
             raise ImplantError(
-                f"--implant {lay.name}: its {lay.cols}x{lay.rows} grid is finer than the "
-                f"{cols}x{rows} working size; use a larger --working-size"
+                f"{param('implants')} {lay.name}: its {lay.cols}x{lay.rows} grid is finer than "
+                f"the {cols}x{rows} working size; use a larger {param('working_shape_px')}"
             )
     return out
 

@@ -11,6 +11,7 @@ import numpy as np
 from stimuli import jung2015
 from stimuli.declutter import AUTO_THRESHOLD_METHODS, DECLUTTER_MODES
 from stimuli.errors import InputError
+from stimuli.flagnames import param
 
 __all__ = [
     "BuildParams",
@@ -218,7 +219,10 @@ class BuildParams:
 
     def _check_declutter(self) -> None:
         _check_choice(
-            self.declutter, BUILD_DECLUTTER_MODES, "--declutter", ", ".join(BUILD_DECLUTTER_MODES)
+            self.declutter,
+            BUILD_DECLUTTER_MODES,
+            param("declutter"),
+            ", ".join(BUILD_DECLUTTER_MODES),
         )
 
     def _check_plane(self) -> None:

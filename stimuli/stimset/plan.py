@@ -16,6 +16,7 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 
 from stimuli.errors import InputError
+from stimuli.flagnames import param
 from stimuli.implants import ImplantLayout
 from stimuli.io import check_missing_or_empty
 from stimuli.manifest import format_crop
@@ -104,7 +105,7 @@ def plan_build(
     if implants and any(o.object == "implants" for o in inp.objects):
         raise InputError(
             f"{inp.root}: an object is named 'implants', the folder of the implant views; "
-            "rename it or build without --implant"
+            f"rename it or build without {param('implants')}"
         )
     params = _check_light_field_options(params, inp)
     check_conditions(params, inp)
@@ -134,8 +135,9 @@ def _check_light_field_options(params: BuildParams, inp: PairsInput) -> BuildPar
     photos = [s for s in inp.sources if s.lightfield is None]
     if params.declutter == "depth" and photos:
         raise InputError(
-            f"--declutter depth needs light fields, but object {photos[0].object!r} is a photo "
-            "pair (its views cannot be compared); use --declutter auto or sobel"
+            f"{param('declutter', 'depth')} needs light fields, but object {photos[0].object!r} "
+            f"is a photo pair (its views cannot be compared); use {param('declutter', 'auto')} "
+            f"or {param('declutter', 'sobel')}"
         )
     for s, o in zip(inp.sources, inp.objects, strict=True):
         if s.lightfield is None and o.roi is not None:
@@ -190,6 +192,7 @@ def _check_out_dir(out_dir: Path, set_id: str, force: bool, replaces: Path | Non
         old_id = None
     if old_id is not None and old_id != set_id:
         raise InputError(
-            f"{out_dir}: --out folder already holds a different stimulus set (set_id "
-            f"{str(old_id)[:12]}, this build {set_id[:12]}); use --force to replace it"
+            f"{out_dir}: {param('out_dir')} folder already holds a different stimulus set "
+            f"(set_id {str(old_id)[:12]}, this build {set_id[:12]}); use {param('force', True)} "
+            "to replace it"
         )

@@ -7,19 +7,25 @@ proposes mean the same thing in the build.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 from skimage.transform import resize
 
 from stimuli.errors import InputError
-from stimuli.io import check_gray, image_shape_px, load_gray, load_rgb
+from stimuli.flagnames import param
+from stimuli.io import check_gray, gray_of, image_shape_px, load_float, rgb_of
 from stimuli.manifest import ObjectInfo, format_crop
 from stimuli.stimset.lightfield import ConfocalPairImages, field_crop_in_crop, load_confocal_pair
 from stimuli.stimset.pairs import PairSource
 from stimuli.stimset.params import BuildParams, min_photo_shape_px
 
+if TYPE_CHECKING:
+    from stimuli.planechoice import PlaneChoice
+
 __all__ = [
+    "ConditionEdges",
     "ObjectImages",
     "zoom_crop",
     "aspect_crop_box",
@@ -34,11 +40,35 @@ __all__ = [
 Box = tuple[int, int, int, int]
 
 
-@dataclass
-class ObjectImages:
-    """One object's images at the working size and what was done to them.
+@dataclass(frozen=True, eq=False)
+class ConditionEdges:
+    """One condition's edge image of an object, and what its method measured.
 
-    Mutable: the de-clutter step of :mod:`stimuli.stimset.edges` fills the edge fields.
+    Parameters
+    ----------
+    name : str
+        The condition (``cluttered``, ``decluttered`` or a method of :mod:`stimuli.methods`).
+    edges : ndarray of shape working_shape_px, bool
+    measured : dict
+        What the method measured (``threshold``, ...), recorded in ``stimulus_set.json``.
+    """
+
+    name: str
+    edges: np.ndarray
+    measured: dict[str, object]
+
+
+@dataclass(frozen=True, eq=False)
+class ObjectImages:
+    """One object's images at the working size and what was done to them: a step's result.
+
+    Frozen: each step of the build takes the previous step's result and returns a new one
+    (:func:`dataclasses.replace`): the prepare step (:func:`prepare_object`) fills the images
+    and their geometry, the de-clutter step (:func:`stimuli.stimset.edges.declutter_object`) the
+    threshold and edge images, :func:`stimuli.stimset.conditions.apply_conditions` the
+    conditions beyond the paper's pair, and
+    :func:`stimuli.stimset.visibility.measure_visibility` the visibility. Every image the later
+    steps need travels here; nothing is read from disk again. It pickles (worker processes).
 
     Parameters
     ----------
@@ -53,14 +83,8 @@ class ObjectImages:
         Zoom box applied (``objects.csv`` or the PAIRS CSV), on the photo as on file.
     aspect_crop : (x, y, w, h) or None
         Centre crop to the working aspect, on the zoomed wide photo.
-    notes : list of str
+    notes : tuple of str
         Things the user should know (a resize of unequal photos, upsampling).
-    threshold : float or None
-        Sobel threshold used (edge mode).
-    threshold_source : str
-        Where it came from: ``objects.csv``, ``global`` or ``auto:<method>``.
-    wide_edges, narrow_edges : ndarray of bool or None
-        Edge images (edge mode).
     decoded_shape_px : (rows, cols) or None
         The wide photo's size as decoded (smaller than on file with ``fast_decode``).
     plane : str
@@ -83,13 +107,22 @@ class ObjectImages:
     valid : ndarray of shape working_shape_px, bool, or None
         With padding: the pixels of the image (not of the padding, nor on its border); edges
         elsewhere are dropped.
+    colour : (ndarray, ndarray) of shape (rows, cols, 3), float32 in [0, 1], or None
+        A training object's colour photos (wide, narrow) at the working size
+        (:func:`colour_photos`), made from the same decode as the grey ones; None otherwise.
+    threshold : float or None
+        Sobel threshold used (edge mode; de-clutter step).
+    threshold_source : str
+        Where it came from: ``objects.csv``, ``global`` or ``auto:<method>``.
+    wide_edges, narrow_edges : ndarray of bool or None
+        Edge images (edge mode; de-clutter step).
+    conditions : tuple of ConditionEdges
+        A build with conditions beyond the paper's pair: each condition's edge image and what
+        its method measured, in the build's order
+        (:func:`stimuli.stimset.conditions.apply_conditions`); empty for the paper's pair.
     visibility : dict or None
         A light-field object's on-plane share and object coverage per level
         (:func:`stimuli.stimset.visibility.measure_visibility`), once the set's edge ratio is known.
-    conditions : dict of str to (ndarray of bool, dict)
-        A build with conditions beyond the paper's pair: each condition's edge image and what
-        its method measured (:func:`stimuli.stimset.conditions.apply_conditions`); empty for the
-        paper's pair.
     """
 
     info: ObjectInfo
@@ -99,21 +132,35 @@ class ObjectImages:
     original_shape_px: tuple[int, int]
     crop: Box | None
     aspect_crop: Box | None
-    notes: list[str]
-    threshold: float | None = None
-    threshold_source: str = ""
-    wide_edges: np.ndarray | None = None
-    narrow_edges: np.ndarray | None = None
+    notes: tuple[str, ...] = ()
     decoded_shape_px: tuple[int, int] | None = None
     plane: str = ""
     focus: np.ndarray | None = None
-    plane_choice: object = None
+    plane_choice: PlaneChoice | None = None
     content_kept: float | None = None
     declutter: str = ""
     aspect_pad: tuple[int, int, int, int] | None = None
     valid: np.ndarray | None = None
+    colour: tuple[np.ndarray, np.ndarray] | None = None
+    threshold: float | None = None
+    threshold_source: str = ""
+    wide_edges: np.ndarray | None = None
+    narrow_edges: np.ndarray | None = None
+    conditions: tuple[ConditionEdges, ...] = ()
     visibility: dict | None = None
-    conditions: dict = field(default_factory=dict)
+
+    def condition(self, name: str) -> ConditionEdges:
+        """Return the condition called ``name`` (:attr:`conditions`).
+
+        Raises
+        ------
+        KeyError
+            No such condition.
+        """
+        for c in self.conditions:
+            if c.name == name:
+                return c
+        raise KeyError(name)
 
 
 def _cut(image: np.ndarray, box: Box | None) -> np.ndarray:
@@ -325,49 +372,68 @@ def _scale_crop(
 
 
 def _load_photos(
-    src: PairSource, params: BuildParams, crop: Box | None
-) -> tuple[np.ndarray, np.ndarray, tuple[int, int], tuple[int, int]]:
-    """Return ``(wide, narrow, wide_full_px, narrow_full_px)`` (full = the size on file)."""
+    src: PairSource, params: BuildParams, crop: Box | None, colour: bool
+) -> tuple[np.ndarray, np.ndarray, tuple[int, int], tuple[int, int], tuple | None]:
+    """Decode each photo once; return ``(wide, narrow, wide_full_px, narrow_full_px, rgb)``.
+
+    ``wide`` and ``narrow`` are grey (:func:`stimuli.io.gray_of`); ``rgb`` the two decodes as
+    RGB (:func:`stimuli.io.rgb_of`) when ``colour``, else None. Full = the size on file.
+    """
     assert src.wide is not None and src.narrow is not None
     if not params.fast_decode:
-        wide, narrow = load_gray(src.wide), load_gray(src.narrow)
-        return wide, narrow, wide.shape, narrow.shape
-    full = [image_shape_px(src.wide), image_shape_px(src.narrow)]
-    out = []
-    for path, f in zip((src.wide, src.narrow), full, strict=True):
-        region = f if crop is None else (crop[3], crop[2])
-        if crop is not None and f != full[0]:
-            region = (crop[3] * f[0] / full[0][0], crop[2] * f[1] / full[0][1])
-        draft = _draft_shape(f, (max(region[0], 1), max(region[1], 1)), params.working_shape_px)
-        out.append(load_gray(path, draft_shape_px=draft))
-    return out[0], out[1], full[0], full[1]
+        decoded = [load_float(src.wide), load_float(src.narrow)]
+        full = [d.shape[:2] for d in decoded]
+    else:
+        full = [image_shape_px(src.wide), image_shape_px(src.narrow)]
+        decoded = []
+        for path, f in zip((src.wide, src.narrow), full, strict=True):
+            region = f if crop is None else (crop[3], crop[2])
+            if crop is not None and f != full[0]:
+                region = (crop[3] * f[0] / full[0][0], crop[2] * f[1] / full[0][1])
+            draft = _draft_shape(f, (max(region[0], 1), max(region[1], 1)), params.working_shape_px)
+            decoded.append(load_float(path, draft_shape_px=draft))
+    rgb = (rgb_of(decoded[0]), rgb_of(decoded[1])) if colour else None
+    return gray_of(decoded[0]), gray_of(decoded[1]), full[0], full[1], rgb
 
 
 def _load_raw(
-    src: PairSource, info: ObjectInfo, params: BuildParams, crop: Box | None
-) -> tuple[np.ndarray, np.ndarray, tuple[int, int], tuple[int, int], ConfocalPairImages | None]:
-    """Return ``(wide, narrow, wide_full_px, narrow_full_px, pair)`` (full = on file).
+    src: PairSource, info: ObjectInfo, params: BuildParams, crop: Box | None, colour: bool
+) -> tuple[
+    np.ndarray,
+    np.ndarray,
+    tuple[int, int],
+    tuple[int, int],
+    ConfocalPairImages | None,
+    tuple | None,
+]:
+    """Return ``(wide, narrow, wide_full_px, narrow_full_px, pair, rgb)`` (full = on file).
 
     ``pair`` is a light-field object's :class:`ConfocalPairImages` (plane, in-focus mask,
-    plane choice), else ``None``.
+    plane choice), else ``None``; ``rgb`` a photo pair's two photos in colour when ``colour``.
     """
     if src.lightfield is None:
-        return (*_load_photos(src, params, crop), None)
+        wide, narrow, wide_full, narrow_full, rgb = _load_photos(src, params, crop, colour)
+        return wide, narrow, wide_full, narrow_full, None, rgb
     pair = load_confocal_pair(src, info, params)
-    return pair.centre, pair.confocal, pair.centre.shape, pair.confocal.shape, pair
+    return pair.centre, pair.confocal, pair.centre.shape, pair.confocal.shape, pair, None
 
 
-def prepare_object(src: PairSource, info: ObjectInfo, params: BuildParams) -> ObjectImages:
+def prepare_object(
+    src: PairSource, info: ObjectInfo, params: BuildParams, *, colour: bool | None = None
+) -> ObjectImages:
     """Read one object's pair and bring both images to the working size.
 
     Zoom crop (``objects.csv`` wins over the PAIRS CSV), centre crop to the working aspect and
-    anti-aliased resize, the same for both images (and a light field's in-focus mask).
+    anti-aliased resize, the same for both images (and a light field's in-focus mask). Each
+    photo is decoded once; a training object's colour photos are made from the same decode.
 
     Parameters
     ----------
     src : PairSource
     info : ObjectInfo
     params : BuildParams
+    colour : bool, optional
+        Also make the colour photos (:func:`colour_photos`); default: for training objects.
 
     Returns
     -------
@@ -382,7 +448,10 @@ def prepare_object(src: PairSource, info: ObjectInfo, params: BuildParams) -> Ob
         or a crop box outside the photo.
     """
     crop = info.crop if info.crop is not None else src.crop
-    wide_raw, narrow_raw, wide_full, narrow_full, pair = _load_raw(src, info, params, crop)
+    colour = info.role == "training" if colour is None else bool(colour)
+    wide_raw, narrow_raw, wide_full, narrow_full, pair, rgb = _load_raw(
+        src, info, params, crop, colour
+    )
     if pair is not None and pair.choice is not None:  # a field crop in the vignette-cropped views
         crop = field_crop_in_crop(crop, pair.choice.view_crop)
     plane = "" if pair is None else pair.plane
@@ -397,7 +466,7 @@ def prepare_object(src: PairSource, info: ObjectInfo, params: BuildParams) -> Ob
         if not params.allow_resize:
             raise InputError(
                 f"{msg}; the two photos of a pair must have the same pixel size "
-                "(use --allow-resize to resize each on its own)"
+                f"(use {param('allow_resize', True)} to resize each on its own)"
             )
         notes.append(msg + "; resized each on its own (--allow-resize)")
     min_px = min_photo_shape_px(params)
@@ -448,6 +517,12 @@ def prepare_object(src: PairSource, info: ObjectInfo, params: BuildParams) -> Ob
             layers.append(to_working_size(f, params.working_shape_px) >= 0.5)
         focus = np.where(layers[1], 2, np.where(layers[0], 1, 0)).astype(np.uint8)
         plane = f"{plane},declutter=depth"
+    if not colour:
+        colours = None
+    elif rgb is None:  # a light field: its grey images on three channels
+        colours = (np.repeat(out[0][..., None], 3, axis=2), np.repeat(out[1][..., None], 3, axis=2))
+    else:
+        colours = colour_photos(rgb, crop, wide_full, params.working_shape_px)
     return ObjectImages(
         info=info,
         source=src,
@@ -456,7 +531,7 @@ def prepare_object(src: PairSource, info: ObjectInfo, params: BuildParams) -> Ob
         original_shape_px=tuple(int(v) for v in wide_full),
         crop=crop,
         aspect_crop=box,
-        notes=notes,
+        notes=tuple(notes),
         decoded_shape_px=tuple(int(v) for v in wide_raw.shape),
         plane=plane,
         focus=focus,
@@ -465,29 +540,39 @@ def prepare_object(src: PairSource, info: ObjectInfo, params: BuildParams) -> Ob
         declutter="" if pair is None else pair.declutter,
         aspect_pad=None if pad is None else (pad[0][0], pad[0][1], pad[1][0], pad[1][1]),
         valid=None if pad is None else _valid_mask(wide.shape, pad, params.working_shape_px),
+        colour=colours,
     )
 
 
-def colour_photos(work: ObjectImages, params: BuildParams) -> tuple[np.ndarray, np.ndarray]:
-    """Return the colour photos (wide, narrow) at the working size, for training objects.
+def colour_photos(
+    rgb: tuple[np.ndarray, np.ndarray],
+    crop: Box | None,
+    original_shape_px: tuple[int, int],
+    working_shape_px: tuple[int, int],
+) -> tuple[np.ndarray, np.ndarray]:
+    """Return a training object's colour photos (wide, narrow) at the working size.
 
-    The same zoom crop, aspect crop and anti-aliased resize as the grey images, per channel; a
-    light-field object's grey centre view and confocal image on three channels (Jung et al.
-    2015, Sec. 3.1: training objects were shown in colour first).
+    The same zoom crop, aspect crop and anti-aliased resize as the grey images, per channel
+    (Jung et al. 2015, Sec. 3.1: training objects were shown in colour first).
+
+    Parameters
+    ----------
+    rgb : (ndarray, ndarray) of shape (rows, cols, 3), float32 in [0, 1]
+        The two photos as decoded (:func:`stimuli.io.rgb_of`).
+    crop : (x, y, w, h) or None
+        The zoom box, on the wide photo as on file.
+    original_shape_px : (rows, cols)
+        The wide photo's size on file.
+    working_shape_px : (rows, cols)
 
     Returns
     -------
     (ndarray, ndarray) of shape (rows, cols, 3), float32 in [0, 1]
     """
-    src = work.source
-    if src.lightfield is not None:
-        return tuple(np.repeat(g[..., None], 3, axis=2) for g in (work.wide, work.narrow))
     out = []
-    for path in (src.wide, src.narrow):
-        rgb = load_rgb(path)
-        rgb = _cut(rgb, _scale_crop(work.crop, work.original_shape_px, rgb.shape[:2]))
-        rgb = _cut(rgb, aspect_crop_box(rgb.shape[:2], params.working_shape_px))
-        shape = (*params.working_shape_px, 3)
-        rgb = resize(rgb, shape, order=1, mode="reflect", anti_aliasing=True)
-        out.append(np.clip(rgb, 0.0, 1.0).astype(np.float32))
+    for img in rgb:
+        img = _cut(img, _scale_crop(crop, original_shape_px, img.shape[:2]))
+        img = _cut(img, aspect_crop_box(img.shape[:2], working_shape_px))
+        img = resize(img, (*working_shape_px, 3), order=1, mode="reflect", anti_aliasing=True)
+        out.append(np.clip(img, 0.0, 1.0).astype(np.float32))
     return out[0], out[1]

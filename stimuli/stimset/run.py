@@ -32,7 +32,7 @@ from stimuli.stimset.write import write_stimulus_set
 if TYPE_CHECKING:
     from stimuli.lfbatch import CapturePool
 
-__all__ = ["BuildResult", "build_stimulus_set"]
+__all__ = ["BuildResult", "build_stimulus_set", "run_plan"]
 
 logger = logging.getLogger(__name__)
 
@@ -168,6 +168,52 @@ def build_stimulus_set(
         implants=implants,
         implant_px_per_electrode=implant_px_per_electrode,
     )
+    return _run(plan, progress, processes, cluster, t0)
+
+
+def run_plan(
+    plan: BuildPlan,
+    *,
+    progress: ProgressFn | None = None,
+    processes: int | None = 1,
+    cluster: str | None = None,
+) -> BuildResult:
+    """Carry out a checked plan (:func:`stimuli.stimset.plan.plan_build`): read, de-clutter, write.
+
+    The steps take what the plan resolved (parameters, sources, ``plan.ladder``) and pass their
+    frozen results forward; each source is read once.
+
+    Parameters
+    ----------
+    plan : BuildPlan
+    progress, processes, cluster
+        As :func:`build_stimulus_set`.
+
+    Returns
+    -------
+    BuildResult
+
+    Raises
+    ------
+    InputError
+        An unreadable photo, and what :func:`build_stimulus_set` raises once reading started.
+    """
+    from stimuli.lfbatch import check_pool_options
+
+    t0 = time.perf_counter()
+    if cluster is not None and processes == 1:
+        processes = None  # the default: the cluster's workers instead of this process
+    check_pool_options(processes, cluster)
+    return _run(plan, progress, processes, cluster, t0)
+
+
+def _run(
+    plan: BuildPlan,
+    progress: ProgressFn | None,
+    processes: int | None,
+    cluster: str | None,
+    t0: float,
+) -> BuildResult:
     tasks = [
         (s, o, plan.params, plan.inp.root)
         for s, o in zip(plan.inp.sources, plan.inp.objects, strict=True)
@@ -194,8 +240,8 @@ def _build(
         works = map_on_pool(pool, _read_object, tasks, progress, "read")
     t_read = time.perf_counter()
     ratio = set_edge_ratio(works, plan.params)
-    for w in works:  # does each light-field stimulus show its object? (from the depth evidence)
-        w.visibility = measure_visibility(w, plan.params, ratio.edge_ratio)
+    # does each light-field stimulus show its object? (from the depth evidence)
+    works = [measure_visibility(w, plan.params, ratio.edge_ratio, plan.ladder) for w in works]
     written = write_stimulus_set(plan, works, ratio, progress, pool)
     t_end = time.perf_counter()
     for n in written.notes:
@@ -219,7 +265,8 @@ def _read_object(
 ) -> ObjectImages:
     """Prepare one object's pair at the working size and, in edge mode, de-clutter it.
 
-    In edge mode every condition the build names is made.
+    In edge mode every condition the build names is made. Each step returns a new frozen
+    result.
     """
     work = prepare_object(src, info, params)
     if params.mode != "edges":

@@ -23,6 +23,9 @@ the coverage at any of the :data:`LOW_LEVELS` lowest levels is below :data:`MIN_
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+from dataclasses import replace
+
 import numpy as np
 from scipy import ndimage
 
@@ -191,14 +194,21 @@ def visibility_line(vis: dict | None) -> str:
     return f"on plane L{top['level']} {pct(top['on_plane'])}; object coverage {cov}"
 
 
-def measure_visibility(work: ObjectImages, params: BuildParams, edge_ratio: float | None):
-    """Return :func:`object_visibility` of an object's de-cluttered stimuli at ``edge_ratio``.
+def measure_visibility(
+    work: ObjectImages,
+    params: BuildParams,
+    edge_ratio: float | None,
+    ladder: Sequence[tuple[int, int, tuple[int, int]]],
+) -> ObjectImages:
+    """Return the object with its :func:`object_visibility` at ``edge_ratio`` (a new result).
 
-    None for photo pairs, grey mode and objects without edges.
+    Its de-cluttered stimuli are compressed at every level of ``ladder`` (``plan.ladder``).
+    The visibility is None for photo pairs, grey mode and objects without edges (then ``work``
+    itself is returned).
     """
-    from stimuli.stimset.levels import edge_ladder
+    from stimuli.stimset.levels import edges_on_ladder
 
     if work.plane_choice is None or work.narrow_edges is None or edge_ratio is None:
-        return None
-    ladder = edge_ladder(work.narrow_edges, edge_ratio=edge_ratio, windows_px=params.windows_px)
-    return object_visibility(work, params, ladder)
+        return work
+    stims = edges_on_ladder(work.narrow_edges, ladder, edge_ratio=edge_ratio)
+    return replace(work, visibility=object_visibility(work, params, stims))

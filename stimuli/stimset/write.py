@@ -17,17 +17,17 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from stimuli.contact import contact_sheet, save_contact_sheet
-from stimuli.io import save_png, sha256_file, staged_folder
+from stimuli.io import save_png, sha256_file, staged_folder, to_uint8
 from stimuli.manifest import StimulusRecord, format_crop, write_manifest, write_objects_csv
 from stimuli.stimset.conditions import conditions_record, object_conditions
 from stimuli.stimset.edges import SetEdgeRatio
 from stimuli.stimset.implant_views import write_implant_views
-from stimuli.stimset.levels import edge_ladder, grey_ladder, level_labels
+from stimuli.stimset.levels import Ladder, edges_on_ladder, grey_on_ladder, level_labels
 from stimuli.stimset.pairs import path_in_pairs
 from stimuli.stimset.parallel import ProgressFn, map_objects, map_on_pool
 from stimuli.stimset.params import BuildParams
 from stimuli.stimset.plan import BuildPlan
-from stimuli.stimset.prepare import ObjectImages, colour_photos
+from stimuli.stimset.prepare import ObjectImages
 from stimuli.stimset.provenance import (
     ObjectSummary,
     build_notes,
@@ -100,15 +100,16 @@ def write_stimulus_set(
     labels = level_labels(plan.ladder)
     with staged_folder(out_dir, what="the stimulus set") as tmp:
         (tmp / "contact").mkdir()
-        tasks = [(w, plan.params, edge_ratio, labels) for w in works]
+        tasks = [(w, plan.params, edge_ratio, plan.ladder) for w in works]
 
-        def save(i: int, rendered: RenderedObject) -> list[StimulusRecord]:
-            return _save_rendered(
+        def save(i: int, rendered: RenderedObject) -> tuple[list[StimulusRecord], list]:
+            records = _save_rendered(
                 rendered, works[i], tmp, plan.params, edge_ratio, plan.inp.root, plan.hashes[i]
             )
+            return records, _overview_rows(rendered, works[i])
 
         if pool is None or pool.is_local:
-            per_object = map_objects(
+            saved = map_objects(
                 lambda i: save(i, render_object(*tasks[i])),
                 range(len(works)),
                 plan.workers,
@@ -116,8 +117,8 @@ def write_stimulus_set(
                 "write",
             )
         else:
-            per_object = map_on_pool(pool, render_object, tasks, progress, "write", then=save)
-        records = [r for recs in per_object for r in recs]
+            saved = map_on_pool(pool, render_object, tasks, progress, "write", then=save)
+        records = [r for recs, _ in saved for r in recs]
         views: list[dict] = []
         if plan.implants:
             per_object_views = map_objects(
@@ -132,7 +133,7 @@ def write_stimulus_set(
             views = [v for vs in per_object_views for v in vs]
         write_manifest(records, tmp / "manifest.csv")
         write_objects_csv(plan.inp.objects, tmp / "objects.csv")
-        _write_overview(works, per_object, tmp, labels)
+        _write_overview(works, [rows for _, rows in saved], tmp, labels)
         summaries = tuple(object_summary(w) for w in works)
         notes = build_notes(works, plan.params)
         meta = set_record(plan, ratio, summaries, notes, len(records), tmp / "manifest.csv", views)
@@ -166,38 +167,39 @@ def render_object(
     work: ObjectImages,
     params: BuildParams,
     edge_ratio: float | None,
-    ladder_labels: list[str],
+    ladder: Ladder,
 ) -> RenderedObject:
-    """Compress one object at every level and draw its contact sheet, in memory.
+    """Compress one object at every level of the plan's ladder and draw its contact sheet.
 
-    Writes nothing (it may run in a worker process or on a Dask cluster); the photo of the
-    object, and a training object's colour photos (read from its sources), come first, then
-    each condition at every level, ``<condition>_L<level>_w<window>.png``.
+    In memory: writes nothing and reads nothing (it may run in a worker process or on a Dask
+    cluster). The photo of the object, and a training object's colour photos (made by the
+    prepare step), come first, then each condition at every level of ``ladder``
+    (``plan.ladder``), ``<condition>_L<level>_w<window>.png``.
     """
     oid = work.info.object
     grey = params.mode == "grey"
-    n_levels = len(params.windows_px)
-    out: list[tuple[str, int, int, str, np.ndarray]] = [
-        ("photo", n_levels, 1, "photo.png", work.wide)
-    ]
+    top = len(ladder)
+    out: list[tuple[str, int, int, str, np.ndarray]] = [("photo", top, 1, "photo.png", work.wide)]
     if work.info.role == "training":
-        colour_wide, colour_confocal = colour_photos(work, params)
-        out.append(("colour_wide", n_levels, 1, "colour_wide.png", colour_wide))
-        out.append(("colour_confocal", n_levels, 1, "colour_confocal.png", colour_confocal))
+        if work.colour is None:
+            raise ValueError(f"{oid}: a training object's colour photos were not prepared")
+        colour_wide, colour_confocal = work.colour
+        out.append(("colour_wide", top, 1, "colour_wide.png", colour_wide))
+        out.append(("colour_confocal", top, 1, "colour_confocal.png", colour_confocal))
     rows = []
     for condition, img, edges in object_conditions(work):
         if grey:
-            ladder = grey_ladder(img, grey_levels=params.grey_levels, windows_px=params.windows_px)
+            stims = grey_on_ladder(img, ladder, grey_levels=params.grey_levels)
         else:
-            ladder = edge_ladder(edges, edge_ratio=edge_ratio, windows_px=params.windows_px)
-        for level, window, stim in ladder:
+            stims = edges_on_ladder(edges, ladder, edge_ratio=edge_ratio)
+        for level, window, stim in stims:
             name = f"{condition}_L{level}_w{window:02d}.png"
             out.append((condition, level, window, name, stim))
-        rows.append((condition, [s for _, _, s in ladder]))
+        rows.append((condition, [s for _, _, s in stims]))
     warnings = object_warnings(work)
     sheet = contact_sheet(
         rows,
-        column_labels=ladder_labels,
+        column_labels=level_labels(ladder),
         title=("WARNING " if warnings else "")
         + f"{oid}: {work.info.display_name} ({work.info.role}; "
         + ("grey" if grey else f"threshold {work.threshold:.4g}, edge ratio {edge_ratio:.4g}")
@@ -238,8 +240,8 @@ def _save_rendered(
             "cluttered": (path_in_pairs(src.wide, root), hashes["wide"]),
             "decluttered": (path_in_pairs(src.narrow, root), hashes["narrow"]),
         }
-    for condition in work.conditions:  # every method works on the narrow photo
-        sources.setdefault(condition, sources["decluttered"])
+    for c in work.conditions:  # every method works on the narrow photo
+        sources.setdefault(c.name, sources["decluttered"])
     sources["photo"] = sources["cluttered"]
     sources["colour_wide"] = sources["cluttered"]
     sources["colour_confocal"] = sources["decluttered"]
@@ -277,20 +279,22 @@ def _save_rendered(
     return records
 
 
-def _write_overview(
-    works: list[ObjectImages], per_object: list[list[StimulusRecord]], tmp: Path, labels: list[str]
-) -> None:
-    from PIL import Image
+def _overview_rows(rendered: RenderedObject, work: ObjectImages) -> list:
+    """Return one object's rows of the overview sheet: each condition's stimuli by level.
 
+    As the PNGs hold them (:func:`stimuli.io.to_uint8`), from memory: nothing is read back.
+    """
     rows = []
-    for w, recs in zip(works, per_object, strict=True):
-        for condition, _, _ in object_conditions(w):
-            imgs = [
-                np.asarray(Image.open(tmp / r.path))
-                for r in sorted(recs, key=lambda r: r.level)
-                if r.condition == condition
-            ]
-            rows.append((f"{w.info.object} {condition[:5]}", imgs))
+    for condition, _, _ in object_conditions(work):
+        stims = sorted((s for s in rendered.stimuli if s[0] == condition), key=lambda s: s[1])
+        rows.append((f"{work.info.object} {condition[:5]}", [to_uint8(s[4]) for s in stims]))
+    return rows
+
+
+def _write_overview(
+    works: list[ObjectImages], per_object: list[list], tmp: Path, labels: list[str]
+) -> None:
+    rows = [row for object_rows in per_object for row in object_rows]
     sheet = contact_sheet(
         rows,
         cell_shape_px=(65, 98),

@@ -22,7 +22,7 @@ def _counts(p):
 
 
 def test_mixed_scales_are_refused_naming_column_and_rows():
-    with pytest.raises(DataError, match=r"t\.csv: --p column 'p' mixes .*1\.5 at data row 2"):
+    with pytest.raises(DataError, match=r"t\.csv: `p` column 'p' mixes .*1\.5 at data row 2"):
         _counts([0.2, 1.5, 0.9])
 
 

@@ -33,12 +33,12 @@ def test_percent_and_groups(tmp_path):
 @pytest.mark.parametrize(
     ("text", "spec", "needle"),
     [
-        ("x,y\n1,2\n", {"x": "x", "y": "y"}, "--y column 'y' must be 0 or 1 per trial"),
-        ("x,k,n\n1,1,0\n", {"x": "x", "k": "k", "n": "n"}, "--n column 'n' must be > 0"),
+        ("x,y\n1,2\n", {"x": "x", "y": "y"}, "`y` column 'y' must be 0 or 1 per trial"),
+        ("x,k,n\n1,1,0\n", {"x": "x", "k": "k", "n": "n"}, "`n` column 'n' must be > 0"),
         ("x,k,n\n1,3,2\n", {"x": "x", "k": "k", "n": "n"}, "need 0 <= correct <= trials"),
         ("x,p,n\n1,300,2\n", {"x": "x", "p": "p", "n": "n"}, "must be in 0-1 or 0-100"),
-        ("x,y\n1,1\n", {"x": "x", "y": "y", "group": ("g",)}, "--group column 'g' not found"),
-        ("x,y\nabc,1\n", {"x": "x", "y": "y"}, "--x column 'x' must be numeric, got 'abc'"),
+        ("x,y\n1,1\n", {"x": "x", "y": "y", "group": ("g",)}, "`group` column 'g' not found"),
+        ("x,y\nabc,1\n", {"x": "x", "y": "y"}, "`x` column 'x' must be numeric, got 'abc'"),
     ],
 )
 def test_bad_tables(tmp_path, text, spec, needle):
@@ -69,10 +69,10 @@ def test_spec_and_sigmoid_checks():
         resolve_sigmoid("probit", "auto")
     with pytest.raises(ValueError, match="axis must be 'auto', 'log' or 'linear', got 'ln'"):
         resolve_sigmoid("weibull", "ln")
-    with pytest.raises(ValueError, match=r"--guess must be in \[0, 1\), got 1.0"):
+    with pytest.raises(ValueError, match=r"`guess` must be in \[0, 1\), got 1.0"):
         FitSpec(x="x", y="y", guess=1.0)
     assert FitSpec(x="x", y="y").pcs == ()  # no --pc: psignifit's midpoint threshold
-    with pytest.raises(ValueError, match="--axis must be auto, log or linear"):
+    with pytest.raises(ValueError, match="`axis` must be auto, log or linear"):
         FitSpec(x="x", y="y", axis="ln")
 
 

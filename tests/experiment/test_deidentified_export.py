@@ -4,6 +4,7 @@ two subject codes into one file name."""
 from __future__ import annotations
 
 import csv
+import dataclasses
 import json
 import re
 from datetime import date, timedelta
@@ -222,13 +223,15 @@ def _log_with_answers(folder, subject, answers):
     from experiment.interfaces import Answer, FlipRecord
     from experiment.protocol import load_protocol
     from experiment.session.engine import Session
+    from experiment.session.plan import plan_session
     from experiment.session.stimset import StimulusSet
 
     stim, proto, db = make_study(folder, (1, 8), n_main=2, training=None)
     clock = FakeClock(0.0)
     with TrialLog(db) as log:
-        s = Session.open(log, load_protocol(proto), StimulusSet.load(stim), subject, seed=1,
-                         clock=clock)  # fmt: skip
+        plan = plan_session(load_protocol(proto), StimulusSet.load(stim), "S01", log=log, seed=1)
+        # the code as a log made before the subject-code rule holds it: past the plan's check
+        s = Session.open_planned(log, dataclasses.replace(plan, subject=subject), clock=clock)
         with s:
             i = 0
             while (trial := s.next_trial()) is not None:

@@ -148,7 +148,7 @@ def test_save_copy_writes_the_whole_log(tmp_path):
 
 
 def test_knowledge_seed_must_differ_from_the_seed(tmp_path, capsys):
-    with pytest.raises(ConfocalError, match=r"--knowledge-seed must be .* other than --seed \(3\)"):
+    with pytest.raises(ConfocalError, match=r"`knowledge_seed` must be .* other than `seed` \(3\)"):
         run_demo(tmp_path / "d", seed=3, knowledge_seed=3, show_progress=False)
     assert not (tmp_path / "d").exists()
     with pytest.raises(SystemExit) as exc:
@@ -159,11 +159,11 @@ def test_knowledge_seed_must_differ_from_the_seed(tmp_path, capsys):
 
 def test_no_pooled_knowledge_rendering_may_be_the_test_seed(tmp_path):
     """The calibrated observer knows renderings --knowledge-seed .. + 2: seed 3 is among 1-3."""
-    with pytest.raises(ConfocalError, match=r"3 rendering\(s\) .* other than --seed \(3\), got 1"):
+    with pytest.raises(ConfocalError, match=r"3 rendering\(s\) .* other than `seed` \(3\), got 1"):
         run_demo(tmp_path / "d", seed=3, knowledge_seed=1, show_progress=False)
     assert not (tmp_path / "d").exists()
     # the uncalibrated exemplar observer knows one rendering: seed 1 is not 3
-    with pytest.raises(ConfocalError, match=r"1 rendering\(s\) .* other than --seed \(2\), got 2"):
+    with pytest.raises(ConfocalError, match=r"1 rendering\(s\) .* other than `seed` \(2\), got 2"):
         run_demo(tmp_path / "e", seed=2, knowledge_seed=2, observer="exemplar", show_progress=False)
 
 

@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 from experiment.clock import FakeClock
+from experiment.data.subjects import SubjectCodeError
 from experiment.interfaces import Answer, FlipRecord
 from experiment.log import ResumeMismatch, SessionComplete, SessionLocked, TrialLog
 from experiment.presentation.displays import NullDisplay
@@ -145,7 +146,7 @@ def test_resume_refuses_another_protocol_seed_or_stimulus_set(tmp_path, log, pro
     other.write_text(PROTOCOL.replace("levels = [1, 2, 3]", "levels = [1, 2]"))
     with pytest.raises(ResumeMismatch, match=r"S01 has unfinished session 1 with protocol 'tiny'"):
         Session.open(log, load_protocol(other), stimset, "S01")
-    with pytest.raises(ResumeMismatch, match=r"with seed 7, not 8; omit --seed"):
+    with pytest.raises(ResumeMismatch, match=r"with seed 7, not 8; omit `seed`"):
         Session.open(log, protocol, stimset, "S01", seed=8)
     other_set = StimulusSet.load(
         make_stimulus_set(tmp_path / "s2", n_main=3, n_training=1, levels=(1, 2, 3, 8), rng=99)
@@ -259,8 +260,10 @@ def test_suggest_score_and_rescore(log, protocol, stimset):
 
 
 def test_bad_arguments(log, protocol, stimset):
-    with pytest.raises(ValueError, match="subject must be a non-empty string"):
+    with pytest.raises(SubjectCodeError, match="`subject` ' ' is empty"):  # as session run
         Session.open(log, protocol, stimset, " ")
+    with pytest.raises(ValueError, match="subject must be a non-empty string"):
+        Session.open(log, protocol, stimset, None)
     with pytest.raises(ValueError, match="seed must be a non-negative integer"):
         Session.open(log, protocol, stimset, "S01", seed=-1)
     with pytest.raises(ValueError, match="hold_s must be >= 0"):

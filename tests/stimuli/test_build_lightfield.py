@@ -154,7 +154,7 @@ def test_depth_declutter_mode_is_used_and_recorded(tmp_path):
         sets[mode] = np.asarray(Image.open(tmp_path / mode / row.path)) > 0
     assert lf.exists()
     assert sets["depth"].sum() < 0.8 * sets["sobel"].sum()
-    with pytest.raises(InputError, match="declutter must be one of"):
+    with pytest.raises(InputError, match="`declutter` must be one of"):
         BuildParams(declutter="canny")
 
 

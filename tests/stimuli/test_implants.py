@@ -254,7 +254,7 @@ def test_cli_default_px_per_electrode_is_the_builds() -> None:
 def test_bad_implant_arguments_are_refused_before_reading(pairs, tmp_path) -> None:
     out = tmp_path / "set"
     argus = load_implant("argus2")
-    with pytest.raises(ImplantError, match=r"--implant alpha_ims: its 39x39 grid is finer than"):
+    with pytest.raises(ImplantError, match=r"`implants` alpha_ims: its 39x39 grid is finer than"):
         build_stimulus_set(
             pairs,
             out,

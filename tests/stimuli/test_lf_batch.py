@@ -60,12 +60,12 @@ def test_run_per_capture_in_worker_processes():
 
 def test_cluster_without_dask_is_one_line(monkeypatch):
     monkeypatch.setitem(sys.modules, "dask.distributed", None)
-    with pytest.raises(InputError, match="--cluster needs Dask: install the 'dask' extra"):
+    with pytest.raises(InputError, match="`cluster` needs Dask: install the 'dask' extra"):
         list(run_per_capture(_square, [(2,)], cluster="tcp://127.0.0.1:1"))
 
 
 def test_processes_below_one_is_refused():
-    with pytest.raises(InputError, match="--processes must be >= 1, got 0"):
+    with pytest.raises(InputError, match="`processes` must be >= 1, got 0"):
         list(run_per_capture(_square, [(2,)], processes=0))
 
 
