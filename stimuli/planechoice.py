@@ -54,6 +54,7 @@ __all__ = [
     "PlaneChoice",
     "detect_planes",
     "plane_contents",
+    "plane_extent",
     "choose_plane",
     "parse_plane_option",
 ]
@@ -433,7 +434,10 @@ def choose_plane(
     if roi_m is not None:
         content = roi_m
     on = None if k is None else scan.peaks[k]
-    on_plane = None if best_px is None else _on_plane(best_px, float(d), lf)
+    on_plane = None
+    if best_px is not None:
+        span = None if k is None else plane_extent(scan, k)
+        on_plane = _on_plane(best_px, float(d), lf, span)
     return PlaneChoice(
         disparity_px=float(d),
         depth_m=lf.depth_m(d),
@@ -448,12 +452,58 @@ def choose_plane(
     )
 
 
-def _on_plane(best_px: np.ndarray, d: float, lf: LightField) -> np.ndarray:
-    """Pixels whose best plane refocuses within :data:`SUPPORT_BLUR_PX` of blur at ``d``."""
+def plane_extent(scan: PlaneScan, k: int) -> tuple[float, float]:
+    """Return the disparities a detected plane's object spans, from the support curve.
+
+    The span of the peak's hill (between the curve's minima towards the neighbouring detected
+    planes) where the smoothed support stands above half the peak's prominence over its base:
+    the width at half prominence. An object that is not flat (a curved pedestal, a plant's
+    leaves) spreads its pixels over a band of disparities around its peak; the band is the
+    data's, so a thin object gives a narrow band and a deep one a wide band.
+
+    Parameters
+    ----------
+    scan : PlaneScan
+    k : int
+        Index into ``scan.peaks``.
+
+    Returns
+    -------
+    (low, high) : tuple of float
+        Pixels per view step, ``low <= peak <= high``.
+    """
+    s = np.asarray(scan.scores, dtype=np.float64)
+    ds = np.asarray(scan.disparities_px, dtype=np.float64)
+    p = scan.peaks[k]
+    lo, hi = _hill_bounds(scan)[k]
+    i = int(p.index)
+    level = s[i] - 0.5 * p.prominence
+    a = i
+    while a > lo and s[a - 1] >= level:
+        a -= 1
+    b = i
+    while b < hi - 1 and s[b + 1] >= level:
+        b += 1
+    lo_d, hi_d = sorted((float(ds[a]), float(ds[b])))
+    return min(lo_d, p.disparity_px), max(hi_d, p.disparity_px)
+
+
+def _on_plane(
+    best_px: np.ndarray, d: float, lf: LightField, span: tuple[float, float] | None = None
+) -> np.ndarray:
+    """Pixels on the plane ``d``: best plane within :data:`SUPPORT_BLUR_PX` of blur of it.
+
+    With ``span`` (the detected plane's :func:`plane_extent`), also every pixel whose best plane
+    lies within that band, widened by the same tolerance.
+    """
     n_u, n_v = lf.grid
     reach = max(n_u // 2, n_u - 1 - n_u // 2, n_v // 2, n_v - 1 - n_v // 2, 1)
+    tol = SUPPORT_BLUR_PX / reach
     with np.errstate(invalid="ignore"):
-        return np.abs(best_px - d) * reach <= SUPPORT_BLUR_PX
+        out = np.abs(best_px - d) <= tol
+        if span is not None:
+            out |= (best_px >= span[0] - tol) & (best_px <= span[1] + tol)
+    return out
 
 
 def _hill_of(d: float, bounds: np.ndarray | None) -> int | None:
