@@ -139,8 +139,10 @@ class PlaneChoice:
         The plane's in-focus content (or the region of interest), full resolution.
     on_plane : ndarray of shape (rows, cols), bool, or None
         The plane's support: the pixels the depth scan puts on the plane itself, whose views
-        agree best within :data:`SUPPORT_BLUR_PX` of blur of it (the plane's hill may hold the
-        whole scene when the scan finds one plane). What a stimulus shows is judged against it.
+        agree best within :data:`SUPPORT_BLUR_PX` of blur of it or, for a detected plane,
+        within its band of disparities (:func:`plane_extent`, widened by the same tolerance;
+        the plane's hill may hold the whole scene when the scan finds one plane). What a
+        stimulus shows is judged against it.
     edge_depth : dict or None
         On a 1-D light field de-cluttered by depth: the edge pixels whose depth the views
         could not measure and what became of them

@@ -3,8 +3,9 @@
 The measure is taken from the depth evidence.
 
 The plane a light-field object is built at comes with its *support*: the pixels whose views
-agree best on that plane (:attr:`stimuli.planechoice.PlaneChoice.on_plane`, from the depth scan,
-never from the edges judged). The support follows the stimulus through the build's crops and
+agree best on that plane or within the band of disparities its object spans
+(:attr:`stimuli.planechoice.PlaneChoice.on_plane`, :func:`stimuli.planechoice.plane_extent`:
+from the depth scan, never from the edges judged). The support follows the stimulus through the build's crops and
 resize; then, at every level of the de-cluttered condition:
 
 * ``on_plane``: the share of the white pixels (cells) that lie on the plane's region (the
