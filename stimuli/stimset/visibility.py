@@ -5,8 +5,8 @@ The measure is taken from the depth evidence.
 The plane a light-field object is built at comes with its *support*: the pixels whose views
 agree best on that plane or within the band of disparities its object spans
 (:attr:`stimuli.planechoice.PlaneChoice.on_plane`, :func:`stimuli.planechoice.plane_extent`:
-from the depth scan, never from the edges judged). The support follows the stimulus through the build's crops and
-resize; then, at every level of the de-cluttered condition:
+from the depth scan, never from the edges judged). The support follows the stimulus through
+the build's crops and resize; then, at every level of the de-cluttered condition:
 
 * ``on_plane``: the share of the white pixels (cells) that lie on the plane's region (the
   support with its gaps closed and its holes filled: a 1-D light field's views cannot place
