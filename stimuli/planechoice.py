@@ -18,13 +18,9 @@ The default rule (``plane='auto'``)
 -----------------------------------
 The nearest detected plane that
 
-* holds at least :data:`SUPPORT_SHARE` of the support, has at least that share of the
-  evidence, and holds at least that share of the centre view's edges (:func:`edge_shares`),
-  of the strongest detected plane in each (cuts relative to the scan itself, not absolute
-  shares of pixels: they follow the capture's own texture and size; a stimulus is made of
-  edges, so a weakly textured surface whose views agree on its faint marks, such as a
-  pedestal in front of the object, holds the support of a plane but not the edges of one),
-  and
+* holds at least :data:`SUPPORT_SHARE` of the support, and has at least that share of the
+  evidence, of the strongest detected plane (cuts relative to the scan itself, not absolute
+  shares of pixels: they follow the capture's own texture and size), and
 * has at most :data:`BORDER_SHARE` of its content within the border frame
   (:data:`BORDER_MARGIN` of each side).
 
@@ -59,7 +55,6 @@ __all__ = [
     "detect_planes",
     "plane_contents",
     "plane_extent",
-    "edge_shares",
     "choose_plane",
     "parse_plane_option",
 ]
@@ -106,9 +101,6 @@ class PlaneCandidate:
         Fraction of the region of interest the plane holds (with a region).
     rejected : str
         Why the default rule passed over it (``""`` when it passed).
-    edge_share : float in [0, 1] or None
-        Fraction of the centre view's edge pixels in the plane's content
-        (:func:`edge_shares`).
     """
 
     disparity_px: float
@@ -118,7 +110,6 @@ class PlaneCandidate:
     border_share: float
     roi_share: float | None = None
     rejected: str = ""
-    edge_share: float | None = None
 
     def to_dict(self) -> dict:
         """Return a JSON-ready dict (NaN as ``None``)."""
@@ -385,21 +376,14 @@ def choose_plane(
     sup = [p.support if math.isfinite(p.support) else p.score for p in scan.peaks]
     top = max(sup, default=0.0)
     top_ev = max((p.evidence for p in scan.peaks if math.isfinite(p.evidence)), default=0.0)
-    edge = edge_shares(lf, contents)
-    top_edge = max(edge, default=0.0)
     cands = []
-    for p, s, c, e in zip(scan.peaks, sup, contents, edge, strict=True):
+    for p, s, c in zip(scan.peaks, sup, contents, strict=True):
         border = _border_share(c)
         why = []
         if s < SUPPORT_SHARE * top:
             why.append(f"support {s:.3g} < {SUPPORT_SHARE:g} x strongest {top:.3g}")
         if math.isfinite(p.evidence) and p.evidence < SUPPORT_SHARE * top_ev:
             why.append(f"evidence {p.evidence:.3g} < {SUPPORT_SHARE:g} x strongest {top_ev:.3g}")
-        if e < SUPPORT_SHARE * top_edge:
-            why.append(
-                f"{100 * e:.2g} % of the edges < {SUPPORT_SHARE:g} x the most "
-                f"({100 * top_edge:.2g} %)"
-            )
         if border > BORDER_SHARE:
             why.append(f"{100 * border:.0f} % of its content in the border frame")
         cands.append(
@@ -411,7 +395,6 @@ def choose_plane(
                 border_share=border,
                 roi_share=None if roi_m is None else float((c & roi_m).sum() / roi_m.sum()),
                 rejected="; ".join(why),
-                edge_share=e,
             )
         )
     marginal = ""
@@ -469,38 +452,6 @@ def choose_plane(
         view_crop=lf.meta.get("view_crop") if isinstance(lightfield, LightField) else None,
         on_plane=on_plane,
     )
-
-
-def edge_shares(lightfield: LightField | np.ndarray, contents: list[np.ndarray]) -> list[float]:
-    """Return the share of the centre view's edge pixels in each plane's content.
-
-    Edge pixels: the centre view's Sobel magnitude above Otsu's threshold of it (the edges a
-    stimulus is made of, at the image's own contrast). A plane whose content holds few of them
-    gives a stimulus that shows little, however many of its pixels agree.
-
-    Parameters
-    ----------
-    lightfield : LightField or ndarray
-    contents : list of ndarray of shape (rows, cols), bool
-        The planes' in-focus content (:func:`plane_contents`).
-
-    Returns
-    -------
-    list of float in [0, 1]
-        One per plane (0 for all when the centre view has no edge).
-    """
-    if not contents:
-        return []
-    from skimage.filters import threshold_otsu
-
-    from stimuli.declutter import sobel_magnitude
-
-    mag = sobel_magnitude(np.asarray(as_lightfield(lightfield).gray().centre_view(), np.float32))
-    if not float(mag.max()) > 0.0:
-        return [0.0] * len(contents)
-    edges = mag > float(threshold_otsu(mag, nbins=256))
-    n = int(edges.sum())
-    return [float((edges & c).sum() / n) if n else 0.0 for c in contents]
 
 
 def plane_extent(scan: PlaneScan, k: int) -> tuple[float, float]:
