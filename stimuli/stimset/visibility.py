@@ -119,9 +119,10 @@ def object_visibility(
     Returns
     -------
     dict or None
-        ``{"levels": [{"level", "on_plane", "object_coverage"}, ...], "support_share"}``
-        (shares in [0, 1], ``None`` where undefined: no white pixel, no object cell); None for
-        photo pairs and grey mode.
+        ``{"levels": [{"level", "on_plane", "object_coverage"}, ...], "support_share",
+        "other_planes_px"}`` (shares in [0, 1], ``None`` where undefined: no white pixel, no
+        object cell; the other detected planes, px per view step, which the warning names);
+        None for photo pairs and grey mode.
     """
     support = plane_support(work, params)
     if support is None or params.mode != "edges":
@@ -145,7 +146,13 @@ def object_visibility(
                 "object_coverage": None if not obj.any() else float(s[obj].mean()),
             }
         )
-    return {"levels": levels, "support_share": float(support.mean())}
+    choice = work.plane_choice
+    others = [
+        float(c.disparity_px)
+        for c in getattr(choice, "candidates", ())
+        if abs(float(c.disparity_px) - float(choice.disparity_px)) > 1e-9
+    ]
+    return {"levels": levels, "support_share": float(support.mean()), "other_planes_px": others}
 
 
 def visibility_warnings(name: str, vis: dict | None) -> list[str]:
@@ -158,9 +165,17 @@ def visibility_warnings(name: str, vis: dict | None) -> list[str]:
     share = top["on_plane"]
     if share is None or share < MIN_ON_PLANE:
         said = "no white pixel" if share is None else f"{100 * share:.0f} % of its white pixels"
+        others = vis.get("other_planes_px") or []
+        hint = (
+            "; other detected planes: "
+            + ", ".join(f"{d:.4g}" for d in others)
+            + " px per view step (--plane or objects.csv plane_disparity_px)"
+            if others
+            else ""
+        )
         out.append(
             f"{name}: the de-cluttered stimulus may not show its object: {said} at "
-            f"L{top['level']} on the plane's support (under {100 * MIN_ON_PLANE:.0f} %)"
+            f"L{top['level']} on the plane's support (under {100 * MIN_ON_PLANE:.0f} %){hint}"
         )
     low = [
         r

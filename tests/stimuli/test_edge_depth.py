@@ -157,6 +157,9 @@ def test_a_stimulus_of_clutter_is_flagged(tmp_path: Path, capsys):
     l8 = np.asarray(Image.open(next((tmp_path / "set" / "box").glob("decluttered_L8_*.png"))))
     assert _on_outline(rec, l8 > 0, truth) < 0.5
     assert any("may not show its object" in w for w in rec["warnings"]), rec["warnings"]
+    # the warning names the other detected planes to try (here the wall, at 0)
+    assert rec["visibility"]["other_planes_px"], rec["visibility"]
+    assert any("other detected planes: " in w for w in rec["warnings"]), rec["warnings"]
     out = capsys.readouterr()
     assert "may not show its object" in (out.out + out.err).replace("\n", " ")
     sheet = np.asarray(Image.open(tmp_path / "set" / "contact" / "box.png"))
