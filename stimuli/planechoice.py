@@ -55,6 +55,7 @@ __all__ = [
     "detect_planes",
     "plane_contents",
     "plane_extent",
+    "support_reach_px",
     "choose_plane",
     "parse_plane_option",
 ]
@@ -150,6 +151,10 @@ class PlaneChoice:
     view_crop : list of int (x, y, w, h) or None
         The crop the views were read with (:func:`stimuli.vignette.apply_view_crop`), in the
         capture's pixels; recorded so that every command can be checked to use the same one.
+    reach_px : int
+        The scan's resolution around ``on_plane``, full-resolution px (:func:`support_reach_px`):
+        a pixel's best plane is decided from a box this far around it, so an edge this close
+        to the support is within what the scan can resolve of it (0 without a support).
     """
 
     disparity_px: float
@@ -163,6 +168,7 @@ class PlaneChoice:
     view_crop: list | None = None
     on_plane: np.ndarray | None = field(default=None, repr=False, compare=False)
     edge_depth: dict | None = None
+    reach_px: int = 0
 
     def describe(self) -> str:
         """One-line provenance: ``disparity=...px,depth=...m,<rule>``."""
@@ -451,7 +457,28 @@ def choose_plane(
         content=content,
         view_crop=lf.meta.get("view_crop") if isinstance(lightfield, LightField) else None,
         on_plane=on_plane,
+        reach_px=0 if on_plane is None else support_reach_px(scan),
     )
+
+
+def support_reach_px(scan: PlaneScan) -> int:
+    """Return how far around a pixel the scan looks to give it a best plane, full-res px.
+
+    The sweep sums the views' differences over a :data:`stimuli.agreementscan.COST_WINDOW_PX`
+    box of the views binned by ``scan.binning``: half that box's side, in full-resolution
+    pixels, rounded up. Near an occluding outline the box straddles object and background, so
+    the outline itself lies up to this far outside the plane's support (Middlebury Baby1: the
+    drum's top edge, 5-10 working px above its support at binning 3).
+
+    Examples
+    --------
+    >>> from stimuli.planescan import PlaneScan
+    >>> support_reach_px(PlaneScan(np.zeros(3), None, np.zeros(3), (), binning=3))
+    8
+    """
+    from stimuli.agreementscan import COST_WINDOW_PX
+
+    return int(math.ceil(int(scan.binning) * COST_WINDOW_PX / 2))
 
 
 def plane_extent(scan: PlaneScan, k: int) -> tuple[float, float]:

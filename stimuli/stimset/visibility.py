@@ -8,11 +8,18 @@ agree best on that plane or within the band of disparities its object spans
 from the depth scan, never from the edges judged). The support follows the stimulus through
 the build's crops and resize; then, at every level of the de-cluttered condition:
 
-* ``on_plane``: the share of the white pixels (cells) that lie on the plane's region (the
-  support with its gaps closed and its holes filled: a 1-D light field's views cannot place
-  an edge parallel to their baseline, so the support has gaps along such edges), widened by
-  :data:`ON_PLANE_MARGIN_PX` (an outline lies where the views stop agreeing, at the object's
-  rim). A stimulus whose white lies mostly off the plane shows clutter, not the object.
+* ``on_plane``: the share of the white pixels (cells) that lie on the plane. A white pixel is
+  on the plane when it lies on the plane's region (the support with its gaps closed and its
+  holes filled: a 1-D light field's views cannot place an edge parallel to their baseline, so
+  the support has gaps along such edges), widened by :data:`ON_PLANE_MARGIN_PX` (an outline
+  lies where the views stop agreeing, at the object's rim), or within the scan's own reach of
+  the support (:attr:`~stimuli.planechoice.PlaneChoice.reach_px`: the scan gives a pixel the
+  best plane of a box around it, so near an occluding outline, where the box straddles object
+  and background, the support stops short of the outline). And a white stroke (8-connected)
+  that lies mostly on the plane is the plane's whole: its other pixels are edges whose depth
+  the views could not measure (an outline along the baseline, an untextured face with no
+  support) that connect to the plane's structure. A stimulus whose white lies mostly off the
+  plane shows clutter, not the object.
 * ``object_coverage``: the share of the object's cells that are white, the object's cells being
   those at least half covered by its region. At the low levels (few cells) an object of
   which few cells light up is not seen.
@@ -63,16 +70,24 @@ LOW_LEVELS: int = 3
 _REGION_CLOSE_PX = 6
 
 
-def plane_support(work: ObjectImages, params: BuildParams) -> np.ndarray | None:
+def plane_support(
+    work: ObjectImages, params: BuildParams, *, reach: bool = False
+) -> np.ndarray | None:
     """Return a light-field object's plane support at the working size (bool), else None.
 
     The plane choice's support (full resolution of the cropped views) taken through the
-    object's field crop, aspect crop or padding and resize, as its images were.
+    object's field crop, aspect crop or padding and resize, as its images were. With
+    ``reach``, the support widened by the scan's reach
+    (:attr:`~stimuli.planechoice.PlaneChoice.reach_px`) at full resolution first.
     """
     choice = work.plane_choice
     if choice is None or getattr(choice, "on_plane", None) is None:
         return None
-    m = np.asarray(choice.on_plane, dtype=np.float32)
+    m = np.asarray(choice.on_plane, dtype=bool)
+    r = int(getattr(choice, "reach_px", 0) or 0) if reach else 0
+    if r > 0 and m.any():
+        m = ndimage.distance_transform_edt(~m) <= r
+    m = m.astype(np.float32)
     m = zoom_crop(m, work.crop) if work.crop is not None else m
     if work.aspect_crop is not None:
         x, y, w, h = work.aspect_crop
@@ -103,6 +118,23 @@ def _disk(r: int) -> np.ndarray:
     return yy * yy + xx * xx <= r * r
 
 
+def _strokes_on(white: np.ndarray, near: np.ndarray) -> np.ndarray:
+    """White pixels on the plane: those ``near`` it, and every pixel of a stroke mostly near.
+
+    A stroke is an 8-connected set of white pixels; "mostly" is more than half of its pixels.
+    """
+    on = white & near
+    lab, n = ndimage.label(white, np.ones((3, 3), bool))
+    if n == 0:
+        return on
+    share = np.bincount(lab.ravel(), weights=on.ravel(), minlength=n + 1) / np.maximum(
+        np.bincount(lab.ravel(), minlength=n + 1), 1
+    )
+    mostly = share > 0.5
+    mostly[0] = False
+    return on | mostly[lab]
+
+
 def object_visibility(
     work: ObjectImages, params: BuildParams, ladder: list[tuple[int, int, np.ndarray]]
 ) -> dict | None:
@@ -131,18 +163,19 @@ def object_visibility(
         ndimage.binary_closing(support, _disk(_REGION_CLOSE_PX), border_value=0)
     )
     near = ndimage.binary_dilation(region | support, _disk(ON_PLANE_MARGIN_PX))
+    near |= plane_support(work, params, reach=True)
     if work.valid is not None:
         region &= work.valid
     levels = []
     for level, _, stim in ladder:
         s = np.asarray(stim, dtype=bool)
-        on = _cell_mean(near, s.shape) > 0
+        on = _strokes_on(s, _cell_mean(near, s.shape) > 0)
         obj = _cell_mean(region, s.shape) >= 0.5
         lit = int(s.sum())
         levels.append(
             {
                 "level": int(level),
-                "on_plane": None if lit == 0 else float((s & on).sum() / lit),
+                "on_plane": None if lit == 0 else float(on.sum() / lit),
                 "object_coverage": None if not obj.any() else float(s[obj].mean()),
             }
         )
