@@ -202,13 +202,14 @@ def visibility_warnings(name: str, vis: dict | None) -> list[str]:
         hint = (
             "; other detected planes: "
             + ", ".join(f"{d:.4g}" for d in others)
-            + " px per view step (--plane or objects.csv plane_disparity_px)"
+            + " px per view step: choose one with --plane or objects.csv plane_disparity_px"
             if others
-            else ""
+            else "; choose another plane with --plane or objects.csv plane_disparity_px"
         )
         out.append(
             f"{name}: the de-cluttered stimulus may not show its object: {said} at "
-            f"L{top['level']} on the plane's support (under {100 * MIN_ON_PLANE:.0f} %){hint}"
+            f"L{top['level']} on the plane's support (visibility on_plane, from the depth scan; "
+            f"under {100 * MIN_ON_PLANE:.0f} %){hint}"
         )
     low = [
         r
@@ -218,7 +219,8 @@ def visibility_warnings(name: str, vis: dict | None) -> list[str]:
     if low:
         cov = ", ".join(f"L{r['level']} {100 * r['object_coverage']:.0f} %" for r in low)
         out.append(
-            f"{name}: the object covers few of its cells at the low levels ({cov}; under "
+            f"{name}: the object covers few of its cells at the low levels (visibility "
+            f"object_coverage {cov}; under "
             f"{100 * MIN_COVERAGE:.0f} %)"
         )
     if vis.get("support_share", 1.0) == 0.0:

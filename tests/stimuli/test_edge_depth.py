@@ -160,6 +160,8 @@ def test_a_stimulus_of_clutter_is_flagged(tmp_path: Path, capsys):
     # the warning names the other detected planes to try (here the wall, at 0)
     assert rec["visibility"]["other_planes_px"], rec["visibility"]
     assert any("other detected planes: " in w for w in rec["warnings"]), rec["warnings"]
+    # and which measure is low, and the option that changes the plane
+    assert any("on_plane" in w and "--plane" in w for w in rec["warnings"]), rec["warnings"]
     out = capsys.readouterr()
     assert "may not show its object" in (out.out + out.err).replace("\n", " ")
     sheet = np.asarray(Image.open(tmp_path / "set" / "contact" / "box.png"))
