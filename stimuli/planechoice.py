@@ -151,6 +151,8 @@ class PlaneChoice:
     view_crop : list of int (x, y, w, h) or None
         The crop the views were read with (:func:`stimuli.vignette.apply_view_crop`), in the
         capture's pixels; recorded so that every command can be checked to use the same one.
+    baseline_axes : tuple of int
+        The image axes the views are spread along (:func:`stimuli.edgedepth.baseline_axes`).
     reach_px : int
         The scan's resolution around ``on_plane``, full-resolution px (:func:`support_reach_px`):
         a pixel's best plane is decided from a box this far around it, so an edge this close
@@ -169,6 +171,7 @@ class PlaneChoice:
     on_plane: np.ndarray | None = field(default=None, repr=False, compare=False)
     edge_depth: dict | None = None
     reach_px: int = 0
+    baseline_axes: tuple[int, ...] = ()
 
     def describe(self) -> str:
         """One-line provenance: ``disparity=...px,depth=...m,<rule>``."""
@@ -458,7 +461,14 @@ def choose_plane(
         view_crop=lf.meta.get("view_crop") if isinstance(lightfield, LightField) else None,
         on_plane=on_plane,
         reach_px=0 if on_plane is None else support_reach_px(scan),
+        baseline_axes=_baseline_axes(lf.grid),
     )
+
+
+def _baseline_axes(grid) -> tuple[int, ...]:
+    from stimuli.edgedepth import baseline_axes
+
+    return baseline_axes(grid)
 
 
 def support_reach_px(scan: PlaneScan) -> int:

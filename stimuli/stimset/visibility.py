@@ -18,8 +18,10 @@ the build's crops and resize; then, at every level of the de-cluttered condition
   and background, the support stops short of the outline). And a white stroke (8-connected)
   that lies mostly on the plane is the plane's whole: its other pixels are edges whose depth
   the views could not measure (an outline along the baseline, an untextured face with no
-  support) that connect to the plane's structure. A stimulus whose white lies mostly off the
-  plane shows clutter, not the object.
+  support) that connect to the plane's structure. On a 1-D light field, so are the white
+  pixels lying between two on-plane white pixels of their row along the baseline (give or
+  take a pixel across): the pieces of an edge along the baseline that the views cannot place.
+  A stimulus whose white lies mostly off the plane shows clutter, not the object.
 * ``object_coverage``: the share of the object's cells that are white, the object's cells being
   those at least half covered by its region. At the low levels (few cells) an object of
   which few cells light up is not seen.
@@ -118,10 +120,13 @@ def _disk(r: int) -> np.ndarray:
     return yy * yy + xx * xx <= r * r
 
 
-def _strokes_on(white: np.ndarray, near: np.ndarray) -> np.ndarray:
+def _strokes_on(white: np.ndarray, near: np.ndarray, along: tuple[int, ...] = ()) -> np.ndarray:
     """White pixels on the plane: those ``near`` it, and every pixel of a stroke mostly near.
 
     A stroke is an 8-connected set of white pixels; "mostly" is more than half of its pixels.
+    With ``along`` (the baseline's axis of a 1-D light field), also the white pixels that lie
+    between two on-plane white pixels of their row (or column) along it, give or take a
+    pixel across: pieces of one edge along the baseline, whose depth the views cannot measure.
     """
     on = white & near
     lab, n = ndimage.label(white, np.ones((3, 3), bool))
@@ -132,7 +137,17 @@ def _strokes_on(white: np.ndarray, near: np.ndarray) -> np.ndarray:
     )
     mostly = share > 0.5
     mostly[0] = False
-    return on | mostly[lab]
+    on = on | mostly[lab]
+    if len(along) == 1:
+        a = along[0]
+        band = ndimage.maximum_filter1d(on.view(np.uint8), 3, axis=1 - a) > 0
+        b = np.moveaxis(band, a, 1)
+        k = b.shape[1]
+        idx = np.arange(k)
+        left = np.maximum.accumulate(np.where(b, idx, -1), axis=1) >= 0
+        right = np.minimum.accumulate(np.where(b, idx, k)[:, ::-1], axis=1)[:, ::-1] < k
+        on = on | (white & np.moveaxis(left & right, 1, a))
+    return on
 
 
 def object_visibility(
@@ -166,10 +181,11 @@ def object_visibility(
     near |= plane_support(work, params, reach=True)
     if work.valid is not None:
         region &= work.valid
+    along = tuple(getattr(work.plane_choice, "baseline_axes", ()) or ())
     levels = []
     for level, _, stim in ladder:
         s = np.asarray(stim, dtype=bool)
-        on = _strokes_on(s, _cell_mean(near, s.shape) > 0)
+        on = _strokes_on(s, _cell_mean(near, s.shape) > 0, along)
         obj = _cell_mean(region, s.shape) >= 0.5
         lit = int(s.sum())
         levels.append(

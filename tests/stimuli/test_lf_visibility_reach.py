@@ -6,8 +6,9 @@ the bottom) and textured only on its right sixth; the rest of its face is flat, 
 a wall's face can be. The depth scan supports the textured part and the measured sides only:
 the box's top and bottom edges, parallel to the baseline, run mostly over the flat face, where
 no pixel votes, and the scan's matching window straddles them. The stimulus keeps them (they
-are the object's outline), so a measure that judges each white pixel by the support alone
-says much of the object's outline is off its plane.
+are the object's outline, in pieces where the wall's blobs touch it), so a measure that judges
+each white pixel by the support alone says much of the object's outline is off its plane
+(0.82-0.84 against 0.99-1.00 known).
 
 The known truth is the benchmark's (``benchmarks/check_lightfield_planes.py``): the L8 white
 pixels within 2 working pixels of a pixel whose true disparity lies within 1.5 px per view step
@@ -71,9 +72,9 @@ def _scene(top: float, bottom: float, textured: float = 0.15, seed: int = 0):
 
 
 @pytest.mark.filterwarnings("ignore:.*agree best at the")
-@pytest.mark.parametrize(("top", "bottom"), [(3.3, 2.7), (3.0, 3.0)])
-def test_build_share_agrees_with_the_known_depth(tmp_path: Path, top, bottom):
-    lf, truth = _scene(top, bottom)
+@pytest.mark.parametrize(("top", "bottom", "seed"), [(3.3, 2.7, 0), (3.3, 2.7, 1), (3.0, 3.0, 1)])
+def test_build_share_agrees_with_the_known_depth(tmp_path: Path, top, bottom, seed):
+    lf, truth = _scene(top, bottom, seed=seed)
     caps = tmp_path / "caps"
     caps.mkdir()
     np.savez(caps / "box.npz", views=lf.views)
