@@ -54,6 +54,8 @@ __all__ = [
     "PlaneChoice",
     "detect_planes",
     "plane_contents",
+    "plane_extent",
+    "support_reach_px",
     "choose_plane",
     "parse_plane_option",
 ]
@@ -138,8 +140,10 @@ class PlaneChoice:
         The plane's in-focus content (or the region of interest), full resolution.
     on_plane : ndarray of shape (rows, cols), bool, or None
         The plane's support: the pixels the depth scan puts on the plane itself, whose views
-        agree best within :data:`SUPPORT_BLUR_PX` of blur of it (the plane's hill may hold the
-        whole scene when the scan finds one plane). What a stimulus shows is judged against it.
+        agree best within :data:`SUPPORT_BLUR_PX` of blur of it or, for a detected plane,
+        within its band of disparities (:func:`plane_extent`, widened by the same tolerance;
+        the plane's hill may hold the whole scene when the scan finds one plane). What a
+        stimulus shows is judged against it.
     edge_depth : dict or None
         On a 1-D light field de-cluttered by depth: the edge pixels whose depth the views
         could not measure and what became of them
@@ -147,6 +151,12 @@ class PlaneChoice:
     view_crop : list of int (x, y, w, h) or None
         The crop the views were read with (:func:`stimuli.vignette.apply_view_crop`), in the
         capture's pixels; recorded so that every command can be checked to use the same one.
+    baseline_axes : tuple of int
+        The image axes the views are spread along (:func:`stimuli.edgedepth.baseline_axes`).
+    reach_px : int
+        The scan's resolution around ``on_plane``, full-resolution px (:func:`support_reach_px`):
+        a pixel's best plane is decided from a box this far around it, so an edge this close
+        to the support is within what the scan can resolve of it (0 without a support).
     """
 
     disparity_px: float
@@ -160,6 +170,8 @@ class PlaneChoice:
     view_crop: list | None = None
     on_plane: np.ndarray | None = field(default=None, repr=False, compare=False)
     edge_depth: dict | None = None
+    reach_px: int = 0
+    baseline_axes: tuple[int, ...] = ()
 
     def describe(self) -> str:
         """One-line provenance: ``disparity=...px,depth=...m,<rule>``."""
@@ -433,7 +445,10 @@ def choose_plane(
     if roi_m is not None:
         content = roi_m
     on = None if k is None else scan.peaks[k]
-    on_plane = None if best_px is None else _on_plane(best_px, float(d), lf)
+    on_plane = None
+    if best_px is not None:
+        span = None if k is None else plane_extent(scan, k)
+        on_plane = _on_plane(best_px, float(d), lf, span)
     return PlaneChoice(
         disparity_px=float(d),
         depth_m=lf.depth_m(d),
@@ -445,15 +460,89 @@ def choose_plane(
         content=content,
         view_crop=lf.meta.get("view_crop") if isinstance(lightfield, LightField) else None,
         on_plane=on_plane,
+        reach_px=0 if on_plane is None else support_reach_px(scan),
+        baseline_axes=_baseline_axes(lf.grid),
     )
 
 
-def _on_plane(best_px: np.ndarray, d: float, lf: LightField) -> np.ndarray:
-    """Pixels whose best plane refocuses within :data:`SUPPORT_BLUR_PX` of blur at ``d``."""
+def _baseline_axes(grid) -> tuple[int, ...]:
+    from stimuli.edgedepth import baseline_axes
+
+    return baseline_axes(grid)
+
+
+def support_reach_px(scan: PlaneScan) -> int:
+    """Return how far around a pixel the scan looks to give it a best plane, full-res px.
+
+    The sweep sums the views' differences over a :data:`stimuli.agreementscan.COST_WINDOW_PX`
+    box of the views binned by ``scan.binning``: half that box's side, in full-resolution
+    pixels, rounded up. Near an occluding outline the box straddles object and background, so
+    the outline itself lies up to this far outside the plane's support (Middlebury Baby1: the
+    drum's top edge, 5-10 working px above its support at binning 3).
+
+    Examples
+    --------
+    >>> from stimuli.planescan import PlaneScan
+    >>> support_reach_px(PlaneScan(np.zeros(3), None, np.zeros(3), (), binning=3))
+    8
+    """
+    from stimuli.agreementscan import COST_WINDOW_PX
+
+    return int(math.ceil(int(scan.binning) * COST_WINDOW_PX / 2))
+
+
+def plane_extent(scan: PlaneScan, k: int) -> tuple[float, float]:
+    """Return the disparities a detected plane's object spans, from the support curve.
+
+    The span of the peak's hill (between the curve's minima towards the neighbouring detected
+    planes) where the smoothed support stands above half the peak's prominence over its base:
+    the width at half prominence. An object that is not flat (a curved pedestal, a plant's
+    leaves) spreads its pixels over a band of disparities around its peak; the band is the
+    data's, so a thin object gives a narrow band and a deep one a wide band.
+
+    Parameters
+    ----------
+    scan : PlaneScan
+    k : int
+        Index into ``scan.peaks``.
+
+    Returns
+    -------
+    (low, high) : tuple of float
+        Pixels per view step, ``low <= peak <= high``.
+    """
+    s = np.asarray(scan.scores, dtype=np.float64)
+    ds = np.asarray(scan.disparities_px, dtype=np.float64)
+    p = scan.peaks[k]
+    lo, hi = _hill_bounds(scan)[k]
+    i = int(p.index)
+    level = s[i] - 0.5 * p.prominence
+    a = i
+    while a > lo and s[a - 1] >= level:
+        a -= 1
+    b = i
+    while b < hi - 1 and s[b + 1] >= level:
+        b += 1
+    lo_d, hi_d = sorted((float(ds[a]), float(ds[b])))
+    return min(lo_d, p.disparity_px), max(hi_d, p.disparity_px)
+
+
+def _on_plane(
+    best_px: np.ndarray, d: float, lf: LightField, span: tuple[float, float] | None = None
+) -> np.ndarray:
+    """Pixels on the plane ``d``: best plane within :data:`SUPPORT_BLUR_PX` of blur of it.
+
+    With ``span`` (the detected plane's :func:`plane_extent`), also every pixel whose best plane
+    lies within that band, widened by the same tolerance.
+    """
     n_u, n_v = lf.grid
     reach = max(n_u // 2, n_u - 1 - n_u // 2, n_v // 2, n_v - 1 - n_v // 2, 1)
+    tol = SUPPORT_BLUR_PX / reach
     with np.errstate(invalid="ignore"):
-        return np.abs(best_px - d) * reach <= SUPPORT_BLUR_PX
+        out = np.abs(best_px - d) <= tol
+        if span is not None:
+            out |= (best_px >= span[0] - tol) & (best_px <= span[1] + tol)
+    return out
 
 
 def _hill_of(d: float, bounds: np.ndarray | None) -> int | None:
