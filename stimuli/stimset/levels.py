@@ -155,7 +155,9 @@ def grey_on_ladder(
     """
     img = check_gray(image)
     _check_ladder(img.shape, ladder)
-    return [(level, w, compress_grey(img, shape, grey_levels=grey_levels)) for level, w, shape in ladder]
+    return [
+        (level, w, compress_grey(img, shape, grey_levels=grey_levels)) for level, w, shape in ladder
+    ]
 
 
 def level_labels(ladder: Sequence[tuple[int, int, tuple[int, int]]]) -> list[str]:
