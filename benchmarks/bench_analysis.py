@@ -18,6 +18,7 @@ machine, but not immune to it (shared caches and cores).
 Usage::
 
     python benchmarks/bench_analysis.py [--seed 1] [--repeat 3] [--out /tmp/bench_report]
+        [--no-baseline]
 """
 
 from __future__ import annotations
@@ -118,6 +119,9 @@ def main() -> None:
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--out", type=Path, default=None, help="report folder (default: temporary)")
     ap.add_argument("--repeat", type=int, default=3, help="analyses timed (the minimum is kept)")
+    ap.add_argument(
+        "--no-baseline", action="store_true", help="skip the emcee baseline (minutes when busy)"
+    )
     a = ap.parse_args()
     print(f"cpus available: {len(os.sched_getaffinity(0))}; load average: {os.getloadavg()}")
     trials = simulate_weibull_trials(TRUTH, subject_log10_sd=0.15, rng=a.seed)
@@ -173,6 +177,9 @@ def main() -> None:
             f"{CPU_GOAL_S:g} s: {'met' if cpu < CPU_GOAL_S else 'NOT met'} (in this process)"
         )
 
+        if a.no_baseline:
+            print(f"load average after: {os.getloadavg()}")
+            return
         base_t, n_base, base_ok, base_c0 = 0.0, 0, 0, cpu_s()
         for f in fits:
             lv, k, n = np.asarray(f.levels), np.asarray(f.k), np.asarray(f.n)
