@@ -21,6 +21,7 @@ import typer
 from typer.core import TyperGroup
 
 from analysis.errors import DataError
+from analysis.power_report import needed_text as _needed
 
 __all__ = ["register", "analyze_app"]
 
@@ -501,26 +502,12 @@ def _echo_power_table(design_heads: str, points: list, design_cells) -> None:
         typer.echo(f"{design_cells(p)}  {p.power:.2f}   ({p.ci95[0]:.2f}-{p.ci95[1]:.2f})")
 
 
-def _needed(row: list, target: float) -> str:
-    """Say the fewest simulated subjects in ``row`` (one design) from which on power reaches target.
+def _write_power_out(out, kind: str, points, target: float, settings: dict) -> None:
+    """Write ``--out``: the power-curve figure and the table (CSV, JSON); print where."""
+    from analysis.power_report import POWER_FIGURE, save_power_table
 
-    Power must reach ``target`` at that number and every larger one simulated, so that a noisy
-    dip in a larger row (power is estimated from a finite number of studies) never sits beside
-    the advice.
-    """
-    row = sorted(row, key=lambda p: p.n_subjects)
-    need = None
-    for i, p in enumerate(row):
-        if all(q.power >= target for q in row[i:]):
-            need = p
-            break
-    if need is None:
-        return f"no simulated number of subjects reached power {target:g} (and kept it)"
-    return (
-        f"subjects needed for power {target:g}: {need.n_subjects} (power {need.power:.2f}, "
-        f"95% CI {need.ci95[0]:.2f}-{need.ci95[1]:.2f}; every larger number simulated also "
-        f"reached {target:g})"
-    )
+    folder = save_power_table(out, kind, points, target, settings)
+    typer.echo(f"power curve: {folder / (POWER_FIGURE + '.png')}  (table: {folder / 'power.csv'})")
 
 
 def _resolved_seed(seed: int | None) -> tuple[int, str]:
@@ -600,6 +587,14 @@ def power(
             "one method among this many, Holm-corrected over every pair (first --objects).",
         ),
     ] = 2,
+    out: Annotated[
+        Path | None,
+        typer.Option(
+            "--out",
+            "-o",
+            help="Folder for the power-curve figure (PNG, SVG) and the table (CSV, JSON).",
+        ),
+    ] = None,
 ) -> None:
     """Estimate power over effect sizes, subjects, objects and levels (simulated studies).
 
@@ -622,7 +617,7 @@ def power(
                 "--hazard-ratio (active search) excludes --odds-ratio and --threshold-ratio"
             )
         _active_power(
-            hazard_ratio, subjects, active_opts, sims, alpha, target, seed, processes, cluster
+            hazard_ratio, subjects, active_opts, sims, alpha, target, seed, processes, cluster, out
         )
         return
     given = [k for k, v in active_opts.items() if v is not None]
@@ -652,8 +647,13 @@ def power(
         n_obj = _numbers(objects, "--objects", int)[0]
         if min(ns) < 1 or n_obj < 2:
             raise OptionError(f"--subjects must be >= 1 and --objects >= 2, got {ns}, {n_obj}")
+        seed, seed_text = _resolved_seed(seed)
         args = (effect, sizes, ns, conditions, n_obj, sims, alpha, seed, target)
-        echo_method_power(*args, run=_run_with_progress, echo=typer.echo)
+        pts = echo_method_power(*args, run=_run_with_progress, echo=typer.echo, seed_text=seed_text)
+        if out is not None:
+            settings = {"effect": effect, "sizes": sizes, "n_conditions": conditions}
+            settings |= {"n_objects": n_obj, "alpha": alpha, "n_sims": sims, "seed": seed}
+            _write_power_out(out, "methods", pts, target, settings)
         return
     ns = sorted(set(_numbers(subjects, "--subjects", int)))
     nos = sorted(set(_numbers(objects, "--objects", int)))
@@ -695,6 +695,9 @@ def power(
             for no in nos:
                 row = [p for p in points if (p.size, p.n_levels, p.n_objects) == (z, nl, no)]
                 typer.echo(f"size {z:g}, {nl} levels, {no} objects: {_needed(row, target)}")
+    if out is not None:
+        settings = {"effect": effect, "alpha": alpha, "n_sims": sims, "seed": seed}
+        _write_power_out(out, "grid", points, target, settings)
 
 
 #: The active-search design's fields that ``power --active`` options set, and each one's option.
@@ -707,7 +710,9 @@ _ACTIVE_DESIGN_OPTIONS = {
 }
 
 
-def _active_power(hazard_ratio, subjects, opts, sims, alpha, target, seed, processes, cluster):
+def _active_power(
+    hazard_ratio, subjects, opts, sims, alpha, target, seed, processes, cluster, out=None
+):
     """Run and print ``analyze power --hazard-ratio``: power of active-search studies."""
     from analysis.active_power import ActiveDesign, ActivePowerPoint, active_power_grid
     from analysis.errors import OptionError
@@ -764,6 +769,9 @@ def _active_power(hazard_ratio, subjects, opts, sims, alpha, target, seed, proce
         for sc in nsc:
             row = [p for p in points if (p.hazard_ratio, p.n_scenes) == (hr, sc)]
             typer.echo(f"hazard ratio {hr:g}, {sc} scenes: {_needed(row, target)}")
+    if out is not None:
+        settings = {"effect": "hazard_ratio", "alpha": alpha, "n_sims": sims, "seed": seed}
+        _write_power_out(out, "active", points, target, {**settings, **fixed})
 
 
 def register(app: typer.Typer) -> None:

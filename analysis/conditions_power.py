@@ -25,6 +25,7 @@ import numpy as np
 
 from analysis.conditions import fit_condition_logistic
 from analysis.conditions_sim import simulate_condition_trials
+from analysis.power_report import needed
 
 __all__ = [
     "PAPER_SLOPE_OR",
@@ -149,6 +150,7 @@ def echo_method_power(
     *,
     run,
     echo,
+    seed_text: str | None = None,
 ) -> list[MethodPowerPoint]:
     """Run :func:`method_power` for ``confocal analyze power --conditions K`` and print the table.
 
@@ -162,6 +164,8 @@ def echo_method_power(
         Drains the generator under a progress bar, returning the points.
     echo : callable(str)
         Prints one line.
+    seed_text : str, optional
+        How the seed is printed (default ``'seed N'``); a drawn seed says how to reproduce it.
 
     Returns
     -------
@@ -182,7 +186,7 @@ def echo_method_power(
     echo(
         f"method comparison of {n_conditions} conditions: reference vs one method, Holm over "
         f"{n_conditions * (n_conditions - 1) // 2} pairs, alpha = {alpha:g}, {n_objects} objects, "
-        f"8 levels; {n_sims} SIMULATED studies per row, seed {seed}"
+        f"8 levels; {n_sims} SIMULATED studies per row, {seed_text or f'seed {seed}'}"
     )
     echo(f"{'size':>6} {'OR':>6} {'subjects':>8}  power   (95% CI)")
     for size, o in zip(sizes, ors, strict=True):
@@ -190,13 +194,14 @@ def echo_method_power(
         for p in row:
             lo, hi = p.ci95
             echo(f"{size:>6g} {o:>6.3g} {p.n_subjects:>8}  {p.power:.2f}   ({lo:.2f}-{hi:.2f})")
-        need = next((p.n_subjects for p in row if p.power >= target), None)
+        need = needed(row, target)
         echo(
             f"size {size:g}: "
             + (
-                f"subjects needed for power {target:g}: {need}"
+                f"subjects needed for power {target:g}: {need.n_subjects} (every larger number "
+                f"simulated also reached {target:g})"
                 if need is not None
-                else f"no simulated number of subjects reached power {target:g}"
+                else f"no simulated number of subjects reached power {target:g} (and kept it)"
             )
         )
     return points

@@ -14,6 +14,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from analysis.blas import on_one_blas_thread
 from analysis.data import CONDITIONS, TrialTable, file_record, json_safe, object_order
 from analysis.errors import DataError
 from analysis.logistic import LogisticFit, fit_logistic, predict_from_odds_ratio
@@ -306,6 +307,7 @@ def _population(
     return out
 
 
+@on_one_blas_thread
 def analyze(
     table: TrialTable, options: AnalysisOptions | None = None, *, reference: str = "cluttered"
 ) -> Iterator[AnalysisStep]:

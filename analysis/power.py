@@ -38,6 +38,7 @@ from analysis.weibull.kernel import log_likelihood
 __all__ = [
     "CLUSTER_CONNECT_TIMEOUT_S",
     "MAX_SIMS",
+    "MIN_POOL_STUDIES",
     "PowerPoint",
     "PowerResult",
     "GridPoint",
@@ -415,6 +416,12 @@ CHUNK_SIMS: int = 10
 #: +-0.001 wide, and every study costs seeds and a task before any work, so more only hangs.
 MAX_SIMS: int = 1_000_000
 
+#: Fewest simulated studies worth a pool of worker processes (ours): each spawned worker
+#: imports NumPy, SciPy and statsmodels afresh (about 2 s of CPU on a 2-core machine, the cost
+#: of some 20 studies), so a smaller job runs in this process, whatever ``processes`` says. The
+#: results are the same either way (every study has its own seed).
+MIN_POOL_STUDIES: int = 100
+
 #: Seconds to wait for a Dask scheduler (ours): a reachable scheduler answers in well under a
 #: second; an unreachable address otherwise waits Dask's 30 s default.
 CLUSTER_CONNECT_TIMEOUT_S: float = 5.0
@@ -594,7 +601,8 @@ def execute_chunks(
     tasks : sequence of (int, tuple)
         From :func:`chunk_tasks`.
     processes : int or None
-        Local worker processes (None: one per CPU; 1: run here).
+        Local worker processes (None: one per CPU; 1: run here). Fewer than
+        :data:`MIN_POOL_STUDIES` studies in all run here, whatever the number.
     cluster : str or None
         Address of a running Dask scheduler; needs the ``dask`` extra. Overrides ``processes``.
 
@@ -634,7 +642,8 @@ def execute_chunks(
     import os
 
     n = processes or len(os.sched_getaffinity(0))
-    if n <= 1 or len(tasks) == 1:
+    studies = sum(len(args[-1]) for _, args in tasks)
+    if n <= 1 or len(tasks) == 1 or studies < MIN_POOL_STUDIES:
         for gi, args in tasks:
             yield gi, run_chunk(*args)
         return

@@ -200,6 +200,7 @@ def _tune_sheet(params: Mapping[str, Any]) -> Path:
 WRITING_COMMANDS: tuple[WritingCommand, ...] = (
     WritingCommand("analyze run", "out", ("trials",)),
     WritingCommand("analyze fit", "out", ("table",)),
+    WritingCommand("analyze power", "out"),
     WritingCommand("stimuli build", "out", ("pairs",), force="force", passes_aside="replaces"),
     WritingCommand("stimuli synth", "out", force="force", folder_needs_force=True),
     # tune edits the PAIRS folder it reads, by design: objects.csv and its contact sheet

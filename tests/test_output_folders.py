@@ -106,6 +106,9 @@ def _tiny_demo(monkeypatch) -> None:
 CMDS: list[Cmd] = [
     Cmd("analyze run", "analyze {db} --out {out} --no-figures --seed 1", "db"),
     Cmd("analyze fit", "analyze fit {table} --x level --y correct --out {out} --no-plots", "table"),
+    Cmd(
+        "analyze power", "analyze power --odds-ratio 30 --subjects 1 --sims 1 --seed 1 --out {out}"
+    ),
     Cmd("stimuli build", "stimuli build {pairs} --out {out} --working-size 64x48", "pairs"),
     Cmd("stimuli synth", f"{SYNTH} --out {{out}}", force=True),
     Cmd(

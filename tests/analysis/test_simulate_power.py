@@ -101,7 +101,8 @@ def _grid(**kw):
 
 
 @pytest.mark.slow
-def test_power_grid_same_seed_same_result_in_processes():
+def test_power_grid_same_seed_same_result_in_processes(monkeypatch):
+    monkeypatch.setattr("analysis.power.MIN_POOL_STUDIES", 0)  # a pool even for 40 studies
     here = _grid(processes=1)
     assert len(here) == 4 and [p.n_levels for p in here[:2]] == [3, 8]
     assert _grid(processes=2) == here  # studies seeded by grid position, not by worker
