@@ -202,14 +202,12 @@ def resolve_edge_depth(
     axes = baseline_axes(grid)
     if len(axes) != 1:  # a 2-D grid measures every direction
         return at(np.zeros(img.shape, bool)).astype(np.uint8), EdgeDepthStats()
-    grads = _sobel_pair(img)
-    mag = np.hypot(*grads)
+    mag, conf = _edge_field(img, axes)
     if float(mag.max()) <= 0.0:
         return at(np.zeros(img.shape, bool)).astype(np.uint8), EdgeDepthStats()
-    from skimage.filters import threshold_otsu
+    from stimuli.declutter import otsu_threshold
 
-    edges = mag > 0.5 * float(threshold_otsu(mag, nbins=256))
-    conf = _confidence(grads, axes)
+    edges = mag > 0.5 * otsu_threshold(mag)
     low_all = (conf < MIN_CONFIDENCE) & (mag > 0)
     low = edges & low_all
     measured = edges & ~low_all
@@ -301,6 +299,23 @@ def _vote(low: np.ndarray, measured: np.ndarray, at):
     kept |= junction & _grow(kept, 2 * r + 3)
     dropped |= junction & ~kept & _grow(dropped, 2 * r + 3)
     return kept, dropped, focus
+
+
+def _edge_field(img: np.ndarray, axes: tuple[int, ...]) -> tuple[np.ndarray, np.ndarray]:
+    """Return the Sobel magnitude ``np.hypot`` of :func:`_sobel_pair` and :func:`_confidence`.
+
+    One compiled call where every side is longer than :data:`CONFIDENCE_WINDOW_PX`
+    (:func:`stimuli.edgekernels.edge_field`, the same values to the bit), else the numpy twin.
+    """
+    if len(axes) != 1 or min(img.shape) <= CONFIDENCE_WINDOW_PX:
+        grads = _sobel_pair(img)
+        return np.hypot(*grads), _confidence(grads, axes)
+    from stimuli.edgekernels import edge_field
+
+    img = np.ascontiguousarray(img, dtype=np.float32)
+    mag, conf = np.empty_like(img), np.empty_like(img)
+    edge_field(img, axes[0], CONFIDENCE_WINDOW_PX, mag, conf)
+    return mag, conf
 
 
 def _sobel_pair(img: np.ndarray) -> list[np.ndarray]:

@@ -1,0 +1,209 @@
+"""Compiled passes of the depth de-clutter that read each image once (numba, ``cache=True``).
+
+Each has a numpy twin elsewhere that it equals to the bit (tested in
+``tests/stimuli/test_edge_kernels.py``):
+
+* :func:`histogram_uniform`: ``numpy.histogram(a, bins=n)`` of a float32 image (the bins of
+  scikit-image's ``threshold_otsu``), in one pass instead of a sort-free chain of numpy passes;
+* :func:`edge_field`: the Sobel pair of ``scipy.ndimage.sobel``, its magnitude (``np.hypot``)
+  and the edge-direction confidence of :func:`stimuli.edgedepth.edge_confidence`, in one call
+  instead of a chain of full-image temporaries;
+* :func:`vote_at_edges`: the local majority of :func:`stimuli.kernels.focus_vote`, evaluated
+  only at the edge pixels from exact running counts.
+
+Importing this module imports numba; callers import it inside the functions that need it.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+__all__ = ["histogram_uniform", "edge_field", "vote_at_edges", "extrema"]
+
+
+@njit(nogil=True, cache=True)
+def extrema(a):  # pragma: no cover - compiled
+    """Return the smallest and largest value of a float32 array (one pass; no NaN in it)."""
+    flat = a.ravel()
+    lo = flat[0]
+    hi = flat[0]
+    for i in range(1, flat.shape[0]):
+        v = flat[i]
+        if v < lo:
+            lo = v
+        if v > hi:
+            hi = v
+    return lo, hi
+
+
+@njit(nogil=True, cache=True)
+def histogram_uniform(a, first, last, edges, counts):  # pragma: no cover - compiled
+    """Add ``numpy.histogram(a, bins=len(counts), range=(first, last))`` to ``counts``.
+
+    Step for step as numpy's equal-bin path for float32 data (``first``, ``last`` and ``edges``
+    float32, ``edges`` = ``np.linspace(first, last, n + 1)``): the bin from ``(v - first) /
+    (last - first) * n`` truncated, then moved down or up by one where the edges say so; values
+    outside ``[first, last]`` are left out, ``last`` goes to the last bin.
+    """
+    n = counts.shape[0]
+    denom = last - first
+    scale = np.float32(n)
+    flat = a.ravel()
+    for j in range(flat.shape[0]):
+        v = flat[j]
+        if not (v >= first and v <= last):
+            continue
+        i = int(((v - first) / denom) * scale)
+        if i == n:
+            i -= 1
+        if v < edges[i]:
+            i -= 1
+        if v >= edges[i + 1] and i != n - 1:
+            i += 1
+        counts[i] += 1
+
+
+@njit(nogil=True, cache=True)
+def _reflect(i, n):  # pragma: no cover - compiled
+    """Index ``i`` reflected into ``range(n)`` (``d c b a | a b c d``, ``i`` within ``n``)."""
+    if i < 0:
+        return -i - 1
+    if i >= n:
+        return 2 * n - i - 1
+    return i
+
+
+@njit(nogil=True, cache=True)
+def edge_field(img, axis, size, mag, conf):  # pragma: no cover - compiled
+    """Sobel magnitude and edge-direction confidence of a float32 image, in one call.
+
+    ``mag`` = ``np.hypot(gy, gx)`` of ``scipy.ndimage.sobel(img, axis=0)`` and ``axis=1``
+    (as :func:`stimuli.kernels.sobel_pair` makes them); ``conf`` = ``sqrt(E_axis / (E_0 +
+    E_1))`` (1 where the sum is 0), ``E_a`` the ``size`` x ``size`` mean (``mode='reflect'``,
+    as :func:`stimuli.kernels.box_mean_reflect`: float64 running sums rounded to float32) of
+    the squared gradient along image axis ``a``. Every side at least ``size // 2`` pixels.
+    """
+    rows, cols = img.shape
+    half = size // 2
+    dy = np.empty((rows, cols), dtype=np.float32)
+    dx = np.empty((rows, cols), dtype=np.float32)
+    for y in range(rows):
+        ya = _reflect(y - 1, rows)
+        yb = _reflect(y + 1, rows)
+        for x in range(cols):
+            dy[y, x] = np.float32(np.float64(img[yb, x]) - np.float64(img[ya, x]))
+            xa = _reflect(x - 1, cols)
+            xb = _reflect(x + 1, cols)
+            dx[y, x] = np.float32(np.float64(img[y, xb]) - np.float64(img[y, xa]))
+    e0 = np.empty((rows, cols), dtype=np.float32)
+    e1 = np.empty((rows, cols), dtype=np.float32)
+    for y in range(rows):
+        ya = _reflect(y - 1, rows)
+        yb = _reflect(y + 1, rows)
+        for x in range(cols):
+            xa = _reflect(x - 1, cols)
+            xb = _reflect(x + 1, cols)
+            gy = np.float32(
+                np.float64(dy[y, x]) * 2.0 + (np.float64(dy[y, xa]) + np.float64(dy[y, xb]))
+            )
+            gx = np.float32(
+                np.float64(dx[y, x]) * 2.0 + (np.float64(dx[ya, x]) + np.float64(dx[yb, x]))
+            )
+            mag[y, x] = np.hypot(gy, gx)
+            e0[y, x] = gy * gy
+            e1[y, x] = gx * gx
+    # the box means: along the rows (float64 running sums), then along each row
+    t0, t1 = dy, dx  # reused
+    acc0 = np.zeros(cols, dtype=np.float64)
+    acc1 = np.zeros(cols, dtype=np.float64)
+    for k in range(size):
+        r = _reflect(k - half, rows)
+        for x in range(cols):
+            acc0[x] += e0[r, x]
+            acc1[x] += e1[r, x]
+    for y in range(rows):
+        if y > 0:
+            a = _reflect(y + half, rows)
+            b = _reflect(y - 1 - half, rows)
+            for x in range(cols):
+                acc0[x] += np.float64(e0[a, x]) - np.float64(e0[b, x])
+                acc1[x] += np.float64(e1[a, x]) - np.float64(e1[b, x])
+        for x in range(cols):
+            t0[y, x] = np.float32(acc0[x] / size)
+            t1[y, x] = np.float32(acc1[x] / size)
+    for y in range(rows):
+        r0 = t0[y]
+        r1 = t1[y]
+        c = conf[y]
+        run0 = 0.0
+        run1 = 0.0
+        for k in range(size):
+            run0 += r0[_reflect(k - half, cols)]
+            run1 += r1[_reflect(k - half, cols)]
+        for x in range(cols):
+            if x > 0:
+                xa = _reflect(x + half, cols)
+                xb = _reflect(x - 1 - half, cols)
+                run0 += np.float64(r0[xa]) - np.float64(r0[xb])
+                run1 += np.float64(r1[xa]) - np.float64(r1[xb])
+            m0 = np.float32(run0 / size)
+            m1 = np.float32(run1 / size)
+            total = m0 + m1
+            along = m0 if axis == 0 else m1
+            c[x] = np.sqrt(along / total) if total > 0 else np.float32(1.0)
+
+
+@njit(nogil=True, cache=True)
+def vote_at_edges(edges, focus, size, out):  # pragma: no cover - compiled
+    """The local majority of :func:`stimuli.kernels.focus_vote`, at the edge pixels only.
+
+    ``edges`` (uint8 0/1), ``focus`` (uint8: 1 in focus, 2 dropped). ``out`` (bool) is True
+    where ``edges`` and ``focus != 2`` and ``agree >= 0.5 * total``, the two the ``size`` x
+    ``size`` means (zeros beyond the image) of the in-focus edges and of the edges as
+    ``scipy.ndimage.uniform_filter`` makes them: down the columns a count ``k`` becomes
+    ``float32(k / size)``, and along the row the float64 sum of those (exact: at most ``size``
+    values on a grid of 2**-27 below ``size``) divided by ``size`` and rounded to float32. The
+    column counts are kept as exact running integers, so only edge pixels cost a sum.
+    """
+    rows, cols = edges.shape
+    half = size // 2
+    lut = np.empty(size + 1, dtype=np.float64)
+    for k in range(size + 1):
+        lut[k] = np.float64(np.float32(k / size))
+    n_all = np.zeros(cols, dtype=np.int64)
+    n_in = np.zeros(cols, dtype=np.int64)
+    for k in range(half):  # rows 0 .. half - 1 enter before row 0's window is complete
+        if k < rows:
+            for x in range(cols):
+                e = edges[k, x]
+                n_all[x] += e
+                n_in[x] += e if focus[k, x] == 1 else 0
+    for y in range(rows):
+        y_in = y + half
+        if y_in < rows:
+            for x in range(cols):
+                e = edges[y_in, x]
+                n_all[x] += e
+                n_in[x] += e if focus[y_in, x] == 1 else 0
+        y_out = y - half - 1
+        if y_out >= 0:
+            for x in range(cols):
+                e = edges[y_out, x]
+                n_all[x] -= e
+                n_in[x] -= e if focus[y_out, x] == 1 else 0
+        er = edges[y]
+        fr = focus[y]
+        o = out[y]
+        for x in range(cols):
+            if er[x] == 0 or fr[x] == 2:
+                o[x] = False
+                continue
+            s_all = 0.0
+            s_in = 0.0
+            for j in range(max(x - half, 0), min(x + half + 1, cols)):
+                s_all += lut[n_all[j]]
+                s_in += lut[n_in[j]]
+            agree = np.float32(s_in / size)
+            total = np.float32(s_all / size)
+            o[x] = agree >= np.float32(0.5) * total

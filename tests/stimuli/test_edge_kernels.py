@@ -1,0 +1,47 @@
+"""The depth de-clutter's fused compiled passes against their numpy twins, to the bit."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from stimuli.declutter import otsu_threshold, sobel_magnitude
+
+
+def _images(seed):
+    rng = np.random.default_rng(seed)
+    shape = (int(rng.integers(6, 90)), int(rng.integers(6, 90)))
+    busy = rng.random(shape).astype(np.float32)
+    steps = np.zeros(shape, np.float32)
+    steps[shape[0] // 2 :, :] = 0.8  # a horizontal edge, a vertical one, and a flat patch
+    steps[:, : shape[1] // 3] = 0.3
+    grey = (rng.integers(0, 256, shape) / 255).astype(np.float32)
+    return [busy, steps, grey, busy * (rng.random(shape) < 0.2)]
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_otsu_is_scikit_images(seed):
+    """Random, stepped, 8-bit and sparse images and their Sobel magnitudes: the threshold of
+    scikit-image's ``threshold_otsu`` (256 bins) to the bit, compiled histogram or numpy's."""
+    from skimage.filters import threshold_otsu
+
+    for img in _images(seed):
+        for a in (img, sobel_magnitude(img), np.float32(img * 1e-3)):
+            want = float(threshold_otsu(a, nbins=256))
+            assert otsu_threshold(a) == want
+            assert otsu_threshold(a, compiled=False) == want
+    assert otsu_threshold(np.full((4, 5), 0.25, np.float32)) == 0.25
+
+
+@pytest.mark.parametrize("seed", range(4))
+@pytest.mark.parametrize("axis", [0, 1])
+def test_fused_edge_field_is_the_numpy_chain(seed, axis):
+    """The Sobel magnitude and edge-direction confidence of one compiled call equal ``np.hypot``
+    of the Sobel pair and the box-filtered gradient energies, to the bit."""
+    from stimuli.edgedepth import _confidence, _edge_field, _sobel_pair
+
+    for img in _images(seed):
+        mag, conf = _edge_field(img, (axis,))
+        grads = _sobel_pair(img)
+        assert np.array_equal(mag, np.hypot(*grads))
+        assert np.array_equal(conf, _confidence(grads, (axis,)))
