@@ -205,7 +205,7 @@ def resolve_edge_depth(
     mag, conf = _edge_field(img, axes)
     if float(mag.max()) <= 0.0:
         return at(np.zeros(img.shape, bool)).astype(np.uint8), EdgeDepthStats()
-    from stimuli.declutter import otsu_threshold
+    from stimuli.otsu import otsu_threshold
 
     edges = mag > 0.5 * otsu_threshold(mag)
     low_all = (conf < MIN_CONFIDENCE) & (mag > 0)

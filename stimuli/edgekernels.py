@@ -78,9 +78,11 @@ def _reflect(i, n):  # pragma: no cover - compiled
 def edge_field(img, axis, size, mag, conf):  # pragma: no cover - compiled
     """Sobel magnitude and edge-direction confidence of a float32 image, in one call.
 
-    ``mag`` = ``np.hypot(gy, gx)`` of ``scipy.ndimage.sobel(img, axis=0)`` and ``axis=1``
-    (as :func:`stimuli.kernels.sobel_pair` makes them); ``conf`` = ``sqrt(E_axis / (E_0 +
-    E_1))`` (1 where the sum is 0), ``E_a`` the ``size`` x ``size`` mean (``mode='reflect'``,
+    ``mag`` = ``np.hypot(gy, gx)`` of ``scipy.ndimage.sobel(img, axis=0)`` and ``axis=1`` (as
+    :func:`stimuli.kernels.sobel_pair` makes them; float32: the square root of the float64 sum
+    of squares, rounded once, as glibc's ``hypotf``, tested against numpy); ``conf`` =
+    ``sqrt(E_axis / (E_0 + E_1))`` (1 where the sum is 0), ``E_a`` the ``size`` x ``size`` mean
+    (``mode='reflect'``,
     as :func:`stimuli.kernels.box_mean_reflect`: float64 running sums rounded to float32) of
     the squared gradient along image axis ``a``. Every side at least ``size // 2`` pixels.
     """
@@ -99,20 +101,25 @@ def edge_field(img, axis, size, mag, conf):  # pragma: no cover - compiled
     e0 = np.empty((rows, cols), dtype=np.float32)
     e1 = np.empty((rows, cols), dtype=np.float32)
     for y in range(rows):
-        ya = _reflect(y - 1, rows)
-        yb = _reflect(y + 1, rows)
+        dyr = dy[y]
+        dxa = dx[_reflect(y - 1, rows)]
+        dxm = dx[y]
+        dxb = dx[_reflect(y + 1, rows)]
+        mr = mag[y]
+        e0r = e0[y]
+        e1r = e1[y]
         for x in range(cols):
-            xa = _reflect(x - 1, cols)
-            xb = _reflect(x + 1, cols)
-            gy = np.float32(
-                np.float64(dy[y, x]) * 2.0 + (np.float64(dy[y, xa]) + np.float64(dy[y, xb]))
-            )
-            gx = np.float32(
-                np.float64(dx[y, x]) * 2.0 + (np.float64(dx[ya, x]) + np.float64(dx[yb, x]))
-            )
-            mag[y, x] = np.hypot(gy, gx)
-            e0[y, x] = gy * gy
-            e1[y, x] = gx * gx
+            if 0 < x < cols - 1:
+                sy = np.float64(dyr[x - 1]) + np.float64(dyr[x + 1])
+            else:
+                sy = np.float64(dyr[_reflect(x - 1, cols)]) + np.float64(dyr[_reflect(x + 1, cols)])
+            gy = np.float32(np.float64(dyr[x]) * 2.0 + sy)
+            gx = np.float32(np.float64(dxm[x]) * 2.0 + (np.float64(dxa[x]) + np.float64(dxb[x])))
+            fy = np.float64(gy)  # hypotf as glibc makes it: in double, rounded once
+            fx = np.float64(gx)
+            mr[x] = np.float32(np.sqrt(fy * fy + fx * fx))
+            e0r[x] = gy * gy
+            e1r[x] = gx * gx
     # the box means: along the rows (float64 running sums), then along each row
     t0, t1 = dy, dx  # reused
     acc0 = np.zeros(cols, dtype=np.float64)
@@ -156,7 +163,7 @@ def edge_field(img, axis, size, mag, conf):  # pragma: no cover - compiled
 
 @njit(nogil=True, cache=True)
 def vote_at_edges(edges, focus, size, out):  # pragma: no cover - compiled
-    """The local majority of :func:`stimuli.kernels.focus_vote`, at the edge pixels only.
+    """Take the local majority of :func:`stimuli.kernels.focus_vote` at the edge pixels only.
 
     ``edges`` (uint8 0/1), ``focus`` (uint8: 1 in focus, 2 dropped). ``out`` (bool) is True
     where ``edges`` and ``focus != 2`` and ``agree >= 0.5 * total``, the two the ``size`` x

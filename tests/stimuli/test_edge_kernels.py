@@ -5,7 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from stimuli.declutter import otsu_threshold, sobel_magnitude
+from stimuli.declutter import sobel_magnitude
+from stimuli.otsu import otsu_threshold
 
 
 def _images(seed):
