@@ -256,8 +256,6 @@ def _vote(low: np.ndarray, measured: np.ndarray, at):
     comp, n_comp = ndimage.label(measured, eight)
     if n_seg == 0 or n_comp == 0:
         return np.zeros_like(low), np.zeros_like(low), at(np.zeros_like(low))
-    rows = np.broadcast_to(np.arange(low.shape[0])[:, None], low.shape)
-    cols = np.broadcast_to(np.arange(low.shape[1])[None, :], low.shape)
     top, bottom, _, _ = _extents(comp, n_comp)  # bounding boxes: extents in one pass each
     _, _, left, right = _extents(seg, n_seg)
     # each measured pixel near a segment: which segment (the largest label nearby)
@@ -266,12 +264,13 @@ def _vote(low: np.ndarray, measured: np.ndarray, at):
     focus = at(touch)
     if not touch.any():
         return np.zeros_like(low), np.zeros_like(low), focus
-    s, c, y, x = near[touch], comp[touch], rows[touch], cols[touch]
+    y, x = np.nonzero(touch)  # the order of a boolean mask's selection, found once
+    s, c = near[y, x], comp[y, x]
     key = s.astype(np.int64) * (n_comp + 1) + c
     uniq, inv = np.unique(key, return_inverse=True)
     n = np.bincount(inv)
     y_mean, x_mean = np.bincount(inv, weights=y) / n, np.bincount(inv, weights=x) / n
-    at_contact = np.bincount(inv, weights=focus[touch]) / n >= 0.5  # the depth at the corner
+    at_contact = np.bincount(inv, weights=focus[y, x]) / n >= 0.5  # the depth at the corner
     seg_of, comp_of = uniq // (n_comp + 1), uniq % (n_comp + 1)
     t, b = top[comp_of - 1], bottom[comp_of - 1]
     through = (t < y_mean - PASS_THROUGH_PX) & (b > y_mean + PASS_THROUGH_PX)
