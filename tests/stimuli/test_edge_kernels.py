@@ -46,3 +46,18 @@ def test_fused_edge_field_is_the_numpy_chain(seed, axis):
         grads = _sobel_pair(img)
         assert np.array_equal(mag, np.hypot(*grads))
         assert np.array_equal(conf, _confidence(grads, (axis,)))
+
+
+def test_depth_declutter_reuses_the_callers_edges():
+    """Passing the Sobel edges the caller made gives the same depth edges as making them again;
+    edges of the wrong shape or type are refused."""
+    from stimuli.declutter import declutter, declutter_depth
+    from stimuli.errors import InputError
+
+    for img in _images(5):
+        focus = np.random.default_rng(1).integers(0, 3, img.shape).astype(np.uint8)
+        edges = declutter(img, threshold=0.1)
+        want = declutter_depth(img, focus, threshold=0.1)
+        assert np.array_equal(declutter_depth(img, focus, threshold=0.1, edges=edges), want)
+    with pytest.raises(InputError, match="edges"):
+        declutter_depth(img, focus, threshold=0.1, edges=edges[1:])
