@@ -247,13 +247,12 @@ def _vote(low: np.ndarray, measured: np.ndarray, at):
 
     Returns the masks of the segments resolved in focus and off the plane, and the verdict.
     """
-    eight = np.ones((3, 3), bool)
     r = CONTACT_RADIUS_PX
     # cut the unmeasured edges where measured ones pass (corners, junctions): a box's top edge
     # and a background line continuing it past the corner become two segments
     junction = low & _grow(measured, 2 * r + 1)
-    seg, n_seg = ndimage.label(low & ~junction, eight)
-    comp, n_comp = ndimage.label(measured, eight)
+    seg, n_seg = _label8(low & ~junction)
+    comp, n_comp = _label8(measured)
     if n_seg == 0 or n_comp == 0:
         return np.zeros_like(low), np.zeros_like(low), at(np.zeros_like(low))
     top, bottom, _, _ = _extents(comp, n_comp)  # bounding boxes: extents in one pass each
@@ -343,6 +342,19 @@ def _box_mean(a: np.ndarray, size: int) -> np.ndarray:
     out = np.empty_like(a)
     box_mean_reflect(np.ascontiguousarray(a), size, out)
     return out
+
+
+def _label8(mask: np.ndarray) -> tuple[np.ndarray, int]:
+    """``scipy.ndimage.label(mask, np.ones((3, 3)))`` in one compiled call, to the bit.
+
+    :func:`stimuli.edgekernels.label8`: the same numbering (first pixels in raster order).
+    """
+    from stimuli.edgekernels import label8
+
+    m = np.ascontiguousarray(mask, dtype=bool)
+    out = np.empty(m.shape, np.int32)
+    n = label8(m.view(np.uint8), out) if m.size else 0
+    return out, int(n)
 
 
 def _extents(labels: np.ndarray, n: int):

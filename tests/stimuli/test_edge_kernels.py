@@ -61,3 +61,21 @@ def test_depth_declutter_reuses_the_callers_edges():
         assert np.array_equal(declutter_depth(img, focus, threshold=0.1, edges=edges), want)
     with pytest.raises(InputError, match="edges"):
         declutter_depth(img, focus, threshold=0.1, edges=edges[1:])
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_compiled_labels_are_scipys(seed):
+    """8-connected components of random masks of every density (and empty, full, one-row and
+    one-column masks): scipy's labels and count, numbering included, to the bit."""
+    from scipy import ndimage
+
+    from stimuli.edgedepth import _label8
+
+    rng = np.random.default_rng(seed)
+    masks = [np.zeros((3, 4), bool), np.ones((5, 2), bool), rng.random((1, 40)) < 0.5]
+    masks += [rng.random((40, 1)) < 0.5]
+    masks += [rng.random((60, 70)) < p for p in (0.05, 0.3, 0.6, 0.9)]
+    for m in masks:
+        want, n = ndimage.label(m, np.ones((3, 3), bool))
+        got, k = _label8(m)
+        assert k == n and got.dtype == want.dtype and np.array_equal(got, want)
