@@ -22,7 +22,8 @@ and ``--capture FOLDER`` (repeatable) per real capture, read as ``lightfield sca
 the floor), refocus + Sobel de-clutter + compress (``sobel``, goal <= 2x), refocus + depth
 de-clutter (views' agreement, and on 1-D light fields the depth of the edges the views cannot
 measure: ``stimuli.declutter.in_focus_evidence``, tested at the edge pixels only) + compress
-(``depth``, goal <= 3x), and the
+(``depth``, goal <= 3x; the Sobel edges made once and passed on with ``declutter_depth(...,
+edges=)``), and the
 200-plane scan with detection (goals < 0.1 s on the 9x9, < 0.5 s on the 1024x1024 3x3), with
 the factor ``f`` by which the scan downsampled the views (``stimuli.planes.scan_downsample``: 2
 on the 1024x1024 3x3, 1 elsewhere) and the planes it found. The scan is timed with the compiled
