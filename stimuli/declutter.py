@@ -29,6 +29,8 @@ exchange frequency. J. Histochem. Cytochem. 25(7), 741-753.
 
 from __future__ import annotations
 
+import weakref
+
 import numpy as np
 
 from stimuli.errors import InputError
@@ -312,6 +314,7 @@ def agreement_mask(
     tolerance_px: float = FOCUS_TOLERANCE_PX,
     compiled: bool = True,
     where: np.ndarray | None = None,
+    cache: bool = True,
 ) -> np.ndarray:
     """Return where a light field's views agree at one plane.
 
@@ -338,6 +341,12 @@ def agreement_mask(
         cost that grows with their number (:func:`stimuli.kernels.focus_agreement_at`, each
         pixel left at the first neighbour and disparity that agree). The depth de-clutter
         reads the test only at edge pixels.
+    cache : bool
+        With ``where``: take the test's threshold image (``ratio`` times the one-pixel-shift
+        difference plus noise, per neighbour), which does not depend on the plane, from a cache
+        kept per light-field object (:func:`stimuli.edgekernels.focus_limit`, made on first use,
+        dropped with the object; the views are not to be changed in place), the default; or
+        make it again at the tested pixels. The same mask to the bit.
 
     Returns
     -------
@@ -386,13 +395,38 @@ def agreement_mask(
             if where is not None:  # the listed pixels only: the same verdict there
                 nb32 = np.ascontiguousarray(nb, dtype=np.float32)
                 dd = ds.astype(np.float64)
-                focus_agreement_at(c32, nb32, axis, side, dd, r, noise, w8, out)
+                if not cache:
+                    focus_agreement_at(c32, nb32, axis, side, dd, r, noise, w8, out)
+                else:  # the threshold image made once per light field: the same verdict
+                    from stimuli.edgekernels import focus_agreement_with_limit
+
+                    limit = _focus_limit(lf, c32, axis, side)
+                    focus_agreement_with_limit(c32, nb32, axis, side, dd, limit, w8, out)
             elif compiled:  # one compiled call per neighbour: the same mask to the bit
                 nb32 = np.ascontiguousarray(nb, dtype=np.float32)
                 focus_agreement(c32, nb32, axis, side, ds.astype(np.float64), r, noise, out)
             else:
                 out |= _agreement_numpy(centre, nb, axis, side, ds)
     return out
+
+
+#: Per light-field object (dropped with it): the agreement test's threshold image per
+#: neighbour, ``{(axis, side, ratio, noise): float32 image}`` (:func:`_focus_limit`).
+_LIMITS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+
+def _focus_limit(lf, c32: np.ndarray, axis: int, side: int) -> np.ndarray:
+    """Return the threshold image of neighbour (``axis``, ``side``) of ``lf``, made once."""
+    per = _LIMITS.setdefault(lf, {})
+    key = (axis, side, FOCUS_AGREEMENT_RATIO, FOCUS_NOISE)
+    limit = per.get(key)
+    if limit is None or limit.shape != c32.shape:
+        from stimuli.edgekernels import focus_limit
+
+        limit = np.empty(c32.shape, np.float32)
+        focus_limit(c32, axis, side, FOCUS_AGREEMENT_RATIO, FOCUS_NOISE, limit)
+        per[key] = limit
+    return limit
 
 
 def _agreement_numpy(centre, nb, axis, side, ds):

@@ -10,7 +10,10 @@ Each has a numpy twin elsewhere that it equals to the bit (tested in
   instead of a chain of full-image temporaries;
 * :func:`vote_at_edges`: the local majority of :func:`stimuli.kernels.focus_vote`, evaluated
   only at the edge pixels from exact running counts;
-* :func:`label8`: ``scipy.ndimage.label`` with 8-connectivity (the same numbering).
+* :func:`label8`: ``scipy.ndimage.label`` with 8-connectivity (the same numbering);
+* :func:`focus_limit` and :func:`focus_agreement_with_limit`:
+  :func:`stimuli.kernels.focus_agreement_at` split in two, the threshold image that does not
+  depend on the plane made once per light field and neighbour (the same verdict to the bit).
 
 Importing this module imports numba; callers import it inside the functions that need it.
 """
@@ -20,7 +23,17 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-__all__ = ["histogram_uniform", "edge_field", "vote_at_edges", "extrema", "label8"]
+from stimuli.kernels import _column_means
+
+__all__ = [
+    "histogram_uniform",
+    "edge_field",
+    "vote_at_edges",
+    "extrema",
+    "label8",
+    "focus_limit",
+    "focus_agreement_with_limit",
+]
 
 
 @njit(nogil=True, cache=True)
@@ -281,3 +294,61 @@ def label8(mask, out):  # pragma: no cover - compiled
                 final[r] = count
             out[y, x] = final[r]
     return count
+
+
+@njit(nogil=True, cache=True)
+def focus_limit(centre, axis, side, ratio, noise, limit):  # pragma: no cover - compiled
+    """Set ``limit`` to the agreement threshold of :func:`stimuli.kernels.focus_agreement_at`.
+
+    ``ratio`` times the 3x3 mean of ``|centre at x - side - centre|`` plus ``noise``, at every
+    pixel: the values that kernel makes per run of edge pixels (the same column means, summed
+    in the same order), which do not depend on the plane.
+    """
+    rows, cols = centre.shape
+    c = np.empty(cols + 2, dtype=np.float32)
+    for y in range(rows):
+        _column_means(centre, centre, axis, side, np.float32(0.0), y, 0, cols, c)
+        for x in range(cols):
+            s = np.float64(c[x]) + np.float64(c[x + 1]) + np.float64(c[x + 2])
+            limit[y, x] = np.float32(ratio) * np.float32(s / 3.0) + np.float32(noise)
+
+
+@njit(nogil=True, cache=True)
+def focus_agreement_with_limit(centre, nb, axis, side, ds, limit, where, out):  # pragma: no cover
+    """:func:`stimuli.kernels.focus_agreement_at` with its threshold image given.
+
+    ``limit`` from :func:`focus_limit` for this neighbour (``axis``, ``side``); the pixels of
+    ``where`` (uint8) not yet in focus in ``out`` are tested disparity by disparity in the
+    order of ``ds``, each run of them until all agree: the same verdict to the bit.
+    """
+    rows, cols = centre.shape
+    c = np.empty(cols + 2, dtype=np.float32)
+    for y in range(rows):
+        w = where[y]
+        o = out[y]
+        lim = limit[y]
+        x0 = 0
+        while x0 < cols:
+            if w[x0] == 0 or o[x0]:
+                x0 += 1
+                continue
+            x1 = x0
+            while x1 < cols and w[x1] != 0 and not o[x1]:
+                x1 += 1
+            left = x1 - x0
+            for di in range(ds.shape[0]):
+                sh = ds[di] * side
+                k = int(np.floor(sh))
+                f = np.float32(sh - k)
+                _column_means(nb, centre, axis, k, f, y, x0, x1, c)
+                for x in range(x0, x1):
+                    if o[x]:
+                        continue
+                    i = x - x0 + 1
+                    s = np.float64(c[i - 1]) + np.float64(c[i]) + np.float64(c[i + 1])
+                    if np.float32(s / 3.0) < lim[x]:
+                        o[x] = True
+                        left -= 1
+                if left == 0:
+                    break
+            x0 = x1
