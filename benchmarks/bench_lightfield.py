@@ -23,7 +23,11 @@ the floor), refocus + Sobel de-clutter + compress (``sobel``, goal <= 2x), refoc
 de-clutter (views' agreement, and on 1-D light fields the depth of the edges the views cannot
 measure: ``stimuli.declutter.in_focus_evidence``, tested at the edge pixels only) + compress
 (``depth``, goal <= 3x; the Sobel edges made once and passed on with ``declutter_depth(...,
-edges=)``), and the
+edges=)``; the per-capture part, made on a capture's first plane and kept with it, already
+made: the views' agreement test's threshold image per neighbour of the centre view), the
+per-capture part alone (``once ms``, ``once x``: milliseconds and ratio to the floor, made
+afresh) and the depth pipeline of a capture's first plane (``1st x``: the per-capture part
+made in it), and the
 200-plane scan with detection (goals < 0.1 s on the 9x9, < 0.5 s on the 1024x1024 3x3), with
 the factor ``f`` by which the scan downsampled the views (``stimuli.planes.scan_downsample``: 2
 on the 1024x1024 3x3, 1 elsewhere) and the planes it found. The scan is timed with the compiled
@@ -59,6 +63,8 @@ import stimuli.agreementscan as agreementscan
 from stimuli.agreementscan import _LAST_SWEEP
 from stimuli.compress import compress, grid_shape
 from stimuli.declutter import (
+    _LIMITS,
+    _focus_limit,
     auto_threshold,
     declutter,
     declutter_depth,
@@ -178,6 +184,15 @@ def _one_layout(grid, shape, baseline, repeat, lf=None, d=None) -> dict:
         edges = declutter_depth(img, evidence, threshold=threshold, edges=at)  # Sobel once
         return compress(edges, cells, edge_ratio=1 / 13)
 
+    def once():  # what the depth de-clutter keeps per capture, made afresh
+        _LIMITS.pop(lf, None)
+        _capture_limits(lf)
+
+    def pipe_depth_first():  # the first plane of a capture: the per-capture part made too
+        _LIMITS.pop(lf, None)
+        return pipe_depth()
+
+    _capture_limits(lf)  # the depth columns: a plane of a capture whose per-capture part is made
     row = {"light_field_mb": views.nbytes / 1e6}
     for how, cold in (("cold", True), ("hot", False)):
         floor_s = _median(lambda: np.copyto(dst, views), 2 * repeat, cold)
@@ -191,6 +206,12 @@ def _one_layout(grid, shape, baseline, repeat, lf=None, d=None) -> dict:
         row[f"pipeline_ms_{how}"] = pipe_s * 1e3
         row[f"refocus_x_floor_{how}"] = ref_s / floor_s
         row[f"pipeline_x_floor_{how}"] = pipe_s / floor_s
+        if not cold:
+            once_s = _median(once, repeat)
+            first_s = _median(pipe_depth_first, repeat)
+            row["once_ms"] = once_s * 1e3
+            row["once_x_floor"] = once_s / floor_s
+            row["depth_first_x_floor"] = first_s / floor_s
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         row["scan_s"] = _median(
@@ -210,6 +231,18 @@ def _one_layout(grid, shape, baseline, repeat, lf=None, d=None) -> dict:
         row["scan_downsample"] = scan.downsample
     row["load_average"] = os.getloadavg()[0]
     return row
+
+
+def _capture_limits(lf) -> None:
+    """Make what the depth de-clutter keeps per capture: the views' agreement test's threshold
+    image per neighbour of the centre view (``stimuli.declutter._focus_limit``)."""
+    n_u, n_v = lf.grid
+    cu, cv = lf.centre_index
+    c32 = np.ascontiguousarray(lf.views[cu, cv], dtype=np.float32)
+    for axis, n, c in ((0, n_u, cu), (1, n_v, cv)):
+        for side in (-1, 1):
+            if n > 1 and 0 <= c + side < n:
+                _focus_limit(lf, c32, axis, side)
 
 
 def _captures(paths) -> list:
@@ -239,12 +272,12 @@ def per_layout(repeat: int, captures=()) -> dict:
     print(
         f"{'layout':26s} {'MB':>5s} {'floor ms':>9s} {'refocus x':>10s} {'sobel x':>8s} "
         f"{'depth x':>8s} {'refocus x':>10s} {'sobel x':>8s} {'depth x':>8s} {'scan s':>7s} "
-        f"{'numpy':>6s} {'load':>5s}"
+        f"{'numpy':>6s} {'load':>5s} {'once ms':>8s} {'once x':>7s} {'1st x':>7s}"
     )
     print(
         f"{'':26s} {'':>5s} {'(cold)':>9s} {'(cold)':>10s} {'(cold)':>8s} {'(cold)':>8s} "
         f"{'(hot)':>10s} {'(hot)':>8s} {'(hot)':>8s} {'':>7s} {'sweep':>6s} {'':>5s} "
-        f"{'f':>2s}  planes px/view"
+        f"{'(hot)':>8s} {'(hot)':>7s} {'(hot)':>7s} {'f':>2s}  planes px/view"
     )
     items = [(f"{g[0]}x{g[1]} of {s[1]}x{s[0]}", (g, s, b), None, None) for g, s, b in LAYOUTS] + [
         (name, ((), (), 0.0), lf, d) for name, lf, d in _captures(captures)
@@ -258,6 +291,7 @@ def per_layout(repeat: int, captures=()) -> dict:
             f"{row['refocus_x_floor_hot']:10.2f} {row['pipeline_x_floor_hot']:8.2f} "
             f"{row['depth_x_floor_hot']:8.2f} "
             f"{row['scan_s']:7.3f} {row['scan_numpy_s']:6.3f} {row['load_average']:5.1f} "
+            f"{row['once_ms']:8.2f} {row['once_x_floor']:7.2f} {row['depth_first_x_floor']:7.2f} "
             f"{row['scan_downsample']:2d}  "
             f"{row['scan_planes_px']}",
             flush=True,

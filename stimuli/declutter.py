@@ -344,9 +344,9 @@ def agreement_mask(
     cache : bool
         With ``where``: take the test's threshold image (``ratio`` times the one-pixel-shift
         difference plus noise, per neighbour), which does not depend on the plane, from a cache
-        kept per light-field object (:func:`stimuli.edgekernels.focus_limit`, made on first use,
-        dropped with the object; the views are not to be changed in place), the default; or
-        make it again at the tested pixels. The same mask to the bit.
+        kept per light-field object (made at the pixels first tested, dropped with the object;
+        the views are not to be changed in place), the default; or make it again at the tested
+        pixels. The same mask to the bit.
 
     Returns
     -------
@@ -401,7 +401,7 @@ def agreement_mask(
                     from stimuli.edgekernels import focus_agreement_with_limit
 
                     limit = _focus_limit(lf, c32, axis, side)
-                    focus_agreement_with_limit(c32, nb32, axis, side, dd, limit, w8, out)
+                    focus_agreement_with_limit(c32, nb32, axis, side, dd, r, noise, limit, w8, out)
             elif compiled:  # one compiled call per neighbour: the same mask to the bit
                 nb32 = np.ascontiguousarray(nb, dtype=np.float32)
                 focus_agreement(c32, nb32, axis, side, ds.astype(np.float64), r, noise, out)
@@ -416,16 +416,16 @@ _LIMITS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 
 
 def _focus_limit(lf, c32: np.ndarray, axis: int, side: int) -> np.ndarray:
-    """Return the threshold image of neighbour (``axis``, ``side``) of ``lf``, made once."""
+    """Return the threshold image of neighbour (``axis``, ``side``) of ``lf``, kept with it.
+
+    NaN where not made yet: :func:`stimuli.edgekernels.focus_agreement_with_limit` makes it
+    at the pixels it tests and stores it, so each pixel's is made once per light field.
+    """
     per = _LIMITS.setdefault(lf, {})
     key = (axis, side, FOCUS_AGREEMENT_RATIO, FOCUS_NOISE)
     limit = per.get(key)
     if limit is None or limit.shape != c32.shape:
-        from stimuli.edgekernels import focus_limit
-
-        limit = np.empty(c32.shape, np.float32)
-        focus_limit(c32, axis, side, FOCUS_AGREEMENT_RATIO, FOCUS_NOISE, limit)
-        per[key] = limit
+        limit = per[key] = np.full(c32.shape, np.nan, np.float32)
     return limit
 
 

@@ -11,9 +11,9 @@ Each has a numpy twin elsewhere that it equals to the bit (tested in
 * :func:`vote_at_edges`: the local majority of :func:`stimuli.kernels.focus_vote`, evaluated
   only at the edge pixels from exact running counts;
 * :func:`label8`: ``scipy.ndimage.label`` with 8-connectivity (the same numbering);
-* :func:`focus_limit` and :func:`focus_agreement_with_limit`:
-  :func:`stimuli.kernels.focus_agreement_at` split in two, the threshold image that does not
-  depend on the plane made once per light field and neighbour (the same verdict to the bit).
+* :func:`focus_agreement_with_limit`: :func:`stimuli.kernels.focus_agreement_at` with the
+  test's threshold image, which does not depend on the plane, kept by the caller and made only
+  where first needed (the same verdict to the bit).
 
 Importing this module imports numba; callers import it inside the functions that need it.
 """
@@ -31,7 +31,6 @@ __all__ = [
     "vote_at_edges",
     "extrema",
     "label8",
-    "focus_limit",
     "focus_agreement_with_limit",
 ]
 
@@ -297,29 +296,18 @@ def label8(mask, out):  # pragma: no cover - compiled
 
 
 @njit(nogil=True, cache=True)
-def focus_limit(centre, axis, side, ratio, noise, limit):  # pragma: no cover - compiled
-    """Set ``limit`` to the agreement threshold of :func:`stimuli.kernels.focus_agreement_at`.
+def focus_agreement_with_limit(
+    centre, nb, axis, side, ds, ratio, noise, limit, where, out
+):  # pragma: no cover - compiled
+    """:func:`stimuli.kernels.focus_agreement_at` with its threshold image kept by the caller.
 
-    ``ratio`` times the 3x3 mean of ``|centre at x - side - centre|`` plus ``noise``, at every
-    pixel: the values that kernel makes per run of edge pixels (the same column means, summed
-    in the same order), which do not depend on the plane.
-    """
-    rows, cols = centre.shape
-    c = np.empty(cols + 2, dtype=np.float32)
-    for y in range(rows):
-        _column_means(centre, centre, axis, side, np.float32(0.0), y, 0, cols, c)
-        for x in range(cols):
-            s = np.float64(c[x]) + np.float64(c[x + 1]) + np.float64(c[x + 2])
-            limit[y, x] = np.float32(ratio) * np.float32(s / 3.0) + np.float32(noise)
-
-
-@njit(nogil=True, cache=True)
-def focus_agreement_with_limit(centre, nb, axis, side, ds, limit, where, out):  # pragma: no cover
-    """:func:`stimuli.kernels.focus_agreement_at` with its threshold image given.
-
-    ``limit`` from :func:`focus_limit` for this neighbour (``axis``, ``side``); the pixels of
-    ``where`` (uint8) not yet in focus in ``out`` are tested disparity by disparity in the
-    order of ``ds``, each run of them until all agree: the same verdict to the bit.
+    ``limit``: the test's threshold for this neighbour (``axis``, ``side``), ``ratio`` times
+    the 3x3 mean of ``|centre at x - side - centre|`` plus ``noise``, which does not depend on
+    the plane; NaN where not made yet. The pixels of ``where`` (uint8) not yet in focus in
+    ``out`` are taken in runs; a run with a NaN threshold has it made (the same column means,
+    summed in the same order, as :func:`stimuli.kernels.focus_agreement_at`) and stored, then
+    is tested disparity by disparity in the order of ``ds`` until all agree: the same verdict
+    to the bit.
     """
     rows, cols = centre.shape
     c = np.empty(cols + 2, dtype=np.float32)
@@ -335,6 +323,17 @@ def focus_agreement_with_limit(centre, nb, axis, side, ds, limit, where, out):  
             x1 = x0
             while x1 < cols and w[x1] != 0 and not o[x1]:
                 x1 += 1
+            made = True
+            for x in range(x0, x1):
+                if np.isnan(lim[x]):
+                    made = False
+                    break
+            if not made:
+                _column_means(centre, centre, axis, side, np.float32(0.0), y, x0, x1, c)
+                for x in range(x0, x1):
+                    i = x - x0 + 1
+                    s = np.float64(c[i - 1]) + np.float64(c[i]) + np.float64(c[i + 1])
+                    lim[x] = np.float32(ratio) * np.float32(s / 3.0) + np.float32(noise)
             left = x1 - x0
             for di in range(ds.shape[0]):
                 sh = ds[di] * side
