@@ -23,11 +23,11 @@ the floor), refocus + Sobel de-clutter + compress (``sobel``, goal <= 2x), refoc
 de-clutter (views' agreement, and on 1-D light fields the depth of the edges the views cannot
 measure: ``stimuli.declutter.in_focus_evidence``, tested at the edge pixels only) + compress
 (``depth``, goal <= 3x; the Sobel edges made once and passed on with ``declutter_depth(...,
-edges=)``; the per-capture part, made on a capture's first plane and kept with it, already
-made: the views' agreement test's threshold image per neighbour of the centre view), the
-per-capture part alone (``once ms``, ``once x``: milliseconds and ratio to the floor, made
-afresh) and the depth pipeline of a capture's first plane (``1st x``: the per-capture part
-made in it), and the
+edges=)``; with the part kept per capture already made for the plane's edge pixels: the
+views' agreement test's threshold per neighbour of the centre view, which does not depend on
+the plane, ``stimuli.declutter._LIMITS``), the depth pipeline on a capture's first plane
+(``1st x``, hot: that part made in it), and that part alone (``once ms``, ``once x``: the
+first plane's time less the later one's, in milliseconds and as a ratio to the floor), and the
 200-plane scan with detection (goals < 0.1 s on the 9x9, < 0.5 s on the 1024x1024 3x3), with
 the factor ``f`` by which the scan downsampled the views (``stimuli.planes.scan_downsample``: 2
 on the 1024x1024 3x3, 1 elsewhere) and the planes it found. The scan is timed with the compiled
@@ -64,7 +64,6 @@ from stimuli.agreementscan import _LAST_SWEEP
 from stimuli.compress import compress, grid_shape
 from stimuli.declutter import (
     _LIMITS,
-    _focus_limit,
     auto_threshold,
     declutter,
     declutter_depth,
@@ -184,15 +183,11 @@ def _one_layout(grid, shape, baseline, repeat, lf=None, d=None) -> dict:
         edges = declutter_depth(img, evidence, threshold=threshold, edges=at)  # Sobel once
         return compress(edges, cells, edge_ratio=1 / 13)
 
-    def once():  # what the depth de-clutter keeps per capture, made afresh
-        _LIMITS.pop(lf, None)
-        _capture_limits(lf)
-
     def pipe_depth_first():  # the first plane of a capture: the per-capture part made too
         _LIMITS.pop(lf, None)
         return pipe_depth()
 
-    _capture_limits(lf)  # the depth columns: a plane of a capture whose per-capture part is made
+    pipe_depth()  # the depth columns: the per-capture part already made for this plane
     row = {"light_field_mb": views.nbytes / 1e6}
     for how, cold in (("cold", True), ("hot", False)):
         floor_s = _median(lambda: np.copyto(dst, views), 2 * repeat, cold)
@@ -207,8 +202,8 @@ def _one_layout(grid, shape, baseline, repeat, lf=None, d=None) -> dict:
         row[f"refocus_x_floor_{how}"] = ref_s / floor_s
         row[f"pipeline_x_floor_{how}"] = pipe_s / floor_s
         if not cold:
-            once_s = _median(once, repeat)
             first_s = _median(pipe_depth_first, repeat)
+            once_s = first_s - depth_s  # the per-capture part a plane's edge pixels need
             row["once_ms"] = once_s * 1e3
             row["once_x_floor"] = once_s / floor_s
             row["depth_first_x_floor"] = first_s / floor_s
@@ -231,18 +226,6 @@ def _one_layout(grid, shape, baseline, repeat, lf=None, d=None) -> dict:
         row["scan_downsample"] = scan.downsample
     row["load_average"] = os.getloadavg()[0]
     return row
-
-
-def _capture_limits(lf) -> None:
-    """Make what the depth de-clutter keeps per capture: the views' agreement test's threshold
-    image per neighbour of the centre view (``stimuli.declutter._focus_limit``)."""
-    n_u, n_v = lf.grid
-    cu, cv = lf.centre_index
-    c32 = np.ascontiguousarray(lf.views[cu, cv], dtype=np.float32)
-    for axis, n, c in ((0, n_u, cu), (1, n_v, cv)):
-        for side in (-1, 1):
-            if n > 1 and 0 <= c + side < n:
-                _focus_limit(lf, c32, axis, side)
 
 
 def _captures(paths) -> list:
