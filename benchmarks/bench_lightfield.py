@@ -27,7 +27,8 @@ edges=)``; with the part kept per capture already made for the plane's edge pixe
 views' agreement test's threshold per neighbour of the centre view, which does not depend on
 the plane, ``stimuli.declutter._LIMITS``), the depth pipeline on a capture's first plane
 (``1st x``, hot: that part made in it), and that part alone (``once ms``, ``once x``: the
-first plane's time less the later one's, in milliseconds and as a ratio to the floor), and the
+median of the first plane's time less a later plane's, timed in pairs, in milliseconds and
+as a ratio to the floor), and the
 200-plane scan with detection (goals < 0.1 s on the 9x9, < 0.5 s on the 1024x1024 3x3), with
 the factor ``f`` by which the scan downsampled the views (``stimuli.planes.scan_downsample``: 2
 on the 1024x1024 3x3, 1 elsewhere) and the planes it found. The scan is timed with the compiled
@@ -202,8 +203,13 @@ def _one_layout(grid, shape, baseline, repeat, lf=None, d=None) -> dict:
         row[f"refocus_x_floor_{how}"] = ref_s / floor_s
         row[f"pipeline_x_floor_{how}"] = pipe_s / floor_s
         if not cold:
-            first_s = _median(pipe_depth_first, repeat)
-            once_s = first_s - depth_s  # the per-capture part a plane's edge pixels need
+            first, later = [], []  # in pairs, so that both meet the same load
+            for _ in range(repeat):
+                first.append(_median(pipe_depth_first, 1))
+                later.append(_median(pipe_depth, 1))
+            first_s = float(np.median(first))
+            # the per-capture part a plane's edge pixels need: the first plane less a later one
+            once_s = float(np.median(np.subtract(first, later)))
             row["once_ms"] = once_s * 1e3
             row["once_x_floor"] = once_s / floor_s
             row["depth_first_x_floor"] = first_s / floor_s
