@@ -22,7 +22,13 @@ and ``--capture FOLDER`` (repeatable) per real capture, read as ``lightfield sca
 the floor), refocus + Sobel de-clutter + compress (``sobel``, goal <= 2x), refocus + depth
 de-clutter (views' agreement, and on 1-D light fields the depth of the edges the views cannot
 measure: ``stimuli.declutter.in_focus_evidence``, tested at the edge pixels only) + compress
-(``depth``, goal <= 3x), and the
+(``depth``, goal <= 3x; the Sobel edges made once and passed on with ``declutter_depth(...,
+edges=)``; with the part kept per capture already made for the plane's edge pixels: the
+views' agreement test's threshold per neighbour of the centre view, which does not depend on
+the plane, ``stimuli.declutter._LIMITS``), the depth pipeline on a capture's first plane
+(``1st x``, hot: that part made in it), and that part alone (``once ms``, ``once x``: the
+median of the first plane's time less a later plane's, timed in pairs, in milliseconds and
+as a ratio to the floor), and the
 200-plane scan with detection (goals < 0.1 s on the 9x9, < 0.5 s on the 1024x1024 3x3), with
 the factor ``f`` by which the scan downsampled the views (``stimuli.planes.scan_downsample``: 2
 on the 1024x1024 3x3, 1 elsewhere) and the planes it found. The scan is timed with the compiled
@@ -58,6 +64,7 @@ import stimuli.agreementscan as agreementscan
 from stimuli.agreementscan import _LAST_SWEEP
 from stimuli.compress import compress, grid_shape
 from stimuli.declutter import (
+    _LIMITS,
     auto_threshold,
     declutter,
     declutter_depth,
@@ -174,9 +181,14 @@ def _one_layout(grid, shape, baseline, repeat, lf=None, d=None) -> dict:
         img = refocus(lf, d)
         at = declutter(img, threshold=threshold)  # the in-focus test is read at the edges only
         evidence, _ = in_focus_evidence(lf, d, confocal=img, where=at)
-        edges = declutter_depth(img, evidence, threshold=threshold)
+        edges = declutter_depth(img, evidence, threshold=threshold, edges=at)  # Sobel once
         return compress(edges, cells, edge_ratio=1 / 13)
 
+    def pipe_depth_first():  # the first plane of a capture: the per-capture part made too
+        _LIMITS.pop(lf, None)
+        return pipe_depth()
+
+    pipe_depth()  # the depth columns: the per-capture part already made for this plane
     row = {"light_field_mb": views.nbytes / 1e6}
     for how, cold in (("cold", True), ("hot", False)):
         floor_s = _median(lambda: np.copyto(dst, views), 2 * repeat, cold)
@@ -190,6 +202,17 @@ def _one_layout(grid, shape, baseline, repeat, lf=None, d=None) -> dict:
         row[f"pipeline_ms_{how}"] = pipe_s * 1e3
         row[f"refocus_x_floor_{how}"] = ref_s / floor_s
         row[f"pipeline_x_floor_{how}"] = pipe_s / floor_s
+        if not cold:
+            first, later = [], []  # in pairs, so that both meet the same load
+            for _ in range(repeat):
+                first.append(_median(pipe_depth_first, 1))
+                later.append(_median(pipe_depth, 1))
+            first_s = float(np.median(first))
+            # the per-capture part a plane's edge pixels need: the first plane less a later one
+            once_s = float(np.median(np.subtract(first, later)))
+            row["once_ms"] = once_s * 1e3
+            row["once_x_floor"] = once_s / floor_s
+            row["depth_first_x_floor"] = first_s / floor_s
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         row["scan_s"] = _median(
@@ -238,12 +261,12 @@ def per_layout(repeat: int, captures=()) -> dict:
     print(
         f"{'layout':26s} {'MB':>5s} {'floor ms':>9s} {'refocus x':>10s} {'sobel x':>8s} "
         f"{'depth x':>8s} {'refocus x':>10s} {'sobel x':>8s} {'depth x':>8s} {'scan s':>7s} "
-        f"{'numpy':>6s} {'load':>5s}"
+        f"{'numpy':>6s} {'load':>5s} {'once ms':>8s} {'once x':>7s} {'1st x':>7s}"
     )
     print(
         f"{'':26s} {'':>5s} {'(cold)':>9s} {'(cold)':>10s} {'(cold)':>8s} {'(cold)':>8s} "
         f"{'(hot)':>10s} {'(hot)':>8s} {'(hot)':>8s} {'':>7s} {'sweep':>6s} {'':>5s} "
-        f"{'f':>2s}  planes px/view"
+        f"{'(hot)':>8s} {'(hot)':>7s} {'(hot)':>7s} {'f':>2s}  planes px/view"
     )
     items = [(f"{g[0]}x{g[1]} of {s[1]}x{s[0]}", (g, s, b), None, None) for g, s, b in LAYOUTS] + [
         (name, ((), (), 0.0), lf, d) for name, lf, d in _captures(captures)
@@ -257,6 +280,7 @@ def per_layout(repeat: int, captures=()) -> dict:
             f"{row['refocus_x_floor_hot']:10.2f} {row['pipeline_x_floor_hot']:8.2f} "
             f"{row['depth_x_floor_hot']:8.2f} "
             f"{row['scan_s']:7.3f} {row['scan_numpy_s']:6.3f} {row['load_average']:5.1f} "
+            f"{row['once_ms']:8.2f} {row['once_x_floor']:7.2f} {row['depth_first_x_floor']:7.2f} "
             f"{row['scan_downsample']:2d}  "
             f"{row['scan_planes_px']}",
             flush=True,

@@ -29,6 +29,8 @@ exchange frequency. J. Histochem. Cytochem. 25(7), 741-753.
 
 from __future__ import annotations
 
+import weakref
+
 import numpy as np
 
 from stimuli.errors import InputError
@@ -101,8 +103,9 @@ def sobel_magnitude(image: np.ndarray) -> np.ndarray:
 
 
 #: Images of fewer pixels than this take the Sobel filter in one piece (ours: below it the
-#: threads cost more than they save).
-_THREAD_MIN_PIXELS = 1 << 18
+#: threads cost more than they save; on a shared 2-core machine the hand-off to a second
+#: thread cost more than the 0.3-0.5 ms it saves on the 555x620 and 1024x1024 images).
+_THREAD_MIN_PIXELS = 1 << 21
 
 #: Sobel strips are at least this many rows high (ours).
 _STRIP_MIN_ROWS = 64
@@ -177,9 +180,9 @@ def auto_threshold(image: np.ndarray, *, method: str = "otsu") -> float:
     if mag.size == 0 or float(mag.max()) == float(mag.min()):
         return 0.0
     if method == "otsu":
-        from skimage.filters import threshold_otsu  # heavy: imported when used
+        from stimuli.otsu import otsu_threshold
 
-        t = threshold_otsu(mag, nbins=_N_BINS)
+        t = otsu_threshold(mag)
     else:
         from skimage.filters import threshold_triangle
 
@@ -311,6 +314,7 @@ def agreement_mask(
     tolerance_px: float = FOCUS_TOLERANCE_PX,
     compiled: bool = True,
     where: np.ndarray | None = None,
+    cache: bool = True,
 ) -> np.ndarray:
     """Return where a light field's views agree at one plane.
 
@@ -337,6 +341,12 @@ def agreement_mask(
         cost that grows with their number (:func:`stimuli.kernels.focus_agreement_at`, each
         pixel left at the first neighbour and disparity that agree). The depth de-clutter
         reads the test only at edge pixels.
+    cache : bool
+        With ``where``: take the test's threshold image (``ratio`` times the one-pixel-shift
+        difference plus noise, per neighbour), which does not depend on the plane, from a cache
+        kept per light-field object (made at the pixels first tested, dropped with the object;
+        the views are not to be changed in place), the default; or make it again at the tested
+        pixels. The same mask to the bit.
 
     Returns
     -------
@@ -385,13 +395,38 @@ def agreement_mask(
             if where is not None:  # the listed pixels only: the same verdict there
                 nb32 = np.ascontiguousarray(nb, dtype=np.float32)
                 dd = ds.astype(np.float64)
-                focus_agreement_at(c32, nb32, axis, side, dd, r, noise, w8, out)
+                if not cache:
+                    focus_agreement_at(c32, nb32, axis, side, dd, r, noise, w8, out)
+                else:  # the threshold image made once per light field: the same verdict
+                    from stimuli.edgekernels import focus_agreement_with_limit
+
+                    limit = _focus_limit(lf, c32, axis, side)
+                    focus_agreement_with_limit(c32, nb32, axis, side, dd, r, noise, limit, w8, out)
             elif compiled:  # one compiled call per neighbour: the same mask to the bit
                 nb32 = np.ascontiguousarray(nb, dtype=np.float32)
                 focus_agreement(c32, nb32, axis, side, ds.astype(np.float64), r, noise, out)
             else:
                 out |= _agreement_numpy(centre, nb, axis, side, ds)
     return out
+
+
+#: Per light-field object (dropped with it): the agreement test's threshold image per
+#: neighbour, ``{(axis, side, ratio, noise): float32 image}`` (:func:`_focus_limit`).
+_LIMITS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+
+def _focus_limit(lf, c32: np.ndarray, axis: int, side: int) -> np.ndarray:
+    """Return the threshold image of neighbour (``axis``, ``side``) of ``lf``, kept with it.
+
+    NaN where not made yet: :func:`stimuli.edgekernels.focus_agreement_with_limit` makes it
+    at the pixels it tests and stores it, so each pixel's is made once per light field.
+    """
+    per = _LIMITS.setdefault(lf, {})
+    key = (axis, side, FOCUS_AGREEMENT_RATIO, FOCUS_NOISE)
+    limit = per.get(key)
+    if limit is None or limit.shape != c32.shape:
+        limit = per[key] = np.full(c32.shape, np.nan, np.float32)
+    return limit
 
 
 def _agreement_numpy(centre, nb, axis, side, ds):
@@ -416,7 +451,12 @@ def _agreement_numpy(centre, nb, axis, side, ds):
 
 
 def declutter_depth(
-    image: np.ndarray, focus_mask: np.ndarray, *, threshold: float, compiled: bool = True
+    image: np.ndarray,
+    focus_mask: np.ndarray,
+    *,
+    threshold: float,
+    compiled: bool = True,
+    edges: np.ndarray | None = None,
 ) -> np.ndarray:
     """Return the depth-mode edge image: Sobel edges that the light field says are in focus.
 
@@ -434,14 +474,21 @@ def declutter_depth(
     threshold : float >= 0
         Sobel threshold, as :func:`declutter`.
     compiled : bool
-        The vote in one compiled call (:func:`stimuli.kernels.focus_vote`, the default) or
-        its numpy twin (two box filters of full images); the same edges to the bit.
+        The vote in one compiled call, summed at the edge pixels only
+        (:func:`stimuli.edgekernels.vote_at_edges`, the default), or its numpy twin (two box
+        filters of full images); the same edges to the bit.
+    edges : ndarray of shape (rows, cols), bool, optional
+        ``declutter(image, threshold=threshold)`` if the caller has it (not made again).
 
     Returns
     -------
     ndarray of shape (rows, cols), bool
     """
-    edges = declutter(image, threshold=threshold)
+    if edges is None:
+        edges = declutter(image, threshold=threshold)
+    elif np.asarray(edges).dtype != np.bool_ or np.shape(edges) != np.shape(image):
+        raise InputError(f"edges must be a bool image of shape {np.shape(image)}")
+    edges = np.ascontiguousarray(edges)
     m = np.asarray(focus_mask)
     if m.dtype not in (np.bool_, np.uint8) or m.shape != edges.shape:
         raise InputError(
@@ -450,10 +497,12 @@ def declutter_depth(
         )
     if not compiled:
         return _vote_numpy(edges, m)
-    from stimuli.kernels import focus_vote
+    from stimuli.edgekernels import vote_at_edges
 
     out = np.empty(edges.shape, bool)
-    focus_vote(edges.view(np.uint8), np.ascontiguousarray(m).view(np.uint8), VOTE_WINDOW_PX, out)
+    if edges.size:
+        f8 = np.ascontiguousarray(m).view(np.uint8)
+        vote_at_edges(edges.view(np.uint8), f8, VOTE_WINDOW_PX, out)
     return out
 
 

@@ -202,14 +202,12 @@ def resolve_edge_depth(
     axes = baseline_axes(grid)
     if len(axes) != 1:  # a 2-D grid measures every direction
         return at(np.zeros(img.shape, bool)).astype(np.uint8), EdgeDepthStats()
-    grads = _sobel_pair(img)
-    mag = np.hypot(*grads)
+    mag, conf = _edge_field(img, axes)
     if float(mag.max()) <= 0.0:
         return at(np.zeros(img.shape, bool)).astype(np.uint8), EdgeDepthStats()
-    from skimage.filters import threshold_otsu
+    from stimuli.otsu import otsu_threshold
 
-    edges = mag > 0.5 * float(threshold_otsu(mag, nbins=256))
-    conf = _confidence(grads, axes)
+    edges = mag > 0.5 * otsu_threshold(mag)
     low_all = (conf < MIN_CONFIDENCE) & (mag > 0)
     low = edges & low_all
     measured = edges & ~low_all
@@ -249,17 +247,14 @@ def _vote(low: np.ndarray, measured: np.ndarray, at):
 
     Returns the masks of the segments resolved in focus and off the plane, and the verdict.
     """
-    eight = np.ones((3, 3), bool)
     r = CONTACT_RADIUS_PX
     # cut the unmeasured edges where measured ones pass (corners, junctions): a box's top edge
     # and a background line continuing it past the corner become two segments
     junction = low & _grow(measured, 2 * r + 1)
-    seg, n_seg = ndimage.label(low & ~junction, eight)
-    comp, n_comp = ndimage.label(measured, eight)
+    seg, n_seg = _label8(low & ~junction)
+    comp, n_comp = _label8(measured)
     if n_seg == 0 or n_comp == 0:
         return np.zeros_like(low), np.zeros_like(low), at(np.zeros_like(low))
-    rows = np.broadcast_to(np.arange(low.shape[0])[:, None], low.shape)
-    cols = np.broadcast_to(np.arange(low.shape[1])[None, :], low.shape)
     top, bottom, _, _ = _extents(comp, n_comp)  # bounding boxes: extents in one pass each
     _, _, left, right = _extents(seg, n_seg)
     # each measured pixel near a segment: which segment (the largest label nearby)
@@ -268,12 +263,13 @@ def _vote(low: np.ndarray, measured: np.ndarray, at):
     focus = at(touch)
     if not touch.any():
         return np.zeros_like(low), np.zeros_like(low), focus
-    s, c, y, x = near[touch], comp[touch], rows[touch], cols[touch]
+    y, x = np.nonzero(touch)  # the order of a boolean mask's selection, found once
+    s, c = near[y, x], comp[y, x]
     key = s.astype(np.int64) * (n_comp + 1) + c
     uniq, inv = np.unique(key, return_inverse=True)
     n = np.bincount(inv)
     y_mean, x_mean = np.bincount(inv, weights=y) / n, np.bincount(inv, weights=x) / n
-    at_contact = np.bincount(inv, weights=focus[touch]) / n >= 0.5  # the depth at the corner
+    at_contact = np.bincount(inv, weights=focus[y, x]) / n >= 0.5  # the depth at the corner
     seg_of, comp_of = uniq // (n_comp + 1), uniq % (n_comp + 1)
     t, b = top[comp_of - 1], bottom[comp_of - 1]
     through = (t < y_mean - PASS_THROUGH_PX) & (b > y_mean + PASS_THROUGH_PX)
@@ -303,6 +299,23 @@ def _vote(low: np.ndarray, measured: np.ndarray, at):
     return kept, dropped, focus
 
 
+def _edge_field(img: np.ndarray, axes: tuple[int, ...]) -> tuple[np.ndarray, np.ndarray]:
+    """Return the Sobel magnitude ``np.hypot`` of :func:`_sobel_pair` and :func:`_confidence`.
+
+    One compiled call where every side is longer than :data:`CONFIDENCE_WINDOW_PX`
+    (:func:`stimuli.edgekernels.edge_field`, the same values to the bit), else the numpy twin.
+    """
+    if len(axes) != 1 or min(img.shape) <= CONFIDENCE_WINDOW_PX:
+        grads = _sobel_pair(img)
+        return np.hypot(*grads), _confidence(grads, axes)
+    from stimuli.edgekernels import edge_field
+
+    img = np.ascontiguousarray(img, dtype=np.float32)
+    mag, conf = np.empty_like(img), np.empty_like(img)
+    edge_field(img, axes[0], CONFIDENCE_WINDOW_PX, mag, conf)
+    return mag, conf
+
+
 def _sobel_pair(img: np.ndarray) -> list[np.ndarray]:
     """Compute ``[ndimage.sobel(img, axis=a) for a in (0, 1)]`` in one compiled call.
 
@@ -329,6 +342,19 @@ def _box_mean(a: np.ndarray, size: int) -> np.ndarray:
     out = np.empty_like(a)
     box_mean_reflect(np.ascontiguousarray(a), size, out)
     return out
+
+
+def _label8(mask: np.ndarray) -> tuple[np.ndarray, int]:
+    """``scipy.ndimage.label(mask, np.ones((3, 3)))`` in one compiled call, to the bit.
+
+    :func:`stimuli.edgekernels.label8`: the same numbering (first pixels in raster order).
+    """
+    from stimuli.edgekernels import label8
+
+    m = np.ascontiguousarray(mask, dtype=bool)
+    out = np.empty(m.shape, np.int32)
+    n = label8(m.view(np.uint8), out) if m.size else 0
+    return out, int(n)
 
 
 def _extents(labels: np.ndarray, n: int):

@@ -1,0 +1,353 @@
+"""Compiled passes of the depth de-clutter that read each image once (numba, ``cache=True``).
+
+Each has a numpy twin elsewhere that it equals to the bit (tested in
+``tests/stimuli/test_edge_kernels.py``):
+
+* :func:`histogram_uniform`: ``numpy.histogram(a, bins=n)`` of a float32 image (the bins of
+  scikit-image's ``threshold_otsu``), in one pass instead of a sort-free chain of numpy passes;
+* :func:`edge_field`: the Sobel pair of ``scipy.ndimage.sobel``, its magnitude (``np.hypot``)
+  and the edge-direction confidence of :func:`stimuli.edgedepth.edge_confidence`, in one call
+  instead of a chain of full-image temporaries;
+* :func:`vote_at_edges`: the local majority of :func:`stimuli.kernels.focus_vote`, evaluated
+  only at the edge pixels from exact running counts;
+* :func:`label8`: ``scipy.ndimage.label`` with 8-connectivity (the same numbering);
+* :func:`focus_agreement_with_limit`: :func:`stimuli.kernels.focus_agreement_at` with the
+  test's threshold image, which does not depend on the plane, kept by the caller and made only
+  where first needed (the same verdict to the bit).
+
+Importing this module imports numba; callers import it inside the functions that need it.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from stimuli.kernels import _column_means
+
+__all__ = [
+    "histogram_uniform",
+    "edge_field",
+    "vote_at_edges",
+    "extrema",
+    "label8",
+    "focus_agreement_with_limit",
+]
+
+
+@njit(nogil=True, cache=True)
+def extrema(a):  # pragma: no cover - compiled
+    """Return the smallest and largest value of a float32 array (one pass; no NaN in it)."""
+    flat = a.ravel()
+    lo = flat[0]
+    hi = flat[0]
+    for i in range(1, flat.shape[0]):
+        v = flat[i]
+        if v < lo:
+            lo = v
+        if v > hi:
+            hi = v
+    return lo, hi
+
+
+@njit(nogil=True, cache=True)
+def histogram_uniform(a, first, last, edges, counts):  # pragma: no cover - compiled
+    """Add ``numpy.histogram(a, bins=len(counts), range=(first, last))`` to ``counts``.
+
+    Step for step as numpy's equal-bin path for float32 data (``first``, ``last`` and ``edges``
+    float32, ``edges`` = ``np.linspace(first, last, n + 1)``): the bin from ``(v - first) /
+    (last - first) * n`` truncated, then moved down or up by one where the edges say so; values
+    outside ``[first, last]`` are left out, ``last`` goes to the last bin.
+    """
+    n = counts.shape[0]
+    denom = last - first
+    scale = np.float32(n)
+    flat = a.ravel()
+    for j in range(flat.shape[0]):
+        v = flat[j]
+        if not (v >= first and v <= last):
+            continue
+        i = int(((v - first) / denom) * scale)
+        if i == n:
+            i -= 1
+        if v < edges[i]:
+            i -= 1
+        if v >= edges[i + 1] and i != n - 1:
+            i += 1
+        counts[i] += 1
+
+
+@njit(nogil=True, cache=True)
+def _reflect(i, n):  # pragma: no cover - compiled
+    """Index ``i`` reflected into ``range(n)`` (``d c b a | a b c d``, ``i`` within ``n``)."""
+    if i < 0:
+        return -i - 1
+    if i >= n:
+        return 2 * n - i - 1
+    return i
+
+
+@njit(nogil=True, cache=True)
+def edge_field(img, axis, size, mag, conf):  # pragma: no cover - compiled
+    """Sobel magnitude and edge-direction confidence of a float32 image, in one call.
+
+    ``mag`` = ``np.hypot(gy, gx)`` of ``scipy.ndimage.sobel(img, axis=0)`` and ``axis=1`` (as
+    :func:`stimuli.kernels.sobel_pair` makes them; float32: the square root of the float64 sum
+    of squares, rounded once, as glibc's ``hypotf``, tested against numpy); ``conf`` =
+    ``sqrt(E_axis / (E_0 + E_1))`` (1 where the sum is 0), ``E_a`` the ``size`` x ``size`` mean
+    (``mode='reflect'``,
+    as :func:`stimuli.kernels.box_mean_reflect`: float64 running sums rounded to float32) of
+    the squared gradient along image axis ``a``. Every side at least ``size // 2`` pixels.
+    """
+    rows, cols = img.shape
+    half = size // 2
+    dy = np.empty((rows, cols), dtype=np.float32)
+    dx = np.empty((rows, cols), dtype=np.float32)
+    for y in range(rows):
+        ya = _reflect(y - 1, rows)
+        yb = _reflect(y + 1, rows)
+        for x in range(cols):
+            dy[y, x] = np.float32(np.float64(img[yb, x]) - np.float64(img[ya, x]))
+            xa = _reflect(x - 1, cols)
+            xb = _reflect(x + 1, cols)
+            dx[y, x] = np.float32(np.float64(img[y, xb]) - np.float64(img[y, xa]))
+    e0 = np.empty((rows, cols), dtype=np.float32)
+    e1 = np.empty((rows, cols), dtype=np.float32)
+    for y in range(rows):
+        dyr = dy[y]
+        dxa = dx[_reflect(y - 1, rows)]
+        dxm = dx[y]
+        dxb = dx[_reflect(y + 1, rows)]
+        mr = mag[y]
+        e0r = e0[y]
+        e1r = e1[y]
+        for x in range(cols):
+            if 0 < x < cols - 1:
+                sy = np.float64(dyr[x - 1]) + np.float64(dyr[x + 1])
+            else:
+                sy = np.float64(dyr[_reflect(x - 1, cols)]) + np.float64(dyr[_reflect(x + 1, cols)])
+            gy = np.float32(np.float64(dyr[x]) * 2.0 + sy)
+            gx = np.float32(np.float64(dxm[x]) * 2.0 + (np.float64(dxa[x]) + np.float64(dxb[x])))
+            fy = np.float64(gy)  # hypotf as glibc makes it: in double, rounded once
+            fx = np.float64(gx)
+            mr[x] = np.float32(np.sqrt(fy * fy + fx * fx))
+            e0r[x] = gy * gy
+            e1r[x] = gx * gx
+    # the box means: along the rows (float64 running sums), then along each row
+    t0, t1 = dy, dx  # reused
+    acc0 = np.zeros(cols, dtype=np.float64)
+    acc1 = np.zeros(cols, dtype=np.float64)
+    for k in range(size):
+        r = _reflect(k - half, rows)
+        for x in range(cols):
+            acc0[x] += e0[r, x]
+            acc1[x] += e1[r, x]
+    for y in range(rows):
+        if y > 0:
+            a = _reflect(y + half, rows)
+            b = _reflect(y - 1 - half, rows)
+            for x in range(cols):
+                acc0[x] += np.float64(e0[a, x]) - np.float64(e0[b, x])
+                acc1[x] += np.float64(e1[a, x]) - np.float64(e1[b, x])
+        for x in range(cols):
+            t0[y, x] = np.float32(acc0[x] / size)
+            t1[y, x] = np.float32(acc1[x] / size)
+    for y in range(rows):
+        r0 = t0[y]
+        r1 = t1[y]
+        c = conf[y]
+        run0 = 0.0
+        run1 = 0.0
+        for k in range(size):
+            run0 += r0[_reflect(k - half, cols)]
+            run1 += r1[_reflect(k - half, cols)]
+        for x in range(cols):
+            if x > 0:
+                xa = _reflect(x + half, cols)
+                xb = _reflect(x - 1 - half, cols)
+                run0 += np.float64(r0[xa]) - np.float64(r0[xb])
+                run1 += np.float64(r1[xa]) - np.float64(r1[xb])
+            m0 = np.float32(run0 / size)
+            m1 = np.float32(run1 / size)
+            total = m0 + m1
+            along = m0 if axis == 0 else m1
+            c[x] = np.sqrt(along / total) if total > 0 else np.float32(1.0)
+
+
+@njit(nogil=True, cache=True)
+def vote_at_edges(edges, focus, size, out):  # pragma: no cover - compiled
+    """Take the local majority of :func:`stimuli.kernels.focus_vote` at the edge pixels only.
+
+    ``edges`` (uint8 0/1), ``focus`` (uint8: 1 in focus, 2 dropped). ``out`` (bool) is True
+    where ``edges`` and ``focus != 2`` and ``agree >= 0.5 * total``, the two the ``size`` x
+    ``size`` means (zeros beyond the image) of the in-focus edges and of the edges as
+    ``scipy.ndimage.uniform_filter`` makes them: down the columns a count ``k`` becomes
+    ``float32(k / size)``, and along the row the float64 sum of those (exact: at most ``size``
+    values on a grid of 2**-27 below ``size``) divided by ``size`` and rounded to float32. The
+    column counts are kept as exact running integers, so only edge pixels cost a sum.
+    """
+    rows, cols = edges.shape
+    half = size // 2
+    lut = np.empty(size + 1, dtype=np.float64)
+    for k in range(size + 1):
+        lut[k] = np.float64(np.float32(k / size))
+    n_all = np.zeros(cols, dtype=np.int64)
+    n_in = np.zeros(cols, dtype=np.int64)
+    for k in range(half):  # rows 0 .. half - 1 enter before row 0's window is complete
+        if k < rows:
+            for x in range(cols):
+                e = edges[k, x]
+                n_all[x] += e
+                n_in[x] += e if focus[k, x] == 1 else 0
+    for y in range(rows):
+        y_in = y + half
+        if y_in < rows:
+            for x in range(cols):
+                e = edges[y_in, x]
+                n_all[x] += e
+                n_in[x] += e if focus[y_in, x] == 1 else 0
+        y_out = y - half - 1
+        if y_out >= 0:
+            for x in range(cols):
+                e = edges[y_out, x]
+                n_all[x] -= e
+                n_in[x] -= e if focus[y_out, x] == 1 else 0
+        er = edges[y]
+        fr = focus[y]
+        o = out[y]
+        for x in range(cols):
+            if er[x] == 0 or fr[x] == 2:
+                o[x] = False
+                continue
+            s_all = 0.0
+            s_in = 0.0
+            for j in range(max(x - half, 0), min(x + half + 1, cols)):
+                s_all += lut[n_all[j]]
+                s_in += lut[n_in[j]]
+            agree = np.float32(s_in / size)
+            total = np.float32(s_all / size)
+            o[x] = agree >= np.float32(0.5) * total
+
+
+@njit(nogil=True, cache=True)
+def _find(parent, i):  # pragma: no cover - compiled
+    """Root of ``i`` in the union-find forest ``parent``, paths halved on the way."""
+    while parent[i] != i:
+        parent[i] = parent[parent[i]]
+        i = parent[i]
+    return i
+
+
+@njit(nogil=True, cache=True)
+def label8(mask, out):  # pragma: no cover - compiled
+    """Label the 8-connected components of a uint8 mask into ``out`` (int32); return how many.
+
+    ``scipy.ndimage.label(mask, np.ones((3, 3)))`` to the bit: components are numbered 1, 2,
+    ... in the order of their first pixel in a row-by-row scan (two passes, union-find).
+    """
+    rows, cols = mask.shape
+    parent = np.empty(rows * cols // 2 + 2, dtype=np.int32)
+    n = 0
+    for y in range(rows):
+        for x in range(cols):
+            if mask[y, x] == 0:
+                out[y, x] = 0
+                continue
+            best = 0
+            for dy, dx in ((-1, -1), (-1, 0), (-1, 1), (0, -1)):
+                yy = y + dy
+                xx = x + dx
+                if yy < 0 or xx < 0 or xx >= cols:
+                    continue
+                v = out[yy, xx]
+                if v == 0:
+                    continue
+                r = _find(parent, v)
+                if best == 0:
+                    best = r
+                elif r != best:
+                    if r < best:
+                        parent[best] = r
+                        best = r
+                    else:
+                        parent[r] = best
+            if best == 0:
+                n += 1
+                if n >= parent.shape[0]:
+                    grown = np.empty(2 * parent.shape[0], dtype=np.int32)
+                    grown[: parent.shape[0]] = parent
+                    parent = grown
+                parent[n] = n
+                best = n
+            out[y, x] = best
+    final = np.zeros(n + 1, dtype=np.int32)
+    count = 0
+    for y in range(rows):
+        for x in range(cols):
+            v = out[y, x]
+            if v == 0:
+                continue
+            r = _find(parent, v)
+            if final[r] == 0:
+                count += 1
+                final[r] = count
+            out[y, x] = final[r]
+    return count
+
+
+@njit(nogil=True, cache=True)
+def focus_agreement_with_limit(
+    centre, nb, axis, side, ds, ratio, noise, limit, where, out
+):  # pragma: no cover - compiled
+    """:func:`stimuli.kernels.focus_agreement_at` with its threshold image kept by the caller.
+
+    ``limit``: the test's threshold for this neighbour (``axis``, ``side``), ``ratio`` times
+    the 3x3 mean of ``|centre at x - side - centre|`` plus ``noise``, which does not depend on
+    the plane; NaN where not made yet. The pixels of ``where`` (uint8) not yet in focus in
+    ``out`` are taken in runs; a run with a NaN threshold has it made (the same column means,
+    summed in the same order, as :func:`stimuli.kernels.focus_agreement_at`) and stored, then
+    is tested disparity by disparity in the order of ``ds`` until all agree: the same verdict
+    to the bit.
+    """
+    rows, cols = centre.shape
+    c = np.empty(cols + 2, dtype=np.float32)
+    for y in range(rows):
+        w = where[y]
+        o = out[y]
+        lim = limit[y]
+        x0 = 0
+        while x0 < cols:
+            if w[x0] == 0 or o[x0]:
+                x0 += 1
+                continue
+            x1 = x0
+            while x1 < cols and w[x1] != 0 and not o[x1]:
+                x1 += 1
+            made = True
+            for x in range(x0, x1):
+                if np.isnan(lim[x]):
+                    made = False
+                    break
+            if not made:
+                _column_means(centre, centre, axis, side, np.float32(0.0), y, x0, x1, c)
+                for x in range(x0, x1):
+                    i = x - x0 + 1
+                    s = np.float64(c[i - 1]) + np.float64(c[i]) + np.float64(c[i + 1])
+                    lim[x] = np.float32(ratio) * np.float32(s / 3.0) + np.float32(noise)
+            left = x1 - x0
+            for di in range(ds.shape[0]):
+                sh = ds[di] * side
+                k = int(np.floor(sh))
+                f = np.float32(sh - k)
+                _column_means(nb, centre, axis, k, f, y, x0, x1, c)
+                for x in range(x0, x1):
+                    if o[x]:
+                        continue
+                    i = x - x0 + 1
+                    s = np.float64(c[i - 1]) + np.float64(c[i]) + np.float64(c[i + 1])
+                    if np.float32(s / 3.0) < lim[x]:
+                        o[x] = True
+                        left -= 1
+                if left == 0:
+                    break
+            x0 = x1
