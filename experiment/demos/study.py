@@ -34,6 +34,7 @@ each detected plane refocused, de-cluttered and compressed (Figs. 11-13, 16).
 from __future__ import annotations
 
 import json
+import math
 import multiprocessing
 import os
 import time
@@ -229,7 +230,24 @@ def _brief(desc: dict[str, Any]) -> dict[str, Any]:
 
 
 def _observer_params(observer: str, knowledge: list[Path], protocol: Any) -> dict[str, Any]:
-    """Parameters the demo gives an observer: the exemplar observer's knowledge and geometry."""
+    """Return the parameters the demo gives an observer.
+
+    The exemplar observer's knowledge and geometry; the ``logistic`` observer's average object
+    placed so that the pooled Weibull 50 % point is the paper's
+    (:mod:`experiment.observers.pooled`).
+    """
+    if observer == "logistic":
+        from experiment.observers import LogisticParams
+        from experiment.observers.pooled import average_object_x50
+
+        lp = LogisticParams()
+        x50 = average_object_x50(
+            PAPER_RESULTS["x50_cluttered_px"],
+            or_background=lp.or_background,
+            or_per_log10_px=lp.or_per_log10_px,
+            effect_sd=math.hypot(lp.subject_sd, lp.object_sd),
+        )
+        return {"x50_cluttered_px": round(x50, 1)}
     if observer not in _KNOWLEDGE_OBSERVERS:
         return {}
     d = protocol.display
@@ -611,7 +629,10 @@ def _observer_line(demo: DemoResult) -> str:
     if name == "logistic":
         return (
             "simulated observer: logistic (draws from the paper's own fitted logistic model, "
-            "so it gives the paper's numbers back; it does not look at the images)"
+            "its average object's cluttered 50 % point at "
+            f"{(first.get('params') or {}).get('x50_cluttered_px', float('nan')):,.0f} px so "
+            "that the Weibull through all subjects' and objects' trials, as the paper fitted, "
+            "sits at the paper's 8,695 px; it does not look at the images)"
         )
     return f"simulated observer: {name} (parameters in the trial log's 'observer' events)"
 
