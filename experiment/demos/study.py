@@ -34,7 +34,6 @@ each detected plane refocused, de-cluttered and compressed (Figs. 11-13, 16).
 from __future__ import annotations
 
 import json
-import math
 import multiprocessing
 import os
 import time
@@ -230,24 +229,15 @@ def _brief(desc: dict[str, Any]) -> dict[str, Any]:
 
 
 def _observer_params(observer: str, knowledge: list[Path], protocol: Any) -> dict[str, Any]:
-    """Return the parameters the demo gives an observer.
+    """Return an observer's parameters: knowledge and geometry, or ``logistic``'s x50.
 
-    The exemplar observer's knowledge and geometry; the ``logistic`` observer's average object
-    placed so that the pooled Weibull 50 % point is the paper's
-    (:mod:`experiment.observers.pooled`).
+    The ``logistic`` observer's average object is placed so that the pooled Weibull is at the
+    paper's threshold (:func:`experiment.observers.pooled.paper_pooled_params`).
     """
     if observer == "logistic":
-        from experiment.observers import LogisticParams
-        from experiment.observers.pooled import average_object_x50
+        from experiment.observers.pooled import paper_pooled_params
 
-        lp = LogisticParams()
-        x50 = average_object_x50(
-            PAPER_RESULTS["x50_cluttered_px"],
-            or_background=lp.or_background,
-            or_per_log10_px=lp.or_per_log10_px,
-            effect_sd=math.hypot(lp.subject_sd, lp.object_sd),
-        )
-        return {"x50_cluttered_px": round(x50, 1)}
+        return paper_pooled_params()
     if observer not in _KNOWLEDGE_OBSERVERS:
         return {}
     d = protocol.display
@@ -591,6 +581,8 @@ def _calibrated_line(demo: DemoResult, first: dict[str, Any]) -> str:
         if passed is None
         else f' and says "don\'t know" to {float(passed):.0%} of images of kinds it does not know'
     )
+    priming = float(p.get("priming") or 0.0)
+    primed = f" ({priming:g} lower for kinds already named)" if priming > 0 else ""
     spd = p.get("samples_per_deg")
     sampling = "" if spd is None else f"retinal sampling {float(spd):g}/deg, "
     return (
@@ -598,8 +590,8 @@ def _calibrated_line(demo: DemoResult, first: dict[str, Any]) -> str:
         f"{len(k.get('categories', []))} kinds from {source}, with a person's limits: "
         f"{sampling}blur {p.get('blur_deg')} deg, internal noise SD {p.get('noise_sd')}, "
         "open-set criterion "
-        f"{float(p.get('criterion') or 0):.2f}, lapse {p.get('lapse')}; fitted to the paper's "
-        f"cluttered condition only) gives cluttered {px('x50_cluttered_px')} and, as a "
+        f"{float(p.get('criterion') or 0):.2f}{primed}, lapse {p.get('lapse')}; fitted to the "
+        f"paper's cluttered condition only) gives cluttered {px('x50_cluttered_px')} and, as a "
         f"prediction, de-cluttered {px('x50_decluttered_px')} against the paper's 8,695 and "
         f"3,532 px, ratio {'n/a' if ratio is None else f'{ratio:.2f}'} against 2.46{open_set}"
     )

@@ -21,7 +21,7 @@ import math
 
 import numpy as np
 
-__all__ = ["pooled_curve", "pooled_weibull_x50", "average_object_x50"]
+__all__ = ["pooled_curve", "pooled_weibull_x50", "average_object_x50", "paper_pooled_params"]
 
 
 def pooled_curve(
@@ -128,3 +128,26 @@ def average_object_x50(
     if not (gap(lo) - target) * (gap(hi) - target) < 0:
         raise ValueError(f"no average-object 50 % point gives a pooled one of {pooled_x50_px!r}")
     return math.exp(optimize.brentq(lambda v: gap(v) - target, lo, hi, xtol=1e-4))
+
+
+def paper_pooled_params() -> dict[str, float]:
+    """Return the ``logistic`` observer's ``x50_cluttered_px`` whose pooled Weibull is at 8,695 px.
+
+    With :class:`~experiment.observers.LogisticParams`' odds ratios and effect SDs; the
+    threshold is the paper's (Jung et al. 2015, Sec. 3.2.2).
+
+    Returns
+    -------
+    dict
+        ``{"x50_cluttered_px": ...}`` (pixels, to 0.1 px).
+    """
+    from experiment.observers import PAPER_X50_CLUTTERED_PX, LogisticParams
+
+    p = LogisticParams()
+    x50 = average_object_x50(
+        PAPER_X50_CLUTTERED_PX,
+        or_background=p.or_background,
+        or_per_log10_px=p.or_per_log10_px,
+        effect_sd=math.hypot(p.subject_sd, p.object_sd),
+    )
+    return {"x50_cluttered_px": round(x50, 1)}
