@@ -229,7 +229,15 @@ def _brief(desc: dict[str, Any]) -> dict[str, Any]:
 
 
 def _observer_params(observer: str, knowledge: list[Path], protocol: Any) -> dict[str, Any]:
-    """Parameters the demo gives an observer: the exemplar observer's knowledge and geometry."""
+    """Return an observer's parameters: knowledge and geometry, or ``logistic``'s x50.
+
+    The ``logistic`` observer's average object is placed so that the pooled Weibull is at the
+    paper's threshold (:func:`experiment.observers.pooled.paper_pooled_params`).
+    """
+    if observer == "logistic":
+        from experiment.observers.pooled import paper_pooled_params
+
+        return paper_pooled_params()
     if observer not in _KNOWLEDGE_OBSERVERS:
         return {}
     d = protocol.display
@@ -575,6 +583,8 @@ def _calibrated_line(demo: DemoResult, first: dict[str, Any]) -> str:
         if passed is None
         else f' and says "don\'t know" to {float(passed):.0%} of images of kinds it does not know'
     )
+    priming = float(p.get("priming") or 0.0)
+    primed = f" ({priming:g} lower for kinds already named)" if priming > 0 else ""
     spd = p.get("samples_per_deg")
     sampling = "" if spd is None else f"retinal sampling {float(spd):g}/deg, "
     return (
@@ -582,8 +592,8 @@ def _calibrated_line(demo: DemoResult, first: dict[str, Any]) -> str:
         f"{len(k.get('categories', []))} kinds from {source}, with a person's limits: "
         f"{sampling}blur {p.get('blur_deg')} deg, internal noise SD {p.get('noise_sd')}, "
         "open-set criterion "
-        f"{float(p.get('criterion') or 0):.2f}, lapse {p.get('lapse')}; fitted to the paper's "
-        f"cluttered condition only) gives cluttered {px('x50_cluttered_px')} and, as a "
+        f"{float(p.get('criterion') or 0):.2f}{primed}, lapse {p.get('lapse')}; fitted to the "
+        f"paper's cluttered condition only) gives cluttered {px('x50_cluttered_px')} and, as a "
         f"prediction, de-cluttered {px('x50_decluttered_px')} against the paper's 8,695 and "
         f"3,532 px, ratio {'n/a' if ratio is None else f'{ratio:.2f}'} against 2.46{open_set}"
     )
@@ -613,7 +623,10 @@ def _observer_line(demo: DemoResult) -> str:
     if name == "logistic":
         return (
             "simulated observer: logistic (draws from the paper's own fitted logistic model, "
-            "so it gives the paper's numbers back; it does not look at the images)"
+            "its average object's cluttered 50 % point at "
+            f"{(first.get('params') or {}).get('x50_cluttered_px', float('nan')):,.0f} px so "
+            "that the Weibull through all subjects' and objects' trials, as the paper fitted, "
+            "sits at the paper's 8,695 px; it does not look at the images)"
         )
     return f"simulated observer: {name} (parameters in the trial log's 'observer' events)"
 

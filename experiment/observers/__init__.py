@@ -6,9 +6,9 @@ is a simulation: its sessions are logged with ``responder = 'sim:<name>'`` and, 
 
 ``calibrated`` (:mod:`experiment.observers.calibration`; the demo's default)
     The exemplar observer with a person's decision stage (normalised responses, internal
-    noise, an open-set criterion that passes on kinds it does not know, lapses), its few
-    parameters fitted to the paper's cluttered condition only; the de-cluttered threshold it
-    gives is a prediction.
+    noise, an open-set criterion that passes on kinds it does not know, a criterion lower for
+    kinds it has already named in the session, lapses); its criterion fitted to the paper's
+    cluttered condition only; the de-cluttered numbers it gives are a prediction.
 
 ``exemplar`` (:mod:`experiment.observers.exemplar`)
     Looks at the image and recognises it from *other* exemplars of each category (another
@@ -28,7 +28,11 @@ is a simulation: its sessions are logged with ``responder = 'sim:<name>'`` and, 
     (for u = v = 0); the de-cluttered 50 % point follows from the odds ratio:
     ``10 ** (log10(x50_cluttered_px) - ln(OR_bg) / ln(OR_px))`` (3,470 px with the defaults, the
     paper's Weibull fit gave 3,532 px). Photos (training) are always recognised unless a lapse.
-    It gives the paper's numbers back by construction.
+    It gives the paper's odds ratios back by construction. The paper's thresholds are Weibull
+    fits to all subjects' and objects' trials pooled, which sit above the average object's 50 %
+    point (10,260 px for an average object at 8,695 px with these effects); ``confocal demo``
+    therefore sets ``x50_cluttered_px`` to the average-object point whose pooled Weibull is at
+    8,695 px (about 7,470 px; :mod:`experiment.observers.pooled`).
 
 ``model``
     Looks at the image, but its templates are the test set's *own* de-cluttered images (at a

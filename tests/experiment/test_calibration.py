@@ -267,3 +267,39 @@ def test_calibrated_observer_logs_its_open_set_rate_from_the_calibration(small_p
     assert obs.describe()["calibration"]["unknown_kinds_passed"] == round(1 - named, 4)
     other = make_observer("calibrated", ts, "S1", rng=0, knowledge=str(knowledge), noise_sd=0.0)
     assert "unknown_kinds_passed" not in other.describe()["calibration"]
+
+
+def test_a_kind_named_once_needs_less_evidence_for_the_rest_of_the_session(small_pair):
+    """Priming: a match that stands out 2.0 SD is passed under a criterion of 2.2 until the
+    observer has named that kind (rightly or not), then named (2.0 > 2.2 - 0.6); another kind
+    is not primed, a new session (a new observer) starts unprimed, and with ``priming=0`` the
+    match is always passed."""
+    from types import SimpleNamespace
+
+    test, knowledge = small_pair
+    ts = StimulusSet.load(test)
+    kind0 = np.array([0.7, 0.1, 0.1, 0.1, 0.1])  # kind 0 stands out by 2.0 SD
+    kind1 = np.array([0.1, 0.7, 0.1, 0.1, 0.1])
+
+    def observer(priming: float) -> CalibratedObserver:
+        return make_observer("calibrated", ts, "S1", rng=0, knowledge=str(knowledge),
+                             noise_sd=0.0, lapse=0.0, criterion=2.2, priming=priming)  # fmt: skip
+
+    def score(obs: CalibratedObserver, matches: np.ndarray, criterion: float = 2.2) -> str:
+        obs.similarities = lambda image: matches  # the image's noise-free matches
+        best = int(np.argmax(matches))
+        obj = next(o for o in ts.objects if obs._is_correct(best, o))
+        obs.criterion = criterion
+        trial = SimpleNamespace(object=obj, pass_allowed_after_s=60.0)
+        return obs.respond(trial, np.zeros((4, 4))).score
+
+    named = ("named", "use")  # else passed (or a shape described)
+    obs = observer(0.6)
+    assert score(obs, kind0) not in named
+    assert score(obs, kind0, criterion=1.9) in named  # a clearer view: kind 0 named
+    assert score(obs, kind0) in named  # primed now
+    assert score(obs, kind1) not in named  # kind 1 never named
+    assert score(observer(0.6), kind0) not in named  # a new session starts unprimed
+    unprimed = observer(0.0)
+    assert score(unprimed, kind0, criterion=1.9) in named
+    assert score(unprimed, kind0) not in named

@@ -123,6 +123,9 @@ def test_calibrated_observer_says_in_one_sentence_what_it_is_and_how_far_from_th
     assert "sampling" not in line  # not logged: not claimed
     demo.observers = [{**demo.observers[0], "params": {**p, "samples_per_deg": 30.0}}]
     assert "limits: retinal sampling 30/deg, blur 0.05 deg" in summary_lines(demo)[1]
+    assert "already named" not in line  # no priming logged: none claimed
+    demo.observers = [{**demo.observers[0], "params": {**p, "priming": 0.6}}]
+    assert "criterion 1.42 (0.6 lower for kinds already named)" in summary_lines(demo)[1]
 
 
 def test_logistic_observer_is_named_as_the_papers_model(tmp_path):
