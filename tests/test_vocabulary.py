@@ -96,8 +96,8 @@ def test_no_levels_parameter_means_grey_count_or_pixels(package):
     )
 
 
-def test_weibull_fit_keeps_levels_as_a_read_only_alias():
-    """``WeibullFit.levels`` (deprecated) is ``pixels``; results.json keeps its ``levels`` key."""
+def test_weibull_fit_names_its_axis_pixels_and_results_json_keeps_its_key():
+    """``WeibullFit`` has ``pixels`` and no ``levels``; results.json keeps its ``levels`` key."""
     import numpy as np
 
     from analysis.weibull import MLEstimate, WeibullFit, default_prior
@@ -118,9 +118,7 @@ def test_weibull_fit_keeps_levels_as_a_read_only_alias():
         n_walkers=8,
         prior=default_prior(px),
     )
-    assert fit.levels == fit.pixels == px
-    with pytest.raises(AttributeError):
-        fit.levels = (1.0,)  # type: ignore[misc]
+    assert fit.pixels == px and not hasattr(fit, "levels")
     d = fit.to_dict()
     assert d["levels"] == list(px) and "pixels" not in d
     assert WeibullFit.from_dict(d).pixels == px

@@ -63,7 +63,7 @@ class FitJob:
         Name used in warnings and reports.
     pixels, k, n : ndarray of shape (n_levels,)
         Distinct stimulus values (x units: pixels for the paper's data), number correct, number
-        of trials (n > 0). ``levels`` is a deprecated alias of ``pixels``.
+        of trials (n > 0).
     guess : float
         Guess rate in [0, 1).
     prior : PsychometricPrior
@@ -81,11 +81,6 @@ class FitJob:
     prior: PsychometricPrior
     mle: MLEstimate
     overdispersion: bool = False
-
-    @property
-    def levels(self) -> np.ndarray:
-        """Deprecated alias of :attr:`pixels` (the fitted stimulus values), kept for a while."""
-        return self.pixels
 
 
 @dataclass(frozen=True)

@@ -53,7 +53,7 @@ class WeibullFit:
         Guess rate (fixed).
     pixels, k, n : tuple of float
         Distinct stimulus values (x units: pixels per object for the paper's data), number
-        correct and number of trials at each. ``levels`` is a deprecated alias of ``pixels``.
+        correct and number of trials at each.
     mle : MLEstimate
         Maximum-likelihood parameters (binomial likelihood).
     samples : ndarray of shape (n_samples, 4)
@@ -86,11 +86,6 @@ class WeibullFit:
     n_walkers: int
     prior: PsychometricPrior
     overdispersion: bool = False
-
-    @property
-    def levels(self) -> tuple[float, ...]:
-        """Deprecated alias of :attr:`pixels` (the fitted stimulus values), kept for a while."""
-        return self.pixels
 
     @property
     def n_trials(self) -> int:
