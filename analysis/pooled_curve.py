@@ -30,7 +30,7 @@ from scipy import optimize, special
 
 from analysis.weibull import aggregate
 
-__all__ = ["SIGMA_MAX", "pooled_curve_threshold"]
+__all__ = ["SIGMA_MAX", "pooled_curve_threshold", "pooled_curve_by_condition"]
 
 #: Upper bound of the spread ``sigma`` of log10 scale across cells (ours: a factor of 10 per SD).
 SIGMA_MAX: float = 1.0
@@ -98,7 +98,11 @@ def pooled_curve_threshold(
     levels, k, n = aggregate(x, correct)
     if len(levels) < 3 or np.any(levels <= 0) or not (guess < pc < 1):
         return None
-    return _fit(np.log10(levels), np.asarray(k, float), np.asarray(n, float), pc, guess)
+    try:
+        with np.errstate(all="ignore"):
+            return _fit(np.log10(levels), np.asarray(k, float), np.asarray(n, float), pc, guess)
+    except (ValueError, ArithmeticError, np.linalg.LinAlgError):
+        return None
 
 
 def _fit(u: np.ndarray, k: np.ndarray, n: np.ndarray, pc: float, guess: float) -> dict | None:
@@ -173,27 +177,66 @@ def _fit(u: np.ndarray, k: np.ndarray, n: np.ndarray, pc: float, guess: float) -
     ends: list[float | None] = []
     for sign in (-1.0, 1.0):
         limit = (u.min() - 1.0) if sign < 0 else (u.max() + 1.0)
-        step, prev, end = 0.02, t_hat, None
-        state = {"start": v_hat}
-        cache: dict[float, np.ndarray] = {}
-
-        def excess(t: float, state: dict = state, cache: dict = cache) -> float:
-            val, cache[t] = profile(t, state["start"])
-            return 2 * (val - ll_hat) - _CHI2_95
-
-        while True:
+        step, prev, start, end = 0.05, t_hat, v_hat, None
+        while (t_hat + sign * step - limit) * sign <= 0:
             t = t_hat + sign * step
-            if (t - limit) * sign > 0:
+            val, w = profile(t, start)
+            if 2 * (val - ll_hat) > _CHI2_95:
+                # Safeguarded regula falsi on the deficit (smooth in t), robust to the small
+                # noise of the inner maximisations.
+                lo, hi = prev, t
+                f_lo, f_hi = -_CHI2_95 if prev == t_hat else None, 2 * (val - ll_hat) - _CHI2_95
+                if f_lo is None:
+                    f_lo = 2 * (profile(prev, start)[0] - ll_hat) - _CHI2_95
+                for _ in range(20):
+                    if abs(hi - lo) < 2e-4:
+                        break
+                    frac = min(max(-f_lo / (f_hi - f_lo), 0.1), 0.9) if f_hi > f_lo else 0.5
+                    mid = lo + (hi - lo) * frac
+                    val, w = profile(mid, start)
+                    f_mid = 2 * (val - ll_hat) - _CHI2_95
+                    if abs(f_mid) < 2e-3:
+                        lo = hi = mid
+                        break
+                    if f_mid > 0:
+                        hi, f_hi = mid, f_mid
+                    else:
+                        lo, f_lo, start = mid, f_mid, w
+                end = (lo + hi) / 2
                 break
-            if excess(t) > 0:
-                end = optimize.brentq(excess, min(prev, t), max(prev, t), xtol=1e-4)
-                break
-            prev, state["start"], step = t, cache[t], step * 1.6
-        ends.append(None if end is None else 10**end)
+            prev, start, step = t, w, step * 1.6
+        ends.append(None if end is None else float(10**end))
     return {
-        "threshold": 10**t_hat,
+        "threshold": float(10**t_hat),
         "ci95": (ends[0], ends[1]),
         "sigma": float(v_hat[3]),
         "beta": math.exp(v_hat[1]),
         "lapse": float(v_hat[2]),
     }
+
+
+def pooled_curve_by_condition(trials: Any, guess: float = 0.0) -> dict[str, dict[str, Any]]:
+    """Return :func:`pooled_curve_threshold` at 50 % per condition of a trial table.
+
+    Parameters
+    ----------
+    trials : pandas.DataFrame
+        Columns ``condition``, ``pixels``, ``recognized``.
+    guess : float
+        Guess rate.
+
+    Returns
+    -------
+    dict
+        Condition -> ``{"threshold", "ci95": [low, high], "sigma", "beta", "lapse"}``; a
+        condition whose pooled curve has no 50 % point inside the tested range (or that cannot be
+        fitted) is left out.
+    """
+    out: dict[str, dict[str, Any]] = {}
+    for cond, sel in trials.groupby(trials["condition"].astype(str), sort=True):
+        if guess >= 0.5:
+            continue
+        r = pooled_curve_threshold(sel["pixels"], sel["recognized"], guess=guess)
+        if r is not None:
+            out[str(cond)] = {**r, "ci95": list(r["ci95"])}
+    return out

@@ -46,13 +46,25 @@ __all__ = [
     "deviance_text",
     "QUESTION_SAMPLE",
     "QUESTION_POPULATION",
+    "QUESTION_FITTED",
+    "QUESTION_ODDS_RATIO",
+    "THRESHOLD_INTERVALS_NOTE",
+    "pooled_curve_text",
     "OR_INTERVALS_NOTE",
 ]
 
-#: The question a credible interval of a pooled fit answers (and a fixed-effects odds ratio's).
+#: The target of the pooled-curve interval (:mod:`analysis.pooled_curve`): where the subjects and
+#: objects tested, taken together, recognise half the time.
 QUESTION_SAMPLE: str = "these subjects and objects"
-#: The question a population interval answers (cluster-robust, or a mixed model's).
+#: The target of a population interval (cluster-robust, or a mixed model's).
 QUESTION_POPULATION: str = "the population of subjects and objects"
+#: The target of the pooled Weibull fit's credible interval: when subjects and objects differ,
+#: the pooled curve is not a Weibull and the fitted Weibull's 50 % point lies a few percent above
+#: the pooled curve's (benchmarks/validate_weibull_coverage.py).
+QUESTION_FITTED: str = "the Weibull fitted to the pooled responses"
+#: The target of the fixed-effects odds ratios: the logistic model fitted to the pooled responses
+#: of the subjects and objects tested (averaged over subjects, lapses included).
+QUESTION_ODDS_RATIO: str = "these subjects and objects, pooled"
 
 
 def p_text(p: float) -> str:
@@ -121,7 +133,7 @@ def threshold_text(t: dict[str, Any], *, side: bool = False, question: str = "")
     side : bool
         Add the image side (``about 114x76``) after a measured value in pixels.
     question : str
-        The question the credible interval answers (e.g. :data:`QUESTION_SAMPLE`), named after it.
+        The target the credible interval covers (e.g. :data:`QUESTION_FITTED`), named after it.
 
     Returns
     -------
@@ -138,6 +150,52 @@ def threshold_text(t: dict[str, Any], *, side: bool = False, question: str = "")
     return _unmeasured_text(
         t, "{:,.0f}", "px", with_reason=True, unidentified_note="; no interval is given"
     )
+
+
+def pooled_curve_text(pcv: dict[str, Any] | None) -> str:
+    """Return the pooled curve's 50 % point and interval (:mod:`analysis.pooled_curve`) as text.
+
+    Parameters
+    ----------
+    pcv : dict or None
+        ``threshold``, ``ci95`` (an end may be None: beyond one decade outside the tested
+        levels), ``sigma``.
+
+    Returns
+    -------
+    str
+        ``"8,210 px (95 % CI 7,010-9,700 px for these subjects and objects: their pooled curve,
+        profile likelihood, scale spread 0.25 log10 units)"``; ``""`` when ``pcv`` is None.
+    """
+    if not pcv:
+        return ""
+    lo, hi = pcv["ci95"]
+    ends = (
+        f"{'0' if lo is None else _px(lo)}-{'beyond the tested range' if hi is None else _px(hi)}"
+    )
+    return (
+        f"{_px(pcv['threshold'])} px (95 % CI {ends} px for {QUESTION_SAMPLE}: their pooled "
+        f"curve, profile likelihood, scale spread {pcv['sigma']:.2f} log10 units)"
+    )
+
+
+#: What each threshold interval covers, from benchmarks/validate_weibull_coverage.py.
+THRESHOLD_INTERVALS_NOTE: str = (
+    "Each interval names the target it covers. The credible interval covers "
+    f"'{QUESTION_FITTED}': the 50 % point of the Weibull that best fits the responses of the "
+    "subjects and objects tested. When they differ, their pooled curve (the mean of their "
+    "curves) is shallower than a Weibull, and the fitted Weibull's 50 % point lies a few "
+    "percent above the pooled curve's. The pooled-curve interval covers "
+    f"'{QUESTION_SAMPLE}': where the subjects and objects tested, taken together, recognise "
+    "half the time; it models their differences as a log-normal spread of the Weibull's scale "
+    "across subject x object cells (profile likelihood). The population 95 % interval of the ML "
+    "threshold (two-way cluster-robust over subjects and objects, t quantile with min(subjects, "
+    f"objects) - 1 df) covers '{QUESTION_POPULATION}': where it would be for other subjects "
+    "and objects drawn the same way. In simulated studies of this design with subjects and "
+    "objects that differ and with lapses (benchmarks/validate_weibull_coverage.py, "
+    "COVERAGE_FIGURES). A threshold the data do not identify is given by the tested levels "
+    "that bracket it, with no interval."
+)
 
 
 #: How the odds-ratio intervals were chosen, from benchmarks/validate_or_coverage.py.
@@ -183,7 +241,8 @@ def _or_text(
         wald = "ML Wald" if "ml_or" in intervals else "Wald"
         what = "Firth's estimate" if "firth_or" in intervals else "ML estimate"
         base = (
-            f"{intervals['or']:.3g} ({what}; {ci}; {wald} {p_text(o['p'])}; for {QUESTION_SAMPLE})"
+            f"{intervals['or']:.3g} ({what}; {ci}; {wald} {p_text(o['p'])}; "
+            f"for {QUESTION_ODDS_RATIO})"
         )
         if term in separated:
             return f"{base}; separated in these data (the ML odds ratio is infinite)"
@@ -191,7 +250,7 @@ def _or_text(
     ci = f"95 % CI {o['ci95'][0]:.3g}-{o['ci95'][1]:.3g} Wald"
     if profile:
         ci += f", {_or_ends(profile)} profile likelihood"
-    base = f"{o['or']:.3g} ({ci}; {p_text(o['p'])}; for {QUESTION_SAMPLE})"
+    base = f"{o['or']:.3g} ({ci}; {p_text(o['p'])}; for {QUESTION_ODDS_RATIO})"
     if term in separated:
         return (
             f"{base}; separated in these data (the ML odds ratio is infinite), Firth's penalised "
@@ -264,29 +323,17 @@ def render_markdown(
         + ", and the maximum-likelihood (ML) value, which the paper reports, is given beside the "
         "posterior median."
     )
-    lines.append(
-        "Each interval names the question it answers. The credible interval answers "
-        f"'{QUESTION_SAMPLE}': where is the pooled curve of the subjects and objects tested? "
-        "The population 95 % interval of the ML threshold (two-way cluster-robust over subjects "
-        "and objects, t quantile with min(subjects, objects) - 1 df) answers "
-        f"'{QUESTION_POPULATION}': where would it be for other subjects and objects drawn the "
-        "same way? In simulated studies of this design (benchmarks/validate_weibull_coverage.py, "
-        "200 studies per setting) the binomial credible interval covers its question's truth in "
-        "0.945 (identical observers) and 0.935 (subjects and objects that differ) of studies, "
-        "the beta-binomial one in 0.970 and 0.975 (too wide; hence not the default), and the "
-        "population interval covers the population threshold in 0.938 and 0.963; the credible "
-        "interval covers the population threshold in only 0.585 when subjects and objects "
-        "differ. A threshold the data do not identify is given by the tested levels that "
-        "bracket it, with no interval."
-    )
+    lines.append(THRESHOLD_INTERVALS_NOTE)
     lines.append("")
     for c in CONDITIONS:
         if c not in th:
             lines.append(f"- {c}: no trials, not fitted.")
             continue
         f = th[c]
-        t50 = threshold_text(f["threshold_50"], side=True, question=QUESTION_SAMPLE)
+        t50 = threshold_text(f["threshold_50"], side=True, question=QUESTION_FITTED)
         line = f"- {c}: 50 % threshold {t50}"
+        if f["threshold_50"]["status"] == "measured" and f.get("pooled_curve"):
+            line += f"; pooled curve {pooled_curve_text(f['pooled_curve'])}"
         pop = f.get("population_ci95", {}).get("0.5")
         if pop:
             line += f"; 95 % population interval {_ci(pop)} px for {QUESTION_POPULATION}"

@@ -197,17 +197,32 @@ def clopper_pearson(k: int, n: int) -> tuple[float, float]:
     return float(lo), float(hi)
 
 
-def run(reps: int, seed: int, setting: str, workers: int = 1) -> dict:
-    """Return coverage per (interval, term, question) and the bias of the estimates."""
+def run(reps: int, seed: int, setting: str, workers: int = 1, chunk: int = 0, report=None) -> dict:
+    """Return coverage per (interval, term, question) and the bias of the estimates.
+
+    With ``chunk`` > 0, ``report`` (if given) is called with the results so far every ``chunk``
+    studies.
+    """
     t0 = time.perf_counter()
     code = {"fixed": 0, "subjects": 1, "heterogeneous": 2}[setting]
     seqs = np.random.SeedSequence([seed, code]).spawn(reps)
     jobs = [(s, setting) for s in seqs]
-    if workers > 1:
-        with Pool(workers) as pool:
-            results = pool.map(_one, jobs, chunksize=25)
-    else:
-        results = [_one(j) for j in jobs]
+    size = chunk if chunk > 0 else reps
+    results: list = []
+    for start in range(0, reps, size):
+        part = jobs[start : start + size]
+        if workers > 1:
+            with Pool(workers) as pool:
+                results += pool.map(_one, part, chunksize=25)
+        else:
+            results += [_one(j) for j in part]
+        if report is not None and start + size < reps:
+            report(_summary(results, setting, t0))
+    return _summary(results, setting, t0)
+
+
+def _summary(results: list, setting: str, t0: float) -> dict:
+    """Return the coverage table of the studies scored so far."""
     done = [(tr, r) for tr, r in results if r is not None]
     questions = list(done[0][0])
     hits: dict[tuple[str, str, str], int] = {}
@@ -225,7 +240,7 @@ def run(reps: int, seed: int, setting: str, workers: int = 1) -> dict:
     m_done = len(done)
     return {
         "setting": setting,
-        "reps": reps,
+        "reps": len(results),
         "fitted": m_done,
         "truths": {
             q: {
@@ -251,25 +266,33 @@ def main() -> None:
     ap.add_argument(
         "--setting", choices=["fixed", "subjects", "heterogeneous", "all"], default="all"
     )
+    ap.add_argument("--chunk", type=int, default=0, help="print the table every CHUNK studies")
     a = ap.parse_args()
     settings = ["fixed", "subjects", "heterogeneous"] if a.setting == "all" else [a.setting]
     print("SIMULATED data (known odds ratios), paper design 6 x 20 x 8 x 2")
     for s in settings:
-        r = run(a.reps, a.seed, s, a.workers)
-        print(f"setting {s}: {r['fitted']} of {r['reps']} studies fitted ({r['seconds']:.0f} s)")
-        for q, v in r["truths"].items():
-            print(
-                f"  truth for '{q}' (mean over studies): "
-                + ", ".join(f"OR {t} {x:.3g}" for t, x in v.items())
-            )
-        for (name, t), (mu, sem) in r["bias"].items():
-            print(f"  {name} bias of the log OR, {t}: {100 * mu:+.1f} % (+- {100 * sem:.1f} % SE)")
-        print(f"  {'target':<17} {'term':<13} {'interval':<14} coverage  reps   SE")
-        for (m, t, q), (v, _) in sorted(r["coverage"].items(), key=lambda x: x[0][::-1]):
-            se = math.sqrt(v * (1 - v) / r["fitted"])
-            # The report's default (Firth profile) states 'these subjects and objects'.
-            mark = "*" if (m, q) == ("firth profile", "sample") else " "
-            print(f"{mark} {q:<17} {t:<13} {m:<14} {v:.3f}  {r['fitted']:>5}  {se:.4f}")
+        print_table(run(a.reps, a.seed, s, a.workers, a.chunk, report=print_table))
+
+
+def print_table(r: dict) -> None:
+    """Print one setting's truths, biases and coverage table (``*``: the report's default)."""
+    print(
+        f"setting {r['setting']}: {r['fitted']} of {r['reps']} studies fitted "
+        f"({r['seconds']:.0f} s)"
+    )
+    for q, v in r["truths"].items():
+        print(
+            f"  truth for '{q}' (mean over studies): "
+            + ", ".join(f"OR {t} {x:.3g}" for t, x in v.items())
+        )
+    for (name, t), (mu, sem) in r["bias"].items():
+        print(f"  {name} bias of the log OR, {t}: {100 * mu:+.1f} % (+- {100 * sem:.1f} % SE)")
+    print(f"  {'target':<17} {'term':<13} {'interval':<14} coverage  reps   SE")
+    for (m, t, q), (v, _) in sorted(r["coverage"].items(), key=lambda x: x[0][::-1]):
+        se = math.sqrt(v * (1 - v) / r["fitted"])
+        # The report's default (Firth profile) states 'these subjects and objects'.
+        mark = "*" if (m, q) == ("firth profile", "sample") else " "
+        print(f"{mark} {q:<17} {t:<13} {m:<14} {v:.3f}  {r['fitted']:>5}  {se:.4f}", flush=True)
 
 
 if __name__ == "__main__":

@@ -161,58 +161,80 @@ def _study(args: tuple[np.random.SeedSequence, str]) -> list[dict]:
     return out
 
 
-def run(reps: int, seed: int, kind: str, overdispersion: bool = False, workers: int = 1) -> dict:
-    """Return coverage of every interval for every target in ``reps`` studies of ``kind``."""
+def run(
+    reps: int,
+    seed: int,
+    kind: str,
+    overdispersion: bool = False,
+    workers: int = 1,
+    chunk: int = 0,
+    report=None,
+) -> dict:
+    """Return coverage of every interval for every target in ``reps`` studies of ``kind``.
+
+    With ``chunk`` > 0 the studies run in chunks of that many, and ``report`` (if given) is
+    called with the results so far after each chunk.
+    """
     hetero = kind == "heterogeneous"
     sd = math.hypot(HETERO["subject_log10_sd"], HETERO["object_log10_sd"]) if hetero else 0.0
     population = {c: population_threshold(o, sd) for c, o in TRUTH.items()}
     t0 = time.perf_counter()
-    args = [(s, kind) for s in np.random.SeedSequence(seed).spawn(reps)]
-    if workers > 1:
-        with Pool(workers) as pool:
-            studies = pool.map(_study, args, chunksize=5)
-    else:
-        studies = [_study(a) for a in args]
-    rows = [r for st in studies for r in st]
-    jobs = [
-        FitJob(
-            r["condition"],
-            *r["data"][:3],
-            0.0,
-            default_prior(r["data"][0]),
-            r["data"][3],
-            overdispersion,
-        )
-        for r in rows
-    ]
-    fits = fit_batch(jobs, rng=seed)
+    seqs = np.random.SeedSequence(seed).spawn(reps)
+    size = chunk if chunk > 0 else reps
     hits: dict[tuple[str, str], int] = {}
     per_cond: dict[tuple[str, str, str], int] = {}
-    for r, f in zip(rows, fits, strict=True):
-        r["ci"]["credible"] = f.threshold(0.5).ci95
-        r["truth"]["population"] = population[r["condition"]]
-        for i, ci in r["ci"].items():
-            for t, v in r["truth"].items():
-                ok = ci is not None and (ci[0] or 0.0) <= v <= (ci[1] or math.inf)
-                hits[i, t] = hits.get((i, t), 0) + int(ok)
-                per_cond[i, t, r["condition"]] = per_cond.get((i, t, r["condition"]), 0) + int(ok)
-    n = len(rows)
-    ratio = [
-        math.log10(r["truth"]["fitted Weibull"] / r["truth"]["these subjects and objects"])
-        for r in rows
-    ]
-    return {
-        "kind": kind,
-        "overdispersion": overdispersion,
-        "reps": reps,
-        "n": n,
-        "coverage": {k: v / n for k, v in hits.items()},
-        "by_condition": {k: v / (n // len(TRUTH)) for k, v in per_cond.items()},
-        "weibull_vs_pooled": 10 ** float(np.mean(ratio)),
-        "population_truth": population,
-        "converged": float(np.mean([f.converged for f in fits])),
-        "seconds": time.perf_counter() - t0,
-    }
+    ratio: list[float] = []
+    converged: list[bool] = []
+    n = 0
+    for start in range(0, reps, size):
+        args = [(s, kind) for s in seqs[start : start + size]]
+        if workers > 1:
+            with Pool(workers) as pool:
+                studies = pool.map(_study, args, chunksize=5)
+        else:
+            studies = [_study(a) for a in args]
+        rows = [r for st in studies for r in st]
+        jobs = [
+            FitJob(
+                r["condition"],
+                *r["data"][:3],
+                0.0,
+                default_prior(r["data"][0]),
+                r["data"][3],
+                overdispersion,
+            )
+            for r in rows
+        ]
+        fits = fit_batch(jobs, rng=seed + start)
+        for r, f in zip(rows, fits, strict=True):
+            r["ci"]["credible"] = f.threshold(0.5).ci95
+            r["truth"]["population"] = population[r["condition"]]
+            converged.append(bool(f.converged))
+            ratio.append(
+                math.log10(r["truth"]["fitted Weibull"] / r["truth"]["these subjects and objects"])
+            )
+            for i, ci in r["ci"].items():
+                for t, v in r["truth"].items():
+                    ok = ci is not None and (ci[0] or 0.0) <= v <= (ci[1] or math.inf)
+                    hits[i, t] = hits.get((i, t), 0) + int(ok)
+                    key = (i, t, r["condition"])
+                    per_cond[key] = per_cond.get(key, 0) + int(ok)
+        n += len(rows)
+        out = {
+            "kind": kind,
+            "overdispersion": overdispersion,
+            "reps": n // len(TRUTH),
+            "n": n,
+            "coverage": {k: v / n for k, v in hits.items()},
+            "by_condition": {k: v / (n // len(TRUTH)) for k, v in per_cond.items()},
+            "weibull_vs_pooled": 10 ** float(np.mean(ratio)),
+            "population_truth": population,
+            "converged": float(np.mean(converged)),
+            "seconds": time.perf_counter() - t0,
+        }
+        if report is not None and start + size < reps:
+            report(out)
+    return out
 
 
 def print_table(r: dict) -> None:
@@ -230,7 +252,7 @@ def print_table(r: dict) -> None:
             se = math.sqrt(v * (1 - v) / r["n"])
             mark = "*" if STATED[i] == t else " "
             conds = "  ".join(f"{r['by_condition'][i, t, c]:.3f}".ljust(len(c)) for c in TRUTH)
-            print(f"{mark} {i:<13} {t:<28} {v:.3f}  {r['n']:>5}  {se:.4f}  {conds}")
+            print(f"{mark} {i:<13} {t:<28} {v:.3f}  {r['n']:>5}  {se:.4f}  {conds}", flush=True)
 
 
 def main() -> None:
@@ -243,11 +265,14 @@ def main() -> None:
     ap.add_argument(
         "--overdispersion", action="store_true", help="beta-binomial credible intervals"
     )
+    ap.add_argument("--chunk", type=int, default=0, help="print the table every CHUNK studies")
     a = ap.parse_args()
     kinds = ["ideal", "heterogeneous"] if a.kind == "both" else [a.kind]
     print("SIMULATED data (known observers), paper design 6 x 20 x 8 x 2")
     for kind in kinds:
-        print_table(run(a.reps, a.seed, kind, a.overdispersion, a.workers))
+        print_table(
+            run(a.reps, a.seed, kind, a.overdispersion, a.workers, a.chunk, report=print_table)
+        )
 
 
 if __name__ == "__main__":
