@@ -289,7 +289,13 @@ def _ci_text(ci: list) -> str:
 
 
 def _print_summary(result, folder: Path) -> None:
-    from analysis.report import QUESTION_FITTED, p_text, pooled_curve_text, threshold_text
+    from analysis.report import (
+        QUESTION_FITTED,
+        QUESTION_ODDS_RATIO,
+        p_text,
+        pooled_curve_text,
+        threshold_text,
+    )
 
     if getattr(result, "kind", "") == "conditions":  # a comparison of k conditions
         from analysis.conditions_report import print_conditions_summary
@@ -323,7 +329,7 @@ def _print_summary(result, folder: Path) -> None:
         sep = "; separated in these data, ML infinite" if term in lo["separated"] else ""
         typer.echo(
             f"odds ratio {term:>12}: {iv['or']:.3g} ({_ci_text(iv['ci95'])}, "
-            f"Wald {p_text(o['p'])}; {iv['estimator']}{sep})"
+            f"Wald {p_text(o['p'])}; {iv['estimator']}; for {QUESTION_ODDS_RATIO}{sep})"
         )
     cl = lo["classification"]
     if lo["method"] != "none":

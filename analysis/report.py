@@ -159,13 +159,13 @@ def pooled_curve_text(pcv: dict[str, Any] | None) -> str:
     ----------
     pcv : dict or None
         ``threshold``, ``ci95`` (an end may be None: beyond one decade outside the tested
-        levels), ``sigma``.
+        levels), ``asymmetry``.
 
     Returns
     -------
     str
-        ``"8,210 px (95 % CI 7,010-9,700 px for these subjects and objects: their pooled curve,
-        profile likelihood, scale spread 0.25 log10 units)"``; ``""`` when ``pcv`` is None.
+        ``"8,210 px (95 % CI 7,010-9,700 px for these subjects and objects; asymmetric curve,
+        lambda 0.36, profile likelihood)"``; ``""`` when ``pcv`` is None.
     """
     if not pcv:
         return ""
@@ -174,8 +174,8 @@ def pooled_curve_text(pcv: dict[str, Any] | None) -> str:
         f"{'0' if lo is None else _px(lo)}-{'beyond the tested range' if hi is None else _px(hi)}"
     )
     return (
-        f"{_px(pcv['threshold'])} px (95 % CI {ends} px for {QUESTION_SAMPLE}: their pooled "
-        f"curve, profile likelihood, scale spread {pcv['sigma']:.2f} log10 units)"
+        f"{_px(pcv['threshold'])} px (95 % CI {ends} px for {QUESTION_SAMPLE}; asymmetric "
+        f"curve, lambda {pcv['asymmetry']:.2f}, profile likelihood)"
     )
 
 
@@ -187,8 +187,9 @@ THRESHOLD_INTERVALS_NOTE: str = (
     "curves) is shallower than a Weibull, and the fitted Weibull's 50 % point lies a few "
     "percent above the pooled curve's. The pooled-curve interval covers "
     f"'{QUESTION_SAMPLE}': where the subjects and objects tested, taken together, recognise "
-    "half the time; it models their differences as a log-normal spread of the Weibull's scale "
-    "across subject x object cells (profile likelihood). The population 95 % interval of the ML "
+    "half the time, by a curve whose asymmetry is free (Aranda-Ordaz's family: lambda 0 is the "
+    "Weibull, 1 the log-logistic), so that it can take the shape that differing subjects and "
+    "objects give the pooled curve (profile likelihood). The population 95 % interval of the ML "
     "threshold (two-way cluster-robust over subjects and objects, t quantile with min(subjects, "
     f"objects) - 1 df) covers '{QUESTION_POPULATION}': where it would be for other subjects "
     "and objects drawn the same way. In simulated studies of this design with subjects and "

@@ -60,35 +60,39 @@ def test_pooled_curve_point_is_where_these_cells_recognise_half_the_time():
 
 
 def test_pooled_curve_interval_is_a_likelihood_ratio_interval():
-    # Plain Weibull data (no spread): the profile interval's ends are where the likelihood ratio
-    # against the ML fit is 3.84, checked with a brute-force maximisation over the nuisance
-    # parameters on a grid (an independent method).
+    # The profile interval's ends are where the likelihood ratio against the best fit is 3.84:
+    # checked with a second implementation of the curve (Aranda-Ordaz written as
+    # 1 - exp(-log(1 + lam e^z) / lam), the location found by brentq for each threshold),
+    # maximised over slope, lapse and asymmetry by Powell's method from several starts.
     rng = np.random.default_rng(3)
-    p, truth = _pooled_curve(np.array([8000.0]), 1.2, 0.03)
+    p, _ = _pooled_curve(8000 * 10 ** (0.2 * rng.standard_normal(30)), 1.2, 0.03)
     x, y = _trials(p, 120, rng)
     r = pooled_curve_threshold(x, y)
     lv, k, n = aggregate(x, y)
-    u = np.log10(lv)
 
-    def ll(t, beta, lapse, sigma):
-        from analysis.pooled_curve import _core, _offset
+    def curve(d, s, lapse, lam):
+        z = np.minimum(s * np.asarray(d, float), 700.0)
+        core = (
+            1 - np.exp(-np.log1p(lam * np.exp(z)) / lam) if lam > 1e-6 else 1 - np.exp(-np.exp(z))
+        )
+        return (1 - lapse) * core
 
-        a = t - _offset(0.5 / (1 - lapse), beta, sigma)
-        q = np.clip((1 - lapse) * _core(u - a, beta, sigma), 1e-12, 1 - 1e-12)
+    def ll(t, s, lapse, lam):
+        a = optimize.brentq(lambda a: curve(t - a, s, lapse, lam) - 0.5, t - 20, t + 20)
+        q = np.clip(curve(np.log10(lv) - a, s, lapse, lam), 1e-12, 1 - 1e-12)
         return float(np.sum(k * np.log(q) + (n - k) * np.log1p(-q)))
 
     def prof(t):
         best = -math.inf
-        for b in (0.8, 1.2, 1.8):
-            for s in (0.0, 0.3):
-                f = optimize.minimize(
-                    lambda v: -ll(t, math.exp(v[0]), v[1], v[2]),
-                    [math.log(b), 0.03, s],
-                    method="Nelder-Mead",
-                    bounds=[(-3, 4), (0, 0.2), (0, 1)],
-                    options={"xatol": 1e-7, "fatol": 1e-9, "maxiter": 4000},
-                )
-                best = max(best, -f.fun)
+        for s0, lam0 in ((r["slope"], r["asymmetry"]), (2.5, 0.0), (2.5, 1.0), (5.0, 3.0)):
+            f = optimize.minimize(
+                lambda v: -ll(t, math.exp(v[0]), v[1], v[2]),
+                [math.log(s0), r["lapse"], lam0],
+                method="Powell",
+                bounds=[(-3, 5), (0, 0.2), (0, 5)],
+                options={"xtol": 1e-6, "ftol": 1e-10},
+            )
+            best = max(best, -f.fun)
         return best
 
     top = prof(math.log10(r["threshold"]))
@@ -131,7 +135,8 @@ def test_every_printed_interval_names_its_target(small_result):
     measured = [c for c, f in small_result.thresholds.items() if f.threshold(0.5).measured]
     assert measured and all(c in small_result.pooled_curve for c in measured)
     assert "95 % CrI" in text and f"for {QUESTION_FITTED};" in text
-    assert f"px for {QUESTION_SAMPLE}: their pooled curve" in text
+    assert f"; pooled curve {small_result.pooled_curve[measured[0]]['threshold']:,.0f} px" in text
+    assert f"px for {QUESTION_SAMPLE}; asymmetric curve" in text
     assert f"for {QUESTION_POPULATION}" in text
     assert f"for {QUESTION_ODDS_RATIO})" in text
     assert THRESHOLD_INTERVALS_NOTE in text and "COVERAGE" not in text
