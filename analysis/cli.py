@@ -292,6 +292,7 @@ def _print_summary(result, folder: Path) -> None:
     from analysis.report import (
         QUESTION_FITTED,
         QUESTION_ODDS_RATIO,
+        QUESTION_POPULATION,
         p_text,
         pooled_curve_text,
         threshold_text,
@@ -312,7 +313,11 @@ def _print_summary(result, folder: Path) -> None:
     for c, t in r["thresholds"].items():
         conv = "" if t["converged"] else "  NOT CONVERGED"
         pop = t.get("population_ci95", {}).get("0.5")
-        pop = f"; population 95% interval {pop[0]:,.0f}-{pop[1]:,.0f} px" if pop else ""
+        pop = (
+            f"; 95% interval {pop[0]:,.0f}-{pop[1]:,.0f} px for {QUESTION_POPULATION}"
+            if pop
+            else ""
+        )
         t50 = threshold_text(t["threshold_50"], question=QUESTION_FITTED)
         measured = t["threshold_50"]["status"] == "measured"
         pcv = f"; pooled curve {pooled_curve_text(t.get('pooled_curve'))}" if measured else ""

@@ -51,11 +51,10 @@ class AnalysisOptions:
         Beta(a, b) prior of the lapse rate for the default prior (ignored with ``prior``).
     overdispersion : bool
         Beta-binomial posteriors (free scale, psignifit 4 style) for the pooled fits; per-subject
-        fits stay binomial. Off by default: the binomial credible interval is the one that
-        covers the pooled threshold of the subjects and objects tested in 0.93-0.97 of simulated
-        studies (0.945 ideal, 0.935 heterogeneous), the beta-binomial one over-covers (0.970,
-        0.975); the population question has its own interval (``population_ci``, 0.938 and
-        0.963). Figures from benchmarks/validate_weibull_coverage.py, 200 studies per setting.
+        fits stay binomial. Off by default: the binomial credible interval covers its target,
+        the 50 % point of the Weibull fitted to the pooled responses, in 0.93-0.97 of simulated
+        studies (benchmarks/validate_weibull_coverage.py); the subjects and objects tested have
+        their own interval (``pooled_curve``), and so has the population (``population_ci``).
     """
 
     pc: float = 0.5

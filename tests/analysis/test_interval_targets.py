@@ -144,3 +144,20 @@ def test_every_printed_interval_names_its_target(small_result):
     again = AnalysisResult.from_dict(small_result.to_dict())
     assert again.pooled_curve == small_result.pooled_curve
     assert small_result.results_json()["thresholds"][measured[0]]["pooled_curve"]["ci95"]
+
+
+def test_console_names_every_interval_target(small_result, tmp_path, capsys):
+    from analysis.cli import _print_summary
+    from analysis.report import (
+        QUESTION_FITTED,
+        QUESTION_ODDS_RATIO,
+        QUESTION_POPULATION,
+        QUESTION_SAMPLE,
+    )
+
+    _print_summary(small_result, tmp_path)
+    out = capsys.readouterr().out
+    line = next(x for x in out.splitlines() if x.startswith("50% threshold   cluttered"))
+    for target in (QUESTION_FITTED, QUESTION_SAMPLE, QUESTION_POPULATION):
+        assert f"for {target}" in line
+    assert out.count(f"for {QUESTION_ODDS_RATIO}") == 2
