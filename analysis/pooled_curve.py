@@ -134,11 +134,16 @@ def _fit(u: np.ndarray, k: np.ndarray, n: np.ndarray, pc: float, guess: float) -
     ts = np.linspace(u.min(), u.max(), 41)
     ls = np.linspace(nuis[0][0], nuis[0][1], 15)
     lams = (0.0, 0.5, 1.5, 4.0)
+    f0 = (pc - guess) / (1 - guess - 0.02)
     starts = []
     for lam in lams:
-        vals = [(nll(t, np.array([lsv, 0.02, lam])), t, lsv) for t in ts for lsv in ls]
-        v, t, lsv = min(vals)
-        starts.append((v, t, np.array([lsv, 0.02, lam])))
+        tt, ll = np.meshgrid(ts, ls, indexing="ij")
+        s = np.exp(ll)[..., None]
+        a = tt[..., None] - _ppf(f0, lam) / s
+        p = np.clip(guess + (1 - guess - 0.02) * _cdf(s * (u - a), lam), 1e-12, 1 - 1e-12)
+        nlls = -np.sum(special.xlogy(k, p) + special.xlogy(n - k, 1 - p), axis=-1)
+        i, j = np.unravel_index(int(np.argmin(nlls)), nlls.shape)
+        starts.append((float(nlls[i, j]), float(ts[i]), np.array([ls[j], 0.02, lam])))
     best = None
     for _, t, w in sorted(starts, key=lambda z: z[0])[:3]:
         cand = polish(t, w, True)

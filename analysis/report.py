@@ -192,27 +192,37 @@ THRESHOLD_INTERVALS_NOTE: str = (
     "objects give the pooled curve (profile likelihood). The population 95 % interval of the ML "
     "threshold (two-way cluster-robust over subjects and objects, t quantile with min(subjects, "
     f"objects) - 1 df) covers '{QUESTION_POPULATION}': where it would be for other subjects "
-    "and objects drawn the same way. In simulated studies of this design with subjects and "
-    "objects that differ and with lapses (benchmarks/validate_weibull_coverage.py, "
-    "COVERAGE_FIGURES). A threshold the data do not identify is given by the tested levels "
-    "that bracket it, with no interval."
+    "and objects drawn the same way. In simulated studies of this design "
+    "(benchmarks/validate_weibull_coverage.py; binomial standard error about 0.01) with "
+    "subjects and objects that differ and subjects that lapse (HET_N fits), each interval "
+    "covered its own target in HET_CRED (credible), HET_POOL (pooled curve) and HET_POP "
+    "(population) of fits, and with identical observers (IDE_N fits) in IDE_CRED, IDE_POOL and "
+    "IDE_POP; the credible interval covered the pooled curve's 50 % point in only HET_CRED_S "
+    "(the fitted Weibull sat HET_RATIO times above it on average) and the population's in "
+    "HET_CRED_P. A threshold the data do not identify is given by the tested levels that "
+    "bracket it, with no interval."
 )
 
 
 #: How the odds-ratio intervals were chosen, from benchmarks/validate_or_coverage.py.
 OR_INTERVALS_NOTE: str = (
-    "Odds-ratio intervals answer 'these subjects and objects' (objects as dummies, subjects "
-    "pooled as tested). The first interval is the default: the profile penalised likelihood "
+    f"Odds-ratio intervals cover the odds ratio of '{QUESTION_ODDS_RATIO}': that of the logistic "
+    "model fitted to the responses of the subjects and objects tested (objects as dummies, "
+    "subjects pooled), which averages over subjects and includes their lapses, so it is smaller "
+    "than any one subject's. The first interval is the default: the profile penalised likelihood "
     "around Firth's estimate (Heinze & Schemper 2002). In 2,000 simulated studies of the "
     "paper's design (6 subjects x 20 objects x 8 levels x 2 conditions) from its model "
     "(benchmarks/validate_or_coverage.py) the ML log odds ratios "
     "are biased away from 0 (+2.6 % background, +2.8 % per log10 pixels, Firth's -0.2 % and "
     "-0.1 %), and 95 % intervals covered the true odds ratio in 0.949 and 0.937 (Wald), 0.947 "
     "and 0.925 (ML profile likelihood), and 0.958 and 0.949 (Firth profile, the default) of "
-    "studies (background, log10 pixels; Monte-Carlo error +-0.01). When subjects differ "
-    "(random intercepts, SD 1 log-odds unit) the default still covers the odds ratio of these "
-    "subjects pooled in 0.956 and 0.963 of studies, but that of the population of subjects in "
-    "only 0.91 and 0.75: for the population, see the mixed model (confocal analyze --mixed)."
+    "studies (background, log10 pixels; Monte-Carlo error +-0.01). In OR_N simulated studies "
+    "where subjects differ (random intercepts, SD 1 log-odds unit), objects are drawn afresh and "
+    "each subject lapses (0-10 %), the default covered the odds ratio of these subjects and "
+    "objects, pooled, in OR_BG and OR_PX of studies (ML Wald OR_WBG and OR_WPX; binomial "
+    "standard error about OR_SE), the subject-specific odds ratio that generated the data in "
+    "only OR_SBG and OR_SPX, and the population's (subjects integrated out) in OR_PBG and "
+    "OR_PPX: for the population, see the mixed model (confocal analyze --mixed)."
 )
 
 

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import re
 import warnings
 
 import numpy as np
@@ -139,7 +140,13 @@ def test_every_printed_interval_names_its_target(small_result):
     assert f"px for {QUESTION_SAMPLE}; asymmetric curve" in text
     assert f"for {QUESTION_POPULATION}" in text
     assert f"for {QUESTION_ODDS_RATIO})" in text
-    assert THRESHOLD_INTERVALS_NOTE in text and "COVERAGE" not in text
+    from analysis.report import OR_INTERVALS_NOTE
+
+    assert THRESHOLD_INTERVALS_NOTE in text and OR_INTERVALS_NOTE in text
+    # the notes state measured coverages, no unfilled placeholders
+    for note in (THRESHOLD_INTERVALS_NOTE, OR_INTERVALS_NOTE):
+        assert not re.search(r"\b[A-Z]{2,}_[A-Z_]+\b", note)
+        assert re.search(r"0\.9[3-7]\d", note)
     # carried through results.json and the saved result
     again = AnalysisResult.from_dict(small_result.to_dict())
     assert again.pooled_curve == small_result.pooled_curve
