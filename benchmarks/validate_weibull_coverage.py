@@ -27,10 +27,28 @@ Prints a table -- interval, target, coverage, reps (fitted curves), binomial sta
 for every interval against every target; the line the report prints for each interval is marked
 ``*``. A calibrated interval gives 0.93-0.97. Simulated data only (labelled so in the output).
 
+Measured (seed 2015, binomial credible interval, 1 worker; on the shared 2-core machine 28 min
+for 500 heterogeneous studies, 17 min for 250 ideal ones), coverage of each printed interval for
+its stated target (reps = fitted curves, SE = binomial standard error):
+
+================  ===========================  ===============  ===============
+interval          stated target                heterogeneous    ideal
+================  ===========================  ===============  ===============
+credible          fitted Weibull               0.947 (1000,     0.948 (500,
+                                               SE 0.007)        SE 0.010)
+pooled curve      these subjects and objects   0.957 (0.006)    0.942 (0.010)
+population        population                   0.954 (0.007)    0.940 (0.011)
+================  ===========================  ===============  ===============
+
+Heterogeneous, the other targets: the credible interval covers the pooled curve's 50 % point in
+0.918 (the fitted Weibull's 50 % point is 1.046 times the pooled curve's, geometric mean) and the
+population's in 0.564; the population interval covers the two sample targets in 0.999-1.000 (far
+too wide for them); the pooled-curve interval covers the population's in 0.648.
+
 Usage::
 
     python benchmarks/validate_weibull_coverage.py [--reps 500] [--seed 2015] [--workers 1]
-        [--kind ideal|heterogeneous|both] [--overdispersion] [--odds-ratios]
+        [--kind ideal|heterogeneous|both] [--overdispersion] [--chunk 25]
 """
 
 from __future__ import annotations
