@@ -290,7 +290,14 @@ def _ci_text(ci: list) -> str:
 
 
 def _print_summary(result, folder: Path) -> None:
-    from analysis.report import p_text, threshold_text
+    from analysis.report import (
+        QUESTION_FITTED,
+        QUESTION_ODDS_RATIO,
+        QUESTION_POPULATION,
+        p_text,
+        pooled_curve_text,
+        threshold_text,
+    )
 
     if getattr(result, "kind", "") == "conditions":  # a comparison of k conditions
         from analysis.conditions_report import print_conditions_summary
@@ -307,8 +314,15 @@ def _print_summary(result, folder: Path) -> None:
     for c, t in r["thresholds"].items():
         conv = "" if t["converged"] else "  NOT CONVERGED"
         pop = t.get("population_ci95", {}).get("0.5")
-        pop = f"; population 95% interval {pop[0]:,.0f}-{pop[1]:,.0f} px" if pop else ""
-        typer.echo(f"50% threshold {c:>11}: {threshold_text(t['threshold_50'])}{pop}{conv}")
+        pop = (
+            f"; 95% interval {pop[0]:,.0f}-{pop[1]:,.0f} px for {QUESTION_POPULATION}"
+            if pop
+            else ""
+        )
+        t50 = threshold_text(t["threshold_50"], question=QUESTION_FITTED)
+        measured = t["threshold_50"]["status"] == "measured"
+        pcv = f"; pooled curve {pooled_curve_text(t.get('pooled_curve'))}" if measured else ""
+        typer.echo(f"50% threshold {c:>11}: {t50}{pcv if t.get('pooled_curve') else ''}{pop}{conv}")
         if "threshold_pc" in t:
             typer.echo(f"{100 * r['pc']:g}% threshold {c:>11}: {threshold_text(t['threshold_pc'])}")
     lo = r["logistic"]
@@ -321,7 +335,7 @@ def _print_summary(result, folder: Path) -> None:
         sep = "; separated in these data, ML infinite" if term in lo["separated"] else ""
         typer.echo(
             f"odds ratio {term:>12}: {iv['or']:.3g} ({_ci_text(iv['ci95'])}, "
-            f"Wald {p_text(o['p'])}; {iv['estimator']}{sep})"
+            f"Wald {p_text(o['p'])}; {iv['estimator']}; for {QUESTION_ODDS_RATIO}{sep})"
         )
     cl = lo["classification"]
     if lo["method"] != "none":

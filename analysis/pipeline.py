@@ -19,6 +19,7 @@ from analysis.data import CONDITIONS, TrialTable, file_record, json_safe, object
 from analysis.errors import DataError
 from analysis.logistic import LogisticFit, fit_logistic, predict_from_odds_ratio
 from analysis.mixed import MixedFit, fit_mixed
+from analysis.pooled_curve import pooled_curve_by_condition
 from analysis.weibull import PsychometricPrior, WeibullFit
 from analysis.weibull.batch import sample_batch
 from analysis.weibull.fit import group_fit_jobs
@@ -51,11 +52,10 @@ class AnalysisOptions:
         Beta(a, b) prior of the lapse rate for the default prior (ignored with ``prior``).
     overdispersion : bool
         Beta-binomial posteriors (free scale, psignifit 4 style) for the pooled fits; per-subject
-        fits stay binomial. Off by default: the binomial credible interval is the one that
-        covers the pooled threshold of the subjects and objects tested in 0.93-0.97 of simulated
-        studies (0.945 ideal, 0.935 heterogeneous), the beta-binomial one over-covers (0.970,
-        0.975); the population question has its own interval (``population_ci``, 0.938 and
-        0.963). Figures from benchmarks/validate_weibull_coverage.py, 200 studies per setting.
+        fits stay binomial. Off by default: the binomial credible interval covers its target,
+        the 50 % point of the Weibull fitted to the pooled responses, in 0.93-0.97 of simulated
+        studies (benchmarks/validate_weibull_coverage.py); the subjects and objects tested have
+        their own interval (``pooled_curve``), and so has the population (``population_ci``).
     """
 
     pc: float = 0.5
@@ -108,6 +108,9 @@ class AnalysisResult:
         (:func:`analysis.cluster.cluster_threshold_ci`), at 50 % and at ``pc``.
     simulated_sessions : tuple of str
         Sessions answered by a simulated observer (from :attr:`TrialTable.simulated_sessions`).
+    pooled_curve : dict of str to dict
+        Per pooled condition, the 50 % point of the pooled curve of the subjects and objects
+        tested and its 95 % interval (:func:`analysis.pooled_curve.pooled_curve_threshold`).
     """
 
     options: AnalysisOptions
@@ -123,6 +126,7 @@ class AnalysisResult:
     warnings: tuple[str, ...] = field(default_factory=tuple)
     population_ci: dict[str, dict[str, Any]] = field(default_factory=dict)
     simulated_sessions: tuple[str, ...] = ()
+    pooled_curve: dict[str, dict[str, Any]] = field(default_factory=dict)
 
     def predictions(self) -> dict[str, Any] | None:
         """Return Eq. 1 applied with the reported background odds ratio (None when not estimated).
@@ -158,7 +162,11 @@ class AnalysisResult:
             "simulated_sessions": list(self.simulated_sessions),
             "n_training_excluded": self.n_training_excluded,
             "thresholds": {
-                c: {**f.summary(pc), "population_ci95": self.population_ci.get(c, {})}
+                c: {
+                    **f.summary(pc),
+                    "population_ci95": self.population_ci.get(c, {}),
+                    "pooled_curve": self.pooled_curve.get(c),
+                }
                 for c, f in self.thresholds.items()
             },
             "subject_thresholds": {
@@ -215,6 +223,7 @@ class AnalysisResult:
             "warnings": list(self.warnings),
             "population_ci": self.population_ci,
             "simulated_sessions": list(self.simulated_sessions),
+            "pooled_curve": self.pooled_curve,
         }
 
     @classmethod
@@ -240,6 +249,7 @@ class AnalysisResult:
             warnings=tuple(d.get("warnings", ())),
             population_ci=d.get("population_ci", {}),
             simulated_sessions=tuple(d.get("simulated_sessions", ())),
+            pooled_curve=d.get("pooled_curve", {}),
         )
 
 
@@ -411,6 +421,7 @@ def analyze(
         mixed=mixed,
         first_recognized=first_recognized(trials),
         population_ci=_population(trials, pooled, opts),
+        pooled_curve=pooled_curve_by_condition(trials, opts.guess),
         warnings=tuple(dict.fromkeys(notes)),
         simulated_sessions=table.simulated_sessions,
     )
