@@ -224,7 +224,7 @@ def scan_one(
     ``confocal view`` use (:func:`stimuli.planechoice.detect_planes`), and the plane the builder
     would choose is named. With ``emit``, the answer (warnings, planes, the builder's plane) is
     passed to it line by line as soon as it is known, *before* the folder is written (the score
-    plot needs matplotlib, which is imported only then), and only the closing line is returned.
+    plot, refocusing and de-cluttering come after it), and only the closing line is returned.
     """
     import numpy as np
 
@@ -350,7 +350,7 @@ def scan_one(
             save_png(edges, tmp / f"{stem}_edges.png")
             save_png(cells, tmp / f"{stem}_grid.png")
         if opts.get("plot", True):
-            from stimuli.scanplot import plot_scores  # matplotlib: after the answer is out
+            from stimuli.scanplot import plot_scores  # after the answer is out
 
             plot_scores(scan, tmp / "scores.png")
     span = f"{float(np.min(ds)):.4g}..{float(np.max(ds)):.4g} px/view"
