@@ -10,6 +10,7 @@ numpy and the pipeline are imported inside the functions: ``--help`` stays light
 
 from __future__ import annotations
 
+import contextlib
 import json
 import math
 import warnings
@@ -303,9 +304,10 @@ def scan_one(
     centre = lf.centre_view()
     images = []
     edge_depth: dict = {}  # per plane: the edges the views could not measure (1-D, depth mode)
-    # after a numpy sweep (a small capture), refocus and de-clutter in numpy too: the same
-    # images to the bit, without numba's start-up (which would cost more than the work)
-    with numpy_kernels():
+    # after a numpy sweep (a small capture: the compiled loops are not loaded), refocus and
+    # de-clutter in numpy too: the same images to the bit, without numba's start-up (which
+    # would cost more than the work); the Haar scan says nothing about the capture's size
+    with numpy_kernels() if method == "agreement" else contextlib.nullcontext():
         for k, p in enumerate(scan.peaks):
             img = np.clip(refocus(lf, p.disparity_px), 0.0, 1.0).astype(np.float32)
             focus, t = None, threshold
