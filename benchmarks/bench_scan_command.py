@@ -1,16 +1,21 @@
 """Benchmark: ``confocal lightfield scan`` end to end, time to its answer and to its exit.
 
-Each run is a fresh process (imports, reading the capture, the plane scan and the plane choice
-all count), timed from its start to the line ``stimuli build --plane auto would use ...`` (the
-answer) and to its exit (after the confocal, edge and grid PNGs of every plane are written).
-The baseline ``python -c "import numpy"`` runs in the same loop, interleaved, so the ratio
-compares across machines. The goal is an answer under 1 s on a shared light field (the
-Lytro 7x7 capture by default: ``$CONFOCAL_DATA/lightfield/lytro_illum_2067_epinet``).
+Each run is a fresh process with the command's default options (imports, reading the capture,
+the plane scan and the plane choice all count), timed from its start to the line ``stimuli
+build --plane auto would use ...`` (the answer) and to its exit (after the confocal, edge and
+grid PNGs of every plane and ``scores.png`` are written); the process's CPU time (user + sys)
+is read from the operating system at its exit, which a shared machine's load inflates far less
+than the wall time. The baselines ``python -c pass`` and ``python -c "import numpy"`` run in the
+same loop, interleaved, so the ratios compare across machines. The goal is an exit under 1 s
+on a shared light field (the Lytro 7x7 capture by default:
+``$CONFOCAL_DATA/lightfield/lytro_illum_2067_epinet``). The report also names the heavy modules
+(numba, scipy, matplotlib) the scan process imported.
 
 ``--sweep compiled`` forces the compiled plane sweep (numba's start-up, about 0.75 s per
 process, then comes before the answer) to show what the numpy sweep saves.
 
-Run: ``python benchmarks/bench_scan_command.py [LIGHT_FIELD] [--repeat 5] [--sweep compiled]``.
+Run: ``python benchmarks/bench_scan_command.py [LIGHT_FIELD] [--repeat 5] [--sweep compiled]
+[--no-plot]``.
 """
 
 from __future__ import annotations
@@ -41,14 +46,28 @@ _RUNNER = (
     "agreementscan.SWEEP_PATH = sys.argv[1]\n"
     "from experiment.cli import main\n"
     "sys.argv = ['confocal', *sys.argv[2:]]\n"
-    "main()\n"
+    "try:\n"
+    "    main()\n"
+    "finally:\n"
+    "    heavy = ('numba', 'scipy', 'matplotlib')\n"
+    "    print('heavy modules:', ' '.join(m for m in heavy if m in sys.modules) or 'none')\n"
 )
 
 
-def time_scan(light_field: Path, out: Path, sweep: str) -> tuple[float, float]:
-    """Return (seconds to the answer line, seconds to exit) of one fresh scan process."""
+def _reap(proc: subprocess.Popen) -> tuple[int, float]:
+    """Wait for ``proc``; return its exit status and CPU seconds (user + sys)."""
+    _, status, usage = os.wait4(proc.pid, 0)
+    proc.returncode = os.waitstatus_to_exitcode(status)
+    return proc.returncode, usage.ru_utime + usage.ru_stime
+
+
+def time_scan(
+    light_field: Path, out: Path, sweep: str, plot: bool = True
+) -> tuple[float, float, float, str]:
+    """Return seconds to the answer line, to exit, CPU seconds and the heavy modules imported."""
     shutil.rmtree(out, ignore_errors=True)
-    argv = ["lightfield", "scan", str(light_field), "--out", str(out), "--no-plot"]
+    argv = ["lightfield", "scan", str(light_field), "--out", str(out)]
+    argv += [] if plot else ["--no-plot"]
     t0 = time.perf_counter()
     proc = subprocess.Popen(
         [sys.executable, "-c", _RUNNER, sweep, *argv],
@@ -57,24 +76,30 @@ def time_scan(light_field: Path, out: Path, sweep: str) -> tuple[float, float]:
         text=True,
         env=AS_INSTALLED,
     )
-    answer = None
+    answer, heavy = None, "?"
     assert proc.stdout is not None
     for line in proc.stdout:
         if answer is None and line.startswith(ANSWER_PREFIX):
             answer = time.perf_counter() - t0
-    if proc.wait() != 0 or answer is None:
+        if line.startswith("heavy modules:"):
+            heavy = line.split(":", 1)[1].strip()
+    status, cpu = _reap(proc)
+    if status != 0 or answer is None:
         raise SystemExit(f"lightfield scan {light_field} failed or printed no answer")
-    return answer, time.perf_counter() - t0
+    return answer, time.perf_counter() - t0, cpu, heavy
 
 
-def _time_baseline() -> float:
+def _time_baseline(code: str) -> tuple[float, float]:
+    """Wall and CPU seconds of ``python -c CODE``."""
     t0 = time.perf_counter()
-    subprocess.run([sys.executable, "-c", "import numpy"], check=True, env=AS_INSTALLED)
-    return time.perf_counter() - t0
+    status, cpu = _reap(subprocess.Popen([sys.executable, "-c", code], env=AS_INSTALLED))
+    if status != 0:
+        raise SystemExit(f"python -c {code!r} failed")
+    return time.perf_counter() - t0, cpu
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Print the median times and their ratio to the baseline; 1 if the answer misses 1 s."""
+    """Print the median times and their ratios to the baselines; 1 if the exit misses 1 s."""
     data = Path(os.environ.get("CONFOCAL_DATA", "../shared/data"))
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument(
@@ -82,30 +107,41 @@ def main(argv: list[str] | None = None) -> int:
     )
     ap.add_argument("--repeat", type=int, default=5)
     ap.add_argument("--sweep", choices=("auto", "compiled", "numpy"), default="auto")
+    ap.add_argument("--no-plot", dest="plot", action="store_false", help="Pass --no-plot.")
     args = ap.parse_args(argv)
     if not args.light_field.exists():
         raise SystemExit(f"{args.light_field}: not found (set CONFOCAL_DATA or give a path)")
     with tempfile.TemporaryDirectory() as tmp:
         out = Path(tmp) / "scan"
-        time_scan(args.light_field, out, args.sweep)  # warm the file cache and numba's cache
-        answers, exits, bases = [], [], []
+        time_scan(args.light_field, out, args.sweep, args.plot)  # warm the caches
+        runs, passes, numpys = [], [], []
         for _ in range(args.repeat):
-            bases.append(_time_baseline())
-            a, e = time_scan(args.light_field, out, args.sweep)
-            answers.append(a)
-            exits.append(e)
-    base = statistics.median(bases)
-    answer, end = statistics.median(answers), statistics.median(exits)
-    print(f"light field: {args.light_field.name}, sweep: {args.sweep}, {args.repeat} runs")
-    print(f"baseline python -c 'import numpy': {base:.3f} s")
+            passes.append(_time_baseline("pass"))
+            numpys.append(_time_baseline("import numpy"))
+            runs.append(time_scan(args.light_field, out, args.sweep, args.plot))
+    med = statistics.median
+    p_wall, p_cpu = med(w for w, _ in passes), med(c for _, c in passes)
+    n_wall, n_cpu = med(w for w, _ in numpys), med(c for _, c in numpys)
+    answers, exits, cpus = ([r[i] for r in runs] for i in range(3))
+    answer, end, cpu = med(answers), med(exits), med(cpus)
+    plot = "" if args.plot else ", --no-plot"
+    print(f"light field: {args.light_field.name}, sweep: {args.sweep}{plot}, {args.repeat} runs")
+    print(f"load average: {' '.join(f'{v:.2f}' for v in os.getloadavg())}")
+    print(f"baseline python -c pass:           {p_wall:.3f} s wall, {p_cpu:.3f} s CPU")
+    print(f"baseline python -c 'import numpy': {n_wall:.3f} s wall, {n_cpu:.3f} s CPU")
     print(
-        f"answer: {answer:.3f} s median ({min(answers):.3f}-{max(answers):.3f}), "
-        f"{answer / base:.1f}x baseline"
+        f"answer: {answer:.3f} s wall median ({min(answers):.3f}-{max(answers):.3f}), "
+        f"{answer / p_wall:.1f}x python -c pass"
     )
     spread = f"({min(exits):.3f}-{max(exits):.3f})"
-    print(f"exit:   {end:.3f} s median {spread}, {end / base:.1f}x baseline")
-    met = answer < TARGET_S
-    print(f"target answer < {TARGET_S:g} s: {'met' if met else 'MISSED'}")
+    print(f"exit:   {end:.3f} s wall median {spread}, {end / p_wall:.1f}x python -c pass")
+    print(
+        f"CPU:    {cpu:.3f} s user+sys median ({min(cpus):.3f}-{max(cpus):.3f}), "
+        f"{cpu / p_cpu:.1f}x python -c pass, {cpu / n_cpu:.1f}x import numpy"
+    )
+    print(f"heavy modules imported by the scan: {runs[-1][3]}")
+    met = cpu < TARGET_S
+    print(f"target exit < {TARGET_S:g} s of CPU: {'met' if met else 'MISSED'}")
     return 0 if met else 1
 
 

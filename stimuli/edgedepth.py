@@ -44,7 +44,6 @@ from __future__ import annotations
 from dataclasses import asdict, dataclass
 
 import numpy as np
-from scipy import ndimage
 
 __all__ = [
     "CONFIDENCE_WINDOW_PX",
@@ -152,6 +151,8 @@ def edge_confidence(image: np.ndarray, axes: tuple[int, ...]) -> np.ndarray:
     (0.0, 1.0)
     """
     img = np.asarray(image, dtype=np.float32)
+    from scipy import ndimage  # here: scipy.ndimage costs the scan's exit 0.1-0.5 s
+
     return _confidence([ndimage.sobel(img, axis=a) for a in (0, 1)], axes)
 
 
@@ -336,6 +337,8 @@ def _box_mean(a: np.ndarray, size: int) -> np.ndarray:
     (:func:`stimuli.kernels.box_mean_reflect`, to the bit).
     """
     if min(a.shape) <= size:
+        from scipy import ndimage
+
         return ndimage.uniform_filter(a, size)
     from stimuli.kernels import box_mean_reflect
 

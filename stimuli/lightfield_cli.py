@@ -5,7 +5,7 @@ Commands
 ``scan LF --out DIR``
     Sweep confocal planes, detect the planes that hold objects (Jung et al. 2015, Sec. 4.2) and
     write ``planes.csv`` (with each plane's support, prominence and evidence), the
-    score-versus-depth plot ``scores.png`` (Fig. 15, matplotlib), ``scan.json``, and per
+    score-versus-depth plot ``scores.png`` (Fig. 15, Pillow), ``scan.json``, and per
     detected plane the confocal image, its de-cluttered edge image (``--declutter sobel`` or
     ``depth``) and the compressed grid (Figs. 11-13, 16). The range is the one the scene
     occupies unless ``--near/--far`` or ``--disparities`` give it.
@@ -284,7 +284,7 @@ def scan_command(
         bool,
         typer.Option(
             "--plot/--no-plot",
-            help="Draw scores.png (matplotlib, after the answer is printed; --no-plot skips it).",
+            help="Draw scores.png (after the answer is printed; --no-plot skips it).",
         ),
     ] = True,
     *,

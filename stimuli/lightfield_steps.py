@@ -10,6 +10,7 @@ numpy and the pipeline are imported inside the functions: ``--help`` stays light
 
 from __future__ import annotations
 
+import contextlib
 import json
 import math
 import warnings
@@ -224,13 +225,14 @@ def scan_one(
     ``confocal view`` use (:func:`stimuli.planechoice.detect_planes`), and the plane the builder
     would choose is named. With ``emit``, the answer (warnings, planes, the builder's plane) is
     passed to it line by line as soon as it is known, *before* the folder is written (the score
-    plot needs matplotlib, which is imported only then), and only the closing line is returned.
+    plot, refocusing and de-cluttering come after it), and only the closing line is returned.
     """
     import numpy as np
 
     from stimuli.agreementscan import answer_before_compiled_code, scan_views
     from stimuli.edgegrid import declutter_and_compress, depth_evidence
     from stimuli.io import atomic_path, save_png, staged_folder
+    from stimuli.numpykernels import numpy_kernels
     from stimuli.planechoice import choose_plane, detect_planes
     from stimuli.planes import (
         DEFAULT_N_PLANES,
@@ -302,25 +304,29 @@ def scan_one(
     centre = lf.centre_view()
     images = []
     edge_depth: dict = {}  # per plane: the edges the views could not measure (1-D, depth mode)
-    for k, p in enumerate(scan.peaks):
-        img = np.clip(refocus(lf, p.disparity_px), 0.0, 1.0).astype(np.float32)
-        focus, t = None, threshold
-        if mode == "depth":  # tested at the edge pixels only (the same edges)
-            focus, stats, t = depth_evidence(
-                lf, p.disparity_px, img, threshold=threshold, centre_view=centre
+    # after a numpy sweep (a small capture: the compiled loops are not loaded), refocus and
+    # de-clutter in numpy too: the same images to the bit, without numba's start-up (which
+    # would cost more than the work); the Haar scan says nothing about the capture's size
+    with numpy_kernels() if method == "agreement" else contextlib.nullcontext():
+        for k, p in enumerate(scan.peaks):
+            img = np.clip(refocus(lf, p.disparity_px), 0.0, 1.0).astype(np.float32)
+            focus, t = None, threshold
+            if mode == "depth":  # tested at the edge pixels only (the same edges)
+                focus, stats, t = depth_evidence(
+                    lf, p.disparity_px, img, threshold=threshold, centre_view=centre
+                )
+                if stats.unmeasured:
+                    edge_depth[f"plane{k + 1:02d}"] = stats.to_dict()
+            edges, cells, t = declutter_and_compress(
+                img,
+                shape,
+                threshold=t,
+                edge_ratio=edge_ratio,
+                focus_mask=focus,
+                centre_view=centre,
             )
-            if stats.unmeasured:
-                edge_depth[f"plane{k + 1:02d}"] = stats.to_dict()
-        edges, cells, t = declutter_and_compress(
-            img,
-            shape,
-            threshold=t,
-            edge_ratio=edge_ratio,
-            focus_mask=focus,
-            centre_view=centre,
-        )
-        images.append((f"plane{k + 1:02d}", img, edges, cells))
-        say(f"plane{k + 1:02d} edges: threshold {t:.4g} ({mode})")
+            images.append((f"plane{k + 1:02d}", img, edges, cells))
+            say(f"plane{k + 1:02d} edges: threshold {t:.4g} ({mode})")
     # Written whole or not at all: a full disk or a stop leaves --out as it was.
     with staged_folder(out, what="the scan") as tmp:
         rows = scan.rows()
@@ -346,7 +352,7 @@ def scan_one(
             save_png(edges, tmp / f"{stem}_edges.png")
             save_png(cells, tmp / f"{stem}_grid.png")
         if opts.get("plot", True):
-            from stimuli.scanplot import plot_scores  # matplotlib: after the answer is out
+            from stimuli.scanplot import plot_scores  # after the answer is out
 
             plot_scores(scan, tmp / "scores.png")
     span = f"{float(np.min(ds)):.4g}..{float(np.max(ds)):.4g} px/view"

@@ -39,6 +39,9 @@ def otsu_threshold(values: np.ndarray, *, compiled: bool = True) -> float:
         The centre of the bin that maximises the between-class variance; the value itself
         where every value is the same.
     """
+    from stimuli import numpykernels
+
+    compiled = compiled and not numpykernels.active()  # a scan's last steps: numpy, same counts
     a = np.ascontiguousarray(values, dtype=np.float32).reshape(-1)
     if compiled:
         from stimuli.edgekernels import extrema

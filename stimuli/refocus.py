@@ -187,13 +187,16 @@ def _refocus_compiled(
     One compiled pass over the views (:func:`stimuli.kernels.shift_add_rows`, blocks of output
     rows), on strips of rows in threads (:func:`stimuli.rowthreads.run_on_row_strips`).
     """
-    from stimuli.kernels import shift_add_rows
+    from stimuli import numpykernels
 
     n_u, n_v, rows, cols = views.shape
     row_taps = _tap_arrays(row_shifts)
     col_taps = _tap_arrays(col_shifts)
     inv_rows = _inverse_weights(rows, row_shifts)
     inv_cols = _inverse_weights(cols, col_shifts)
+    if numpykernels.active():  # a scan's last steps: its numpy twin, to the bit
+        return numpykernels.shift_add(views, row_taps, col_taps, inv_rows, inv_cols, result)
+    from stimuli.kernels import shift_add_rows
 
     def run(r0: int, r1: int) -> None:
         shift_add_rows(views, *row_taps, *col_taps, inv_rows, inv_cols, result, r0, r1)
