@@ -344,9 +344,9 @@ def agreement_mask(
         same mask to the bit.
     where : ndarray of shape (rows, cols), bool, optional
         Test only these pixels (the rest are False): the same verdict there, to the bit, at a
-        cost that grows with their number (:func:`stimuli.kernels.focus_agreement_at`, each
-        pixel left at the first neighbour and disparity that agree). The depth de-clutter
-        reads the test only at edge pixels.
+        cost that grows with their number (each pixel left at the first neighbour and
+        disparity that agree; :func:`stimuli.edgekernels.focus_agreement_with_limit`). The
+        depth de-clutter reads the test only at edge pixels.
     cache : bool
         With ``where``: take the test's threshold image (``ratio`` times the one-pixel-shift
         difference plus noise, per neighbour), which does not depend on the plane, from a cache
@@ -387,7 +387,7 @@ def agreement_mask(
         w8 = np.ascontiguousarray(w).view(np.uint8)
         ds = ds[np.argsort(np.abs(ds - d0), kind="stable")]  # the plane's own first
     if compiled or where is not None:
-        from stimuli.kernels import focus_agreement, focus_agreement_at
+        from stimuli.kernels import focus_agreement
 
         c32 = np.ascontiguousarray(centre, dtype=np.float32)
     for axis, n, c in ((0, n_u, cu), (1, n_v, cv)):
@@ -401,13 +401,15 @@ def agreement_mask(
             if where is not None:  # the listed pixels only: the same verdict there
                 nb32 = np.ascontiguousarray(nb, dtype=np.float32)
                 dd = ds.astype(np.float64)
-                if not cache:
-                    focus_agreement_at(c32, nb32, axis, side, dd, r, noise, w8, out)
-                else:  # the threshold image made once per light field: the same verdict
-                    from stimuli.edgekernels import focus_agreement_with_limit
+                from stimuli.edgekernels import focus_agreement_with_limit
 
+                # the threshold image is made at the pixels tested (NaN until then): kept per
+                # light field with ``cache``, else made afresh for this call; the same verdict
+                if cache:
                     limit = _focus_limit(lf, c32, axis, side)
-                    focus_agreement_with_limit(c32, nb32, axis, side, dd, r, noise, limit, w8, out)
+                else:
+                    limit = np.full(c32.shape, np.nan, np.float32)
+                focus_agreement_with_limit(c32, nb32, axis, side, dd, r, noise, limit, w8, out)
             elif compiled:  # one compiled call per neighbour: the same mask to the bit
                 nb32 = np.ascontiguousarray(nb, dtype=np.float32)
                 focus_agreement(c32, nb32, axis, side, ds.astype(np.float64), r, noise, out)

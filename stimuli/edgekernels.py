@@ -11,9 +11,9 @@ Each has a numpy twin elsewhere that it equals to the bit (tested in
 * :func:`vote_at_edges`: the local majority of :func:`stimuli.kernels.focus_vote`, evaluated
   only at the edge pixels from exact running counts;
 * :func:`label8`: ``scipy.ndimage.label`` with 8-connectivity (the same numbering);
-* :func:`focus_agreement_with_limit`: :func:`stimuli.kernels.focus_agreement_at` with the
-  test's threshold image, which does not depend on the plane, kept by the caller and made only
-  where first needed (the same verdict to the bit).
+* :func:`focus_agreement_with_limit`: :func:`stimuli.kernels.focus_agreement` at listed pixels
+  only, with the test's threshold image, which does not depend on the plane, kept by the caller
+  and made only where first needed (the same verdict to the bit).
 
 Importing this module imports numba; callers import it inside the functions that need it.
 """
@@ -299,15 +299,16 @@ def label8(mask, out):  # pragma: no cover - compiled
 def focus_agreement_with_limit(
     centre, nb, axis, side, ds, ratio, noise, limit, where, out
 ):  # pragma: no cover - compiled
-    """:func:`stimuli.kernels.focus_agreement_at` with its threshold image kept by the caller.
+    """:func:`stimuli.kernels.focus_agreement` at the pixels of ``where``, threshold image kept.
 
     ``limit``: the test's threshold for this neighbour (``axis``, ``side``), ``ratio`` times
     the 3x3 mean of ``|centre at x - side - centre|`` plus ``noise``, which does not depend on
     the plane; NaN where not made yet. The pixels of ``where`` (uint8) not yet in focus in
-    ``out`` are taken in runs; a run with a NaN threshold has it made (the same column means,
-    summed in the same order, as :func:`stimuli.kernels.focus_agreement_at`) and stored, then
-    is tested disparity by disparity in the order of ``ds`` until all agree: the same verdict
-    to the bit.
+    ``out`` are taken in runs (row by row, consecutive pixels share their column means); a run
+    with a NaN threshold has it made and stored, then is tested disparity by disparity in the
+    order of ``ds`` (the plane's own first) until all agree: a run in focus costs one test, and
+    only the pixels off the plane cost them all. The same verdict as the full-image test, to
+    the bit.
     """
     rows, cols = centre.shape
     c = np.empty(cols + 2, dtype=np.float32)

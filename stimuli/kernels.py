@@ -34,7 +34,6 @@ __all__ = [
     "agreement_sweep",
     "focus_agreement",
     "focus_vote",
-    "focus_agreement_at",
     "label_extents",
     "box_max",
     "sobel_pair",
@@ -510,53 +509,6 @@ def _column_means(src, centre, axis, k, f, y, x0, x1, c):  # pragma: no cover - 
                 va, vb = src[ja, xx], src[jb, xx]
             s += np.float64(abs((va + f * (vb - va)) - centre[yy, xx]))
         c[i] = np.float32(s / 3.0)
-
-
-@njit(nogil=True, cache=True)
-def focus_agreement_at(centre, nb, axis, side, ds, ratio, noise, where, out):  # pragma: no cover
-    """:func:`focus_agreement` at the pixels of ``where`` (uint8) only, the same verdict.
-
-    Row by row, each run of consecutive pixels of ``where`` is tested disparity by disparity
-    (the plane's own first: ``ds`` in the caller's order), the column means shared by the
-    run's pixels, until every pixel of the run agrees: a run in focus costs one test, and only
-    the pixels off the plane cost them all. Pixels already in focus in ``out`` stay so.
-    """
-    rows, cols = centre.shape
-    c = np.empty(cols + 2, dtype=np.float32)
-    limit = np.empty(cols, dtype=np.float32)
-    for y in range(rows):
-        w = where[y]
-        o = out[y]
-        x0 = 0
-        while x0 < cols:
-            if w[x0] == 0 or o[x0]:
-                x0 += 1
-                continue
-            x1 = x0
-            while x1 < cols and w[x1] != 0 and not o[x1]:
-                x1 += 1
-            _column_means(centre, centre, axis, side, np.float32(0.0), y, x0, x1, c)
-            for x in range(x0, x1):
-                i = x - x0 + 1
-                s = np.float64(c[i - 1]) + np.float64(c[i]) + np.float64(c[i + 1])
-                limit[x] = np.float32(ratio) * np.float32(s / 3.0) + np.float32(noise)
-            left = x1 - x0
-            for di in range(ds.shape[0]):
-                sh = ds[di] * side
-                k = int(np.floor(sh))
-                f = np.float32(sh - k)
-                _column_means(nb, centre, axis, k, f, y, x0, x1, c)
-                for x in range(x0, x1):
-                    if o[x]:
-                        continue
-                    i = x - x0 + 1
-                    s = np.float64(c[i - 1]) + np.float64(c[i]) + np.float64(c[i + 1])
-                    if np.float32(s / 3.0) < limit[x]:
-                        o[x] = True
-                        left -= 1
-                if left == 0:
-                    break
-            x0 = x1
 
 
 @njit(nogil=True, cache=True)
