@@ -28,10 +28,10 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import shutil
 import sys
 import tempfile
-import math
 import time
 from pathlib import Path
 from typing import Any
@@ -196,11 +196,65 @@ def spread(
     return out
 
 
+def _rates(d: Any) -> Any:
+    return d.groupby(["condition", "pixels"])["recognized"].mean()
+
+
+def check_demo(demo: Path, work: Path, n: int) -> dict[str, Any]:
+    """Set one kept demo (folder ``<observer>-seed<N>``) against ``n`` fast-path studies of N.
+
+    Returns the demo's odds ratios from ``results.json`` and recomputed from its trials by the
+    fast path's regression (they must agree), the share of fast-path studies below the demo's
+    values (its percentile), and the largest difference between the demo's recognition rate and
+    the fast path's mean, level by level and condition by condition.
+    """
+    import pandas as pd
+
+    from analysis.data import read_trials
+    from benchmarks.design_observer import odds_ratios, responses, simulate_study
+    from experiment.observers.calibration import CalibratedParams
+
+    seed = int(demo.name.rsplit("seed", 1)[1])
+    results = json.loads(next(demo.rglob("results.json")).read_text(encoding="utf-8"))
+    shown = row_of(results)
+    t = read_trials([demo / "study.sqlite"], include_simulated=True).trials
+    rows = [(r.subject, str(r.object), r.condition, float(r.pixels), int(r.recognized))
+            for r in t.itertuples()]  # fmt: skip
+    again = odds_ratios(rows)
+    p = CalibratedParams.__dataclass_fields__
+    resp = responses(work, seed)
+    cols = ["subject", "object", "condition", "pixels", "recognized"]
+    sims, rates = [], []
+    for i in range(n):
+        sim = simulate_study(resp, noise_sd=p["noise_sd"].default, criterion=p["criterion"].default,
+                             priming=p["priming"].default, lapse=p["lapse"].default,
+                             rng=300_000 + i)  # fmt: skip
+        sims.append(odds_ratios(sim))
+        rates.append(
+            pd.DataFrame(sim, columns=cols).groupby(["condition", "pixels"])["recognized"].mean()
+        )
+    demo_rate = (
+        pd.DataFrame(rows, columns=cols).groupby(["condition", "pixels"])["recognized"].mean()
+    )
+    out: dict[str, Any] = {"demo": str(demo), "seed": seed, "fast_path_studies": n}
+    for key in ("or_background", "or_per_log10_px"):
+        v = np.array([s[key] for s in sims])
+        out[key] = {
+            "results_json": shown[key][0],
+            "recomputed": again[key],
+            "fast_path_median": float(np.median(v)),
+            "fast_path_q025_q975": [float(x) for x in np.quantile(v, [0.025, 0.975])],
+            "demo_percentile": float((v < again[key]).mean()),
+        }
+    out["max_rate_difference"] = float((demo_rate - sum(rates) / n).abs().max())
+    return out
+
+
 def _print_spread(n: int, design_seeds: list[int], s: dict[str, dict[str, Any]]) -> None:
     print(f"{n} simulated studies per observer (1,920 trials each; fast path on design seeds "
           f"{', '.join(map(str, design_seeds))}; simulated data)")  # fmt: skip
     print("observer | OR background: median (2.5-97.5 %) | in 3.9-8.1 | "
-          "OR per log10 px: median (2.5-97.5 %) | in 48.9-113.5 | both in | Firth used")  # fmt: skip
+          "OR per log10 px: median (2.5-97.5 %) | in 48.9-113.5 | both | Firth used")  # fmt: skip
     for who, r in s.items():
         bg, px = r["or_background"], r["or_per_log10_px"]
         print(f"{who} | {bg['median']:.2f} ({bg['q025']:.2f}-{bg['q975']:.2f}) | "
@@ -224,11 +278,19 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2, 3, 4])
     ap.add_argument("--observer", default="calibrated")
     ap.add_argument("--keep", type=Path, default=None, help="Keep the demo folders here.")
-    ap.add_argument("--spread", type=int, default=None, metavar="N",
-                    help="Fast path: N simulated studies per observer instead of demos.")
+    ap.add_argument(
+        "--spread",
+        type=int,
+        default=None,
+        metavar="N",
+        help="Fast path: N simulated studies per observer instead of demos.",
+    )
     ap.add_argument("--work", type=Path, default=None, help="Fast-path cache folder.")
     ap.add_argument("--design-seeds", type=int, nargs="+", default=None)
     ap.add_argument("--object-sd", type=float, default=1.5)
+    ap.add_argument("--check-demo", type=Path, nargs="+", default=None, metavar="DIR",
+                    help="With --spread: set kept demo folders (<observer>-seed<N>) against N "
+                    "fast-path studies of their seed.")  # fmt: skip
     args = ap.parse_args(argv)
     if args.spread is not None:
         from benchmarks.design_observer import DESIGN_SEEDS
@@ -236,6 +298,10 @@ def main(argv: list[str] | None = None) -> int:
         work = args.work or Path(tempfile.mkdtemp(prefix="confocal-design-"))
         work.mkdir(parents=True, exist_ok=True)
         seeds = args.design_seeds or list(DESIGN_SEEDS)
+        if args.check_demo:
+            for d in args.check_demo:
+                print(json.dumps(check_demo(d, work, args.spread)), flush=True)
+            return 0
         _print_spread(args.spread, seeds, spread(args.spread, work, seeds,
                                                  object_sd=args.object_sd))  # fmt: skip
         return 0
