@@ -41,8 +41,6 @@ import numpy as np
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
-from experiment.demos.study import run_demo  # noqa: E402
-
 __all__ = ["PAPER", "main", "paper_logistic_study", "row_of", "spread"]
 
 #: The paper's numbers (Jung et al. 2015, Sec. 3.2.2): estimate and 95 % interval (None: the
@@ -305,6 +303,8 @@ def main(argv: list[str] | None = None) -> int:
         _print_spread(args.spread, seeds, spread(args.spread, work, seeds,
                                                  object_sd=args.object_sd))  # fmt: skip
         return 0
+    from experiment.demos.study import run_demo
+
     root = args.keep or Path(tempfile.mkdtemp(prefix="confocal-validate-"))
     rows = []
     for seed in args.seeds:
