@@ -19,7 +19,7 @@ sessions include the de-cluttered blocks, as the study does, because they prime 
 level's cluttered block, but no de-cluttered outcome enters the loss), and ``--write`` stores
 the result in ``experiment/observers/jung2015_calibration.json``.
 
-Run: ``python benchmarks/design_observer.py [--seeds 10 ... 16] [--noise 0.3] [--priming 0.7]
+Run: ``python benchmarks/design_observer.py [--seeds 10 ... 16] [--noise 0.25] [--priming 0.6]
 [--criterion 3.45 | --fit [--write]] [--work DIR]``.
 """
 
@@ -220,9 +220,10 @@ def main(argv: list[str] | None = None) -> int:
     """Design table (and, with ``--fit``, the criterion fitted to the cluttered curve)."""
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seeds", type=int, nargs="+", default=list(DESIGN_SEEDS))
-    ap.add_argument("--noise", type=float, default=0.3)
-    ap.add_argument("--priming", type=float, default=0.7)
-    ap.add_argument("--lapse", type=float, default=0.02)
+    fields = CalibratedParams.__dataclass_fields__  # defaults: the calibration file's
+    ap.add_argument("--noise", type=float, default=fields["noise_sd"].default)
+    ap.add_argument("--priming", type=float, default=fields["priming"].default)
+    ap.add_argument("--lapse", type=float, default=fields["lapse"].default)
     ap.add_argument("--criterion", type=float, default=None)
     ap.add_argument("--fit", action="store_true", help="Fit the criterion (cluttered only).")
     ap.add_argument("--write", action="store_true", help="Store the fit in the calibration file.")
