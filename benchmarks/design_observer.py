@@ -7,8 +7,8 @@ simulated studies are then drawn from them in the protocol's order (levels ascen
 level the cluttered block, then the de-cluttered one; random order inside a block), through the
 observer's decision stage (internal noise, the standout variable, a criterion lowered by
 ``priming`` for kinds already named, lapses), six subjects per study; the paper's logistic
-regression (Firth's estimate, which equals ML when the data are not separated,
-:func:`analysis.firth.firth_logit` on the same terms as :func:`analysis.logistic.fit_logistic`)
+regression (:func:`odds_ratios`: the terms and estimator of
+:func:`analysis.logistic.fit_logistic`, ML or Firth's when ML finds separation)
 and ML Weibull thresholds are fitted to each. A study takes about a second instead of a demo's
 minute.
 
@@ -19,7 +19,7 @@ sessions include the de-cluttered blocks, as the study does, because they prime 
 level's cluttered block, but no de-cluttered outcome enters the loss), and ``--write`` stores
 the result in ``experiment/observers/jung2015_calibration.json``.
 
-Run: ``python benchmarks/design_observer.py [--seeds 10 ... 16] [--noise 0.3] [--priming 0.7]
+Run: ``python benchmarks/design_observer.py [--seeds 10 ... 16] [--noise 0.25] [--priming 0.6]
 [--criterion 3.45 | --fit [--write]] [--work DIR]``.
 """
 
@@ -46,7 +46,7 @@ from experiment.observers.calibration import (  # noqa: E402
     stimulus_responses,
 )
 
-__all__ = ["responses", "simulate_study", "study_numbers", "fit_criterion", "main"]
+__all__ = ["responses", "simulate_study", "odds_ratios", "study_numbers", "fit_criterion", "main"]
 
 #: Seeds the design looked at (test sets; each knows the next three seeds' renderings, as the
 #: demo's seed s knows s+1..s+3). Ours: none is a checked demo seed (0-4).
@@ -109,21 +109,57 @@ def simulate_study(
     return rows
 
 
-def study_numbers(rows: list[tuple[str, str, str, float, int]]) -> dict[str, float]:
-    """Odds ratios (Firth) and ML Weibull 50 % thresholds of one simulated study."""
+def odds_ratios(rows: list[tuple[str, str, str, float, int]]) -> dict[str, float]:
+    """The paper's logistic regression on one study's trials, by the report's rule.
+
+    The same terms and estimator as :func:`analysis.logistic.fit_logistic` (background, object
+    dummies with the first object in sorted order as reference, log10 pixels): ML, and Firth's
+    penalised fit when ML finds separation (a coefficient beyond ``SEPARATION_LOG_OR``, a
+    non-finite standard error or statsmodels' separation warning). Fitted to the binomial cells
+    (object, background, level), which gives the trial-by-trial fit; no intervals (the report's
+    profile intervals take over a minute a study). Returns ``or_background``,
+    ``or_per_log10_px`` and ``firth`` (1.0 when the Firth fit was used).
+    """
+    import warnings
+
+    import statsmodels.api as sm
+
+    from analysis.conditions import SEPARATION_LOG_OR
     from analysis.firth import firth_logit
-    from analysis.weibull import fit_mle, threshold_at
 
     obj = sorted({r[1] for r in rows})
     cells: dict[tuple[str, int, float], list[int]] = {}
     for _, o, c, px, ok in rows:
         cells.setdefault((o, int(c == "decluttered"), math.log10(px)), []).append(ok)
     keys = sorted(cells)
-    y = np.array([np.mean(cells[k]) for k in keys])
-    n = np.array([len(cells[k]) for k in keys], float)
+    k = np.array([sum(cells[c]) for c in keys], float)
+    n = np.array([len(cells[c]) for c in keys], float)
     X = np.array([[1.0, b, lp] + [float(o == m) for m in obj[1:]] for o, b, lp in keys])
-    b, _, _ = firth_logit(y, X, weights=n)
-    out = {"or_background": math.exp(b[1]), "or_per_log10_px": math.exp(b[2])}
+    firth = True
+    try:
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            res = sm.GLM(np.column_stack([k, n - k]), X, family=sm.families.Binomial()).fit(
+                tol=1e-12, maxiter=200
+            )
+        b, se = np.asarray(res.params), np.asarray(res.bse)
+        firth = bool(
+            any("separation" in str(w.message).lower() for w in caught)
+            or np.any(np.abs(b[1:]) > SEPARATION_LOG_OR)
+            or not np.all(np.isfinite(se))
+        )
+    except Exception:  # noqa: BLE001 - statsmodels raises several types on separation
+        pass
+    if firth:
+        b, _, _ = firth_logit(k / n, X, weights=n)
+    return {"or_background": math.exp(b[1]), "or_per_log10_px": math.exp(b[2]), "firth": firth}
+
+
+def study_numbers(rows: list[tuple[str, str, str, float, int]]) -> dict[str, float]:
+    """Odds ratios (:func:`odds_ratios`) and ML Weibull 50 % thresholds of one study."""
+    from analysis.weibull import fit_mle, threshold_at
+
+    out = dict(odds_ratios(rows))
     for cond in CONDITIONS:
         lv = sorted({r[3] for r in rows if r[2] == cond})
         k = np.array([sum(r[4] for r in rows if r[2] == cond and r[3] == x) for x in lv], float)
@@ -184,9 +220,10 @@ def main(argv: list[str] | None = None) -> int:
     """Design table (and, with ``--fit``, the criterion fitted to the cluttered curve)."""
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seeds", type=int, nargs="+", default=list(DESIGN_SEEDS))
-    ap.add_argument("--noise", type=float, default=0.3)
-    ap.add_argument("--priming", type=float, default=0.7)
-    ap.add_argument("--lapse", type=float, default=0.02)
+    fields = CalibratedParams.__dataclass_fields__  # defaults: the calibration file's
+    ap.add_argument("--noise", type=float, default=fields["noise_sd"].default)
+    ap.add_argument("--priming", type=float, default=fields["priming"].default)
+    ap.add_argument("--lapse", type=float, default=fields["lapse"].default)
     ap.add_argument("--criterion", type=float, default=None)
     ap.add_argument("--fit", action="store_true", help="Fit the criterion (cluttered only).")
     ap.add_argument("--write", action="store_true", help="Store the fit in the calibration file.")
