@@ -344,16 +344,32 @@ def profile_interval(
     icpt = _intercept_column(X, j)
     centre = float(np.average(X[:, j], weights=n))
 
+    # Brent's method evaluates points ever closer to each other, so a point is first climbed
+    # from the maximum found at the previous one (b_j moved): a few Newton steps instead of ten.
+    last: list[np.ndarray] = []
+
+    def climb(b: np.ndarray) -> float:
+        value, b = _maximise(y, X, n, b, free, penalized, max_iter=PROFILE_MAX_ITER, tol=1e-10)
+        last[:] = [b]
+        return value
+
     def profile(bj: float) -> float:
+        if last:
+            b = last[0].copy()
+            b[j] = bj
+            try:
+                return climb(b)
+            except np.linalg.LinAlgError:
+                pass
         b = params.copy()
         b[j] = bj
         try:
-            return _maximise(y, X, n, b, free, penalized, max_iter=PROFILE_MAX_ITER, tol=1e-10)[0]
+            return climb(b)
         except np.linalg.LinAlgError:
             if icpt is None:
                 raise
         b[icpt] -= (bj - params[j]) * centre
-        return _maximise(y, X, n, b, free, penalized, max_iter=PROFILE_MAX_ITER, tol=1e-10)[0]
+        return climb(b)
 
     with _one_blas_thread():
         l_max = profile(float(params[j]))
