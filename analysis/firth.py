@@ -14,16 +14,38 @@ rows however many trials it holds.
 
 from __future__ import annotations
 
+import contextlib
 import math
+import threading
+from collections.abc import Iterator
 
 import numpy as np
 
 __all__ = ["firth_logit", "profile_interval"]
 
 
-#: Most values of the hat matrix held at once (a block of its rows) while the penalised
-#: Hessian's cross term is summed.
+#: Most values held at once (a block of rows of the row-wise Kronecker product of the hat
+#: matrix's orthonormal factor with itself) while the penalised Hessian's cross term is summed.
 _BLOCK_VALUES: int = 4_000_000
+
+
+@contextlib.contextmanager
+def _one_blas_thread() -> Iterator[None]:
+    """Run the block with BLAS on one thread (main thread only; elsewhere unchanged).
+
+    The fits multiply matrices of a few hundred rows and a few dozen columns thousands of times:
+    a second BLAS thread cannot gain on products that small, and its spinning costs several times
+    the fit's own CPU time (measured: 5x under two test workers on two cores). The limit is
+    process-wide, so it is set only from the main thread, where no other thread can be inside
+    a fit to have it undone under it.
+    """
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    from threadpoolctl import threadpool_limits
+
+    with threadpool_limits(1, user_api="blas"):
+        yield
 
 
 def _binomial_rows(
@@ -101,12 +123,18 @@ def _ascent_step(
             raise np.linalg.LinAlgError("singular information matrix")
         h = np.sum(u * u, axis=1)
         resid = resid + h * (0.5 - p)
+        # X' ((s s') o H o H) X without the n x n matrix H: with H = U U', (H_ik)^2 is
+        # sum_cd U_ic U_id U_kc U_kd, so the term is A A' with A = (s X)' (U (x) U), the
+        # row-wise Kronecker product of U with itself (n x p^2, built a block of rows at a time).
         s = 1 - 2 * p
-        cross = np.zeros_like(hess)
-        block = max(1, _BLOCK_VALUES // len(X))
+        k = u.shape[1]
+        xs = X * s[:, None]
+        a = np.zeros((X.shape[1], k * k))
+        block = max(1, _BLOCK_VALUES // (k * k))
         for i in range(0, len(X), block):
-            hh = (u[i : i + block] @ u.T) ** 2
-            cross += X[i : i + block].T @ ((s[i : i + block, None] * hh * s[None, :]) @ X)
+            ub = u[i : i + block]
+            a += xs[i : i + block].T @ (ub[:, :, None] * ub[:, None, :]).reshape(len(ub), k * k)
+        cross = a @ a.T
         hess = hess - 0.5 * (X.T @ (((1 - 6 * p + 6 * p * p) * h)[:, None] * X) - cross)
     grad = X.T @ resid
     step = np.zeros_like(b)
@@ -210,9 +238,10 @@ def firth_logit(
         None if weights is None else np.asarray(weights, float),
     )
     free = np.ones(X.shape[1], bool)
-    _, b = _maximise(y, X, n, np.zeros(X.shape[1]), free, True, max_iter=max_iter, tol=tol)
-    p = special.expit(X @ b)
-    cov = np.linalg.inv(X.T @ ((n * p * (1 - p))[:, None] * X))
+    with _one_blas_thread():
+        _, b = _maximise(y, X, n, np.zeros(X.shape[1]), free, True, max_iter=max_iter, tol=tol)
+        p = special.expit(X @ b)
+        cov = np.linalg.inv(X.T @ ((n * p * (1 - p))[:, None] * X))
     return b, np.sqrt(np.diag(cov)), _log_likelihood(y, X, n, b)
 
 
@@ -315,35 +344,52 @@ def profile_interval(
     icpt = _intercept_column(X, j)
     centre = float(np.average(X[:, j], weights=n))
 
+    # Brent's method evaluates points ever closer to each other, so a point is first climbed
+    # from the maximum found at the previous one (b_j moved): a few Newton steps instead of ten.
+    last: list[np.ndarray] = []
+
+    def climb(b: np.ndarray) -> float:
+        value, b = _maximise(y, X, n, b, free, penalized, max_iter=PROFILE_MAX_ITER, tol=1e-10)
+        last[:] = [b]
+        return value
+
     def profile(bj: float) -> float:
+        if last:
+            b = last[0].copy()
+            b[j] = bj
+            try:
+                return climb(b)
+            except np.linalg.LinAlgError:
+                pass
         b = params.copy()
         b[j] = bj
         try:
-            return _maximise(y, X, n, b, free, penalized, max_iter=PROFILE_MAX_ITER, tol=1e-10)[0]
+            return climb(b)
         except np.linalg.LinAlgError:
             if icpt is None:
                 raise
         b[icpt] -= (bj - params[j]) * centre
-        return _maximise(y, X, n, b, free, penalized, max_iter=PROFILE_MAX_ITER, tol=1e-10)[0]
+        return climb(b)
 
-    l_max = profile(float(params[j]))
-    se = float(bse[j]) if np.isfinite(bse[j]) and bse[j] > 0 else 1.0
+    with _one_blas_thread():
+        l_max = profile(float(params[j]))
+        se = float(bse[j]) if np.isfinite(bse[j]) and bse[j] > 0 else 1.0
 
-    def excess(bj: float) -> float:
-        return 2.0 * (l_max - profile(bj)) - _CHI2_1_95
+        def excess(bj: float) -> float:
+            return 2.0 * (l_max - profile(bj)) - _CHI2_1_95
 
-    ends = []
-    for sign in (-1.0, 1.0):
-        inner, width = float(params[j]), 2.0 * se
-        outer = inner + sign * width
-        while excess(outer) < 0:
-            inner, width = outer, 2.0 * width
+        ends = []
+        for sign in (-1.0, 1.0):
+            inner, width = float(params[j]), 2.0 * se
             outer = inner + sign * width
-            if abs(outer - params[j]) > 100.0 * max(se, 1.0) or abs(outer) > 50.0:
-                outer = math.nan
-                break
-        if math.isnan(outer):
-            ends.append(sign * math.inf)
-            continue
-        ends.append(optimize.brentq(excess, inner, outer, xtol=1e-8))
+            while excess(outer) < 0:
+                inner, width = outer, 2.0 * width
+                outer = inner + sign * width
+                if abs(outer - params[j]) > 100.0 * max(se, 1.0) or abs(outer) > 50.0:
+                    outer = math.nan
+                    break
+            if math.isnan(outer):
+                ends.append(sign * math.inf)
+                continue
+            ends.append(optimize.brentq(excess, inner, outer, xtol=1e-8))
     return float(ends[0]), float(ends[1])
