@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import contextlib
 import functools
+import threading
 from collections.abc import Callable, Iterator
 from typing import Any
 
@@ -24,11 +25,16 @@ _CONTROLLER: dict[str, Any] = {}
 def one_blas_thread() -> contextlib.AbstractContextManager:
     """Return a context in which BLAS runs on one thread (the previous limits restored after).
 
+    The limit is process-wide, so it is set only from the main thread, where no other thread
+    can be inside a fit to have it undone under it; elsewhere the context changes nothing.
+
     Returns
     -------
     context manager
-        A no-op where ``threadpoolctl`` cannot be loaded.
+        A no-op off the main thread or where ``threadpoolctl`` cannot be loaded.
     """
+    if threading.current_thread() is not threading.main_thread():
+        return contextlib.nullcontext()
     if "ctl" not in _CONTROLLER:
         try:
             from threadpoolctl import ThreadpoolController

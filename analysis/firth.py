@@ -14,12 +14,11 @@ rows however many trials it holds.
 
 from __future__ import annotations
 
-import contextlib
 import math
-import threading
-from collections.abc import Iterator
 
 import numpy as np
+
+from analysis.blas import one_blas_thread
 
 __all__ = ["firth_logit", "profile_interval"]
 
@@ -27,25 +26,6 @@ __all__ = ["firth_logit", "profile_interval"]
 #: Most values held at once (a block of rows of the row-wise Kronecker product of the hat
 #: matrix's orthonormal factor with itself) while the penalised Hessian's cross term is summed.
 _BLOCK_VALUES: int = 4_000_000
-
-
-@contextlib.contextmanager
-def _one_blas_thread() -> Iterator[None]:
-    """Run the block with BLAS on one thread (main thread only; elsewhere unchanged).
-
-    The fits multiply matrices of a few hundred rows and a few dozen columns thousands of times:
-    a second BLAS thread cannot gain on products that small, and its spinning costs several times
-    the fit's own CPU time (measured: 5x under two test workers on two cores). The limit is
-    process-wide, so it is set only from the main thread, where no other thread can be inside
-    a fit to have it undone under it.
-    """
-    if threading.current_thread() is not threading.main_thread():
-        yield
-        return
-    from threadpoolctl import threadpool_limits
-
-    with threadpool_limits(1, user_api="blas"):
-        yield
 
 
 def _binomial_rows(
@@ -238,7 +218,7 @@ def firth_logit(
         None if weights is None else np.asarray(weights, float),
     )
     free = np.ones(X.shape[1], bool)
-    with _one_blas_thread():
+    with one_blas_thread():
         _, b = _maximise(y, X, n, np.zeros(X.shape[1]), free, True, max_iter=max_iter, tol=tol)
         p = special.expit(X @ b)
         cov = np.linalg.inv(X.T @ ((n * p * (1 - p))[:, None] * X))
@@ -371,7 +351,7 @@ def profile_interval(
         b[icpt] -= (bj - params[j]) * centre
         return climb(b)
 
-    with _one_blas_thread():
+    with one_blas_thread():
         l_max = profile(float(params[j]))
         se = float(bse[j]) if np.isfinite(bse[j]) and bse[j] > 0 else 1.0
 
