@@ -23,7 +23,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from stimuli.kernels import _column_means
+from stimuli.kernels import central_differences, column_means, reflect_index
 
 __all__ = [
     "histogram_uniform",
@@ -78,16 +78,6 @@ def histogram_uniform(a, first, last, edges, counts):  # pragma: no cover - comp
 
 
 @njit(nogil=True, cache=True)
-def _reflect(i, n):  # pragma: no cover - compiled
-    """Index ``i`` reflected into ``range(n)`` (``d c b a | a b c d``, ``i`` within ``n``)."""
-    if i < 0:
-        return -i - 1
-    if i >= n:
-        return 2 * n - i - 1
-    return i
-
-
-@njit(nogil=True, cache=True)
 def edge_field(img, axis, size, mag, conf):  # pragma: no cover - compiled
     """Sobel magnitude and edge-direction confidence of a float32 image, in one call.
 
@@ -101,23 +91,14 @@ def edge_field(img, axis, size, mag, conf):  # pragma: no cover - compiled
     """
     rows, cols = img.shape
     half = size // 2
-    dy = np.empty((rows, cols), dtype=np.float32)
-    dx = np.empty((rows, cols), dtype=np.float32)
-    for y in range(rows):
-        ya = _reflect(y - 1, rows)
-        yb = _reflect(y + 1, rows)
-        for x in range(cols):
-            dy[y, x] = np.float32(np.float64(img[yb, x]) - np.float64(img[ya, x]))
-            xa = _reflect(x - 1, cols)
-            xb = _reflect(x + 1, cols)
-            dx[y, x] = np.float32(np.float64(img[y, xb]) - np.float64(img[y, xa]))
+    dy, dx = central_differences(img)
     e0 = np.empty((rows, cols), dtype=np.float32)
     e1 = np.empty((rows, cols), dtype=np.float32)
     for y in range(rows):
         dyr = dy[y]
-        dxa = dx[_reflect(y - 1, rows)]
+        dxa = dx[reflect_index(y - 1, rows)]
         dxm = dx[y]
-        dxb = dx[_reflect(y + 1, rows)]
+        dxb = dx[reflect_index(y + 1, rows)]
         mr = mag[y]
         e0r = e0[y]
         e1r = e1[y]
@@ -125,7 +106,9 @@ def edge_field(img, axis, size, mag, conf):  # pragma: no cover - compiled
             if 0 < x < cols - 1:
                 sy = np.float64(dyr[x - 1]) + np.float64(dyr[x + 1])
             else:
-                sy = np.float64(dyr[_reflect(x - 1, cols)]) + np.float64(dyr[_reflect(x + 1, cols)])
+                sy = np.float64(dyr[reflect_index(x - 1, cols)]) + np.float64(
+                    dyr[reflect_index(x + 1, cols)]
+                )
             gy = np.float32(np.float64(dyr[x]) * 2.0 + sy)
             gx = np.float32(np.float64(dxm[x]) * 2.0 + (np.float64(dxa[x]) + np.float64(dxb[x])))
             fy = np.float64(gy)  # hypotf as glibc makes it: in double, rounded once
@@ -138,14 +121,14 @@ def edge_field(img, axis, size, mag, conf):  # pragma: no cover - compiled
     acc0 = np.zeros(cols, dtype=np.float64)
     acc1 = np.zeros(cols, dtype=np.float64)
     for k in range(size):
-        r = _reflect(k - half, rows)
+        r = reflect_index(k - half, rows)
         for x in range(cols):
             acc0[x] += e0[r, x]
             acc1[x] += e1[r, x]
     for y in range(rows):
         if y > 0:
-            a = _reflect(y + half, rows)
-            b = _reflect(y - 1 - half, rows)
+            a = reflect_index(y + half, rows)
+            b = reflect_index(y - 1 - half, rows)
             for x in range(cols):
                 acc0[x] += np.float64(e0[a, x]) - np.float64(e0[b, x])
                 acc1[x] += np.float64(e1[a, x]) - np.float64(e1[b, x])
@@ -159,12 +142,12 @@ def edge_field(img, axis, size, mag, conf):  # pragma: no cover - compiled
         run0 = 0.0
         run1 = 0.0
         for k in range(size):
-            run0 += r0[_reflect(k - half, cols)]
-            run1 += r1[_reflect(k - half, cols)]
+            run0 += r0[reflect_index(k - half, cols)]
+            run1 += r1[reflect_index(k - half, cols)]
         for x in range(cols):
             if x > 0:
-                xa = _reflect(x + half, cols)
-                xb = _reflect(x - 1 - half, cols)
+                xa = reflect_index(x + half, cols)
+                xb = reflect_index(x - 1 - half, cols)
                 run0 += np.float64(r0[xa]) - np.float64(r0[xb])
                 run1 += np.float64(r1[xa]) - np.float64(r1[xb])
             m0 = np.float32(run0 / size)
@@ -330,7 +313,7 @@ def focus_agreement_with_limit(
                     made = False
                     break
             if not made:
-                _column_means(centre, centre, axis, side, np.float32(0.0), y, x0, x1, c)
+                column_means(centre, centre, axis, side, np.float32(0.0), y, x0, x1, c)
                 for x in range(x0, x1):
                     i = x - x0 + 1
                     s = np.float64(c[i - 1]) + np.float64(c[i]) + np.float64(c[i + 1])
@@ -340,7 +323,7 @@ def focus_agreement_with_limit(
                 sh = ds[di] * side
                 k = int(np.floor(sh))
                 f = np.float32(sh - k)
-                _column_means(nb, centre, axis, k, f, y, x0, x1, c)
+                column_means(nb, centre, axis, k, f, y, x0, x1, c)
                 for x in range(x0, x1):
                     if o[x]:
                         continue

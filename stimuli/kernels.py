@@ -37,6 +37,9 @@ __all__ = [
     "label_extents",
     "box_max",
     "sobel_pair",
+    "central_differences",
+    "reflect_index",
+    "column_means",
     "box_mean_reflect",
     "ROW_BLOCK",
     "COST_BOX_PX",
@@ -485,7 +488,7 @@ def focus_vote(edges, focus, size, out):  # pragma: no cover - compiled
 
 
 @njit(nogil=True, cache=True)
-def _column_means(src, centre, axis, k, f, y, x0, x1, c):  # pragma: no cover - compiled
+def column_means(src, centre, axis, k, f, y, x0, x1, c):  # pragma: no cover - compiled
     """Set ``c[i]`` to a mean over rows ``y - 1 .. y + 1``, for the columns ``x0 - 1 .. x1``.
 
     ``c[i]`` = the mean over rows ``y - 1 .. y + 1`` of ``|src sampled at - k - f along axis
@@ -572,13 +575,34 @@ def box_max(src, size, out):  # pragma: no cover - compiled
 
 
 @njit(nogil=True, cache=True)
-def _reflect(i, n):  # pragma: no cover - compiled
-    """Index ``i`` reflected into ``range(n)`` (``d c b a | a b c d``, ``i`` within ``n``)."""
+def reflect_index(i, n):  # pragma: no cover - compiled
+    """Return ``i`` reflected into ``range(n)`` (``d c b a | a b c d``; ``-n <= i < 2 n``)."""
     if i < 0:
         return -i - 1
     if i >= n:
         return 2 * n - i - 1
     return i
+
+
+@njit(nogil=True, cache=True)
+def central_differences(img):  # pragma: no cover - compiled
+    """Return ``(dy, dx)``: the differences ``[-1, 0, 1]`` along rows and columns, float32.
+
+    As ``scipy.ndimage.sobel`` makes them before smoothing: each in float64, rounded to
+    float32, the image reflected at its borders.
+    """
+    rows, cols = img.shape
+    dy = np.empty((rows, cols), dtype=np.float32)
+    dx = np.empty((rows, cols), dtype=np.float32)
+    for y in range(rows):
+        ya = reflect_index(y - 1, rows)
+        yb = reflect_index(y + 1, rows)
+        for x in range(cols):
+            dy[y, x] = np.float32(np.float64(img[yb, x]) - np.float64(img[ya, x]))
+            xa = reflect_index(x - 1, cols)
+            xb = reflect_index(x + 1, cols)
+            dx[y, x] = np.float32(np.float64(img[y, xb]) - np.float64(img[y, xa]))
+    return dy, dx
 
 
 @njit(nogil=True, cache=True)
@@ -590,22 +614,13 @@ def sobel_pair(img, gy, gx):  # pragma: no cover - compiled
     the image reflected at its borders.
     """
     rows, cols = img.shape
-    dy = np.empty((rows, cols), dtype=np.float32)
-    dx = np.empty((rows, cols), dtype=np.float32)
+    dy, dx = central_differences(img)
     for y in range(rows):
-        ya = _reflect(y - 1, rows)
-        yb = _reflect(y + 1, rows)
+        ya = reflect_index(y - 1, rows)
+        yb = reflect_index(y + 1, rows)
         for x in range(cols):
-            dy[y, x] = np.float32(np.float64(img[yb, x]) - np.float64(img[ya, x]))
-            xa = _reflect(x - 1, cols)
-            xb = _reflect(x + 1, cols)
-            dx[y, x] = np.float32(np.float64(img[y, xb]) - np.float64(img[y, xa]))
-    for y in range(rows):
-        ya = _reflect(y - 1, rows)
-        yb = _reflect(y + 1, rows)
-        for x in range(cols):
-            xa = _reflect(x - 1, cols)
-            xb = _reflect(x + 1, cols)
+            xa = reflect_index(x - 1, cols)
+            xb = reflect_index(x + 1, cols)
             gy[y, x] = np.float32(
                 np.float64(dy[y, x]) * 2.0 + (np.float64(dy[y, xa]) + np.float64(dy[y, xb]))
             )
@@ -627,13 +642,13 @@ def box_mean_reflect(src, size, out):  # pragma: no cover - compiled
     tmp = np.empty((rows, cols), dtype=np.float32)
     acc = np.zeros(cols, dtype=np.float64)
     for k in range(size):
-        s = src[_reflect(k - half, rows)]
+        s = src[reflect_index(k - half, rows)]
         for x in range(cols):
             acc[x] += s[x]
     for y in range(rows):
         if y > 0:
-            a = src[_reflect(y + half, rows)]
-            b = src[_reflect(y - 1 - half, rows)]
+            a = src[reflect_index(y + half, rows)]
+            b = src[reflect_index(y - 1 - half, rows)]
             for x in range(cols):
                 acc[x] += np.float64(a[x]) - np.float64(b[x])
         t = tmp[y]
@@ -644,10 +659,10 @@ def box_mean_reflect(src, size, out):  # pragma: no cover - compiled
         o = out[y]
         run = 0.0
         for k in range(size):
-            run += t[_reflect(k - half, cols)]
+            run += t[reflect_index(k - half, cols)]
         o[0] = np.float32(run / size)
         for x in range(1, cols):
-            run += np.float64(t[_reflect(x + half, cols)]) - np.float64(
-                t[_reflect(x - 1 - half, cols)]
+            run += np.float64(t[reflect_index(x + half, cols)]) - np.float64(
+                t[reflect_index(x - 1 - half, cols)]
             )
             o[x] = np.float32(run / size)
