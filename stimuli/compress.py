@@ -92,13 +92,13 @@ def block_mean(image: np.ndarray, shape_px: tuple[int, int]) -> np.ndarray:
     n_r, n_c = (int(v) for v in shape_px)
     rb = window_bounds(a.shape[0], n_r)
     cb = window_bounds(a.shape[1], n_c)
-    if a.dtype == bool:  # whole counts, exact: one compiled pass over the bytes
-        from stimuli import numpykernels
+    from stimuli import numpykernels
 
-        if numpykernels.active() and (np.diff(rb) > 0).all() and (np.diff(cb) > 0).all():
-            count_blocks = numpykernels.count_blocks
-        else:
-            from stimuli.kernels import count_blocks
+    nonempty = bool((np.diff(rb) > 0).all() and (np.diff(cb) > 0).all())
+    # whole counts, exact: one compiled pass over the bytes; in a scan's last steps the sums
+    # below instead (whole numbers in float64, exact: the same counts)
+    if a.dtype == bool and not (numpykernels.active() and nonempty):
+        from stimuli.kernels import count_blocks
 
         counts_on = np.zeros((n_r, n_c), dtype=np.int64)
         count_blocks(np.ascontiguousarray(a).view(np.uint8), rb, cb, counts_on)

@@ -5,9 +5,10 @@
 histogram, the grid counts) would import numba and load its cache, which costs more CPU time than
 the whole rest of the command on a capture of the shared Lytro size (ours: about 0.8-1.5 s of
 numba start-up against tens of milliseconds of numpy work). Within :func:`numpy_kernels`, and
-only while nothing has imported :mod:`stimuli.kernels`, those steps run here instead: the same
-float32 / float64 operations in the same order, so the images and numbers are the same to the
-bit (tested against the compiled loops).
+only while nothing has imported :mod:`stimuli.kernels`, the refocus and the Sobel filter run
+here instead (the same float32 / float64 operations in the same order, so the images are the
+same to the bit, tested against the compiled loops); the Otsu histogram and the grid counts take
+their modules' own numpy paths.
 """
 
 from __future__ import annotations
@@ -18,7 +19,7 @@ from collections.abc import Iterator
 
 import numpy as np
 
-__all__ = ["active", "count_blocks", "numpy_kernels", "shift_add", "sobel"]
+__all__ = ["active", "numpy_kernels", "shift_add", "sobel"]
 
 _ON = [False]
 
@@ -175,22 +176,3 @@ def sobel(img: np.ndarray, out: np.ndarray) -> int:
         gy = 0.25 * diff[:, :-2] + 0.5 * diff[:, 1:-1] + 0.25 * diff[:, 2:]
         out[:, 1:-1] = _magnitude(gy, smooth[:, :-2] - smooth[:, 2:])
     return outside
-
-
-def count_blocks(
-    edges: np.ndarray, row_bounds: np.ndarray, col_bounds: np.ndarray, counts: np.ndarray
-) -> None:
-    """Add the True pixels of ``edges`` (uint8 0/1) in each grid window to ``counts`` (int64).
-
-    The twin of :func:`stimuli.kernels.count_blocks` (whole counts, exact).
-
-    Parameters
-    ----------
-    edges : ndarray, uint8, (rows, cols)
-    row_bounds, col_bounds : ndarray of int
-        Window ``(i, j)`` covers ``row_bounds[i]:row_bounds[i + 1]`` and likewise columns.
-    counts : ndarray, int64, (len(row_bounds) - 1, len(col_bounds) - 1)
-        Added to.
-    """
-    sums = np.add.reduceat(edges.astype(np.int64), row_bounds[:-1], axis=0)
-    counts += np.add.reduceat(sums, col_bounds[:-1], axis=1)
