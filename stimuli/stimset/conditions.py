@@ -26,7 +26,8 @@ from stimuli.stimset.params import BuildParams
 from stimuli.stimset.prepare import (
     ConditionEdges,
     ObjectImages,
-    _scale_crop,
+    scale_crop,
+    to_aspect,
     to_working_size,
     zoom_crop,
 )
@@ -111,13 +112,8 @@ def _load_mask(work: ObjectImages, root: Path, params: BuildParams) -> np.ndarra
     m = (m > 0).astype(np.float32)
     if work.decoded_shape_px is not None and tuple(work.decoded_shape_px) != m.shape:
         m = to_working_size(m, work.decoded_shape_px)  # --fast-decode read the photos smaller
-    m = zoom_crop(m, _scale_crop(work.crop, work.original_shape_px, m.shape), where=f"{path}")
-    if work.aspect_crop is not None:
-        x, y, w, h = work.aspect_crop
-        m = m[y : y + h, x : x + w]
-    if work.aspect_pad is not None:
-        t, b, left, r = work.aspect_pad
-        m = np.pad(m, ((t, b), (left, r)))
+    m = zoom_crop(m, scale_crop(work.crop, work.original_shape_px, m.shape), where=f"{path}")
+    m = to_aspect(m, work)
     return to_working_size(m, params.working_shape_px) >= 0.5
 
 

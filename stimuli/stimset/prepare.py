@@ -31,6 +31,8 @@ __all__ = [
     "aspect_crop_box",
     "content_crop_box",
     "aspect_pad",
+    "to_aspect",
+    "scale_crop",
     "MIN_KEPT_SHARE",
     "to_working_size",
     "prepare_object",
@@ -312,6 +314,30 @@ def aspect_pad(
     return ((d // 2, d - d // 2), (0, 0))
 
 
+def to_aspect(image: np.ndarray, work: ObjectImages) -> np.ndarray:
+    """Cut or pad an image in the zoomed photo's frame to the working aspect, as the photos were.
+
+    Parameters
+    ----------
+    image : ndarray of shape (rows, cols)
+        In the frame of the object's photos after the zoom crop (a mask, a plane's support).
+    work : ObjectImages
+        The object's prepared images (``aspect_crop`` or ``aspect_pad``, if any).
+
+    Returns
+    -------
+    ndarray
+        ``image`` with the object's aspect crop taken, or its aspect padding added (zeros).
+    """
+    if work.aspect_crop is not None:
+        x, y, w, h = work.aspect_crop
+        image = image[y : y + h, x : x + w]
+    if work.aspect_pad is not None:
+        t, b, left, r = work.aspect_pad
+        image = np.pad(image, ((t, b), (left, r)))
+    return image
+
+
 def _valid_mask(
     shape_px: tuple[int, int], pad: tuple[tuple[int, int], tuple[int, int]], working: tuple
 ) -> np.ndarray:
@@ -357,7 +383,7 @@ def _draft_shape(
     return (int(np.ceil(full_px[0] * s)), int(np.ceil(full_px[1] * s)))
 
 
-def _scale_crop(
+def scale_crop(
     crop: tuple[int, int, int, int] | None, ref_px: tuple[int, int], shape_px: tuple[int, int]
 ) -> tuple[int, int, int, int] | None:
     """Map a crop box given on an image of size ``ref_px`` to one of size ``shape_px``."""
@@ -479,14 +505,14 @@ def prepare_object(
     where = f"object {src.object!r} ({name}): field crop"
     if crop is not None:
         _check_crop_inside(crop, wide_full, where=where)
-    wide = zoom_crop(wide_raw, _scale_crop(crop, wide_full, wide_raw.shape), where=where)
-    narrow = zoom_crop(narrow_raw, _scale_crop(crop, wide_full, narrow_raw.shape), where=where)
+    wide = zoom_crop(wide_raw, scale_crop(crop, wide_full, wide_raw.shape), where=where)
+    narrow = zoom_crop(narrow_raw, scale_crop(crop, wide_full, narrow_raw.shape), where=where)
     box = aspect_crop_box(wide.shape, params.working_shape_px)
     kept = None
     pad = None
     if pair is not None and pair.choice is not None and pair.choice.content is not None:
         # a light field's crop keeps its plane's content (or region of interest), not the centre
-        content = zoom_crop(pair.choice.content, _scale_crop(crop, wide_full, wide_raw.shape))
+        content = zoom_crop(pair.choice.content, scale_crop(crop, wide_full, wide_raw.shape))
         box, kept_in_zoom = content_crop_box(content, params.working_shape_px)
         if kept_in_zoom < MIN_KEPT_SHARE:  # no crop keeps the object: pad to the aspect
             box, pad, kept_in_zoom = None, aspect_pad(wide.shape, params.working_shape_px), 1.0
@@ -508,7 +534,7 @@ def prepare_object(
         for value in (1, 2):  # in focus, dropped (stimuli.declutter.in_focus_evidence)
             f = zoom_crop(
                 (focus == value).astype(np.float32),
-                _scale_crop(crop, wide_full, narrow_raw.shape),
+                scale_crop(crop, wide_full, narrow_raw.shape),
                 where=where,
             )
             f = _cut(f, box)
@@ -571,7 +597,7 @@ def colour_photos(
     """
     out = []
     for img in rgb:
-        img = _cut(img, _scale_crop(crop, original_shape_px, img.shape[:2]))
+        img = _cut(img, scale_crop(crop, original_shape_px, img.shape[:2]))
         img = _cut(img, aspect_crop_box(img.shape[:2], working_shape_px))
         img = resize(img, (*working_shape_px, 3), order=1, mode="reflect", anti_aliasing=True)
         out.append(np.clip(img, 0.0, 1.0).astype(np.float32))

@@ -40,7 +40,7 @@ import numpy as np
 from scipy import ndimage
 
 from stimuli.stimset.params import BuildParams
-from stimuli.stimset.prepare import ObjectImages, to_working_size, zoom_crop
+from stimuli.stimset.prepare import ObjectImages, to_aspect, to_working_size, zoom_crop
 
 __all__ = [
     "LOW_LEVELS",
@@ -94,12 +94,7 @@ def plane_support(
         m = ndimage.distance_transform_edt(~m) <= r
     m = m.astype(np.float32)
     m = zoom_crop(m, work.crop) if work.crop is not None else m
-    if work.aspect_crop is not None:
-        x, y, w, h = work.aspect_crop
-        m = m[y : y + h, x : x + w]
-    if work.aspect_pad is not None:
-        t, b, left, r = work.aspect_pad
-        m = np.pad(m, ((t, b), (left, r)))
+    m = to_aspect(m, work)
     if m.size == 0:
         return np.zeros(params.working_shape_px, bool)
     return to_working_size(m, params.working_shape_px) > 0.25
