@@ -84,15 +84,31 @@ def simulate_study(
     lapse: float,
     n_subjects: int = 6,
     rng: np.random.Generator | int | None = 0,
+    criterion_jitter: float = 0.0,
+    subject_sd: float = 0.0,
+    kind_sd: float = 0.0,
 ) -> list[tuple[str, str, str, float, int]]:
     """Return one simulated study's trials ``(subject, object, condition, pixels, recognised)``
-    through the observer's decision stage, in the protocol's order."""
+    through the observer's decision stage, in the protocol's order.
+
+    ``criterion_jitter``, ``subject_sd`` and ``kind_sd`` are decision-stage variants the
+    observer does not use (all 0 by default, which leaves the random stream as it was): the
+    criterion varied from trial to trial (SD ``criterion_jitter``, criterion noise), per
+    subject (one offset per session, SD ``subject_sd``) and per subject and kind (SD
+    ``kind_sd``); ``benchmarks/observer_slope_spread.py`` measures what they do to the odds
+    ratios' spread.
+    """
     g = np.random.default_rng(rng)
     levels = np.unique(resp["cluttered"]["pixels"])
     n_kinds = resp["cluttered"]["known"].shape[1]
     rows = []
     for j in range(n_subjects):
         named = np.zeros(n_kinds, bool)
+        offset = np.zeros(n_kinds)
+        if subject_sd > 0:
+            offset += subject_sd * g.standard_normal()
+        if kind_sd > 0:
+            offset += kind_sd * g.standard_normal(n_kinds)
         for lv in levels:
             for cond in CONDITIONS:
                 r = resp[cond]
@@ -101,7 +117,10 @@ def simulate_study(
                 for i in idx:
                     noisy = r["known"][i] + noise_sd * g.standard_normal(n_kinds)
                     best = int(noisy.argmax())
-                    answer = noisy[best] > criterion - priming * named[best]
+                    c = criterion + offset[best] - priming * named[best]
+                    if criterion_jitter > 0:
+                        c += criterion_jitter * g.standard_normal()
+                    answer = noisy[best] > c
                     answer = answer and g.random() >= lapse
                     named[best] |= answer
                     ok = int(answer and best == r["correct"][i])
@@ -177,10 +196,11 @@ def fit_criterion(
     lapse: float,
     grid: np.ndarray,
     repeats: int = 3,
+    **variant: float,
 ) -> tuple[float, dict[float, float]]:
     """Return the criterion whose expected *cluttered* recognition is nearest the paper's
     cluttered curve (mean squared difference level by level, averaged over the seeds), and
-    each grid point's misfit."""
+    each grid point's misfit. ``variant``: further :func:`simulate_study` options."""
     lv = np.unique(resps[0]["cluttered"]["pixels"])
     target = 1 - np.exp(-math.log(2) * (lv / PAPER_CLUTTERED_X50_PX) ** PAPER_CLUTTERED_BETA)
     misfit = {}
@@ -190,7 +210,8 @@ def fit_criterion(
             rate = np.zeros(len(lv))
             for rep in range(repeats):
                 rows = simulate_study(resp, noise_sd=noise_sd, criterion=float(c),
-                                      priming=priming, lapse=lapse, rng=1000 * i + rep)  # fmt: skip
+                                      priming=priming, lapse=lapse, rng=1000 * i + rep,
+                                      **variant)  # fmt: skip
                 clut = [(r[3], r[4]) for r in rows if r[2] == "cluttered"]
                 rate += [np.mean([ok for px, ok in clut if px == x]) for x in lv]
             per_seed.append(np.mean((rate / repeats - target) ** 2))

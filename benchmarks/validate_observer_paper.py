@@ -102,6 +102,7 @@ def paper_logistic_study(
     n_subjects: int = 6,
     object_sd: float = 1.5,
     rng: int = 0,
+    or_per_log10_px: float | None = None,
 ) -> list[tuple[str, str, str, float, int]]:
     """One simulated study of an observer whose true odds ratios are the paper's.
 
@@ -120,13 +121,18 @@ def paper_logistic_study(
         dummies were significant).
     rng : int
         Seed.
+    or_per_log10_px : float, optional
+        Another true slope (odds ratio per log10 pixels) instead of the paper's 74.5, the
+        cluttered 50 % point kept at 8,695 px: the chance spread of observers with other
+        slopes (``benchmarks/observer_slope_spread.py``).
 
     Returns
     -------
     list of (subject, object, condition, pixels, recognised)
     """
     g = np.random.default_rng(rng)
-    b_bg, b_px = math.log(PAPER["or_background"][0]), math.log(PAPER["or_per_log10_px"][0])
+    b_bg = math.log(PAPER["or_background"][0])
+    b_px = math.log(or_per_log10_px or PAPER["or_per_log10_px"][0])
     a = -b_px * math.log10(PAPER["x50_cluttered_px"][0])
     u = g.normal(0.0, object_sd, len(objects))
     rows = []
