@@ -16,9 +16,15 @@ variants, each with its criterion refitted to the paper's *cluttered* curve only
 * **transitional cells**: (object, condition, level) cells of a study with some but not all of
   the six subjects right, the cells that carry the information on the slope, and the objects
   never recognised in a study;
+* **object slopes**: each object's own slope (:func:`object_slopes`), their median and
+  coefficient of variation (SD / median) under each decision stage;
 * per design seed: the calibrated observer's median slope and the number of objects whose
   expected recognition at the finest level (100 simulated subjects) stays below 0.85 in either
-  condition (objects that level off).
+  condition (objects that level off);
+* each object's own slope under the calibrated observer (:func:`object_slopes`), and a
+  logistic observer with the paper's odds ratios whose objects are fixed per set and share one
+  slope or differ in slope by the calibrated observer's SD (:func:`set_chance`): how much
+  between-set spread objects that differ in slope alone give.
 
 The variants (``VARIANTS``): internal noise lower or higher, priming off or stronger, criterion
 noise (the criterion varied from trial to trial), a criterion per subject, a criterion per
@@ -55,7 +61,15 @@ from benchmarks.design_observer import (  # noqa: E402
 from benchmarks.validate_observer_paper import PAPER, paper_logistic_study  # noqa: E402
 from experiment.observers.calibration import CalibratedParams  # noqa: E402
 
-__all__ = ["VARIANTS", "decompose", "cell_counts", "chance_curve", "main"]
+__all__ = [
+    "VARIANTS",
+    "decompose",
+    "cell_counts",
+    "chance_curve",
+    "object_slopes",
+    "set_chance",
+    "main",
+]
 
 _F = CalibratedParams.__dataclass_fields__
 #: The observer as calibrated (its criterion kept, not refitted).
@@ -141,22 +155,79 @@ def cell_counts(rows: list[tuple[str, str, str, float, int]]) -> tuple[int, int]
     return mixed, sum(1 for h in hits.values() if h == 0)
 
 
-def chance_curve(objects: list[str], pixels: list[float], n: int) -> list[tuple[float, float]]:
-    """``(median estimated OR per log10 px, SD of its log)`` of ``n`` studies of the paper's
-    logistic observer at each true slope of :data:`CHANCE_SLOPES`."""
+def chance_curve(
+    objects: list[str], pixels: list[float], n: int
+) -> list[tuple[float, float, float]]:
+    """``(median estimated OR per log10 px, SD of its log, mean transitional cells)`` of ``n``
+    studies of the paper's logistic observer at each true slope of :data:`CHANCE_SLOPES`."""
     curve = []
     for k, slope in enumerate(CHANCE_SLOPES):
-        v = np.log([odds_ratios(paper_logistic_study(objects, pixels, rng=500_000 + 1000 * k + i,
-                                                     or_per_log10_px=slope))["or_per_log10_px"]
-                    for i in range(n)])  # fmt: skip
-        curve.append((float(np.exp(np.median(v))), float(v.std())))
+        v, cells = [], []
+        for i in range(n):
+            rows = paper_logistic_study(objects, pixels, rng=500_000 + 1000 * k + i,
+                                        or_per_log10_px=slope)  # fmt: skip
+            v.append(math.log(odds_ratios(rows)["or_per_log10_px"]))
+            cells.append(cell_counts(rows)[0])
+        curve.append((float(np.exp(np.median(v))), float(np.std(v)), float(np.mean(cells))))
     return curve
 
 
-def _chance_at(curve: list[tuple[float, float]], median: float) -> float:
+def object_slopes(resp: dict, kw: dict[str, Any], n_subjects: int = 60) -> np.ndarray:
+    """Each object's own slope, log odds per log10 px: Firth's fit of intercept, background and
+    log10 pixels to that object's trials of ``n_subjects`` simulated subjects (NaN for an
+    object never recognised)."""
+    from analysis.firth import firth_logit
+
+    cells: dict[tuple[str, int, float], list[int]] = defaultdict(list)
+    for _, o, c, px, ok in simulate_study(resp, n_subjects=n_subjects, rng=9, **kw):
+        cells[(o, int(c == "decluttered"), math.log10(px))].append(ok)
+    out = []
+    for obj in sorted({key[0] for key in cells}):
+        keys = [key for key in cells if key[0] == obj]
+        k = np.array([sum(cells[key]) for key in keys], float)
+        n = np.array([len(cells[key]) for key in keys], float)
+        if k.sum() == 0:
+            out.append(np.nan)
+            continue
+        x = np.array([[1.0, key[1], key[2]] for key in keys])
+        out.append(float(firth_logit(k / n, x, weights=n)[0][2]))
+    return np.asarray(out)
+
+
+def set_chance(
+    objects: list[str], pixels: list[float], slope_sd: float, sets: int, n: int
+) -> dict[str, Any]:
+    """:func:`decompose` of ``n`` studies on each of ``sets`` object sets of a logistic observer
+    with the paper's odds ratios on average whose objects may differ in slope: per set, each
+    object's slope (log odds per log10 px) drawn once N(log 74.5, ``slope_sd``) (at least 0.5)
+    and its effect N(0, 1.5), the cluttered 50 % point of the average object at 8,695 px; six
+    subjects, every object at every level in both conditions."""
+    b_bg = math.log(PAPER["or_background"][0])
+    draws = []
+    for s in range(sets):
+        gs = np.random.default_rng(700_000 + s)
+        b = np.maximum(gs.normal(math.log(PAPER["or_per_log10_px"][0]), slope_sd, len(objects)),
+                       0.5)  # fmt: skip
+        u = gs.normal(0.0, 1.5, len(objects))
+        for i in range(n):
+            g = np.random.default_rng(800_000 + 1000 * s + i)
+            rows = []
+            for j in range(6):
+                for px in pixels:
+                    for bg, cond in ((0, "cluttered"), (1, "decluttered")):
+                        eta = b_bg * bg + b * (math.log10(px) - math.log10(8695.0)) + u
+                        ok = g.random(len(objects)) < 1.0 / (1.0 + np.exp(-eta))
+                        rows += [(f"S{j + 1:02d}", o, cond, float(px), int(y))
+                                 for o, y in zip(objects, ok, strict=True)]  # fmt: skip
+            q = odds_ratios(rows)
+            draws.append((s, math.log(q["or_background"]), math.log(q["or_per_log10_px"])))
+    return decompose(draws)
+
+
+def _chance_at(curve: list[tuple[float, float, float]], median: float) -> float:
     """The chance SD interpolated (on log median) at ``median``."""
-    x = np.log([m for m, _ in curve])
-    return float(np.interp(math.log(median), x, [s for _, s in curve]))
+    x = np.log([c[0] for c in curve])
+    return float(np.interp(math.log(median), x, [c[1] for c in curve]))
 
 
 def _run(resps: list, seeds: list[int], kw: dict[str, Any], n: int) -> dict[str, Any]:
@@ -209,8 +280,8 @@ def main(argv: list[str] | None = None) -> int:
     n_chance = args.studies * len(args.seeds)
     curve = chance_curve(objs, pixels, n_chance)
     print(f"chance (paper's logistic observer, object spread 1.5, {n_chance} studies a slope): "
-          + ", ".join(f"true {t:g} -> median {m:.1f}, SD log {s:.3f}"
-                      for t, (m, s) in zip(CHANCE_SLOPES, curve, strict=True)))  # fmt: skip
+          + ", ".join(f"true {t:g} -> median {m:.1f}, SD log {s:.3f}, {c:.0f} transitional cells"
+                      for t, (m, s, c) in zip(CHANCE_SLOPES, curve, strict=True)))  # fmt: skip
     base = {**OBSERVER, "criterion": float(_F["criterion"].default)}
     stages = {"calibrated observer": base}
     grid = np.round(np.arange(3.0, 4.01, 0.05), 2)
@@ -227,13 +298,16 @@ def main(argv: list[str] | None = None) -> int:
     print(
         "decision stage | criterion | OR background (SD log) | OR per log10 px | SD log slope "
         "(within, between) | chance SD | ratio | both inside | transitional cells | never "
-        "recognised"
+        "recognised | object slopes: median, CV"
     )
     for name, kw in stages.items():
         r = _run(resps, args.seeds, kw, args.studies)
         px = r["or_per_log10_px"]
         chance = _chance_at(curve, px["median"])
         r["chance_sd"], r["ratio"], r["stage"] = chance, px["sd_log"] / chance, kw
+        slopes = np.concatenate([object_slopes(x, kw) for x in resps])
+        r["object_slope_median"] = float(np.nanmedian(slopes))
+        r["object_slope_cv"] = float(np.nanstd(slopes) / np.nanmedian(slopes))
         results[name] = r
         bg = r["or_background"]
         print(
@@ -241,7 +315,8 @@ def main(argv: list[str] | None = None) -> int:
             f"{_fmt(px)} | "
             f"{px['sd_log']:.3f} ({px['sd_within']:.3f}, {px['sd_between']:.3f}) | "
             f"{chance:.3f} | {r['ratio']:.2f} | {r['both']:.2f} | "
-            f"{r['transitional_cells']:.0f} | {r['never_recognised']:.1f}",
+            f"{r['transitional_cells']:.0f} | {r['never_recognised']:.1f} | "
+            f"{r['object_slope_median']:.2f}, {r['object_slope_cv']:.2f}",
             flush=True,
         )
     seedrow = results["calibrated observer"]["seed_median_px"]
@@ -254,12 +329,26 @@ def main(argv: list[str] | None = None) -> int:
         print(f"{s} | {seedrow[s]:.1f} | {off[s]}")
     x, y = np.array([off[s] for s in args.seeds]), np.log([seedrow[s] for s in args.seeds])
     corr = float(np.corrcoef(x, y)[0, 1]) if x.std() > 0 else float("nan")
-    print(
-        f"correlation over seeds (objects levelling off, log median slope): {corr:.2f}; "
-        f"{time.perf_counter() - t0:.0f} s"
-    )
+    print(f"correlation over seeds (objects levelling off, log median slope): {corr:.2f}")
+    slopes = np.concatenate([object_slopes(r, base) for r in resps])
+    sd = float(np.nanstd(slopes))
+    q = np.nanquantile(slopes, [0.1, 0.5, 0.9])
+    print(f"calibrated observer's own slope per object (log odds per log10 px, 60 subjects): "
+          f"10/50/90 % {q[0]:.1f} / {q[1]:.1f} / {q[2]:.1f}, SD {sd:.2f} (the paper's common "
+          f"slope: {math.log(PAPER['or_per_log10_px'][0]):.2f}); never recognised "
+          f"{np.isnan(slopes).sum()} of {slopes.size}")  # fmt: skip
+    sets = {}
+    for name, s_sd in (("one slope", 0.0), ("object slopes differ", sd)):
+        d = sets[name] = set_chance(objs, pixels, s_sd, len(args.seeds), args.studies)
+        px = d["or_per_log10_px"]
+        bg = _fmt(d["or_background"], ".2f")
+        print(f"logistic observer, paper's odds ratios, {name} (SD {s_sd:.2f}), objects fixed "
+              f"per set, {len(args.seeds)} sets x {args.studies} studies: OR per log10 px "
+              f"{_fmt(px)}, SD log {px['sd_log']:.3f} (within {px['sd_within']:.3f}, between "
+              f"{px['sd_between']:.3f}); OR background {bg}")  # fmt: skip
+    print(f"{time.perf_counter() - t0:.0f} s")
     print(json.dumps({"chance": curve, "variants": results, "levelling_off": off,
-                      "correlation": corr}))  # fmt: skip
+                      "correlation": corr, "object_slope_sd": sd, "sets": sets}))  # fmt: skip
     return 0
 
 
