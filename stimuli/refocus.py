@@ -150,23 +150,6 @@ def _check_disparity(lf: LightField, disparity_px: float) -> float:
     return d
 
 
-def _tap_arrays(shifts: Sequence[float]) -> tuple[np.ndarray, ...]:
-    """Per view: the first tap's integer shift, its weight and the next tap's weight.
-
-    A linear-interpolation shift by ``n + f`` has taps ``(n, 1 - f)`` and ``(n + 1, f)``
-    (:func:`shift_weights`); a whole shift has one tap, the other weight is 0.
-    """
-    m = np.zeros(len(shifts), dtype=np.int64)
-    w0 = np.zeros(len(shifts), dtype=np.float32)
-    w1 = np.zeros(len(shifts), dtype=np.float32)
-    for i, s in enumerate(shifts):
-        taps = shift_weights(s)
-        m[i], w0[i] = taps[0]
-        if len(taps) == 2:
-            w1[i] = taps[1][1]
-    return m, w0, w1
-
-
 def _inverse_weights(length: int, shifts: Sequence[float]) -> np.ndarray:
     """One over the number of contributing views along one axis (0 where none contributes)."""
     w = overlap_weights(length, shifts)
@@ -191,15 +174,13 @@ def _refocus_compiled(
     from stimuli.shiftadd import shift_add_rows
 
     n_u, n_v, rows, cols = views.shape
-    taps = (*_tap_arrays(row_shifts), *_tap_arrays(col_shifts))
-    inv_rows = _inverse_weights(rows, row_shifts)
-    inv_cols = _inverse_weights(cols, col_shifts)
+    shifts = (np.asarray(row_shifts, np.float64), np.asarray(col_shifts, np.float64))
     if n_u * n_v * rows * cols < _THREAD_MIN_PIXELS or workers <= 1:
-        shift_add_rows(views, *taps, inv_rows, inv_cols, result, 0, rows)
+        shift_add_rows(views, *shifts, result, 0, rows)
         return result
 
     def run(r0: int, r1: int) -> None:
-        shift_add_rows(views, *taps, inv_rows, inv_cols, result, r0, r1)
+        shift_add_rows(views, *shifts, result, r0, r1)
 
     run_on_row_strips(run, rows, workers)
     return result

@@ -197,30 +197,83 @@ def _sum_grid_row(
 
 
 @njit(nogil=True, cache=True)
-def shift_add_rows(
-    views, row_m, row_w0, row_w1, col_m, col_w0, col_w1, inv_rows, inv_cols, out, r0, r1
-):  # pragma: no cover - compiled
+def _taps(shifts):  # pragma: no cover - compiled
+    """Per shift: the first tap's whole shift and weight, the second tap's weight (0: none).
+
+    :func:`stimuli.refocus.shift_weights` in float64, the weights rounded to float32.
+    """
+    n_taps = shifts.shape[0]
+    m = np.empty(n_taps, np.int64)
+    w0 = np.empty(n_taps, np.float32)
+    w1 = np.zeros(n_taps, np.float32)
+    for i in range(n_taps):
+        n = np.floor(shifts[i])
+        f = shifts[i] - n
+        if f < 1e-6:
+            m[i], w0[i] = int(n), 1.0
+        elif f > 1.0 - 1e-6:
+            m[i], w0[i] = int(n) + 1, 1.0
+        else:
+            m[i], w0[i], w1[i] = int(n), 1.0 - f, f
+    return m, w0, w1
+
+
+@njit(nogil=True, cache=True)
+def _inverse_weights(length, shifts):  # pragma: no cover - compiled
+    """One over the views' summed tap weights per position, float32 (0 where none falls).
+
+    :func:`stimuli.refocus.overlap_weights` (float64, the same sums in the same order), then
+    ``1 / w`` where ``w > 1e-9``.
+    """
+    w = np.zeros(length, np.float64)
+    for s in shifts:
+        n = np.floor(s)
+        f = s - n
+        for t in range(2):
+            if f < 1e-6:
+                m, a = int(n), 1.0
+            elif f > 1.0 - 1e-6:
+                m, a = int(n) + 1, 1.0
+            else:
+                m, a = int(n) + t, (1.0 - f) if t == 0 else f
+            if m < length and -m < length:
+                for x in range(max(0, m), min(length, length + m)):
+                    w[x] += a
+            if f < 1e-6 or f > 1.0 - 1e-6:
+                break
+    inv = np.zeros(length, np.float32)
+    for x in range(length):
+        if w[x] > 1e-9:
+            inv[x] = 1.0 / w[x]
+    return inv
+
+
+@njit(nogil=True, cache=True)
+def shift_add_rows(views, row_shifts, col_shifts, out, r0, r1):  # pragma: no cover - compiled
     """Refocused rows ``r0:r1`` of ``out`` from grey, C-contiguous float32 ``views``.
 
     Parameters
     ----------
     views : ndarray, float32, (n_u, n_v, rows, cols), C-contiguous
-    row_m, row_w0, row_w1 : ndarray
-        Per grid row ``u``: output row ``y`` takes the partial image's row ``y - row_m[u]`` with
-        weight ``row_w0[u]`` and row ``y - row_m[u] - 1`` with ``row_w1[u]`` (0: one tap).
-    col_m, col_w0, col_w1 : ndarray
-        The same per grid column ``v``, along the columns of each view.
-    inv_rows, inv_cols : ndarray, float32
-        One over the number of contributing views per row / column (0 where none does).
+    row_shifts, col_shifts : ndarray, float64, (n_u,) and (n_v,)
+        The shift of each grid row's views along the rows and of each grid column's views along
+        the columns, pixels: view ``(u, v)`` lands at ``(y + row_shifts[u], x + col_shifts[v])``
+        (linear interpolation: the taps of :func:`stimuli.refocus.shift_weights`).
     out : ndarray, float32, (rows, cols)
-        Rows ``r0:r1`` written: the sum times ``inv_rows[y] * inv_cols[x]``, clipped to [0, 1].
+        Rows ``r0:r1`` written: the sum over the views divided by the number of views (tap
+        weights) falling on each pixel, clipped to [0, 1].
     r0, r1 : int
         The output rows to make (threads make separate ranges).
 
-    Samples outside a view are left out. The sums follow the numpy path's order (see the module
-    docstring), so the result equals it to the bit.
+    Samples outside a view are left out. The taps, the normalisers and the sums are made as the
+    numpy path of :mod:`stimuli.refocus` makes them, in the same order, so the result equals it
+    to the bit.
     """
     n_u, n_v, rows, cols = views.shape
+    row_m, row_w0, row_w1 = _taps(row_shifts)
+    col_m, col_w0, col_w1 = _taps(col_shifts)
+    inv_rows = _inverse_weights(rows, row_shifts)
+    inv_cols = _inverse_weights(cols, col_shifts)
     flat = views.reshape(-1)
     acc = np.empty(ROW_BLOCK * cols, np.float32)
     part = np.empty((ROW_BLOCK + 1) * cols, np.float32)
