@@ -93,10 +93,11 @@ def _open(path: str | os.PathLike, draft_shape_px: tuple[int, int] | None = None
         raise InputError(f"{path}: not a readable image ({exc})") from None
     except Image.DecompressionBombError as exc:
         raise InputError(f"{path}: refused as a decompression bomb ({exc})") from None
-    try:
-        return ImageOps.exif_transpose(img)
+    try:  # in place: without a rotation to undo, no copy of the pixels
+        ImageOps.exif_transpose(img, in_place=True)
     except (OSError, ValueError, SyntaxError):  # broken EXIF block: keep the pixels as stored
-        return img
+        pass
+    return img
 
 
 #: Bytes per pixel of a decoded image and its float32 copies (ours: RGBA uint8 + float32 RGB +

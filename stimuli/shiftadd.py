@@ -70,6 +70,19 @@ def _span4(dst, d0, src, s0, s1, s2, s3, n, wa, wb, wc, wd):  # pragma: no cover
 
 
 @njit(nogil=True, cache=True, inline="always")
+def _span6(dst, d0, src, s, n, w):  # pragma: no cover - compiled
+    """Six taps added in turn: ``src[s[k] + i]`` with weight ``w[k]``, ``k = 0 .. 5``."""
+    a = uint64(d0)
+    b0, b1, b2 = uint64(s[0]), uint64(s[1]), uint64(s[2])
+    b3, b4, b5 = uint64(s[3]), uint64(s[4]), uint64(s[5])
+    w0, w1, w2, w3, w4, w5 = w[0], w[1], w[2], w[3], w[4], w[5]
+    for i in range(uint64(n)):
+        t = (dst[a + i] + w0 * src[b0 + i]) + w1 * src[b1 + i]
+        t = (t + w2 * src[b2 + i]) + w3 * src[b3 + i]
+        dst[a + i] = (t + w4 * src[b4 + i]) + w5 * src[b5 + i]
+
+
+@njit(nogil=True, cache=True, inline="always")
 def _span8(dst, d0, src, s, n, w):  # pragma: no cover - compiled
     """Eight taps added in turn: ``src[s[k] + i]`` with weight ``w[k]``, ``k = 0 .. 7``."""
     a = uint64(d0)
@@ -133,27 +146,32 @@ def _add_two(dst, d0, src, s0, t0, cols, m, wa, wb, k, wc, wd):  # pragma: no co
 
 
 @njit(nogil=True, cache=True)
-def _add_four(dst, d0, src, starts, cols, col_m, col_w0, col_w1, v, offs, ws):  # pragma: no cover
-    """Four views' rows (starting at ``starts``, views ``v .. v + 3``) added in view order."""
+def _add_group(
+    dst, d0, src, starts, g, cols, col_m, col_w0, col_w1, v, offs, ws
+):  # pragma: no cover - compiled
+    """``g`` (3 or 4) views' rows (starting at ``starts``, views ``v ..``) added in view order."""
     lo = 0
     hi = cols
-    for q in range(4):
+    for q in range(g):
         lo = max(lo, col_m[v + q] + 1)
         hi = min(hi, cols + col_m[v + q])
     if hi > lo:
-        for q in range(4):
+        for q in range(g):
             offs[2 * q] = starts[q] + lo - col_m[v + q]
             offs[2 * q + 1] = offs[2 * q] - 1
             ws[2 * q] = col_w0[v + q]
             ws[2 * q + 1] = col_w1[v + q]
-        _span8(dst, d0 + lo, src, offs, hi - lo, ws)
-        for q in range(4):
+        if g == 4:
+            _span8(dst, d0 + lo, src, offs, hi - lo, ws)
+        else:
+            _span6(dst, d0 + lo, src, offs, hi - lo, ws)
+        for q in range(g):
             _taps_on(dst, d0, src, starts[q], cols, col_m[v + q], ws[2 * q], ws[2 * q + 1], 0, lo)
-        for q in range(4):
+        for q in range(g):
             m, wa, wb = col_m[v + q], col_w0[v + q], col_w1[v + q]
             _taps_on(dst, d0, src, starts[q], cols, m, wa, wb, hi, cols)
     else:
-        for q in range(4):
+        for q in range(g):
             m, wa, wb = col_m[v + q], col_w0[v + q], col_w1[v + q]
             _taps_on(dst, d0, src, starts[q], cols, m, wa, wb, 0, cols)
 
@@ -164,22 +182,23 @@ def _sum_grid_row(
 ):  # pragma: no cover - compiled
     """Rows ``s_lo:s_lo + k`` of grid row ``u``'s views, column-shifted, added into ``dst``.
 
-    Source row ``s_lo + j`` goes to ``dst[d0 + j * cols:...]``; views in order, four at a time,
-    then two, then one.
+    Source row ``s_lo + j`` goes to ``dst[d0 + j * cols:...]``; views in order, in groups of four
+    or three views (one pass over the partial rows per group), then two, then one.
     """
     starts, offs, ws = scratch
     view_px = rows * cols
     v = 0
     while v < n_v:
         base = ((u * n_v + v) * rows + s_lo) * cols
-        if n_v - v >= 4:
+        left = n_v - v
+        if left >= 3:  # fours and threes, fewest passes: 9 = 3 + 3 + 3, 7 = 4 + 3, 5 = 3 + 2
+            g = 3 if left == 3 or left == 5 or left == 6 or left == 9 else 4
             for j in range(k):
-                for q in range(4):
+                for q in range(g):
                     starts[q] = base + q * view_px + j * cols
-                _add_four(
-                    dst, d0 + j * cols, flat, starts, cols, col_m, col_w0, col_w1, v, offs, ws
-                )
-            v += 4
+                d = d0 + j * cols
+                _add_group(dst, d, flat, starts, g, cols, col_m, col_w0, col_w1, v, offs, ws)
+            v += g
         elif n_v - v >= 2:
             for j in range(k):
                 s = base + j * cols
