@@ -561,7 +561,7 @@ def to_uint8(image: np.ndarray) -> np.ndarray:
     return np.round(to_float01(a) * 255.0).astype(np.uint8)
 
 
-def save_png(image: np.ndarray, path: str | os.PathLike) -> Path:
+def save_png(image: np.ndarray, path: str | os.PathLike, *, compress_level: int = 6) -> Path:
     """Write a grey or binary image as an 8-bit PNG, atomically.
 
     Parameters
@@ -569,6 +569,9 @@ def save_png(image: np.ndarray, path: str | os.PathLike) -> Path:
     image : ndarray of shape (rows, cols), bool or float in [0, 1]
         ``True``/1.0 is written as 255.
     path : str or path-like
+    compress_level : int in 0..9
+        zlib's effort (Pillow's default 6). The pixels are the same at any level; 1 writes a
+        grey image about 4x faster and about 15 % larger (ours, 491x359 confocal images).
 
     Returns
     -------
@@ -578,7 +581,7 @@ def save_png(image: np.ndarray, path: str | os.PathLike) -> Path:
     u8 = to_uint8(image)
     path = Path(path)
     with atomic_path(path) as tmp:
-        Image.fromarray(u8).save(tmp, format="PNG")
+        Image.fromarray(u8).save(tmp, format="PNG", compress_level=compress_level)
     return path
 
 

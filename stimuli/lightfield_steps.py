@@ -358,11 +358,12 @@ def scan_one(
                     indent=1,
                 )
             )
-        save_png(centre, tmp / "centre.png")
+        fast = {"compress_level": 1}  # a scan's pictures: written fast, the same pixels
+        save_png(centre, tmp / "centre.png", **fast)
         for stem, img, edges, cells in images:
-            save_png(img, tmp / f"{stem}_confocal.png")
-            save_png(edges, tmp / f"{stem}_edges.png")
-            save_png(cells, tmp / f"{stem}_grid.png")
+            save_png(img, tmp / f"{stem}_confocal.png", **fast)
+            save_png(edges, tmp / f"{stem}_edges.png", **fast)
+            save_png(cells, tmp / f"{stem}_grid.png", **fast)
         if opts.get("plot", True):
             from stimuli.scanplot import plot_scores  # after the answer is out
 
