@@ -599,7 +599,10 @@ def load_lightfield(
     meta.pop("geometry", None)
     if toml_path:
         meta["toml"] = str(toml_path)
-    lf = LightField(views, geometry, str(path), meta)
+    if meta.get("kind") == "views" and "bit_depth" in meta:  # integer samples, scaled, clipped
+        lf = LightField.checked_already(views, geometry, str(path), meta)  # no pass to check
+    else:
+        lf = LightField(views, geometry, str(path), meta)
     return lf if view_box is None else lf.cropped(view_box)
 
 
