@@ -70,11 +70,11 @@ def _span4(dst, d0, src, s0, s1, s2, s3, n, wa, wb, wc, wd):  # pragma: no cover
 
 
 @njit(nogil=True, cache=True, inline="always")
-def _span6(dst, d0, src, s, n, w):  # pragma: no cover - compiled
-    """Six taps added in turn: ``src[s[k] + i]`` with weight ``w[k]``, ``k = 0 .. 5``."""
+def _span6(dst, d0, src, s, shift, n, w):  # pragma: no cover - compiled
+    """Six taps added in turn: ``src[s[k] + shift + i]`` with weight ``w[k]``, ``k = 0 .. 5``."""
     a = uint64(d0)
-    b0, b1, b2 = uint64(s[0]), uint64(s[1]), uint64(s[2])
-    b3, b4, b5 = uint64(s[3]), uint64(s[4]), uint64(s[5])
+    b0, b1, b2 = uint64(s[0] + shift), uint64(s[1] + shift), uint64(s[2] + shift)
+    b3, b4, b5 = uint64(s[3] + shift), uint64(s[4] + shift), uint64(s[5] + shift)
     w0, w1, w2, w3, w4, w5 = w[0], w[1], w[2], w[3], w[4], w[5]
     for i in range(uint64(n)):
         t = (dst[a + i] + w0 * src[b0 + i]) + w1 * src[b1 + i]
@@ -83,11 +83,21 @@ def _span6(dst, d0, src, s, n, w):  # pragma: no cover - compiled
 
 
 @njit(nogil=True, cache=True, inline="always")
-def _span8(dst, d0, src, s, n, w):  # pragma: no cover - compiled
-    """Eight taps added in turn: ``src[s[k] + i]`` with weight ``w[k]``, ``k = 0 .. 7``."""
+def _span8(dst, d0, src, s, shift, n, w):  # pragma: no cover - compiled
+    """Eight taps added in turn: ``src[s[k] + shift + i]`` with weight ``w[k]``, ``k = 0 .. 7``."""
     a = uint64(d0)
-    b0, b1, b2, b3 = uint64(s[0]), uint64(s[1]), uint64(s[2]), uint64(s[3])
-    b4, b5, b6, b7 = uint64(s[4]), uint64(s[5]), uint64(s[6]), uint64(s[7])
+    b0, b1, b2, b3 = (
+        uint64(s[0] + shift),
+        uint64(s[1] + shift),
+        uint64(s[2] + shift),
+        uint64(s[3] + shift),
+    )
+    b4, b5, b6, b7 = (
+        uint64(s[4] + shift),
+        uint64(s[5] + shift),
+        uint64(s[6] + shift),
+        uint64(s[7] + shift),
+    )
     w0, w1, w2, w3, w4, w5, w6, w7 = w[0], w[1], w[2], w[3], w[4], w[5], w[6], w[7]
     for i in range(uint64(n)):
         t = (dst[a + i] + w0 * src[b0 + i]) + w1 * src[b1 + i]
@@ -114,66 +124,82 @@ def _taps_on(dst, d0, src, s0, cols, m, wa, wb, xlo, xhi):  # pragma: no cover -
             _span(dst, d0 + lo, src, s0 + lo - m - 1, hi - lo, wb)
 
 
-@njit(nogil=True, cache=True)
-def _add_one(dst, d0, src, s0, cols, m, wa, wb):  # pragma: no cover - compiled
-    """One view row's two column taps added into ``dst[d0:d0 + cols]``."""
-    lo = max(0, m + 1)  # both taps inside on lo:hi
-    hi = min(cols, cols + m)
-    if hi > lo:
-        _span2(dst, d0 + lo, src, s0 + lo - m, s0 + lo - m - 1, hi - lo, wa, wb)
-        _taps_on(dst, d0, src, s0, cols, m, wa, wb, 0, lo)
-        _taps_on(dst, d0, src, s0, cols, m, wa, wb, hi, cols)
-    else:
-        _taps_on(dst, d0, src, s0, cols, m, wa, wb, 0, cols)
+#: Edges (columns where some view's taps fall outside it) at most this wide are added by one
+#: scalar loop over their columns and the group's views; wider ones view by view, vectorised
+#: (ours: the scalar loop saves the short loops' set-up on small shifts).
+_EDGE_SCALAR_COLS = 16
 
 
 @njit(nogil=True, cache=True)
-def _add_two(dst, d0, src, s0, t0, cols, m, wa, wb, k, wc, wd):  # pragma: no cover - compiled
-    """Two views' rows (at ``s0`` with taps ``m, wa, wb``; at ``t0`` with ``k, wc, wd``)."""
-    lo = max(0, m + 1, k + 1)  # every tap of both inside on lo:hi
-    hi = min(cols, cols + m, cols + k)
-    if hi > lo:
-        a = s0 + lo - m
-        b = t0 + lo - k
-        _span4(dst, d0 + lo, src, a, a - 1, b, b - 1, hi - lo, wa, wb, wc, wd)
-        _taps_on(dst, d0, src, s0, cols, m, wa, wb, 0, lo)
-        _taps_on(dst, d0, src, t0, cols, k, wc, wd, 0, lo)
-        _taps_on(dst, d0, src, s0, cols, m, wa, wb, hi, cols)
-        _taps_on(dst, d0, src, t0, cols, k, wc, wd, hi, cols)
-    else:
-        _taps_on(dst, d0, src, s0, cols, m, wa, wb, 0, cols)
-        _taps_on(dst, d0, src, t0, cols, k, wc, wd, 0, cols)
-
-
-@njit(nogil=True, cache=True)
-def _add_group(
-    dst, d0, src, starts, g, cols, col_m, col_w0, col_w1, v, offs, ws
+def _edge_cols(
+    dst, d0, src, starts, shift, g, cols, col_m, col_w0, col_w1, v, xlo, xhi
 ):  # pragma: no cover - compiled
-    """``g`` (3 or 4) views' rows (starting at ``starts``, views ``v ..``) added in view order."""
+    """Columns ``xlo:xhi`` of one row: each view's taps in view order where they fall inside."""
+    for x in range(xlo, xhi):
+        t = dst[d0 + x]
+        for q in range(g):
+            i = x - col_m[v + q]  # the first tap's column in the view
+            if 0 <= i < cols:
+                t = t + col_w0[v + q] * src[starts[q] + shift + i]
+            if col_w1[v + q] != 0.0 and 1 <= i <= cols:
+                t = t + col_w1[v + q] * src[starts[q] + shift + i - 1]
+        dst[d0 + x] = t
+
+
+@njit(nogil=True, cache=True)
+def _add_views(
+    dst, d0, src, base, view_px, k, g, cols, col_m, col_w0, col_w1, v, scratch
+):  # pragma: no cover - compiled
+    """``k`` rows of ``g`` (1 to 4) consecutive views ``v ..``, added in view order.
+
+    Row ``j`` of the views (from ``src[base + q * view_px + j * cols]``) goes to
+    ``dst[d0 + j * cols:...]``; one vectorised pass per row where every tap of every view falls
+    inside, then the edges.
+    """
+    starts, offs, ws = scratch
     lo = 0
     hi = cols
     for q in range(g):
+        starts[q] = base + q * view_px
         lo = max(lo, col_m[v + q] + 1)
         hi = min(hi, cols + col_m[v + q])
-    if hi > lo:
-        for q in range(g):
-            offs[2 * q] = starts[q] + lo - col_m[v + q]
-            offs[2 * q + 1] = offs[2 * q] - 1
-            ws[2 * q] = col_w0[v + q]
-            ws[2 * q + 1] = col_w1[v + q]
+    if hi <= lo:
+        for j in range(k):
+            for q in range(g):
+                m, wa, wb = col_m[v + q], col_w0[v + q], col_w1[v + q]
+                _taps_on(dst, d0 + j * cols, src, starts[q] + j * cols, cols, m, wa, wb, 0, cols)
+        return
+    for q in range(g):
+        offs[2 * q] = starts[q] + lo - col_m[v + q]
+        offs[2 * q + 1] = offs[2 * q] - 1
+        ws[2 * q] = col_w0[v + q]
+        ws[2 * q + 1] = col_w1[v + q]
+    n = hi - lo
+    for j in range(k):
+        s = j * cols
         if g == 4:
-            _span8(dst, d0 + lo, src, offs, hi - lo, ws)
+            _span8(dst, d0 + s + lo, src, offs, s, n, ws)
+        elif g == 3:
+            _span6(dst, d0 + s + lo, src, offs, s, n, ws)
+        elif g == 2:
+            a, b = offs[0] + s, offs[2] + s
+            _span4(dst, d0 + s + lo, src, a, a - 1, b, b - 1, n, ws[0], ws[1], ws[2], ws[3])
         else:
-            _span6(dst, d0 + lo, src, offs, hi - lo, ws)
-        for q in range(g):
-            _taps_on(dst, d0, src, starts[q], cols, col_m[v + q], ws[2 * q], ws[2 * q + 1], 0, lo)
+            _span2(dst, d0 + s + lo, src, offs[0] + s, offs[1] + s, n, ws[0], ws[1])
+    if lo <= _EDGE_SCALAR_COLS and cols - hi <= _EDGE_SCALAR_COLS:
+        for j in range(k):
+            s = j * cols
+            _edge_cols(dst, d0 + s, src, starts, s, g, cols, col_m, col_w0, col_w1, v, 0, lo)
+            _edge_cols(dst, d0 + s, src, starts, s, g, cols, col_m, col_w0, col_w1, v, hi, cols)
+        return
+    for j in range(k):
+        s = j * cols
         for q in range(g):
             m, wa, wb = col_m[v + q], col_w0[v + q], col_w1[v + q]
-            _taps_on(dst, d0, src, starts[q], cols, m, wa, wb, hi, cols)
-    else:
+            _taps_on(dst, d0 + s, src, starts[q] + s, cols, m, wa, wb, 0, lo)
         for q in range(g):
             m, wa, wb = col_m[v + q], col_w0[v + q], col_w1[v + q]
-            _taps_on(dst, d0, src, starts[q], cols, m, wa, wb, 0, cols)
+            _taps_on(dst, d0 + s, src, starts[q] + s, cols, m, wa, wb, hi, cols)
 
 
 @njit(nogil=True, cache=True)
@@ -185,34 +211,14 @@ def _sum_grid_row(
     Source row ``s_lo + j`` goes to ``dst[d0 + j * cols:...]``; views in order, in groups of four
     or three views (one pass over the partial rows per group), then two, then one.
     """
-    starts, offs, ws = scratch
     view_px = rows * cols
     v = 0
     while v < n_v:
+        left = n_v - v  # fours and threes, fewest passes: 9 = 3 + 3 + 3, 7 = 4 + 3, 5 = 3 + 2
+        g = min(left, 3 if left == 3 or left == 5 or left == 6 or left == 9 else 4)
         base = ((u * n_v + v) * rows + s_lo) * cols
-        left = n_v - v
-        if left >= 3:  # fours and threes, fewest passes: 9 = 3 + 3 + 3, 7 = 4 + 3, 5 = 3 + 2
-            g = 3 if left == 3 or left == 5 or left == 6 or left == 9 else 4
-            for j in range(k):
-                for q in range(g):
-                    starts[q] = base + q * view_px + j * cols
-                d = d0 + j * cols
-                _add_group(dst, d, flat, starts, g, cols, col_m, col_w0, col_w1, v, offs, ws)
-            v += g
-        elif n_v - v >= 2:
-            for j in range(k):
-                s = base + j * cols
-                _add_two(
-                    dst, d0 + j * cols, flat, s, s + view_px, cols,
-                    col_m[v], col_w0[v], col_w1[v], col_m[v + 1], col_w0[v + 1], col_w1[v + 1],
-                )  # fmt: skip
-            v += 2
-        else:
-            for j in range(k):
-                _add_one(
-                    dst, d0 + j * cols, flat, base + j * cols, cols, col_m[v], col_w0[v], col_w1[v]
-                )
-            v += 1
+        _add_views(dst, d0, flat, base, view_px, k, g, cols, col_m, col_w0, col_w1, v, scratch)
+        v += g
 
 
 @njit(nogil=True, cache=True)
