@@ -9,9 +9,10 @@ time: for each grid row, the partial image's rows that the block needs (``ROW_BL
 most) are summed from the views' rows, each view's rows read as one run, and added with the
 row taps into the block's sums; both buffers stay in the L2 cache while every view is read from
 memory once. The inner loops run over contiguous columns with unsigned indices (no
-negative-index test, so they vectorise), and four views of a grid row are added in one loop over
-the columns where all their taps fall inside the view (one load and store of the partial row
-for four views); the columns where a tap falls outside take each view's taps in turn.
+negative-index test, so they vectorise), and the views of a grid row are added in groups of four
+or three in one loop over the columns where all their taps fall inside the views (one load and
+store of the partial row per group); the few columns at the edges where a tap falls outside
+take each view's taps in turn (one scalar loop when they are narrow).
 
 The sums are made in ``float32`` in the numpy path's order, per pixel: the views in order, each
 view's first tap before its second, then the grid rows in order, then the row and column
