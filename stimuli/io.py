@@ -93,10 +93,11 @@ def _open(path: str | os.PathLike, draft_shape_px: tuple[int, int] | None = None
         raise InputError(f"{path}: not a readable image ({exc})") from None
     except Image.DecompressionBombError as exc:
         raise InputError(f"{path}: refused as a decompression bomb ({exc})") from None
-    try:
-        return ImageOps.exif_transpose(img)
+    try:  # in place: without a rotation to undo, no copy of the pixels
+        ImageOps.exif_transpose(img, in_place=True)
     except (OSError, ValueError, SyntaxError):  # broken EXIF block: keep the pixels as stored
-        return img
+        pass
+    return img
 
 
 #: Bytes per pixel of a decoded image and its float32 copies (ours: RGBA uint8 + float32 RGB +
@@ -560,7 +561,7 @@ def to_uint8(image: np.ndarray) -> np.ndarray:
     return np.round(to_float01(a) * 255.0).astype(np.uint8)
 
 
-def save_png(image: np.ndarray, path: str | os.PathLike) -> Path:
+def save_png(image: np.ndarray, path: str | os.PathLike, *, compress_level: int = 6) -> Path:
     """Write a grey or binary image as an 8-bit PNG, atomically.
 
     Parameters
@@ -568,6 +569,9 @@ def save_png(image: np.ndarray, path: str | os.PathLike) -> Path:
     image : ndarray of shape (rows, cols), bool or float in [0, 1]
         ``True``/1.0 is written as 255.
     path : str or path-like
+    compress_level : int in 0..9
+        zlib's effort (Pillow's default 6). The pixels are the same at any level; 1 writes a
+        grey image about 4x faster and about 15 % larger (ours, 491x359 confocal images).
 
     Returns
     -------
@@ -577,7 +581,7 @@ def save_png(image: np.ndarray, path: str | os.PathLike) -> Path:
     u8 = to_uint8(image)
     path = Path(path)
     with atomic_path(path) as tmp:
-        Image.fromarray(u8).save(tmp, format="PNG")
+        Image.fromarray(u8).save(tmp, format="PNG", compress_level=compress_level)
     return path
 
 

@@ -5,8 +5,6 @@ an image's rows stay in the cache while they are used (numba, ``nogil``: the cal
 rows, or the planes, over threads). They are compiled on first use and the machine code is
 cached on disk (``cache=True``), so only the first run on a machine pays for the compilation.
 
-* :func:`shift_add_rows`: shift-and-add refocusing (:mod:`stimuli.refocus`) with linear
-  interpolation, normalisation and clipping, for a range of output rows;
 * :func:`sobel_rows`: the Sobel magnitude exactly as ``skimage.filters.sobel`` computes it for a
   float32 image (each directional sum in float64, rounded to float32, then squared, summed and
   divided in float32), for a range of rows;
@@ -28,7 +26,6 @@ import numpy as np
 from numba import njit
 
 __all__ = [
-    "shift_add_rows",
     "sobel_rows",
     "count_blocks",
     "agreement_sweep",
@@ -41,104 +38,13 @@ __all__ = [
     "reflect_index",
     "column_means",
     "box_mean_reflect",
-    "ROW_BLOCK",
     "COST_BOX_PX",
 ]
-
-#: Output rows made together by :func:`shift_add_rows` (ours, measured on 2 cores: each view's
-#: rows for the block are read as one run, which the prefetcher follows, and the block's sums,
-#: 16 rows of float32, stay in the L1/L2 cache).
-ROW_BLOCK = 16
 
 #: Side of the box over which :func:`agreement_sweep` averages view differences, pixels of the
 #: binned views (ours: the usual stereo matching window;
 #: ``stimuli.agreementscan.COST_WINDOW_PX`` is this value).
 COST_BOX_PX = 5
-
-
-@njit(nogil=True, cache=True)
-def _add_shifted(acc, src, m, w):  # pragma: no cover - compiled
-    """``acc[x] += w * src[x - m]`` wherever ``0 <= x - m < len(src)``."""
-    cols = acc.shape[0]
-    lo = max(0, m)
-    hi = min(cols, cols + m)
-    if hi <= lo:
-        return
-    dst = acc[lo:hi]
-    from_ = src[lo - m : hi - m]
-    for i in range(hi - lo):  # indices from 0 up: no negative-index check, so it vectorises
-        dst[i] += w * from_[i]
-
-
-@njit(nogil=True, cache=True)
-def _add_two_taps(acc, src, m, wa, wb):  # pragma: no cover - compiled
-    """``acc[x] += wa * src[x - m] + wb * src[x - m - 1]``, each term where its index is valid."""
-    cols = acc.shape[0]
-    lo = max(0, m + 1)  # both taps valid on lo:hi
-    hi = min(cols, cols + m)
-    if hi <= lo:
-        _add_shifted(acc, src, m, wa)
-        _add_shifted(acc, src, m + 1, wb)
-        return
-    dst = acc[lo:hi]
-    a = src[lo - m : hi - m]
-    b = src[lo - m - 1 : hi - m - 1]
-    for i in range(hi - lo):
-        dst[i] += wa * a[i] + wb * b[i]
-    if 0 <= m:  # x = m (< hi): only the first tap is inside, at src[0]
-        acc[m] += wa * src[0]
-    else:  # x = cols + m (= hi): only the second tap is inside, at src[cols - 1]
-        acc[cols + m] += wb * src[cols - 1]
-
-
-@njit(nogil=True, cache=True)
-def shift_add_rows(
-    views, row_m, row_w0, row_w1, col_m, col_w0, col_w1, inv_rows, inv_cols, out, r0, r1
-):  # pragma: no cover - compiled
-    """Refocused rows ``r0:r1`` of ``out`` from grey float32 ``views`` (n_u, n_v, rows, cols).
-
-    View ``(u, v)`` is shifted by ``row_m[u] + s`` rows and ``col_m[v] + t`` columns with linear
-    interpolation: its row ``y - row_m[u]`` takes weight ``row_w0[u]`` and row
-    ``y - row_m[u] - 1`` weight ``row_w1[u]`` (likewise for columns); samples outside a view are
-    left out. The sum is multiplied by ``inv_rows[y] * inv_cols[x]`` (one over the number of
-    contributing views) and clipped to [0, 1]. The rows are made :data:`ROW_BLOCK` at a time,
-    each view's rows for the block read in one run.
-    """
-    n_u, n_v, rows, cols = views.shape
-    block = np.empty((ROW_BLOCK, cols), dtype=np.float32)
-    for y0 in range(r0, r1, ROW_BLOCK):
-        n = min(ROW_BLOCK, r1 - y0)
-        block[:n] = 0.0
-        for u in range(n_u):
-            for v in range(n_v):  # one view at a time: its rows stream through in order
-                ga = col_w0[v]
-                gb = col_w1[v]
-                m = col_m[v]
-                for i in range(n):
-                    ya = y0 + i - row_m[u]
-                    yb = ya - 1
-                    wa = row_w0[u] if 0 <= ya < rows else np.float32(0.0)
-                    wb = row_w1[u] if 0 <= yb < rows else np.float32(0.0)
-                    acc = block[i]
-                    if wa != 0.0 and wb != 0.0:  # two source rows, each with both column taps
-                        _add_two_taps(acc, views[u, v, ya], m, wa * ga, wa * gb)
-                        _add_two_taps(acc, views[u, v, yb], m, wb * ga, wb * gb)
-                    elif wa != 0.0 or wb != 0.0:
-                        src = views[u, v, ya] if wb == 0.0 else views[u, v, yb]
-                        w = wa if wb == 0.0 else wb
-                        if gb == 0.0:
-                            _add_shifted(acc, src, m, w * ga)
-                        elif ga == 0.0:
-                            _add_shifted(acc, src, m + 1, w * gb)
-                        else:
-                            _add_two_taps(acc, src, m, w * ga, w * gb)
-        for i in range(n):
-            r = inv_rows[y0 + i]
-            acc = block[i]
-            o = out[y0 + i]
-            for x in range(cols):
-                value = acc[x] * r * inv_cols[x]
-                o[x] = min(max(value, np.float32(0.0)), np.float32(1.0))
 
 
 @njit(nogil=True, cache=True)

@@ -320,6 +320,7 @@ def _load_folder(
     bit_depth: int | None = None,
     background: float = 0.0,
     only_views: Callable[[tuple[int, int]], Iterable[tuple[int, int]]] | None = None,
+    box: tuple[int, int, int, int] | None = None,
 ) -> tuple[np.ndarray, dict]:
     files = sorted(
         f for f in folder.iterdir() if f.is_file() and f.suffix.lower() in _IMAGE_SUFFIXES
@@ -347,13 +348,22 @@ def _load_folder(
     scale, bits = _scale_raw(raws, [f.name for _, f in shown], bit_depth, folder)
     has_alpha = any(r.ndim == 3 and r.shape[2] in (2, 4) for r in raws)
     channels = () if gray else (3,)
+    keep = (slice(None), slice(None))
+    if box is not None:  # each view cropped as it is converted: no copy of the whole field
+        x, y, w, h = box
+        if w < 2 or h < 2 or x < 0 or y < 0 or x + w > first[1] or y + h > first[0]:
+            raise InputError(
+                f"{folder}: crop box {x},{y},{w},{h} must be at least 2x2 px inside the "
+                f"{first[1]}x{first[0]} views"
+            )
+        keep, first = (slice(y, y + h), slice(x, x + w)), (h, w)
     out = (np.empty if some is None else np.zeros)(
         (len(rows), len(cols), *first, *channels), dtype=np.float32
     )
 
     def convert(item) -> None:
         ((r, c), _), raw = item
-        view = _to_views(raw, scale, background)
+        view = _to_views(raw[keep], scale, background)
         out[r - rows[0], c - cols[0]] = luma(view) if gray else view
 
     _on_threads(convert, list(zip(shown, raws, strict=True)))
@@ -364,6 +374,8 @@ def _load_folder(
         meta["bit_depth"] = bits
     if has_alpha:
         meta["alpha_background"] = background
+    if box is not None:
+        meta["crop"] = [int(v) for v in box]
     return out, meta
 
 
@@ -486,6 +498,7 @@ def load_lightfield(
     axes: str | None = None,
     background: float = 0.0,
     only_views: Callable[[tuple[int, int]], Iterable[tuple[int, int]]] | None = None,
+    view_box: tuple[int, int, int, int] | None = None,
 ) -> LightField:
     """Load a light field from a folder of views, an array file or an elemental image.
 
@@ -518,6 +531,9 @@ def load_lightfield(
         A folder of 8-bit views of one size (checked from the headers) is then read at those
         positions only; the other views are left black and ``meta["views_read"]`` lists the
         read ones. Other inputs are read whole. Not for refocusing: it needs every view.
+    view_box : (x, y, w, h), optional
+        Crop every view to this box (:meth:`LightField.cropped`); a folder of views is cropped
+        view by view as it is read, without a copy of the whole light field.
 
     Returns
     -------
@@ -544,9 +560,10 @@ def load_lightfield(
         raise InputError(f"background must be a grey level in [0, 1], got {background!r}")
     if path.is_dir():
         views, meta = _load_folder(
-            path, pattern, grid_cols, gray, bit_depth, background, only_views
+            path, pattern, grid_cols, gray, bit_depth, background, only_views, view_box
         )
         meta["kind"] = "views"
+        view_box = None  # cropped already
     elif path.suffix.lower() in (".npy", ".npz"):
         views, meta = _load_array_file(path, bit_depth, axes)
         meta["kind"] = "array"
@@ -582,7 +599,11 @@ def load_lightfield(
     meta.pop("geometry", None)
     if toml_path:
         meta["toml"] = str(toml_path)
-    return LightField(views, geometry, str(path), meta)
+    if meta.get("kind") == "views" and "bit_depth" in meta:  # integer samples, scaled, clipped
+        lf = LightField.checked_already(views, geometry, str(path), meta)  # no pass to check
+    else:
+        lf = LightField(views, geometry, str(path), meta)
+    return lf if view_box is None else lf.cropped(view_box)
 
 
 def as_lightfield(lf: LightField | np.ndarray | str | os.PathLike) -> LightField:

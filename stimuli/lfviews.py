@@ -301,8 +301,30 @@ class LightField:
             raise InputError(
                 f"crop box {box_xywh!r} must be at least 2x2 px inside the {cols}x{rows} views"
             )
-        v = np.ascontiguousarray(self.views[:, :, y : y + h, x : x + w])
-        return LightField(v, self.geometry, self.source, dict(self.meta, crop=[x, y, w, h]))
+        meta = dict(self.meta, crop=[x, y, w, h])
+        if "views_read" in self.meta:  # only these hold data: the others stay zero, untouched
+            v = np.zeros((*self.views.shape[:2], h, w, *self.views.shape[4:]), self.views.dtype)
+            for u, t in self.meta["views_read"]:
+                v[u, t] = self.views[u, t, y : y + h, x : x + w]
+        else:
+            v = np.ascontiguousarray(self.views[:, :, y : y + h, x : x + w])
+        return LightField.checked_already(v, self.geometry, self.source, meta)
+
+    @classmethod
+    def checked_already(
+        cls, views: np.ndarray, geometry: Geometry | None, source: str, meta: dict
+    ) -> LightField:
+        """Return a light field of ``views`` already known to be valid, without checking them.
+
+        For views taken from a checked light field (a crop, a merge of two reads of one
+        capture): float32, (n_u, n_v, rows, cols[, C]), finite, in [0, 1]. The checks pass over
+        every value, as long as a copy of the light field.
+        """
+        lf = object.__new__(cls)
+        for name, value in (("views", views), ("geometry", geometry), ("source", source)):
+            object.__setattr__(lf, name, value)
+        object.__setattr__(lf, "meta", meta)
+        return lf
 
     def disparity_px(self, depth_m: float) -> float:
         """Return the disparity of a plane at ``depth_m`` (needs a geometry)."""

@@ -77,13 +77,13 @@ def _with_the_other_views(some, path: Path, options: LoaderOptions):
 
     box = some.meta.get("view_crop")
     crop = "none" if box is None else ",".join(str(int(v)) for v in box)
-    rest = load_grey(path, replace(options, view_crop=crop), others)
+    rest = load_grey(path, replace(options, view_crop=crop), others, box_inside=True)
     views = rest.views
     for u, v in read:
         views[u, v] = some.views[u, v]
     meta = {k: v for k, v in rest.meta.items() if k != "views_read"}
     meta["view_crop_rule"] = some.meta.get("view_crop_rule")
-    return LightField(views, rest.geometry, rest.source, meta)
+    return LightField.checked_already(views, rest.geometry, rest.source, meta)
 
 
 def parse_disparity_range(text: str) -> tuple[float, float]:
@@ -113,9 +113,14 @@ class LoaderOptions:
     background: float = 0.0
 
 
-def load_grey(path: Path, options: LoaderOptions, only_views=None):
-    """Return the light field at ``path``, grey; ``only_views`` is ignored when views are binned."""
+def load_grey(path: Path, options: LoaderOptions, only_views=None, box_inside: bool = False):
+    """Return the light field at ``path``, grey; ``only_views`` is ignored when views are binned.
+
+    ``box_inside``: the given ``view_crop`` box is known to lie inside the views (found in an
+    earlier read of the same capture), so the views are cropped as they are read.
+    """
     from stimuli.lightfield import load_lightfield
+    from stimuli.vignette import apply_view_crop, parse_view_crop
 
     off = None
     if options.offset is not None:
@@ -125,6 +130,10 @@ def load_grey(path: Path, options: LoaderOptions, only_views=None):
                 raise ValueError
         except ValueError:
             raise InputError(f"--offset must be ROW,COL, got {options.offset!r}") from None
+    box = None
+    if box_inside and options.view_bin == 1:
+        spec = parse_view_crop(options.view_crop)
+        box = None if spec is None or spec == "auto" else tuple(spec)
     lf = load_lightfield(
         path,
         pattern=options.pattern,
@@ -137,11 +146,14 @@ def load_grey(path: Path, options: LoaderOptions, only_views=None):
         background=options.background,
         gray=True,
         only_views=only_views if options.view_bin == 1 else None,
+        view_box=box,
     ).gray()
     if options.view_bin != 1:
         lf = lf.view_binned(options.view_bin)
-    from stimuli.vignette import apply_view_crop
-
+    if box is not None:  # cropped as read: recorded as apply_view_crop records a given box
+        out = apply_view_crop(lf, "none")
+        out.meta.update(view_crop=list(box), view_crop_rule="given")
+        return out
     # auto: the vignette crop every command finds in the scan's views (read in every case)
     return apply_view_crop(lf, options.view_crop)
 
@@ -346,11 +358,12 @@ def scan_one(
                     indent=1,
                 )
             )
-        save_png(centre, tmp / "centre.png")
+        fast = {"compress_level": 1}  # a scan's pictures: written fast, the same pixels
+        save_png(centre, tmp / "centre.png", **fast)
         for stem, img, edges, cells in images:
-            save_png(img, tmp / f"{stem}_confocal.png")
-            save_png(edges, tmp / f"{stem}_edges.png")
-            save_png(cells, tmp / f"{stem}_grid.png")
+            save_png(img, tmp / f"{stem}_confocal.png", **fast)
+            save_png(edges, tmp / f"{stem}_edges.png", **fast)
+            save_png(cells, tmp / f"{stem}_grid.png", **fast)
         if opts.get("plot", True):
             from stimuli.scanplot import plot_scores  # after the answer is out
 

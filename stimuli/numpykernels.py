@@ -5,10 +5,11 @@
 histogram, the grid counts) would import numba and load its cache, which costs more CPU time than
 the whole rest of the command on a capture of the shared Lytro size (ours: about 0.8-1.5 s of
 numba start-up against tens of milliseconds of numpy work). Within :func:`numpy_kernels`, and
-only while nothing has imported :mod:`stimuli.kernels`, the refocus and the Sobel filter run
-here instead (the same float32 / float64 operations in the same order, so the images are the
-same to the bit, tested against the compiled loops); the Otsu histogram and the grid counts take
-their modules' own numpy paths.
+only while nothing has imported :mod:`stimuli.kernels`, the Sobel filter runs here instead (the
+same float32 / float64 operations in the same order, so the images are the same to the bit,
+tested against the compiled loop); the refocus, the Otsu histogram and the grid counts take
+their modules' own numpy paths (the refocus's is equal to the bit to its compiled pass,
+:mod:`stimuli.shiftadd`).
 """
 
 from __future__ import annotations
@@ -19,7 +20,7 @@ from collections.abc import Iterator
 
 import numpy as np
 
-__all__ = ["active", "numpy_kernels", "shift_add", "sobel"]
+__all__ = ["active", "numpy_kernels", "sobel"]
 
 _ON = [False]
 
@@ -44,98 +45,6 @@ def active() -> bool:
         True within :func:`numpy_kernels` while :mod:`stimuli.kernels` is not imported.
     """
     return _ON[0] and "stimuli.kernels" not in sys.modules
-
-
-def _add_shifted(acc: np.ndarray, src: np.ndarray, m: int, w: np.float32) -> None:
-    """``acc[:, x] += w * src[:, x - m]`` wherever the index is inside (rows at once)."""
-    cols = acc.shape[1]
-    lo, hi = max(0, m), min(cols, cols + m)
-    if hi > lo:
-        acc[:, lo:hi] += w * src[:, lo - m : hi - m]
-
-
-def _add_two_taps(acc: np.ndarray, src: np.ndarray, m: int, wa, wb) -> None:
-    """``acc[:, x] += wa * src[:, x - m] + wb * src[:, x - m - 1]``, as the compiled loop."""
-    cols = acc.shape[1]
-    lo, hi = max(0, m + 1), min(cols, cols + m)
-    if hi <= lo:
-        _add_shifted(acc, src, m, wa)
-        _add_shifted(acc, src, m + 1, wb)
-        return
-    acc[:, lo:hi] += wa * src[:, lo - m : hi - m] + wb * src[:, lo - m - 1 : hi - m - 1]
-    if m >= 0:
-        acc[:, m] += wa * src[:, 0]
-    else:
-        acc[:, cols + m] += wb * src[:, cols - 1]
-
-
-def shift_add(
-    views: np.ndarray,
-    row_taps: tuple[np.ndarray, np.ndarray, np.ndarray],
-    col_taps: tuple[np.ndarray, np.ndarray, np.ndarray],
-    inv_rows: np.ndarray,
-    inv_cols: np.ndarray,
-    out: np.ndarray,
-) -> np.ndarray:
-    """Refocus grey float32 ``views`` (n_u, n_v, rows, cols) into ``out``, as the compiled loop.
-
-    The twin of :func:`stimuli.kernels.shift_add_rows` over all rows: per output row, view by
-    view in the same order, the same float32 products and sums; then the inverse weights and
-    the clip to [0, 1].
-
-    Parameters
-    ----------
-    views : ndarray, float32, C-contiguous
-    row_taps, col_taps : tuple of ndarray
-        Per view row / column: the first tap's integer shift, its weight, the next tap's weight.
-    inv_rows, inv_cols : ndarray, float32
-        One over the number of contributing views per row / column.
-    out : ndarray, float32, (rows, cols)
-        Written and returned.
-
-    Returns
-    -------
-    ndarray
-        ``out``.
-    """
-    n_u, n_v, rows, cols = views.shape
-    row_m, row_w0, row_w1 = row_taps
-    col_m, col_w0, col_w1 = col_taps
-    acc = np.zeros((rows, cols), dtype=np.float32)
-    y = np.arange(rows)
-    zero = np.float32(0.0)
-    for u in range(n_u):
-        ya = y - int(row_m[u])
-        yb = ya - 1
-        wa = np.where((ya >= 0) & (ya < rows), row_w0[u], zero)
-        wb = np.where((yb >= 0) & (yb < rows), row_w1[u], zero)
-        both = np.flatnonzero((wa != 0) & (wb != 0))
-        only_a = np.flatnonzero((wa != 0) & (wb == 0))
-        only_b = np.flatnonzero((wa == 0) & (wb != 0))
-        for v in range(n_v):
-            ga, gb, m = col_w0[v], col_w1[v], int(col_m[v])
-            view = views[u, v]
-            if both.size:
-                part = acc[both]
-                _add_two_taps(part, view[ya[both]], m, row_w0[u] * ga, row_w0[u] * gb)
-                _add_two_taps(part, view[yb[both]], m, row_w1[u] * ga, row_w1[u] * gb)
-                acc[both] = part
-            for rows_, src_rows, w in ((only_a, ya, row_w0[u]), (only_b, yb, row_w1[u])):
-                if not rows_.size:
-                    continue
-                part = acc[rows_]
-                src = view[src_rows[rows_]]
-                if gb == 0.0:
-                    _add_shifted(part, src, m, w * ga)
-                elif ga == 0.0:
-                    _add_shifted(part, src, m + 1, w * gb)
-                else:
-                    _add_two_taps(part, src, m, w * ga, w * gb)
-                acc[rows_] = part
-    acc *= inv_rows[:, None]
-    acc *= inv_cols[None, :]
-    np.clip(acc, zero, np.float32(1.0), out=out)
-    return out
 
 
 def _magnitude(gy: np.ndarray, gx: np.ndarray) -> np.ndarray:

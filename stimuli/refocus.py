@@ -13,19 +13,18 @@ do not overlap") instead of darkening towards the edges.
 
 How it is fast
 --------------
-* Grey float32 views take a compiled kernel (:func:`stimuli.kernels.shift_add_rows`, numba).
-  It makes the output in blocks of :data:`stimuli.kernels.ROW_BLOCK` rows: for each view in
-  turn, the block's source rows (one run of memory, which the prefetcher follows) are added
-  with their four bilinear taps into the block's sums, which stay in the cache; then the block
-  is normalised and clipped. Each view is read from memory once, and an axis with one view
-  costs no pass. Threads split the output rows evenly on every grid (a 3x3 grid's three view
-  columns would not split evenly over two), the calling thread taking one strip itself.
-* Otherwise (colour, other dtypes) the numpy-slice path, also the tests' reference: the shift
-  is separable (for every grid row ``u`` the views are summed over ``v`` with column shifts
-  ``d dv``, then the ``n_u`` partial images with row shifts ``d du``), and a shift by
-  ``s = n + f`` is two weighted adds of integer-shifted slices, ``(1 - f) I(x - n) +
-  f I(x - n - 1)``, in ``float32``; threads split the first pass by blocks of ``u``, the
-  second by blocks of columns (numpy releases the GIL).
+* The shift is separable: for every grid row ``u`` the views are summed over ``v`` with their
+  column shifts ``d dv`` into a partial image, then the ``n_u`` partial images with their row
+  shifts ``d du``; a shift by ``s = n + f`` is two weighted adds of integer-shifted rows,
+  ``(1 - f) I(x - n) + f I(x - n - 1)``, in ``float32``.
+* Grey float32 views take the compiled pass (:func:`stimuli.shiftadd.shift_add_rows`, numba):
+  blocks of output rows, each view read from memory once, vectorised loops over columns, on
+  one thread below :data:`_THREAD_MIN_PIXELS` (threads split the output rows above it).
+* Otherwise (colour, other dtypes, and a scan's last steps in a process that has not loaded
+  numba: :func:`stimuli.numpykernels.active`) the numpy-slice path, which makes the same
+  float32 sums in the same order, so the two paths give the same image to the bit (tested);
+  threads split its first pass by blocks of ``u``, the second by blocks of columns (numpy
+  releases the GIL).
 * The weight ``W`` is separable: ``W(y, x) = w_rows(y) w_cols(x)`` (:func:`overlap_weights`).
 
 References
@@ -42,6 +41,7 @@ from collections.abc import Iterator, Sequence
 
 import numpy as np
 
+from stimuli import numpykernels
 from stimuli.errors import InputError
 from stimuli.lfload import as_lightfield
 from stimuli.lightfield import LightField
@@ -69,7 +69,7 @@ _BLOCK_MAX_PIXELS = 1 << 16
 #: second thread costs more than it saves until the light field is well past the cache).
 _THREAD_MIN_PIXELS = 1 << 24
 
-#: Grey float32 views take the compiled kernel (:mod:`stimuli.kernels`); the numpy-slice path
+#: Grey float32 views take the compiled pass (:mod:`stimuli.shiftadd`); the numpy-slice path
 #: serves colour and other dtypes, and the tests compare the two.
 _COMPILED = True
 
@@ -150,23 +150,6 @@ def _check_disparity(lf: LightField, disparity_px: float) -> float:
     return d
 
 
-def _tap_arrays(shifts: Sequence[float]) -> tuple[np.ndarray, ...]:
-    """Per view: the first tap's integer shift, its weight and the next tap's weight.
-
-    A linear-interpolation shift by ``n + f`` has taps ``(n, 1 - f)`` and ``(n + 1, f)``
-    (:func:`shift_weights`); a whole shift has one tap, the other weight is 0.
-    """
-    m = np.zeros(len(shifts), dtype=np.int64)
-    w0 = np.zeros(len(shifts), dtype=np.float32)
-    w1 = np.zeros(len(shifts), dtype=np.float32)
-    for i, s in enumerate(shifts):
-        taps = shift_weights(s)
-        m[i], w0[i] = taps[0]
-        if len(taps) == 2:
-            w1[i] = taps[1][1]
-    return m, w0, w1
-
-
 def _inverse_weights(length: int, shifts: Sequence[float]) -> np.ndarray:
     """One over the number of contributing views along one axis (0 where none contributes)."""
     w = overlap_weights(length, shifts)
@@ -184,25 +167,22 @@ def _refocus_compiled(
 ) -> np.ndarray:
     """Shift-and-add of grey, C-contiguous float32 views into ``result``, normalised and clipped.
 
-    One compiled pass over the views (:func:`stimuli.kernels.shift_add_rows`, blocks of output
-    rows), on strips of rows in threads (:func:`stimuli.rowthreads.run_on_row_strips`).
+    One compiled pass over the views (:func:`stimuli.shiftadd.shift_add_rows`, blocks of output
+    rows); above :data:`_THREAD_MIN_PIXELS`, on strips of rows in threads
+    (:func:`stimuli.rowthreads.run_on_row_strips`).
     """
-    from stimuli import numpykernels
+    from stimuli.shiftadd import shift_add_rows
 
     n_u, n_v, rows, cols = views.shape
-    row_taps = _tap_arrays(row_shifts)
-    col_taps = _tap_arrays(col_shifts)
-    inv_rows = _inverse_weights(rows, row_shifts)
-    inv_cols = _inverse_weights(cols, col_shifts)
-    if numpykernels.active():  # a scan's last steps: its numpy twin, to the bit
-        return numpykernels.shift_add(views, row_taps, col_taps, inv_rows, inv_cols, result)
-    from stimuli.kernels import shift_add_rows
+    shifts = (np.asarray(row_shifts, np.float64), np.asarray(col_shifts, np.float64))
+    if n_u * n_v * rows * cols < _THREAD_MIN_PIXELS or workers <= 1:
+        shift_add_rows(views, *shifts, result, 0, rows)
+        return result
 
     def run(r0: int, r1: int) -> None:
-        shift_add_rows(views, *row_taps, *col_taps, inv_rows, inv_cols, result, r0, r1)
+        shift_add_rows(views, *shifts, result, r0, r1)
 
-    small = n_u * n_v * rows * cols < _THREAD_MIN_PIXELS
-    run_on_row_strips(run, rows, 1 if small else workers)
+    run_on_row_strips(run, rows, workers)
     return result
 
 
@@ -226,7 +206,8 @@ def _refocus_views(
         col_shifts = [float(math.floor(s + 0.5)) for s in col_shifts]
 
     result = out if out is not None else np.empty((rows, cols, *extra), dtype=np.float32)
-    if _COMPILED and not extra and views.dtype == np.float32 and views.flags.c_contiguous:
+    grey = not extra and views.dtype == np.float32 and views.flags.c_contiguous
+    if _COMPILED and grey and not numpykernels.active():  # active: a scan's last steps
         return _refocus_compiled(views, row_shifts, col_shifts, workers, result)
     partial = np.zeros((n_u, rows, cols, *extra), dtype=np.float32)
     scratch = np.empty_like(partial)

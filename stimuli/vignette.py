@@ -87,8 +87,22 @@ def vignette_crop(views: np.ndarray) -> tuple[int, int, int, int] | None:
     return _crop_from(centre, darkest)
 
 
+def _median(a: np.ndarray) -> float:
+    """``float(np.median(a))`` to the bit for finite values, without importing ``numpy.ma``.
+
+    (``np.median`` imports it for its NaN check: 0.025 s of a scan's start-up.) The middle
+    value, or the mean of the two middle values, of a partition, as ``np.median`` takes them.
+    """
+    flat = np.ravel(a)
+    k = flat.size // 2
+    if flat.size % 2:
+        return float(np.partition(flat, k)[k])
+    part = np.partition(flat, [k - 1, k])
+    return float(np.mean(part[k - 1 : k + 1]))
+
+
 def _crop_from(centre: np.ndarray, darkest: np.ndarray) -> tuple[int, int, int, int] | None:
-    median = float(np.median(centre))
+    median = _median(centre)
     top = float(centre.max())
     bad = darkest <= DARK_FRACTION * median
     if top >= CLIP_FRACTION:  # the sensor's white was reached: its pixels carry no scene

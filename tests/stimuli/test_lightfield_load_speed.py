@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 from PIL import Image
 
+from stimuli.errors import InputError
 from stimuli.io import _LUMA_WEIGHTS, luma
 from stimuli.lightfield import load_lightfield
 
@@ -92,3 +93,37 @@ def test_eight_bit_size_reads_the_header_as_pillow_does(tmp_path):
         assert _eight_bit_size(tmp_path / name) == Image.open(tmp_path / name).size == (34, 21)
     assert _eight_bit_size(tmp_path / "deep.png") is None  # 16-bit: every view sets the scale
     assert _eight_bit_size(tmp_path / "cut.png") is None
+
+
+def test_views_cropped_as_read_and_a_scans_two_reads_equal_a_whole_read_cropped(tmp_path):
+    """A box applied while reading (every view, or the scan's views then the others, merged as
+    ``lightfield scan`` merges them) gives the whole light field's crop to the bit."""
+    from stimuli.agreementscan import scan_views
+    from stimuli.lightfield_steps import LoaderOptions, _with_the_other_views, load_grey
+
+    folder = _folder_of_views(tmp_path, (3, 5))
+    box = (7, 4, 70, 49)
+    whole = load_lightfield(folder, gray=True).cropped(box)
+    read_cropped = load_lightfield(folder, gray=True, view_box=box)
+    np.testing.assert_array_equal(read_cropped.views, whole.views)
+    assert read_cropped.meta["crop"] == list(box)
+    some = load_lightfield(folder, gray=True, only_views=scan_views).cropped(box)
+    for u, v in some.meta["views_read"]:
+        np.testing.assert_array_equal(some.views[u, v], whole.views[u, v])
+    options = LoaderOptions(view_crop=",".join(map(str, box)))
+    first = load_grey(folder, options, scan_views)
+    merged = _with_the_other_views(first, folder, options)
+    np.testing.assert_array_equal(merged.views, whole.views)
+    assert merged.meta["view_crop"] == list(box) and "views_read" not in merged.meta
+    with pytest.raises(InputError, match="crop box 7,4,90,49"):
+        load_lightfield(folder, gray=True, view_box=(7, 4, 90, 49))
+
+
+def test_the_vignette_median_is_numpys_without_numpy_ma():
+    from stimuli.vignette import _median
+
+    rng = np.random.default_rng(2)
+    for n in (1, 2, 3, 10, 11, 4097):
+        a = rng.random(n, dtype=np.float32)
+        b = np.round(a * 255) / np.float32(255)  # ties, as in 8-bit views
+        assert _median(a) == float(np.median(a)) and _median(b) == float(np.median(b))

@@ -5,23 +5,26 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from stimuli import kernels, numpykernels
-from stimuli.refocus import _inverse_weights, _tap_arrays
+import stimuli.refocus as rf
+from stimuli import kernels, numpykernels, shiftadd
 
 
 @pytest.mark.parametrize(
     "d", [0.0, 1.0, -2.0, 0.757, -0.4, 1.5, 7.3, -9.6]
 )  # whole shifts (one tap), fractions, shifts past the whole view (no overlap on some rows)
-def test_shift_add_equals_the_compiled_loop(d):
+def test_refocus_in_a_scans_last_steps_equals_the_compiled_pass(d, monkeypatch):
+    """The numpy path a scan's last steps take gives the compiled pass's image to the bit."""
     rng = np.random.default_rng(3)
     views = rng.random((3, 5, 13, 17), dtype=np.float32)
-    row_shifts = [d * (u - 1) * 1.3 for u in range(3)]  # rows and columns shift differently
-    col_shifts = [d * (v - 2) for v in range(5)]
-    taps_r, taps_c = _tap_arrays(row_shifts), _tap_arrays(col_shifts)
-    inv_r, inv_c = _inverse_weights(13, row_shifts), _inverse_weights(17, col_shifts)
-    compiled = np.empty((13, 17), np.float32)
-    kernels.shift_add_rows(views, *taps_r, *taps_c, inv_r, inv_c, compiled, 0, 13)
-    twin = numpykernels.shift_add(views, taps_r, taps_c, inv_r, inv_c, np.empty_like(compiled))
+    offsets = ([-1.3, 0.0, 1.3], [-2.0, -1.0, 0.0, 1.0, 2.0])  # rows and columns differ
+    compiled = rf._refocus_views(views, d, 1, offsets=offsets)
+    monkeypatch.setattr(numpykernels, "active", lambda: True)
+
+    def not_in_a_scan(*args):
+        raise AssertionError("the compiled refocus ran in a scan's last steps")
+
+    monkeypatch.setattr(shiftadd, "shift_add_rows", not_in_a_scan)
+    twin = rf._refocus_views(views, d, 1, offsets=offsets)
     np.testing.assert_array_equal(twin.view(np.uint32), compiled.view(np.uint32))
 
 
