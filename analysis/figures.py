@@ -7,6 +7,7 @@ Functions take result objects and an optional ``ax`` and return the Axes (or Fig
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 from typing import Any
 
@@ -15,6 +16,7 @@ from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 
 from analysis.data import CONDITIONS
+from analysis.figure_formats import DEFAULT_FIGURE_FORMATS, FIGURE_FORMATS
 from analysis.logistic import LogisticFit
 from analysis.weibull import WeibullFit
 
@@ -32,12 +34,15 @@ __all__ = [
     "ACTIVE_FIGURE",
     "mark_simulated",
     "SIMULATED_MARK",
+    "PNG_DPI",
 ]
 
 #: Colours per condition (ours): grey for cluttered, blue for de-cluttered.
 COLORS: dict[str, str] = {"cluttered": "0.35", "decluttered": "tab:blue"}
 #: Prosthesis resolution line of Fig. 9, pixels. Source: Jung et al. 2015, Fig. 9 caption.
 PROSTHESIS_PX: float = 1500.0
+#: Resolution of the PNG files, dots per inch: what journals ask of raster figures.
+PNG_DPI: int = 300
 #: Text stamped on every figure drawn from simulated sessions (:func:`mark_simulated`).
 SIMULATED_MARK: str = "SIMULATED"
 
@@ -505,8 +510,10 @@ def _draw_figure(result: Any, name: str) -> Figure:
     return ax.figure
 
 
-def _draw_and_save(result: Any, names: list[str], folder: Path) -> list[Path]:
-    return save_figures({n: _draw(result, n) for n in names}, folder)
+def _draw_and_save(
+    result: Any, names: list[str], folder: Path, formats: tuple[str, ...]
+) -> list[Path]:
+    return save_figures({n: _draw(result, n) for n in names}, folder, formats)
 
 
 #: Figures of :func:`save_all`, after the paper's figure numbers.
@@ -518,8 +525,14 @@ STUDY_FIGURES: tuple[str, ...] = (
 )
 
 
-def save_all(result: Any, folder: str | Path, *, processes: int = 2) -> list[Path]:
-    """Draw Figs. 8, 9, S2 and S3 for an analysis result; save each as PNG, SVG and PDF.
+def save_all(
+    result: Any,
+    folder: str | Path,
+    *,
+    processes: int = 2,
+    formats: tuple[str, ...] = DEFAULT_FIGURE_FORMATS,
+) -> list[Path]:
+    """Draw Figs. 8, 9, S2 and S3 for an analysis result; save each in ``formats``.
 
     Parameters
     ----------
@@ -529,6 +542,8 @@ def save_all(result: Any, folder: str | Path, *, processes: int = 2) -> list[Pat
     processes : int
         Draw in this many processes (1: in this one). The figure with per-subject panels takes
         as long as the other three together, so two processes halve the time on two cores.
+    formats : tuple of str
+        File formats (:func:`save_figures`): PNG and PDF unless asked otherwise.
 
     Returns
     -------
@@ -543,6 +558,7 @@ def save_all(result: Any, folder: str | Path, *, processes: int = 2) -> list[Pat
         from concurrent.futures import ProcessPoolExecutor
 
         groups = [names[:1], names[1:]]
+        _warm_up(formats)  # once here, not once in each worker
         try:
             ctx = mp.get_context("fork")
             from analysis.workers import stop_pool, worker_init
@@ -550,7 +566,7 @@ def save_all(result: Any, folder: str | Path, *, processes: int = 2) -> list[Pat
             with ProcessPoolExecutor(
                 max_workers=2, mp_context=ctx, initializer=worker_init, initargs=(os.getpid(),)
             ) as ex:
-                futs = [ex.submit(_draw_and_save, result, g, folder) for g in groups]
+                futs = [ex.submit(_draw_and_save, result, g, folder, formats) for g in groups]
                 try:
                     return [p for f in futs for p in f.result()]
                 except BaseException:  # stopped or failed: no figure is kept; wait for none
@@ -558,14 +574,33 @@ def save_all(result: Any, folder: str | Path, *, processes: int = 2) -> list[Pat
                     raise
         except (OSError, ValueError, RuntimeError):  # no fork here: draw in this process
             pass
-    return _draw_and_save(result, names, folder)
+    return _draw_and_save(result, names, folder, formats)
 
 
-def save_figures(figs: dict[str, Figure], folder: str | Path) -> list[Path]:
-    """Save each figure as a 300 dpi PNG, an SVG and a PDF (journal formats).
+def _warm_up(formats: tuple[str, ...]) -> None:
+    """Import the backends ``formats`` use and load the default font, before forking workers."""
+    import importlib
 
-    The layout is computed once per figure, not once per file; the saved area is grown to
-    every label (``bbox_inches='tight'``), so a long axis label is never clipped.
+    from matplotlib import font_manager
+
+    for ext in formats:
+        importlib.import_module(f"matplotlib.backends.backend_{'agg' if ext == 'png' else ext}")
+    importlib.import_module("PIL.PngImagePlugin")
+    font_manager.get_font(font_manager.findfont(font_manager.FontProperties()))
+
+
+def save_figures(
+    figs: dict[str, Figure],
+    folder: str | Path,
+    formats: tuple[str, ...] = DEFAULT_FIGURE_FORMATS,
+) -> list[Path]:
+    """Save each figure in ``formats``: a 300 dpi PNG, a PDF and (when asked for) an SVG.
+
+    The layout is computed once per figure, not once per file, and the saved area is grown to
+    every label (as ``bbox_inches='tight'``, so a long axis label is never clipped), measured
+    once. The layout, that measure and the PNG use one 300 dpi renderer, so each text's size is
+    measured once; the PNG is the figure drawn once, cut to that area and written as RGB (the
+    figure is opaque), half the encoding of matplotlib's RGBA.
 
     Parameters
     ----------
@@ -573,6 +608,8 @@ def save_figures(figs: dict[str, Figure], folder: str | Path) -> list[Path]:
         File stem -> figure.
     folder : str or Path
         Existing folder.
+    formats : tuple of str
+        Some of :data:`analysis.figure_formats.FIGURE_FORMATS`, written in that order.
 
     Returns
     -------
@@ -584,20 +621,52 @@ def save_figures(figs: dict[str, Figure], folder: str | Path) -> list[Path]:
     folder = Path(folder)
     written = []
     for name, fig in figs.items():
-        renderer = FigureCanvasAgg(fig).get_renderer()
-        if fig.get_layout_engine() is not None:
-            fig.draw_without_rendering()  # runs the layout engine, once
+        fig.set_dpi(PNG_DPI)
+        canvas = FigureCanvasAgg(fig)
+        renderer = canvas.get_renderer()
+        engine = fig.get_layout_engine()
+        if engine is not None:
+            engine.execute(fig)  # the layout, once (a draw would run it and draw everything)
             fig.set_layout_engine("none")
-        # The saved area grown to every label (as bbox_inches='tight', so none is clipped at an
-        # edge), measured once here rather than by one more drawing per file.
         area = fig.get_tightbbox(renderer).padded(0.04)
-        for ext in ("png", "svg", "pdf"):
+        for ext in (f for f in FIGURE_FORMATS if f in formats):
             p = folder / f"{name}.{ext}"
-            # zlib level 1: a fifth larger than the default 6, and its encoding half the time
-            extra = {"pil_kwargs": {"compress_level": 1}} if ext == "png" else {}
-            fig.savefig(p, dpi=300, bbox_inches=area, **extra)
+            if ext != "png" or not _save_png(canvas, area, p):
+                # zlib level 1: a fifth larger than the default 6, and its encoding half the time
+                extra = {"pil_kwargs": {"compress_level": 1}} if ext == "png" else {}
+                fig.savefig(p, dpi=PNG_DPI, bbox_inches=area, **extra)
             written.append(p)
     return written
+
+
+def _save_png(canvas: Any, area: Any, path: Path) -> bool:
+    """Write the figure drawn by ``canvas``, cut to ``area`` (inches), as an RGB PNG.
+
+    Returns False (nothing written) when ``area`` reaches outside the figure, where a label
+    sticks out: matplotlib's ``savefig`` then draws the grown area.
+    """
+    from PIL import Image, PngImagePlugin
+
+    fig = canvas.figure
+    width, height = canvas.get_width_height(physical=True)
+    x0, y0, x1, y1 = (v * fig.dpi for v in area.extents)
+    left, right = math.floor(x0), math.ceil(x1)
+    top, bottom = math.floor(height - y1), math.ceil(height - y0)  # rows count from the top
+    if left < 0 or top < 0 or right > width or bottom > height:
+        return False
+    canvas.draw()
+    rgba = np.asarray(canvas.buffer_rgba())
+    image = Image.fromarray(np.ascontiguousarray(rgba[top:bottom, left:right, :3]))
+    info = PngImagePlugin.PngInfo()
+    info.add_text("Software", f"Matplotlib version{_mpl_version()}, https://matplotlib.org/")
+    image.save(path, format="png", compress_level=1, dpi=(PNG_DPI, PNG_DPI), pnginfo=info)
+    return True
+
+
+def _mpl_version() -> str:
+    import matplotlib
+
+    return matplotlib.__version__
 
 
 #: File stem of the active-search figure (:func:`save_time_to_recognition`).
@@ -696,17 +765,23 @@ def plot_time_to_recognition(survival: Any, *, simulated: bool = False) -> Figur
 
 
 def save_time_to_recognition(
-    survival: Any, folder: str | Path, *, simulated: bool = False
+    survival: Any,
+    folder: str | Path,
+    *,
+    simulated: bool = False,
+    formats: tuple[str, ...] = DEFAULT_FIGURE_FORMATS,
 ) -> list[Path]:
-    """Draw :func:`plot_time_to_recognition` and save it as PNG (300 dpi), SVG and PDF.
+    """Draw :func:`plot_time_to_recognition` and save it in ``formats`` (:func:`save_figures`).
 
     Parameters
     ----------
     survival : analysis.survival.SurvivalAnalysis
     folder : str or Path
-        Existing folder; the files are ``active_time_to_recognition.{png,svg,pdf}``.
+        Existing folder; the files are ``active_time_to_recognition.{png,pdf}`` (and ``.svg``).
     simulated : bool
         Mark the figure "SIMULATED".
+    formats : tuple of str
+        File formats: PNG and PDF unless asked otherwise.
 
     Returns
     -------
@@ -714,4 +789,4 @@ def save_time_to_recognition(
         Files written.
     """
     fig = plot_time_to_recognition(survival, simulated=simulated)
-    return save_figures({ACTIVE_FIGURE: fig}, folder)
+    return save_figures({ACTIVE_FIGURE: fig}, folder, formats)

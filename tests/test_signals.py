@@ -301,7 +301,7 @@ from pathlib import Path
 import analysis.figures as figures
 from experiment.signals import Stopped, stop_on_signals
 
-def slow(result, names, folder):
+def slow(result, names, folder, *formats):
     print("drawing", flush=True)
     time.sleep(60)
     return []
