@@ -627,7 +627,12 @@ def save_figures(
         engine = fig.get_layout_engine()
         if engine is not None:
             engine.execute(fig)  # the layout, once (a draw would run it and draw everything)
+            # No engine at all: "none" leaves a placeholder, and savefig draws a figure that has
+            # any engine once more, unseen, before drawing it into the file.
             fig.set_layout_engine("none")
+            fig._layout_engine = None
+        if "png" in formats:
+            canvas.draw()  # the PNG's pixels; the measure below reuses its text sizes
         area = fig.get_tightbbox(renderer).padded(0.04)
         for ext in (f for f in FIGURE_FORMATS if f in formats):
             p = folder / f"{name}.{ext}"
@@ -640,7 +645,7 @@ def save_figures(
 
 
 def _save_png(canvas: Any, area: Any, path: Path) -> bool:
-    """Write the figure drawn by ``canvas``, cut to ``area`` (inches), as an RGB PNG.
+    """Write the figure ``canvas`` has drawn, cut to ``area`` (inches), as an RGB PNG.
 
     Returns False (nothing written) when ``area`` reaches outside the figure, where a label
     sticks out: matplotlib's ``savefig`` then draws the grown area.
@@ -654,7 +659,6 @@ def _save_png(canvas: Any, area: Any, path: Path) -> bool:
     top, bottom = math.floor(height - y1), math.ceil(height - y0)  # rows count from the top
     if left < 0 or top < 0 or right > width or bottom > height:
         return False
-    canvas.draw()
     rgba = np.asarray(canvas.buffer_rgba())
     image = Image.fromarray(np.ascontiguousarray(rgba[top:bottom, left:right, :3]))
     info = PngImagePlugin.PngInfo()
