@@ -540,8 +540,10 @@ def save_all(
     folder : str or Path
         Existing folder.
     processes : int
-        Draw in this many processes (1: in this one). The figure with per-subject panels takes
-        as long as the other three together, so two processes halve the time on two cores.
+        1: draw in this process. 2 or more: the figure with per-subject panels (as long to draw
+        as the other three together) is drawn in a forked worker process while this one draws
+        the others, which halves the time on two cores; a second worker would cost more CPU
+        time (a forked process pays again for what this one has loaded) and save none.
     formats : tuple of str
         File formats (:func:`save_figures`): PNG and PDF unless asked otherwise.
 
@@ -557,23 +559,31 @@ def save_all(
         import os
         from concurrent.futures import ProcessPoolExecutor
 
-        groups = [names[:1], names[1:]]
-        _warm_up(formats)  # once here, not once in each worker
-        try:
-            ctx = mp.get_context("fork")
-            from analysis.workers import stop_pool, worker_init
+        from analysis.workers import stop_pool, worker_init
 
-            with ProcessPoolExecutor(
-                max_workers=2, mp_context=ctx, initializer=worker_init, initargs=(os.getpid(),)
-            ) as ex:
-                futs = [ex.submit(_draw_and_save, result, g, folder, formats) for g in groups]
+        _warm_up(formats)  # before the fork: loaded once, for both processes
+        try:
+            pool = ProcessPoolExecutor(
+                max_workers=1,
+                mp_context=mp.get_context("fork"),
+                initializer=worker_init,
+                initargs=(os.getpid(),),
+            )
+        except ValueError:  # no fork here
+            pool = None
+        if pool is not None:
+            with pool:
                 try:
-                    return [p for f in futs for p in f.result()]
-                except BaseException:  # stopped or failed: no figure is kept; wait for none
-                    stop_pool(ex)
-                    raise
-        except (OSError, ValueError, RuntimeError):  # no fork here: draw in this process
-            pass
+                    job = pool.submit(_draw_and_save, result, names[:1], folder, formats)
+                except (OSError, RuntimeError):  # no process could be started: draw here
+                    job = None
+                if job is not None:
+                    try:
+                        mine = _draw_and_save(result, names[1:], folder, formats)
+                        return [*job.result(), *mine]
+                    except BaseException:  # stopped or failed: no figure is kept; wait for none
+                        stop_pool(pool)
+                        raise
     return _draw_and_save(result, names, folder, formats)
 
 
@@ -633,6 +643,7 @@ def save_figures(
             fig._layout_engine = None
         if "png" in formats:
             canvas.draw()  # the PNG's pixels; the measure below reuses its text sizes
+        _fix_best_legends(fig, renderer)
         area = fig.get_tightbbox(renderer).padded(0.04)
         for ext in (f for f in FIGURE_FORMATS if f in formats):
             p = folder / f"{name}.{ext}"
@@ -642,6 +653,25 @@ def save_figures(
                 fig.savefig(p, dpi=PNG_DPI, bbox_inches=area, **extra)
             written.append(p)
     return written
+
+
+def _fix_best_legends(fig: Figure, renderer: Any) -> None:
+    """Pin each legend placed "best" where it now stands, so later drawings do not search again.
+
+    The search tries every corner against every data point of the axes, on every drawing; the
+    place, kept as a fraction of the anchoring box, is the same at every resolution.
+    """
+    legends = [ax.get_legend() for ax in fig.axes] + list(fig.legends)
+    for leg in legends:
+        if leg is None or getattr(leg, "_loc", None) != 0:  # 0: "best"
+            continue
+        box, anchor = leg.get_window_extent(renderer), leg.get_bbox_to_anchor()
+        leg.set_loc(
+            (
+                float((box.x0 - anchor.x0) / anchor.width),
+                float((box.y0 - anchor.y0) / anchor.height),
+            )
+        )
 
 
 def _save_png(canvas: Any, area: Any, path: Path) -> bool:
