@@ -595,7 +595,7 @@ def _warm_up(formats: tuple[str, ...]) -> None:
 
     for ext in formats:
         importlib.import_module(f"matplotlib.backends.backend_{'agg' if ext == 'png' else ext}")
-    importlib.import_module("PIL.PngImagePlugin")
+    importlib.import_module("analysis.pngfile")
     font_manager.get_font(font_manager.findfont(font_manager.FontProperties()))
 
 
@@ -610,7 +610,7 @@ def save_figures(
     every label (as ``bbox_inches='tight'``, so a long axis label is never clipped), measured
     once. The layout, that measure and the PNG use one 300 dpi renderer, so each text's size is
     measured once; the PNG is the figure drawn once, cut to that area and written as RGB (the
-    figure is opaque), half the encoding of matplotlib's RGBA.
+    figure is opaque) by :func:`analysis.pngfile.write_png`, a third of the encoding time.
 
     Parameters
     ----------
@@ -680,7 +680,7 @@ def _save_png(canvas: Any, area: Any, path: Path) -> bool:
     Returns False (nothing written) when ``area`` reaches outside the figure, where a label
     sticks out: matplotlib's ``savefig`` then draws the grown area.
     """
-    from PIL import Image, PngImagePlugin
+    from analysis.pngfile import write_png
 
     fig = canvas.figure
     width, height = canvas.get_width_height(physical=True)
@@ -690,10 +690,8 @@ def _save_png(canvas: Any, area: Any, path: Path) -> bool:
     if left < 0 or top < 0 or right > width or bottom > height:
         return False
     rgba = np.asarray(canvas.buffer_rgba())
-    image = Image.fromarray(np.ascontiguousarray(rgba[top:bottom, left:right, :3]))
-    info = PngImagePlugin.PngInfo()
-    info.add_text("Software", f"Matplotlib version{_mpl_version()}, https://matplotlib.org/")
-    image.save(path, format="png", compress_level=1, dpi=(PNG_DPI, PNG_DPI), pnginfo=info)
+    software = f"Matplotlib version{_mpl_version()}, https://matplotlib.org/"
+    write_png(path, rgba[top:bottom, left:right, :3], dpi=PNG_DPI, text={"Software": software})
     return True
 
 

@@ -59,3 +59,19 @@ def test_saved_files_follow_the_formats(tmp_path):
         assert 2.5 * PNG_DPI < im.size[0] <= 3 * PNG_DPI  # the figure, cut to its contents
     with Image.open(tmp_path / "c.png") as im:  # a label past the edge: the file grows to it
         assert round(im.info["dpi"][0]) == PNG_DPI and im.size[0] > 3 * PNG_DPI
+
+
+def test_png_writer_round_trips_every_byte(tmp_path):
+    import numpy as np
+
+    from analysis.pngfile import write_png
+
+    rng = np.random.default_rng(0)
+    img = rng.integers(0, 256, (37, 53, 3), dtype=np.uint8)
+    img[10:20] = 255  # flat rows and wrap-around differences both
+    write_png(tmp_path / "a.png", img[:, 1:-1], dpi=300, text={"Software": "x"})
+    with Image.open(tmp_path / "a.png") as im:
+        assert np.array_equal(np.asarray(im), img[:, 1:-1])
+        assert round(im.info["dpi"][0]) == 300 and im.info["Software"] == "x"
+    with pytest.raises(ValueError, match="uint8"):
+        write_png(tmp_path / "b.png", img.astype(float), dpi=300)
