@@ -75,3 +75,20 @@ def test_png_writer_round_trips_every_byte(tmp_path):
         assert round(im.info["dpi"][0]) == 300 and im.info["Software"] == "x"
     with pytest.raises(ValueError, match="uint8"):
         write_png(tmp_path / "b.png", img.astype(float), dpi=300)
+
+
+@pytest.mark.parametrize("formats", [("svg",), ("png", "svg")])
+def test_active_report_follows_the_formats(tmp_path, formats):
+    from analysis.active import write_active_report
+    from tests.analysis.test_active_survival import _active_log
+
+    db = tmp_path / "a.sqlite"
+    _active_log(db)
+    rep = tmp_path / "rep"
+    write_active_report([db], rep, figure_formats=formats)
+    written = {p.suffix[1:] for p in rep.glob("active_time_to_recognition.*")}
+    assert written == set(formats)
+    # the report shows the PNG only when one was written
+    assert ("active_time_to_recognition.png" in (rep / "report.md").read_text()) is (
+        "png" in formats
+    )
