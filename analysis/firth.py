@@ -54,6 +54,8 @@ def binomial_rows(
         Share recognised, distinct rows (sorted) and trials per row.
     """
     w = np.ones(len(y)) if n is None else n
+    if _strictly_sorted(X):  # merged already (np.unique's order): nothing to merge
+        return y, X, w
     rows, inv = np.unique(X, axis=0, return_inverse=True)
     if len(rows) == len(X):
         return y, X, w
@@ -61,6 +63,23 @@ def binomial_rows(
     trials = np.bincount(inv, weights=w, minlength=len(rows))
     recognised = np.bincount(inv, weights=w * y, minlength=len(rows))
     return recognised / trials, rows, trials
+
+
+def _strictly_sorted(X: np.ndarray) -> bool:
+    """Whether each row of ``X`` is lexicographically greater than the one before it.
+
+    Such rows are all distinct, so merging equal rows would return them as they are; checking
+    costs a comparison of neighbours instead of ``np.unique``'s sort.
+    """
+    if len(X) < 2:
+        return True
+    before, after = X[:-1], X[1:]
+    differ = before != after
+    if not differ.any(axis=1).all():
+        return False
+    first = differ.argmax(axis=1)  # the first column where neighbours differ
+    rows = np.arange(len(before))
+    return bool(np.all(before[rows, first] < after[rows, first]))
 
 
 def _log_likelihood(y: np.ndarray, X: np.ndarray, n: np.ndarray, b: np.ndarray) -> float:
