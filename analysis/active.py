@@ -52,6 +52,7 @@ import pandas as pd
 from analysis.competing import competing_by_condition
 from analysis.data import connect_readonly
 from analysis.errors import DataError
+from analysis.figure_formats import DEFAULT_FIGURE_FORMATS
 from analysis.survival import CENSORING, SurvivalAnalysis, analyze_survival
 from analysis.tables import frame_csv_text
 
@@ -677,15 +678,19 @@ def _write_atomic(path: Path, text: str) -> None:
 
 
 def add_active_results(
-    paths: Iterable[str | Path], folder: str | Path, *, figures: bool = True
+    paths: Iterable[str | Path],
+    folder: str | Path,
+    *,
+    figures: bool = True,
+    figure_formats: tuple[str, ...] = DEFAULT_FIGURE_FORMATS,
 ) -> ActiveSearchResult | None:
     """Add active-search results to a report folder, if the trial logs have any.
 
     Writes (each atomically) ``active_trials.csv``, the ``active_search`` key of
     ``results.json`` (created when absent) and an "Active search" section at the end of
     ``report.md`` (created when absent); with ``figures``, the Kaplan-Meier figure
-    ``active_time_to_recognition.{png,svg,pdf}``
-    (:func:`analysis.figures.save_time_to_recognition`).
+    ``active_time_to_recognition`` in ``figure_formats`` (PNG and PDF unless asked otherwise;
+    :func:`analysis.figures.save_time_to_recognition`), shown in the report when a PNG.
 
     Returns
     -------
@@ -705,8 +710,10 @@ def add_active_results(
     if figures and result.survival is not None:
         from analysis.figures import ACTIVE_FIGURE, save_time_to_recognition
 
-        save_time_to_recognition(result.survival, folder, simulated=result.simulated)
-        figure = f"{ACTIVE_FIGURE}.png"
+        save_time_to_recognition(
+            result.survival, folder, simulated=result.simulated, formats=figure_formats
+        )
+        figure = f"{ACTIVE_FIGURE}.png" if "png" in figure_formats else None
     rj = folder / "results.json"
     data = json.loads(rj.read_text(encoding="utf-8")) if rj.is_file() else {}
     data["active_search"] = result.to_dict()
@@ -718,7 +725,11 @@ def add_active_results(
 
 
 def write_active_report(
-    paths: Iterable[str | Path], out_dir: str | Path, *, figures: bool = True
+    paths: Iterable[str | Path],
+    out_dir: str | Path,
+    *,
+    figures: bool = True,
+    figure_formats: tuple[str, ...] = DEFAULT_FIGURE_FORMATS,
 ) -> ActiveSearchResult:
     """Write a report folder with only active-search results into a new or empty ``out_dir``.
 
@@ -734,7 +745,7 @@ def write_active_report(
 
     paths = [Path(p) for p in paths]
     with atomic_folder(out_dir) as tmp:
-        result = add_active_results(paths, tmp, figures=figures)
+        result = add_active_results(paths, tmp, figures=figures, figure_formats=figure_formats)
         if result is None:
             raise DataError(f"{paths[0] if paths else 'no files'}: no active-search events")
     return result

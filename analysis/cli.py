@@ -21,6 +21,7 @@ import typer
 from typer.core import TyperGroup
 
 from analysis.errors import DataError
+from analysis.figure_formats import FORMATS_HELP, parse_figure_formats
 from analysis.power_report import needed_text as _needed
 
 __all__ = ["register", "analyze_app"]
@@ -189,6 +190,7 @@ def run(
         bool, typer.Option("--subject-factor", help="Add subject dummies to the logistic model.")
     ] = False,
     figures: Annotated[bool, _switch_option("figures", "Draw Figs. 8, 9, S2, S3.")] = True,
+    figure_formats: Annotated[str, typer.Option("--figure-formats", help=FORMATS_HELP)] = "png,pdf",
     lapse_prior: Annotated[
         str, typer.Option("--lapse-prior", help="Beta(a,b) prior of the lapse rate, as 'a,b'.")
     ] = "1,10",
@@ -228,6 +230,7 @@ def run(
     with _refused_as(typer.BadParameter, f"--lapse-prior must be 'a,b', got {lapse_prior!r}"):
         lp = tuple(float(v) for v in lapse_prior.split(","))
     with _refused_as(typer.BadParameter):
+        formats = parse_figure_formats(figure_formats)
         options = AnalysisOptions(
             lapse_prior=lp,
             pc=pc,
@@ -241,7 +244,7 @@ def run(
     from analysis.active import add_active_results, only_active, summary_lines, write_active_report
 
     if only_active(trials):  # active-search logs only: no static trials to fit
-        res = write_active_report(trials, out, figures=figures)
+        res = write_active_report(trials, out, figures=figures, figure_formats=formats)
         typer.echo("\n".join([*summary_lines(res), f"report: {Path(out) / 'report.md'}"]))
         return
     if out.exists() and not out.is_dir():
@@ -269,12 +272,12 @@ def run(
     if figures:
         err.print("drawing figures and writing the report...")
     try:
-        folder = write_report(result, out, figures=figures)
+        folder = write_report(result, out, figures=figures, figure_formats=formats)
     except OSError as exc:
         if exc.errno in (errno.ENOSPC, errno.EDQUOT):
             raise _disk_full(exc, out) from None
         raise
-    active = add_active_results(trials, folder, figures=figures)
+    active = add_active_results(trials, folder, figures=figures, figure_formats=formats)
     _print_summary(result, folder)
     if active is not None:
         typer.echo("\n".join(summary_lines(active)))

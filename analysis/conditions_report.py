@@ -3,13 +3,16 @@
 ``results.json`` (:meth:`~analysis.conditions.ConditionsResult.results_json`), ``report.md``
 (which methods differ and by how much, in sentences) and two figures: every condition's
 recognition curve (``conditions_curves``) and every pairwise threshold ratio with its 95 %
-interval (``conditions_ratios``), each as PNG and SVG, stamped SIMULATED for simulated data.
+interval (``conditions_ratios``), each as PNG and PDF (and SVG when asked for), stamped
+SIMULATED for simulated data.
 """
 
 from __future__ import annotations
 
 from pathlib import Path
 from typing import Any
+
+from analysis.figure_formats import DEFAULT_FIGURE_FORMATS, figure_links
 
 __all__ = [
     "CONDITION_FIGURES",
@@ -37,8 +40,12 @@ def _p(v: Any) -> str:
     return "< 0.001" if v < 0.001 else f"{v:.3f}"
 
 
-def render_conditions_markdown(result: Any, *, figures: bool = True) -> str:
+def render_conditions_markdown(
+    result: Any, *, figures: bool = True, figure_formats: tuple[str, ...] = DEFAULT_FIGURE_FORMATS
+) -> str:
     """Return the report text of a :class:`~analysis.conditions.ConditionsResult`.
+
+    With ``figures``, the PNG figures are shown and each file in ``figure_formats`` is linked.
 
     Returns
     -------
@@ -155,14 +162,15 @@ def render_conditions_markdown(result: Any, *, figures: bool = True) -> str:
             f"Holm p {_p(c['p_adjusted'])}){how}."
         )
     if figures:
-        lines += [
-            "",
-            "## Figures",
-            "",
-            "![recognition per condition](conditions_curves.png)",
-            "",
-            "![threshold ratios](conditions_ratios.png)",
-        ]
+        lines += ["", "## Figures", ""]
+        if "png" in figure_formats:
+            lines += [
+                "![recognition per condition](conditions_curves.png)",
+                "",
+                "![threshold ratios](conditions_ratios.png)",
+                "",
+            ]
+        lines += [figure_links(name, figure_formats) for name in CONDITION_FIGURES]
     if r["warnings"]:
         lines += ["", "## Warnings", ""] + [f"- {w}" for w in r["warnings"]]
     return "\n".join(lines) + "\n"
@@ -203,7 +211,12 @@ def plot_condition_ratios(comparisons: list[dict[str, Any]], *, ax: Any = None) 
 
 
 def write_conditions_report(
-    result: Any, out_dir: str | Path, *, staging: Any, figures: bool = True
+    result: Any,
+    out_dir: str | Path,
+    *,
+    staging: Any,
+    figures: bool = True,
+    figure_formats: tuple[str, ...] = DEFAULT_FIGURE_FORMATS,
 ) -> Path:
     """Write ``results.json``, ``report.md`` and the two figures to ``out_dir``, atomically.
 
@@ -215,6 +228,8 @@ def write_conditions_report(
         The report's staging folder (``analysis.report.atomic_folder``): renamed onto
         ``out_dir`` when everything is written, removed on any error.
     figures : bool
+    figure_formats : tuple of str
+        The figures' file formats (:mod:`analysis.figure_formats`).
 
     Returns
     -------
@@ -227,14 +242,15 @@ def write_conditions_report(
         text = json.dumps(result.results_json(), indent=2, allow_nan=False) + "\n"
         (tmp / "results.json").write_text(text, encoding="utf-8")
         (tmp / "report.md").write_text(
-            render_conditions_markdown(result, figures=figures), encoding="utf-8"
+            render_conditions_markdown(result, figures=figures, figure_formats=figure_formats),
+            encoding="utf-8",
         )
         if figures:
-            _save_figures(result, tmp)
+            _save_figures(result, tmp, figure_formats)
     return Path(out_dir).resolve()
 
 
-def _save_figures(result: Any, folder: Path) -> None:
+def _save_figures(result: Any, folder: Path, formats: tuple[str, ...]) -> None:
     import matplotlib
 
     matplotlib.use("Agg", force=False)
@@ -250,7 +266,7 @@ def _save_figures(result: Any, folder: Path) -> None:
         if result.simulated_sessions:
             mark_simulated(f)
         f.tight_layout()
-        for ext in ("png", "svg"):
+        for ext in formats:
             f.savefig(folder / f"{name}.{ext}", dpi=120)
         plt.close(f)
 

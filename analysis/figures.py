@@ -1,4 +1,6 @@
-"""Figures after Jung et al. 2015 (Figs. 8, 9, S2, S3). The only module that imports matplotlib.
+"""Figures after Jung et al. 2015 (Figs. 8, 9, S2, S3): with its files, matplotlib's only user.
+
+Only this module and :mod:`analysis.figure_files` (which saves the figures) import matplotlib.
 
 Functions take result objects and an optional ``ax`` and return the Axes (or Figure). They use
 :class:`matplotlib.figure.Figure` directly, so no backend is chosen and nothing is shown
@@ -15,6 +17,8 @@ from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 
 from analysis.data import CONDITIONS
+from analysis.figure_files import PNG_DPI, load_backends, save_figures
+from analysis.figure_formats import DEFAULT_FIGURE_FORMATS
 from analysis.logistic import LogisticFit
 from analysis.weibull import WeibullFit
 
@@ -32,6 +36,7 @@ __all__ = [
     "ACTIVE_FIGURE",
     "mark_simulated",
     "SIMULATED_MARK",
+    "PNG_DPI",
 ]
 
 #: Colours per condition (ours): grey for cluttered, blue for de-cluttered.
@@ -505,8 +510,10 @@ def _draw_figure(result: Any, name: str) -> Figure:
     return ax.figure
 
 
-def _draw_and_save(result: Any, names: list[str], folder: Path) -> list[Path]:
-    return save_figures({n: _draw(result, n) for n in names}, folder)
+def _draw_and_save(
+    result: Any, names: list[str], folder: Path, formats: tuple[str, ...]
+) -> list[Path]:
+    return save_figures({n: _draw(result, n) for n in names}, folder, formats)
 
 
 #: Figures of :func:`save_all`, after the paper's figure numbers.
@@ -518,8 +525,14 @@ STUDY_FIGURES: tuple[str, ...] = (
 )
 
 
-def save_all(result: Any, folder: str | Path, *, processes: int = 2) -> list[Path]:
-    """Draw Figs. 8, 9, S2 and S3 for an analysis result; save each as PNG, SVG and PDF.
+def save_all(
+    result: Any,
+    folder: str | Path,
+    *,
+    processes: int = 2,
+    formats: tuple[str, ...] = DEFAULT_FIGURE_FORMATS,
+) -> list[Path]:
+    """Draw Figs. 8, 9, S2 and S3 for an analysis result; save each in ``formats``.
 
     Parameters
     ----------
@@ -527,8 +540,12 @@ def save_all(result: Any, folder: str | Path, *, processes: int = 2) -> list[Pat
     folder : str or Path
         Existing folder.
     processes : int
-        Draw in this many processes (1: in this one). The figure with per-subject panels takes
-        as long as the other three together, so two processes halve the time on two cores.
+        1: draw in this process. 2 or more: the figure with per-subject panels (as long to draw
+        as the other three together) is drawn in a forked worker process while this one draws
+        the others, which halves the time on two cores; a second worker would cost more CPU
+        time (a forked process pays again for what this one has loaded) and save none.
+    formats : tuple of str
+        File formats (:func:`save_figures`): PNG and PDF unless asked otherwise.
 
     Returns
     -------
@@ -542,62 +559,32 @@ def save_all(result: Any, folder: str | Path, *, processes: int = 2) -> list[Pat
         import os
         from concurrent.futures import ProcessPoolExecutor
 
-        groups = [names[:1], names[1:]]
+        from analysis.workers import stop_pool, worker_init
+
+        load_backends(formats)  # before the fork: loaded once, for both processes
         try:
-            ctx = mp.get_context("fork")
-            from analysis.workers import stop_pool, worker_init
-
-            with ProcessPoolExecutor(
-                max_workers=2, mp_context=ctx, initializer=worker_init, initargs=(os.getpid(),)
-            ) as ex:
-                futs = [ex.submit(_draw_and_save, result, g, folder) for g in groups]
+            pool = ProcessPoolExecutor(
+                max_workers=1,
+                mp_context=mp.get_context("fork"),
+                initializer=worker_init,
+                initargs=(os.getpid(),),
+            )
+        except ValueError:  # no fork here
+            pool = None
+        if pool is not None:
+            with pool:
                 try:
-                    return [p for f in futs for p in f.result()]
-                except BaseException:  # stopped or failed: no figure is kept; wait for none
-                    stop_pool(ex)
-                    raise
-        except (OSError, ValueError, RuntimeError):  # no fork here: draw in this process
-            pass
-    return _draw_and_save(result, names, folder)
-
-
-def save_figures(figs: dict[str, Figure], folder: str | Path) -> list[Path]:
-    """Save each figure as a 300 dpi PNG, an SVG and a PDF (journal formats).
-
-    The layout is computed once per figure, not once per file; the saved area is grown to
-    every label (``bbox_inches='tight'``), so a long axis label is never clipped.
-
-    Parameters
-    ----------
-    figs : dict of str to Figure
-        File stem -> figure.
-    folder : str or Path
-        Existing folder.
-
-    Returns
-    -------
-    list of Path
-        Files written.
-    """
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
-
-    folder = Path(folder)
-    written = []
-    for name, fig in figs.items():
-        renderer = FigureCanvasAgg(fig).get_renderer()
-        if fig.get_layout_engine() is not None:
-            fig.draw_without_rendering()  # runs the layout engine, once
-            fig.set_layout_engine("none")
-        # The saved area grown to every label (as bbox_inches='tight', so none is clipped at an
-        # edge), measured once here rather than by one more drawing per file.
-        area = fig.get_tightbbox(renderer).padded(0.04)
-        for ext in ("png", "svg", "pdf"):
-            p = folder / f"{name}.{ext}"
-            # zlib level 1: a fifth larger than the default 6, and its encoding half the time
-            extra = {"pil_kwargs": {"compress_level": 1}} if ext == "png" else {}
-            fig.savefig(p, dpi=300, bbox_inches=area, **extra)
-            written.append(p)
-    return written
+                    job = pool.submit(_draw_and_save, result, names[:1], folder, formats)
+                except (OSError, RuntimeError):  # no process could be started: draw here
+                    job = None
+                if job is not None:
+                    try:
+                        mine = _draw_and_save(result, names[1:], folder, formats)
+                        return [*job.result(), *mine]
+                    except BaseException:  # stopped or failed: no figure is kept; wait for none
+                        stop_pool(pool)
+                        raise
+    return _draw_and_save(result, names, folder, formats)
 
 
 #: File stem of the active-search figure (:func:`save_time_to_recognition`).
@@ -696,17 +683,23 @@ def plot_time_to_recognition(survival: Any, *, simulated: bool = False) -> Figur
 
 
 def save_time_to_recognition(
-    survival: Any, folder: str | Path, *, simulated: bool = False
+    survival: Any,
+    folder: str | Path,
+    *,
+    simulated: bool = False,
+    formats: tuple[str, ...] = DEFAULT_FIGURE_FORMATS,
 ) -> list[Path]:
-    """Draw :func:`plot_time_to_recognition` and save it as PNG (300 dpi), SVG and PDF.
+    """Draw :func:`plot_time_to_recognition` and save it in ``formats`` (:func:`save_figures`).
 
     Parameters
     ----------
     survival : analysis.survival.SurvivalAnalysis
     folder : str or Path
-        Existing folder; the files are ``active_time_to_recognition.{png,svg,pdf}``.
+        Existing folder; the files are ``active_time_to_recognition.{png,pdf}`` (and ``.svg``).
     simulated : bool
         Mark the figure "SIMULATED".
+    formats : tuple of str
+        File formats: PNG and PDF unless asked otherwise.
 
     Returns
     -------
@@ -714,4 +707,4 @@ def save_time_to_recognition(
         Files written.
     """
     fig = plot_time_to_recognition(survival, simulated=simulated)
-    return save_figures({ACTIVE_FIGURE: fig}, folder)
+    return save_figures({ACTIVE_FIGURE: fig}, folder, formats)

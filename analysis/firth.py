@@ -20,7 +20,7 @@ import numpy as np
 
 from analysis.blas import one_blas_thread
 
-__all__ = ["firth_logit", "profile_interval"]
+__all__ = ["firth_logit", "profile_interval", "binomial_rows"]
 
 
 #: Most values held at once (a block of rows of the row-wise Kronecker product of the hat
@@ -28,7 +28,7 @@ __all__ = ["firth_logit", "profile_interval"]
 _BLOCK_VALUES: int = 4_000_000
 
 
-def _binomial_rows(
+def binomial_rows(
     y: np.ndarray, X: np.ndarray, n: np.ndarray | None
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Merge the rows of ``X`` that are equal into binomial rows; return ``(y, X, n)``.
@@ -36,8 +36,26 @@ def _binomial_rows(
     A merged row's ``n`` is the sum of the merged trials and its ``y`` their share recognised:
     the likelihood, Firth's penalty and their derivatives are sums over trials, so they are
     unchanged, and a design of few distinct rows (factors and levels) costs as many rows.
+    Rows already merged are returned as they are, so merging once before several profiles
+    (:func:`profile_interval` with ``weights``) changes no number.
+
+    Parameters
+    ----------
+    y : ndarray of shape (n,)
+        Outcomes (0/1, or shares recognised of binomial rows).
+    X : ndarray of shape (n, p)
+        Design matrix.
+    n : ndarray of shape (n,) or None
+        Trials per row (None: one each).
+
+    Returns
+    -------
+    y, X, n : ndarray
+        Share recognised, distinct rows (sorted) and trials per row.
     """
     w = np.ones(len(y)) if n is None else n
+    if _strictly_sorted(X):  # merged already (np.unique's order): nothing to merge
+        return y, X, w
     rows, inv = np.unique(X, axis=0, return_inverse=True)
     if len(rows) == len(X):
         return y, X, w
@@ -45,6 +63,23 @@ def _binomial_rows(
     trials = np.bincount(inv, weights=w, minlength=len(rows))
     recognised = np.bincount(inv, weights=w * y, minlength=len(rows))
     return recognised / trials, rows, trials
+
+
+def _strictly_sorted(X: np.ndarray) -> bool:
+    """Whether each row of ``X`` is lexicographically greater than the one before it.
+
+    Such rows are all distinct, so merging equal rows would return them as they are; checking
+    costs a comparison of neighbours instead of ``np.unique``'s sort.
+    """
+    if len(X) < 2:
+        return True
+    before, after = X[:-1], X[1:]
+    differ = before != after
+    if not differ.any(axis=1).all():
+        return False
+    first = differ.argmax(axis=1)  # the first column where neighbours differ
+    rows = np.arange(len(before))
+    return bool(np.all(before[rows, first] < after[rows, first]))
 
 
 def _log_likelihood(y: np.ndarray, X: np.ndarray, n: np.ndarray, b: np.ndarray) -> float:
@@ -212,7 +247,7 @@ def firth_logit(
     """
     from scipy import special
 
-    y, X, n = _binomial_rows(
+    y, X, n = binomial_rows(
         np.asarray(y, float),
         np.asarray(X, float),
         None if weights is None else np.asarray(weights, float),
@@ -314,7 +349,7 @@ def profile_interval(
             res = sm.Logit(y, X).fit(method="newton", tol=1e-12, maxiter=200, disp=False)
             params, bse = np.asarray(res.params), np.asarray(res.bse)
     params = np.asarray(params, float)
-    y, X, n = _binomial_rows(y, X, n)
+    y, X, n = binomial_rows(y, X, n)
     free = np.arange(X.shape[1]) != j
 
     # Each point starts from the estimate with b_j moved. Far out on the profile that can push

@@ -29,7 +29,7 @@ import pandas as pd
 
 from analysis.data import object_order
 from analysis.errors import DataError
-from analysis.firth import firth_logit, profile_interval
+from analysis.firth import binomial_rows, firth_logit, profile_interval
 
 __all__ = [
     "OddsRatioTable",
@@ -577,13 +577,17 @@ def _profiles(
     whose profile fails is left out and its name appended to ``failed``.
     """
     out: dict[str, tuple[float, float]] = {}
+    # merged once, not once per profile (the same rows, so the same numbers)
+    y, X, n = binomial_rows(np.asarray(y, float), np.asarray(X, float), None)
     for j, name in enumerate(names):
         if name == "Intercept" or name.startswith("C(subject"):
             continue
         if only is not None and name not in only:
             continue
         try:
-            lo_b, hi_b = profile_interval(y, X, j, params=params, bse=bse, penalized=penalized)
+            lo_b, hi_b = profile_interval(
+                y, X, j, params=params, bse=bse, penalized=penalized, weights=n
+            )
         except (np.linalg.LinAlgError, ValueError, ArithmeticError):
             if failed is not None:
                 failed.append(_term_name(name))

@@ -15,6 +15,7 @@ from typing import Any
 
 from analysis.data import CONDITIONS, object_order
 from analysis.errors import DataError
+from analysis.figure_formats import DEFAULT_FIGURE_FORMATS, figure_links
 from analysis.jung2015 import (
     OR_BACKGROUND,
     OR_BACKGROUND_CI95,
@@ -94,7 +95,8 @@ def deviance_text(gof: dict[str, Any]) -> str:
     return f"no deviance test ({df + 3} levels with data for 3 parameters)"
 
 
-#: Figure files written (each as 300 dpi .png, .svg and .pdf), after the paper's figure numbers.
+#: Figure files written (a 300 dpi .png and a .pdf, and .svg when asked for), after the paper's
+#: figure numbers.
 FIGURE_NAMES: tuple[str, ...] = (
     "fig8_recognition_vs_pixels",
     "fig9_subject_thresholds",
@@ -271,7 +273,11 @@ def _or_text(
 
 
 def render_markdown(
-    result: AnalysisResult, *, figures: bool = True, results: dict[str, Any] | None = None
+    result: AnalysisResult,
+    *,
+    figures: bool = True,
+    results: dict[str, Any] | None = None,
+    figure_formats: tuple[str, ...] = DEFAULT_FIGURE_FORMATS,
 ) -> str:
     """Return the report text: results in sentences, as in Jung et al. 2015, Sec. 3.2.2.
 
@@ -286,6 +292,8 @@ def render_markdown(
         Whether figure links are included.
     results : dict, optional
         ``result.results_json()`` when already computed.
+    figure_formats : tuple of str
+        The figures' file formats, each linked (:mod:`analysis.figure_formats`).
 
     Returns
     -------
@@ -504,10 +512,7 @@ def render_markdown(
         lines += ["", "## Warnings", ""] + [f"- {w}" for w in result.warnings]
     if figures:
         lines += ["", "## Figures", ""]
-        lines += [
-            f"- [{name}]({name}.png) ([SVG]({name}.svg), [PDF]({name}.pdf))"
-            for name in FIGURE_NAMES
-        ]
+        lines += [figure_links(name, figure_formats) for name in FIGURE_NAMES]
     return "\n".join(lines) + "\n"
 
 
@@ -516,7 +521,13 @@ def results_json_text(data: dict[str, Any]) -> str:
     return json.dumps(data, indent=2, allow_nan=False) + "\n"
 
 
-def write_report(result: AnalysisResult, out_dir: str | Path, *, figures: bool = True) -> Path:
+def write_report(
+    result: AnalysisResult,
+    out_dir: str | Path,
+    *,
+    figures: bool = True,
+    figure_formats: tuple[str, ...] = DEFAULT_FIGURE_FORMATS,
+) -> Path:
     """Write ``results.json``, ``report.md`` and figures to ``out_dir``, atomically.
 
     Parameters
@@ -525,7 +536,9 @@ def write_report(result: AnalysisResult, out_dir: str | Path, *, figures: bool =
     out_dir : str or Path
         Report folder; replaced if it exists.
     figures : bool
-        Draw the figures (PNG and SVG).
+        Draw the figures.
+    figure_formats : tuple of str
+        Their file formats (:mod:`analysis.figure_formats`): a 300 dpi PNG and a PDF by default.
 
     Returns
     -------
@@ -535,17 +548,20 @@ def write_report(result: AnalysisResult, out_dir: str | Path, *, figures: bool =
     if getattr(result, "kind", "") == "conditions":  # a comparison of k conditions
         from analysis.conditions_report import write_conditions_report
 
-        return write_conditions_report(result, out_dir, staging=atomic_folder, figures=figures)
+        return write_conditions_report(
+            result, out_dir, staging=atomic_folder, figures=figures, figure_formats=figure_formats
+        )
     with atomic_folder(out_dir) as tmp:
         r = result.results_json()
         (tmp / "results.json").write_text(results_json_text(r), encoding="utf-8")
         (tmp / "report.md").write_text(
-            render_markdown(result, figures=figures, results=r), encoding="utf-8"
+            render_markdown(result, figures=figures, results=r, figure_formats=figure_formats),
+            encoding="utf-8",
         )
         if figures:
             from analysis.figures import save_all
 
-            save_all(result, tmp)
+            save_all(result, tmp, formats=figure_formats)
     return resolve(out_dir)
 
 

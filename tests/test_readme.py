@@ -138,7 +138,7 @@ def _check_demo(out: Path, stdout: str) -> None:
     """The demo's report exists and agrees with its own SQLite trial log."""
     results = json.loads((out / "report" / "results.json").read_text())
     assert (out / "report" / "report.md").is_file()
-    assert list((out / "report").glob("*.png")) and list((out / "report").glob("*.svg"))
+    assert list((out / "report").glob("*.png")) and list((out / "report").glob("*.pdf"))
     db = out / "study.sqlite"
     n, k = _db_rows(db, "SELECT COUNT(*), SUM(recognized) FROM tidy_trials WHERE part = 'main'")[0]
     assert results["n_trials"] == n == 6 * 320  # six subjects x the paper's 320 main trials

@@ -294,14 +294,15 @@ def test_every_console_binds_ctrl_c_as_its_quit_key():
         assert keys["ctrl+c"].priority, app.__name__  # before the response line's copy key
 
 
-#: Draws "figures" that take a minute in save_all's two worker processes, stopped by a signal.
+#: Draws "figures" that take a minute in save_all's worker process and in the process itself,
+#: stopped by a signal.
 _SLOW_FIGURES = """
 import sys, time
 from pathlib import Path
 import analysis.figures as figures
 from experiment.signals import Stopped, stop_on_signals
 
-def slow(result, names, folder):
+def slow(result, names, folder, *formats):
     print("drawing", flush=True)
     time.sleep(60)
     return []
@@ -316,8 +317,9 @@ except Stopped as stop:
 
 
 def test_stop_signal_while_figures_are_drawn_ends_their_workers_at_once(tmp_path):
-    """The analysis step (``analyze run``, the demo's last step) draws its figures in two worker
-    processes; a stop had waited for them to finish drawing (a minute on a busy machine)."""
+    """The analysis step (``analyze run``, the demo's last step) draws a figure in a worker
+    process while it draws the others; a stop had waited for the worker to finish drawing (a
+    minute on a busy machine)."""
     script = tmp_path / "figures.py"
     script.write_text(_SLOW_FIGURES)
     env = dict(os.environ, PYTHONPATH=str(ROOT))

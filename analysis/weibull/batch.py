@@ -132,7 +132,9 @@ class _Batch:
         loc, lb, lapse, eta = (theta[..., i] for i in range(4))
         with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
             lp = _beta_lp(lapse, self.lapse_ab[idx])
-            lp = lp + np.where(self.od[idx][:, None], _beta_lp(eta, self.eta_ab[idx]), 0.0)
+            od = self.od[idx]
+            if od.any():  # the scale's prior, for the beta-binomial fits only
+                lp = lp + np.where(od[:, None], _beta_lp(eta, self.eta_ab[idx]), 0.0)
             s_alpha = loc * math.log(10.0) if self.log else loc
             z = np.exp(lb)[..., None] * (self.u[idx][:, None, :] - s_alpha[..., None])
             g = self.guess[idx][:, None, None]
@@ -140,7 +142,6 @@ class _Batch:
             p = np.clip(p, EPS, 1.0 - EPS)
             k, n = self.k[idx][:, None, :], self.n[idx][:, None, :]
             ll = binomial_ll(k, n, p).sum(-1)
-            od = self.od[idx]
             if od.any():
                 bb = beta_binomial_ll(k, n, p, eta[..., None]).sum(-1)
                 ll = np.where(od[:, None], bb, ll)

@@ -386,7 +386,18 @@ class WeibullFit:
         -------
         dict
             ``deviance``, ``deviance_df`` (levels - 3), ``ppp``.
+
+        With a seed (an int, as by default) the answer is computed once per fit and kept: the
+        report, its warnings and the figures ask for the same one.
         """
+        if isinstance(rng, int):
+            cache = self.__dict__.setdefault("_gof_cache", {})  # frozen: no setattr
+            if (n_draws, rng) not in cache:
+                cache[n_draws, rng] = self._goodness_of_fit(n_draws, rng)
+            return dict(cache[n_draws, rng])
+        return self._goodness_of_fit(n_draws, rng)
+
+    def _goodness_of_fit(self, n_draws: int, rng: np.random.Generator | int | None) -> dict:
         rng = np.random.default_rng(rng)
         x, k, n = (np.asarray(v, float) for v in (self.pixels, self.k, self.n))
         m = self.mle

@@ -286,7 +286,7 @@ def test_report_folder_has_the_figure_scene_column_and_censoring_text(tmp_path) 
     _active_log(db)
     write_active_report([db], tmp_path / "rep")
     rep = tmp_path / "rep"
-    for ext in ("png", "svg", "pdf"):
+    for ext in ("png", "pdf"):
         assert (rep / f"active_time_to_recognition.{ext}").stat().st_size > 1000
     from PIL import Image
 

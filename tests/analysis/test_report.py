@@ -75,8 +75,9 @@ def test_markdown_mentions_training_exclusion(small_result):
 def test_write_report_and_figures(tmp_path, small_result):
     out = write_report(small_result, tmp_path / "rep")
     for name in FIGURE_NAMES:
-        for ext in ("png", "svg"):
+        for ext in ("png", "pdf"):
             assert (out / f"{name}.{ext}").stat().st_size > 1000
+        assert not (out / f"{name}.svg").exists()  # SVG only when asked for
     assert json.loads((out / "results.json").read_text()) == small_result.results_json()
 
 
