@@ -203,15 +203,10 @@ def resolve_edge_depth(
     axes = baseline_axes(grid)
     if len(axes) != 1:  # a 2-D grid measures every direction
         return at(np.zeros(img.shape, bool)).astype(np.uint8), EdgeDepthStats()
-    mag, conf = _edge_field(img, axes)
-    if float(mag.max()) <= 0.0:
+    classes = _edge_classes(img, axes[0])
+    if classes is None:  # no gradient anywhere
         return at(np.zeros(img.shape, bool)).astype(np.uint8), EdgeDepthStats()
-    from stimuli.otsu import otsu_threshold
-
-    edges = mag > 0.5 * otsu_threshold(mag)
-    low_all = (conf < MIN_CONFIDENCE) & (mag > 0)
-    low = edges & low_all
-    measured = edges & ~low_all
+    low, measured, n_edges = classes
 
     def at_t(pixels):  # the views' verdict, read where the vote reads it
         return np.asarray(at(pixels), dtype=bool)
@@ -227,11 +222,11 @@ def resolve_edge_depth(
         seg_in, seg_off, low, focus = seg_in.T, seg_off.T, low.T, focus.T
     out = focus.astype(np.uint8)
     out[seg_off] = 2  # resolved off the plane: dropped; the rest keeps the views' verdict
-    n_low = int(low.sum())
-    n_in = int((seg_in & low).sum())
-    n_off = int((seg_off & low).sum())
+    n_low = int(np.count_nonzero(low))
+    n_in = int(np.count_nonzero(seg_in & low))
+    n_off = int(np.count_nonzero(seg_off & low))
     stats = EdgeDepthStats(
-        edge_pixels=int(edges.sum()),
+        edge_pixels=n_edges,
         unmeasured=n_low,
         resolved_in_focus=n_in,
         resolved_off_plane=n_off,
@@ -298,6 +293,48 @@ def _vote(low: np.ndarray, measured: np.ndarray, at):
     kept |= junction & _grow(kept, 2 * r + 3)
     dropped |= junction & ~kept & _grow(dropped, 2 * r + 3)
     return kept, dropped, focus
+
+
+def _edge_classes(img: np.ndarray, axis: int):
+    """Return the unmeasured and the measured edge pixels and the number of edge pixels.
+
+    Edge pixels: the magnitude of :func:`_edge_field` above half its Otsu threshold; unmeasured:
+    those whose confidence is below :data:`MIN_CONFIDENCE` (and magnitude above 0). ``None``
+    where the magnitude is 0 everywhere. Two compiled passes where every side is longer than
+    :data:`CONFIDENCE_WINDOW_PX` (:func:`stimuli.edgefield.edge_energy` and
+    :func:`stimuli.edgefield.edge_classes`; neither keeps the confidence image), else
+    the numpy chain; the same pixels.
+    """
+    from stimuli.otsu import otsu_threshold
+
+    if min(img.shape) <= CONFIDENCE_WINDOW_PX:
+        mag, conf = _edge_field(img, (axis,))
+        if float(mag.max()) <= 0.0:
+            return None
+        edges = mag > 0.5 * otsu_threshold(mag)
+        low_all = (conf < MIN_CONFIDENCE) & (mag > 0)
+        return edges & low_all, edges & ~low_all, int(edges.sum())
+    from stimuli.edgefield import edge_classes, edge_energy
+
+    img = np.ascontiguousarray(img, dtype=np.float32)
+    mag, e0, e1 = np.empty_like(img), np.empty_like(img), np.empty_like(img)
+    lo, hi = edge_energy(img, mag, e0, e1)
+    if float(hi) <= 0.0:
+        return None
+    threshold = np.float32(0.5 * otsu_threshold(mag, extrema=(lo, hi)))  # compared in float32
+    low, measured = np.empty(img.shape, np.uint8), np.empty(img.shape, np.uint8)
+    n_edges, _ = edge_classes(
+        e0,
+        e1,
+        mag,
+        axis,
+        CONFIDENCE_WINDOW_PX,
+        threshold,
+        np.float32(MIN_CONFIDENCE),
+        low,
+        measured,
+    )
+    return low.view(bool), measured.view(bool), int(n_edges)
 
 
 def _edge_field(img: np.ndarray, axes: tuple[int, ...]) -> tuple[np.ndarray, np.ndarray]:
