@@ -49,9 +49,9 @@ def otsu_threshold(values: np.ndarray, *, compiled: bool = True, extrema=None) -
     if compiled and extrema is not None:
         first, last = (np.float32(v) for v in extrema)
     elif compiled:
-        from stimuli.edgekernels import extrema
+        from stimuli.edgekernels import extrema as find_extrema
 
-        first, last = (np.float32(v) for v in extrema(a))
+        first, last = (np.float32(v) for v in find_extrema(a))
     else:
         first, last = a.min(), a.max()
     if first == last:  # scikit-image returns the single value
