@@ -483,7 +483,7 @@ def declutter_depth(
         Sobel threshold, as :func:`declutter`.
     compiled : bool
         The vote in one compiled call, summed at the edge pixels only
-        (:func:`stimuli.edgekernels.vote_at_edges`, the default), or its numpy twin (two box
+        (:func:`stimuli.edgevote.vote_lean`, the default), or its numpy twin (two box
         filters of full images); the same edges to the bit.
     edges : ndarray of shape (rows, cols), bool, optional
         ``declutter(image, threshold=threshold)`` if the caller has it (not made again).
@@ -505,12 +505,12 @@ def declutter_depth(
         )
     if not compiled:
         return _vote_numpy(edges, m)
-    from stimuli.edgekernels import vote_at_edges
+    from stimuli.edgevote import vote_lean
 
     out = np.empty(edges.shape, bool)
     if edges.size:
         f8 = np.ascontiguousarray(m).view(np.uint8)
-        vote_at_edges(edges.view(np.uint8), f8, VOTE_WINDOW_PX, out)
+        vote_lean(edges.view(np.uint8), f8, VOTE_WINDOW_PX, out)
     return out
 
 
