@@ -55,6 +55,38 @@ def test_batched_test_is_the_full_test_and_the_numpy_chain(seed):
         assert np.array_equal(got[where & ~start], chain[where & ~start])
 
 
+def test_where_the_bound_does_not_pay_the_twins_order_gives_the_verdict():
+    """On noise (the neighbour's samples span about all of [0, 1], so the bound rules out few
+    pixels) the kernel stops making the bound after its trial and tries the disparities in
+    the twin's order; on stripes seen far off the plane it rules out most; the verdicts and
+    threshold images are the twin's either way."""
+    from stimuli.edgefocus import _PAYS, _TRIAL_PX, focus_agreement_batched
+    from stimuli.edgekernels import focus_agreement_with_limit
+
+    rng = np.random.default_rng(4)
+    noise = [rng.random((60, 80)).astype(np.float32) for _ in range(2)]
+    x = np.arange(120)
+    stripes = np.tile(((x // 6) % 2 * 0.8 + 0.1).astype(np.float32), (60, 1))
+    far = [np.ascontiguousarray(stripes[:, 20:100]), np.ascontiguousarray(stripes[:, 23:103])]
+    ds = np.linspace(-0.5, 1.5, 9)
+    ds = ds[np.argsort(np.abs(ds - 0.5), kind="stable")]
+    for (c, nb), pays in ((noise, False), (far, True)):
+        where = np.ones(c.shape, np.uint8)
+        want, got = np.zeros(c.shape, bool), np.zeros(c.shape, bool)
+        lw, lg = (np.full(c.shape, np.nan, np.float32) for _ in range(2))
+        focus_agreement_with_limit(
+            c, nb, 1, 1, ds, FOCUS_AGREEMENT_RATIO, FOCUS_NOISE, lw, where, want
+        )
+        bounded, skipped = focus_agreement_batched(
+            c, nb, 1, 1, ds, FOCUS_AGREEMENT_RATIO, FOCUS_NOISE, lg, where, got, 0, c.shape[0]
+        )
+        assert np.array_equal(got, want) and np.array_equal(lg, lw, equal_nan=True)
+        assert bounded >= _TRIAL_PX
+        assert (_PAYS * skipped >= bounded) == pays
+        if not pays:
+            assert bounded < c.size // 2  # the rest went the twin's way
+
+
 def test_threaded_strips_give_the_one_pass_verdict(monkeypatch):
     """With the threads' threshold at 1 test, the agreement at listed pixels of a 3x3 and a
     1x7 light field runs on two strips of rows at once and gives the single pass's mask and
