@@ -346,7 +346,7 @@ def agreement_mask(
     where : ndarray of shape (rows, cols), bool, optional
         Test only these pixels (the rest are False): the same verdict there, to the bit, at a
         cost that grows with their number (each pixel left at the first neighbour that
-        agrees; :func:`stimuli.edgefocus.focus_agreement_batched`, on two threads for many
+        agrees; :func:`stimuli.edgefocus.focus_agreement_at`, on two threads for many
         pixels: :data:`AGREE_THREAD_MIN_TESTS`). The depth de-clutter reads the test only at
         edge pixels.
     cache : bool
@@ -433,14 +433,14 @@ def _agree_at(c32, tests, ds, w8, out) -> None:
     (:data:`AGREE_THREAD_MIN_TESTS`): each pixel's verdict reads only its own row of ``out``
     and of the threshold images, so the strips give the verdict of one pass, to the bit.
     """
-    from stimuli.edgefocus import focus_agreement_batched
+    from stimuli.edgefocus import focus_agreement_at
     from stimuli.rowthreads import default_workers, run_on_threads
 
     r, noise = FOCUS_AGREEMENT_RATIO, FOCUS_NOISE
 
     def work(rows):
         for nb32, axis, side, limit in tests:  # in order: a pixel in focus is not tried again
-            focus_agreement_batched(c32, nb32, axis, side, ds, r, noise, limit, w8, out, *rows)
+            focus_agreement_at(c32, nb32, axis, side, ds, r, noise, limit, w8, out, *rows)
 
     n_rows = w8.shape[0]
     per_row = np.count_nonzero(w8, axis=1)
@@ -467,7 +467,7 @@ _LIMITS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 def _focus_limit(lf, c32: np.ndarray, axis: int, side: int) -> np.ndarray:
     """Return the threshold image of neighbour (``axis``, ``side``) of ``lf``, kept with it.
 
-    NaN where not made yet: :func:`stimuli.edgefocus.focus_agreement_batched` makes it
+    NaN where not made yet: :func:`stimuli.edgefocus.focus_agreement_at` makes it
     at the pixels it tests and stores it, so each pixel's is made once per light field.
     """
     per = _LIMITS.setdefault(lf, {})

@@ -1,23 +1,26 @@
-"""The views' agreement test at edge pixels, the disparities after the plane's own in one batch.
+"""The views' agreement test at edge pixels, with a bound that rules out what cannot agree.
 
-:func:`focus_agreement_batched` gives the verdict of
+:func:`focus_agreement_at` gives the verdict of
 :func:`stimuli.edgekernels.focus_agreement_with_limit` (and so of the full-image
-:func:`stimuli.kernels.focus_agreement`) at the listed pixels, to the bit, for less work. A
-pixel is in focus when the neighbour agrees at *any* of the disparities, so the order in which
-they are tried changes only the work, not the verdict. Each run of pixels (consecutive listed
-pixels of a row, not yet in focus) is tried at the plane's own disparity first, as the twin
-does (most edge pixels of an object in focus agree there); the pixels left are then tried at
-all the other disparities in one batch: the few neighbour samples that every disparity's two
-interpolation taps reach are read once per column and row, and each disparity's column mean is
-made from them with the twin's float32 / float64 operations in the twin's order.
+:func:`stimuli.kernels.focus_agreement`) at the listed pixels, to the bit. A pixel is in focus
+when the neighbour agrees at *any* of the disparities, so the order in which they are tried
+and the pixels left out changes only the work, not the verdict. Each run of pixels
+(consecutive listed pixels of a row, not yet in focus) is tried at the plane's own disparity
+first, as the twin does (most edge pixels of an object in focus agree there); then, on each
+stretch of the run still undecided, the other disparities in order, each pixel left at the
+first that agrees and the column means made only over the span still undecided.
 
-Before the batch, a *lower bound* of the test's difference over all the disparities is made
-from the same samples: every disparity samples the neighbour by linear interpolation between
-two of them, so its value lies between their smallest and largest; the distance from the
-centre view's pixel to that interval, averaged over the 3x3 box as the test averages, is at
-most the test's difference at every disparity. A pixel whose bound exceeds the test's
-threshold by more than :data:`BOUND_MARGIN` cannot agree at any of them and is not tried; a run
-with no pixel left skips the batch.
+Before those, a *lower bound* of the test's difference over all of them is made from the few
+neighbour samples that every disparity's two interpolation taps reach (read once per column
+and row, and the disparities' means then made from them with the twin's float32 / float64
+operations in the twin's order): every disparity samples the neighbour by linear
+interpolation between two of them, so its value lies between their smallest and largest; the
+distance from the centre view's pixel to that interval, averaged over the 3x3 box as the test
+averages, is at most the test's difference at every disparity. A pixel whose bound exceeds
+the test's threshold by more than :data:`BOUND_MARGIN` cannot agree at any of them and is not
+tried. The bound costs about one disparity's test; where it rules out few pixels (the
+synthetic layouts: 10-25 %) the kernel stops making it and reads the twin's way
+(:data:`_PAYS`); on the Middlebury capture it rules out about 60 %.
 
 Why the margin keeps the verdict: views are in [0, 1] (``stimuli.lfviews.LightField``), so
 each float32 operation of the interpolation, the difference and the two means rounds by at
@@ -34,7 +37,7 @@ from numba import njit
 
 from stimuli.kernels import column_means
 
-__all__ = ["BOUND_MARGIN", "focus_agreement_batched"]
+__all__ = ["BOUND_MARGIN", "focus_agreement_at"]
 
 #: A pixel is not tried at the batch's disparities when the lower bound of its difference
 #: exceeds the test's threshold by this much (grey levels in [0, 1]; the rounding of both is
@@ -99,8 +102,8 @@ def _read_taps(nb, centre, axis, kmin, kmax, y, x0, x1, taps, cen, lb):  # pragm
 
 
 @njit(nogil=True, cache=True)
-def _batch(nb, centre, axis, ks, fs, kmin, kmax, y, x0, x1, lim, o, taps, cen, lb, cm, live):
-    """Try pixels ``x0:x1`` of row ``y`` (none in focus yet) at ``ds[1:]`` in one batch."""
+def _bounded(nb, centre, axis, ks, fs, kmin, kmax, y, x0, x1, lim, o, taps, cen, lb, cm, live):
+    """Try pixels ``x0:x1`` of row ``y`` (none in focus yet) at ``ds[1:]``, bound first."""
     nd = ks.shape[0]
     margin = np.float32(BOUND_MARGIN)
     _read_taps(nb, centre, axis, kmin, kmax, y, x0, x1, taps, cen, lb)
@@ -172,14 +175,14 @@ def _in_order(nb, centre, axis, ks, fs, y, x0, x1, lim, o, c):  # pragma: no cov
 
 
 @njit(nogil=True, cache=True)
-def focus_agreement_batched(
+def focus_agreement_at(
     centre, nb, axis, side, ds, ratio, noise, limit, where, out, r0, r1
 ):  # pragma: no cover - compiled
     """:func:`stimuli.edgekernels.focus_agreement_with_limit`: the same arguments and verdict.
 
     ``out`` (bool) is set True at the pixels of ``where`` (uint8) where ``nb`` agrees with
     ``centre`` at one of the disparities ``ds`` (``ds[0]`` the plane's own, tried first; the
-    rest in one batch, module notes); ``limit`` the test's threshold image, NaN where not made
+    rest after the bound, module notes); ``limit`` the test's threshold image, NaN where not made
     yet (made and stored here, as the twin does). Rows ``r0:r1`` only (their pixels read the
     rows around them; threads may take other strips of rows at once). Returns how many pixels
     the bound was made for and how many it ruled out (once it rules out fewer than one in
@@ -249,7 +252,7 @@ def focus_agreement_batched(
                 xb = xa
                 while xb < x1 and not o[xb]:
                     xb += 1
-                skipped += _batch(
+                skipped += _bounded(
                     nb, centre, axis, ks, fs, kmin, kmax, y, xa, xb, lim, o, taps, cen, lb, cm, live
                 )
                 bounded += xb - xa

@@ -1,4 +1,4 @@
-"""The views' agreement test at edge pixels in one batch per run, on strips of rows in threads:
+"""The views' agreement test at edge pixels after a lower bound, on strips of rows in threads:
 the verdict of the full-image test and of its numpy twin, to the bit."""
 
 from __future__ import annotations
@@ -26,11 +26,11 @@ def _pair(rng):
 
 
 @pytest.mark.parametrize("seed", range(3))
-def test_batched_test_is_the_full_test_and_the_numpy_chain(seed):
+def test_bounded_test_is_the_full_test_and_the_numpy_chain(seed):
     """At random listed pixels (some already in focus), random planes and 1, 2 or 9
-    disparities: the batched kernel's verdict and threshold image equal the one-disparity-at-
+    disparities: the kernel's verdict and threshold image equal the one-disparity-at-
     a-time twin's; its verdict at the listed pixels equals the full-image numpy chain's."""
-    from stimuli.edgefocus import focus_agreement_batched
+    from stimuli.edgefocus import focus_agreement_at
     from stimuli.edgekernels import focus_agreement_with_limit
 
     rng = np.random.default_rng(seed)
@@ -48,7 +48,7 @@ def test_batched_test_is_the_full_test_and_the_numpy_chain(seed):
         lim_got = lim_want.copy()
         w8 = where.view(np.uint8)
         focus_agreement_with_limit(c, nb, axis, side, ds, r, noise, lim_want, w8, want)
-        focus_agreement_batched(c, nb, axis, side, ds, r, noise, lim_got, w8, got, 0, c.shape[0])
+        focus_agreement_at(c, nb, axis, side, ds, r, noise, lim_got, w8, got, 0, c.shape[0])
         assert np.array_equal(got, want)
         assert np.array_equal(lim_got, lim_want, equal_nan=True)
         chain = _agreement_numpy(c, nb, axis, side, ds)
@@ -60,7 +60,7 @@ def test_where_the_bound_does_not_pay_the_twins_order_gives_the_verdict():
     pixels) the kernel stops making the bound after its trial and tries the disparities in
     the twin's order; on stripes seen far off the plane it rules out most; the verdicts and
     threshold images are the twin's either way."""
-    from stimuli.edgefocus import _PAYS, _TRIAL_PX, focus_agreement_batched
+    from stimuli.edgefocus import _PAYS, _TRIAL_PX, focus_agreement_at
     from stimuli.edgekernels import focus_agreement_with_limit
 
     rng = np.random.default_rng(4)
@@ -77,7 +77,7 @@ def test_where_the_bound_does_not_pay_the_twins_order_gives_the_verdict():
         focus_agreement_with_limit(
             c, nb, 1, 1, ds, FOCUS_AGREEMENT_RATIO, FOCUS_NOISE, lw, where, want
         )
-        bounded, skipped = focus_agreement_batched(
+        bounded, skipped = focus_agreement_at(
             c, nb, 1, 1, ds, FOCUS_AGREEMENT_RATIO, FOCUS_NOISE, lg, where, got, 0, c.shape[0]
         )
         assert np.array_equal(got, want) and np.array_equal(lg, lw, equal_nan=True)
