@@ -55,6 +55,7 @@ __all__ = [
     "declutter_depth",
     "bokeh_guard",
     "BOKEH_GUARD_RADIUS_PX",
+    "AGREE_THREAD_MIN_TESTS",
 ]
 
 #: Automatic threshold methods, by name (ours, not the paper's: the paper set it by hand).
@@ -344,9 +345,10 @@ def agreement_mask(
         same mask to the bit.
     where : ndarray of shape (rows, cols), bool, optional
         Test only these pixels (the rest are False): the same verdict there, to the bit, at a
-        cost that grows with their number (each pixel left at the first neighbour and
-        disparity that agree; :func:`stimuli.edgekernels.focus_agreement_with_limit`). The
-        depth de-clutter reads the test only at edge pixels.
+        cost that grows with their number (each pixel left at the first neighbour that
+        agrees; :func:`stimuli.edgefocus.focus_agreement_at`, on two threads for many
+        pixels: :data:`AGREE_THREAD_MIN_TESTS`). The depth de-clutter reads the test only at
+        edge pixels.
     cache : bool
         With ``where``: take the test's threshold image (``ratio`` times the one-pixel-shift
         difference plus noise, per neighbour), which does not depend on the plane, from a cache
@@ -390,6 +392,7 @@ def agreement_mask(
         from stimuli.kernels import focus_agreement
 
         c32 = np.ascontiguousarray(centre, dtype=np.float32)
+    tests = []  # with ``where``: the neighbours' tests, run on strips of rows below
     for axis, n, c in ((0, n_u, cu), (1, n_v, cv)):
         if n < 2:
             continue
@@ -400,22 +403,60 @@ def agreement_mask(
             r, noise = FOCUS_AGREEMENT_RATIO, FOCUS_NOISE
             if where is not None:  # the listed pixels only: the same verdict there
                 nb32 = np.ascontiguousarray(nb, dtype=np.float32)
-                dd = ds.astype(np.float64)
-                from stimuli.edgekernels import focus_agreement_with_limit
-
                 # the threshold image is made at the pixels tested (NaN until then): kept per
                 # light field with ``cache``, else made afresh for this call; the same verdict
                 if cache:
                     limit = _focus_limit(lf, c32, axis, side)
                 else:
                     limit = np.full(c32.shape, np.nan, np.float32)
-                focus_agreement_with_limit(c32, nb32, axis, side, dd, r, noise, limit, w8, out)
+                tests.append((nb32, axis, side, limit))
             elif compiled:  # one compiled call per neighbour: the same mask to the bit
                 nb32 = np.ascontiguousarray(nb, dtype=np.float32)
                 focus_agreement(c32, nb32, axis, side, ds.astype(np.float64), r, noise, out)
             else:
                 out |= _agreement_numpy(centre, nb, axis, side, ds)
+    if tests:
+        _agree_at(c32, tests, ds.astype(np.float64), w8, out)
     return out
+
+
+#: The agreement test at listed pixels runs on two threads (strips of rows with as many listed
+#: pixels each) from this many listed pixels times neighbours (ours: about 2-4 ms of work on one
+#: thread, where the hand-off, tens of microseconds, is small beside the half it saves).
+AGREE_THREAD_MIN_TESTS = 150_000
+
+
+def _agree_at(c32, tests, ds, w8, out) -> None:
+    """Run each neighbour's test at the pixels of ``w8`` (:func:`agreement_mask`'s ``where``).
+
+    On strips of rows, in threads where the work pays for them
+    (:data:`AGREE_THREAD_MIN_TESTS`): each pixel's verdict reads only its own row of ``out``
+    and of the threshold images, so the strips give the verdict of one pass, to the bit.
+    """
+    from stimuli.edgefocus import focus_agreement_at
+    from stimuli.rowthreads import default_workers, run_on_threads
+
+    r, noise = FOCUS_AGREEMENT_RATIO, FOCUS_NOISE
+
+    def work(rows):
+        for nb32, axis, side, limit in tests:  # in order: a pixel in focus is not tried again
+            focus_agreement_at(c32, nb32, axis, side, ds, r, noise, limit, w8, out, *rows)
+
+    n_rows = w8.shape[0]
+    per_row = np.count_nonzero(w8, axis=1)
+    n = (
+        min(default_workers(), 2)
+        if int(per_row.sum()) * len(tests) >= AGREE_THREAD_MIN_TESTS
+        else 1
+    )
+    if n == 1 or n_rows < 2:
+        work((0, n_rows))
+        return
+    # strips with as many listed pixels each (the work is at them)
+    cum = np.cumsum(per_row)
+    cuts = [0] + [int(np.searchsorted(cum, cum[-1] * k / n)) + 1 for k in range(1, n)] + [n_rows]
+    cuts = sorted(set(min(max(c, 0), n_rows) for c in cuts))
+    run_on_threads(work, list(zip(cuts[:-1], cuts[1:], strict=True)))
 
 
 #: Per light-field object (dropped with it): the agreement test's threshold image per
@@ -426,7 +467,7 @@ _LIMITS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 def _focus_limit(lf, c32: np.ndarray, axis: int, side: int) -> np.ndarray:
     """Return the threshold image of neighbour (``axis``, ``side``) of ``lf``, kept with it.
 
-    NaN where not made yet: :func:`stimuli.edgekernels.focus_agreement_with_limit` makes it
+    NaN where not made yet: :func:`stimuli.edgefocus.focus_agreement_at` makes it
     at the pixels it tests and stores it, so each pixel's is made once per light field.
     """
     per = _LIMITS.setdefault(lf, {})
@@ -483,7 +524,7 @@ def declutter_depth(
         Sobel threshold, as :func:`declutter`.
     compiled : bool
         The vote in one compiled call, summed at the edge pixels only
-        (:func:`stimuli.edgekernels.vote_at_edges`, the default), or its numpy twin (two box
+        (:func:`stimuli.edgevote.vote_lean`, the default), or its numpy twin (two box
         filters of full images); the same edges to the bit.
     edges : ndarray of shape (rows, cols), bool, optional
         ``declutter(image, threshold=threshold)`` if the caller has it (not made again).
@@ -505,12 +546,12 @@ def declutter_depth(
         )
     if not compiled:
         return _vote_numpy(edges, m)
-    from stimuli.edgekernels import vote_at_edges
+    from stimuli.edgevote import vote_lean
 
     out = np.empty(edges.shape, bool)
     if edges.size:
         f8 = np.ascontiguousarray(m).view(np.uint8)
-        vote_at_edges(edges.view(np.uint8), f8, VOTE_WINDOW_PX, out)
+        vote_lean(edges.view(np.uint8), f8, VOTE_WINDOW_PX, out)
     return out
 
 

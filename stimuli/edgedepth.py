@@ -203,15 +203,10 @@ def resolve_edge_depth(
     axes = baseline_axes(grid)
     if len(axes) != 1:  # a 2-D grid measures every direction
         return at(np.zeros(img.shape, bool)).astype(np.uint8), EdgeDepthStats()
-    mag, conf = _edge_field(img, axes)
-    if float(mag.max()) <= 0.0:
+    classes = _edge_classes(img, axes[0])
+    if classes is None:  # no gradient anywhere
         return at(np.zeros(img.shape, bool)).astype(np.uint8), EdgeDepthStats()
-    from stimuli.otsu import otsu_threshold
-
-    edges = mag > 0.5 * otsu_threshold(mag)
-    low_all = (conf < MIN_CONFIDENCE) & (mag > 0)
-    low = edges & low_all
-    measured = edges & ~low_all
+    low, measured, n_edges = classes
 
     def at_t(pixels):  # the views' verdict, read where the vote reads it
         return np.asarray(at(pixels), dtype=bool)
@@ -227,11 +222,11 @@ def resolve_edge_depth(
         seg_in, seg_off, low, focus = seg_in.T, seg_off.T, low.T, focus.T
     out = focus.astype(np.uint8)
     out[seg_off] = 2  # resolved off the plane: dropped; the rest keeps the views' verdict
-    n_low = int(low.sum())
-    n_in = int((seg_in & low).sum())
-    n_off = int((seg_off & low).sum())
+    n_low = int(np.count_nonzero(low))
+    n_in = int(np.count_nonzero(seg_in & low))
+    n_off = int(np.count_nonzero(seg_off & low))
     stats = EdgeDepthStats(
-        edge_pixels=int(edges.sum()),
+        edge_pixels=n_edges,
         unmeasured=n_low,
         resolved_in_focus=n_in,
         resolved_off_plane=n_off,
@@ -240,14 +235,18 @@ def resolve_edge_depth(
     return out, stats
 
 
-def _vote(low: np.ndarray, measured: np.ndarray, at):
+def _vote(low: np.ndarray, measured: np.ndarray, at, *, compiled: bool = True):
     """Segments of ``low`` voted in focus by the measured edges they end on (baseline = x).
 
     ``at(pixels)`` returns the views' verdict (bool image), right at least at ``pixels``: it
-    is asked only where the measured edges touch a segment.
+    is asked only where the measured edges touch a segment. ``compiled``: the masks and labels
+    in the lean passes of :mod:`stimuli.edgevote` (the default), or in the chain of
+    ``scipy.ndimage``-equivalent filters and numpy temporaries; the same masks to the bit.
 
     Returns the masks of the segments resolved in focus and off the plane, and the verdict.
     """
+    if compiled:
+        return _vote_compiled(low, measured, at)
     r = CONTACT_RADIUS_PX
     # cut the unmeasured edges where measured ones pass (corners, junctions): a box's top edge
     # and a background line continuing it past the corner become two segments
@@ -265,6 +264,52 @@ def _vote(low: np.ndarray, measured: np.ndarray, at):
     if not touch.any():
         return np.zeros_like(low), np.zeros_like(low), focus
     y, x = np.nonzero(touch)  # the order of a boolean mask's selection, found once
+    keep, off = _decide(y, x, near, comp, focus, (top, bottom, left, right), low.shape[1])
+    kept, dropped = keep[seg], off[seg]
+    # a junction pixel goes with a segment it touches (the corner of the box's outline), kept
+    # first
+    kept |= junction & _grow(kept, 2 * r + 3)
+    dropped |= junction & ~kept & _grow(dropped, 2 * r + 3)
+    return kept, dropped, focus
+
+
+def _vote_compiled(low: np.ndarray, measured: np.ndarray, at):
+    """:func:`_vote` in the compiled passes of :mod:`stimuli.edgevote`, the same masks."""
+    from stimuli import edgevote
+
+    r = CONTACT_RADIUS_PX
+    low8 = np.ascontiguousarray(low).view(np.uint8)
+    meas8 = np.ascontiguousarray(measured).view(np.uint8)
+    junction, rest = np.empty_like(low8), np.empty_like(low8)
+    edgevote.split_junctions(low8, meas8, 2 * r + 1, junction, rest)
+    seg, comp = np.empty(low8.shape, np.int32), np.empty(low8.shape, np.int32)
+    n_seg, _, _, left, right = edgevote.label8_extents(rest, seg)
+    n_comp, top, bottom, _, _ = edgevote.label8_extents(meas8, comp)
+    if n_seg == 0 or n_comp == 0:
+        return np.zeros_like(low), np.zeros_like(low), at(np.zeros_like(low))
+    near = _box_max(seg, 2 * (r + 1) + 1)
+    touch, y, x = edgevote.touch_pairs(meas8, near)
+    focus = at(touch.view(bool))
+    if not y.size:
+        return np.zeros_like(low), np.zeros_like(low), focus
+    keep, off = _decide(y, x, near, comp, focus, (top, bottom, left, right), low.shape[1])
+    kept, dropped = np.empty_like(low8), np.empty_like(low8)
+    edgevote.settle(
+        seg, keep.view(np.uint8), off.view(np.uint8), junction, 2 * r + 3, kept, dropped
+    )
+    return kept.view(bool), dropped.view(bool), focus
+
+
+def _decide(y, x, near, comp, focus, extents, cols):
+    """Return which segments are kept and which dropped (bool per label, 0 the background).
+
+    From the measured pixels ``(y, x)`` that touch a segment (``near``: the segment, ``comp``:
+    the measured component, ``focus``: the views' verdict there), the components' top and
+    bottom rows and the segments' left and right columns (``extents``), and the image's width.
+    """
+    top, bottom, left, right = extents
+    r = CONTACT_RADIUS_PX
+    n_comp, n_seg = len(top), len(left)
     s, c = near[y, x], comp[y, x]
     key = s.astype(np.int64) * (n_comp + 1) + c
     uniq, inv = np.unique(key, return_inverse=True)
@@ -288,16 +333,53 @@ def _vote(low: np.ndarray, measured: np.ndarray, at):
     # off the image along the baseline (a line continuing past the frame, such as a wall's
     # stripe continuing the box's edge past its corner, is not the box's)
     off_frame = np.zeros(n_seg + 1, bool)
-    off_frame[1:] = (left <= r) | (right >= low.shape[1] - 1 - r)
+    off_frame[1:] = (left <= r) | (right >= cols - 1 - r)
     keep = ((ends[0] > 0) | (ends[1] > 0)) & (ends[0] >= 0) & (ends[1] >= 0) & ~off_frame
     off = ~keep & ((ends[0] < 0) | (ends[1] < 0) | off_frame)
     keep[0] = off[0] = False
-    kept, dropped = keep[seg], off[seg]
-    # a junction pixel goes with a segment it touches (the corner of the box's outline), kept
-    # first
-    kept |= junction & _grow(kept, 2 * r + 3)
-    dropped |= junction & ~kept & _grow(dropped, 2 * r + 3)
-    return kept, dropped, focus
+    return keep, off
+
+
+def _edge_classes(img: np.ndarray, axis: int):
+    """Return the unmeasured and the measured edge pixels and the number of edge pixels.
+
+    Edge pixels: the magnitude of :func:`_edge_field` above half its Otsu threshold; unmeasured:
+    those whose confidence is below :data:`MIN_CONFIDENCE` (and magnitude above 0). ``None``
+    where the magnitude is 0 everywhere. Two compiled passes where every side is longer than
+    :data:`CONFIDENCE_WINDOW_PX` (:func:`stimuli.edgefield.edge_energy` and
+    :func:`stimuli.edgefield.edge_classes`; neither keeps the confidence image), else
+    the numpy chain; the same pixels.
+    """
+    from stimuli.otsu import otsu_threshold
+
+    if min(img.shape) <= CONFIDENCE_WINDOW_PX:
+        mag, conf = _edge_field(img, (axis,))
+        if float(mag.max()) <= 0.0:
+            return None
+        edges = mag > 0.5 * otsu_threshold(mag)
+        low_all = (conf < MIN_CONFIDENCE) & (mag > 0)
+        return edges & low_all, edges & ~low_all, int(edges.sum())
+    from stimuli.edgefield import edge_classes, edge_energy
+
+    img = np.ascontiguousarray(img, dtype=np.float32)
+    mag, e0, e1 = np.empty_like(img), np.empty_like(img), np.empty_like(img)
+    lo, hi = edge_energy(img, mag, e0, e1)
+    if float(hi) <= 0.0:
+        return None
+    threshold = np.float32(0.5 * otsu_threshold(mag, extrema=(lo, hi)))  # compared in float32
+    low, measured = np.empty(img.shape, np.uint8), np.empty(img.shape, np.uint8)
+    n_edges, _ = edge_classes(
+        e0,
+        e1,
+        mag,
+        axis,
+        CONFIDENCE_WINDOW_PX,
+        threshold,
+        np.float32(MIN_CONFIDENCE),
+        low,
+        measured,
+    )
+    return low.view(bool), measured.view(bool), int(n_edges)
 
 
 def _edge_field(img: np.ndarray, axes: tuple[int, ...]) -> tuple[np.ndarray, np.ndarray]:

@@ -20,7 +20,7 @@ __all__ = ["otsu_threshold", "OTSU_BINS"]
 OTSU_BINS = 256
 
 
-def otsu_threshold(values: np.ndarray, *, compiled: bool = True) -> float:
+def otsu_threshold(values: np.ndarray, *, compiled: bool = True, extrema=None) -> float:
     """Return Otsu's threshold of a float32 image over :data:`OTSU_BINS` bins.
 
     ``skimage.filters.threshold_otsu(values, nbins=256)`` to the bit, with the histogram made in
@@ -32,6 +32,9 @@ def otsu_threshold(values: np.ndarray, *, compiled: bool = True) -> float:
     values : ndarray, float32, no NaN
     compiled : bool
         The compiled histogram (default) or ``numpy.histogram``; the same counts.
+    extrema : (float32, float32), optional
+        The smallest and largest value, if the caller has them (the compiled path then does
+        not look for them again).
 
     Returns
     -------
@@ -43,10 +46,12 @@ def otsu_threshold(values: np.ndarray, *, compiled: bool = True) -> float:
 
     compiled = compiled and not numpykernels.active()  # a scan's last steps: numpy, same counts
     a = np.ascontiguousarray(values, dtype=np.float32).reshape(-1)
-    if compiled:
-        from stimuli.edgekernels import extrema
+    if compiled and extrema is not None:
+        first, last = (np.float32(v) for v in extrema)
+    elif compiled:
+        from stimuli.edgekernels import extrema as find_extrema
 
-        first, last = (np.float32(v) for v in extrema(a))
+        first, last = (np.float32(v) for v in find_extrema(a))
     else:
         first, last = a.min(), a.max()
     if first == last:  # scikit-image returns the single value
