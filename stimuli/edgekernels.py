@@ -31,6 +31,7 @@ __all__ = [
     "vote_at_edges",
     "extrema",
     "label8",
+    "find_root",
     "focus_agreement_with_limit",
 ]
 
@@ -213,7 +214,7 @@ def vote_at_edges(edges, focus, size, out):  # pragma: no cover - compiled
 
 
 @njit(nogil=True, cache=True)
-def _find(parent, i):  # pragma: no cover - compiled
+def find_root(parent, i):  # pragma: no cover - compiled
     """Root of ``i`` in the union-find forest ``parent``, paths halved on the way."""
     while parent[i] != i:
         parent[i] = parent[parent[i]]
@@ -245,7 +246,7 @@ def label8(mask, out):  # pragma: no cover - compiled
                 v = out[yy, xx]
                 if v == 0:
                     continue
-                r = _find(parent, v)
+                r = find_root(parent, v)
                 if best == 0:
                     best = r
                 elif r != best:
@@ -270,7 +271,7 @@ def label8(mask, out):  # pragma: no cover - compiled
             v = out[y, x]
             if v == 0:
                 continue
-            r = _find(parent, v)
+            r = find_root(parent, v)
             if final[r] == 0:
                 count += 1
                 final[r] = count

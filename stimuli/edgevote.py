@@ -24,6 +24,8 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from stimuli.edgekernels import find_root
+
 __all__ = ["split_junctions", "label8_extents", "touch_pairs", "settle", "vote_lean"]
 
 
@@ -82,15 +84,6 @@ def split_junctions(low, measured, size, junction, rest):  # pragma: no cover - 
 
 
 @njit(nogil=True, cache=True)
-def _find(parent, i):  # pragma: no cover - compiled
-    """Return the root of ``i`` in the union-find forest ``parent``, paths halved."""
-    while parent[i] != i:
-        parent[i] = parent[parent[i]]
-        i = parent[i]
-    return i
-
-
-@njit(nogil=True, cache=True)
 def label8_extents(mask, out):  # pragma: no cover - compiled
     """Label 8-connected components as :func:`stimuli.edgekernels.label8`, with their boxes.
 
@@ -121,8 +114,8 @@ def label8_extents(mask, out):  # pragma: no cover - compiled
                 o[x] = c
                 other = a if a != 0 else d
                 if other != 0:
-                    ra = _find(parent, c)
-                    rb = _find(parent, other)
+                    ra = find_root(parent, c)
+                    rb = find_root(parent, other)
                     if ra != rb:
                         if ra < rb:
                             parent[rb] = ra
