@@ -245,6 +245,12 @@ class CalibratedParams(ExemplarParams):
         How much lower the criterion is, for the rest of a session, for a kind the observer
         has already named (normalised units); defaults to the calibration file's (0 when it
         has none). Ours, set by design (see the module docstring), not fitted.
+    exemplar_tau : float >= 0
+        How a kind's similarity is pooled over its exemplars (all renderings and their mirror
+        images): 0, its best exemplar's; above 0, the generalised context model's summed
+        similarity with this temperature (:meth:`~experiment.observers.exemplar.Knowledge.
+        similarities`). Defaults to the calibration file's (0 when it has none). Ours, set by
+        design (see "Knowledge, varied" in the module docstring), not fitted.
     """
 
     samples_per_deg: float = _FITTED.get("samples_per_deg", ExemplarParams.samples_per_deg)
@@ -255,10 +261,11 @@ class CalibratedParams(ExemplarParams):
     decision: str = _FITTED.get("decision", "margin")
     lapse: float = _FITTED.get("lapse", 0.02)
     priming: float = _FITTED.get("priming", 0.0)
+    exemplar_tau: float = _FITTED.get("exemplar_tau", 0.0)
 
     def __post_init__(self) -> None:
         super().__post_init__()
-        check_limits(self, {"noise_sd": ">= 0", "priming": ">= 0"})
+        check_limits(self, {"noise_sd": ">= 0", "priming": ">= 0", "exemplar_tau": ">= 0"})
         _check_decision(self.decision)
 
 
@@ -353,7 +360,7 @@ class CalibratedObserver(ExemplarObserver):
         self._named: set[int] = set()  # kinds named so far in this session (for priming)
         if self.params.criterion is not None:
             keys = ("samples_per_deg", "blur_deg", "cell_deg", "noise_sd", "criterion",
-                    "decision", "priming")  # fmt: skip
+                    "decision", "priming", "exemplar_tau")  # fmt: skip
             fitted = {k: getattr(self.params, k) for k in keys if k in _FITTED}
             from_file = fitted == {k: _FITTED[k] for k in fitted}
             self.calibration = {
@@ -455,7 +462,7 @@ def stimulus_responses(
         if name not in keys:
             raise ValueError(f"object {rec.object!r} ({name}) is not a category of {knowledge}")
         ts.verify([rec])
-        s = k.similarities(p.features(ts.load_image(rec)))
+        s = k.similarities(p.features(ts.load_image(rec)), tau=getattr(p, "exemplar_tau", 0.0))
         i = keys.index(name)
         px.append(rec.pixels)
         objects.append(str(rec.object))
