@@ -7,10 +7,10 @@ to the decision stage helps. This benchmark varies the other side, what the obse
 how a kind's evidence is formed from it, and measures the same things:
 
 * **renderings per kind**: the observer knows ``n`` other renderings of the 23 kinds (seeds
-  s + 1 .. s + n for test seed s; the demo uses 3), as a subject who knows the objects well has
-  seen more views of them;
+  s + 1 .. s + n for test seed s; the demo used 3, now 8), as a subject who knows the objects
+  well has seen more views of them;
 * **pooling over a kind's exemplars**: the kind's similarity is its best exemplar's (``max``,
-  the observer's rule, an exemplar model with a max rule), the mean over its exemplars
+  the observer's earlier rule, an exemplar model with a max rule), the mean over its exemplars
   (``mean``, prototype-like), or the summed similarity of Nosofsky's (1986) generalised context
   model, ``tau * log(mean(exp(r / tau)))`` over the kind's exemplars (``soft tau``: ``max`` as
   tau -> 0, ``mean`` as tau -> infinity);
@@ -67,7 +67,7 @@ __all__ = ["CONFIGS", "pool", "set_features", "config_responses", "measure", "ma
 
 #: Configurations: name -> (renderings, pooling, exemplar conditions, HOG cells in deg).
 CONFIGS: dict[str, tuple[int, str, tuple[str, ...], tuple[float, ...]]] = {
-    "3 renderings, max (the observer)": (3, "max", ("decluttered",), (0.4,)),
+    "3 renderings, max (earlier observer)": (3, "max", ("decluttered",), (0.4,)),
     "5 renderings, max": (5, "max", ("decluttered",), (0.4,)),
     "8 renderings, max": (8, "max", ("decluttered",), (0.4,)),
     "3 renderings, mean": (3, "mean", ("decluttered",), (0.4,)),
@@ -75,7 +75,7 @@ CONFIGS: dict[str, tuple[int, str, tuple[str, ...], tuple[float, ...]]] = {
     "3 renderings, soft 0.02": (3, "soft 0.02", ("decluttered",), (0.4,)),
     "5 renderings, soft 0.02": (5, "soft 0.02", ("decluttered",), (0.4,)),
     "8 renderings, soft 0.01": (8, "soft 0.01", ("decluttered",), (0.4,)),
-    "8 renderings, soft 0.02": (8, "soft 0.02", ("decluttered",), (0.4,)),
+    "8 renderings, soft 0.02 (the observer)": (8, "soft 0.02", ("decluttered",), (0.4,)),
     "8 renderings, soft 0.03": (8, "soft 0.03", ("decluttered",), (0.4,)),
     "8 renderings, soft 0.05": (8, "soft 0.05", ("decluttered",), (0.4,)),
     "8 renderings, max, cluttered exemplars too": (
@@ -130,15 +130,28 @@ def _knowledge_dir(work: Path, k: int) -> Path:
     return out
 
 
+def _test_dir(work: Path, seed: int) -> Path:
+    """Build (once) test set ``seed`` under ``work`` as the calibration's are built (20 main
+    and 3 training objects, every level) and return its folder."""
+    from stimuli.stimset import build_stimulus_set
+    from stimuli.synth import write_pairs
+
+    root = work / f"cal{seed}"
+    test = root / "test"
+    if not (test / "manifest.csv").exists():
+        write_pairs(root / "pairs", n_objects=20, n_training=3, seed=seed)
+        build_stimulus_set(root / "pairs", test, workers=1)
+    return test
+
+
 def set_features(work: Path, seed: int, n: int, cells: tuple[float, ...]) -> dict[str, Any]:
     """Front-end features (cached under ``work``) of test set ``seed``'s main stimuli and of
     knowledge renderings ``seed + 1 .. seed + n`` (full resolution, both exemplar conditions
     and their mirror images), per HOG cell size."""
-    from benchmarks.calibrate_observer import build_sets
     from experiment.session.scoring import normalize
     from experiment.session.stimset import StimulusSet
 
-    ((test, _),) = build_sets(work, [seed])
+    test = _test_dir(work, seed)
     out: dict[str, Any] = {"know": {}}
     for cell in cells:
         p = CalibratedParams(knowledge="unused", cell_deg=cell)
@@ -218,11 +231,11 @@ def config_responses(
 def _check_against_observer(work: Path, seed: int, resp: dict) -> float:
     """Largest difference between ``resp`` (3 renderings, max) and the observer's own
     :func:`experiment.observers.calibration.stimulus_responses`."""
-    from benchmarks.calibrate_observer import build_sets
     from experiment.observers.calibration import stimulus_responses
 
-    ((test, know),) = build_sets(work, [seed])
-    p = CalibratedParams(knowledge=tuple(str(k) for k in know))
+    test = _test_dir(work, seed)
+    know = [_knowledge_dir(work, k) for k in range(seed + 1, seed + 4)]
+    p = CalibratedParams(knowledge=tuple(str(k) for k in know), exemplar_tau=0.0)
     diff = 0.0
     for cond in ("cluttered", "decluttered"):
         ref = stimulus_responses(test, know, p, cond)

@@ -71,9 +71,8 @@ DEFAULT_OBSERVER = "calibrated"
 #: Renderings of each kind the image observers know (seeds ``knowledge_seed`` onwards),
 #: pooled. Ours: people know many mugs, not one; with one rendering per kind the exemplars
 #: of a kind are far more alike than real objects, and which rendering it is moves the
-#: cluttered threshold by up to 1.5x (benchmarks/observer_spread.py). Eight rather than three
-#: (with the calibrated observer's summed-similarity pooling) narrowed the slope's spread
-#: between stimulus sets on design seeds 10-23 (benchmarks/observer_knowledge.py).
+#: cluttered threshold by up to 1.5x (benchmarks/observer_spread.py). Eight, not three:
+#: benchmarks/observer_knowledge.py (design seeds 10-23).
 KNOWLEDGE_RENDERINGS = 8
 
 #: Observers that look at the pictures and need a knowledge set of other renderings.
@@ -369,9 +368,8 @@ def run_demo(
     observers: list[dict[str, Any]] = []
 
     # The knowledge sets are rendered and built in two more processes (half the renderings
-    # each) while this one makes the test set: on two or more cores the knowledge then costs
-    # little more wall time than the test set. The processes are forked before the progress
-    # bars start a thread; where fork is unavailable they are made afterwards, in turn.
+    # each) while this one makes the test set. They are forked before the progress bars
+    # start a thread; where fork is unavailable they are made afterwards, in turn.
     pool, knowledge_jobs = None, []
     if needs_knowledge and "fork" in multiprocessing.get_all_start_methods():
         from experiment.signals import worker_init
