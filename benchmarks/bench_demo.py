@@ -1,7 +1,7 @@
 """Benchmark: ``confocal demo`` end to end. Goal: under 30 s on 2 cores.
 
-Runs the whole demo (synthesise 23 photo pairs, and the observer's exemplars -- three
-renderings of the 23 kinds for the calibrated observer -- in a second process; build the
+Runs the whole demo (synthesise 23 photo pairs, and the observer's exemplars -- eight
+renderings of the 23 kinds for the calibrated observer -- in two more processes; build the
 stimulus set; 6 simulated subjects through the session engine; analysis with figures) and
 reports each stage's wall time, and the CPU time of this process and its children (on a busy
 shared machine the wall time is inflated by other work; the CPU time is not). Because machines

@@ -54,15 +54,18 @@ DESIGN_SEEDS = (10, 11, 12, 13, 14, 15, 16)
 CONDITIONS = ("cluttered", "decluttered")
 
 
-def responses(work: Path, seed: int) -> dict[str, dict[str, np.ndarray]]:
+def responses(work: Path, seed: int, tau: float | None = None) -> dict[str, dict[str, np.ndarray]]:
     """Build (once, under ``work``) seed's test set and knowledge; return the noise-free
-    normalised responses per condition (cached as ``work/responses<seed>.npz``)."""
+    normalised responses per condition (cached as ``work/responses<seed>_r<renderings>_tau<tau>
+    .npz``). ``tau``: the pooling over a kind's exemplars (None: the observer's)."""
     from benchmarks.calibrate_observer import build_sets
+    from experiment.demos.study import KNOWLEDGE_RENDERINGS
 
-    cache = work / f"responses{seed}.npz"
+    tau = CalibratedParams.exemplar_tau if tau is None else float(tau)
+    cache = work / f"responses{seed}_r{KNOWLEDGE_RENDERINGS}_tau{tau:g}.npz"
     if not cache.exists():
         ((test, know),) = build_sets(work, [seed])
-        p = CalibratedParams(knowledge=tuple(str(k) for k in know))
+        p = CalibratedParams(knowledge=tuple(str(k) for k in know), exemplar_tau=tau)
         d = {}
         for cond in CONDITIONS:
             for k, v in stimulus_responses(test, know, p, cond).items():
@@ -246,20 +249,23 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--priming", type=float, default=fields["priming"].default)
     ap.add_argument("--lapse", type=float, default=fields["lapse"].default)
     ap.add_argument("--criterion", type=float, default=None)
+    ap.add_argument("--tau", type=float, default=fields["exemplar_tau"].default,
+                    help="Pooling over a kind's exemplars (0: max).")  # fmt: skip
     ap.add_argument("--fit", action="store_true", help="Fit the criterion (cluttered only).")
     ap.add_argument("--write", action="store_true", help="Store the fit in the calibration file.")
     ap.add_argument("--work", type=Path, default=None)
     args = ap.parse_args(argv)
     work = args.work or Path(tempfile.mkdtemp(prefix="confocal-design-"))
     work.mkdir(parents=True, exist_ok=True)
-    resps = [responses(work, s) for s in args.seeds]
+    resps = [responses(work, s, args.tau) for s in args.seeds]
     crit, misfit = args.criterion, None
     if args.fit or crit is None:
         crit, misfit = fit_criterion(resps, noise_sd=args.noise, priming=args.priming,
                                      lapse=args.lapse, grid=np.arange(3.0, 3.81, 0.05))  # fmt: skip
         print(f"criterion fitted to the cluttered curve only: {crit:.2f} "
               f"(misfit {misfit[crit]:.4f})")  # fmt: skip
-    print(f"noise {args.noise}, priming {args.priming}, lapse {args.lapse}, criterion {crit:.2f}")
+    print(f"noise {args.noise}, priming {args.priming}, lapse {args.lapse}, criterion {crit:.2f}, "
+          f"exemplar pooling tau {args.tau:g}")  # fmt: skip
     print("seed | x50 cluttered px | x50 de-cluttered px | OR background | OR per log10 px")
     inside = 0
     for s, resp in zip(args.seeds, resps, strict=True):
@@ -274,14 +280,20 @@ def main(argv: list[str] | None = None) -> int:
     print(f"both odds ratios inside the paper's intervals on {inside} of {len(resps)} seeds")
     if args.write:
         d: dict[str, Any] = json.loads(CALIBRATION_FILE.read_text(encoding="utf-8"))
+        from experiment.demos.study import KNOWLEDGE_RENDERINGS
+
         d["fitted"].update(noise_sd=args.noise, criterion=round(float(crit), 6),
-                           priming=args.priming, lapse=args.lapse)  # fmt: skip
+                           priming=args.priming, lapse=args.lapse,
+                           exemplar_tau=args.tau)  # fmt: skip
         d["open_set"] = _open_set(resps, args.noise, float(crit), args.lapse)
         d["decision_design"] = {
             "design_seeds": args.seeds,
+            "knowledge_renderings": KNOWLEDGE_RENDERINGS,
             "criterion_misfit": misfit,
-            "how": "benchmarks/design_observer.py: noise and priming set by design on these "
-            "seeds (both conditions looked at); the criterion then fitted to the paper's "
+            "how": "benchmarks/design_observer.py: noise and priming set by design on seeds "
+            "10-16, the knowledge (renderings per kind, knowledge_renderings, and the pooling "
+            "over a kind's exemplars, exemplar_tau) by benchmarks/observer_knowledge.py on "
+            "these seeds (both conditions looked at); the criterion then fitted to the paper's "
             "cluttered curve only (cluttered outcomes of simulated sessions that include the "
             "de-cluttered blocks, which prime the next level); demo seeds 0-4 never used.",
         }

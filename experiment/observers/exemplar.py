@@ -407,11 +407,34 @@ class Knowledge:
     info: dict
     synth: dict | None = None
 
-    def similarities(self, feature: np.ndarray) -> np.ndarray:
-        """Return each category's similarity (its best exemplar's correlation) to ``feature``."""
+    def similarities(self, feature: np.ndarray, tau: float = 0.0) -> np.ndarray:
+        """Return each category's similarity to ``feature``, pooled over its exemplars.
+
+        Parameters
+        ----------
+        feature : ndarray of shape (n_features,)
+        tau : float >= 0
+            0: the best exemplar's correlation (max rule). Above 0: the summed similarity of
+            the generalised context model (Nosofsky 1986), ``tau * log(mean(exp(r / tau)))``
+            over the category's exemplar correlations ``r``; the max as tau -> 0, the mean as
+            tau -> infinity.
+
+        Examples
+        --------
+        >>> k = Knowledge(("a",), np.eye(2), np.array([0, 0]), "", "", (), {})
+        >>> k.similarities(np.array([0.2, 0.4])).tolist()
+        [0.4]
+        >>> round(float(k.similarities(np.array([0.2, 0.4]), tau=100.0)[0]), 3)
+        0.3
+        """
         r = self.features @ feature
         out = np.full(len(self.categories), -np.inf)
         np.maximum.at(out, self.category_of_row, r)
+        if tau > 0:
+            e = np.zeros(len(self.categories))
+            np.add.at(e, self.category_of_row, np.exp((r - out[self.category_of_row]) / tau))
+            n = np.bincount(self.category_of_row, minlength=len(self.categories))
+            out = out + tau * np.log(e / n)
         return out
 
 
@@ -627,12 +650,13 @@ class ExemplarObserver(SimulatedObserver):
 
     def similarities(self, image: np.ndarray) -> np.ndarray:
         """Return the noise-free similarity of ``image`` to every category (cached per image)."""
+        tau = float(getattr(self.params, "exemplar_tau", 0.0))
         key = (self.knowledge.root, self.knowledge.manifest_sha256, self.params.frontend_key(),
                self.params.exemplar_level, self.params.exemplar_condition, self.params.mirror,
-               image_sha256(image))  # fmt: skip
+               tau, image_sha256(image))  # fmt: skip
         s = _SIM_CACHE.get(key)
         if s is None:
-            s = self.knowledge.similarities(self.params.features(image))
+            s = self.knowledge.similarities(self.params.features(image), tau=tau)
             if len(_SIM_CACHE) >= _CACHE_MAX:
                 _SIM_CACHE.clear()
             _SIM_CACHE[key] = s

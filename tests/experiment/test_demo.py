@@ -161,8 +161,8 @@ def test_knowledge_seed_must_differ_from_the_seed(tmp_path, capsys):
 
 
 def test_no_pooled_knowledge_rendering_may_be_the_test_seed(tmp_path):
-    """The calibrated observer knows renderings --knowledge-seed .. + 2: seed 3 is among 1-3."""
-    with pytest.raises(ConfocalError, match=r"3 rendering\(s\) .* other than `seed` \(3\), got 1"):
+    """The calibrated observer knows renderings --knowledge-seed .. + 7: seed 3 is among 1-8."""
+    with pytest.raises(ConfocalError, match=r"8 rendering\(s\) .* other than `seed` \(3\), got 1"):
         run_demo(tmp_path / "d", seed=3, knowledge_seed=1, show_progress=False)
     assert not (tmp_path / "d").exists()
     # the uncalibrated exemplar observer knows one rendering: seed 1 is not 3
@@ -203,8 +203,8 @@ def test_demo_logs_and_reports_its_simulated_observers(demo_two_subjects):
         con.close()
     assert n == 2 * 320 and responders == {"sim:calibrated"}
     assert labels == {(1, "calibrated")}  # the sessions table labels them simulated
-    # the calibrated observer knows three renderings of each kind (seeds 1, 2, 3), pooled
-    folders = [str(out / "knowledge" / f"seed{k}" / "stimuli") for k in (1, 2, 3)]
+    # the calibrated observer knows eight renderings of each kind (seeds 1-8), pooled
+    folders = [str(out / "knowledge" / f"seed{k}" / "stimuli") for k in range(1, 9)]
     assert all(p["knowledge"] == folders for p in params)
     assert [sid for sid, _ in events] == [1, 2]
     manifest = (out / "stimuli" / "manifest.csv").read_text()
@@ -212,7 +212,7 @@ def test_demo_logs_and_reports_its_simulated_observers(demo_two_subjects):
         d = json.loads(note)
         assert d["observer"] == "calibrated" and d["simulated"] is True
         assert d["params"]["knowledge"] == folders
-        assert d["knowledge"]["synth"]["seed"] == [1, 2, 3]
+        assert d["knowledge"]["synth"]["seed"] == list(range(1, 9))
         assert len(d["knowledge"]["categories"]) == 23
         for e in d["knowledge"]["exemplars"]:
             assert e["file_sha256"] not in manifest
@@ -220,7 +220,7 @@ def test_demo_logs_and_reports_its_simulated_observers(demo_two_subjects):
     assert "## Simulated observers" in report and "8,695 px" in report
     summary = json.loads((out / "demo.json").read_text())
     assert summary["simulated"] is True and summary["knowledge_seed"] == 1
-    assert summary["knowledge_seeds"] == [1, 2, 3]
+    assert summary["knowledge_seeds"] == list(range(1, 9))
     assert summary["observers"][0]["observer"] == "calibrated"
 
 
