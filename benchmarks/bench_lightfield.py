@@ -54,6 +54,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import sys
 import time
 import tracemalloc
 import warnings
@@ -239,12 +240,17 @@ def _captures(paths) -> list:
     it (the vignette crop included), at the plane ``stimuli build --plane auto`` chooses."""
     from pathlib import Path
 
+    from stimuli.errors import InputError
     from stimuli.lightfield_steps import LoaderOptions, load_grey
     from stimuli.planechoice import choose_plane
 
     out = []
     for p in paths:
-        lf = load_grey(Path(p), LoaderOptions())
+        try:
+            lf = load_grey(Path(p), LoaderOptions())
+        except InputError as e:  # one line, exit status 2, as the commands do
+            print(f"--capture: {e}", file=sys.stderr)
+            raise SystemExit(2) from None
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             d = choose_plane(lf).disparity_px
