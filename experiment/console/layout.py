@@ -14,6 +14,7 @@ from typing import Any
 import numpy as np
 from textual.app import App, ComposeResult
 from textual.containers import Horizontal, Vertical
+from textual.css.query import NoMatches
 from textual.widgets import Footer, Input, Static
 
 __all__ = [
@@ -115,7 +116,13 @@ class TrialConsole(App):
         self.query_one("#preview", Static).update(preview)
 
     def _show_timer(self, text: str) -> None:
-        self.query_one("#timer", Static).update(text)
+        # The clock ticks on a timer, which can fire once more while the app shuts down and its
+        # panes are already gone: then there is nothing to update.
+        try:
+            timer = self.query_one("#timer", Static)
+        except NoMatches:
+            return
+        timer.update(text)
 
     def _show_suggestion(self, score: str | None) -> None:
         self.query_one("#suggest", Static).update("" if score is None else f"suggested: {score}")

@@ -159,3 +159,19 @@ def test_presenter_process_stderr_goes_to_the_log_file(tmp_path, capfd) -> None:
     assert "Context Version: 4.5" in log_path.read_text()
     assert "Context Version" not in capfd.readouterr().err
     json.dumps(display.info)
+
+
+def test_clock_tick_while_shutting_down_is_harmless(session) -> None:
+    """The clock's timer may fire once more after the panes are gone (the app shutting down):
+    its tick then has nothing to update and must not end the session with an error."""
+    s, clock = session
+    app = OperatorConsole(s, NullDisplay(clock))
+
+    async def script() -> None:
+        async with app.run_test(size=(80, 24)) as pilot:
+            await pilot.press("enter")  # "Main part"
+            await pilot.pause()
+            await app.query_one("#timer").remove()  # as at shutdown: the pane is gone
+            app._tick()  # the timer's next tick
+
+    asyncio.run(asyncio.wait_for(script(), timeout=60))
