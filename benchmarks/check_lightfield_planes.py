@@ -46,7 +46,7 @@ CAPTURES: dict[str, bool] = {
     "middlebury_Aloe": True,
     "middlebury_Baby1": True,
 }
-#: "On the plane": ground truth within this many px per view step of it (the issue's criterion).
+#: "On the plane": ground truth within this many px per view step of it.
 ON_PLANE_PX = 1.5
 #: A pixel has texture when its centre view's 5 px box-mean Sobel magnitude exceeds this (ours:
 #: about 8 grey levels of 8-bit data per pixel across an edge, well above sensor noise).

@@ -8,8 +8,6 @@ Each has a numpy twin elsewhere that it equals to the bit (tested in
 * :func:`edge_field`: the Sobel pair of ``scipy.ndimage.sobel``, its magnitude (``np.hypot``)
   and the edge-direction confidence of :func:`stimuli.edgedepth.edge_confidence`, in one call
   instead of a chain of full-image temporaries;
-* :func:`vote_at_edges`: the local majority of :func:`stimuli.kernels.focus_vote`, evaluated
-  only at the edge pixels from exact running counts;
 * :func:`label8`: ``scipy.ndimage.label`` with 8-connectivity (the same numbering);
 * :func:`focus_agreement_with_limit`: :func:`stimuli.kernels.focus_agreement` at listed pixels
   only, with the test's threshold image, which does not depend on the plane, kept by the caller
@@ -28,7 +26,6 @@ from stimuli.kernels import central_differences, column_means, reflect_index
 __all__ = [
     "histogram_uniform",
     "edge_field",
-    "vote_at_edges",
     "extrema",
     "label8",
     "find_root",
@@ -156,61 +153,6 @@ def edge_field(img, axis, size, mag, conf):  # pragma: no cover - compiled
             total = m0 + m1
             along = m0 if axis == 0 else m1
             c[x] = np.sqrt(along / total) if total > 0 else np.float32(1.0)
-
-
-@njit(nogil=True, cache=True)
-def vote_at_edges(edges, focus, size, out):  # pragma: no cover - compiled
-    """Take the local majority of :func:`stimuli.kernels.focus_vote` at the edge pixels only.
-
-    ``edges`` (uint8 0/1), ``focus`` (uint8: 1 in focus, 2 dropped). ``out`` (bool) is True
-    where ``edges`` and ``focus != 2`` and ``agree >= 0.5 * total``, the two the ``size`` x
-    ``size`` means (zeros beyond the image) of the in-focus edges and of the edges as
-    ``scipy.ndimage.uniform_filter`` makes them: down the columns a count ``k`` becomes
-    ``float32(k / size)``, and along the row the float64 sum of those (exact: at most ``size``
-    values on a grid of 2**-27 below ``size``) divided by ``size`` and rounded to float32. The
-    column counts are kept as exact running integers, so only edge pixels cost a sum.
-    """
-    rows, cols = edges.shape
-    half = size // 2
-    lut = np.empty(size + 1, dtype=np.float64)
-    for k in range(size + 1):
-        lut[k] = np.float64(np.float32(k / size))
-    n_all = np.zeros(cols, dtype=np.int64)
-    n_in = np.zeros(cols, dtype=np.int64)
-    for k in range(half):  # rows 0 .. half - 1 enter before row 0's window is complete
-        if k < rows:
-            for x in range(cols):
-                e = edges[k, x]
-                n_all[x] += e
-                n_in[x] += e if focus[k, x] == 1 else 0
-    for y in range(rows):
-        y_in = y + half
-        if y_in < rows:
-            for x in range(cols):
-                e = edges[y_in, x]
-                n_all[x] += e
-                n_in[x] += e if focus[y_in, x] == 1 else 0
-        y_out = y - half - 1
-        if y_out >= 0:
-            for x in range(cols):
-                e = edges[y_out, x]
-                n_all[x] -= e
-                n_in[x] -= e if focus[y_out, x] == 1 else 0
-        er = edges[y]
-        fr = focus[y]
-        o = out[y]
-        for x in range(cols):
-            if er[x] == 0 or fr[x] == 2:
-                o[x] = False
-                continue
-            s_all = 0.0
-            s_in = 0.0
-            for j in range(max(x - half, 0), min(x + half + 1, cols)):
-                s_all += lut[n_all[j]]
-                s_in += lut[n_in[j]]
-            agree = np.float32(s_in / size)
-            total = np.float32(s_all / size)
-            o[x] = agree >= np.float32(0.5) * total
 
 
 @njit(nogil=True, cache=True)

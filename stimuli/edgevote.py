@@ -11,8 +11,9 @@ instead of a chain of full-image numpy temporaries:
   component (the order of ``numpy.nonzero``);
 * :func:`settle`: the segments' verdicts painted back, the junction pixels given to the
   segments they touch;
-* :func:`vote_lean`: the local majority of :func:`stimuli.edgekernels.vote_at_edges` (the
-  depth de-clutter's last step, on every layout).
+* :func:`vote_lean`: the local majority of :func:`stimuli.kernels.focus_vote`, evaluated only
+  at the edge pixels from exact running counts (the depth de-clutter's last step, on every
+  layout; its numpy twin is ``stimuli.declutter.declutter_depth(..., compiled=False)``).
 
 Grown masks are made from exact integer running counts (a pixel is in the grown mask when the
 count of set pixels in its box is above 0), the same pixels as ``scipy.ndimage``'s maximum
@@ -258,14 +259,18 @@ def _count_row(edges, focus, y, sign, n_all, n_in):  # pragma: no cover - compil
 
 @njit(nogil=True, cache=True)
 def vote_lean(edges, focus, size, out):  # pragma: no cover - compiled
-    """:func:`stimuli.edgekernels.vote_at_edges`: the same arguments and edges, to the bit.
+    """Take the local majority of :func:`stimuli.kernels.focus_vote` at the edge pixels only.
 
-    The column counts kept as int32 and moved on row by row without a branch; each edge pixel
-    then sums the ``size`` column means around it from the twin's table in four partial sums
-    (the twin sums them in one chain): for ``size`` up to 2**14 every mean, a float32 ``k /
-    size``, is a multiple of 2**-38, and a sum of up to ``size`` of them is below 2**15, so
+    ``edges`` (uint8 0/1), ``focus`` (uint8: 1 in focus, 2 dropped). ``out`` (bool) is True
+    where ``edges`` and ``focus != 2`` and ``agree >= 0.5 * total``, the two the ``size`` x
+    ``size`` means (zeros beyond the image) of the in-focus edges and of the edges as
+    ``scipy.ndimage.uniform_filter`` makes them (the numpy twin: ``declutter_depth(...,
+    compiled=False)``), to the bit. The column counts are exact int32 running counts, moved on
+    row by row without a branch; each edge pixel then sums the ``size`` column means around it,
+    each a float32 ``k / size`` from a table, in four partial sums: for ``size`` up to 2**14
+    every mean is a multiple of 2**-38 and a sum of up to ``size`` of them is below 2**15, so
     it has at most 53 significant bits and is exact in float64, in any order (larger windows
-    take the twin's order).
+    are summed in one chain).
     """
     rows, cols = edges.shape
     half = size // 2

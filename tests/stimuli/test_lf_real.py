@@ -32,8 +32,6 @@ the MS views which are already small (binning 1).
 
 from __future__ import annotations
 
-import itertools
-
 import numpy as np
 import pytest
 from scipy.ndimage import zoom
@@ -176,20 +174,9 @@ def _truth_modes(disp: np.ndarray, *, bin_px: float = 0.125, sigma_px: float = 0
     Gaussian of 0.5 px: modes are resolved at the criterion's own tolerance. A mode holds the
     pixels between the histogram minima on either side of it.
     """
-    from scipy.ndimage import gaussian_filter1d
-    from scipy.signal import find_peaks
+    from benchmarks.check_lightfield_planes import truth_modes
 
-    edges = np.arange(disp.min() - 1.0, disp.max() + 1.0 + bin_px, bin_px)
-    h, _ = np.histogram(disp, edges)
-    centres = (edges[:-1] + edges[1:]) / 2
-    hs = gaussian_filter1d(h.astype(float), sigma_px / bin_px)
-    peaks, _ = find_peaks(np.r_[0.0, hs, 0.0])
-    peaks -= 1
-    cuts = [0, *(a + int(np.argmin(hs[a:b])) for a, b in itertools.pairwise(peaks)), len(hs)]
-    return [
-        (float(centres[p]), float(h[cuts[k] : cuts[k + 1]].sum() / h.sum()))
-        for k, p in enumerate(peaks)
-    ]
+    return [(d, share) for d, share, _ in truth_modes(disp, bin_px=bin_px, sigma_px=sigma_px)]
 
 
 def _truth(root, name):
