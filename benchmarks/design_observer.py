@@ -57,12 +57,15 @@ CONDITIONS = ("cluttered", "decluttered")
 def responses(work: Path, seed: int, tau: float | None = None) -> dict[str, dict[str, np.ndarray]]:
     """Build (once, under ``work``) seed's test set and knowledge; return the noise-free
     normalised responses per condition (cached as ``work/responses<seed>_r<renderings>_tau<tau>
-    .npz``). ``tau``: the pooling over a kind's exemplars (None: the observer's)."""
+    _<front end>.npz``, the front end's blur, cell and orientations in the name). ``tau``: the
+    pooling over a kind's exemplars (None: the observer's)."""
     from benchmarks.calibrate_observer import build_sets
     from experiment.demos.study import KNOWLEDGE_RENDERINGS
 
     tau = CalibratedParams.exemplar_tau if tau is None else float(tau)
-    cache = work / f"responses{seed}_r{KNOWLEDGE_RENDERINGS}_tau{tau:g}.npz"
+    fe = CalibratedParams(knowledge="unused")  # the front end the cache was computed with
+    front = f"b{fe.blur_deg:g}_c{fe.cell_deg:g}_o{fe.orientations}"
+    cache = work / f"responses{seed}_r{KNOWLEDGE_RENDERINGS}_tau{tau:g}_{front}.npz"
     if not cache.exists():
         ((test, know),) = build_sets(work, [seed])
         p = CalibratedParams(knowledge=tuple(str(k) for k in know), exemplar_tau=tau)
@@ -290,12 +293,19 @@ def main(argv: list[str] | None = None) -> int:
             "design_seeds": args.seeds,
             "knowledge_renderings": KNOWLEDGE_RENDERINGS,
             "criterion_misfit": misfit,
-            "how": "benchmarks/design_observer.py: noise and priming set by design on seeds "
-            "10-16, the knowledge (renderings per kind, knowledge_renderings, and the pooling "
-            "over a kind's exemplars, exemplar_tau) by benchmarks/observer_knowledge.py on "
-            "these seeds (both conditions looked at); the criterion then fitted to the paper's "
-            "cluttered curve only (cluttered outcomes of simulated sessions that include the "
-            "de-cluttered blocks, which prime the next level); demo seeds 0-4 never used.",
+            "how": "The knowledge (renderings per kind, knowledge_renderings, and the pooling "
+            "over a kind's exemplars, exemplar_tau) set by benchmarks/observer_knowledge.py, "
+            "then the front end's blur (blur_deg; cell and orientations kept) with the noise and "
+            "priming by benchmarks/observer_frontend.py, by design on these seeds (both "
+            "conditions looked at; see docs/observer.md); the criterion then fitted by "
+            "benchmarks/design_observer.py to the paper's cluttered curve only (cluttered "
+            "outcomes of simulated sessions that include the de-cluttered blocks, which prime "
+            "the next level); demo seeds 0-4 never used.",
+            "front_end": {
+                "blur_deg": CalibratedParams.blur_deg,
+                "cell_deg": CalibratedParams.cell_deg,
+                "orientations": CalibratedParams.orientations,
+            },
         }
         tmp = CALIBRATION_FILE.with_name(f".{CALIBRATION_FILE.name}.tmp")
         tmp.write_text(json.dumps(d, indent=2) + "\n", encoding="utf-8")

@@ -272,6 +272,7 @@ class CalibratedParams(ExemplarParams):
     samples_per_deg: float = _FITTED.get("samples_per_deg", ExemplarParams.samples_per_deg)
     blur_deg: float = _FITTED["blur_deg"]
     cell_deg: float = _FITTED.get("cell_deg", ExemplarParams.cell_deg)
+    orientations: int = int(_FITTED.get("orientations", ExemplarParams.orientations))
     noise_sd: float = _FITTED["noise_sd"]
     criterion: float | None = _FITTED["criterion"]
     decision: str = _FITTED.get("decision", "margin")
@@ -375,8 +376,8 @@ class CalibratedObserver(ExemplarObserver):
         super()._prepare()
         self._named: set[int] = set()  # kinds named so far in this session (for priming)
         if self.params.criterion is not None:
-            keys = ("samples_per_deg", "blur_deg", "cell_deg", "noise_sd", "criterion",
-                    "decision", "priming", "exemplar_tau")  # fmt: skip
+            keys = ("samples_per_deg", "blur_deg", "cell_deg", "orientations", "noise_sd",
+                    "criterion", "decision", "priming", "exemplar_tau")  # fmt: skip
             fitted = {k: getattr(self.params, k) for k in keys if k in _FITTED}
             from_file = fitted == {k: _FITTED[k] for k in fitted}
             self.calibration = {
