@@ -264,6 +264,7 @@ def write_pairs(
     n_training: int = 3,
     seed: int = 0,
     shape_px: tuple[int, int] = jung2015.WORKING_SHAPE_PX,
+    compress_level: int = 6,
 ) -> Path:
     """Render synthetic photo pairs and write a PAIRS folder for the stimulus builder.
 
@@ -303,6 +304,10 @@ def write_pairs(
     shape_px : (rows, cols)
         Photo size, pixels (the paper's working size by default; e.g. ``(1024, 1536)`` for the
         benchmark). Each at least 32.
+    compress_level : int in 0..9
+        zlib's effort for the PNG files (:func:`stimuli.io.save_png`). The pixels are the same
+        at any level; 1 writes them faster and larger, for pairs that are read once (the
+        demo's knowledge renderings).
 
     Returns
     -------
@@ -313,7 +318,7 @@ def write_pairs(
     ------
     InputError
         If ``out_dir`` exists and is not empty or is a file, or a count,
-        ``seed`` or ``shape_px`` is invalid.
+        ``seed``, ``shape_px`` or ``compress_level`` is invalid.
 
     References
     ----------
@@ -327,6 +332,8 @@ def write_pairs(
             f"got {n_obj} + {n_tr}"
         )
     seed_i = _check_count("seed", seed, 0)
+    if isinstance(compress_level, bool) or compress_level not in range(10):
+        raise InputError(f"compress_level must be an integer 0..9, got {compress_level!r}")
     try:
         rows, cols = (int(v) for v in shape_px)
     except (TypeError, ValueError):
@@ -353,9 +360,9 @@ def write_pairs(
             wide, narrow = render_pair(layers, camera=camera)
             d = tmp / folder
             d.mkdir()
-            save_png(wide, d / "wide.png")
-            save_png(narrow, d / "narrow.png")
-            save_png(object_mask(layers, camera), d / "mask.png")
+            save_png(wide, d / "wide.png", compress_level=compress_level)
+            save_png(narrow, d / "narrow.png", compress_level=compress_level)
+            save_png(object_mask(layers, camera), d / "mask.png", compress_level=compress_level)
             records.append(
                 {
                     "object": folder,
