@@ -44,6 +44,7 @@ from typing import Annotated, Any
 
 import typer
 
+from experiment.demos.knowledge import make_knowledge_set, make_knowledge_sets
 from experiment.errors import ConfocalError
 from experiment.outputs import require_missing_or_empty
 from stimuli.cli import force_option, seed_option
@@ -181,43 +182,6 @@ class _Bars:
             self.progress.update(task, completed=completed, total=total)
 
 
-def make_knowledge_set(pairs: Path, out: Path, seed: int) -> Path:
-    """Synthesise 23 photo pairs with ``seed`` and build their full-resolution level only.
-
-    This is the exemplar observer's knowledge: other renderings (pose, size, colour,
-    background, lens draw) of the demo's kinds. Only the highest level is built, since that is
-    all the observer remembers.
-
-    Parameters
-    ----------
-    pairs : Path
-        Folder for the photo pairs.
-    out : Path
-        Folder for the stimulus set.
-    seed : int
-        Seed of the rendering (not the test set's).
-
-    Returns
-    -------
-    Path
-        ``out``.
-    """
-    from stimuli.stimset import BuildParams, build_stimulus_set
-    from stimuli.synth import write_pairs
-
-    # read once, by the build below: zlib's fastest level (the same pixels and the same
-    # observer features; about 8 % less CPU time a rendering, measured in one process)
-    write_pairs(pairs, n_objects=20, n_training=3, seed=seed, compress_level=1)
-    build_stimulus_set(pairs, out, params=BuildParams(windows_px=(1,)), workers=1)
-    return Path(out)
-
-
-def _make_knowledge_sets(folders: list[tuple[Path, Path]], seeds: list[int]) -> None:
-    """:func:`make_knowledge_set` for each (pairs, stimuli) folder pair and seed, in turn."""
-    for (pairs, stimuli), s in zip(folders, seeds, strict=True):
-        make_knowledge_set(pairs, stimuli, s)
-
-
 def _brief(desc: dict[str, Any]) -> dict[str, Any]:
     """Return an observer description with its per-image lists replaced by their lengths."""
     out = dict(desc)
@@ -229,6 +193,19 @@ def _brief(desc: dict[str, Any]) -> dict[str, Any]:
                 for k, v in out[part].items()
             }  # fmt: skip
     return out
+
+
+def _knowledge_reader(observer: str, folders: list[tuple[Path, Path]], protocol: Any) -> Any:
+    """Return the observer's parameters for reading its knowledge where the sets are made.
+
+    None for an observer other than ``calibrated`` and ``exemplar``.
+    """
+    from experiment.observers import CalibratedParams, ExemplarParams
+
+    cls = {"calibrated": CalibratedParams, "exemplar": ExemplarParams}.get(observer)
+    if cls is None or not folders:
+        return None
+    return cls(**_observer_params(observer, [f[1] for f in folders], protocol))
 
 
 def _observer_params(observer: str, knowledge: list[Path], protocol: Any) -> dict[str, Any]:
@@ -384,8 +361,10 @@ def run_demo(
             initializer=worker_init,
             initargs=(os.getpid(),),
         )
+        reader = _knowledge_reader(observer, knowledge_folders, spec)
         knowledge_jobs = [
-            pool.submit(_make_knowledge_sets, knowledge_folders[h], kseeds[h]) for h in halves
+            pool.submit(make_knowledge_sets, knowledge_folders[h], kseeds[h], reader)
+            for h in halves
         ]
     with _Bars(show_progress) as bars:
         try:
@@ -410,11 +389,13 @@ def run_demo(
                 seeds_txt = ", ".join(str(k) for k in kseeds)
                 task = bars.task(f"   exemplars (seed {seeds_txt}) for the observer", 1)
                 if knowledge_jobs:
+                    from experiment.observers.exemplar import add_knowledge_cache_entries
+
                     for job in knowledge_jobs:
-                        job.result()
+                        add_knowledge_cache_entries(job.result())
                     pool.shutdown()  # reaps the processes, so their CPU time is counted here
                 else:
-                    _make_knowledge_sets(knowledge_folders, kseeds)
+                    make_knowledge_sets(knowledge_folders, kseeds)
                 bars.update(task, 1, 1)
                 _lap(t0, "knowledge_wait", seconds, cpu_seconds)
         except BaseException:

@@ -100,6 +100,8 @@ __all__ = [
     "ExemplarObserver",
     "Knowledge",
     "load_knowledge",
+    "knowledge_cache_entries",
+    "add_knowledge_cache_entries",
     "best_criterion",
     "retinal_image",
     "hog_features",
@@ -565,6 +567,26 @@ def load_knowledge(params: ExemplarParams) -> Knowledge:
     )
     _KNOWLEDGE_CACHE[key] = k
     return k
+
+
+def knowledge_cache_entries(folders: list[str]) -> list[tuple[tuple, Knowledge]]:
+    """Return this process' cached :func:`load_knowledge` results for ``folders``.
+
+    Their keys (folder, manifest sha256, front end, exemplar choice) come with them, to hand to
+    another process (:func:`add_knowledge_cache_entries`).
+    """
+    roots = {str(StimulusSet.load(f).root) for f in folders}
+    return [(k, v) for k, v in _KNOWLEDGE_CACHE.items() if k[0] in roots]
+
+
+def add_knowledge_cache_entries(entries: list[tuple[tuple, Knowledge]]) -> None:
+    """Add :func:`knowledge_cache_entries` read in another process to this one's cache.
+
+    The same computation, so a later :func:`load_knowledge` of those folders returns the same
+    features without computing them again.
+    """
+    for key, k in entries:
+        _KNOWLEDGE_CACHE[tuple(key)] = k
 
 
 def _pooled_knowledge(parts: list[Knowledge]) -> Knowledge:
