@@ -253,8 +253,10 @@ class CalibratedParams(ExemplarParams):
 
     As :class:`~experiment.observers.exemplar.ExemplarParams`, except that ``noise_sd`` and
     ``criterion`` are in normalised units (similarities divided by their SD across
-    categories), and ``blur_deg``, ``cell_deg``, ``noise_sd`` and ``criterion`` default to the
-    values in :data:`CALIBRATION_FILE` (fitted to the paper's cluttered condition).
+    categories), and ``blur_deg``, ``cell_deg``, ``orientations``, ``noise_sd`` and
+    ``criterion`` default to the values in :data:`CALIBRATION_FILE` (the criterion fitted to the
+    paper's cluttered condition; the blur, noise and priming set by design on the demo's design
+    seeds, see "Front end, refitted" in the module docstring).
 
     Parameters
     ----------
