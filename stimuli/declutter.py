@@ -56,6 +56,7 @@ __all__ = [
     "bokeh_guard",
     "BOKEH_GUARD_RADIUS_PX",
     "AGREE_THREAD_MIN_TESTS",
+    "OVERLAP_MIN_TESTS",
 ]
 
 #: Automatic threshold methods, by name (ours, not the paper's: the paper set it by hand).
@@ -285,7 +286,10 @@ def in_focus_evidence(
     ``where``: the pixels the caller will read (bool image; :func:`declutter_depth` reads only
     its edge pixels): the views' agreement is then tested there and at the edge pixels the
     depth of unmeasured edges is taken from (:func:`agreement_mask`'s ``where``), the same
-    evidence at those pixels, to the bit, as without it.
+    evidence at those pixels, to the bit, as without it. On a 1-D light field with many edge
+    pixels (:data:`OVERLAP_MIN_TESTS`) and two or more CPUs, the agreement at ``where`` runs on
+    a second thread while the edge classes and segments are made, and the few pixels the
+    segment vote adds are tested after it; the same evidence, to the bit.
 
     Returns
     -------
@@ -311,7 +315,60 @@ def in_focus_evidence(
         from stimuli.refocus import refocus
 
         confocal = np.clip(refocus(lf, float(slope_px_per_view)), 0.0, 1.0).astype(np.float32)
-    return resolve_edge_depth(confocal, mask if where is not None else mask(), lf.grid)
+    if where is None:
+        return resolve_edge_depth(confocal, mask(), lf.grid)
+    started = _start_agreement(lf, slope_px_per_view, tolerance_px, where)
+    if started is None:
+        return resolve_edge_depth(confocal, mask, lf.grid)
+
+    def beside(pixels):  # the test at ``where`` made beside the edge classes; the rest here
+        got = started.result()
+        more = pixels & ~where
+        if more.any():
+            got = got | agreement_mask(
+                lf, slope_px_per_view, tolerance_px=tolerance_px, where=more, threads=1
+            )
+        return got
+
+    try:
+        return resolve_edge_depth(confocal, beside, lf.grid)
+    finally:
+        started.result()  # never left running past the call (it writes the kept thresholds)
+
+
+#: On a 1-D light field, the views' agreement at the edge pixels runs on a second thread
+#: beside the edge classes and segments of :func:`stimuli.edgedepth.resolve_edge_depth` (which
+#: do not need it until their last step) from this many edge pixels times neighbours (ours:
+#: about 1 ms of work on one thread, where the hand-off, tens of microseconds, is small beside
+#: what it hides; on the 1x7 of 555x620 the agreement, 2-4 ms, is hidden behind the edge
+#: classes, 8-10 ms).
+OVERLAP_MIN_TESTS = 20_000
+
+
+def _start_agreement(lf, d, tolerance_px, where):
+    """Start :func:`agreement_mask` at ``where`` on a second thread where that pays; else None.
+
+    The verdict at each pixel does not depend on the others tested with it, so the test at
+    ``where`` and then at the pixels the segment vote adds gives the verdict of one call at
+    both, to the bit.
+    """
+    from stimuli.rowthreads import default_workers, start_on_thread
+
+    w = np.asarray(where)
+    if w.dtype != np.bool_ or w.shape != lf.shape_px or default_workers() < 2:
+        return None
+    n_u, n_v = lf.grid
+    neighbours = sum(
+        1
+        for n, c in ((n_u, lf.centre_index[0]), (n_v, lf.centre_index[1]))
+        for s in (-1, 1)
+        if n > 1 and 0 <= c + s < n
+    )
+    if int(np.count_nonzero(w)) * neighbours < OVERLAP_MIN_TESTS:
+        return None
+    return start_on_thread(
+        lambda: agreement_mask(lf, d, tolerance_px=tolerance_px, where=w, threads=1)
+    )
 
 
 def agreement_mask(
@@ -322,6 +379,7 @@ def agreement_mask(
     compiled: bool = True,
     where: np.ndarray | None = None,
     cache: bool = True,
+    threads: int | None = None,
 ) -> np.ndarray:
     """Return where a light field's views agree at one plane.
 
@@ -416,7 +474,7 @@ def agreement_mask(
             else:
                 out |= _agreement_numpy(centre, nb, axis, side, ds)
     if tests:
-        _agree_at(c32, tests, ds.astype(np.float64), w8, out)
+        _agree_at(c32, tests, ds.astype(np.float64), w8, out, threads)
     return out
 
 
@@ -426,7 +484,7 @@ def agreement_mask(
 AGREE_THREAD_MIN_TESTS = 150_000
 
 
-def _agree_at(c32, tests, ds, w8, out) -> None:
+def _agree_at(c32, tests, ds, w8, out, threads=None) -> None:
     """Run each neighbour's test at the pixels of ``w8`` (:func:`agreement_mask`'s ``where``).
 
     On strips of rows, in threads where the work pays for them
@@ -445,7 +503,7 @@ def _agree_at(c32, tests, ds, w8, out) -> None:
     n_rows = w8.shape[0]
     per_row = np.count_nonzero(w8, axis=1)
     n = (
-        min(default_workers(), 2)
+        min(default_workers(), 2, threads or 2)
         if int(per_row.sum()) * len(tests) >= AGREE_THREAD_MIN_TESTS
         else 1
     )
