@@ -321,11 +321,13 @@ def in_focus_evidence(
     if started is None:
         return resolve_edge_depth(confocal, mask, lf.grid)
 
+    job, got = started
+
     def beside(pixels):  # the test at ``where`` made beside the edge classes; the rest here
-        got = started.result()
+        job.finish()
         more = pixels & ~where
         if more.any():
-            got = got | agreement_mask(
+            return got | agreement_mask(
                 lf, slope_px_per_view, tolerance_px=tolerance_px, where=more, threads=1
             )
         return got
@@ -333,7 +335,7 @@ def in_focus_evidence(
     try:
         return resolve_edge_depth(confocal, beside, lf.grid)
     finally:
-        started.result()  # never left running past the call (it writes the kept thresholds)
+        job.finish()  # never left running past the call (it writes the kept thresholds)
 
 
 #: On a 1-D light field, the views' agreement at the edge pixels runs on a second thread
@@ -348,11 +350,12 @@ OVERLAP_MIN_TESTS = 20_000
 def _start_agreement(lf, d, tolerance_px, where):
     """Start :func:`agreement_mask` at ``where`` on a second thread where that pays; else None.
 
-    The verdict at each pixel does not depend on the others tested with it, so the test at
-    ``where`` and then at the pixels the segment vote adds gives the verdict of one call at
-    both, to the bit.
+    Returns the mask, filled once the returned job's ``finish`` returns (the caller takes the
+    strips left when it is free). The verdict at each pixel does not depend on the others
+    tested with it, so the test at ``where`` and then at the pixels the segment vote adds
+    gives the verdict of one call at both, to the bit.
     """
-    from stimuli.rowthreads import default_workers, start_on_thread
+    from stimuli.rowthreads import default_workers
 
     w = np.asarray(where)
     if w.dtype != np.bool_ or w.shape != lf.shape_px or default_workers() < 2:
@@ -366,9 +369,12 @@ def _start_agreement(lf, d, tolerance_px, where):
     )
     if int(np.count_nonzero(w)) * neighbours < OVERLAP_MIN_TESTS:
         return None
-    return start_on_thread(
-        lambda: agreement_mask(lf, d, tolerance_px=tolerance_px, where=w, threads=1)
-    )
+    jobs = []
+    mask = agreement_mask(lf, d, tolerance_px=tolerance_px, where=w, defer=jobs)
+    if not jobs:  # nothing to test
+        return None
+    jobs[0].start()
+    return jobs[0], mask
 
 
 def agreement_mask(
@@ -380,6 +386,7 @@ def agreement_mask(
     where: np.ndarray | None = None,
     cache: bool = True,
     threads: int | None = None,
+    defer: list | None = None,
 ) -> np.ndarray:
     """Return where a light field's views agree at one plane.
 
@@ -474,7 +481,7 @@ def agreement_mask(
             else:
                 out |= _agreement_numpy(centre, nb, axis, side, ds)
     if tests:
-        _agree_at(c32, tests, ds.astype(np.float64), w8, out, threads)
+        _agree_at(c32, tests, ds.astype(np.float64), w8, out, threads, defer)
     return out
 
 
@@ -484,12 +491,15 @@ def agreement_mask(
 AGREE_THREAD_MIN_TESTS = 150_000
 
 
-def _agree_at(c32, tests, ds, w8, out, threads=None) -> None:
+def _agree_at(c32, tests, ds, w8, out, threads=None, defer=None) -> None:
     """Run each neighbour's test at the pixels of ``w8`` (:func:`agreement_mask`'s ``where``).
 
     On strips of rows, in threads where the work pays for them
     (:data:`AGREE_THREAD_MIN_TESTS`): each pixel's verdict reads only its own row of ``out``
     and of the threshold images, so the strips give the verdict of one pass, to the bit.
+    ``defer`` (a list): nothing runs here; a :class:`stimuli.sharedstrips.SharedStrips` of
+    :data:`_SHARED_STRIPS` strips is appended to it (to start on a second thread and finish
+    later; :func:`_start_agreement`).
     """
     from stimuli.edgefocus import focus_agreement_at
     from stimuli.rowthreads import default_workers, run_on_threads
@@ -502,6 +512,11 @@ def _agree_at(c32, tests, ds, w8, out, threads=None) -> None:
 
     n_rows = w8.shape[0]
     per_row = np.count_nonzero(w8, axis=1)
+    if defer is not None:
+        from stimuli.sharedstrips import SharedStrips
+
+        defer.append(SharedStrips(work, _strips(per_row, min(_SHARED_STRIPS, max(n_rows, 1)))))
+        return
     n = (
         min(default_workers(), 2, threads or 2)
         if int(per_row.sum()) * len(tests) >= AGREE_THREAD_MIN_TESTS
@@ -510,11 +525,23 @@ def _agree_at(c32, tests, ds, w8, out, threads=None) -> None:
     if n == 1 or n_rows < 2:
         work((0, n_rows))
         return
-    # strips with as many listed pixels each (the work is at them)
+    run_on_threads(work, _strips(per_row, n))
+
+
+#: The agreement run beside the edge classes is cut into this many strips of rows, taken by
+#: the second thread and, once it is free, the caller (ours: small enough that neither waits
+#: long for the other at the end, few enough that each call is well above its set-up cost).
+_SHARED_STRIPS = 12
+
+
+def _strips(per_row: np.ndarray, n: int) -> list[tuple[int, int]]:
+    """Cut the rows into ``n`` strips (fewer where rows are few) with as many listed pixels."""
+    n_rows = len(per_row)
     cum = np.cumsum(per_row)
-    cuts = [0] + [int(np.searchsorted(cum, cum[-1] * k / n)) + 1 for k in range(1, n)] + [n_rows]
+    total = cum[-1] if n_rows else 0
+    cuts = [0] + [int(np.searchsorted(cum, total * k / n)) + 1 for k in range(1, n)] + [n_rows]
     cuts = sorted(set(min(max(c, 0), n_rows) for c in cuts))
-    run_on_threads(work, list(zip(cuts[:-1], cuts[1:], strict=True)))
+    return list(zip(cuts[:-1], cuts[1:], strict=True))
 
 
 #: Per light-field object (dropped with it): the agreement test's threshold image per

@@ -10,9 +10,9 @@ import pytest
 @pytest.mark.parametrize("grid", [(1, 7), (7, 1)])
 def test_agreement_beside_the_edge_classes_gives_the_one_thread_evidence(grid, monkeypatch):
     """With the overlap's threshold at one test, the agreement at the edge pixels starts on
-    the pool's thread (spied) and the segment vote's extra pixels are tested after it: the
-    evidence and counts equal those of the call without the overlap, and the full test's at
-    the edges."""
+    the pool's thread (spied) in strips the caller joins after the edge classes, and the
+    segment vote's extra pixels are tested after it: the evidence and counts equal those of
+    the call without the overlap, and the full test's at the edges."""
     import stimuli.declutter as dc
     import stimuli.rowthreads as rt
     from stimuli.refocus import refocus
