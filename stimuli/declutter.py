@@ -494,15 +494,16 @@ AGREE_THREAD_MIN_TESTS = 150_000
 def _agree_at(c32, tests, ds, w8, out, threads=None, defer=None) -> None:
     """Run each neighbour's test at the pixels of ``w8`` (:func:`agreement_mask`'s ``where``).
 
-    On strips of rows, in threads where the work pays for them
-    (:data:`AGREE_THREAD_MIN_TESTS`): each pixel's verdict reads only its own row of ``out``
-    and of the threshold images, so the strips give the verdict of one pass, to the bit.
+    On strips of rows, taken in turn by two threads where the work pays for them
+    (:data:`AGREE_THREAD_MIN_TESTS`; :data:`_SHARED_STRIPS` strips): each pixel's verdict
+    reads only its own row of ``out`` and of the threshold images, so the strips give the
+    verdict of one pass, to the bit.
     ``defer`` (a list): nothing runs here; a :class:`stimuli.sharedstrips.SharedStrips` of
     :data:`_SHARED_STRIPS` strips is appended to it (to start on a second thread and finish
     later; :func:`_start_agreement`).
     """
     from stimuli.edgefocus import focus_agreement_at
-    from stimuli.rowthreads import default_workers, run_on_threads
+    from stimuli.rowthreads import default_workers
 
     r, noise = FOCUS_AGREEMENT_RATIO, FOCUS_NOISE
 
@@ -525,12 +526,19 @@ def _agree_at(c32, tests, ds, w8, out, threads=None, defer=None) -> None:
     if n == 1 or n_rows < 2:
         work((0, n_rows))
         return
-    run_on_threads(work, _strips(per_row, n))
+    # strips taken in turn by the pool's thread and this one: where one core is slower (a
+    # shared machine) the other takes more of them
+    from stimuli.sharedstrips import SharedStrips
+
+    job = SharedStrips(work, _strips(per_row, min(_SHARED_STRIPS, n_rows)))
+    job.start()
+    job.finish()
 
 
-#: The agreement run beside the edge classes is cut into this many strips of rows, taken by
-#: the second thread and, once it is free, the caller (ours: small enough that neither waits
-#: long for the other at the end, few enough that each call is well above its set-up cost).
+#: The agreement on two threads is cut into this many strips of rows, taken in turn by the
+#: second thread and the caller (beside the edge classes: once the caller is free) (ours:
+#: small enough that neither waits long for the other at the end, few enough that each call
+#: is well above its set-up cost).
 _SHARED_STRIPS = 12
 
 
