@@ -152,16 +152,17 @@ def label8_extents(mask, out):  # pragma: no cover - compiled
     right = np.full(count, -1, dtype=np.int64)
     for y in range(rows):
         o = out[y]
-        for x in range(cols):
-            o[x] = final[o[x]]
         x = 0
-        while x < cols:  # runs of one label: one update of its box per run
+        while x < cols:  # runs of one label, relabelled as read: one update of its box per run
             v = o[x]
             if v == 0:
                 x += 1
                 continue
+            v = final[v]
+            o[x] = v
             x1 = x + 1
-            while x1 < cols and o[x1] == v:
+            while x1 < cols and o[x1] != 0 and final[o[x1]] == v:
+                o[x1] = v
                 x1 += 1
             i = v - 1
             if y < top[i]:
