@@ -216,17 +216,23 @@ def settle(seg, keep, off, junction, size, kept, dropped):  # pragma: no cover -
     junction & ~kept & grow(dropped, size)`` (the grown masks of the painted verdicts, before
     the junction pixels join them), all uint8 0/1. The grown masks are read only at the
     junction pixels, from the labels in their box (junction pixels have none: they are not in
-    a segment).
+    a segment), the rows after a kept label left unread.
     """
     rows, cols = seg.shape
+    keep0 = keep[0]
+    off0 = off[0]
     for y in range(rows):
         s = seg[y]
         k = kept[y]
         d = dropped[y]
+        for x in range(cols):  # the background first (no read of the tables per pixel)
+            k[x] = keep0
+            d[x] = off0
         for x in range(cols):
             v = s[x]
-            k[x] = keep[v]
-            d[x] = off[v]
+            if v != 0:
+                k[x] = keep[v]
+                d[x] = off[v]
     half = size // 2
     for y in range(rows):  # only the junction pixels look around them (the painted verdicts)
         j = junction[y]
@@ -237,12 +243,15 @@ def settle(seg, keep, off, junction, size, kept, dropped):  # pragma: no cover -
                 continue
             near_k = 0
             near_d = 0
+            x_a = max(x - half, 0)
+            x_b = min(x + half + 1, cols)
             for yy in range(max(y - half, 0), min(y + half + 1, rows)):
-                sr = seg[yy]
-                for xx in range(max(x - half, 0), min(x + half + 1, cols)):
-                    v = sr[xx]
+                for xx in range(x_a, x_b):
+                    v = seg[yy, xx]
                     near_k |= keep[v]
                     near_d |= off[v]
+                if near_k:  # kept: what is dropped nearby no longer matters
+                    break
             k[x] |= near_k
             d[x] |= (1 - k[x]) & near_d
 
