@@ -57,6 +57,7 @@ __all__ = [
     "BOKEH_GUARD_RADIUS_PX",
     "AGREE_THREAD_MIN_TESTS",
     "OVERLAP_MIN_TESTS",
+    "OVERLAP_MIN_FREE_CORES",
 ]
 
 #: Automatic threshold methods, by name (ours, not the paper's: the paper set it by hand).
@@ -287,7 +288,8 @@ def in_focus_evidence(
     its edge pixels): the views' agreement is then tested there and at the edge pixels the
     depth of unmeasured edges is taken from (:func:`agreement_mask`'s ``where``), the same
     evidence at those pixels, to the bit, as without it. On a 1-D light field with many edge
-    pixels (:data:`OVERLAP_MIN_TESTS`) and two or more CPUs, the agreement at ``where`` runs on
+    pixels (:data:`OVERLAP_MIN_TESTS`) and a core standing idle (:data:`OVERLAP_MIN_FREE_CORES`),
+    the agreement at ``where`` runs on
     a second thread while the edge classes and segments are made, and the few pixels the
     segment vote adds are tested after it; the same evidence, to the bit.
 
@@ -346,6 +348,13 @@ def in_focus_evidence(
 #: classes, 8-10 ms).
 OVERLAP_MIN_TESTS = 20_000
 
+#: ... and only where at least this many cores stand idle beside the caller's
+#: (:func:`stimuli.rowthreads.cores_free`: CPUs less the last minute's load average, which
+#: counts the caller) (ours: on the shared 2-core machine with two other busy processes the
+#: overlap cost 1.1-1.6 ms on the 1x7 of 555x620 and on Baby1, the second thread waiting for
+#: a core and delaying the edge classes).
+OVERLAP_MIN_FREE_CORES = 0.5
+
 
 def _start_agreement(lf, d, tolerance_px, where):
     """Start :func:`agreement_mask` at ``where`` on a second thread where that pays; else None.
@@ -355,10 +364,12 @@ def _start_agreement(lf, d, tolerance_px, where):
     tested with it, so the test at ``where`` and then at the pixels the segment vote adds
     gives the verdict of one call at both, to the bit.
     """
-    from stimuli.rowthreads import default_workers
+    from stimuli.rowthreads import cores_free, default_workers
 
     w = np.asarray(where)
     if w.dtype != np.bool_ or w.shape != lf.shape_px or default_workers() < 2:
+        return None
+    if cores_free() < OVERLAP_MIN_FREE_CORES:
         return None
     n_u, n_v = lf.grid
     neighbours = sum(

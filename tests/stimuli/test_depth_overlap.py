@@ -9,10 +9,11 @@ import pytest
 
 @pytest.mark.parametrize("grid", [(1, 7), (7, 1)])
 def test_agreement_beside_the_edge_classes_gives_the_one_thread_evidence(grid, monkeypatch):
-    """With the overlap's threshold at one test, the agreement at the edge pixels starts on
-    the pool's thread (spied) in strips the caller joins after the edge classes, and the
-    segment vote's extra pixels are tested after it: the evidence and counts equal those of
-    the call without the overlap, and the full test's at the edges."""
+    """With the overlap's threshold at one test and a core free, the agreement at the edge
+    pixels starts on the pool's thread (spied) in strips the caller joins after the edge
+    classes, and the segment vote's extra pixels are tested after it: the evidence and counts
+    equal those of the call without the overlap, and the full test's at the edges; with no
+    core free it does not start."""
     import stimuli.declutter as dc
     import stimuli.rowthreads as rt
     from stimuli.refocus import refocus
@@ -33,7 +34,11 @@ def test_agreement_beside_the_edge_classes_gives_the_one_thread_evidence(grid, m
         monkeypatch.setattr(dc, "OVERLAP_MIN_TESTS", 1)
         monkeypatch.setattr(rt, "default_workers", lambda: 2)
         monkeypatch.setattr(rt, "start_on_thread", spy)
+        monkeypatch.setattr(rt, "cores_free", lambda: 0.0)  # a busy machine: no second thread
         n = len(started)
+        busy, _ = dc.in_focus_evidence(lf, d, confocal=img, where=edges)
+        assert len(started) == n and np.array_equal(busy, one)
+        monkeypatch.setattr(rt, "cores_free", lambda: 1.0)
         two, stats_two = dc.in_focus_evidence(lf, d, confocal=img, where=edges)
         monkeypatch.undo()
         assert len(started) == n + 1
