@@ -57,7 +57,7 @@ __all__ = [
     "BOKEH_GUARD_RADIUS_PX",
     "AGREE_THREAD_MIN_TESTS",
     "OVERLAP_MIN_TESTS",
-    "OVERLAP_MIN_FREE_CORES",
+    "SECOND_THREAD_MIN_FREE_CORES",
 ]
 
 #: Automatic threshold methods, by name (ours, not the paper's: the paper set it by hand).
@@ -288,9 +288,9 @@ def in_focus_evidence(
     its edge pixels): the views' agreement is then tested there and at the edge pixels the
     depth of unmeasured edges is taken from (:func:`agreement_mask`'s ``where``), the same
     evidence at those pixels, to the bit, as without it. On a 1-D light field with many edge
-    pixels (:data:`OVERLAP_MIN_TESTS`) and a core standing idle (:data:`OVERLAP_MIN_FREE_CORES`),
-    the agreement at ``where`` runs on
-    a second thread while the edge classes and segments are made, and the few pixels the
+    pixels (:data:`OVERLAP_MIN_TESTS`) and a core standing idle
+    (:data:`SECOND_THREAD_MIN_FREE_CORES`), the agreement at ``where`` runs on a second
+    thread while the edge classes and segments are made, and the few pixels the
     segment vote adds are tested after it; the same evidence, to the bit.
 
     Returns
@@ -348,12 +348,14 @@ def in_focus_evidence(
 #: classes, 8-10 ms).
 OVERLAP_MIN_TESTS = 20_000
 
-#: ... and only where at least this many cores stand idle beside the caller's
+#: The agreement test takes a second thread (beside the edge classes, or for a second strip
+#: of rows) only where at least this many cores stand idle beside the caller's
 #: (:func:`stimuli.rowthreads.cores_free`: CPUs less the last minute's load average, which
-#: counts the caller) (ours: on the shared 2-core machine with two other busy processes the
-#: overlap cost 1.1-1.6 ms on the 1x7 of 555x620 and on Baby1, the second thread waiting for
-#: a core and delaying the edge classes).
-OVERLAP_MIN_FREE_CORES = 0.5
+#: counts the caller) (ours: on the shared 2-core machine, with two other busy processes, the
+#: overlap cost 1.1-1.6 ms on the 1x7 of 555x620 and on Baby1 and the second strip 0.4-0.5 ms,
+#: the second thread waiting for a core; with one core free the second strip took the 3x3 of
+#: 1024x1024 from 37 to 22 ms).
+SECOND_THREAD_MIN_FREE_CORES = 0.5
 
 
 def _start_agreement(lf, d, tolerance_px, where):
@@ -369,7 +371,7 @@ def _start_agreement(lf, d, tolerance_px, where):
     w = np.asarray(where)
     if w.dtype != np.bool_ or w.shape != lf.shape_px or default_workers() < 2:
         return None
-    if cores_free() < OVERLAP_MIN_FREE_CORES:
+    if cores_free() < SECOND_THREAD_MIN_FREE_CORES:
         return None
     n_u, n_v = lf.grid
     neighbours = sum(
@@ -423,7 +425,8 @@ def agreement_mask(
         Test only these pixels (the rest are False): the same verdict there, to the bit, at a
         cost that grows with their number (each pixel left at the first neighbour that
         agrees; :func:`stimuli.edgefocus.focus_agreement_at`, on two threads for many
-        pixels: :data:`AGREE_THREAD_MIN_TESTS`). The depth de-clutter reads the test only at
+        pixels where a core stands idle: :data:`AGREE_THREAD_MIN_TESTS`,
+        :data:`SECOND_THREAD_MIN_FREE_CORES`). The depth de-clutter reads the test only at
         edge pixels.
     cache : bool
         With ``where``: take the test's threshold image (``ratio`` times the one-pixel-shift
@@ -431,6 +434,13 @@ def agreement_mask(
         kept per light-field object (made at the pixels first tested, dropped with the object;
         the views are not to be changed in place), the default; or make it again at the tested
         pixels. The same mask to the bit.
+    threads : int, optional
+        With ``where``: at most this many threads (default: two where the work and an idle
+        core allow, as above); the same mask to the bit.
+    defer : list, optional
+        With ``where``: run nothing yet; append the test, a
+        :class:`stimuli.sharedstrips.SharedStrips` that fills the returned mask (False until
+        its ``finish`` returns; ``start`` begins it on a second thread), to this list.
 
     Returns
     -------
@@ -506,7 +516,8 @@ def _agree_at(c32, tests, ds, w8, out, threads=None, defer=None) -> None:
     """Run each neighbour's test at the pixels of ``w8`` (:func:`agreement_mask`'s ``where``).
 
     On strips of rows, taken in turn by two threads where the work pays for them
-    (:data:`AGREE_THREAD_MIN_TESTS`; :data:`_SHARED_STRIPS` strips): each pixel's verdict
+    (:data:`AGREE_THREAD_MIN_TESTS`, :data:`SECOND_THREAD_MIN_FREE_CORES`;
+    :data:`_SHARED_STRIPS` strips): each pixel's verdict
     reads only its own row of ``out`` and of the threshold images, so the strips give the
     verdict of one pass, to the bit.
     ``defer`` (a list): nothing runs here; a :class:`stimuli.sharedstrips.SharedStrips` of
@@ -514,7 +525,7 @@ def _agree_at(c32, tests, ds, w8, out, threads=None, defer=None) -> None:
     later; :func:`_start_agreement`).
     """
     from stimuli.edgefocus import focus_agreement_at
-    from stimuli.rowthreads import default_workers
+    from stimuli.rowthreads import cores_free, default_workers
 
     r, noise = FOCUS_AGREEMENT_RATIO, FOCUS_NOISE
 
@@ -534,6 +545,8 @@ def _agree_at(c32, tests, ds, w8, out, threads=None, defer=None) -> None:
         if int(per_row.sum()) * len(tests) >= AGREE_THREAD_MIN_TESTS
         else 1
     )
+    if n > 1 and cores_free() < SECOND_THREAD_MIN_FREE_CORES:
+        n = 1
     if n == 1 or n_rows < 2:
         work((0, n_rows))
         return

@@ -115,6 +115,7 @@ def test_threaded_strips_give_the_one_pass_verdict(monkeypatch):
         one = dc.agreement_mask(lf, d, where=where, cache=False)
         monkeypatch.setattr(dc, "AGREE_THREAD_MIN_TESTS", 1)
         monkeypatch.setattr(rt, "default_workers", lambda: 2)
+        monkeypatch.setattr(rt, "cores_free", lambda: 1.0)
         monkeypatch.setattr(rt, "start_on_thread", spy_start)
         monkeypatch.setattr("stimuli.sharedstrips.SharedStrips", Spy)
         n = len(started)
