@@ -57,7 +57,8 @@ __all__ = [
     "BOKEH_GUARD_RADIUS_PX",
     "AGREE_THREAD_MIN_TESTS",
     "OVERLAP_MIN_TESTS",
-    "SECOND_THREAD_MIN_FREE_CORES",
+    "OVERLAP_MIN_FREE_CORES",
+    "STRIPS_MIN_FREE_CORES",
 ]
 
 #: Automatic threshold methods, by name (ours, not the paper's: the paper set it by hand).
@@ -289,7 +290,7 @@ def in_focus_evidence(
     depth of unmeasured edges is taken from (:func:`agreement_mask`'s ``where``), the same
     evidence at those pixels, to the bit, as without it. On a 1-D light field with many edge
     pixels (:data:`OVERLAP_MIN_TESTS`) and a core standing idle
-    (:data:`SECOND_THREAD_MIN_FREE_CORES`), the agreement at ``where`` runs on a second
+    (:data:`OVERLAP_MIN_FREE_CORES`), the agreement at ``where`` runs on a second
     thread while the edge classes and segments are made, and the few pixels the
     segment vote adds are tested after it; the same evidence, to the bit.
 
@@ -348,14 +349,16 @@ def in_focus_evidence(
 #: classes, 8-10 ms).
 OVERLAP_MIN_TESTS = 20_000
 
-#: The agreement test takes a second thread (beside the edge classes, or for a second strip
-#: of rows) only where at least this many cores stand idle beside the caller's
-#: (:func:`stimuli.rowthreads.cores_free`: CPUs less the last minute's load average, which
-#: counts the caller) (ours: on the shared 2-core machine, with two other busy processes, the
-#: overlap cost 1.1-1.6 ms on the 1x7 of 555x620 and on Baby1 and the second strip 0.4-0.5 ms,
-#: the second thread waiting for a core; with one core free the second strip took the 3x3 of
+#: The agreement test runs beside the edge classes only where at least this many cores stand
+#: idle beside the caller's (:func:`stimuli.rowthreads.cores_free`: CPUs less the last
+#: minute's load average, which counts the caller), and takes a second strip of rows only
+#: where :data:`STRIPS_MIN_FREE_CORES` do (ours, on the shared 2-core machine: with two other
+#: busy processes (no core free) the overlap cost 1.1-1.6 ms on the 1x7 of 555x620 and on
+#: Baby1 and the second strip 0.4-0.5 ms, the second thread waiting for a core; at a load of
+#: about 1.6 the overlap still cost 1.2-1.5 ms while the second strip took the 3x3 of
 #: 1024x1024 from 37 to 22 ms).
-SECOND_THREAD_MIN_FREE_CORES = 0.5
+OVERLAP_MIN_FREE_CORES = 0.5
+STRIPS_MIN_FREE_CORES = 0.0
 
 
 def _start_agreement(lf, d, tolerance_px, where):
@@ -371,7 +374,7 @@ def _start_agreement(lf, d, tolerance_px, where):
     w = np.asarray(where)
     if w.dtype != np.bool_ or w.shape != lf.shape_px or default_workers() < 2:
         return None
-    if cores_free() < SECOND_THREAD_MIN_FREE_CORES:
+    if cores_free() < OVERLAP_MIN_FREE_CORES:
         return None
     n_u, n_v = lf.grid
     neighbours = sum(
@@ -426,7 +429,7 @@ def agreement_mask(
         cost that grows with their number (each pixel left at the first neighbour that
         agrees; :func:`stimuli.edgefocus.focus_agreement_at`, on two threads for many
         pixels where a core stands idle: :data:`AGREE_THREAD_MIN_TESTS`,
-        :data:`SECOND_THREAD_MIN_FREE_CORES`). The depth de-clutter reads the test only at
+        :data:`STRIPS_MIN_FREE_CORES`). The depth de-clutter reads the test only at
         edge pixels.
     cache : bool
         With ``where``: take the test's threshold image (``ratio`` times the one-pixel-shift
@@ -516,7 +519,7 @@ def _agree_at(c32, tests, ds, w8, out, threads=None, defer=None) -> None:
     """Run each neighbour's test at the pixels of ``w8`` (:func:`agreement_mask`'s ``where``).
 
     On strips of rows, taken in turn by two threads where the work pays for them
-    (:data:`AGREE_THREAD_MIN_TESTS`, :data:`SECOND_THREAD_MIN_FREE_CORES`;
+    (:data:`AGREE_THREAD_MIN_TESTS`, :data:`STRIPS_MIN_FREE_CORES`;
     :data:`_SHARED_STRIPS` strips): each pixel's verdict
     reads only its own row of ``out`` and of the threshold images, so the strips give the
     verdict of one pass, to the bit.
@@ -545,7 +548,7 @@ def _agree_at(c32, tests, ds, w8, out, threads=None, defer=None) -> None:
         if int(per_row.sum()) * len(tests) >= AGREE_THREAD_MIN_TESTS
         else 1
     )
-    if n > 1 and cores_free() < SECOND_THREAD_MIN_FREE_CORES:
+    if n > 1 and cores_free() < STRIPS_MIN_FREE_CORES:
         n = 1
     if n == 1 or n_rows < 2:
         work((0, n_rows))
