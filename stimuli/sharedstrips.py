@@ -3,8 +3,10 @@
 :class:`SharedStrips` hands out its parts one at a time, under a lock, to whichever thread asks
 next: the pool's thread starts on them at once (:meth:`SharedStrips.start`), and the caller,
 after its own work, takes the parts still left (:meth:`SharedStrips.finish`) and waits for the
-part the other thread is on. Each part runs once, on one thread; the results are whatever the
-parts write (disjoint strips of rows of one image, in the depth de-clutter).
+part the other thread is on (not for a thread that never began: callers on several threads of
+their own, a parallel build, share the pool's one thread). Each part runs once, on one thread;
+the results are whatever the parts write (disjoint strips of rows of one image, in the depth
+de-clutter).
 """
 
 from __future__ import annotations
@@ -63,9 +65,13 @@ class SharedStrips(Generic[T]):
             self._started = start_on_thread(self._take)
 
     def finish(self) -> None:
-        """Take the parts left here, then wait for the other thread's (its error raised here)."""
+        """Take the parts left here, then wait for the other thread's (its error raised here).
+
+        Where the pool's thread has not begun (busy with other work), it is not waited for:
+        its start is cancelled, the parts being all taken here.
+        """
         try:
             self._take()
         finally:
-            if self._started is not None:
+            if self._started is not None and not self._started.cancel():
                 self._started.result()
