@@ -56,6 +56,9 @@ __all__ = [
     "bokeh_guard",
     "BOKEH_GUARD_RADIUS_PX",
     "AGREE_THREAD_MIN_TESTS",
+    "OVERLAP_MIN_TESTS",
+    "OVERLAP_MIN_FREE_CORES",
+    "STRIPS_MIN_FREE_CORES",
 ]
 
 #: Automatic threshold methods, by name (ours, not the paper's: the paper set it by hand).
@@ -285,7 +288,11 @@ def in_focus_evidence(
     ``where``: the pixels the caller will read (bool image; :func:`declutter_depth` reads only
     its edge pixels): the views' agreement is then tested there and at the edge pixels the
     depth of unmeasured edges is taken from (:func:`agreement_mask`'s ``where``), the same
-    evidence at those pixels, to the bit, as without it.
+    evidence at those pixels, to the bit, as without it. On a 1-D light field with many edge
+    pixels (:data:`OVERLAP_MIN_TESTS`) and a core standing idle
+    (:data:`OVERLAP_MIN_FREE_CORES`), the agreement at ``where`` runs on a second
+    thread while the edge classes and segments are made, and the few pixels the
+    segment vote adds are tested after it; the same evidence, to the bit.
 
     Returns
     -------
@@ -311,7 +318,79 @@ def in_focus_evidence(
         from stimuli.refocus import refocus
 
         confocal = np.clip(refocus(lf, float(slope_px_per_view)), 0.0, 1.0).astype(np.float32)
-    return resolve_edge_depth(confocal, mask if where is not None else mask(), lf.grid)
+    if where is None:
+        return resolve_edge_depth(confocal, mask(), lf.grid)
+    started = _start_agreement(lf, slope_px_per_view, tolerance_px, where)
+    if started is None:
+        return resolve_edge_depth(confocal, mask, lf.grid)
+
+    job, got = started
+
+    def beside(pixels):  # the test at ``where`` made beside the edge classes; the rest here
+        job.finish()
+        more = pixels & ~where
+        if more.any():
+            return got | agreement_mask(
+                lf, slope_px_per_view, tolerance_px=tolerance_px, where=more, threads=1
+            )
+        return got
+
+    try:
+        return resolve_edge_depth(confocal, beside, lf.grid)
+    finally:
+        job.finish()  # never left running past the call (it writes the kept thresholds)
+
+
+#: On a 1-D light field, the views' agreement at the edge pixels runs on a second thread
+#: beside the edge classes and segments of :func:`stimuli.edgedepth.resolve_edge_depth` (which
+#: do not need it until their last step) from this many edge pixels times neighbours (ours:
+#: about 1 ms of work on one thread, where the hand-off, tens of microseconds, is small beside
+#: what it hides; on the 1x7 of 555x620 the agreement, 2-4 ms, is hidden behind the edge
+#: classes, 8-10 ms).
+OVERLAP_MIN_TESTS = 20_000
+
+#: The agreement test runs beside the edge classes only where at least this many cores stand
+#: idle beside the caller's (:func:`stimuli.rowthreads.cores_free`: CPUs less the last
+#: minute's load average, which counts the caller), and takes a second strip of rows only
+#: where :data:`STRIPS_MIN_FREE_CORES` do (ours, on the shared 2-core machine: with two other
+#: busy processes (no core free) the overlap cost 1.1-1.6 ms on the 1x7 of 555x620 and on
+#: Baby1 and the second strip 0.4-0.5 ms, the second thread waiting for a core; at a load of
+#: about 1.6 the overlap still cost 1.2-1.5 ms while the second strip took the 3x3 of
+#: 1024x1024 from 37 to 22 ms).
+OVERLAP_MIN_FREE_CORES = 0.5
+STRIPS_MIN_FREE_CORES = 0.0
+
+
+def _start_agreement(lf, d, tolerance_px, where):
+    """Start :func:`agreement_mask` at ``where`` on a second thread where that pays; else None.
+
+    Returns the mask, filled once the returned job's ``finish`` returns (the caller takes the
+    strips left when it is free). The verdict at each pixel does not depend on the others
+    tested with it, so the test at ``where`` and then at the pixels the segment vote adds
+    gives the verdict of one call at both, to the bit.
+    """
+    from stimuli.rowthreads import cores_free, default_workers
+
+    w = np.asarray(where)
+    if w.dtype != np.bool_ or w.shape != lf.shape_px or default_workers() < 2:
+        return None
+    if cores_free() < OVERLAP_MIN_FREE_CORES:
+        return None
+    n_u, n_v = lf.grid
+    neighbours = sum(
+        1
+        for n, c in ((n_u, lf.centre_index[0]), (n_v, lf.centre_index[1]))
+        for s in (-1, 1)
+        if n > 1 and 0 <= c + s < n
+    )
+    if int(np.count_nonzero(w)) * neighbours < OVERLAP_MIN_TESTS:
+        return None
+    jobs = []
+    mask = agreement_mask(lf, d, tolerance_px=tolerance_px, where=w, defer=jobs)
+    if not jobs:  # nothing to test
+        return None
+    jobs[0].start()
+    return jobs[0], mask
 
 
 def agreement_mask(
@@ -322,6 +401,8 @@ def agreement_mask(
     compiled: bool = True,
     where: np.ndarray | None = None,
     cache: bool = True,
+    threads: int | None = None,
+    defer: list | None = None,
 ) -> np.ndarray:
     """Return where a light field's views agree at one plane.
 
@@ -347,7 +428,8 @@ def agreement_mask(
         Test only these pixels (the rest are False): the same verdict there, to the bit, at a
         cost that grows with their number (each pixel left at the first neighbour that
         agrees; :func:`stimuli.edgefocus.focus_agreement_at`, on two threads for many
-        pixels: :data:`AGREE_THREAD_MIN_TESTS`). The depth de-clutter reads the test only at
+        pixels where a core stands idle: :data:`AGREE_THREAD_MIN_TESTS`,
+        :data:`STRIPS_MIN_FREE_CORES`). The depth de-clutter reads the test only at
         edge pixels.
     cache : bool
         With ``where``: take the test's threshold image (``ratio`` times the one-pixel-shift
@@ -355,6 +437,13 @@ def agreement_mask(
         kept per light-field object (made at the pixels first tested, dropped with the object;
         the views are not to be changed in place), the default; or make it again at the tested
         pixels. The same mask to the bit.
+    threads : int, optional
+        With ``where``: at most this many threads (default: two where the work and an idle
+        core allow, as above); the same mask to the bit.
+    defer : list, optional
+        With ``where``: run nothing yet; append the test, a
+        :class:`stimuli.sharedstrips.SharedStrips` that fills the returned mask (False until
+        its ``finish`` returns; ``start`` begins it on a second thread), to this list.
 
     Returns
     -------
@@ -416,7 +505,7 @@ def agreement_mask(
             else:
                 out |= _agreement_numpy(centre, nb, axis, side, ds)
     if tests:
-        _agree_at(c32, tests, ds.astype(np.float64), w8, out)
+        _agree_at(c32, tests, ds.astype(np.float64), w8, out, threads, defer)
     return out
 
 
@@ -426,15 +515,20 @@ def agreement_mask(
 AGREE_THREAD_MIN_TESTS = 150_000
 
 
-def _agree_at(c32, tests, ds, w8, out) -> None:
+def _agree_at(c32, tests, ds, w8, out, threads=None, defer=None) -> None:
     """Run each neighbour's test at the pixels of ``w8`` (:func:`agreement_mask`'s ``where``).
 
-    On strips of rows, in threads where the work pays for them
-    (:data:`AGREE_THREAD_MIN_TESTS`): each pixel's verdict reads only its own row of ``out``
-    and of the threshold images, so the strips give the verdict of one pass, to the bit.
+    On strips of rows, taken in turn by two threads where the work pays for them
+    (:data:`AGREE_THREAD_MIN_TESTS`, :data:`STRIPS_MIN_FREE_CORES`;
+    :data:`_SHARED_STRIPS` strips): each pixel's verdict
+    reads only its own row of ``out`` and of the threshold images, so the strips give the
+    verdict of one pass, to the bit.
+    ``defer`` (a list): nothing runs here; a :class:`stimuli.sharedstrips.SharedStrips` of
+    :data:`_SHARED_STRIPS` strips is appended to it (to start on a second thread and finish
+    later; :func:`_start_agreement`).
     """
     from stimuli.edgefocus import focus_agreement_at
-    from stimuli.rowthreads import default_workers, run_on_threads
+    from stimuli.rowthreads import cores_free, default_workers
 
     r, noise = FOCUS_AGREEMENT_RATIO, FOCUS_NOISE
 
@@ -444,19 +538,45 @@ def _agree_at(c32, tests, ds, w8, out) -> None:
 
     n_rows = w8.shape[0]
     per_row = np.count_nonzero(w8, axis=1)
+    if defer is not None:
+        from stimuli.sharedstrips import SharedStrips
+
+        defer.append(SharedStrips(work, _strips(per_row, min(_SHARED_STRIPS, max(n_rows, 1)))))
+        return
     n = (
-        min(default_workers(), 2)
+        min(default_workers(), 2, threads or 2)
         if int(per_row.sum()) * len(tests) >= AGREE_THREAD_MIN_TESTS
         else 1
     )
+    if n > 1 and cores_free() < STRIPS_MIN_FREE_CORES:
+        n = 1
     if n == 1 or n_rows < 2:
         work((0, n_rows))
         return
-    # strips with as many listed pixels each (the work is at them)
+    # strips taken in turn by the pool's thread and this one: where one core is slower (a
+    # shared machine) the other takes more of them
+    from stimuli.sharedstrips import SharedStrips
+
+    job = SharedStrips(work, _strips(per_row, min(_SHARED_STRIPS, n_rows)))
+    job.start()
+    job.finish()
+
+
+#: The agreement on two threads is cut into this many strips of rows, taken in turn by the
+#: second thread and the caller (beside the edge classes: once the caller is free) (ours:
+#: small enough that neither waits long for the other at the end, few enough that each call
+#: is well above its set-up cost).
+_SHARED_STRIPS = 12
+
+
+def _strips(per_row: np.ndarray, n: int) -> list[tuple[int, int]]:
+    """Cut the rows into ``n`` strips (fewer where rows are few) with as many listed pixels."""
+    n_rows = len(per_row)
     cum = np.cumsum(per_row)
-    cuts = [0] + [int(np.searchsorted(cum, cum[-1] * k / n)) + 1 for k in range(1, n)] + [n_rows]
+    total = cum[-1] if n_rows else 0
+    cuts = [0] + [int(np.searchsorted(cum, total * k / n)) + 1 for k in range(1, n)] + [n_rows]
     cuts = sorted(set(min(max(c, 0), n_rows) for c in cuts))
-    run_on_threads(work, list(zip(cuts[:-1], cuts[1:], strict=True)))
+    return list(zip(cuts[:-1], cuts[1:], strict=True))
 
 
 #: Per light-field object (dropped with it): the agreement test's threshold image per

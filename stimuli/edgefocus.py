@@ -52,7 +52,7 @@ _TRIAL_PX = 512
 _PAYS = 2
 
 
-@njit(nogil=True, cache=True)
+@njit(nogil=True, cache=True, inline="always")
 def _make_limit(centre, axis, side, ratio, noise, y, x0, x1, lim, c):  # pragma: no cover
     """Make the threshold of pixels ``x0:x1`` of row ``y`` where any is NaN (as the twin)."""
     made = True
@@ -69,7 +69,7 @@ def _make_limit(centre, axis, side, ratio, noise, y, x0, x1, lim, c):  # pragma:
         lim[x] = np.float32(ratio) * np.float32(s / 3.0) + np.float32(noise)
 
 
-@njit(nogil=True, cache=True)
+@njit(nogil=True, cache=True, inline="always")
 def _read_taps(nb, centre, axis, kmin, kmax, y, x0, x1, taps, cen, lb):  # pragma: no cover
     """Read each column's neighbour samples and centre pixels, and the bound's column means.
 
@@ -101,7 +101,7 @@ def _read_taps(nb, centre, axis, kmin, kmax, y, x0, x1, taps, cen, lb):  # pragm
         lb[i] = np.float32(s / 3.0)
 
 
-@njit(nogil=True, cache=True)
+@njit(nogil=True, cache=True, inline="always")
 def _bounded(nb, centre, axis, ks, fs, kmin, kmax, y, x0, x1, lim, o, taps, cen, lb, cm, live):
     """Try pixels ``x0:x1`` of row ``y`` (none in focus yet) at ``ds[1:]``, bound first."""
     nd = ks.shape[0]
@@ -148,7 +148,7 @@ def _bounded(nb, centre, axis, ks, fs, kmin, kmax, y, x0, x1, lim, o, taps, cen,
     return skipped
 
 
-@njit(nogil=True, cache=True)
+@njit(nogil=True, cache=True, inline="always")
 def _in_order(nb, centre, axis, ks, fs, y, x0, x1, lim, o, c):  # pragma: no cover - compiled
     """Try pixels ``x0:x1`` of row ``y`` at ``ds[1:]`` in order, as the twin does.
 

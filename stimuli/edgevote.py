@@ -152,16 +152,17 @@ def label8_extents(mask, out):  # pragma: no cover - compiled
     right = np.full(count, -1, dtype=np.int64)
     for y in range(rows):
         o = out[y]
-        for x in range(cols):
-            o[x] = final[o[x]]
         x = 0
-        while x < cols:  # runs of one label: one update of its box per run
+        while x < cols:  # runs of one label, relabelled as read: one update of its box per run
             v = o[x]
             if v == 0:
                 x += 1
                 continue
+            v = final[v]
+            o[x] = v
             x1 = x + 1
-            while x1 < cols and o[x1] == v:
+            while x1 < cols and o[x1] != 0 and final[o[x1]] == v:
+                o[x1] = v
                 x1 += 1
             i = v - 1
             if y < top[i]:
@@ -215,17 +216,23 @@ def settle(seg, keep, off, junction, size, kept, dropped):  # pragma: no cover -
     junction & ~kept & grow(dropped, size)`` (the grown masks of the painted verdicts, before
     the junction pixels join them), all uint8 0/1. The grown masks are read only at the
     junction pixels, from the labels in their box (junction pixels have none: they are not in
-    a segment).
+    a segment), the rows after a kept label left unread.
     """
     rows, cols = seg.shape
+    keep0 = keep[0]
+    off0 = off[0]
     for y in range(rows):
         s = seg[y]
         k = kept[y]
         d = dropped[y]
+        for x in range(cols):  # the background first (no read of the tables per pixel)
+            k[x] = keep0
+            d[x] = off0
         for x in range(cols):
             v = s[x]
-            k[x] = keep[v]
-            d[x] = off[v]
+            if v != 0:
+                k[x] = keep[v]
+                d[x] = off[v]
     half = size // 2
     for y in range(rows):  # only the junction pixels look around them (the painted verdicts)
         j = junction[y]
@@ -236,12 +243,15 @@ def settle(seg, keep, off, junction, size, kept, dropped):  # pragma: no cover -
                 continue
             near_k = 0
             near_d = 0
+            x_a = max(x - half, 0)
+            x_b = min(x + half + 1, cols)
             for yy in range(max(y - half, 0), min(y + half + 1, rows)):
-                sr = seg[yy]
-                for xx in range(max(x - half, 0), min(x + half + 1, cols)):
-                    v = sr[xx]
+                for xx in range(x_a, x_b):
+                    v = seg[yy, xx]
                     near_k |= keep[v]
                     near_d |= off[v]
+                if near_k:  # kept: what is dropped nearby no longer matters
+                    break
             k[x] |= near_k
             d[x] |= (1 - k[x]) & near_d
 
@@ -251,10 +261,53 @@ def _count_row(edges, focus, y, sign, n_all, n_in):  # pragma: no cover - compil
     """Add (``sign`` 1) or take away (-1) row ``y``'s edges and in-focus edges per column."""
     er = edges[y]
     fr = focus[y]
-    for x in range(er.shape[0]):
-        e = np.int32(er[x])
-        n_all[x] += sign * e
-        n_in[x] += sign * (e & np.int32(fr[x] == 1))
+    if sign > 0:
+        for x in range(er.shape[0]):
+            e = np.int32(er[x])
+            n_all[x] += e
+            n_in[x] += e & np.int32(fr[x] == 1)
+    else:
+        for x in range(er.shape[0]):
+            e = np.int32(er[x])
+            n_all[x] -= e
+            n_in[x] -= e & np.int32(fr[x] == 1)
+
+
+@njit(nogil=True, cache=True)
+def _float_vote(n_all, n_in, lut, x, size):  # pragma: no cover - compiled
+    """Return the float verdict of :func:`vote_lean` at column ``x`` from the column counts."""
+    cols = n_all.shape[0]
+    half = size // 2
+    # four partial sums: the sums are exact (vote_lean's notes), so in any order the same
+    a0 = a1 = a2 = a3 = 0.0
+    i0 = i1 = i2 = i3 = 0.0
+    j = max(x - half, 0)
+    j1 = min(x + half + 1, cols)
+    while j + 4 <= j1 and size <= 16384:
+        a0 += lut[n_all[j]]
+        a1 += lut[n_all[j + 1]]
+        a2 += lut[n_all[j + 2]]
+        a3 += lut[n_all[j + 3]]
+        i0 += lut[n_in[j]]
+        i1 += lut[n_in[j + 1]]
+        i2 += lut[n_in[j + 2]]
+        i3 += lut[n_in[j + 3]]
+        j += 4
+    while j < j1:
+        a0 += lut[n_all[j]]
+        i0 += lut[n_in[j]]
+        j += 1
+    s_all = (a0 + a1) + (a2 + a3)
+    s_in = (i0 + i1) + (i2 + i3)
+    agree = np.float32(s_in / size)
+    total = np.float32(s_all / size)
+    return agree >= np.float32(0.5) * total
+
+
+#: Windows up to this size take :func:`vote_lean`'s integer verdict outside ties (ours: the
+#: rounding of the float means, below ``2 size**2 * 2**-22`` of the box, stays far below the
+#: smallest gap ``1 / (2 size**2)`` between a majority and a tie up to here).
+_INT_VOTE_MAX_SIZE = 255
 
 
 @njit(nogil=True, cache=True)
@@ -271,6 +324,14 @@ def vote_lean(edges, focus, size, out):  # pragma: no cover - compiled
     every mean is a multiple of 2**-38 and a sum of up to ``size`` of them is below 2**15, so
     it has at most 53 significant bits and is exact in float64, in any order (larger windows
     are summed in one chain).
+
+    Most pixels are decided from the integer counts alone: with ``N_in`` and ``N_all`` the
+    in-focus and all edge pixels of the box, each float32 mean is ``N / size**2`` within a
+    relative 2**-22, so for ``size`` up to :data:`_INT_VOTE_MAX_SIZE` the verdict is ``2 N_in
+    >= N_all`` wherever the two differ (their gap, at least ``1 / (2 size**2)``, is far above
+    the rounding); each row's box counts come from prefix sums of the column counts in one
+    loop without a branch, and only the ties ``2 N_in == N_all`` at edge pixels take the
+    float sums above (:func:`_float_vote`), the same verdict to the bit.
     """
     rows, cols = edges.shape
     half = size // 2
@@ -281,6 +342,11 @@ def vote_lean(edges, focus, size, out):  # pragma: no cover - compiled
     n_in = np.zeros(cols, dtype=np.int32)
     for k in range(min(half, rows)):
         _count_row(edges, focus, k, 1, n_all, n_in)
+    p_all = np.zeros(cols + 1, dtype=np.int32)
+    p_in = np.zeros(cols + 1, dtype=np.int32)
+    gap = np.empty(cols, dtype=np.int32)
+    tie = np.empty(cols, dtype=np.uint8)
+    exact_ints = size <= _INT_VOTE_MAX_SIZE
     for y in range(rows):
         if y + half < rows:
             _count_row(edges, focus, y + half, 1, n_all, n_in)
@@ -289,32 +355,41 @@ def vote_lean(edges, focus, size, out):  # pragma: no cover - compiled
         er = edges[y]
         fr = focus[y]
         o = out[y]
+        if not exact_ints:
+            for x in range(cols):
+                o[x] = er[x] != 0 and fr[x] != 2 and _float_vote(n_all, n_in, lut, x, size)
+            continue
+        # the box counts of every pixel from prefix sums, the verdict without a branch; the
+        # ties (rare at edge pixels) then take the float sums
+        run_all = 0
+        run_in = 0
         for x in range(cols):
-            o[x] = False
+            run_all += n_all[x]
+            run_in += n_in[x]
+            p_all[x + 1] = run_all
+            p_in[x + 1] = run_in
+        for x in range(min(half, cols)):
+            hi = min(x + half + 1, cols)
+            gap[x] = 2 * p_in[hi] - p_all[hi]
+        if cols > 2 * half:  # the interior: no clamped index, shifted views (vectorised)
+            hi_in = p_in[2 * half + 1 :]
+            lo_in = p_in[: cols - 2 * half]
+            hi_all = p_all[2 * half + 1 :]
+            lo_all = p_all[: cols - 2 * half]
+            mid = gap[half : cols - half]
+            for i in range(cols - 2 * half):
+                mid[i] = 2 * (hi_in[i] - lo_in[i]) - (hi_all[i] - lo_all[i])
+        for x in range(max(cols - half, half), cols):
+            gap[x] = 2 * (p_in[cols] - p_in[x - half]) - (p_all[cols] - p_all[x - half])
+        o8 = o.view(np.uint8)
+        n_ties = 0
         for x in range(cols):
-            if er[x] == 0 or fr[x] == 2:
-                continue
-            # four partial sums: the sums are exact (module notes), so in any order the same
-            a0 = a1 = a2 = a3 = 0.0
-            i0 = i1 = i2 = i3 = 0.0
-            j = max(x - half, 0)
-            j1 = min(x + half + 1, cols)
-            while j + 4 <= j1 and size <= 16384:
-                a0 += lut[n_all[j]]
-                a1 += lut[n_all[j + 1]]
-                a2 += lut[n_all[j + 2]]
-                a3 += lut[n_all[j + 3]]
-                i0 += lut[n_in[j]]
-                i1 += lut[n_in[j + 1]]
-                i2 += lut[n_in[j + 2]]
-                i3 += lut[n_in[j + 3]]
-                j += 4
-            while j < j1:
-                a0 += lut[n_all[j]]
-                i0 += lut[n_in[j]]
-                j += 1
-            s_all = (a0 + a1) + (a2 + a3)
-            s_in = (i0 + i1) + (i2 + i3)
-            agree = np.float32(s_in / size)
-            total = np.float32(s_all / size)
-            o[x] = agree >= np.float32(0.5) * total
+            live = np.uint8(er[x] != 0) & np.uint8(fr[x] != 2)
+            o8[x] = live & np.uint8(gap[x] > 0)
+            tie[x] = live & np.uint8(gap[x] == 0)
+            n_ties += np.int32(tie[x])
+        if n_ties == 0:
+            continue
+        for x in range(cols):
+            if tie[x]:
+                o[x] = _float_vote(n_all, n_in, lut, x, size)

@@ -393,7 +393,7 @@ def focus_vote(edges, focus, size, out):  # pragma: no cover - compiled
             o[x] = e[x] != 0 and f[x] != 2 and agree[x] >= np.float32(0.5) * total[x]
 
 
-@njit(nogil=True, cache=True)
+@njit(nogil=True, cache=True, inline="always")
 def column_means(src, centre, axis, k, f, y, x0, x1, c):  # pragma: no cover - compiled
     """Set ``c[i]`` to a mean over rows ``y - 1 .. y + 1``, for the columns ``x0 - 1 .. x1``.
 

@@ -89,17 +89,23 @@ def test_where_the_bound_does_not_pay_the_twins_order_gives_the_verdict():
 
 def test_threaded_strips_give_the_one_pass_verdict(monkeypatch):
     """With the threads' threshold at 1 test, the agreement at listed pixels of a 3x3 and a
-    1x7 light field runs on two strips of rows at once and gives the single pass's mask and
-    threshold images."""
+    1x7 light field runs on strips of rows taken in turn by two threads (the second started
+    on the pool) and gives the single pass's mask and threshold images."""
     import stimuli.declutter as dc
     import stimuli.rowthreads as rt
     from stimuli.lfsynth import render_camera_array, three_plane_scene
+    from stimuli.sharedstrips import SharedStrips
 
-    strips = []
+    strips, started = [], []
 
-    def spy(work, parts, run=rt.run_on_threads):
-        strips.append(list(parts))
-        return run(work, parts)
+    class Spy(SharedStrips):
+        def __init__(self, work, parts):
+            strips.append(list(parts))
+            super().__init__(work, parts)
+
+    def spy_start(work, start=rt.start_on_thread):
+        started.append(work)
+        return start(work)
 
     shape = (48, 64)
     for grid in ((3, 3), (1, 7)):
@@ -109,9 +115,14 @@ def test_threaded_strips_give_the_one_pass_verdict(monkeypatch):
         one = dc.agreement_mask(lf, d, where=where, cache=False)
         monkeypatch.setattr(dc, "AGREE_THREAD_MIN_TESTS", 1)
         monkeypatch.setattr(rt, "default_workers", lambda: 2)
-        monkeypatch.setattr(rt, "run_on_threads", spy)
+        monkeypatch.setattr(rt, "cores_free", lambda: 1.0)
+        monkeypatch.setattr(rt, "start_on_thread", spy_start)
+        monkeypatch.setattr("stimuli.sharedstrips.SharedStrips", Spy)
+        n = len(started)
         two = dc.agreement_mask(lf, d, where=where, cache=False)
         monkeypatch.undo()
-        assert len(strips[-1]) == 2 and strips[-1][0][0] == 0 and strips[-1][-1][1] == shape[0]
+        assert len(started) == n + 1 and len(strips[-1]) > 2
+        assert strips[-1][0][0] == 0 and strips[-1][-1][1] == shape[0]
+        assert all(a[1] == b[0] for a, b in zip(strips[-1], strips[-1][1:], strict=False))
         assert np.array_equal(one, two) and one.any() and not one[where].all()
         assert np.array_equal(one, dc.agreement_mask(lf, d) & where)
