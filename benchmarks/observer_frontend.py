@@ -41,14 +41,25 @@ sys.path.insert(0, str(REPO))
 
 from benchmarks import observer_slope_spread as oss  # noqa: E402
 from benchmarks.design_observer import fit_criterion  # noqa: E402
-from benchmarks.observer_knowledge import _knowledge_dir, _test_dir, pool  # noqa: E402
+from benchmarks.observer_knowledge import (  # noqa: E402
+    design_set_folder,
+    knowledge_folder,
+    responses_by_condition,
+)
 from experiment.observers.calibration import (  # noqa: E402
     CalibratedParams,
-    normalized_responses,
 )
 from experiment.observers.exemplar import hog_features, retinal_image  # noqa: E402
 
-__all__ = ["FRONT_ENDS", "retinas", "front_end_features", "responses", "measure", "main"]
+__all__ = [
+    "FRONT_ENDS",
+    "retinas",
+    "front_end_features",
+    "responses",
+    "cached_path_difference",
+    "measure",
+    "main",
+]
 
 #: Front ends: name -> (blur_deg, cell_deg, orientations, exemplar_tau, noise_sd, priming).
 #: The first is the observer's before this refit; the decision stage (internal noise,
@@ -105,7 +116,7 @@ def retinas(work: Path, seed: int, n: int) -> dict[str, Any]:
     out: dict[str, Any] = {"know": {}}
     cache = work / f"retina_test{seed}.npz"
     if not cache.exists():
-        ts = StimulusSet.load(_test_dir(work, seed))
+        ts = StimulusSet.load(design_set_folder(work, seed))
         r, px, obj, cond, name = [], [], [], [], []
         for rec in ts.records:
             if rec.condition not in ("cluttered", "decluttered"):
@@ -126,7 +137,7 @@ def retinas(work: Path, seed: int, n: int) -> dict[str, Any]:
     for k in range(seed + 1, seed + 1 + n):
         kc = work / f"retina_knowledge{k}_views.npz"
         if not kc.exists():
-            ks = StimulusSet.load(_knowledge_dir(work, k))
+            ks = StimulusSet.load(knowledge_folder(work, k))
             level = max(ks.levels())
             r, name = [], []
             for oid, info in ks.objects.items():
@@ -190,42 +201,24 @@ def responses(
     """Noise-free normalised responses in :func:`benchmarks.design_observer.responses`' form."""
     kf = np.vstack([feats["know"][k]["F"] for k in range(seed + 1, seed + 1 + n)])
     kn = np.concatenate([feats["know"][k]["name"] for k in range(seed + 1, seed + 1 + n)])
-    t = feats["test"]
-    r = t["F"] @ kf.T
-    cats = list(dict.fromkeys(kn))
     rule = "max" if tau == 0 else f"soft {tau:g}"
-    s = np.column_stack([pool(r[:, kn == c], rule) for c in cats])
-    out = {}
-    for cond in ("cluttered", "decluttered"):
-        m = t["cond"] == cond
-        correct = np.array([cats.index(x) for x in t["name"][m]])
-        sm = s[m]
-        out[cond] = {
-            "pixels": t["pixels"][m],
-            "known": normalized_responses(sm),
-            "correct": correct,
-            "unknown": np.vstack(
-                [normalized_responses(np.delete(sm[i], correct[i])) for i in range(len(sm))]
-            ),  # fmt: skip
-            "objects": t["objects"][m],
-        }
-    return out
+    return responses_by_condition(feats["test"], feats["test"]["F"] @ kf.T, kn, rule)
 
 
-def _check(work: Path, seed: int, n: int, fe: tuple) -> float:
+def cached_path_difference(work: Path, seed: int, n: int, fe: tuple) -> float:
     """Largest difference between the cached path's normalised responses and the observer's
     own (:func:`experiment.observers.calibration.stimulus_responses`, the same front end and
     knowledge) on test set ``seed``, both conditions (inf when the true kinds differ)."""
     from experiment.observers.calibration import stimulus_responses
 
     blur, cell, ori, tau = fe[:4]
-    know = [_knowledge_dir(work, k) for k in range(seed + 1, seed + 1 + n)]
+    know = [knowledge_folder(work, k) for k in range(seed + 1, seed + 1 + n)]
     p = CalibratedParams(knowledge=tuple(str(k) for k in know), blur_deg=blur, cell_deg=cell,
                          orientations=ori, exemplar_tau=tau)  # fmt: skip
     fast = responses(front_end_features(work, seed, n, fe), seed, n, tau)
     diff = 0.0
     for cond in ("cluttered", "decluttered"):
-        own = stimulus_responses(_test_dir(work, seed), know, p, cond)
+        own = stimulus_responses(design_set_folder(work, seed), know, p, cond)
         for key in ("known", "unknown"):
             diff = max(diff, float(np.abs(own[key] - fast[cond][key]).max()))
         if not np.array_equal(own["correct"], fast[cond]["correct"]):
@@ -265,7 +258,7 @@ def main(argv: list[str] | None = None) -> int:
     work.mkdir(parents=True, exist_ok=True)
     t0 = time.perf_counter()
     first = FRONT_ENDS[args.configs[0]]
-    check = _check(work, args.seeds[0], args.renderings, first)
+    check = cached_path_difference(work, args.seeds[0], args.renderings, first)
     print(f"cached path against the observer's own responses (stimulus_responses) on seed "
           f"{args.seeds[0]}, {args.configs[0]}: largest difference {check:.1e}")  # fmt: skip
     print(f"{args.studies} studies per seed on seeds {', '.join(map(str, args.seeds))} "

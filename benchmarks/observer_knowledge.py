@@ -63,7 +63,17 @@ from experiment.observers.calibration import (  # noqa: E402
     normalized_responses,
 )
 
-__all__ = ["CONFIGS", "pool", "set_features", "config_responses", "measure", "main"]
+__all__ = [
+    "CONFIGS",
+    "pool",
+    "knowledge_folder",
+    "design_set_folder",
+    "set_features",
+    "config_responses",
+    "responses_by_condition",
+    "measure",
+    "main",
+]
 
 #: Configurations: name -> (renderings, pooling, exemplar conditions, HOG cells in deg).
 CONFIGS: dict[str, tuple[int, str, tuple[str, ...], tuple[float, ...]]] = {
@@ -117,7 +127,7 @@ def pool(r: np.ndarray, rule: str) -> np.ndarray:
     raise ValueError(f"pooling must be max, mean or 'soft TAU', got {rule!r}")
 
 
-def _knowledge_dir(work: Path, k: int) -> Path:
+def knowledge_folder(work: Path, k: int) -> Path:
     """Build (once) knowledge rendering ``k`` under ``work`` and return its folder."""
     from experiment.demos.study import make_knowledge_set
 
@@ -130,7 +140,7 @@ def _knowledge_dir(work: Path, k: int) -> Path:
     return out
 
 
-def _test_dir(work: Path, seed: int) -> Path:
+def design_set_folder(work: Path, seed: int) -> Path:
     """Build (once) test set ``seed`` under ``work`` as the calibration's are built (20 main
     and 3 training objects, every level) and return its folder."""
     from stimuli.stimset import build_stimulus_set
@@ -151,7 +161,7 @@ def set_features(work: Path, seed: int, n: int, cells: tuple[float, ...]) -> dic
     from experiment.session.scoring import normalize
     from experiment.session.stimset import StimulusSet
 
-    test = _test_dir(work, seed)
+    test = design_set_folder(work, seed)
     out: dict[str, Any] = {"know": {}}
     for cell in cells:
         p = CalibratedParams(knowledge="unused", cell_deg=cell)
@@ -176,7 +186,7 @@ def set_features(work: Path, seed: int, n: int, cells: tuple[float, ...]) -> dic
         for k in range(seed + 1, seed + 1 + n):
             kc = work / f"features_knowledge{k}_cell{cell}.npz"
             if not kc.exists():
-                ks = StimulusSet.load(_knowledge_dir(work, k))
+                ks = StimulusSet.load(knowledge_folder(work, k))
                 level = max(ks.levels())
                 d = {}
                 for c in ("decluttered", "cluttered"):
@@ -208,22 +218,34 @@ def config_responses(
         r = feats[cell]["F"] @ kf.T / len(cells)
         r_sum = r if r_sum is None else r_sum + r
         names = kn
-    t = feats[cells[0]]
+    return responses_by_condition(feats[cells[0]], r_sum, names, rule)
+
+
+def responses_by_condition(
+    test: dict[str, np.ndarray], similarity: np.ndarray, names: np.ndarray, rule: str
+) -> dict[str, dict[str, np.ndarray]]:
+    """Per condition, the normalised responses of a test set's images to every known kind.
+
+    ``similarity`` holds each test image's (row) similarity to each exemplar (column), whose
+    kinds are ``names``; a kind's exemplars are pooled by ``rule`` (:func:`pool`). The form is
+    :func:`benchmarks.design_observer.responses`': ``known`` (every kind), ``unknown`` (the
+    true kind left out), ``correct`` (the true kind's column), ``pixels`` and ``objects``.
+    """
     cats = list(dict.fromkeys(names))
-    s = np.column_stack([pool(r_sum[:, names == c], rule) for c in cats])
+    s = np.column_stack([pool(similarity[:, names == c], rule) for c in cats])
     out = {}
     for cond in ("cluttered", "decluttered"):
-        m = t["cond"] == cond
-        correct = np.array([cats.index(x) for x in t["name"][m]])
+        m = test["cond"] == cond
+        correct = np.array([cats.index(x) for x in test["name"][m]])
         sm = s[m]
         out[cond] = {
-            "pixels": t["pixels"][m],
+            "pixels": test["pixels"][m],
             "known": normalized_responses(sm),
             "correct": correct,
             "unknown": np.vstack(
                 [normalized_responses(np.delete(sm[i], correct[i])) for i in range(len(sm))]
             ),  # fmt: skip
-            "objects": t["objects"][m],
+            "objects": test["objects"][m],
         }
     return out
 
@@ -233,8 +255,8 @@ def _check_against_observer(work: Path, seed: int, resp: dict) -> float:
     :func:`experiment.observers.calibration.stimulus_responses`."""
     from experiment.observers.calibration import stimulus_responses
 
-    test = _test_dir(work, seed)
-    know = [_knowledge_dir(work, k) for k in range(seed + 1, seed + 4)]
+    test = design_set_folder(work, seed)
+    know = [knowledge_folder(work, k) for k in range(seed + 1, seed + 4)]
     p = CalibratedParams(knowledge=tuple(str(k) for k in know), exemplar_tau=0.0)
     diff = 0.0
     for cond in ("cluttered", "decluttered"):
