@@ -29,6 +29,7 @@ __all__ = [
     "extrema",
     "label8",
     "find_root",
+    "new_label",
     "focus_agreement_with_limit",
 ]
 
@@ -172,6 +173,22 @@ def find_root(parent, i):  # pragma: no cover - compiled
     return i
 
 
+@njit(nogil=True, cache=True, inline="always")
+def new_label(parent, n):  # pragma: no cover - compiled
+    """Add label ``n + 1`` as its own root, doubling ``parent`` when it is full.
+
+    Returns ``(parent, n + 1)``: the union-find table (grown or not) and the new label, for the
+    raster-order labellings (:func:`label8`, :func:`stimuli.edgevote.label8_extents`).
+    """
+    n += 1
+    if n >= parent.shape[0]:
+        grown = np.empty(2 * parent.shape[0], dtype=np.int32)
+        grown[: parent.shape[0]] = parent
+        parent = grown
+    parent[n] = n
+    return parent, n
+
+
 @njit(nogil=True, cache=True)
 def label8(mask, out):  # pragma: no cover - compiled
     """Label the 8-connected components of a uint8 mask into ``out`` (int32); return how many.
@@ -206,12 +223,7 @@ def label8(mask, out):  # pragma: no cover - compiled
                     else:
                         parent[r] = best
             if best == 0:
-                n += 1
-                if n >= parent.shape[0]:
-                    grown = np.empty(2 * parent.shape[0], dtype=np.int32)
-                    grown[: parent.shape[0]] = parent
-                    parent = grown
-                parent[n] = n
+                parent, n = new_label(parent, n)
                 best = n
             out[y, x] = best
     final = np.zeros(n + 1, dtype=np.int32)

@@ -25,7 +25,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from stimuli.edgekernels import find_root
+from stimuli.edgekernels import find_root, new_label
 
 __all__ = ["split_junctions", "label8_extents", "touch_pairs", "settle", "vote_lean"]
 
@@ -127,12 +127,7 @@ def label8_extents(mask, out):  # pragma: no cover - compiled
             elif d != 0:
                 o[x] = d
             else:
-                n += 1
-                if n >= parent.shape[0]:
-                    grown = np.empty(2 * parent.shape[0], dtype=np.int32)
-                    grown[: parent.shape[0]] = parent
-                    parent = grown
-                parent[n] = n
+                parent, n = new_label(parent, n)
                 o[x] = n
     # every union hangs the larger root under the smaller, so a label's parent is smaller than
     # it and each component's root is its first label in raster order: numbered in one sweep
