@@ -493,12 +493,19 @@ def _check_power_and_alpha(target: float, alpha: float) -> None:
 
 
 def _run_with_progress(gen, label: str, total: int) -> list:
-    """Drain a power grid (progress counts and points) under a progress bar; return the points."""
+    """Drain a power grid (progress counts and points) under a progress bar; return the points.
+
+    The grid is closed as soon as this ends, also by a stop signal raised here rather than in
+    the grid's own wait: its worker pool ends then, not when the grid is garbage-collected
+    (after Python's exit has joined the pool's thread, which ran every study left).
+    """
+    import contextlib
+
     from rich.console import Console
     from rich.progress import Progress
 
     points = []
-    with Progress(console=Console(stderr=True), transient=True) as bar:
+    with contextlib.closing(gen), Progress(console=Console(stderr=True), transient=True) as bar:
         task = bar.add_task(label, total=total)
         for item in gen:
             if isinstance(item, int):

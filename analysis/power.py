@@ -650,20 +650,25 @@ def execute_chunks(
     import multiprocessing as mp
     from concurrent.futures import ProcessPoolExecutor, as_completed
 
-    from analysis.workers import worker_init
+    from analysis.workers import stop_pool, worker_init
 
-    # Workers die with this process even when it is SIGKILLed (no finally runs then); on a
-    # stop signal or an error the finally below cancels what has not started and waits only
-    # for the chunks in flight (CHUNK_SIMS studies each).
+    # Workers die with this process even when it is SIGKILLed (no finally runs then). Ended
+    # early (a stop signal, an error, or the consumer closing this generator), the pool's
+    # workers are ended at once and the chunks not started are dropped: no result is kept.
     ex = ProcessPoolExecutor(
         max_workers=n,
         mp_context=mp.get_context("spawn"),
         initializer=worker_init,
         initargs=(os.getpid(),),
     )
+    finished = False
     try:
         futs = {ex.submit(run_chunk, *args): gi for gi, args in tasks}
         for fut in as_completed(futs):
             yield futs[fut], fut.result()
+        finished = True
     finally:
-        ex.shutdown(wait=True, cancel_futures=True)
+        if finished:
+            ex.shutdown(wait=True)
+        else:
+            stop_pool(ex)

@@ -205,6 +205,56 @@ def test_stop_signal_during_power_ends_the_workers(tmp_path):
     assert not left, f"workers outlived the stopped command: {left}"
 
 
+#: Drains a power grid through the command's progress loop and stops it there (not in the
+#: pool's wait), keeping the grid alive in a reference cycle with the collector off: the pool must
+#: end with the loop, not when (or if) the cycle is collected.
+STOPPED_IN_THE_CONSUMER = """
+import gc, sys
+gc.disable()
+from analysis.cli import _run_with_progress
+from analysis.power import power_grid
+
+class StopAfterTwo:
+    def __init__(self, grid):
+        self.grid, self.me, self.seen = grid, self, 0
+    def __iter__(self):
+        return self
+    def __next__(self):
+        self.seen += 1
+        if self.seen > 2:
+            raise KeyboardInterrupt
+        return next(self.grid)
+    def close(self):
+        self.grid.close()
+
+if __name__ == "__main__":  # spawned workers import this file
+    grid = power_grid("odds_ratio", [2.0], [2], n_sims=100000, processes=2, seed=1)
+    try:
+        _run_with_progress(StopAfterTwo(grid), "power", 100000)
+    except KeyboardInterrupt:
+        print("stopped", flush=True)
+"""
+
+
+def test_power_stopped_outside_the_pools_wait_ends_its_workers_at_once(tmp_path):
+    script = tmp_path / "stop_in_consumer.py"
+    script.write_text(STOPPED_IN_THE_CONSUMER)
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    proc = subprocess.Popen(
+        [sys.executable, str(script)], cwd=tmp_path, env=env, text=True,
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+    )  # fmt: skip
+    try:
+        out, err = proc.communicate(timeout=60)
+    except subprocess.TimeoutExpired:
+        for p in _children(proc.pid):
+            os.kill(p, signal.SIGKILL)
+        proc.kill()
+        pytest.fail("the process went on simulating after its progress loop was stopped")
+    assert proc.returncode == 0, err
+    assert out.strip() == "stopped"
+
+
 def test_sigkilled_power_takes_its_workers_with_it(tmp_path):
     proc = _start(POWER_2_WORKERS, tmp_path)
     _wait_for(lambda: len(_children(proc.pid)) >= 3, proc)  # two workers and the tracker
