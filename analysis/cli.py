@@ -493,12 +493,7 @@ def _check_power_and_alpha(target: float, alpha: float) -> None:
 
 
 def _run_with_progress(gen, label: str, total: int) -> list:
-    """Drain a power grid (progress counts and points) under a progress bar; return the points.
-
-    The grid is closed as soon as this ends, also by a stop signal raised here rather than in
-    the grid's own wait: its worker pool ends then, not when the grid is garbage-collected
-    (after Python's exit has joined the pool's thread, which ran every study left).
-    """
+    """Drain a power grid under a progress bar; return its points. Closes it (and its pool) too."""
     import contextlib
 
     from rich.console import Console
