@@ -4,7 +4,9 @@ Where the scene lies is measured, not assumed (the default of
 :func:`stimuli.planes.find_object_planes`). :func:`estimate_disparity_range` finds the
 disparities the scene occupies with a coarse sweep; the fine sweep shifts the views on the
 centre row and column onto the centre view at each plane and, per pixel, finds the plane where
-they agree best. The score is the smoothed fraction of pixels per plane (support). The same
+they agree best (a pixel whose least cost is reached at two planes or more, a flat patch at those
+shifts, cannot tell them apart and does not vote). The score is the smoothed fraction of pixels
+per plane (support). The same
 sweep against a non-coincident reference (the centre view mirrored and shifted) is the null. A
 plane is reported when its peak holds :data:`MIN_SUPPORT` of the pixels, stands
 :data:`MIN_EVIDENCE` times above the null's largest peak, and is not a shoulder of a higher
@@ -299,12 +301,13 @@ def _sweep(
         best = np.full((2, rows, cols), np.inf, np.float32)
         best_i = np.zeros((2, rows, cols), np.int32)
         total = np.zeros((2, rows, cols), np.float32)
+        tied = np.zeros((2, rows, cols), np.uint8)
         if idx.size:
             agreement_sweep(
                 row_views, row_steps, col_views, col_steps, pad, refs,
-                planes[idx[0] : idx[-1] + 1], int(idx[0]), best, best_i, total,
+                planes[idx[0] : idx[-1] + 1], int(idx[0]), best, best_i, total, tied,
             )  # fmt: skip
-        return best, best_i, total
+        return best, best_i, total, tied
 
     n_threads = max(1, min(workers, len(ds)))
     parts = np.array_split(np.arange(len(ds)), n_threads)
@@ -314,16 +317,22 @@ def _sweep(
         results = [run(part) for part in parts]
     out = []
     for j in (0, 1):
-        best, best_i, total = (np.array(results[0][q][j]) for q in range(3))
-        for r in results[1:]:
+        best, best_i, total, tied = (np.array(results[0][q][j]) for q in range(4))
+        for r in results[1:]:  # the threads' shares of the planes, in order
             better = r[0][j] < best
+            tied[r[0][j] == best] = 1
             best[better] = r[0][j][better]
             best_i[better] = r[1][j][better]
+            tied[better] = r[3][j][better]
             total += r[2][j]
         mean = total / np.float32(len(ds))
         agrees = (best < np.float32(AGREEMENT_RATIO) * mean) & (
             mean > np.float32(MIN_CONTRAST * len(offsets))
         )
+        # A pixel whose least cost is reached at more than one plane (its box sees the same
+        # thing there: flat surface around it at those shifts) cannot tell them apart; voting
+        # for the first of them piled such pixels up at the end of the range.
+        agrees &= tied == 0
         # A pixel whose views are sampled outside their image at its best plane (edge-
         # replicated there, which favours the planes that shift them least) does not vote.
         reach = np.abs(np.asarray(ds, np.float32))[best_i]

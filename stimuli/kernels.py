@@ -164,7 +164,7 @@ def _box5_row(src, dst):  # pragma: no cover - compiled
 
 @njit(nogil=True, cache=True)
 def agreement_sweep(
-    row_views, row_steps, col_views, col_steps, pad, refs, planes, first, best, best_i, total
+    row_views, row_steps, col_views, col_steps, pad, refs, planes, first, best, best_i, total, tied
 ):  # pragma: no cover - compiled
     """Return the agreement scan's plane sweep over ``planes`` (binned px per view step).
 
@@ -178,7 +178,8 @@ def agreement_sweep(
     the absolute differences, then the mean over a :data:`COST_BOX_PX` square box (the image's
     end rows and columns repeated). ``total`` (2, rows, cols) adds every plane's cost; ``best``
     and ``best_i`` keep the smallest cost and the index (``first`` + position in ``planes``) of
-    the first plane that reached it.
+    the first plane that reached it; ``tied`` (uint8) is 1 where a later plane reached the same
+    cost again (0 once a plane lowers it).
     """
     rows = refs.shape[1]
     cols = refs.shape[2]
@@ -236,12 +237,16 @@ def agreement_sweep(
                 tot = total[r, y]
                 b = best[r, y]
                 bi = best_i[r, y]
+                ti = tied[r, y]
                 for x in range(cols):
                     v = line[x] * scale
                     tot[x] += v
                     if v < b[x]:
                         b[x] = v
                         bi[x] = first + k
+                        ti[x] = 0
+                    elif v == b[x]:
+                        ti[x] = 1
 
 
 @njit(nogil=True, cache=True)

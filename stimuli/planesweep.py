@@ -8,9 +8,9 @@ one scan (``confocal lightfield scan``) uses this twin when the compiled code is
 
 Equal to the bit: every value is computed by the same float32 operations in the same order as
 in the compiled loop (the interpolation ``a + f (b - a)``, the views' absolute differences
-added in view order, the box's five terms added from the first, the scale, the running total
-and the first plane of least cost), so the two give the same planes on any input
-(``tests/stimuli/test_agreement_sweep.py`` compares them).
+added in view order, the box's five terms added from the first, the scale, the running total,
+the first plane of least cost and whether a later plane reached it again), so the two give the
+same planes on any input (``tests/stimuli/test_agreement_sweep.py`` compares them).
 """
 
 from __future__ import annotations
@@ -37,7 +37,7 @@ def _reach(planes: np.ndarray, steps: np.ndarray) -> int:
 
 
 def agreement_sweep(
-    row_views, row_steps, col_views, col_steps, pad, refs, planes, first, best, best_i, total
+    row_views, row_steps, col_views, col_steps, pad, refs, planes, first, best, best_i, total, tied
 ) -> None:
     """Return the plane sweep of :func:`stimuli.kernels.agreement_sweep`, with the same arguments.
 
@@ -53,9 +53,10 @@ def agreement_sweep(
         The two references (the centre view and the null).
     planes : ndarray of float64
         Shifts, binned px per view step; ``first`` is the index of ``planes[0]`` in the scan.
-    best, best_i, total : ndarray of shape (2, rows, cols)
+    best, best_i, total, tied : ndarray of shape (2, rows, cols)
         Updated in place: the least cost so far (float32), the index of the first plane that
-        reached it (int32) and the sum of every plane's cost (float32).
+        reached it (int32), the sum of every plane's cost (float32) and whether a later plane
+        reached the least cost again (uint8, 1; 0 once a plane lowers it).
     """
     _, rows, cols = refs.shape
     half = COST_BOX_PX // 2
@@ -87,7 +88,11 @@ def agreement_sweep(
     best_i_w[:, :, q : q + cols] = best_i
     total_w = np.zeros((2, rows, wide), np.float32)
     total_w[:, :, q : q + cols] = total
+    tied_w = np.zeros((2, rows, wide), np.uint8)
+    tied_w[:, :, q : q + cols] = tied
     best_f, best_i_f, total_f = (a.reshape(2, size) for a in (best_w, best_i_w, total_w))
+    tied_f = tied_w.reshape(2, size)
+    same = np.empty((2, size), bool)
     scale = np.float32(1.0 / (COST_BOX_PX * COST_BOX_PX))
     by_rows = np.empty((2, rows + 2 * half, wide), np.float32)  # cost, end rows repeated
     cost = by_rows[:, half : half + rows].reshape(2, size)
@@ -135,8 +140,12 @@ def agreement_sweep(
         np.multiply(box, scale, out=box)
         np.add(total_f, box, out=total_f)
         np.less(box, best_f, out=lower)
+        np.equal(box, best_f, out=same)
+        np.copyto(tied_f, 1, where=same)
+        np.copyto(tied_f, 0, where=lower)
         np.copyto(best_f, box, where=lower)
         np.copyto(best_i_f, first + k, where=lower)
     best[...] = best_w[:, :, q : q + cols]
     best_i[...] = best_i_w[:, :, q : q + cols]
     total[...] = total_w[:, :, q : q + cols]
+    tied[...] = tied_w[:, :, q : q + cols]
