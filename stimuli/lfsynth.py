@@ -35,6 +35,7 @@ __all__ = [
     "RANDOM_LAYOUT_X_FRAC",
     "RANDOM_LAYOUT_FRONT_M",
     "RANDOM_LAYOUT_BACKDROP_M",
+    "FAR_MARGIN",
     "RANDOM_LAYOUT_MIN_SEPARATION",
     "layer_masks",
     "ground_truth_maps",
@@ -163,6 +164,11 @@ def render_views(
     return out
 
 
+#: A rendered camera array's far limit lies at least this factor beyond its deepest layer (ours:
+#: the paper's scene, a backdrop at 9 m within 12 m; 1/depth then spans a quarter more).
+FAR_MARGIN: float = 4.0 / 3.0
+
+
 def render_camera_array(
     layers: list[Layer],
     *,
@@ -171,18 +177,23 @@ def render_camera_array(
     focal_length_px: float = 400.0,
     baseline_m: float = 0.01,
     near_m: float = 0.5,
-    far_m: float = 12.0,
+    far_m: float | None = None,
 ) -> LightField:
     """Render a camera-array light field (parallel pinhole cameras on a square grid).
 
     A layer at depth ``z`` has disparity ``focal_length_px * baseline_m / z``. Defaults (ours)
-    give 4 px per view step at 1 m.
+    give 4 px per view step at 1 m. ``far_m`` (default: 12 m, or :data:`FAR_MARGIN` times the
+    deepest layer's depth where that is farther) is the geometry's far limit, which the plane
+    scan's range estimate does not pass: a backdrop close to it had the far side of its
+    pixels' spread cut off and piled up at the range's end, and its plane was then missed.
 
     Returns
     -------
     LightField
         With a camera-array :class:`~stimuli.lightfield.Geometry`.
     """
+    if far_m is None:
+        far_m = max(12.0, FAR_MARGIN * max((layer.depth_m for layer in layers), default=0.0))
     g = Geometry(
         kind="camera_array",
         focal_length_px=focal_length_px,

@@ -88,6 +88,31 @@ def test_random_layouts_stay_in_their_ranges_and_depend_only_on_the_seed() -> No
     assert np.ptp([lay["tree"]["x_frac"] for lay in layouts]) > 0.5
 
 
+@pytest.mark.parametrize("seed", [2, 7, 11, 16, 20, 29])
+def test_a_random_layouts_backdrop_is_found_however_far_it_stands(seed) -> None:
+    """Layouts whose building stands at 9.6-11 m: with the camera array's far limit fixed at
+    12 m, the scan's range stopped just beyond the backdrop, its pixels' spread piled up at the
+    range's end (a "widen it" warning) and its plane was missed; the far limit now follows the
+    deepest layer (``stimuli.lfsynth.FAR_MARGIN``)."""
+    import warnings
+
+    from stimuli.lfsynth import render_camera_array
+    from stimuli.planes import find_object_planes
+
+    layout = random_three_plane_layout(seed)
+    shape = (120, 180)
+    lf = render_camera_array(
+        three_plane_scene(shape, layout=layout), grid=(5, 5), shape_px=shape, baseline_m=0.03
+    )
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # no pile-up at either end of the range
+        scan = find_object_planes(lf, n_planes=60, workers=1)
+    found = [p.disparity_px for p in scan.peaks]
+    for name, obj in layout.items():
+        d = lf.disparity_px(obj["depth_m"])
+        assert min(abs(f - d) for f in found) < 0.25, (name, d, found)
+
+
 def test_layout_moves_the_objects_and_the_paper_layout_is_the_paper_scene() -> None:
     shape = (96, 120)
     paper = three_plane_scene(shape, rng=0)
