@@ -98,7 +98,7 @@ def agreement_sweep(
     cost = by_rows[:, half : half + rows].reshape(2, size)
     row_sums = np.empty((2, rows, wide), np.float32)
     sums = row_sums.reshape(2, size)
-    box = np.empty((2, size), np.float32)
+    box = np.zeros((2, size), np.float32)  # its ends (padding columns, never read) stay 0
     sample = np.empty(size, np.float32)
     diff = np.empty((2, size), np.float32)
     lower = np.empty((2, size), bool)
