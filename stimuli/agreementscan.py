@@ -4,16 +4,15 @@ Where the scene lies is measured, not assumed (the default of
 :func:`stimuli.planes.find_object_planes`). :func:`estimate_disparity_range` finds the
 disparities the scene occupies with a coarse sweep; the fine sweep shifts the views on the
 centre row and column onto the centre view at each plane and, per pixel, finds the plane where
-they agree best (a pixel whose least cost is reached at two planes or more, a flat patch at those
-shifts, cannot tell them apart and does not vote). The score is the smoothed fraction of pixels
-per plane (support). The same
-sweep against a non-coincident reference (the centre view mirrored and shifted) is the null. A
-plane is reported when its peak holds :data:`MIN_SUPPORT` of the pixels, stands
-:data:`MIN_EVIDENCE` times above the null's largest peak, and is not a shoulder of a higher
-hill. Each plane carries its ``support`` and ``evidence``; a pile-up of pixels at either end of
-the range warns that it is too narrow. On Middlebury Baby1 and Aloe and HCI antinous every
-ground-truth mode holding >= 5 % of the pixels is found within 0.5 px per view step, with no
-other plane (``tests/stimuli/test_lf_real.py``).
+they agree best (a pixel whose least cost is reached at two planes or more, a flat patch at
+those shifts, cannot tell them apart and does not vote). The score is the smoothed fraction of
+pixels per plane (support). The same sweep against a non-coincident reference (the centre view
+mirrored and shifted) is the null. A plane is reported when its peak holds :data:`MIN_SUPPORT`
+of the pixels, stands :data:`MIN_EVIDENCE` times above the null's largest peak, and is not a
+shoulder of a higher hill. Each plane carries its ``support`` and ``evidence``; a pile-up of
+pixels at either end of the range warns that it is too narrow. On Middlebury Baby1 and Aloe and
+HCI antinous every ground-truth mode holding >= 5 % of the pixels is found within 0.5 px per
+view step, with no other plane (``tests/stimuli/test_lf_real.py``).
 """
 
 from __future__ import annotations

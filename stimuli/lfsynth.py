@@ -35,13 +35,13 @@ __all__ = [
     "RANDOM_LAYOUT_X_FRAC",
     "RANDOM_LAYOUT_FRONT_M",
     "RANDOM_LAYOUT_BACKDROP_M",
-    "FAR_MARGIN",
     "RANDOM_LAYOUT_MIN_SEPARATION",
     "layer_masks",
     "ground_truth_maps",
     "SIM_SHAPE_PX",
     "SIM_BASELINE_M",
     "SIM_FOCAL_LENGTH_PX",
+    "FAR_MARGIN",
 ]
 
 #: Size (rows, cols) of the simulated confocal images. Source: Jung et al. (2015), Fig. 11
