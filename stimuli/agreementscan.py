@@ -41,6 +41,8 @@ __all__ = [
     "answer_before_compiled_code",
     "agreement_scan",
     "estimate_disparity_range",
+    "scene_span",
+    "span_range",
     "AGREEMENT_RATIO",
     "COST_WINDOW_PX",
     "MIN_CONTRAST",
@@ -483,6 +485,35 @@ def estimate_disparity_range(
     InputError
         No pixel's views agree at any plane (a flat or non-light-field input).
     """
+    return span_range(scene_span(lightfield, workers=workers), as_lightfield(lightfield).source)
+
+
+def span_range(parts: tuple[float, ...], source: str) -> tuple[float, float]:
+    """Return :func:`estimate_disparity_range` from :func:`scene_span`'s parts.
+
+    Raises
+    ------
+    InputError
+        The span widened by its margin lies outside the limits (``source`` names the input).
+    """
+    span_lo, span_hi, margin, limit_lo, limit_hi = parts
+    lo, hi = max(span_lo - margin, limit_lo), min(span_hi + margin, limit_hi)
+    if not hi > lo:
+        raise InputError(f"{source}: the estimated disparity range is empty")
+    return float(lo), float(hi)
+
+
+def scene_span(
+    lightfield: LightField | np.ndarray, *, workers: int | None = None
+) -> tuple[float, float, float, float, float]:
+    """Return the parts :func:`estimate_disparity_range` is made of, pixels per view step.
+
+    ``(span_lo, span_hi, margin, limit_lo, limit_hi)``: the disparities where more pixels agree
+    than against the non-coincident reference (the last stage's span), the stage's step (by
+    which the range widens the span on each side), and the limits the range is clipped to (the
+    geometry's ``near_m``/``far_m`` where it has them, and the largest disparity the views
+    allow).
+    """
     lf = as_lightfield(lightfield).gray()
     n = workers or default_workers()
     m = _max_offset(lf)
@@ -501,8 +532,9 @@ def estimate_disparity_range(
             f"{lf.source}: the views agree at no plane in [-{dmax * b:.3g}, {dmax * b:.3g}] px "
             "per view step (a flat scene, or not a light field); give the disparities to scan"
         )
-    lo, hi = span[0] - 2 * step * b, span[1] + 2 * step * b
-    fine_step = step * b  # full-resolution px per view step of the coarse stage, for the margin
+    margin = 2 * step * b
+    lo, hi = span[0] - margin, span[1] + margin
+    fine_step = step * b  # full-resolution px per view step of the coarse stage
     b2 = min(scan_binning(lf) * f, b)
     step2 = 0.25 / m * b2  # full-resolution px per view step
     # Refine only where the coarse steps are coarse for the span found (small grids, whose
@@ -515,17 +547,14 @@ def estimate_disparity_range(
             sweep = _sweep(views, offsets, centre, null_centre, ds2 / b2, n)
             span2 = _occupied_span(ds2, *sweep)
             if span2 is not None:
-                lo, hi = span2[0] - step2, span2[1] + step2
-                fine_step = step2
+                span, margin = span2, step2
+    lim = float(lf.max_disparity_px())
+    limit_lo, limit_hi = -lim, lim
     g = lf.geometry
     if g is not None and g.near_m is not None and g.far_m is not None:
         a, c = sorted((g.disparity_px(g.near_m), g.disparity_px(g.far_m)))
-        lo, hi = max(lo, a), min(hi, c)
-    lim = lf.max_disparity_px()
-    lo, hi = max(lo, -lim), min(hi, lim)
-    if not hi > lo:
-        raise InputError(f"{lf.source}: the estimated disparity range is empty")
-    return float(lo), float(hi)
+        limit_lo, limit_hi = max(limit_lo, a), min(limit_hi, c)
+    return float(span[0]), float(span[1]), float(margin), float(limit_lo), float(limit_hi)
 
 
 def _is_plane_peak(height: float, prominence: float, null_prominence: float) -> bool:

@@ -25,6 +25,8 @@ from stimuli.agreementscan import (
     estimate_disparity_range,
     scan_binning,
     scan_downsample,
+    scene_span,
+    span_range,
 )
 from stimuli.errors import InputError
 from stimuli.haarscan import (
@@ -88,11 +90,40 @@ def default_disparities(
     ``n_planes`` disparities equally spaced over :func:`estimate_disparity_range` (the span the
     scene occupies, clipped to the geometry's ``near_m``/``far_m``). Equal disparity steps are
     equal steps of the outermost view's shift, so the spacing follows the grid's baseline.
+
+    The scan does not count a best plane at either end (the optimum may lie beyond it), so
+    each end plane is put at least one plane spacing beyond the scene's span as clipped to the
+    geometry's limits (:func:`stimuli.agreementscan.scene_span`), within the largest disparity
+    the views allow. The range's own margin is a fraction of a pixel per view step: with a few
+    planes far apart, or where a limit cuts the span, a plane of the scene would otherwise be
+    an end plane and lose its votes. With many planes (the default 200) the margin is usually
+    wider than a spacing, and the planes are those of the range.
     """
     if isinstance(n_planes, bool) or not isinstance(n_planes, (int, np.integer)) or n_planes < 3:
         raise InputError(f"n_planes must be an integer >= 3, got {n_planes!r}")
-    lo, hi = estimate_disparity_range(lightfield, workers=workers)
-    return np.linspace(lo, hi, int(n_planes))
+    lf = as_lightfield(lightfield)
+    parts = scene_span(lf, workers=workers)
+    lo, hi = span_range(parts, lf.source)
+    a, b = _censored_ends(lo, hi, parts, int(n_planes))
+    lim = float(lf.max_disparity_px())
+    return np.linspace(max(a, -lim), min(b, lim), int(n_planes))
+
+
+def _censored_ends(lo: float, hi: float, parts, n: int) -> tuple[float, float]:
+    """Return the end planes of ``n`` planes over ``lo..hi`` (:func:`default_disparities`)."""
+    span_lo, span_hi, _, limit_lo, limit_hi = parts
+    core_lo, core_hi = max(span_lo, limit_lo), min(span_hi, limit_hi)
+    if n < 5 or not core_hi > core_lo:  # too few planes for an end beyond each side
+        return lo, hi
+    s = (hi - lo) / (n - 1)
+    a, b = lo, hi
+    for _ in range(60):  # the spacing's fixed point; each step shrinks the change by 2/(n-1)
+        a, b = min(lo, core_lo - s), max(hi, core_hi + s)
+        s2 = (b - a) / (n - 1)
+        if s2 - s <= 1e-12 * s:
+            break
+        s = s2
+    return a, b
 
 
 def find_object_planes(

@@ -10,6 +10,8 @@ Measured (px per view step), range before -> after this rule:
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 import pytest
 
@@ -73,3 +75,36 @@ def test_range_brackets_the_hci_3x3_light_field(data_dir):
 )
 def test_peak_rule_has_hysteresis(height, prominence, null, kept):
     assert agreementscan._is_plane_peak(height, prominence, null) is kept
+
+
+def test_a_coarse_scan_keeps_a_plane_beside_the_geometrys_far_limit_off_its_censored_end():
+    """A few planes far apart (3x3 views of 96x120 px, 20 planes: 0.7 px per view step apart):
+    the building, 1.33 px per view step, stands a third of a pixel inside the renderer's far
+    limit (1 px). With the end plane at that limit, its pixels voted for the censored end
+    (30.5 % of the image, a "widen it" warning) and the building was not found; the end plane
+    now lies a spacing beyond it."""
+    from stimuli.planes import default_disparities
+
+    lf = render_camera_array(
+        three_plane_scene((96, 120)), grid=(3, 3), shape_px=(96, 120), baseline_m=0.03
+    )
+    building = lf.geometry.disparity_px(9.0)
+    far_limit = lf.geometry.disparity_px(lf.geometry.far_m)
+    ds = default_disparities(lf, 20)
+    spacing = ds[1] - ds[0]
+    assert ds[0] <= far_limit - spacing * (1 - 1e-9)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # no pile-up at either end
+        scan = find_object_planes(lf, ds)
+    assert min(abs(p.disparity_px - building) for p in scan.peaks) < 0.5 * spacing
+
+
+def test_a_fine_scan_of_a_scene_with_no_limits_scans_the_estimated_range(synthetic_3x3):
+    """With the default 200 planes the range's margin is wider than a spacing: the planes are
+    the range's, to the bit (the same scan as before the end planes were placed)."""
+    from stimuli.planes import default_disparities
+
+    lf, _ = synthetic_3x3
+    lo, hi = estimate_disparity_range(lf)
+    ds = default_disparities(lf)
+    assert np.array_equal(ds, np.linspace(lo, hi, 200))
