@@ -174,12 +174,16 @@ def test_plane_scan_round_trip_and_rows():
 def test_default_disparities_come_from_the_data():
     """The default range is the span the scene occupies, not a constant:
     two planes at -1 and 3 px per view step give a range that holds both with a margin of at
-    most two coarse steps, and a geometry's near/far clips it."""
+    most two coarse steps, and a geometry's near/far clips it. With a few planes far apart the
+    censored end planes lie a spacing beyond both planes; with the default 200, the planes are
+    the range's."""
     lf = _two_plane_lf(grid=(5, 5), shape=(200, 260))
     lo, hi = estimate_disparity_range(lf)
     assert -2.6 <= lo < -1.0 and 3.0 < hi <= 4.6, (lo, hi)
     ds = default_disparities(lf, 11)
-    assert ds[0] == pytest.approx(lo) and ds[-1] == pytest.approx(hi) and ds.size == 11
+    spacing = ds[1] - ds[0]
+    assert ds.size == 11 and ds[0] <= min(lo, -1.0 - spacing) and ds[-1] >= max(hi, 3.0 + spacing)
+    np.testing.assert_array_equal(default_disparities(lf), np.linspace(lo, hi, 200))
     g = Geometry(kind="camera_array", focal_length_px=100.0, baseline_m=0.01, near_m=0.5, far_m=2)
     lo2, hi2 = estimate_disparity_range(LightField(lf.views, g))
     assert (lo2, hi2) == pytest.approx((0.5, 2.0))  # 1 px at 1 m: depths 0.5-2 m
