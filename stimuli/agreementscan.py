@@ -509,10 +509,10 @@ def scene_span(
     """Return the parts :func:`estimate_disparity_range` is made of, pixels per view step.
 
     ``(span_lo, span_hi, margin, limit_lo, limit_hi)``: the disparities where more pixels agree
-    than against the non-coincident reference (the last stage's span), the stage's step (by
-    which the range widens the span on each side), and the limits the range is clipped to (the
-    geometry's ``near_m``/``far_m`` where it has them, and the largest disparity the views
-    allow).
+    than against the non-coincident reference (the last stage's span), the margin by which the
+    range widens that span on each side (two coarse steps, or one fine step after the fine
+    stage), and the limits the range is clipped to (the geometry's ``near_m``/``far_m`` where
+    it has them, within the largest disparity the views allow).
     """
     lf = as_lightfield(lightfield).gray()
     n = workers or default_workers()
