@@ -24,6 +24,7 @@ import sys
 import threading
 import warnings
 from collections.abc import Iterator
+from typing import NamedTuple
 
 import numpy as np
 
@@ -42,7 +43,7 @@ __all__ = [
     "agreement_scan",
     "estimate_disparity_range",
     "scene_span",
-    "span_range",
+    "SceneSpan",
     "AGREEMENT_RATIO",
     "COST_WINDOW_PX",
     "MIN_CONTRAST",
@@ -485,35 +486,41 @@ def estimate_disparity_range(
     InputError
         No pixel's views agree at any plane (a flat or non-light-field input).
     """
-    return span_range(scene_span(lightfield, workers=workers), as_lightfield(lightfield).source)
+    return scene_span(lightfield, workers=workers).range(as_lightfield(lightfield).source)
 
 
-def span_range(parts: tuple[float, ...], source: str) -> tuple[float, float]:
-    """Return :func:`estimate_disparity_range` from :func:`scene_span`'s parts.
+class SceneSpan(NamedTuple):
+    """What :func:`estimate_disparity_range` is made of, pixels per view step."""
 
-    Raises
-    ------
-    InputError
-        The span widened by its margin lies outside the limits (``source`` names the input).
-    """
-    span_lo, span_hi, margin, limit_lo, limit_hi = parts
-    lo, hi = max(span_lo - margin, limit_lo), min(span_hi + margin, limit_hi)
-    if not hi > lo:
-        raise InputError(f"{source}: the estimated disparity range is empty")
-    return float(lo), float(hi)
+    #: The disparities where more pixels agree than against the non-coincident reference (the
+    #: last stage's span).
+    lo: float
+    hi: float
+    #: By how much the range widens that span on each side (two coarse steps, or one fine step
+    #: after the fine stage).
+    margin: float
+    #: The limits the range is clipped to: the geometry's ``near_m``/``far_m`` where it has
+    #: them, within the largest disparity the views allow.
+    limit_lo: float
+    limit_hi: float
+
+    def range(self, source: str) -> tuple[float, float]:
+        """Return :func:`estimate_disparity_range`: the span widened by its margin, clipped.
+
+        Raises
+        ------
+        InputError
+            Nothing of the widened span lies within the limits (``source`` names the input).
+        """
+        lo = max(self.lo - self.margin, self.limit_lo)
+        hi = min(self.hi + self.margin, self.limit_hi)
+        if not hi > lo:
+            raise InputError(f"{source}: the estimated disparity range is empty")
+        return float(lo), float(hi)
 
 
-def scene_span(
-    lightfield: LightField | np.ndarray, *, workers: int | None = None
-) -> tuple[float, float, float, float, float]:
-    """Return the parts :func:`estimate_disparity_range` is made of, pixels per view step.
-
-    ``(span_lo, span_hi, margin, limit_lo, limit_hi)``: the disparities where more pixels agree
-    than against the non-coincident reference (the last stage's span), the margin by which the
-    range widens that span on each side (two coarse steps, or one fine step after the fine
-    stage), and the limits the range is clipped to (the geometry's ``near_m``/``far_m`` where
-    it has them, within the largest disparity the views allow).
-    """
+def scene_span(lightfield: LightField | np.ndarray, *, workers: int | None = None) -> SceneSpan:
+    """Return the span the scene occupies, its margin and its limits (:class:`SceneSpan`)."""
     lf = as_lightfield(lightfield).gray()
     n = workers or default_workers()
     m = _max_offset(lf)
@@ -554,7 +561,9 @@ def scene_span(
     if g is not None and g.near_m is not None and g.far_m is not None:
         a, c = sorted((g.disparity_px(g.near_m), g.disparity_px(g.far_m)))
         limit_lo, limit_hi = max(limit_lo, a), min(limit_hi, c)
-    return float(span[0]), float(span[1]), float(margin), float(limit_lo), float(limit_hi)
+    return SceneSpan(
+        float(span[0]), float(span[1]), float(margin), float(limit_lo), float(limit_hi)
+    )
 
 
 def _is_plane_peak(height: float, prominence: float, null_prominence: float) -> bool:

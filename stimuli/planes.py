@@ -21,12 +21,12 @@ import numpy as np
 
 from stimuli import jung2015
 from stimuli.agreementscan import (
+    SceneSpan,
     agreement_scan,
     estimate_disparity_range,
     scan_binning,
     scan_downsample,
     scene_span,
-    span_range,
 )
 from stimuli.errors import InputError
 from stimuli.haarscan import (
@@ -102,17 +102,16 @@ def default_disparities(
     if isinstance(n_planes, bool) or not isinstance(n_planes, (int, np.integer)) or n_planes < 3:
         raise InputError(f"n_planes must be an integer >= 3, got {n_planes!r}")
     lf = as_lightfield(lightfield)
-    parts = scene_span(lf, workers=workers)
-    lo, hi = span_range(parts, lf.source)
-    a, b = _censored_ends(lo, hi, parts, int(n_planes))
+    span = scene_span(lf, workers=workers)
+    a, b = _censored_ends(span, int(n_planes), lf.source)
     lim = float(lf.max_disparity_px())
     return np.linspace(max(a, -lim), min(b, lim), int(n_planes))
 
 
-def _censored_ends(lo: float, hi: float, parts, n: int) -> tuple[float, float]:
-    """Return the end planes of ``n`` planes over ``lo..hi`` (:func:`default_disparities`)."""
-    span_lo, span_hi, _, limit_lo, limit_hi = parts
-    core_lo, core_hi = max(span_lo, limit_lo), min(span_hi, limit_hi)
+def _censored_ends(span: SceneSpan, n: int, source: str) -> tuple[float, float]:
+    """Return the end planes of ``n`` planes over ``span``'s range (:func:`default_disparities`)."""
+    lo, hi = span.range(source)
+    core_lo, core_hi = max(span.lo, span.limit_lo), min(span.hi, span.limit_hi)
     if n < 5 or not core_hi > core_lo:  # too few planes for an end beyond each side
         return lo, hi
     s = (hi - lo) / (n - 1)
